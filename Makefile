@@ -1,0 +1,40 @@
+# dualpose: every target creates .venv with python3 -m venv when missing and installs the package first.
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.installed-test
+BSTAMP := $(VENV)/.installed-bench
+
+.PHONY: demo test bench lint accuracy-table clean
+
+$(PY):
+	$(PYTHON) -m venv $(VENV)
+
+$(STAMP): $(PY) pyproject.toml
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e '.[test]'
+	$(PY) -m dualpose.algebra.warmup
+	touch $(STAMP)
+
+$(BSTAMP): $(STAMP)
+	$(PY) -m pip install -q -e '.[test,bench]'
+	touch $(BSTAMP)
+
+demo: $(STAMP)
+	$(VENV)/bin/dualpose demo
+
+test: $(STAMP)
+	$(VENV)/bin/ruff check src tests benchmarks
+	$(PY) -m pytest -q -n 2 -p no:cacheprovider
+
+bench: $(BSTAMP)
+	$(PY) benchmarks/bench_algebra.py
+
+accuracy-table: $(STAMP)
+	$(PY) tests/accuracy/make_table.py docs/accuracy.md
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check src tests benchmarks
+
+clean:
+	rm -rf $(VENV) build src/*.egg-info

@@ -1,0 +1,127 @@
+"""Argument checking shared by every public function.
+
+The checks are cheap (a type test and a shape test on the fast path) so that a single-element call stays in the
+microsecond range.  Errors name the argument and the expected shape.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+__all__ = ["as_array", "as_scalar_array", "call_kernel", "raise_if_zero_norm", "check_finite"]
+
+
+def _convert(x: Any, name: str) -> np.ndarray:
+    try:
+        arr = np.asarray(x)
+    except (ValueError, TypeError) as exc:  # ragged lists and the like
+        raise TypeError(f"{name} must be a numeric array-like; got {type(x).__name__} ({exc})") from None
+    kind = arr.dtype.kind
+    if kind == "f" or kind in "iu":
+        return arr.astype(np.float64, copy=False)
+    if kind == "O":
+        try:
+            return arr.astype(np.float64)
+        except (ValueError, TypeError):
+            pass
+    raise TypeError(f"{name} must be a real numeric array; got dtype {arr.dtype}")
+
+
+def as_array(x: Any, name: str, size: int | tuple[int, ...]) -> np.ndarray:
+    """Return ``x`` as a float64 array whose trailing axes are ``size``.
+
+    Raises
+    ------
+    TypeError
+        When ``x`` is not real numeric (strings, complex, booleans, ragged lists).
+    ValueError
+        When the trailing shape is not ``size``.
+    """
+    if type(x) is not np.ndarray or x.dtype != np.float64:
+        x = _convert(x, name)
+    if isinstance(size, int):
+        if x.shape[-1:] != (size,):
+            raise ValueError(f"{name} must have shape (..., {size}); got shape {x.shape}")
+    else:
+        k = len(size)
+        if x.shape[x.ndim - k :] != size or x.ndim < k:
+            dims = ", ".join(str(s) for s in size)
+            raise ValueError(f"{name} must have shape (..., {dims}); got shape {x.shape}")
+    return x
+
+
+def as_scalar_array(x: Any, name: str) -> np.ndarray:
+    """Return ``x`` (a scalar or an array of scalars, shape ``(...)``) as float64."""
+    if type(x) is not np.ndarray or x.dtype != np.float64:
+        if isinstance(x, float):
+            return np.float64(x)  # type: ignore[return-value]
+        x = _convert(x, name)
+    return x
+
+
+def _core_ndim(ufunc: np.ufunc, index: int) -> int:
+    sig = ufunc.signature
+    if sig is None:
+        return 0
+    ins = sig.split("->")[0]
+    parts = ins.replace("),(", ")|(").split("|")
+    core = parts[index].strip("()")
+    return 0 if core == "" else len(core.split(","))
+
+
+def shape_error(ufunc: np.ufunc, args: Sequence[np.ndarray], names: Sequence[str]) -> ValueError:
+    """Build a ValueError naming the arguments whose leading (batch) shapes do not broadcast."""
+    lead = []
+    for i, (a, n) in enumerate(zip(args, names, strict=False)):
+        k = _core_ndim(ufunc, i)
+        shape = np.shape(a)
+        lead.append((n, shape[: len(shape) - k] if k else shape))
+    desc = ", ".join(f"{n} has batch shape {s}" for n, s in lead)
+    return ValueError(f"batch shapes do not broadcast: {desc}")
+
+
+def call_kernel(ufunc: np.ufunc, args: tuple, names: Sequence[str]) -> Any:
+    """Call a (g)ufunc, translating numpy's broadcasting error into one that names the arguments."""
+    try:
+        return ufunc(*args)
+    except ValueError:
+        raise shape_error(ufunc, args, names) from None
+
+
+def raise_if_zero_norm(out: np.ndarray, arg: np.ndarray, name: str, what: str = "a nonzero quaternion") -> None:
+    """Kernels write NaN where an input that must be nonzero is zero; turn that into a ValueError.
+
+    NaN inputs are allowed to propagate (documented); only an exactly zero argument raises.
+    """
+    if np.isnan(out).any():
+        zero = np.all(arg[..., :4] == 0.0, axis=-1)
+        if np.any(zero):
+            idx = tuple(int(i) for i in np.argwhere(np.atleast_1d(zero))[0])
+            raise ValueError(f"{name} must be {what}; element {idx} is zero")
+
+
+def check_finite(x: np.ndarray, name: str) -> None:
+    """Conversions and solvers refuse non-finite input rather than guess a branch."""
+    if not np.isfinite(x).all():
+        raise ValueError(f"{name} contains NaN or infinity; conversions need finite input")
+
+
+def lazy_kernels(module: str) -> Callable[[str], np.ufunc]:
+    """Return ``get(name)`` that imports ``module`` (compiling or loading cached kernels) on first use."""
+    cache: dict[str, np.ufunc] = {}
+
+    def get(name: str) -> np.ufunc:
+        try:
+            return cache[name]
+        except KeyError:
+            import importlib
+
+            mod = importlib.import_module(module)
+            obj = getattr(mod, name)
+            cache[name] = getattr(obj, "ufunc", obj)
+            return cache[name]
+
+    return get

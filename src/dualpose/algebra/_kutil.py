@@ -1,0 +1,79 @@
+"""Inline scalar helpers shared by the numba kernels (not public API).
+
+Quaternions are handled as four scalars ``(x, y, z, w)``: scalar last, Hamilton product.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+
+jit = nb.njit(cache=True, inline="always", fastmath=False, error_model="numpy")
+D3_SIG = "float64[:]"
+
+_TINY = 1e-280
+_HUGE = 1e280
+
+
+@jit
+def norm3(x: float, y: float, z: float) -> float:
+    """Euclidean norm of a 3-vector without underflow or overflow of the squares."""
+    s = x * x + y * y + z * z
+    if _TINY <= s <= _HUGE:
+        return math.sqrt(s)
+    m = max(abs(x), abs(y), abs(z))
+    if m == 0.0 or m == math.inf or s != s:
+        return m if s == s else s
+    x, y, z = x / m, y / m, z / m
+    return m * math.sqrt(x * x + y * y + z * z)
+
+
+@jit
+def norm4(x: float, y: float, z: float, w: float) -> float:
+    """Euclidean norm of a 4-vector without underflow or overflow of the squares."""
+    s = x * x + y * y + z * z + w * w
+    if _TINY <= s <= _HUGE:
+        return math.sqrt(s)
+    m = max(abs(x), abs(y), abs(z), abs(w))
+    if m == 0.0 or m == math.inf or s != s:
+        return m if s == s else s
+    x, y, z, w = x / m, y / m, z / m, w / m
+    return m * math.sqrt(x * x + y * y + z * z + w * w)
+
+
+@jit
+def qmul(ax, ay, az, aw, bx, by, bz, bw):  # noqa: ANN001, ANN201
+    """Hamilton product a (x) b of two xyzw quaternions given as scalars."""
+    return (
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+        aw * bw - ax * bx - ay * by - az * bz,
+    )
+
+
+@jit
+def cross(ax, ay, az, bx, by, bz):  # noqa: ANN001, ANN201
+    return (ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx)
+
+
+@jit
+def rotate(x, y, z, w, vx, vy, vz, s2):  # noqa: ANN001, ANN201
+    """v + s2 * q_v x (q_v x v + w v): Dantam 2014 eq. (45); s2 = 2/|q|**2 (2 for a unit quaternion)."""
+    ax, ay, az = cross(x, y, z, vx, vy, vz)
+    ax += w * vx
+    ay += w * vy
+    az += w * vz
+    bx, by, bz = cross(x, y, z, ax, ay, az)
+    return (vx + s2 * bx, vy + s2 * by, vz + s2 * bz)
+
+
+@jit
+def inv_norm2_scale(x, y, z, w):  # noqa: ANN001, ANN201
+    """2/|q|**2 (inf for a zero quaternion)."""
+    n2 = x * x + y * y + z * z + w * w
+    if _TINY <= n2 <= _HUGE:
+        return 2.0 / n2
+    n = norm4(x, y, z, w)
+    return (2.0 / n) / n

@@ -1,0 +1,258 @@
+"""numba gufunc kernels for quaternions (xyzw, Hamilton).  Imported lazily by :mod:`dualpose.algebra.quat`.
+
+Kernels write NaN where an argument that must be nonzero is zero; the Python wrappers turn that into a
+ValueError.  Each kernel is one pass over the data.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+
+from dualpose.algebra._kutil import inv_norm2_scale, norm3, norm4, qmul, rotate
+from dualpose.algebra.series import atan2c, sinc
+
+_V = "float64[:]"
+_S = "float64"
+_M = "float64[:, :]"
+
+
+def gu(types: str, layout: str):  # noqa: ANN201
+    return nb.guvectorize([f"void({types})"], layout, nopython=True, cache=True)
+
+
+@gu(f"{_V},{_V},{_V}", "(n),(n)->(n)")
+def quat_mul(p, q, o):  # noqa: ANN001
+    o[0], o[1], o[2], o[3] = qmul(p[0], p[1], p[2], p[3], q[0], q[1], q[2], q[3])
+
+
+@gu(f"{_V},{_V}", "(n)->()")
+def quat_norm(q, o):  # noqa: ANN001
+    o[0] = norm4(q[0], q[1], q[2], q[3])
+
+
+@gu(f"{_V},{_V}", "(n)->(n)")
+def quat_normalize(q, o):  # noqa: ANN001
+    n = norm4(q[0], q[1], q[2], q[3])
+    if n == 0.0:
+        n = math.nan
+    o[0], o[1], o[2], o[3] = q[0] / n, q[1] / n, q[2] / n, q[3] / n
+
+
+@gu(f"{_V},{_V}", "(n)->(n)")
+def quat_inv(q, o):  # noqa: ANN001
+    n = norm4(q[0], q[1], q[2], q[3])
+    if n == 0.0:
+        n = math.nan
+    x, y, z, w = q[0] / n, q[1] / n, q[2] / n, q[3] / n
+    o[0], o[1], o[2], o[3] = -x / n, -y / n, -z / n, w / n
+
+
+@gu(f"{_V},{_V}", "(n)->(n)")
+def quat_canonical(q, o):  # noqa: ANN001
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    flip = w < 0.0 or (w == 0.0 and (x < 0.0 or (x == 0.0 and (y < 0.0 or (y == 0.0 and z < 0.0)))))
+    if flip:
+        o[0], o[1], o[2], o[3] = -x, -y, -z, -w
+    else:
+        o[0], o[1], o[2], o[3] = x, y, z, w
+
+
+@gu(f"{_V},{_V}", "(n)->(n)")
+def quat_exp(q, o):  # noqa: ANN001
+    # Dantam 2014 eq. (22)-(23)
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    th = norm3(x, y, z)
+    ew = math.exp(w)
+    f = ew * sinc(th)
+    o[0], o[1], o[2], o[3] = f * x, f * y, f * z, ew * math.cos(th)
+
+
+@gu(f"{_V},{_V}", "(n)->(n)")
+def quat_log(q, o):  # noqa: ANN001
+    # Dantam 2014 eq. (25)-(28); at q_v = 0, q_w < 0 the axis x is chosen (any axis is a logarithm).
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    n = norm4(x, y, z, w)
+    s = norm3(x, y, z)
+    if n == 0.0:
+        o[0] = o[1] = o[2] = o[3] = math.nan
+        return
+    f = atan2c(s, w)
+    if f == math.inf:
+        o[0], o[1], o[2] = math.pi, 0.0, 0.0
+    else:
+        o[0], o[1], o[2] = f * x, f * y, f * z
+    o[3] = math.log(n)
+
+
+@gu(f"{_V},{_S},{_V}", "(n),()->(n)")
+def quat_pow(q, t, o):  # noqa: ANN001
+    # Dantam 2014 eq. (30): q**t = exp(t ln q), principal logarithm.
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    n = norm4(x, y, z, w)
+    if n == 0.0:
+        o[0] = o[1] = o[2] = o[3] = math.nan
+        return
+    s = norm3(x, y, z)
+    phi = math.atan2(s, w)
+    nt = n**t
+    if s == 0.0 and w < 0.0:
+        # ln q = (pi, 0, 0, ln n): axis x, as in quat_log
+        o[0], o[1], o[2], o[3] = nt * math.sin(t * math.pi), 0.0, 0.0, nt * math.cos(t * math.pi)
+        return
+    a = nt * t * atan2c(s, w) * sinc(t * phi)
+    o[0], o[1], o[2], o[3] = a * x, a * y, a * z, nt * math.cos(t * phi)
+
+
+@gu(f"{_V},{_V},{_V}", "(n),(m)->(m)")
+def quat_rotate(q, v, o):  # noqa: ANN001
+    s2 = inv_norm2_scale(q[0], q[1], q[2], q[3])
+    o[0], o[1], o[2] = rotate(q[0], q[1], q[2], q[3], v[0], v[1], v[2], s2)
+
+
+@gu(f"{_V},{_V},{_V}", "(m),(n)->(n)")
+def quat_from_rotvec(v, d4, o):  # noqa: ANN001
+    # Dantam 2014 eq. (50): q = (sin(|v|/2) v/|v|, cos(|v|/2))
+    th = norm3(v[0], v[1], v[2])
+    h = 0.5 * th
+    f = 0.5 * sinc(h)
+    o[0], o[1], o[2], o[3] = f * v[0], f * v[1], f * v[2], math.cos(h)
+
+
+@gu(f"{_V},{_V},{_V}", "(n),(m)->(m)")
+def rotvec_from_quat(q, d3, o):  # noqa: ANN001
+    # Dantam 2014 eq. (51)-(53) with the atan2 angle; the sign is chosen so the angle is in [0, pi].
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    if w < 0.0:
+        x, y, z, w = -x, -y, -z, -w
+    s = norm3(x, y, z)
+    f = 2.0 * atan2c(s, w)
+    o[0], o[1], o[2] = f * x, f * y, f * z
+
+
+@gu(f"{_V},{_S},{_V},{_V}", "(m),(),(n)->(n)")
+def quat_from_axis_angle(axis, angle, d4, o):  # noqa: ANN001
+    n = norm3(axis[0], axis[1], axis[2])
+    if n == 0.0:
+        n = math.nan
+    h = 0.5 * angle
+    f = math.sin(h) / n
+    o[0], o[1], o[2], o[3] = f * axis[0], f * axis[1], f * axis[2], math.cos(h)
+
+
+@gu(f"{_V},{_V},{_V},{_V}", "(n),(m)->(m),()")
+def axis_angle_from_quat(q, d3, axis, angle):  # noqa: ANN001
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    if w < 0.0:
+        x, y, z, w = -x, -y, -z, -w
+    s = norm3(x, y, z)
+    if s == 0.0:
+        if w == 0.0:
+            axis[0] = axis[1] = axis[2] = angle[0] = math.nan
+            return
+        axis[0], axis[1], axis[2] = 1.0, 0.0, 0.0
+        angle[0] = 0.0
+        return
+    axis[0], axis[1], axis[2] = x / s, y / s, z / s
+    angle[0] = 2.0 * math.atan2(s, w)
+
+
+@gu(f"{_V},{_M},{_M}", "(n),(m,m)->(m,m)")
+def matrix_from_quat(q, d33, o):  # noqa: ANN001
+    # Dantam 2014 eq. (108) / Walker 1991 eq. (4), scaled by 2/|q|**2 so non-unit input is normalised.
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    s = inv_norm2_scale(x, y, z, w)
+    xx, yy, zz = s * x * x, s * y * y, s * z * z
+    xy, xz, yz = s * x * y, s * x * z, s * y * z
+    wx, wy, wz = s * w * x, s * w * y, s * w * z
+    o[0, 0] = 1.0 - (yy + zz)
+    o[0, 1] = xy - wz
+    o[0, 2] = xz + wy
+    o[1, 0] = xy + wz
+    o[1, 1] = 1.0 - (xx + zz)
+    o[1, 2] = yz - wx
+    o[2, 0] = xz - wy
+    o[2, 1] = yz + wx
+    o[2, 2] = 1.0 - (xx + yy)
+
+
+@gu(f"{_M},{_V},{_V}", "(m,m),(n)->(n)")
+def quat_from_matrix(r, d4, o):  # noqa: ANN001
+    # Shepperd's method: branch on the largest of (trace, R00, R11, R22); result normalised, w >= 0.
+    r00, r11, r22 = r[0, 0], r[1, 1], r[2, 2]
+    tr = r00 + r11 + r22
+    if tr >= r00 and tr >= r11 and tr >= r22:
+        k = math.sqrt(1.0 + tr)
+        h = 0.5 / k
+        x, y, z, w = (r[2, 1] - r[1, 2]) * h, (r[0, 2] - r[2, 0]) * h, (r[1, 0] - r[0, 1]) * h, 0.5 * k
+    elif r00 >= r11 and r00 >= r22:
+        k = math.sqrt(1.0 + r00 - r11 - r22)
+        h = 0.5 / k
+        x, y, z, w = 0.5 * k, (r[0, 1] + r[1, 0]) * h, (r[0, 2] + r[2, 0]) * h, (r[2, 1] - r[1, 2]) * h
+    elif r11 >= r22:
+        k = math.sqrt(1.0 - r00 + r11 - r22)
+        h = 0.5 / k
+        x, y, z, w = (r[0, 1] + r[1, 0]) * h, 0.5 * k, (r[1, 2] + r[2, 1]) * h, (r[0, 2] - r[2, 0]) * h
+    else:
+        k = math.sqrt(1.0 - r00 - r11 + r22)
+        h = 0.5 / k
+        x, y, z, w = (r[0, 2] + r[2, 0]) * h, (r[1, 2] + r[2, 1]) * h, 0.5 * k, (r[1, 0] - r[0, 1]) * h
+    n = norm4(x, y, z, w)
+    if w < 0.0:
+        n = -n
+    o[0], o[1], o[2], o[3] = x / n, y / n, z / n, w / n
+
+
+@gu(f"{_V},{_V},{_S},{_V}", "(n),(n),()->(n)")
+def quat_slerp(p, q, t, o):  # noqa: ANN001
+    # Dantam 2014 eq. (58): p (x) (p* (x) q)**t along the shorter arc; inputs normalised.
+    np_ = norm4(p[0], p[1], p[2], p[3])
+    nq = norm4(q[0], q[1], q[2], q[3])
+    if np_ == 0.0 or nq == 0.0:
+        o[0] = o[1] = o[2] = o[3] = math.nan
+        return
+    px, py, pz, pw = p[0] / np_, p[1] / np_, p[2] / np_, p[3] / np_
+    qx, qy, qz, qw = q[0] / nq, q[1] / nq, q[2] / nq, q[3] / nq
+    rx, ry, rz, rw = qmul(-px, -py, -pz, pw, qx, qy, qz, qw)
+    if rw < 0.0:
+        rx, ry, rz, rw = -rx, -ry, -rz, -rw
+    s = norm3(rx, ry, rz)
+    phi = math.atan2(s, rw)
+    a = t * atan2c(s, rw) * sinc(t * phi) if s > 0.0 else t
+    o[0], o[1], o[2], o[3] = qmul(px, py, pz, pw, a * rx, a * ry, a * rz, math.cos(t * phi))
+
+
+@gu(f"{_V},{_V},{_V}", "(n),(n)->()")
+def quat_angle(p, q, o):  # noqa: ANN001
+    # Rotation angle between two orientations, 4 atan2(min(|p-q|,|p+q|), max(...)) in [0, pi]
+    # (Dantam 2014 eq. (42) gives the angle between the 4-vectors; the rotation angle is twice it).
+    np_ = norm4(p[0], p[1], p[2], p[3])
+    nq = norm4(q[0], q[1], q[2], q[3])
+    if np_ == 0.0 or nq == 0.0:
+        o[0] = math.nan
+        return
+    a0, a1, a2, a3 = p[0] / np_, p[1] / np_, p[2] / np_, p[3] / np_
+    b0, b1, b2, b3 = q[0] / nq, q[1] / nq, q[2] / nq, q[3] / nq
+    d = norm4(a0 - b0, a1 - b1, a2 - b2, a3 - b3)
+    s = norm4(a0 + b0, a1 + b1, a2 + b2, a3 + b3)
+    o[0] = 4.0 * math.atan2(min(d, s), max(d, s))
+
+
+@gu(f"{_V},{_V},{_S},{_V}", "(n),(m),()->(n)")
+def quat_integrate_space(q, w, dt, o):  # noqa: ANN001
+    # Dantam 2014 eq. (62): q1 = exp(omega dt / 2) (x) q0, omega in the space (world) frame
+    vx, vy, vz = w[0] * dt, w[1] * dt, w[2] * dt
+    h = 0.5 * norm3(vx, vy, vz)
+    f = 0.5 * sinc(h)
+    o[0], o[1], o[2], o[3] = qmul(f * vx, f * vy, f * vz, math.cos(h), q[0], q[1], q[2], q[3])
+
+
+@gu(f"{_V},{_V},{_S},{_V}", "(n),(m),()->(n)")
+def quat_integrate_body(q, w, dt, o):  # noqa: ANN001
+    # q1 = q0 (x) exp(omega dt / 2), omega in the body frame
+    vx, vy, vz = w[0] * dt, w[1] * dt, w[2] * dt
+    h = 0.5 * norm3(vx, vy, vz)
+    f = 0.5 * sinc(h)
+    o[0], o[1], o[2], o[3] = qmul(q[0], q[1], q[2], q[3], f * vx, f * vy, f * vz, math.cos(h))
+

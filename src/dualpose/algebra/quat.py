@@ -1,0 +1,416 @@
+"""Quaternion algebra (Dantam 2014 §II-III).
+
+Layout: a quaternion is a float64 array of shape ``(..., 4)`` ordered ``[x, y, z, w]`` (scalar last), multiplied
+with the Hamilton product; a unit quaternion rotates vectors actively, ``v' = q (x) v (x) q*``.  Rotation vectors
+and angular rates are ``(..., 3)`` arrays in radians (per second).  Every function broadcasts over all leading
+axes and accepts array-likes.
+
+NaN in elementwise algebra propagates (products, exp, log, rotation); a zero quaternion where a nonzero one is
+needed raises ``ValueError``; matrix conversions refuse non-finite input.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from dualpose._validation import (
+    as_array,
+    as_scalar_array,
+    call_kernel,
+    check_finite,
+    lazy_kernels,
+    raise_if_zero_norm,
+)
+
+__all__ = [
+    "quat_mul",
+    "quat_conj",
+    "quat_inv",
+    "quat_norm",
+    "quat_normalize",
+    "quat_canonical",
+    "quat_exp",
+    "quat_log",
+    "quat_pow",
+    "quat_rotate",
+    "quat_from_rotvec",
+    "rotvec_from_quat",
+    "quat_from_axis_angle",
+    "axis_angle_from_quat",
+    "quat_from_matrix",
+    "matrix_from_quat",
+    "quat_slerp",
+    "quat_angle",
+    "quat_integrate",
+    "quat_left_matrix",
+    "quat_right_matrix",
+    "quat_mean",
+    "quat_identity",
+]
+
+_k = lazy_kernels("dualpose.algebra._quat_kernels")
+_D3 = np.empty(3)
+_D4 = np.empty(4)
+_D33 = np.empty((3, 3))
+_CONJ = np.array([-1.0, -1.0, -1.0, 1.0])
+
+
+def quat_identity(shape: int | tuple[int, ...] = ()) -> np.ndarray:
+    """Identity quaternions ``[0, 0, 0, 1]`` (xyzw) of shape ``shape + (4,)``."""
+    out = np.zeros((*np.atleast_1d(shape).astype(int).tolist(), 4) if shape != () else (4,))
+    out[..., 3] = 1.0
+    return out
+
+
+def quat_mul(p: ArrayLike, q: ArrayLike) -> np.ndarray:
+    """Hamilton product ``p (x) q`` (Dantam 2014 eq. (11); Walker 1991 ``Q(p) q = W(q) p``).
+
+    Parameters
+    ----------
+    p, q : array_like, shape (..., 4)
+        Quaternions, xyzw.  Leading axes broadcast.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        The product, xyzw.  For unit quaternions, rotating by the result is rotating by ``q`` then by ``p``.
+    """
+    p = as_array(p, "p", 4)
+    q = as_array(q, "q", 4)
+    return call_kernel(_k("quat_mul"), (p, q), ("p", "q"))
+
+
+def quat_conj(q: ArrayLike) -> np.ndarray:
+    """Conjugate ``q* = [-x, -y, -z, w]`` (Dantam 2014 eq. (13)); shape (..., 4) -> (..., 4), xyzw."""
+    q = as_array(q, "q", 4)
+    return q * _CONJ
+
+
+def quat_norm(q: ArrayLike) -> np.ndarray:
+    """Euclidean norm ``|q|`` (Dantam 2014 eq. (12)), computed without underflow/overflow; (..., 4) -> (...)."""
+    q = as_array(q, "q", 4)
+    return _k("quat_norm")(q)
+
+
+def quat_normalize(q: ArrayLike) -> np.ndarray:
+    """``q / |q|``; shape (..., 4), xyzw.  Raises ``ValueError`` for a zero quaternion."""
+    q = as_array(q, "q", 4)
+    out = _k("quat_normalize")(q)
+    raise_if_zero_norm(out, q, "q")
+    return out
+
+
+def quat_inv(q: ArrayLike) -> np.ndarray:
+    """Inverse ``q* / |q|**2`` (Dantam 2014 eq. (17)); shape (..., 4), xyzw.  Zero raises ``ValueError``."""
+    q = as_array(q, "q", 4)
+    out = _k("quat_inv")(q)
+    raise_if_zero_norm(out, q, "q")
+    return out
+
+
+def quat_canonical(q: ArrayLike) -> np.ndarray:
+    """The sign representative with ``w > 0`` (ties broken by the first nonzero of x, y, z being positive).
+
+    ``q`` and ``-q`` are the same rotation; this picks one.  Shape (..., 4), xyzw.
+    """
+    q = as_array(q, "q", 4)
+    return _k("quat_canonical")(q)
+
+
+def quat_exp(q: ArrayLike) -> np.ndarray:
+    """Quaternion exponential ``e**q = e**w [sin|v| v/|v|, cos|v|]`` (Dantam 2014 eqs. (22)-(24)).
+
+    The factor ``sin|v|/|v|`` uses the guarded series :func:`dualpose.algebra.series.sinc`.  For a pure
+    quaternion ``[θu/2, 0]`` this is the unit quaternion rotating by θ about u.  Shape (..., 4), xyzw.
+    """
+    q = as_array(q, "q", 4)
+    return _k("quat_exp")(q)
+
+
+def quat_log(q: ArrayLike) -> np.ndarray:
+    """Principal quaternion logarithm ``[φ v/|v|, ln|q|]`` with ``φ = atan2(|v|, w)`` (Dantam 2014 (25)-(28)).
+
+    ``φ/|v|`` comes from the guarded :func:`~dualpose.algebra.series.atan2c`, so tiny angles (down to 1e-300)
+    keep full relative accuracy.  On the negative real axis (``v = 0, w < 0``) the axis x is chosen:
+    ``ln(-a) = [π, 0, 0, ln a]`` so that ``quat_exp(quat_log(q)) == q``.  Shape (..., 4), xyzw.
+    Raises ``ValueError`` for a zero quaternion.
+    """
+    q = as_array(q, "q", 4)
+    out = _k("quat_log")(q)
+    raise_if_zero_norm(out, q, "q")
+    return out
+
+
+def quat_pow(q: ArrayLike, t: ArrayLike) -> np.ndarray:
+    """Power ``q**t = exp(t ln q)`` with the principal logarithm (Dantam 2014 eq. (30)).
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Quaternions, xyzw (any norm; ``|q|**t`` scales the result).
+    t : array_like, shape (...)
+        Real exponents, broadcast against the leading axes of ``q``.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        For a unit ``q`` rotating by angle θ ∈ [0, 2π) about u, the rotation by ``tθ`` about u.  No sign
+        canonicalisation is applied (``(-q)**0.5`` is not ``q**0.5``); see :func:`quat_slerp` for shortest arcs.
+    """
+    q = as_array(q, "q", 4)
+    t = as_scalar_array(t, "t")
+    out = call_kernel(_k("quat_pow"), (q, t), ("q", "t"))
+    raise_if_zero_norm(out, q, "q")
+    return out
+
+
+def quat_rotate(q: ArrayLike, v: ArrayLike) -> np.ndarray:
+    """Rotate vectors actively: ``v' = q (x) v (x) q*`` (Dantam 2014 eqs. (44)-(45)).
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Rotations, xyzw.  Non-unit input is normalised (the kernel uses ``2/|q|**2``); zero raises.
+    v : array_like, shape (..., 3)
+        Vectors in the frame being rotated from.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        ``R(q) v``.
+    """
+    q = as_array(q, "q", 4)
+    v = as_array(v, "v", 3)
+    out = call_kernel(_k("quat_rotate"), (q, v), ("q", "v"))
+    raise_if_zero_norm(out, q, "q")
+    return out
+
+
+def quat_from_rotvec(rotvec: ArrayLike) -> np.ndarray:
+    """Unit quaternion ``exp(v/2) = [sin(|v|/2) v/|v|, cos(|v|/2)]`` of rotation vectors (Dantam 2014 eq. (50)).
+
+    Parameters
+    ----------
+    rotvec : array_like, shape (..., 3)
+        Rotation vectors θu, radians; any magnitude (angles > π wrap).
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        Unit quaternions, xyzw.  Tiny angles keep full relative accuracy (no flush to zero).
+    """
+    v = as_array(rotvec, "rotvec", 3)
+    return _k("quat_from_rotvec")(v, _D4)
+
+
+def rotvec_from_quat(q: ArrayLike) -> np.ndarray:
+    """Rotation vector ``2 ln q`` with angle in [0, π] (Dantam 2014 eqs. (51)-(53), atan2 form).
+
+    ``q`` and ``-q`` give the same result; non-unit input is treated as its normalisation (the map is scale
+    invariant).  Shape (..., 4) -> (..., 3), radians.  Raises ``ValueError`` for a zero quaternion.
+    """
+    q = as_array(q, "q", 4)
+    out = _k("rotvec_from_quat")(q, _D3)
+    raise_if_zero_norm(out, q, "q")
+    return out
+
+
+def quat_from_axis_angle(axis: ArrayLike, angle: ArrayLike) -> np.ndarray:
+    """Quaternion ``[sin(θ/2) u, cos(θ/2)]`` of an axis (normalised here) and angle θ in radians.
+
+    ``axis`` has shape (..., 3), ``angle`` shape (...); they broadcast.  Returns (..., 4), xyzw.  A zero axis
+    raises ``ValueError``.
+    """
+    axis = as_array(axis, "axis", 3)
+    angle = as_scalar_array(angle, "angle")
+    out = call_kernel(_k("quat_from_axis_angle"), (axis, angle, _D4), ("axis", "angle"))
+    if np.isnan(out).any() and np.any(np.all(axis == 0.0, axis=-1)):
+        raise ValueError("axis must be a nonzero vector of shape (..., 3); a zero axis was given")
+    return out
+
+
+def axis_angle_from_quat(q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """Unit axis (..., 3) and angle θ ∈ [0, π] (...) of rotations ``q`` (..., 4, xyzw).
+
+    The sign of ``q`` is chosen so that θ ≤ π; the identity returns axis ``[1, 0, 0]`` and θ = 0 (any axis is
+    valid there).  Uses ``θ = 2 atan2(|v|, w)`` (Dantam 2014 eq. (51)).
+    """
+    q = as_array(q, "q", 4)
+    axis, angle = _k("axis_angle_from_quat")(q, _D3)
+    raise_if_zero_norm(axis, q, "q")
+    return axis, angle
+
+
+def matrix_from_quat(q: ArrayLike) -> np.ndarray:
+    """Rotation matrix of quaternions (Dantam 2014 eq. (108); Walker 1991 eq. (4)).
+
+    ``q`` has shape (..., 4), xyzw; non-unit input is normalised, zero raises.  Returns (..., 3, 3) with
+    ``R @ v == quat_rotate(q, v)``; column i is the child frame's axis i in parent coordinates.
+    """
+    q = as_array(q, "q", 4)
+    out = _k("matrix_from_quat")(q, _D33)
+    raise_if_zero_norm(out, q, "q")
+    return out
+
+
+def quat_from_matrix(matrix: ArrayLike) -> np.ndarray:
+    """Unit quaternion (xyzw, ``w >= 0``) of rotation matrices, shape (..., 3, 3) -> (..., 4).
+
+    Shepperd's method (Walker 1991 eqs. (21)-(24) made stable by branching on the largest of the trace and the
+    diagonal), then normalised.  Exact for 180° rotations.  Input must be finite (``ValueError`` otherwise);
+    a nearly orthogonal matrix maps to a quaternion within O(|RᵀR − I|) of its nearest rotation.
+    """
+    m = as_array(matrix, "matrix", (3, 3))
+    check_finite(m, "matrix")
+    return _k("quat_from_matrix")(m, _D4)
+
+
+def quat_slerp(q0: ArrayLike, q1: ArrayLike, t: ArrayLike) -> np.ndarray:
+    """Spherical linear interpolation ``q0 (x) (q0* (x) q1)**t`` on the shorter arc (Dantam 2014 eq. (58)).
+
+    Parameters
+    ----------
+    q0, q1 : array_like, shape (..., 4)
+        End orientations, xyzw (normalised inside; zero raises).  The result does not depend on their signs
+        except for the overall sign, which follows ``q0``.
+    t : array_like, shape (...)
+        Interpolation parameter; 0 gives ``q0``, 1 gives ``±q1``; values outside [0, 1] extrapolate.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+    """
+    q0 = as_array(q0, "q0", 4)
+    q1 = as_array(q1, "q1", 4)
+    t = as_scalar_array(t, "t")
+    out = call_kernel(_k("quat_slerp"), (q0, q1, t), ("q0", "q1", "t"))
+    if np.isnan(out).any():
+        raise_if_zero_norm(out, q0, "q0")
+        raise_if_zero_norm(out, q1, "q1")
+    return out
+
+
+def quat_angle(p: ArrayLike, q: ArrayLike) -> np.ndarray:
+    """Rotation angle between orientations ``p`` and ``q``, in [0, π] radians.
+
+    Computed as ``4 atan2(min(|p−q|, |p+q|), max(|p−q|, |p+q|))`` on the normalised inputs: Kahan's atan2 form
+    of the angle between the 4-vectors (Dantam 2014 eq. (42)), doubled, and invariant under ``q -> -q``
+    (double cover).  Accurate for tiny and for near-π angles, unlike ``2 acos|p·q|``.
+    Shapes (..., 4) and (..., 4) broadcast; returns (...).
+    """
+    p = as_array(p, "p", 4)
+    q = as_array(q, "q", 4)
+    out = call_kernel(_k("quat_angle"), (p, q), ("p", "q"))
+    if np.isnan(out).any():
+        raise_if_zero_norm(out, p, "p")
+        raise_if_zero_norm(out, q, "q")
+    return out
+
+
+def quat_integrate(
+    q: ArrayLike, omega: ArrayLike, dt: ArrayLike, frame: Literal["space", "body"] = "space"
+) -> np.ndarray:
+    """Integrate a constant angular velocity over ``dt`` exactly (Dantam 2014 eq. (62)).
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Orientation at the start, xyzw.
+    omega : array_like, shape (..., 3)
+        Angular velocity, rad/s, in the space (world) frame (``frame="space"``: ``exp(ω dt/2) (x) q``) or in
+        the body frame (``frame="body"``: ``q (x) exp(ω dt/2)``).
+    dt : array_like, shape (...)
+        Time step, seconds.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+    """
+    q = as_array(q, "q", 4)
+    omega = as_array(omega, "omega", 3)
+    dt = as_scalar_array(dt, "dt")
+    if frame == "space":
+        kern = _k("quat_integrate_space")
+    elif frame == "body":
+        kern = _k("quat_integrate_body")
+    else:
+        raise ValueError(f"frame must be 'space' or 'body'; got {frame!r}")
+    return call_kernel(kern, (q, omega, dt), ("q", "omega", "dt"))
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    x, y, z = v[..., 0], v[..., 1], v[..., 2]
+    o = np.zeros(v.shape[:-1] + (3, 3))
+    o[..., 0, 1], o[..., 0, 2] = -z, y
+    o[..., 1, 0], o[..., 1, 2] = z, -x
+    o[..., 2, 0], o[..., 2, 1] = -y, x
+    return o
+
+
+def _qw_matrix(q: np.ndarray, sign: float) -> np.ndarray:
+    v, w = q[..., :3], q[..., 3]
+    out = np.empty(q.shape[:-1] + (4, 4))
+    out[..., :3, :3] = w[..., None, None] * np.eye(3) + sign * _skew(v)
+    out[..., :3, 3] = v
+    out[..., 3, :3] = -v
+    out[..., 3, 3] = w
+    return out
+
+
+def quat_left_matrix(q: ArrayLike) -> np.ndarray:
+    """Walker's ``Q(q)`` (Walker 1991 eq. (15)): the 4x4 matrix with ``Q(p) @ q == quat_mul(p, q)``.
+
+    ``Q(q) = [[w I + K(v), v], [-vᵀ, w]]`` in xyzw order (Walker's scalar-last layout is dualpose's).
+    Shape (..., 4) -> (..., 4, 4).
+    """
+    return _qw_matrix(as_array(q, "q", 4), 1.0)
+
+
+def quat_right_matrix(q: ArrayLike) -> np.ndarray:
+    """Walker's ``W(q)`` (Walker 1991 eq. (16)): the 4x4 matrix with ``W(q) @ p == quat_mul(p, q)``.
+
+    ``W(q) = [[w I - K(v), v], [-vᵀ, w]]`` in xyzw order.  Shape (..., 4) -> (..., 4, 4).
+    """
+    return _qw_matrix(as_array(q, "q", 4), -1.0)
+
+
+def quat_mean(quats: ArrayLike, weights: ArrayLike | None = None) -> np.ndarray:
+    """Weighted average orientation (Markley, Cheng, Crassidis & Oshman 2007).
+
+    The maximiser of ``Σ w_i (q·q_i)²`` over unit q: the eigenvector of the largest eigenvalue of
+    ``M = Σ w_i q_i q_iᵀ``.  Insensitive to the signs of the ``q_i`` (double cover).
+
+    Parameters
+    ----------
+    quats : array_like, shape (..., n, 4)
+        Orientations, xyzw (normalised inside; zero raises).  The mean is over axis -2.
+    weights : array_like, shape (..., n), optional
+        Non-negative weights (not all zero); uniform when omitted.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        Unit quaternion with ``w >= 0``.
+    """
+    qs = as_array(quats, "quats", 4)
+    if qs.ndim < 2 or qs.shape[-2] == 0:
+        raise ValueError(f"quats must have shape (..., n, 4) with n >= 1; got shape {qs.shape}")
+    qs = quat_normalize(qs)
+    if weights is None:
+        w = np.ones(qs.shape[:-1])
+    else:
+        w = as_scalar_array(weights, "weights")
+        try:
+            w = np.broadcast_to(w, qs.shape[:-1])
+        except ValueError:
+            raise ValueError(
+                f"weights must have shape (..., n) matching quats {qs.shape[:-1]}; got {np.shape(w)}"
+            ) from None
+        if np.any(w < 0) or np.any(w.sum(axis=-1) == 0):
+            raise ValueError("weights must be non-negative and not all zero")
+    m = np.einsum("...n,...ni,...nj->...ij", w, qs, qs)
+    _, vecs = np.linalg.eigh(m)
+    return quat_canonical(vecs[..., :, -1])

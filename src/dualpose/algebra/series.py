@@ -1,0 +1,290 @@
+"""Guarded series for every removable singularity in dualpose, collected in one place.
+
+Each function below is evaluated by a Horner polynomial (exact rational Taylor coefficients rounded once to
+float64) below its own cutoff, and by a closed form that is accurate above it.  The cutoff of each function is
+chosen where the closed form's cancellation error has fallen to about one ulp; the number of Taylor terms is
+chosen so that the first omitted term is below 2**-56 of the function value at the cutoff.  All are even
+functions of ``x`` and are evaluated on ``|x|``.  They are numba ``njit`` scalar functions so the algebra kernels
+inline them; :func:`series_ufunc` exposes each as a NumPy ufunc for tests and users.
+
+=============  ====================================  ===========  ===========================================
+name           function                              cutoff       used by (Dantam 2014 eq.)
+=============  ====================================  ===========  ===========================================
+``sinc``       sin x / x                             0.5          exp, rotvec -> quat (23), slerp, pow
+``cosc2``      (1 - cos x) / x**2                    1.0          SO(3) left Jacobian
+``sinc3``      (x - sin x) / x**3                    3.0          SO(3)/SE(3) Jacobians, DQ log alpha (92)
+``dsinc``      (x cos x - sin x) / x**3              2.0          (37), (57), DQ exp (85)
+``cosc4``      (x**2/2 - 1 + cos x) / x**4           3.5          SE(3) left Jacobian (Barfoot's Q)
+``se3c``       (2x - 3 sin x + x cos x) / (2 x**5)   4.0          SE(3) left Jacobian (Barfoot's Q)
+``jinv``       (1 - (x/2) cot(x/2)) / x**2           2.5          inverse SO(3)/SE(3) Jacobians
+``atan2c``     atan2(s, c) / s                       s <= 1e-4 c  quat / DQ log (26)-(28), rotvec
+``dqalpha``    (cos x / sin**2 x - x / sin**3 x)     (composed)   DQ log (88), (91)-(92)
+``dlogc``      (x cos x - sin x) / sin**3 x          (composed)   unit-log derivative (39)-(40)
+=============  ====================================  ===========  ===========================================
+
+The two composed functions are exact rewrites in terms of guarded primitives, so they inherit their cutoffs:
+``dqalpha(x) = -4 sinc3(2x) / sinc(x)**3`` and ``dlogc(x) = dsinc(x) / sinc(x)**3``.
+"""
+
+from __future__ import annotations
+
+import math
+from fractions import Fraction
+
+import numba as nb
+import numpy as np
+
+__all__ = [
+    "CUTOFFS",
+    "sinc",
+    "cosc2",
+    "sinc3",
+    "dsinc",
+    "cosc4",
+    "se3c",
+    "jinv",
+    "atan2c",
+    "dqalpha",
+    "dlogc",
+    "series_ufunc",
+    "taylor_coefficients",
+]
+
+_EPS_TARGET = 2.0**-56
+
+
+def _sin_cos_terms(n: int) -> tuple[list[Fraction], list[Fraction]]:
+    """Exact Taylor coefficients of sin and cos up to x**n."""
+    s = [Fraction(0)] * (n + 1)
+    c = [Fraction(0)] * (n + 1)
+    for k in range(n + 1):
+        val = Fraction((-1) ** (k // 2), math.factorial(k))
+        if k % 2:
+            s[k] = val
+        else:
+            c[k] = val
+    return s, c
+
+
+def _bernoulli(n: int) -> list[Fraction]:
+    b = [Fraction(0)] * (n + 1)
+    b[0] = Fraction(1)
+    for m in range(1, n + 1):
+        b[m] = -sum(math.comb(m + 1, k) * b[k] for k in range(m)) / (m + 1)
+    return b
+
+
+def taylor_coefficients(name: str, n_terms: int) -> list[Fraction]:
+    """Exact coefficients ``a_k`` with ``f(x) = sum_k a_k x**(2k)`` for the named series."""
+    deg = 2 * n_terms + 8
+    s, c = _sin_cos_terms(deg)
+    x = [Fraction(0)] * (deg + 1)
+    x[1] = Fraction(1)
+    x2 = [Fraction(0)] * (deg + 1)
+    x2[2] = Fraction(1)
+
+    def combo(*terms: tuple[Fraction, list[Fraction]]) -> list[Fraction]:
+        out = [Fraction(0)] * (deg + 1)
+        for w, poly in terms:
+            for i, v in enumerate(poly):
+                out[i] += w * v
+        return out
+
+    def xtimes(p: list[Fraction]) -> list[Fraction]:
+        return [Fraction(0)] + p[:-1]
+
+    one = [Fraction(1)] + [Fraction(0)] * deg
+    if name == "sinc":
+        num, shift = s, 1
+    elif name == "cosc2":
+        num, shift = combo((Fraction(1), one), (Fraction(-1), c)), 2
+    elif name == "sinc3":
+        num, shift = combo((Fraction(1), x), (Fraction(-1), s)), 3
+    elif name == "dsinc":
+        num, shift = combo((Fraction(1), xtimes(c)), (Fraction(-1), s)), 3
+    elif name == "cosc4":
+        num, shift = combo((Fraction(1, 2), x2), (Fraction(-1), one), (Fraction(1), c)), 4
+    elif name == "se3c":
+        num = combo((Fraction(1), x), (Fraction(-3, 2), s), (Fraction(1, 2), xtimes(c)))
+        shift = 5
+    elif name == "jinv":
+        b = _bernoulli(2 * n_terms + 2)
+        # (x/2) cot(x/2) = sum_n (-1)^n B_2n x^2n / (2n)!  ;  jinv = (1 - that) / x^2
+        return [
+            -Fraction((-1) ** m) * b[2 * m] / math.factorial(2 * m) for m in range(1, n_terms + 1)
+        ]
+    else:
+        raise ValueError(f"unknown series {name!r}")
+    coeffs = num[shift:]
+    for i in range(0, len(coeffs), 2):
+        pass
+    even = coeffs[0::2]
+    assert all(v == 0 for v in coeffs[1::2]), name
+    return even[:n_terms]
+
+
+_CLOSED = {
+    "sinc": lambda x: math.sin(x) / x,
+    "cosc2": lambda x: (1 - math.cos(x)) / x**2,
+    "sinc3": lambda x: (x - math.sin(x)) / x**3,
+    "dsinc": lambda x: (x * math.cos(x) - math.sin(x)) / x**3,
+    "cosc4": lambda x: (x * x / 2 - 1 + math.cos(x)) / x**4,
+    "se3c": lambda x: (2 * x - 3 * math.sin(x) + x * math.cos(x)) / (2 * x**5),
+    "jinv": lambda x: (1 - (x / 2) / math.tan(x / 2)) / x**2,
+}
+
+CUTOFFS = {
+    "sinc": 0.5,
+    "cosc2": 1.0,
+    "sinc3": 3.0,
+    "dsinc": 2.0,
+    "cosc4": 3.5,
+    "se3c": 4.0,
+    "jinv": 2.5,
+    "atan2c": 1e-4,
+}
+
+
+def _coeff_tuple(name: str) -> tuple[float, ...]:
+    """Enough terms that the first omitted one is below 2**-56 of |f| at the cutoff."""
+    cut = Fraction(CUTOFFS[name])
+    fcut = abs(Fraction(_CLOSED[name](float(cut))))
+    n = 2
+    while True:
+        co = taylor_coefficients(name, n + 1)
+        if abs(co[n]) * cut ** (2 * n) < Fraction(_EPS_TARGET) * fcut:
+            return tuple(float(v) for v in co[:n])
+        n += 1
+
+
+_C_SINC = _coeff_tuple("sinc")
+_C_COSC2 = _coeff_tuple("cosc2")
+_C_SINC3 = _coeff_tuple("sinc3")
+_C_DSINC = _coeff_tuple("dsinc")
+_C_COSC4 = _coeff_tuple("cosc4")
+_C_SE3C = _coeff_tuple("se3c")
+_C_JINV = _coeff_tuple("jinv")
+
+_jit = nb.njit(cache=True, inline="always", fastmath=False, error_model="numpy")
+
+
+@_jit
+def _horner(c: tuple, y: float) -> float:
+    acc = 0.0
+    for i in range(len(c) - 1, -1, -1):
+        acc = acc * y + c[i]
+    return acc
+
+
+@_jit
+def sinc(x: float) -> float:
+    """sin(x)/x; Dantam 2014 eq. (23)."""
+    x = abs(x)
+    if x < 0.5:
+        return _horner(_C_SINC, x * x)
+    return math.sin(x) / x
+
+
+@_jit
+def cosc2(x: float) -> float:
+    """(1 - cos x)/x**2, evaluated as sinc(x/2)**2 / 2 above the cutoff (no cancellation)."""
+    x = abs(x)
+    if x < 1.0:
+        return _horner(_C_COSC2, x * x)
+    h = math.sin(0.5 * x) / x
+    return 2.0 * h * h
+
+
+@_jit
+def sinc3(x: float) -> float:
+    """(x - sin x)/x**3."""
+    x = abs(x)
+    if x < 3.0:
+        return _horner(_C_SINC3, x * x)
+    return (x - math.sin(x)) / (x * x * x)
+
+
+@_jit
+def dsinc(x: float) -> float:
+    """(x cos x - sin x)/x**3 = (cos x - sin(x)/x)/x**2; Dantam 2014 eqs. (37), (57), (85)."""
+    x = abs(x)
+    if x < 2.0:
+        return _horner(_C_DSINC, x * x)
+    return (x * math.cos(x) - math.sin(x)) / (x * x * x)
+
+
+@_jit
+def cosc4(x: float) -> float:
+    """(x**2/2 - 1 + cos x)/x**4."""
+    x = abs(x)
+    if x < 3.5:
+        return _horner(_C_COSC4, x * x)
+    x2 = x * x
+    return (0.5 * x2 - 1.0 + math.cos(x)) / (x2 * x2)
+
+
+@_jit
+def se3c(x: float) -> float:
+    """(2x - 3 sin x + x cos x)/(2 x**5)."""
+    x = abs(x)
+    if x < 4.0:
+        return _horner(_C_SE3C, x * x)
+    x2 = x * x
+    return (2.0 * x - 3.0 * math.sin(x) + x * math.cos(x)) / (2.0 * x2 * x2 * x)
+
+
+@_jit
+def jinv(x: float) -> float:
+    """(1 - (x/2) cot(x/2))/x**2 (the Phi**2 coefficient of the inverse SO(3) Jacobian); pole at 2*pi."""
+    x = abs(x)
+    if x < 2.5:
+        return _horner(_C_JINV, x * x)
+    h = 0.5 * x
+    return (1.0 - h * math.cos(h) / math.sin(h)) / (x * x)
+
+
+@_jit
+def atan2c(s: float, c: float) -> float:
+    """atan2(s, c)/s for s >= 0: the log/rotation-vector scale factor phi/|q_v|, Dantam 2014 eqs. (26)-(28).
+
+    For ``s <= 1e-4 * c`` the series ``(1/c)(1 - y**2/3 + y**4/5 - y**6/7)`` with ``y = s/c`` is used; at
+    ``s == 0`` and ``c < 0`` the value is +inf (the caller picks an axis), at ``s == c == 0`` it is NaN.
+    """
+    if c > 0.0 and s <= 1e-4 * c:
+        y = s / c
+        y2 = y * y
+        return (1.0 + y2 * (-1.0 / 3.0 + y2 * (0.2 - y2 / 7.0))) / c
+    if s == 0.0:
+        if c < 0.0:
+            return np.inf
+        return np.nan
+    return math.atan2(s, c) / s
+
+
+@_jit
+def dqalpha(x: float) -> float:
+    """cos x / sin**2 x - x / sin**3 x = -4 sinc3(2x)/sinc(x)**3; Dantam 2014 eqs. (91)-(92). Pole at pi."""
+    sx = sinc(x)
+    return -4.0 * sinc3(2.0 * x) / (sx * sx * sx)
+
+
+@_jit
+def dlogc(x: float) -> float:
+    """(x cos x - sin x)/sin**3 x = dsinc(x)/sinc(x)**3; Dantam 2014 eqs. (39)-(40). Pole at pi."""
+    sx = sinc(x)
+    return dsinc(x) / (sx * sx * sx)
+
+
+_UFUNCS: dict[str, np.ufunc] = {}
+
+
+def series_ufunc(name: str) -> np.ufunc:
+    """The named series as a NumPy ufunc of float64 (``atan2c`` takes two arguments)."""
+    if name not in _UFUNCS:
+        fn = globals()[name]
+        if name == "atan2c":
+            uf = nb.vectorize(["float64(float64, float64)"])(lambda s, c: fn(s, c))
+        else:
+            uf = nb.vectorize(["float64(float64)"])(lambda x: fn(x))
+        _UFUNCS[name] = uf
+    return _UFUNCS[name]

@@ -1,0 +1,26 @@
+"""Compile (or load from the on-disk cache) every numba kernel once: ``python -m dualpose.algebra.warmup``.
+
+The Makefile runs this after installing so that parallel test workers find a warm cache.
+"""
+
+from __future__ import annotations
+
+import importlib
+import time
+
+KERNEL_MODULES = (
+    "dualpose.algebra.series",
+    "dualpose.algebra._quat_kernels",
+)
+
+
+def warmup() -> float:
+    """Import every kernel module; returns the seconds it took."""
+    t0 = time.perf_counter()
+    for name in KERNEL_MODULES:
+        importlib.import_module(name)
+    return time.perf_counter() - t0
+
+
+if __name__ == "__main__":
+    print(f"dualpose kernels ready in {warmup():.1f} s")
