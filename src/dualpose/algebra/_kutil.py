@@ -71,9 +71,11 @@ def rotate(x, y, z, w, vx, vy, vz, s2):  # noqa: ANN001, ANN201
 
 @jit
 def inv_norm2_scale(x, y, z, w):  # noqa: ANN001, ANN201
-    """2/|q|**2 (inf for a zero quaternion)."""
+    """2/|q|**2 (quiet NaN for a zero quaternion, so the caller's result is NaN without FP warnings)."""
     n2 = x * x + y * y + z * z + w * w
     if _TINY <= n2 <= _HUGE:
         return 2.0 / n2
     n = norm4(x, y, z, w)
+    if n == 0.0:
+        return math.nan
     return (2.0 / n) / n

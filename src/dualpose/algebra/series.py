@@ -116,8 +116,6 @@ def taylor_coefficients(name: str, n_terms: int) -> list[Fraction]:
     else:
         raise ValueError(f"unknown series {name!r}")
     coeffs = num[shift:]
-    for i in range(0, len(coeffs), 2):
-        pass
     even = coeffs[0::2]
     assert all(v == 0 for v in coeffs[1::2]), name
     return even[:n_terms]
