@@ -119,6 +119,9 @@ def lazy_kernels(module: str) -> Callable[[str], np.ufunc]:
         except KeyError:
             import importlib
 
+            from dualpose._kernel_cache import ensure_fresh
+
+            ensure_fresh()
             mod = importlib.import_module(module)
             obj = getattr(mod, name)
             cache[name] = getattr(obj, "ufunc", obj)

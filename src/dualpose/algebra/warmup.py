@@ -16,7 +16,10 @@ KERNEL_MODULES = (
 
 def warmup() -> float:
     """Import every kernel module; returns the seconds it took."""
+    from dualpose._kernel_cache import ensure_fresh
+
     t0 = time.perf_counter()
+    ensure_fresh()
     for name in KERNEL_MODULES:
         importlib.import_module(name)
     return time.perf_counter() - t0
