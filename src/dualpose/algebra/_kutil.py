@@ -20,6 +20,8 @@ _HUGE = 1e280
 def norm3(x: float, y: float, z: float) -> float:
     """Euclidean norm of a 3-vector without underflow or overflow of the squares."""
     s = x * x + y * y + z * z
+    if s != s:  # NaN: return it without an ordered (signalling) comparison
+        return s
     if _TINY <= s <= _HUGE:
         return math.sqrt(s)
     m = max(abs(x), abs(y), abs(z))
@@ -33,6 +35,8 @@ def norm3(x: float, y: float, z: float) -> float:
 def norm4(x: float, y: float, z: float, w: float) -> float:
     """Euclidean norm of a 4-vector without underflow or overflow of the squares."""
     s = x * x + y * y + z * z + w * w
+    if s != s:
+        return s
     if _TINY <= s <= _HUGE:
         return math.sqrt(s)
     m = max(abs(x), abs(y), abs(z), abs(w))
@@ -70,9 +74,30 @@ def rotate(x, y, z, w, vx, vy, vz, s2):  # noqa: ANN001, ANN201
 
 
 @jit
-def inv_norm2_scale(x, y, z, w):  # noqa: ANN001, ANN201
-    """2/|q|**2 (quiet NaN for a zero quaternion, so the caller's result is NaN without FP warnings)."""
+def unit_scale(x, y, z, w):  # noqa: ANN001, ANN201
+    """(c, s2) with s2 = 2/|c q|**2, for formulas that need 2/|q|**2 (rotation, matrices, transforms).
+
+    For ordinary magnitudes c = 1 and s2 = 2/|q|**2; for |q| near 1e-200 or 1e200 c = 1/|q| and s2 = 2, and the
+    caller scales the quaternion (and a dual part) by c first, so nothing under- or overflows.  A zero quaternion
+    gives a quiet NaN; a NaN one propagates.
+    """
     n2 = x * x + y * y + z * z + w * w
+    if n2 != n2:
+        return 1.0, n2
+    if _TINY <= n2 <= _HUGE:
+        return 1.0, 2.0 / n2
+    n = norm4(x, y, z, w)
+    if n == 0.0:
+        return math.nan, math.nan
+    return 1.0 / n, 2.0
+
+
+@jit
+def inv_norm2_scale(x, y, z, w):  # noqa: ANN001, ANN201
+    """2/|q|**2 (quiet NaN for a zero quaternion); prefer :func:`unit_scale`, which also survives |q| ~ 1e-200."""
+    n2 = x * x + y * y + z * z + w * w
+    if n2 != n2:
+        return n2
     if _TINY <= n2 <= _HUGE:
         return 2.0 / n2
     n = norm4(x, y, z, w)

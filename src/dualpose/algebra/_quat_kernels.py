@@ -10,7 +10,7 @@ import math
 
 import numba as nb
 
-from dualpose.algebra._kutil import inv_norm2_scale, norm3, norm4, qmul, rotate
+from dualpose.algebra._kutil import norm3, norm4, qmul, rotate, unit_scale
 from dualpose.algebra.series import atan2c, sinc
 
 _V = "float64[:]"
@@ -107,8 +107,8 @@ def quat_pow(q, t, o):  # noqa: ANN001
 
 @gu(f"{_V},{_V},{_V}", "(n),(m)->(m)")
 def quat_rotate(q, v, o):  # noqa: ANN001
-    s2 = inv_norm2_scale(q[0], q[1], q[2], q[3])
-    o[0], o[1], o[2] = rotate(q[0], q[1], q[2], q[3], v[0], v[1], v[2], s2)
+    c, s2 = unit_scale(q[0], q[1], q[2], q[3])
+    o[0], o[1], o[2] = rotate(c * q[0], c * q[1], c * q[2], c * q[3], v[0], v[1], v[2], s2)
 
 
 @gu(f"{_V},{_V},{_V}", "(m),(n)->(n)")
@@ -161,8 +161,8 @@ def axis_angle_from_quat(q, d3, axis, angle):  # noqa: ANN001
 @gu(f"{_V},{_M},{_M}", "(n),(m,m)->(m,m)")
 def matrix_from_quat(q, d33, o):  # noqa: ANN001
     # Dantam 2014 eq. (108) / Walker 1991 eq. (4), scaled by 2/|q|**2 so non-unit input is normalised.
-    x, y, z, w = q[0], q[1], q[2], q[3]
-    s = inv_norm2_scale(x, y, z, w)
+    c, s = unit_scale(q[0], q[1], q[2], q[3])
+    x, y, z, w = c * q[0], c * q[1], c * q[2], c * q[3]
     xx, yy, zz = s * x * x, s * y * y, s * z * z
     xy, xz, yz = s * x * y, s * x * z, s * y * z
     wx, wy, wz = s * w * x, s * w * y, s * w * z
