@@ -118,11 +118,15 @@ def lazy_kernels(module: str) -> Callable[[str], np.ufunc]:
             return cache[name]
         except KeyError:
             import importlib
+            import sys
 
-            from dualpose._kernel_cache import ensure_fresh
+            from dualpose._kernel_cache import ensure_fresh, mark_fresh
 
+            fresh_import = module not in sys.modules
             ensure_fresh()
             mod = importlib.import_module(module)
+            if fresh_import:
+                mark_fresh()
             obj = getattr(mod, name)
             cache[name] = getattr(obj, "ufunc", obj)
             return cache[name]

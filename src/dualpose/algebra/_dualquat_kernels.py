@@ -13,7 +13,7 @@ import math
 
 import numba as nb
 
-from dualpose.algebra._kutil import cross, jit, norm3, norm4, qmul, unit_scale
+from dualpose.algebra._kutil import cross, jit, log_norm, norm3, norm4, qmul, rotmat, unit_scale
 from dualpose.algebra.series import atan2c, dqalpha, dsinc, sinc
 
 _V = "float64[:]"
@@ -80,7 +80,12 @@ def dq_exp(rx, ry, rz, rw, dx, dy, dz, dw):  # noqa: ANN001, ANN201
 
     phi = |r_v|, k = r_v·d_v; sin(phi)/phi is ``sinc`` (23) and (cos phi - sin(phi)/phi)/phi**2 is ``dsinc`` (85).
     """
-    phi = norm3(rx, ry, rz)
+    return dq_exp_angle(norm3(rx, ry, rz), rx, ry, rz, rw, dx, dy, dz, dw)
+
+
+@jit
+def dq_exp_angle(phi, rx, ry, rz, rw, dx, dy, dz, dw):  # noqa: ANN001, ANN201
+    """dq_exp with phi = |r_v| supplied by the caller (dualquat_pow passes |t| atan2(|r_v|, r_w): one rounding)."""
     k = rx * dx + ry * dy + rz * dz
     sc = sinc(phi)
     ds = dsinc(phi) * k
@@ -122,9 +127,9 @@ def dq_log(rx, ry, rz, rw, dx, dy, dz, dw):  # noqa: ANN001, ANN201
     if is_zero4(rx, ry, rz, rw):
         return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN
     n = norm4(rx, ry, rz, rw)
+    ln = log_norm(rx, ry, rz, rw, n)
     rx, ry, rz, rw = rx / n, ry / n, rz / n, rw / n
     dx, dy, dz, dw = dx / n, dy / n, dz / n, dw / n
-    ln = math.log(n)
     s = norm3(rx, ry, rz)
     k = rx * dx + ry * dy + rz * dz
     dsc = k + rw * dw  # (90) scalar part: r·d
@@ -274,18 +279,10 @@ def matrix_from_dualquat(s, d44, o):  # noqa: ANN001
     c, sc = unit_scale(x, y, z, w)
     if c != 1.0:
         x, y, z, w, dx, dy, dz, dw = c * x, c * y, c * z, c * w, c * dx, c * dy, c * dz, c * dw
-    xx, yy, zz = sc * x * x, sc * y * y, sc * z * z
-    xy, xz, yz = sc * x * y, sc * x * z, sc * y * z
-    wx, wy, wz = sc * w * x, sc * w * y, sc * w * z
-    o[0, 0] = 1.0 - (yy + zz)
-    o[0, 1] = xy - wz
-    o[0, 2] = xz + wy
-    o[1, 0] = xy + wz
-    o[1, 1] = 1.0 - (xx + zz)
-    o[1, 2] = yz - wx
-    o[2, 0] = xz - wy
-    o[2, 1] = yz + wx
-    o[2, 2] = 1.0 - (xx + yy)
+    m = rotmat(x, y, z, w)
+    for i in range(3):
+        for j in range(3):
+            o[i, j] = m[3 * i + j]
     o[0, 3], o[1, 3], o[2, 3] = _translation(x, y, z, w, dx, dy, dz, dw, sc)
     o[3, 0] = o[3, 1] = o[3, 2] = 0.0
     o[3, 3] = 1.0
@@ -334,9 +331,12 @@ def dualquat_pow(s, t, o):  # noqa: ANN001
     if is_zero4(s[0], s[1], s[2], s[3]):
         fill_nan(o, 8)
         return
+    # The rotation angle of exp(t ln S) is |t| phi with phi = atan2(|r_v|, r_w) (pi on the negative real axis); it is
+    # passed in rather than recomputed as |t (phi/|r_v|) r_v| (three more roundings, amplified by t).
     a0, a1, a2, a3, a4, a5, a6, a7 = dq_log(s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7])
-    o[0], o[1], o[2], o[3], o[4], o[5], o[6], o[7] = dq_exp(
-        t * a0, t * a1, t * a2, t * a3, t * a4, t * a5, t * a6, t * a7
+    phi = abs(t) * math.atan2(norm3(s[0], s[1], s[2]), s[3])
+    o[0], o[1], o[2], o[3], o[4], o[5], o[6], o[7] = dq_exp_angle(
+        phi, t * a0, t * a1, t * a2, t * a3, t * a4, t * a5, t * a6, t * a7
     )
 
 

@@ -104,3 +104,35 @@ def inv_norm2_scale(x, y, z, w):  # noqa: ANN001, ANN201
     if n == 0.0:
         return math.nan
     return (2.0 / n) / n
+
+
+@jit
+def log_norm(x, y, z, w, n):  # noqa: ANN001, ANN201
+    """ln|q| given n = |q|.  Near |q| = 1 it is log1p((w - 1)(w + 1) + x² + y² + z²)/2: for a rounded unit
+    quaternion |q| rounds to 1 (or 1 ± ulp) while ln|q| is ~1e-17, comparable to a tiny rotation's log; the
+    factored form keeps it to full accuracy (w - 1 is exact for w in [0.5, 2])."""
+    if 0.5 <= n <= 2.0:
+        return 0.5 * math.log1p((w - 1.0) * (w + 1.0) + (x * x + y * y + z * z))
+    return math.log(n)
+
+
+@jit
+def rotmat(x, y, z, w):  # noqa: ANN001, ANN201
+    """Row-major entries of the rotation matrix of q/|q| (Dantam 2014 eq. (108)); NaN for a zero quaternion."""
+    c, s = unit_scale(x, y, z, w)
+    x, y, z, w = c * x, c * y, c * z, c * w
+    xx, yy, zz = s * x * x, s * y * y, s * z * z
+    xy, xz, yz = s * x * y, s * x * z, s * y * z
+    wx, wy, wz = s * w * x, s * w * y, s * w * z
+    return (
+        1.0 - (yy + zz), xy - wz, xz + wy,
+        xy + wz, 1.0 - (xx + zz), yz - wx,
+        xz - wy, yz + wx, 1.0 - (xx + yy),
+    )  # fmt: skip
+
+
+@jit
+def rotate_any(x, y, z, w, vx, vy, vz):  # noqa: ANN001, ANN201
+    """R(q/|q|) v for any nonzero q (NaN for zero), without under/overflow for |q| ~ 1e-200 or 1e200."""
+    c, s2 = unit_scale(x, y, z, w)
+    return rotate(c * x, c * y, c * z, c * w, vx, vy, vz, s2)

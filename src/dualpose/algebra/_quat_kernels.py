@@ -10,12 +10,14 @@ import math
 
 import numba as nb
 
-from dualpose.algebra._kutil import norm3, norm4, qmul, rotate, unit_scale
+from dualpose.algebra._kutil import log_norm, norm3, norm4, qmul, rotate_any, rotmat
 from dualpose.algebra.series import atan2c, sinc
 
 _V = "float64[:]"
 _S = "float64"
 _M = "float64[:, :]"
+_LO = 2.0**-300
+_HI = 2.0**300
 
 
 def gu(types: str, layout: str):  # noqa: ANN201
@@ -83,7 +85,7 @@ def quat_log(q, o):  # noqa: ANN001
         o[0], o[1], o[2] = math.pi, 0.0, 0.0
     else:
         o[0], o[1], o[2] = f * x, f * y, f * z
-    o[3] = math.log(n)
+    o[3] = log_norm(x, y, z, w, n)
 
 
 @gu(f"{_V},{_S},{_V}", "(n),()->(n)")
@@ -107,8 +109,7 @@ def quat_pow(q, t, o):  # noqa: ANN001
 
 @gu(f"{_V},{_V},{_V}", "(n),(m)->(m)")
 def quat_rotate(q, v, o):  # noqa: ANN001
-    c, s2 = unit_scale(q[0], q[1], q[2], q[3])
-    o[0], o[1], o[2] = rotate(c * q[0], c * q[1], c * q[2], c * q[3], v[0], v[1], v[2], s2)
+    o[0], o[1], o[2] = rotate_any(q[0], q[1], q[2], q[3], v[0], v[1], v[2])
 
 
 @gu(f"{_V},{_V},{_V}", "(m),(n)->(n)")
@@ -161,20 +162,10 @@ def axis_angle_from_quat(q, d3, axis, angle):  # noqa: ANN001
 @gu(f"{_V},{_M},{_M}", "(n),(m,m)->(m,m)")
 def matrix_from_quat(q, d33, o):  # noqa: ANN001
     # Dantam 2014 eq. (108) / Walker 1991 eq. (4), scaled by 2/|q|**2 so non-unit input is normalised.
-    c, s = unit_scale(q[0], q[1], q[2], q[3])
-    x, y, z, w = c * q[0], c * q[1], c * q[2], c * q[3]
-    xx, yy, zz = s * x * x, s * y * y, s * z * z
-    xy, xz, yz = s * x * y, s * x * z, s * y * z
-    wx, wy, wz = s * w * x, s * w * y, s * w * z
-    o[0, 0] = 1.0 - (yy + zz)
-    o[0, 1] = xy - wz
-    o[0, 2] = xz + wy
-    o[1, 0] = xy + wz
-    o[1, 1] = 1.0 - (xx + zz)
-    o[1, 2] = yz - wx
-    o[2, 0] = xz - wy
-    o[2, 1] = yz + wx
-    o[2, 2] = 1.0 - (xx + yy)
+    m = rotmat(q[0], q[1], q[2], q[3])
+    for i in range(3):
+        for j in range(3):
+            o[i, j] = m[3 * i + j]
 
 
 @gu(f"{_M},{_V},{_V}", "(m,m),(n)->(n)")
@@ -232,10 +223,26 @@ def quat_angle(p, q, o):  # noqa: ANN001
     if np_ == 0.0 or nq == 0.0:
         o[0] = math.nan
         return
-    a0, a1, a2, a3 = p[0] / np_, p[1] / np_, p[2] / np_, p[3] / np_
-    b0, b1, b2, b3 = q[0] / nq, q[1] / nq, q[2] / nq, q[3] / nq
-    d = norm4(a0 - b0, a1 - b1, a2 - b2, a3 - b3)
-    s = norm4(a0 + b0, a1 + b1, a2 + b2, a3 + b3)
+    # Form p/|p| -+ q/|q| without dividing the components first: with a = q - p, b = q + p (exact when
+    # p ~ +-q) and k = (|q| - |p|)/(|p||q|) from |q|**2 - |p|**2 = a.b, p/|p| - q/|q| = q k - a/|p| and
+    # p/|p| + q/|q| = b/|p| - q k, so the smaller of the two keeps full relative accuracy (tiny angles and angles
+    # near pi) even when |p|, |q| are not exactly 1 in float64.  Inputs of extreme norm are first scaled
+    # (exactly, by a power of two) so that a.b cannot overflow; near-unit inputs are left alone (a, b exact).
+    p0, p1, p2, p3 = p[0], p[1], p[2], p[3]
+    q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
+    if not (_LO <= np_ <= _HI):
+        e = -math.frexp(np_)[1]
+        p0, p1, p2, p3 = math.ldexp(p0, e), math.ldexp(p1, e), math.ldexp(p2, e), math.ldexp(p3, e)
+        np_ = math.ldexp(np_, e)
+    if not (_LO <= nq <= _HI):
+        e = -math.frexp(nq)[1]
+        q0, q1, q2, q3 = math.ldexp(q0, e), math.ldexp(q1, e), math.ldexp(q2, e), math.ldexp(q3, e)
+        nq = math.ldexp(nq, e)
+    a0, a1, a2, a3 = q0 - p0, q1 - p1, q2 - p2, q3 - p3
+    b0, b1, b2, b3 = q0 + p0, q1 + p1, q2 + p2, q3 + p3
+    k = (a0 * b0 + a1 * b1 + a2 * b2 + a3 * b3) / ((np_ + nq) * np_ * nq)
+    d = norm4(q0 * k - a0 / np_, q1 * k - a1 / np_, q2 * k - a2 / np_, q3 * k - a3 / np_)
+    s = norm4(b0 / np_ - q0 * k, b1 / np_ - q1 * k, b2 / np_ - q2 * k, b3 / np_ - q3 * k)
     o[0] = 4.0 * math.atan2(min(d, s), max(d, s))
 
 
