@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["as_array", "as_scalar_array", "call_kernel", "raise_if_zero_norm", "check_finite"]
+__all__ = ["identity_array", "as_array", "as_scalar_array", "call_kernel", "raise_if_zero_norm", "check_finite"]
 
 
 def _convert(x: Any, name: str) -> np.ndarray:
@@ -132,3 +132,11 @@ def lazy_kernels(module: str) -> Callable[[str], np.ufunc]:
             return cache[name]
 
     return get
+
+
+def identity_array(shape: int | tuple[int, ...], size: int) -> np.ndarray:
+    """Identity (dual) quaternions: zeros of shape ``shape + (size,)`` with component 3 (``w``) set to 1."""
+    lead = (shape,) if isinstance(shape, int) else tuple(shape)
+    out = np.zeros((*lead, size))
+    out[..., 3] = 1.0
+    return out

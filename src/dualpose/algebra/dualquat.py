@@ -25,6 +25,7 @@ from dualpose._validation import (
     as_scalar_array,
     call_kernel,
     check_finite,
+    identity_array,
     lazy_kernels,
     raise_if_zero_norm,
 )
@@ -72,9 +73,7 @@ def _raise_zero(out: np.ndarray, s: np.ndarray, name: str) -> None:
 
 def dualquat_identity(shape: int | tuple[int, ...] = ()) -> np.ndarray:
     """Identity dual quaternions ``[0, 0, 0, 1, 0, 0, 0, 0]`` of shape ``shape + (8,)``."""
-    out = np.zeros((*np.atleast_1d(shape).astype(int).tolist(), 8) if shape != () else (8,))
-    out[..., 3] = 1.0
-    return out
+    return identity_array(shape, 8)
 
 
 def dualquat_mul(a: ArrayLike, b: ArrayLike) -> np.ndarray:

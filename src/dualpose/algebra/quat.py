@@ -21,6 +21,7 @@ from dualpose._validation import (
     as_scalar_array,
     call_kernel,
     check_finite,
+    identity_array,
     lazy_kernels,
     raise_if_zero_norm,
 )
@@ -60,9 +61,7 @@ _CONJ = np.array([-1.0, -1.0, -1.0, 1.0])
 
 def quat_identity(shape: int | tuple[int, ...] = ()) -> np.ndarray:
     """Identity quaternions ``[0, 0, 0, 1]`` (xyzw) of shape ``shape + (4,)``."""
-    out = np.zeros((*np.atleast_1d(shape).astype(int).tolist(), 4) if shape != () else (4,))
-    out[..., 3] = 1.0
-    return out
+    return identity_array(shape, 4)
 
 
 def quat_mul(p: ArrayLike, q: ArrayLike) -> np.ndarray:
@@ -341,19 +340,12 @@ def quat_integrate(
     return call_kernel(kern, (q, omega, dt), ("q", "omega", "dt"))
 
 
-def _skew(v: np.ndarray) -> np.ndarray:
-    x, y, z = v[..., 0], v[..., 1], v[..., 2]
-    o = np.zeros(v.shape[:-1] + (3, 3))
-    o[..., 0, 1], o[..., 0, 2] = -z, y
-    o[..., 1, 0], o[..., 1, 2] = z, -x
-    o[..., 2, 0], o[..., 2, 1] = -y, x
-    return o
-
-
 def _qw_matrix(q: np.ndarray, sign: float) -> np.ndarray:
+    from dualpose.algebra.lie import so3_hat  # lie builds on quat; imported here to avoid a cycle
+
     v, w = q[..., :3], q[..., 3]
     out = np.empty(q.shape[:-1] + (4, 4))
-    out[..., :3, :3] = w[..., None, None] * np.eye(3) + sign * _skew(v)
+    out[..., :3, :3] = w[..., None, None] * np.eye(3) + sign * so3_hat(v)
     out[..., :3, 3] = v
     out[..., 3, :3] = -v
     out[..., 3, 3] = w
