@@ -83,12 +83,23 @@ def shape_error(ufunc: np.ufunc, args: Sequence[np.ndarray], names: Sequence[str
     return ValueError(f"batch shapes do not broadcast: {desc}")
 
 
-def call_kernel(ufunc: np.ufunc, args: tuple, names: Sequence[str]) -> Any:
-    """Call a (g)ufunc, translating numpy's broadcasting error into one that names the arguments."""
+def call_kernel(ufunc: np.ufunc, args: tuple, names: Sequence[str], out: np.ndarray | None = None) -> Any:
+    """Call a (g)ufunc, translating numpy's broadcasting error into one that names the arguments.
+
+    ``out`` (optional) is a preallocated float64 array for the result, as for NumPy ufuncs.
+    """
+    if out is None:
+        try:
+            return ufunc(*args)
+        except ValueError:
+            raise shape_error(ufunc, args, names) from None
+    if type(out) is not np.ndarray or out.dtype != np.float64:
+        raise TypeError(f"out must be a float64 numpy array; got {type(out).__name__}")
     try:
-        return ufunc(*args)
+        return ufunc(*args, out=out)
     except ValueError:
-        raise shape_error(ufunc, args, names) from None
+        err = shape_error(ufunc, args, names)
+        raise ValueError(f"{err}; or out has the wrong shape {out.shape}") from None
 
 
 def raise_if_zero_norm(out: np.ndarray, arg: np.ndarray, name: str, what: str = "a nonzero quaternion") -> None:

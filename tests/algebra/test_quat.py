@@ -244,3 +244,30 @@ class TestBadInput:
             dp.quat_mean(np.tile([0, 0, 0, 1.0], (3, 1)), [1, -1, 1])
         with pytest.raises(ValueError, match="quats must have shape"):
             dp.quat_mean([0, 0, 0, 1.0])
+
+
+class TestOut:
+    def test_out_is_filled_and_returned(self, rng):
+        p, q = rng.normal(size=(2, 10, 4))
+        v = rng.normal(size=(10, 3))
+        o4, o3 = np.empty((10, 4)), np.empty((10, 3))
+        assert dp.quat_mul(p, q, out=o4) is o4
+        np.testing.assert_array_equal(o4, dp.quat_mul(p, q))
+        assert dp.quat_rotate(q, v, out=o3) is o3
+        np.testing.assert_array_equal(o3, dp.quat_rotate(q, v))
+        s = dp.dualquat_from_qt(q, v)
+        o8 = np.empty((10, 8))
+        assert dp.dualquat_mul(s, s[::-1], out=o8) is o8
+        np.testing.assert_array_equal(o8, dp.dualquat_mul(s, s[::-1]))
+        assert dp.dualquat_transform(s, v, out=o3) is o3
+        np.testing.assert_array_equal(o3, dp.dualquat_transform(s, v))
+
+    def test_bad_out(self):
+        with pytest.raises(TypeError, match="out must be a float64"):
+            dp.quat_mul([0, 0, 0, 1], [0, 0, 0, 1], out=np.empty(4, np.float32))
+        with pytest.raises(ValueError, match="out has the wrong shape"):
+            dp.quat_mul(np.ones((3, 4)), np.ones((3, 4)), out=np.empty((2, 4)))
+
+    def test_zero_still_raises_with_out(self):
+        with pytest.raises(ValueError, match="must be a nonzero quaternion"):
+            dp.quat_rotate(np.zeros((2, 4)), np.ones((2, 3)), out=np.empty((2, 3)))

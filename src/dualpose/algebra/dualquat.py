@@ -76,13 +76,15 @@ def dualquat_identity(shape: int | tuple[int, ...] = ()) -> np.ndarray:
     return identity_array(shape, 8)
 
 
-def dualquat_mul(a: ArrayLike, b: ArrayLike) -> np.ndarray:
+def dualquat_mul(a: ArrayLike, b: ArrayLike, out: np.ndarray | None = None) -> np.ndarray:
     """Dual-quaternion product ``a (x) b = (a_r b_r, a_r b_d + a_d b_r)`` (Dantam 2014 eq. (79)).
 
     Parameters
     ----------
     a, b : array_like, shape (..., 8)
         Dual quaternions ``[real xyzw, dual xyzw]``.  Leading axes broadcast.
+    out : ndarray, shape (..., 8), optional
+        Preallocated float64 array for the result (as for NumPy ufuncs).
 
     Returns
     -------
@@ -91,7 +93,7 @@ def dualquat_mul(a: ArrayLike, b: ArrayLike) -> np.ndarray:
     """
     a = as_array(a, "a", 8)
     b = as_array(b, "b", 8)
-    return call_kernel(_k("dualquat_mul"), (a, b), ("a", "b"))
+    return call_kernel(_k("dualquat_mul"), (a, b), ("a", "b"), out)
 
 
 def dualquat_conj(s: ArrayLike) -> np.ndarray:
@@ -235,7 +237,7 @@ def matrix_from_dualquat(s: ArrayLike) -> np.ndarray:
     return out
 
 
-def dualquat_transform(s: ArrayLike, points: ArrayLike) -> np.ndarray:
+def dualquat_transform(s: ArrayLike, points: ArrayLike, out: np.ndarray | None = None) -> np.ndarray:
     """Transform points: ``p' = R p + t`` (Dantam 2014 eq. (95), evaluated in the implicit form (106)).
 
     Parameters
@@ -245,6 +247,8 @@ def dualquat_transform(s: ArrayLike, points: ArrayLike) -> np.ndarray:
         read as in :func:`qt_from_dualquat`; a zero real part raises ``ValueError``.
     points : array_like, shape (..., 3)
         Points in body coordinates.  Leading axes broadcast with those of ``s``.
+    out : ndarray, shape (..., 3), optional
+        Preallocated float64 array for the result (as for NumPy ufuncs).
 
     Returns
     -------
@@ -253,9 +257,9 @@ def dualquat_transform(s: ArrayLike, points: ArrayLike) -> np.ndarray:
     """
     s = as_array(s, "s", 8)
     p = as_array(points, "points", 3)
-    out = call_kernel(_k("dualquat_transform"), (s, p), ("s", "points"))
-    _raise_zero(out, s, "s")
-    return out
+    res = call_kernel(_k("dualquat_transform"), (s, p), ("s", "points"), out)
+    _raise_zero(res[..., 0], s, "s")  # a zero real part makes every component NaN; one column is enough
+    return res
 
 
 def dualquat_exp(s: ArrayLike) -> np.ndarray:

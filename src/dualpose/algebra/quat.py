@@ -64,13 +64,15 @@ def quat_identity(shape: int | tuple[int, ...] = ()) -> np.ndarray:
     return identity_array(shape, 4)
 
 
-def quat_mul(p: ArrayLike, q: ArrayLike) -> np.ndarray:
+def quat_mul(p: ArrayLike, q: ArrayLike, out: np.ndarray | None = None) -> np.ndarray:
     """Hamilton product ``p (x) q`` (Dantam 2014 eq. (11); Walker 1991 ``Q(p) q = W(q) p``).
 
     Parameters
     ----------
     p, q : array_like, shape (..., 4)
         Quaternions, xyzw.  Leading axes broadcast.
+    out : ndarray, shape (..., 4), optional
+        Preallocated float64 array for the result (as for NumPy ufuncs); avoids an allocation in hot loops.
 
     Returns
     -------
@@ -79,7 +81,7 @@ def quat_mul(p: ArrayLike, q: ArrayLike) -> np.ndarray:
     """
     p = as_array(p, "p", 4)
     q = as_array(q, "q", 4)
-    return call_kernel(_k("quat_mul"), (p, q), ("p", "q"))
+    return call_kernel(_k("quat_mul"), (p, q), ("p", "q"), out)
 
 
 def quat_conj(q: ArrayLike) -> np.ndarray:
@@ -166,7 +168,7 @@ def quat_pow(q: ArrayLike, t: ArrayLike) -> np.ndarray:
     return out
 
 
-def quat_rotate(q: ArrayLike, v: ArrayLike) -> np.ndarray:
+def quat_rotate(q: ArrayLike, v: ArrayLike, out: np.ndarray | None = None) -> np.ndarray:
     """Rotate vectors actively: ``v' = q (x) v (x) q*`` (Dantam 2014 eqs. (44)-(45)).
 
     Parameters
@@ -175,6 +177,8 @@ def quat_rotate(q: ArrayLike, v: ArrayLike) -> np.ndarray:
         Rotations, xyzw.  Non-unit input is normalised (the kernel uses ``2/|q|**2``); zero raises.
     v : array_like, shape (..., 3)
         Vectors in the frame being rotated from.
+    out : ndarray, shape (..., 3), optional
+        Preallocated float64 array for the result.
 
     Returns
     -------
@@ -183,9 +187,9 @@ def quat_rotate(q: ArrayLike, v: ArrayLike) -> np.ndarray:
     """
     q = as_array(q, "q", 4)
     v = as_array(v, "v", 3)
-    out = call_kernel(_k("quat_rotate"), (q, v), ("q", "v"))
-    raise_if_zero_norm(out, q, "q")
-    return out
+    res = call_kernel(_k("quat_rotate"), (q, v), ("q", "v"), out)
+    raise_if_zero_norm(res[..., 0], q, "q")  # a zero q makes every component NaN; one column is enough
+    return res
 
 
 def quat_from_rotvec(rotvec: ArrayLike) -> np.ndarray:
