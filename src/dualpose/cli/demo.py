@@ -8,6 +8,8 @@ every check is within its tolerance.
 
 from __future__ import annotations
 
+import argparse
+
 import numpy as np
 
 import dualpose as dp
@@ -106,3 +108,15 @@ def run_demo(seed: int = 7) -> int:
 def _same(a: np.ndarray, b: np.ndarray) -> float:
     """Max difference of two dual quaternions up to the overall sign (they are the same transform)."""
     return float(min(np.abs(a - b).max(), np.abs(a + b).max()))
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Register ``dualpose demo``."""
+    demo = subparsers.add_parser("demo", help="self-checking walk-through of the algebra on built-in data")
+    demo.add_argument("--seed", type=int, default=7, help="seed of the random transforms (default 7)")
+    return demo
+
+
+def run(args: argparse.Namespace) -> int:
+    """Entry point of ``dualpose demo``."""
+    return run_demo(seed=args.seed)

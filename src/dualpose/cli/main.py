@@ -1,26 +1,35 @@
-"""``dualpose`` console script."""
+"""``dualpose`` console script.
+
+Each subcommand lives in its own module under :mod:`dualpose.cli` and exposes two functions:
+``add_parser(subparsers) -> argparse.ArgumentParser`` and ``run(args) -> int``.  Registering a new subcommand is one
+line in :data:`SUBCOMMANDS`; modules are imported only when the parser is built, and their heavy imports belong in
+``run``.
+"""
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
+
+#: subcommand modules, in the order ``dualpose --help`` lists them
+SUBCOMMANDS: tuple[str, ...] = (
+    "dualpose.cli.demo",
+)
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="dualpose", description="Rigid-body pose with (dual) quaternions.")
     sub = parser.add_subparsers(dest="command", required=True)
-    demo = sub.add_parser("demo", help="self-checking walk-through of the algebra on built-in data")
-    demo.add_argument("--seed", type=int, default=7, help="seed of the random transforms (default 7)")
+    for name in SUBCOMMANDS:
+        module = importlib.import_module(name)
+        module.add_parser(sub).set_defaults(_run=module.run)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    if args.command == "demo":
-        from dualpose.cli.demo import run_demo
-
-        return run_demo(seed=args.seed)
-    return 2  # pragma: no cover - argparse enforces the choices
+    return int(args._run(args))
 
 
 if __name__ == "__main__":
