@@ -25,6 +25,7 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(VENV)/bin/ruff check src tests benchmarks
+	$(PY) -m dualpose.algebra.warmup  # rebuild kernels once, before parallel workers load them
 	$(PY) -m pytest -q -n 2 -p no:cacheprovider
 
 bench: $(BSTAMP)

@@ -127,7 +127,7 @@ def dq_log(rx, ry, rz, rw, dx, dy, dz, dw):  # noqa: ANN001, ANN201
     if is_zero4(rx, ry, rz, rw):
         return _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN
     n = norm4(rx, ry, rz, rw)
-    ln = log_norm(rx, ry, rz, rw, n)
+    ln = log_norm(rx, ry, rz, rw)
     rx, ry, rz, rw = rx / n, ry / n, rz / n, rw / n
     dx, dy, dz, dw = dx / n, dy / n, dz / n, dw / n
     s = norm3(rx, ry, rz)

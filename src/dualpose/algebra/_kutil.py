@@ -107,13 +107,22 @@ def inv_norm2_scale(x, y, z, w):  # noqa: ANN001, ANN201
 
 
 @jit
-def log_norm(x, y, z, w, n):  # noqa: ANN001, ANN201
-    """ln|q| given n = |q|.  Near |q| = 1 it is log1p((w - 1)(w + 1) + x² + y² + z²)/2: for a rounded unit
-    quaternion |q| rounds to 1 (or 1 ± ulp) while ln|q| is ~1e-17, comparable to a tiny rotation's log; the
-    factored form keeps it to full accuracy (w - 1 is exact for w in [0.5, 2])."""
-    if 0.5 <= n <= 2.0:
-        return 0.5 * math.log1p((w - 1.0) * (w + 1.0) + (x * x + y * y + z * z))
-    return math.log(n)
+def log_norm(x, y, z, w):  # noqa: ANN001, ANN201
+    """ln|q|, one branch on |q|**2 (no square root on the common paths).
+
+    For |q|**2 in [1/2, 2] it is log1p((w - 1)(w + 1) + x² + y² + z²)/2: for a rounded unit quaternion |q| rounds
+    to 1 (or 1 ± ulp) while ln|q| is ~1e-17, comparable to a tiny rotation's log; the factored form keeps it to full
+    accuracy (w - 1 is exact for w in [0.5, 2]).  Elsewhere ln(|q|**2)/2, whose absolute error (≈ 2ε from rounding
+    |q|**2) is small against |ln|q|| >= ln(2)/2; glibc's log1p is 3-4x slower than log away from 0, which matters
+    for random non-unit input.  Outside [1e-280, 1e280] the guarded norm avoids under- and overflow.
+    """
+    s2 = x * x + y * y + z * z
+    n2 = s2 + w * w
+    if 0.5 <= n2 <= 2.0:
+        return 0.5 * math.log1p((w - 1.0) * (w + 1.0) + s2)
+    if _TINY <= n2 <= _HUGE:
+        return 0.5 * math.log(n2)
+    return math.log(norm4(x, y, z, w))
 
 
 @jit

@@ -74,18 +74,14 @@ def quat_exp(q, o):  # noqa: ANN001
 @gu(f"{_V},{_V}", "(n)->(n)")
 def quat_log(q, o):  # noqa: ANN001
     # Dantam 2014 eq. (25)-(28); at q_v = 0, q_w < 0 the axis x is chosen (any axis is a logarithm).
+    # A zero q gives atan2c(0, 0) = NaN in the vector part (the wrapper raises).
     x, y, z, w = q[0], q[1], q[2], q[3]
-    n = norm4(x, y, z, w)
-    s = norm3(x, y, z)
-    if n == 0.0:
-        o[0] = o[1] = o[2] = o[3] = math.nan
-        return
-    f = atan2c(s, w)
+    f = atan2c(norm3(x, y, z), w)
     if f == math.inf:
         o[0], o[1], o[2] = math.pi, 0.0, 0.0
     else:
         o[0], o[1], o[2] = f * x, f * y, f * z
-    o[3] = log_norm(x, y, z, w, n)
+    o[3] = log_norm(x, y, z, w)
 
 
 @gu(f"{_V},{_S},{_V}", "(n),()->(n)")

@@ -248,7 +248,7 @@ def atan2c(s: float, c: float) -> float:
     For ``s <= 1e-4 * c`` the series ``(1/c)(1 - y**2/3 + y**4/5 - y**6/7)`` with ``y = s/c`` is used; at
     ``s == 0`` and ``c < 0`` the value is +inf (the caller picks an axis), at ``s == c == 0`` it is NaN.
     """
-    if c > 0.0 and s <= 1e-4 * c:
+    if s <= 1e-4 * c and c > 0.0:  # first test is false for almost all data (predictable, sign-independent)
         y = s / c
         y2 = y * y
         return (1.0 + y2 * (-1.0 / 3.0 + y2 * (0.2 - y2 / 7.0))) / c
