@@ -51,7 +51,13 @@ def _current_digest(root: Path) -> str:
 
 
 def _our_files(cache: Path, stems: tuple[str, ...]) -> list[Path]:
-    return [f for f in cache.iterdir() if f.suffix in (".nbi", ".nbc") and f.name.startswith(stems)]
+    """numba's cache files of our modules: ``<module>.<func>-<line>.*`` and the gufunc wrappers ``guf-<module>...``.
+
+    Both kinds must go together: a stale ``guf-`` wrapper left beside a recompiled kernel calls into the wrong code
+    (a segfault), which is what happened while only the first kind was deleted.
+    """
+    names = stems + tuple(f"guf-{s}" for s in stems)
+    return [f for f in cache.iterdir() if f.suffix in (".nbi", ".nbc") and f.name.startswith(names)]
 
 
 def ensure_fresh(root: Path | None = None) -> None:
