@@ -51,7 +51,13 @@ def _current_digest(root: Path) -> str:
 
 
 def _our_files(cache: Path, stems: tuple[str, ...]) -> list[Path]:
-    return [f for f in cache.iterdir() if f.suffix in (".nbi", ".nbc") and f.name.startswith(stems)]
+    # guvectorize kernels cache their wrapper under "guf-<module>.<name>-..."; a stale wrapper around a rebuilt
+    # kernel segfaults, so those files count as ours too
+    return [
+        f
+        for f in cache.iterdir()
+        if f.suffix in (".nbi", ".nbc") and f.name.removeprefix("guf-").startswith(stems)
+    ]
 
 
 def ensure_fresh(root: Path | None = None) -> None:
