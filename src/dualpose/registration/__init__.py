@@ -1,0 +1,9 @@
+"""Pose from correspondences (Walker, Shao & Volz 1991 §3): single problems, batches, robust fits, hand–eye.
+
+Import explicitly (``import dualpose.registration``); ``import dualpose`` does not load it.  Layouts follow
+dualpose: points and directions ``(..., n, 3)``, quaternions xyzw, dual quaternions ``[real xyzw, dual xyzw]``.
+"""
+
+from dualpose.registration.estimate import PoseEstimate, classify_degeneracy, register_pose
+
+__all__ = ["PoseEstimate", "classify_degeneracy", "register_pose"]
