@@ -150,7 +150,8 @@ def _pick_top(a, v, order, tol, q):  # noqa: ANN001, ANN201
         if nrm > 1e-6:
             q[0], q[1], q[2], q[3] = px / nrm, py / nrm, pz / nrm, pw / nrm
     nrm = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-    flip = q[3] < 0.0 or (q[3] == 0.0 and (q[0] < 0.0 or (q[0] == 0.0 and (q[1] < 0.0 or (q[1] == 0.0 and q[2] < 0.0)))))
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    flip = w < 0.0 or (w == 0.0 and (x < 0.0 or (x == 0.0 and (y < 0.0 or (y == 0.0 and z < 0.0)))))
     if flip:
         nrm = -nrm
     for i in range(4):

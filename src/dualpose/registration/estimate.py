@@ -24,9 +24,9 @@ __all__ = ["PoseEstimate", "register_pose", "classify_degeneracy"]
 _k = lazy_kernels("dualpose.registration._kernels")
 _BAD_INPUT = ("model_points", "measured_points", "model_directions", "measured_directions")  # = _kernels.BAD_INPUT
 
-#: relative size (squared length, against the largest model scatter eigenvalue) below which a direction of the
-#: model scatter counts as empty when labelling a degeneracy
-_RANK_RTOL = 1e-20
+#: relative size (squared length, against the largest model scatter eigenvalue: a relative thickness of ~1e-5)
+#: below which a direction of the model scatter counts as empty when labelling a degeneracy
+_RANK_RTOL = 1e-10
 
 
 def classify_degeneracy(
