@@ -4,6 +4,7 @@ Import explicitly (``import dualpose.registration``); ``import dualpose`` does n
 dualpose: points and directions ``(..., n, 3)``, quaternions xyzw, dual quaternions ``[real xyzw, dual xyzw]``.
 """
 
+from dualpose.registration.batch import PoseBatch, register_pose_batch
 from dualpose.registration.estimate import PoseEstimate, classify_degeneracy, register_pose
 
-__all__ = ["PoseEstimate", "classify_degeneracy", "register_pose"]
+__all__ = ["PoseBatch", "PoseEstimate", "classify_degeneracy", "register_pose", "register_pose_batch"]

@@ -12,8 +12,6 @@ __all__ = ["METHODS", "method_code", "prepare_single", "prepare_batch", "check_m
 
 _EMPTY3 = np.zeros((0, 3))
 _EMPTY = np.zeros(0)
-_EMPTY3.flags.writeable = False
-_EMPTY.flags.writeable = False
 
 #: solver names and their kernel codes
 METHODS = {"dq": 0, "horn": 1, "svd": 2}
@@ -32,6 +30,8 @@ def _vectors(x: Any, name: str, lead: int) -> np.ndarray:
     if arr.ndim != lead + 2:
         shape = "(n, 3)" if lead == 0 else "(B, n, 3)"
         raise ValueError(f"{name} must have shape {shape}; got shape {arr.shape}")
+    if not arr.flags.writeable:  # the compiled solver takes writeable C-contiguous arrays
+        return arr.copy()
     return np.ascontiguousarray(arr)  # finiteness is checked by the solver kernel (one pass)
 
 
@@ -46,7 +46,7 @@ def _weights(w: Any, name: str, shape: tuple[int, ...]) -> np.ndarray:
         raise ValueError(f"{name} must have shape {shape} (one weight per correspondence); got shape {arr.shape}")
     if not np.isfinite(arr).all() or (arr < 0).any():
         raise ValueError(f"{name} must be finite and non-negative")
-    return np.ascontiguousarray(arr)
+    return np.array(arr, dtype=np.float64, order="C")  # a writeable C-contiguous copy
 
 
 def _unit(d: np.ndarray, name: str) -> np.ndarray:

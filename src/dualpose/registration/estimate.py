@@ -95,7 +95,7 @@ class PoseEstimate:
     n_points, n_directions : int
     """
 
-    __slots__ = ("_row", "_data", "method", "n_points", "n_directions", "_degeneracy")
+    __slots__ = ("_row", "_data", "method", "n_points", "n_directions", "_degeneracy")  # noqa: RUF023
 
     def __init__(self, row: np.ndarray, method: str, data: tuple[np.ndarray, ...]) -> None:
         self._row = row
@@ -114,7 +114,18 @@ class PoseEstimate:
     eigen_gap = property(lambda self: float(self._row[13]), doc="The gap that decided uniqueness.")
     gap_tolerance = property(lambda self: float(self._row[22]), doc="Threshold the gap was compared with.")
     rotation_unique = property(lambda self: bool(self._row[18]), doc="Whether the optimal rotation is unique.")
-    scatter_eigenvalues = property(lambda self: self._row[19:22], doc="Model scatter eigenvalues, descending.")
+    closed_form = property(
+        lambda self: bool(self._row[19]), doc="Whether the closed-form eigen-solve decided (else Jacobi)."
+    )
+
+    @property
+    def scatter_eigenvalues(self) -> np.ndarray:
+        """Eigenvalues (3,), descending, of the model scatter ``Σβ p⁰'p⁰'ᵀ + Σα n⁰n⁰ᵀ`` (centred points)."""
+        p0, _, beta, n0, _, alpha = self._data
+        c = beta @ p0 / beta.sum() if beta.sum() > 0 else np.zeros(3)
+        d = p0 - c
+        m = np.einsum("n,ni,nj->ij", beta, d, d) + np.einsum("n,ni,nj->ij", alpha, n0, n0)
+        return np.linalg.eigvalsh(m)[::-1]
 
     @property
     def singular_values(self) -> np.ndarray | None:
@@ -272,6 +283,8 @@ def _plain_points(p0: object, p1: object) -> bool:
         and p0.shape[0] >= 3
         and p0.flags.c_contiguous
         and p1.flags.c_contiguous
+        and p0.flags.writeable
+        and p1.flags.writeable
     )
 
 
@@ -338,7 +351,7 @@ def register_pose(
     if scale and data[3].shape[0] > 0:
         raise ValueError("scale=True is supported for points only (the direction term does not scale)")
     row = np.empty(25)
-    _k("solve_one")(*data, code, bool(scale), np.empty(80), row)
+    _k("solve_one")(*data, code, bool(scale), row)
     if row[24]:
         raise ValueError(f"{_BAD_INPUT[int(row[24]) - 1]} contains NaN or infinity")
     return PoseEstimate(row, method, data)
