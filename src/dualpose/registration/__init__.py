@@ -6,5 +6,16 @@ dualpose: points and directions ``(..., n, 3)``, quaternions xyzw, dual quaterni
 
 from dualpose.registration.batch import PoseBatch, register_pose_batch
 from dualpose.registration.estimate import PoseEstimate, classify_degeneracy, register_pose
+from dualpose.registration.robust import RobustEstimate, ransac_iterations, register_pose_irls, register_pose_ransac
 
-__all__ = ["PoseBatch", "PoseEstimate", "classify_degeneracy", "register_pose", "register_pose_batch"]
+__all__ = [
+    "PoseBatch",
+    "PoseEstimate",
+    "RobustEstimate",
+    "classify_degeneracy",
+    "ransac_iterations",
+    "register_pose",
+    "register_pose_batch",
+    "register_pose_irls",
+    "register_pose_ransac",
+]
