@@ -6,9 +6,14 @@ dualpose: points and directions ``(..., n, 3)``, quaternions xyzw, dual quaterni
 
 from dualpose.registration.batch import PoseBatch, register_pose_batch
 from dualpose.registration.estimate import PoseEstimate, classify_degeneracy, register_pose
+from dualpose.registration.hand_eye import HandEyeResult, HandEyeWarning, calibrate_hand_eye, hand_eye_motions
 from dualpose.registration.robust import RobustEstimate, ransac_iterations, register_pose_irls, register_pose_ransac
 
 __all__ = [
+    "HandEyeResult",
+    "HandEyeWarning",
+    "calibrate_hand_eye",
+    "hand_eye_motions",
     "PoseBatch",
     "PoseEstimate",
     "RobustEstimate",
