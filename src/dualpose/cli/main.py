@@ -16,6 +16,7 @@ import sys
 SUBCOMMANDS: tuple[str, ...] = (
     "dualpose.cli.demo",
     "dualpose.cli.register",
+    "dualpose.cli.reproduce",
 )
 
 
