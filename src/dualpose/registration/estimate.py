@@ -319,10 +319,12 @@ def register_pose(
         paper: point weights are multiplied by 4, because Walker's position quaternions ``½[p; 0]`` would
         otherwise weight directions 4x relative to points (so ``E`` above is what is minimised); and the points
         are centred on their weighted centroids before the matrices are built (uncentred, ``A`` grows with the
-        squared distance from the origin and the translation is off by ~23 units at a 1e6 offset).
+        squared distance from the origin: at a 1e6 offset with a spread of 10 the rotation loses ~6 digits and
+        the translation is off by units; see docs/registration.md).
         ``"horn"``: Horn 1987's 4x4 symmetric ``N`` (largest algebraic eigenvalue).  ``"svd"``: Arun 1987 /
         Kabsch with Umeyama 1991's reflection guard.  All three minimise the same cost and return the same optimum
-        (to ~1e-12); eigenproblems are solved with a cyclic Jacobi iteration.
+        (to ~1e-12).  The 4x4 eigenproblems are solved in closed form (quartic characteristic polynomial,
+        adjugate eigenvector) when a residual check vouches for the answer, else by a cyclic Jacobi iteration.
     scale : bool
         Estimate a similarity ``p̃ ≈ s R p⁰ + t`` (Umeyama 1991 eq. (42)): ``s = Σβ p̃'·R p⁰' / Σβ‖p⁰'‖²``, the
         scale multiplies the model (it is not symmetric in model and measured).  Points only.
