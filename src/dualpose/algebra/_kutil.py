@@ -145,3 +145,31 @@ def rotate_any(x, y, z, w, vx, vy, vz):  # noqa: ANN001, ANN201
     """R(q/|q|) v for any nonzero q (NaN for zero), without under/overflow for |q| ~ 1e-200 or 1e200."""
     c, s2 = unit_scale(x, y, z, w)
     return rotate(c * x, c * y, c * z, c * w, vx, vy, vz, s2)
+
+
+@jit
+def quat_of_rotmat(r):  # noqa: ANN001, ANN201
+    """Unit quaternion (x, y, z, w), ``w >= 0``, of a 3x3 rotation matrix ``r`` (Shepperd's method)."""
+    # branch on the largest of (trace, R00, R11, R22); result normalised, w >= 0
+    r00, r11, r22 = r[0, 0], r[1, 1], r[2, 2]
+    tr = r00 + r11 + r22
+    if tr >= r00 and tr >= r11 and tr >= r22:
+        k = math.sqrt(1.0 + tr)
+        h = 0.5 / k
+        x, y, z, w = (r[2, 1] - r[1, 2]) * h, (r[0, 2] - r[2, 0]) * h, (r[1, 0] - r[0, 1]) * h, 0.5 * k
+    elif r00 >= r11 and r00 >= r22:
+        k = math.sqrt(1.0 + r00 - r11 - r22)
+        h = 0.5 / k
+        x, y, z, w = 0.5 * k, (r[0, 1] + r[1, 0]) * h, (r[0, 2] + r[2, 0]) * h, (r[2, 1] - r[1, 2]) * h
+    elif r11 >= r22:
+        k = math.sqrt(1.0 - r00 + r11 - r22)
+        h = 0.5 / k
+        x, y, z, w = (r[0, 1] + r[1, 0]) * h, 0.5 * k, (r[1, 2] + r[2, 1]) * h, (r[0, 2] - r[2, 0]) * h
+    else:
+        k = math.sqrt(1.0 - r00 - r11 + r22)
+        h = 0.5 / k
+        x, y, z, w = (r[0, 2] + r[2, 0]) * h, (r[1, 2] + r[2, 1]) * h, 0.5 * k, (r[1, 0] - r[0, 1]) * h
+    n = norm4(x, y, z, w)
+    if w < 0.0:
+        n = -n
+    return x / n, y / n, z / n, w / n

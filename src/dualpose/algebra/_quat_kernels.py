@@ -10,7 +10,7 @@ import math
 
 import numba as nb
 
-from dualpose.algebra._kutil import log_norm, norm3, norm4, qmul, rotate_any, rotmat
+from dualpose.algebra._kutil import log_norm, norm3, norm4, qmul, quat_of_rotmat, rotate_any, rotmat
 from dualpose.algebra.series import atan2c, sinc
 
 _V = "float64[:]"
@@ -166,29 +166,7 @@ def matrix_from_quat(q, d33, o):  # noqa: ANN001
 
 @gu(f"{_M},{_V},{_V}", "(m,m),(n)->(n)")
 def quat_from_matrix(r, d4, o):  # noqa: ANN001
-    # Shepperd's method: branch on the largest of (trace, R00, R11, R22); result normalised, w >= 0.
-    r00, r11, r22 = r[0, 0], r[1, 1], r[2, 2]
-    tr = r00 + r11 + r22
-    if tr >= r00 and tr >= r11 and tr >= r22:
-        k = math.sqrt(1.0 + tr)
-        h = 0.5 / k
-        x, y, z, w = (r[2, 1] - r[1, 2]) * h, (r[0, 2] - r[2, 0]) * h, (r[1, 0] - r[0, 1]) * h, 0.5 * k
-    elif r00 >= r11 and r00 >= r22:
-        k = math.sqrt(1.0 + r00 - r11 - r22)
-        h = 0.5 / k
-        x, y, z, w = 0.5 * k, (r[0, 1] + r[1, 0]) * h, (r[0, 2] + r[2, 0]) * h, (r[2, 1] - r[1, 2]) * h
-    elif r11 >= r22:
-        k = math.sqrt(1.0 - r00 + r11 - r22)
-        h = 0.5 / k
-        x, y, z, w = (r[0, 1] + r[1, 0]) * h, 0.5 * k, (r[1, 2] + r[2, 1]) * h, (r[0, 2] - r[2, 0]) * h
-    else:
-        k = math.sqrt(1.0 - r00 - r11 + r22)
-        h = 0.5 / k
-        x, y, z, w = (r[0, 2] + r[2, 0]) * h, (r[1, 2] + r[2, 1]) * h, 0.5 * k, (r[1, 0] - r[0, 1]) * h
-    n = norm4(x, y, z, w)
-    if w < 0.0:
-        n = -n
-    o[0], o[1], o[2], o[3] = x / n, y / n, z / n, w / n
+    o[0], o[1], o[2], o[3] = quat_of_rotmat(r)
 
 
 @gu(f"{_V},{_V},{_S},{_V}", "(n),(n),()->(n)")

@@ -15,6 +15,8 @@ import sys
 #: subcommand modules, in the order ``dualpose --help`` lists them
 SUBCOMMANDS: tuple[str, ...] = (
     "dualpose.cli.demo",
+    "dualpose.cli.register",
+    "dualpose.cli.reproduce",
 )
 
 

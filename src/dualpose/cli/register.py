@@ -1,0 +1,143 @@
+"""``dualpose register``: rigid pose from corresponding points (and directions) in CSV files.
+
+Input files: comma-separated, one correspondence per line, optional header line; points and directions have
+three columns ``x, y, z``, weights one column.  Row i of MODEL.csv corresponds to row i of MEASURED.csv.  The pose
+maps model coordinates to measured coordinates: ``measured ≈ R model + t``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+_EPILOG = """\
+CSV format: comma-separated numbers, one correspondence per line; an optional header line; blank lines and
+lines starting with '#' are skipped.  Points/directions: 3 columns x,y,z.  Weights: 1 column.
+Output: the rotation as a quaternion [x, y, z, w] (scalar last) and as a 4x4 homogeneous matrix, the
+translation, and diagnostics (cost, RMS residual, degeneracy).  Exit status 0 on success, 2 on bad input.
+"""
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Register ``dualpose register``."""
+    p = subparsers.add_parser(
+        "register",
+        help="pose from point/direction correspondences in CSV files",
+        description="Estimate the rigid transform measured ≈ R model + t from corresponding points (Walker 1991).",
+        epilog=_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("model", metavar="MODEL.csv", help="model points x,y,z (model frame)")
+    p.add_argument("measured", metavar="MEASURED.csv", help="measured points x,y,z, same order as MODEL.csv")
+    p.add_argument(
+        "--directions", nargs=2, metavar=("MODEL_DIRS.csv", "MEASURED_DIRS.csv"),
+        help="corresponding unit directions (e.g. surface normals), x,y,z",
+    )  # fmt: skip
+    p.add_argument("--weights", metavar="W.csv", help="one weight per point (default 1)")
+    p.add_argument("--direction-weights", metavar="W.csv", help="one weight per direction (default 1)")
+    p.add_argument("--method", choices=("dq", "horn", "svd"), default="dq", help="solver (default dq, Walker 1991)")
+    p.add_argument("--scale", action="store_true", help="also estimate a scale (Umeyama similarity; points only)")
+    p.add_argument("--ransac", action="store_true", help="robust fit: RANSAC on point triples, refit on inliers")
+    p.add_argument("--threshold", type=float, help="RANSAC inlier distance (required with --ransac)")
+    p.add_argument("--confidence", type=float, default=0.999, help="RANSAC confidence (default 0.999)")
+    p.add_argument("--seed", type=int, default=0, help="RANSAC random seed (default 0)")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    return p
+
+
+def _fail(msg: str) -> int:
+    print(f"dualpose register: error: {msg}", file=sys.stderr)
+    return 2
+
+
+def run(args: argparse.Namespace) -> int:
+    """Entry point of ``dualpose register``."""
+    import numpy as np
+
+    from dualpose.io.csv_points import CsvFormatError, read_columns
+    from dualpose.registration import register_pose, register_pose_ransac
+
+    try:
+        model = read_columns(args.model, 3, "points (x, y, z)")
+        measured = read_columns(args.measured, 3, "points (x, y, z)")
+        if len(model) != len(measured):
+            return _fail(f"{args.model} has {len(model)} point(s) but {args.measured} has {len(measured)}")
+        kw: dict = {"method": args.method}
+        if args.weights:
+            w = read_columns(args.weights, 1, "weights")
+            if len(w) != len(model):
+                return _fail(f"{args.weights} has {len(w)} weight(s) for {len(model)} point(s)")
+            kw["point_weights"] = w
+        if args.directions:
+            d0 = read_columns(args.directions[0], 3, "directions (x, y, z)")
+            d1 = read_columns(args.directions[1], 3, "directions (x, y, z)")
+            if len(d0) != len(d1):
+                return _fail(f"{args.directions[0]} has {len(d0)} direction(s) but {args.directions[1]} has {len(d1)}")
+            kw.update(model_directions=d0, measured_directions=d1)
+            if args.direction_weights:
+                a = read_columns(args.direction_weights, 1, "weights")
+                if len(a) != len(d0):
+                    return _fail(f"{args.direction_weights} has {len(a)} weight(s) for {len(d0)} direction(s)")
+                kw["direction_weights"] = a
+        elif args.direction_weights:
+            return _fail("--direction-weights needs --directions")
+        inliers = None
+        if args.ransac:
+            if args.threshold is None:
+                return _fail("--ransac needs --threshold (the inlier distance)")
+            if args.directions or args.scale:
+                return _fail("--ransac supports points only (no --directions, no --scale)")
+            rob = register_pose_ransac(
+                model, measured, threshold=args.threshold, confidence=args.confidence, seed=args.seed,
+                point_weights=kw.get("point_weights"), method=args.method,
+            )  # fmt: skip
+            est, inliers = rob.pose, rob.inlier_mask
+        else:
+            est = register_pose(model, measured, scale=args.scale, **kw)
+    except CsvFormatError as exc:
+        return _fail(str(exc))
+    except ValueError as exc:
+        return _fail(str(exc))
+
+    out = {
+        "method": est.method,
+        "quat_xyzw": est.quat.tolist(),
+        "translation": est.translation.tolist(),
+        "scale": est.scale,
+        "matrix": est.as_matrix().tolist(),
+        "cost": est.cost,
+        "rmsd": est.rmsd,
+        "n_points": est.n_points,
+        "n_directions": est.n_directions,
+        "degeneracy": est.degeneracy,
+        "rotation_unique": est.rotation_unique,
+        "translation_observable": est.translation_observable,
+        "eigen_gap": est.eigen_gap,
+    }
+    if inliers is not None:
+        out["inliers"] = np.flatnonzero(inliers).tolist()
+        out["n_inliers"] = int(inliers.sum())
+    if args.json:
+        print(json.dumps(out, indent=2))
+        return 0
+    with np.printoptions(precision=9, suppress=True, floatmode="maxprec"):
+        print(f"pose measured ≈ {'s R' if args.scale else 'R'} model + t   (method {est.method})")
+        print(f"  quaternion [x, y, z, w]  {np.array2string(est.quat, separator=', ')}")
+        print(f"  translation              {np.array2string(est.translation, separator=', ')}")
+        if args.scale:
+            print(f"  scale                    {est.scale:.12g}")
+        print("  4x4 matrix")
+        for row in est.as_matrix():
+            print("    " + np.array2string(row, separator=", "))
+    print("diagnostics")
+    print(f"  correspondences          {est.n_points} point(s), {est.n_directions} direction(s)")
+    if inliers is not None:
+        print(f"  RANSAC inliers           {int(inliers.sum())} of {len(inliers)}")
+    print(f"  cost E                   {est.cost:.6g}")
+    print(f"  RMS residual             {est.rmsd:.6g}")
+    print(f"  degeneracy               {est.degeneracy}" + ("" if est.rotation_unique else " (rotation not unique)"))
+    if not est.translation_observable:
+        print("  translation              unobservable (directions only)")
+    print(f"  eigen gap                {est.eigen_gap:.6g}")
+    return 0

@@ -1,0 +1,1 @@
+"""Small readers for user data files (CSV).  Import explicitly; ``import dualpose`` does not load this."""
