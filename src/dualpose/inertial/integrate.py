@@ -257,10 +257,13 @@ def relative_pose(leader: ArrayLike, follower: ArrayLike) -> np.ndarray:
     ndarray, shape (..., 8)
         ``q̂_LF``: rotation ``q_L* (x) q_F`` and translation ``q_L* (t_F − t_L) q_L`` (leader axes).
     """
-    lead = np.asarray(leader, dtype=float) if not isinstance(leader, np.ndarray) else leader
-    if lead.shape[-1:] == (4,):
-        lead = np.concatenate([as_array(lead, "leader", 4), np.zeros(lead.shape)], axis=-1)
+    width = np.shape(leader)[-1:]
+    if width == (4,):
+        q = as_array(leader, "leader", 4)
+        lead = np.concatenate([q, np.zeros(q.shape)], axis=-1)
+    elif width == (8,):
+        lead = as_array(leader, "leader", 8)
     else:
-        lead = as_array(lead, "leader", 8)
+        raise ValueError(f"leader must have shape (..., 4) or (..., 8); got shape {np.shape(leader)}")
     follower = as_array(follower, "follower", 8)
     return dp.dualquat_mul(dp.dualquat_conj(lead), follower)
