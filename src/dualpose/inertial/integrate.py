@@ -188,7 +188,7 @@ def integrate_attitude(
     """Attitude quaternions from gyro angle increments with an N-sample rotation-vector algorithm.
 
     ``q_{k+1} = q_k (x) exp(Φ_k/2)`` (body) or ``exp(Φ_k/2) (x) q_k`` (inertial), renormalised each update, with
-    ``Φ_k`` from :func:`rotation_vector` (paper eqs. (14)-(21)).  The fold is one compiled pass (numba).
+    ``Φ_k`` from :func:`rotation_vector` (paper eqs. (14)-(21)).  The fold is one compiled pass (no Python loop over updates).
 
     Parameters
     ----------
@@ -219,7 +219,7 @@ def integrate_pose(
 
     ``q̂_{k+1} = q̂_k (x) exp(Φ̂_k/2)`` (body) or ``exp(Φ̂_k/2) (x) q̂_k`` (inertial), renormalised each update
     (dual-number norm), with ``Φ̂_k`` from :func:`screw_vector` and the exponential of :func:`screw_exp` (paper
-    eqs. (22)-(31)).  One compiled pass (numba).
+    eqs. (22)-(31)).  One compiled pass.
 
     Parameters
     ----------
