@@ -188,7 +188,7 @@ def integrate_attitude(
     """Attitude quaternions from gyro angle increments with an N-sample rotation-vector algorithm.
 
     ``q_{k+1} = q_k (x) exp(Φ_k/2)`` (body) or ``exp(Φ_k/2) (x) q_k`` (inertial), renormalised each update, with
-    ``Φ_k`` from :func:`rotation_vector` (paper eqs. (14)-(21)).  The fold is one compiled pass (no Python loop over updates).
+    ``Φ_k`` from :func:`rotation_vector` (paper eqs. (14)-(21)).  One compiled pass, no Python loop over updates.
 
     Parameters
     ----------
