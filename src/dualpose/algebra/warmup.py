@@ -14,6 +14,7 @@ KERNEL_MODULES = (
     "dualpose.algebra._dualquat_kernels",
     "dualpose.algebra._lie_kernels",
     "dualpose.registration._kernels",
+    "dualpose.inertial._fold_kernels",
 )
 
 

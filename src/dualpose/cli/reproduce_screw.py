@@ -1,0 +1,195 @@
+"""``dualpose reproduce TARGET``: re-run a paper's experiment and compare with its claims.
+
+Targets (one line each in :data:`TARGETS`):
+
+``screw-vector``
+    Leader–follower relative pose with the 1-, 2- and 3-sample screw-vector algorithms (Adv. Mech. Eng. 2019;
+    issue 4 §6): summary table (or ``--json``), PNG figures of attitude and position error vs time per algorithm
+    and of a long run (default 1e5 s) of the 3-sample position-error norm in ``--out DIR`` (needs matplotlib:
+    ``pip install dualpose[plot]``).  The motion is documented in :mod:`dualpose.inertial.leader_follower`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+TARGETS: dict[str, str] = {
+    "screw-vector": "leader-follower relative pose with 1-, 2-, 3-sample screw-vector algorithms (issue 4)",
+}
+
+
+def add_target(targets: Any) -> argparse.ArgumentParser:
+    """Register ``dualpose reproduce screw-vector``."""
+    p = targets.add_parser("screw-vector", help=TARGETS["screw-vector"], description=__doc__)
+    p.add_argument("--out", type=Path, help="directory for PNG figures and summary.json")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON instead of a table")
+    p.add_argument("--force", action="store_true", help="overwrite existing files in --out")
+    p.add_argument("--duration", type=float, default=200.0, help="seconds simulated per algorithm (default 200)")
+    p.add_argument("--long-duration", type=float, default=1e5, help="seconds of the 3-sample long run (default 1e5)")
+    p.add_argument("--samples", type=int, nargs="+", default=[1, 2, 3], choices=[1, 2, 3, 4], help="N values")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    return p
+
+
+class _Bar:
+    """Minimal text progress bar on stderr (no dependency)."""
+
+    def __init__(self, label: str, enabled: bool) -> None:
+        self.label, self.enabled, self.last = label, enabled, -1
+
+    def __call__(self, frac: float) -> None:
+        if not self.enabled:
+            return
+        pct = int(100 * frac)
+        if pct != self.last:
+            self.last = pct
+            n = pct // 4
+            sys.stderr.write(f"\r{self.label:<28} [{'#' * n}{'.' * (25 - n)}] {pct:3d}%")
+            if frac >= 1.0:
+                sys.stderr.write("\n")
+            sys.stderr.flush()
+
+
+def _summary(res: dict[str, Any]) -> dict[str, float]:
+    import numpy as np
+
+    t, pos, att = res["t"], res["position_error"], res["attitude_error"]
+    slope = float(np.dot(t, pos) / np.dot(t, t)) if np.dot(t, t) > 0 else 0.0
+    return {
+        "duration_s": float(t[-1]),
+        "attitude_error_final_rad": float(att[-1]),
+        "attitude_error_max_rad": float(att.max()),
+        "position_error_final_m": float(pos[-1]),
+        "position_error_max_m": float(pos.max()),
+        "position_error_growth_m_per_s": slope,
+        "rotvec_minus_screw_attitude_error_max_rad": float(np.abs(res["attitude_error_rotvec"] - att).max()),
+    }
+
+
+def _figures(out: Path, runs: dict[int, dict], long_run: dict | None) -> list[Path]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    files = []
+    for n, r in runs.items():
+        fig, ax = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+        ax[0].plot(r["t"], r["attitude_error"], label="screw vector (real part)")
+        ax[0].plot(r["t"], r["attitude_error_rotvec"], "--", label="rotation vector")
+        ax[0].set_ylabel("relative attitude error [rad]")
+        ax[0].legend()
+        ax[1].plot(r["t"], r["position_error"])
+        ax[1].set_ylabel("relative position error [m]")
+        ax[1].set_xlabel("time [s]")
+        fig.suptitle(f"{n}-sample screw-vector algorithm (leader-follower)")
+        fig.tight_layout()
+        files.append(out / f"screw_vector_{n}_sample.png")
+        fig.savefig(files[-1], dpi=100)
+        plt.close(fig)
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4))
+    for n, r in runs.items():
+        ax[0].semilogy(r["t"], r["attitude_error"] + 1e-18, label=f"N={n}")
+        ax[1].semilogy(r["t"], r["position_error"] + 1e-18, label=f"N={n}")
+    ax[0].set_ylabel("relative attitude error [rad]")
+    ax[1].set_ylabel("relative position error [m]")
+    for a in ax:
+        a.set_xlabel("time [s]")
+        a.legend()
+    fig.tight_layout()
+    files.append(out / "screw_vector_comparison.png")
+    fig.savefig(files[-1], dpi=100)
+    plt.close(fig)
+    if long_run is not None:
+        fig, ax = plt.subplots(figsize=(7, 4))
+        ax.plot(long_run["t"], long_run["position_error"])
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel("position error norm [m]")
+        ax.set_title("3-sample screw-vector algorithm, long run")
+        fig.tight_layout()
+        files.append(out / "screw_vector_long_run.png")
+        fig.savefig(files[-1], dpi=100)
+        plt.close(fig)
+    return files
+
+
+def _table(summary: dict[str, Any]) -> str:
+    rows = [
+        "| algorithm | duration [s] | attitude err final [rad] | position err final [m] | position err max [m] "
+        "| growth [m/s] | rotvec - screw attitude err [rad] |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for name, s in summary["runs"].items():
+        rows.append(
+            f"| {name} | {s['duration_s']:.0f} | {s['attitude_error_final_rad']:.3e} | "
+            f"{s['position_error_final_m']:.3e} | {s['position_error_max_m']:.3e} | "
+            f"{s['position_error_growth_m_per_s']:.2e} | {s['rotvec_minus_screw_attitude_error_max_rad']:.1e} |"
+        )
+    return "\n".join(rows)
+
+
+def run_screw_vector(args: argparse.Namespace) -> int:
+    from dataclasses import asdict
+
+    from dualpose.inertial.leader_follower import Scenario, simulate
+
+    out: Path | None = args.out
+    names = [f"screw_vector_{n}_sample.png" for n in args.samples]
+    names += ["screw_vector_comparison.png", "summary.json"] + (
+        ["screw_vector_long_run.png"] if args.long_duration > 0 else []
+    )
+    if out is not None:
+        try:
+            import matplotlib  # noqa: F401
+        except ImportError:
+            print(
+                "error: --out writes PNG figures, which need matplotlib: pip install 'dualpose[plot]'", file=sys.stderr
+            )
+            return 2
+        clash = [n for n in names if (out / n).exists()]
+        if clash and not args.force:
+            print(f"error: {out} already has {', '.join(clash)}; use --force to overwrite", file=sys.stderr)
+            return 2
+        out.mkdir(parents=True, exist_ok=True)
+    if args.duration <= 0:
+        print("error: --duration must be positive", file=sys.stderr)
+        return 2
+    sc = Scenario()
+    show = not args.no_progress
+    runs = {
+        n: simulate(sc, n, args.duration, progress=_Bar(f"{n}-sample, {args.duration:g} s", show)) for n in args.samples
+    }
+    long_run = None
+    if args.long_duration > 0:
+        long_run = simulate(sc, 3, args.long_duration, progress=_Bar(f"3-sample, {args.long_duration:g} s", show))
+    summary: dict[str, Any] = {
+        "scenario": {
+            "leader": asdict(sc.leader),
+            "follower": asdict(sc.follower),
+            "h_s": sc.h,
+            "note": "leader: classical coning (attitude only); follower: dual coning (a + eps d)",
+        },
+        "runs": {f"{n}-sample": _summary(r) for n, r in runs.items()},
+    }
+    if long_run is not None:
+        summary["runs"]["3-sample long run"] = _summary(long_run)
+    if out is not None:
+        files = _figures(out, runs, long_run)
+        (out / "summary.json").write_text(json.dumps(summary, indent=2))
+        summary["files"] = [str(f) for f in [*files, out / "summary.json"]]
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        print(_table(summary))
+        if out is not None:
+            print(f"\nfigures and summary.json written to {out}")
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    """Entry point of ``dualpose reproduce screw-vector``."""
+    return run_screw_vector(args)

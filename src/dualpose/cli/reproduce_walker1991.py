@@ -1,0 +1,160 @@
+"""``dualpose reproduce walker1991``: re-run the simulation of Walker, Shao & Volz (1991) §4.
+
+Prints the std of x, y, z and θ for SVD and DQ next to the paper's Table 3, a mixed points + normals experiment,
+and the solution time vs number of samples (Fig. 4).  ``--json`` prints the numbers as JSON; ``--out DIR`` writes
+``walker1991.md``, ``walker1991.json`` and (with matplotlib installed) ``walker1991.png``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+EXPERIMENTS = ("walker1991",)
+
+
+def add_target(targets: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Register ``dualpose reproduce walker1991``."""
+    p = targets.add_parser("walker1991", help="Walker, Shao & Volz (1991) §4: SVD vs DQ pose accuracy and timing")
+    p.add_argument("--json", action="store_true", help="print the results as JSON")
+    p.add_argument("--out", metavar="DIR", help="write walker1991.md/.json/.png into DIR")
+    p.add_argument("--force", action="store_true", help="overwrite existing files in --out")
+    p.add_argument("--quick", action="store_true", help="fewer trials (a smoke run)")
+    return p
+
+
+class _Bar:
+    """A one-line progress bar on stderr, shown only once a run has taken more than a second."""
+
+    def __init__(self) -> None:
+        self.t0 = time.perf_counter()
+        self.shown = False
+
+    def __call__(self, frac: float, stage: str) -> None:
+        if not self.shown and time.perf_counter() - self.t0 < 1.0:
+            return
+        self.shown = True
+        n = int(round(30 * min(max(frac, 0.0), 1.0)))
+        sys.stderr.write(f"\r[{'#' * n}{' ' * (30 - n)}] {100 * frac:5.1f}%  {stage:<28}")
+        sys.stderr.flush()
+
+    def close(self) -> None:
+        if self.shown:
+            sys.stderr.write("\n")
+
+
+def markdown(res: dict) -> str:
+    """The results as Markdown tables."""
+    lines = [
+        "# Walker, Shao & Volz (1991) §4, re-run with dualpose",
+        "",
+        f"Object: {res['setup']['object']}.  Pose: {res['setup']['rotation']['angle_deg']}° about "
+        f"{tuple(res['setup']['rotation']['axis'])}, t = {tuple(res['setup']['translation'])}; noise σ = "
+        f"{res['setup']['sigma_points']} per coordinate; {res['setup']['sets']} point sets x "
+        f"{res['setup']['trials_per_set']} noise trials; std per set over the trials, RMS over the sets.",
+        "",
+        "## Table 3: standard deviations (ours | paper)",
+        "",
+        "| points | method | x | y | z | θ [deg] | paper x | paper y | paper z | paper θ |",
+        "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for r in res["rows"]:
+        p = r["paper"] or {}
+        lines.append(
+            f"| {r['n_points']} | {r['method']} | {r['std_x']:.3f} | {r['std_y']:.3f} | {r['std_z']:.3f} | "
+            f"{r['std_theta_deg']:.3f} | {p.get('std_x', float('nan')):.3f} | {p.get('std_y', float('nan')):.3f} | "
+            f"{p.get('std_z', float('nan')):.3f} | {p.get('std_theta_deg', float('nan')):.3f} |"
+        )
+    diff = max(r["max_abs_diff_svd_vs_dq"] for r in res["rows"])
+    lines += [
+        "",
+        f"SVD and DQ estimates differ by at most {diff:.1e} (quaternion components / translation units) on every "
+        "trial: on points-only data both are the exact least-squares optimum of the same cost, so their "
+        "statistics are identical.  The paper's ~20% translation advantage of DQ is not reproduced.",
+        "",
+        "## Points + face normals (few points, inverse-variance weights)",
+        "",
+        "| points | normals | std x | std y | std z | rotation error RMS [deg] | degenerate |",
+        "|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for r in res["mixed"]:
+        lines.append(
+            f"| {r['n_points']} | {r['n_directions']} | {r['std_x']:.3f} | {r['std_y']:.3f} | {r['std_z']:.3f} | "
+            f"{r['rot_err_rms_deg']:.4f} | {r['degenerate_fraction']:.0%} |"
+        )
+    tm = res["timing"]
+    lines += [
+        "",
+        "## Fig. 4: solution time vs samples (register_pose, method dq; half points, half unit vectors)",
+        "",
+        "| samples | time [µs] |",
+        "|---:|---:|",
+    ]
+    lines += [f"| {n} | {s * 1e6:.2f} |" for n, s in zip(tm["samples"], tm["seconds"], strict=True)]
+    lines += [
+        "",
+        f"Least-squares line: {tm['fit_intercept_s'] * 1e6:.2f} µs + {tm['fit_slope_s_per_sample'] * 1e9:.1f} "
+        f"ns/sample, R² = {tm['fit_r2']:.4f} (the paper: ~1 ms/sample on a 386/20).",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def _plot(res: dict, path: Path) -> bool:
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return False
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4))
+    for m, style in (("svd", "o-"), ("dq", "s--")):
+        rows = [r for r in res["rows"] if r["method"] == m]
+        ax1.plot([r["n_points"] for r in rows], [r["std_x"] for r in rows], style, label=f"{m} std x (ours)")
+        ax1.plot([r["n_points"] for r in rows], [r["paper"]["std_x"] for r in rows], style, alpha=0.4,
+                 label=f"{m} std x (paper)")  # fmt: skip
+    ax1.set_xlabel("points")
+    ax1.set_ylabel("std of x")
+    ax1.legend()
+    tm = res["timing"]
+    ax2.plot(tm["samples"], [s * 1e6 for s in tm["seconds"]], "o-")
+    ax2.set_xlabel("samples (points + unit vectors)")
+    ax2.set_ylabel("time per solve [µs]")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return True
+
+
+def run(args: argparse.Namespace) -> int:
+    """Entry point of ``dualpose reproduce walker1991``."""
+    from dualpose.registration import walker1991
+
+    out_dir = Path(args.out) if args.out else None
+    names = ("walker1991.md", "walker1991.json", "walker1991.png")
+    if out_dir is not None and not args.force:
+        existing = [n for n in names if (out_dir / n).exists()]
+        if existing:
+            print(f"dualpose reproduce: error: {out_dir}/{existing[0]} exists (use --force to overwrite)",
+                  file=sys.stderr)  # fmt: skip
+            return 2
+    bar = _Bar()
+    try:
+        res = walker1991.run(quick=args.quick, progress=bar)
+    finally:
+        bar.close()
+    md = markdown(res)
+    if out_dir is not None:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        (out_dir / names[0]).write_text(md, encoding="utf-8")
+        (out_dir / names[1]).write_text(json.dumps(res, indent=2) + "\n", encoding="utf-8")
+        if not _plot(res, out_dir / names[2]):
+            print("dualpose reproduce: note: walker1991.png not written (needs matplotlib)", file=sys.stderr)
+    if args.json:
+        print(json.dumps(res, indent=2))
+    else:
+        print(md)
+    return 0

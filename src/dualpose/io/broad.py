@@ -1,0 +1,167 @@
+"""Reader for BROAD trials (Berlin Robust Orientation Estimation Assessment Dataset; Laidig et al. 2021).
+
+A BROAD trial file (MATLAB ``.mat``; v5 read with :func:`scipy.io.loadmat`, v7.3/HDF5 with ``h5py`` if installed)
+holds, per sample at ``sampling_rate`` (285.714 Hz):
+
+=============  =========  ==========================================================================================
+file field     unit       meaning
+=============  =========  ==========================================================================================
+``imu_gyr``    rad/s      angular rate, IMU (body) axes
+``imu_acc``    m/s²       specific force, IMU axes
+``imu_mag``    µT         magnetic field, IMU axes
+``opt_quat``   --         optical reference orientation of the IMU w.r.t. ENU, **wxyz (scalar first)**; NaN when
+                          the markers were not tracked
+``opt_pos``    m          optical reference position, ENU
+``movement``   bool       samples of the movement phase (errors are evaluated there; BROAD's protocol)
+=============  =========  ==========================================================================================
+
+:func:`load_broad` converts the quaternion to dualpose's **xyzw** layout: ``quat`` is ``q_b^i`` (IMU to ENU), so
+``v_ENU = quat_rotate(quat, v_IMU)`` and ``q̇ = ½ q (x) ω`` with ``ω = gyr`` (body frame).  Nothing else is changed.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["BroadTrial", "load_broad"]
+
+_FIELDS = ("imu_gyr", "imu_acc", "imu_mag", "opt_quat", "opt_pos", "movement", "sampling_rate")
+
+
+@dataclass(frozen=True)
+class BroadTrial:
+    """One BROAD trial in dualpose conventions (arrays have n samples on axis 0).
+
+    Attributes
+    ----------
+    name : str
+        File stem, e.g. ``"01_undisturbed_slow_rotation_A"``.
+    rate : float
+        Sampling rate, Hz.
+    gyr, acc, mag : ndarray, shape (n, 3)
+        rad/s, m/s², µT in IMU axes.
+    quat : ndarray, shape (n, 4)
+        Reference orientation ``q_b^i`` (IMU to ENU), **xyzw**; NaN rows where the optical system lost track.
+    pos : ndarray, shape (n, 3)
+        Reference position (m, ENU).
+    movement : ndarray of bool, shape (n,)
+        Movement-phase mask.
+    info : str
+        The file's description text.
+    description : str
+        From ``trials.json`` next to the file, if present.
+    groups : tuple of str
+        From ``trials.json`` (e.g. ``"rotation"``, ``"fast"``, ``"disturbed"``).
+    """
+
+    name: str
+    rate: float
+    gyr: np.ndarray
+    acc: np.ndarray
+    mag: np.ndarray
+    quat: np.ndarray
+    pos: np.ndarray
+    movement: np.ndarray
+    info: str = ""
+    description: str = ""
+    groups: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def time(self) -> np.ndarray:
+        """Sample times, seconds from the first sample, shape (n,)."""
+        return np.arange(self.gyr.shape[0]) / self.rate
+
+    @property
+    def static_start(self) -> int:
+        """Number of samples before the first movement-phase sample (the static start used for the gyro bias)."""
+        idx = np.flatnonzero(self.movement)
+        return int(idx[0]) if idx.size else self.movement.size
+
+
+def _read_mat(path: Path) -> dict[str, np.ndarray]:
+    with open(path, "rb") as fh:
+        head = fh.read(512)
+    if b"\x89HDF" in head or head[:8] == b"\x89HDF\r\n\x1a\n":
+        try:
+            import h5py
+        except ImportError:
+            msg = f"{path} is a MATLAB v7.3 (HDF5) file; reading it needs h5py (pip install h5py)"
+            raise ImportError(msg) from None
+        with h5py.File(path, "r") as f:
+            out = {}
+            for k in _FIELDS + ("info",):
+                if k in f:
+                    a = np.asarray(f[k])
+                    out[k] = a.T if a.ndim == 2 else a  # MATLAB writes column-major
+            if "info" in out and out["info"].dtype.kind in "ui":
+                out["info"] = np.array(["".join(map(chr, out["info"].ravel()))])
+            return out
+    from scipy.io import loadmat
+
+    return loadmat(path)
+
+
+def load_broad(path: str | Path) -> BroadTrial:
+    """Load one BROAD trial file (``.mat``) with its units and frames documented in :class:`BroadTrial`.
+
+    Parameters
+    ----------
+    path : str or Path
+        A BROAD ``.mat`` file.  A ``trials.json`` in the same directory, if present, supplies the description and
+        groups.
+
+    Returns
+    -------
+    BroadTrial
+        Quaternions converted from BROAD's wxyz to dualpose's xyzw.
+
+    Raises
+    ------
+    FileNotFoundError
+        When ``path`` does not exist.
+    ValueError
+        When a required field is missing or has the wrong shape.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no BROAD trial file at {path}")
+    raw = _read_mat(path)
+    missing = [k for k in _FIELDS if k not in raw]
+    if missing:
+        raise ValueError(f"{path.name} is not a BROAD trial: missing fields {missing}")
+    n = np.asarray(raw["imu_gyr"]).shape[0]
+
+    def vec(key: str, width: int) -> np.ndarray:
+        a = np.asarray(raw[key], dtype=np.float64)
+        if a.shape != (n, width):
+            raise ValueError(f"{path.name}: field {key} must have shape ({n}, {width}); got {a.shape}")
+        return a
+
+    wxyz = vec("opt_quat", 4)
+    info = raw.get("info", "")
+    info = str(np.asarray(info).ravel()[0]) if np.size(info) else ""
+    description, groups = "", ()
+    meta = path.parent / "trials.json"
+    if meta.is_file():
+        entry = json.loads(meta.read_text()).get("trials", {}).get(path.stem, {})
+        description, groups = entry.get("description", ""), tuple(entry.get("groups", ()))
+    movement = np.asarray(raw["movement"]).ravel().astype(bool)
+    if movement.shape != (n,):
+        raise ValueError(f"{path.name}: field movement must have {n} samples; got {movement.shape}")
+    return BroadTrial(
+        name=path.stem,
+        rate=float(np.asarray(raw["sampling_rate"]).ravel()[0]),
+        gyr=vec("imu_gyr", 3),
+        acc=vec("imu_acc", 3),
+        mag=vec("imu_mag", 3),
+        quat=np.ascontiguousarray(wxyz[:, [1, 2, 3, 0]]),
+        pos=vec("opt_pos", 3),
+        movement=movement,
+        info=info,
+        description=description,
+        groups=groups,
+    )
