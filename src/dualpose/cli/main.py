@@ -15,6 +15,7 @@ import sys
 #: subcommand modules, in the order ``dualpose --help`` lists them
 SUBCOMMANDS: tuple[str, ...] = (
     "dualpose.cli.demo",
+    "dualpose.cli.eval",
 )
 
 
