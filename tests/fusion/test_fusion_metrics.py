@@ -264,11 +264,19 @@ def test_error_statistics_by_hand():
     assert s.sse == 50.0 and s.n == 4
     with pytest.raises(ValueError, match=r"errors must have shape \(K,\)"):
         error_statistics([])
+    with pytest.raises(ValueError, match="errors must be finite"):
+        error_statistics([1.0, np.nan])
 
 
 def test_per_pose_error_functions_validate_input():
     with pytest.raises(ValueError, match="matched arrays must have the same length"):
         ate_errors(np.zeros((3, 3)), np.zeros((4, 3)))
+    with pytest.raises(ValueError, match="positions_est must be finite"):
+        ate_errors(np.zeros((3, 3)), np.full((3, 3), np.inf))
+    with pytest.raises(ValueError, match="quats_ref must be finite"):
+        orientation_errors_deg(np.full((2, 4), np.nan), np.tile([0, 0, 0, 1.0], (2, 1)))
+    with pytest.raises(ValueError, match="zero"):
+        orientation_errors_deg(np.zeros((2, 4)), np.tile([0, 0, 0, 1.0], (2, 1)))
     with pytest.raises(ValueError, match=r"quats_est must have shape \(N, 4\)"):
         orientation_errors_deg(np.tile([0, 0, 0, 1.0], (2, 1)), np.zeros((2, 3)))
     q = np.tile([0, 0, 0, 1.0], (3, 1))

@@ -142,6 +142,8 @@ def error_statistics(errors: ArrayLike) -> ErrorStatistics:
     e = np.asarray(errors, dtype=np.float64)
     if e.ndim != 1 or e.shape[0] == 0:
         raise ValueError(f"errors must have shape (K,) with K >= 1; got shape {e.shape}")
+    if not np.isfinite(e).all():
+        raise ValueError("errors must be finite")
     sq = e * e
     return ErrorStatistics(
         rmse=float(np.sqrt(np.mean(sq))),
@@ -162,6 +164,8 @@ def _positions(x: ArrayLike, name: str) -> np.ndarray:
     a = np.asarray(x, dtype=np.float64)
     if a.ndim != 2 or a.shape[1] != 3:
         raise ValueError(f"{name} must have shape (N, 3); got shape {a.shape}")
+    if not np.isfinite(a).all():
+        raise ValueError(f"{name} must be finite")
     return a
 
 
@@ -169,6 +173,8 @@ def _quats(x: ArrayLike, name: str) -> np.ndarray:
     a = np.asarray(x, dtype=np.float64)
     if a.ndim != 2 or a.shape[1] != 4:
         raise ValueError(f"{name} must have shape (N, 4) (xyzw); got shape {a.shape}")
+    if not np.isfinite(a).all():
+        raise ValueError(f"{name} must be finite")
     return dp.quat_normalize(a)
 
 
