@@ -80,3 +80,14 @@ def test_bad_files_report_file_and_line(tmp_path, capsys):
     # the same file against itself: zero error, and an offset that undoes a clock shift works
     assert main(["eval", str(good), str(shifted), "--offset", "-100", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["ate_rmse_m"] < 1e-12
+
+
+@pytest.mark.parametrize(("align", "n"), [("origin", None), ("scale", 50), ("none", None)])
+def test_other_alignments_reach_the_library(files, capsys, align, n):
+    ref, est = files
+    argv = ["eval", ref, est, "--align", align, "--json"] + (["--n-align", str(n)] if n else [])
+    assert main(argv) == 0
+    out = json.loads(capsys.readouterr().out)
+    ev = evaluate(read_trajectory(ref), read_trajectory(est), align=align, align_first_n=n)
+    assert out["ate_rmse_m"] == ev.ate_stats.rmse and out["alignment"]["method"] == align
+    assert out["settings"]["align_first_n"] == n

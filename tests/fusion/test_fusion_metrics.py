@@ -289,3 +289,25 @@ def test_per_pose_error_functions_validate_input():
     truth = Trajectory(np.arange(5.0), np.eye(5, 3) * 3, np.tile([0, 0, 0, 1.0], (5, 1)))
     with pytest.raises(ValueError, match="gives no pose pair"):
         evaluate(truth, truth, align="none", rpe_delta=10)
+
+
+def test_origin_scale_only_and_first_n_alignment(rng):
+    truth = _smooth_trajectory(rng)
+    rot, trans, _ = _similarity(rng, 1.0)
+    moved = _transformed(truth, rot, trans, 1.0)
+    ev = evaluate(truth, moved, align="origin")
+    assert ev.ate.max() < 1e-12 and ev.orientation_deg.max() < 1e-9  # a rigid change of frame: origin undoes it
+    np.testing.assert_allclose(ev.alignment.rotation, rot.inv().as_matrix(), atol=1e-12)
+    # scale only: a uniformly scaled copy (same frame) comes back exactly, and nothing is rotated or shifted
+    ev = evaluate(truth, Trajectory(truth.stamps, 3.0 * truth.positions, truth.quats), align="scale")
+    assert ev.alignment.scale == pytest.approx(1.0 / 3.0, rel=1e-13) and ev.ate.max() < 1e-12
+    assert np.array_equal(ev.alignment.rotation, np.eye(3)) and not ev.alignment.translation.any()
+    # first n: drift after pose 100 does not affect the alignment, which is then exact on the first 100 poses
+    drifted = truth.positions.copy()
+    drifted[100:] += np.outer(np.arange(len(truth) - 100) * 1e-3, [1.0, 0.5, 0.0])
+    est = _transformed(Trajectory(truth.stamps, drifted, truth.quats), rot, trans, 1.0)
+    ev = evaluate(truth, est, align="se3", align_first_n=100)
+    assert ev.ate[:100].max() < 1e-12 and ev.ate[-1] > 0.1
+    assert evaluate(truth, est, align="se3").ate[:100].max() > 1e-3  # aligned on everything: spread out
+    with pytest.raises(ValueError, match="align_first_n must be"):
+        evaluate(truth, est, align_first_n=0)

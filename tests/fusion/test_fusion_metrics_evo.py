@@ -134,3 +134,23 @@ def test_association_equals_evo(loaded, pair, max_diff, offset):
     )
     np.testing.assert_array_equal(ref.stamps[i_ref], r.timestamps)
     np.testing.assert_array_equal(est.stamps[i_est], e.timestamps)
+
+
+@pytest.mark.parametrize(
+    ("align", "n"), [("origin", None), ("scale", None), ("se3", 100), ("sim3", 300), ("scale", 50)]
+)
+@pytest.mark.parametrize("pair", sorted(PAIRS))
+def test_origin_scale_only_and_first_n_alignment_equal_evo(loaded, pair, align, n):
+    ref, est, evo_ref, evo_est = loaded[pair]
+    r, e = evo_sync.associate_trajectories(copy.deepcopy(evo_ref), copy.deepcopy(evo_est), max_diff=0.01)
+    if align == "origin":
+        e.align_origin(r)
+    else:  # evo_ape --align/--correct_scale/--n_to_align, as main_ape.ape calls it
+        e.align(r, correct_scale=align in ("sim3", "scale"), correct_only_scale=align == "scale", n=n or -1)
+    ev = evaluate(ref, est, align=align, align_first_n=n)
+    np.testing.assert_allclose(ev.positions_est, e.positions_xyz, rtol=0, atol=TOL)
+    _assert_stats(ev.ate_stats, _evo_stats(evo_metrics.APE(evo_metrics.PoseRelation.translation_part), (r, e)), "ATE")
+    deg = evo_metrics.PoseRelation.rotation_angle_deg
+    _assert_stats(ev.orientation_stats, _evo_stats(evo_metrics.APE(deg), (r, e)), "orientation")
+    if align == "origin":
+        assert ev.ate[0] < 1e-12 and ev.orientation_deg[0] < 1e-6

@@ -26,10 +26,12 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument("estimate", help="estimated trajectory: TUM file or EuRoC ground-truth CSV")
     p.add_argument(
         "--align",
-        choices=("se3", "sim3", "none"),
+        choices=("se3", "sim3", "scale", "origin", "none"),
         default="se3",
-        help="Umeyama alignment of the estimate: rigid (se3, default), with scale (sim3), or none",
+        help="alignment of the estimate: Umeyama rigid (se3, default), with scale (sim3), scale only (scale), "
+        "first poses made equal (origin), or none",
     )
+    p.add_argument("--n-align", type=int, metavar="N", help="estimate the alignment from the first N matched poses")
     p.add_argument("--max-diff", type=float, default=0.01, help="largest time difference to associate, s (0.01)")
     p.add_argument("--offset", type=float, default=0.0, help="seconds added to the estimate's stamps (0)")
     p.add_argument("--rpe-delta", type=float, default=1, help="RPE step: frames, or metres with --rpe-unit m (1)")
@@ -72,6 +74,7 @@ def run(args: argparse.Namespace) -> int:
             reference,
             estimate,
             align=args.align,
+            align_first_n=args.n_align,
             max_diff=args.max_diff,
             offset=args.offset,
             rpe_delta=args.rpe_delta,
@@ -101,7 +104,9 @@ def run(args: argparse.Namespace) -> int:
     print(f"estimate   {args.estimate} ({fmt_est}, {len(estimate)} poses)")
     print(
         f"matched    {result['matched_poses']} poses (max diff {args.max_diff} s, offset {args.offset} s); "
-        f"alignment {a.method}" + (f", scale {a.scale:.6f}" if a.method == "sim3" else "")
+        f"alignment {a.method}"
+        + (f", scale {a.scale:.6f}" if a.method in ("sim3", "scale") else "")
+        + (f" from the first {args.n_align} poses" if args.n_align and a.method not in ("none", "origin") else "")
     )
     print(f"RPE        {result['rpe_pairs']} pairs, delta {args.rpe_delta:g} {args.rpe_unit}\n")
     print(_table(result))

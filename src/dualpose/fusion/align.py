@@ -15,9 +15,9 @@ from numpy.typing import ArrayLike
 
 import dualpose as dp
 
-__all__ = ["Alignment", "umeyama_alignment", "align_positions", "AlignMethod"]
+__all__ = ["Alignment", "umeyama_alignment", "align_positions", "origin_alignment", "AlignMethod"]
 
-AlignMethod = Literal["se3", "sim3", "none"]
+AlignMethod = Literal["se3", "sim3", "scale", "origin", "none"]
 
 
 @dataclass(frozen=True)
@@ -31,8 +31,8 @@ class Alignment:
     translation : ndarray, shape (3,)
         Metres.
     scale : float
-        1 for SE(3) and for no alignment.
-    method : {"se3", "sim3", "none"}
+        1 except for ``"sim3"`` and ``"scale"``.
+    method : {"se3", "sim3", "scale", "origin", "none"}
     """
 
     rotation: np.ndarray
@@ -124,9 +124,41 @@ def umeyama_alignment(source: ArrayLike, target: ArrayLike, with_scale: bool = F
 
 
 def align_positions(reference: ArrayLike, estimate: ArrayLike, method: AlignMethod = "se3") -> Alignment:
-    """The alignment of ``estimate`` (N, 3) onto ``reference`` (N, 3): ``"se3"``, ``"sim3"`` or ``"none"``."""
+    """The alignment of ``estimate`` (N, 3) onto ``reference`` (N, 3) from positions alone.
+
+    ``method``: ``"se3"`` (Umeyama, rigid), ``"sim3"`` (Umeyama with scale), ``"scale"`` (only the Umeyama Sim(3)
+    scale is applied, rotation and translation are left alone -- evo's ``--correct_scale`` without ``--align``) or
+    ``"none"`` (identity).  ``"origin"`` needs orientations: use :func:`origin_alignment`.
+    """
     if method == "none":
         return Alignment(np.eye(3), np.zeros(3), 1.0, "none")
+    if method == "scale":
+        return Alignment(np.eye(3), np.zeros(3), umeyama_alignment(estimate, reference, True).scale, "scale")
     if method not in ("se3", "sim3"):
-        raise ValueError(f"method must be 'se3', 'sim3' or 'none'; got {method!r}")
+        raise ValueError(f"method must be 'se3', 'sim3', 'scale' or 'none'; got {method!r}")
     return umeyama_alignment(estimate, reference, with_scale=method == "sim3")
+
+
+def origin_alignment(
+    position_ref: ArrayLike, quat_ref: ArrayLike, position_est: ArrayLike, quat_est: ArrayLike
+) -> Alignment:
+    """The rigid transform that puts the estimate's first pose onto the reference's: ``T = T_ref,0 T_est,0^-1``.
+
+    Parameters
+    ----------
+    position_ref, position_est : array_like, shape (3,)
+        Metres.
+    quat_ref, quat_est : array_like, shape (4,)
+        xyzw, normalised here.
+
+    Returns
+    -------
+    Alignment
+        ``method="origin"``, scale 1: ``R = R_ref,0 R_est,0^T``, ``t = p_ref,0 - R p_est,0``.
+    """
+    p_ref, p_est = np.asarray(position_ref, dtype=np.float64), np.asarray(position_est, dtype=np.float64)
+    if p_ref.shape != (3,) or p_est.shape != (3,):
+        raise ValueError(f"positions must have shape (3,); got {p_ref.shape} and {p_est.shape}")
+    q = dp.quat_mul(dp.quat_normalize(quat_ref), dp.quat_conj(dp.quat_normalize(quat_est)))
+    rotation = dp.matrix_from_quat(q)
+    return Alignment(rotation, p_ref - rotation @ p_est, 1.0, "origin")

@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import dualpose as dp
-from dualpose.fusion.align import Alignment, AlignMethod, align_positions
+from dualpose.fusion.align import Alignment, AlignMethod, align_positions, origin_alignment
 from dualpose.io.trajectory import Trajectory
 
 __all__ = [
@@ -406,6 +406,7 @@ def evaluate(
     estimate: Trajectory,
     *,
     align: AlignMethod = "se3",
+    align_first_n: int | None = None,
     max_diff: float = 0.01,
     offset: float = 0.0,
     rpe_delta: float = 1,
@@ -415,10 +416,13 @@ def evaluate(
 ) -> Evaluation:
     """Associate, align and compute ATE, orientation error and RPE of ``estimate`` against ``reference``.
 
-    The steps and defaults are those of ``evo_ape`` / ``evo_rpe`` (``--align`` for se3, ``--align
-    --correct_scale`` for sim3, ``-t max_diff``, ``--t_offset``, ``-d delta -u f|m``); the RPE pairs are chosen on
-    the aligned estimate unless ``rpe_pairs_from_reference``.  RPE is unchanged by an SE(3) alignment; a Sim(3)
-    alignment rescales the estimate's translations first.
+    The steps and defaults are those of ``evo_ape`` / ``evo_rpe``: ``align`` "se3" = ``--align``, "sim3" =
+    ``--align --correct_scale``, "scale" = ``--correct_scale`` alone, "origin" = ``--align_origin`` (first
+    matched poses made equal), "none"; ``align_first_n`` = ``--n_to_align`` (estimate the se3/sim3/scale alignment
+    from the first n matched poses only, apply it to all); ``max_diff`` = ``--t_max_diff``; ``offset`` =
+    ``--t_offset``; ``rpe_delta``, ``rpe_unit`` = ``-d``, ``-u f|m``; ``rpe_all_pairs`` = ``--all_pairs``;
+    ``rpe_pairs_from_reference`` = ``--pairs_from_reference`` (by default the pairs are chosen on the aligned
+    estimate).  RPE is unchanged by a rigid alignment; "sim3"/"scale" rescale the estimate's translations first.
 
     Raises
     ------
@@ -431,7 +435,15 @@ def evaluate(
     idx_ref, idx_est = associate(reference.stamps, estimate.stamps, max_diff, offset)
     p_ref, q_ref = reference.positions[idx_ref], dp.quat_normalize(reference.quats[idx_ref])
     p_est, q_est = estimate.positions[idx_est], dp.quat_normalize(estimate.quats[idx_est])
-    alignment = align_positions(p_ref, p_est, align)
+    if align == "origin":
+        alignment = origin_alignment(p_ref[0], q_ref[0], p_est[0], q_est[0])
+    else:
+        n = idx_ref.shape[0]
+        if align_first_n is not None:
+            if not (int(align_first_n) == align_first_n and align_first_n >= 1):
+                raise ValueError(f"align_first_n must be a whole number >= 1 or None; got {align_first_n!r}")
+            n = min(int(align_first_n), n)
+        alignment = align_positions(p_ref[:n], p_est[:n], align)
     p_est, q_est = alignment.apply(p_est, q_est)
     pairs = rpe_pairs(p_ref if rpe_pairs_from_reference else p_est, rpe_delta, rpe_unit, rpe_all_pairs)
     if pairs.shape[0] == 0:
@@ -442,6 +454,7 @@ def evaluate(
     rpe_t, rpe_r = rpe_errors(p_ref, q_ref, p_est, q_est, pairs)
     settings = {
         "align": align,
+        "align_first_n": align_first_n,
         "max_diff": max_diff,
         "offset": offset,
         "rpe_delta": rpe_delta,
