@@ -91,3 +91,11 @@ def test_other_alignments_reach_the_library(files, capsys, align, n):
     ev = evaluate(read_trajectory(ref), read_trajectory(est), align=align, align_first_n=n)
     assert out["ate_rmse_m"] == ev.ate_stats.rmse and out["alignment"]["method"] == align
     assert out["settings"]["align_first_n"] == n
+
+
+def test_interpolate_flag(files, capsys):
+    ref, est = files
+    assert main(["eval", ref, est, "--interpolate", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    ev = evaluate(read_trajectory(ref), read_trajectory(est), sync="interpolate")
+    assert out["ate_rmse_m"] == ev.ate_stats.rmse and out["settings"]["sync"] == "interpolate"

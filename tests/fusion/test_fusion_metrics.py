@@ -14,6 +14,7 @@ from dualpose.fusion.metrics import (
     ate_errors,
     error_statistics,
     evaluate,
+    interpolate_poses,
     orientation_errors_deg,
     rpe_errors,
     rpe_pairs,
@@ -311,3 +312,33 @@ def test_origin_scale_only_and_first_n_alignment(rng):
     assert evaluate(truth, est, align="se3").ate[:100].max() > 1e-3  # aligned on everything: spread out
     with pytest.raises(ValueError, match="align_first_n must be"):
         evaluate(truth, est, align_first_n=0)
+
+
+def test_interpolate_poses_on_a_screw_motion():
+    # constant velocity along x and constant rate about z: linear + slerp interpolation is exact
+    t = np.array([0.0, 1.0, 2.0, 2.0, 4.0])
+    pos = np.outer(t, [1.0, 0.0, 0.0])
+    q = Rotation.from_rotvec(np.outer(t, [0.0, 0.0, 0.3])).as_quat()
+    at = np.array([-1.0, 0.25, 1.5, 2.0, 3.0, 3.9, 9.0])
+    p_i, q_i = interpolate_poses(t, pos, q * 2.0, at)  # scale-free in the quaternions
+    clamped = np.clip(at, 0.0, 4.0)
+    np.testing.assert_allclose(p_i[:, 0], clamped, atol=1e-15)
+    np.testing.assert_allclose(Rotation.from_quat(q_i).as_rotvec()[:, 2], 0.3 * clamped, atol=1e-14)
+    np.testing.assert_allclose(np.linalg.norm(q_i, axis=1), 1.0, atol=1e-15)
+    with pytest.raises(ValueError, match="sorted"):
+        interpolate_poses(t[::-1], pos, q, at)
+    with pytest.raises(ValueError, match="N >= 2"):
+        interpolate_poses(t[:1], pos[:1], q[:1], at)
+
+
+def test_interpolated_sync_removes_the_time_quantisation_error(rng):
+    truth = _smooth_trajectory(rng, 800)  # 50 Hz truth; the estimate is the truth itself, sampled between its stamps
+    at = truth.stamps[10:-10:7] + 0.009  # 9 ms after a truth stamp: nearest-neighbour pairs it 9 ms off
+    p, q = interpolate_poses(truth.stamps, truth.positions, truth.quats, at)
+    est = Trajectory(at, p, q)
+    near = evaluate(truth, est, align="none", max_diff=0.012)
+    interp = evaluate(truth, est, align="none", max_diff=0.012, sync="interpolate")
+    assert near.ate.max() > 1e-3 and interp.ate.max() < 1e-12 and interp.orientation_deg.max() < 1e-9
+    np.testing.assert_array_equal(interp.stamps, at)
+    with pytest.raises(ValueError, match="sync must be"):
+        evaluate(truth, est, sync="linear")  # type: ignore[arg-type]

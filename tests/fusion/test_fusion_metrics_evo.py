@@ -154,3 +154,26 @@ def test_origin_scale_only_and_first_n_alignment_equal_evo(loaded, pair, align, 
     _assert_stats(ev.orientation_stats, _evo_stats(evo_metrics.APE(deg), (r, e)), "orientation")
     if align == "origin":
         assert ev.ate[0] < 1e-12 and ev.orientation_deg[0] < 1e-6
+
+
+@pytest.mark.parametrize(("align", "offset"), [("se3", 0.0), ("sim3", 0.004)])
+@pytest.mark.parametrize("pair", sorted(PAIRS))
+def test_interpolated_sync_equals_evo(loaded, pair, align, offset):
+    sync_method = pytest.importorskip("evo.core.sync_method")
+    ref, est, evo_ref, evo_est = loaded[pair]
+    r, e = evo_sync.associate_trajectories(
+        copy.deepcopy(evo_ref),
+        copy.deepcopy(evo_est),
+        max_diff=0.01,
+        offset_2=offset,
+        sync_method=sync_method.SyncMethod.interpolation,
+    )
+    e.align(r, correct_scale=align == "sim3")
+    ev = evaluate(ref, est, align=align, offset=offset, sync="interpolate")
+    np.testing.assert_allclose(ev.positions_ref, r.positions_xyz, rtol=0, atol=TOL)
+    np.testing.assert_allclose(ev.positions_est, e.positions_xyz, rtol=0, atol=TOL)
+    _assert_stats(ev.ate_stats, _evo_stats(evo_metrics.APE(evo_metrics.PoseRelation.translation_part), (r, e)), "ATE")
+    deg = evo_metrics.PoseRelation.rotation_angle_deg
+    _assert_stats(ev.orientation_stats, _evo_stats(evo_metrics.APE(deg), (r, e)), "orientation")
+    rpe = evo_metrics.RPE(deg, 1, evo_metrics.Unit.frames)
+    _assert_stats(ev.rpe_rotation_stats, _evo_stats(rpe, (r, e)), "RPE rot")

@@ -34,6 +34,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument("--n-align", type=int, metavar="N", help="estimate the alignment from the first N matched poses")
     p.add_argument("--max-diff", type=float, default=0.01, help="largest time difference to associate, s (0.01)")
     p.add_argument("--offset", type=float, default=0.0, help="seconds added to the estimate's stamps (0)")
+    p.add_argument(
+        "--interpolate",
+        action="store_true",
+        help="interpolate the denser trajectory at the matched stamps instead of taking its nearest poses",
+    )
     p.add_argument("--rpe-delta", type=float, default=1, help="RPE step: frames, or metres with --rpe-unit m (1)")
     p.add_argument("--rpe-unit", choices=("frames", "m"), default="frames", help="unit of --rpe-delta (frames)")
     p.add_argument("--rpe-all-pairs", action="store_true", help="RPE over a pair starting at every pose")
@@ -77,6 +82,7 @@ def run(args: argparse.Namespace) -> int:
             align_first_n=args.n_align,
             max_diff=args.max_diff,
             offset=args.offset,
+            sync="interpolate" if args.interpolate else "nearest",
             rpe_delta=args.rpe_delta,
             rpe_unit=args.rpe_unit,
             rpe_all_pairs=args.rpe_all_pairs,
@@ -103,7 +109,9 @@ def run(args: argparse.Namespace) -> int:
     print(f"reference  {args.reference} ({fmt_ref}, {len(reference)} poses)")
     print(f"estimate   {args.estimate} ({fmt_est}, {len(estimate)} poses)")
     print(
-        f"matched    {result['matched_poses']} poses (max diff {args.max_diff} s, offset {args.offset} s); "
+        f"matched    {result['matched_poses']} poses (max diff {args.max_diff} s, offset {args.offset} s"
+        + (", interpolated" if args.interpolate else "")
+        + "); "
         f"alignment {a.method}"
         + (f", scale {a.scale:.6f}" if a.method in ("sim3", "scale") else "")
         + (f" from the first {args.n_align} poses" if args.n_align and a.method not in ("none", "origin") else "")

@@ -30,6 +30,7 @@ from dualpose.io.trajectory import Trajectory
 
 __all__ = [
     "associate",
+    "interpolate_poses",
     "ErrorStatistics",
     "error_statistics",
     "ate_errors",
@@ -41,6 +42,7 @@ __all__ = [
 ]
 
 RpeUnit = Literal["frames", "m"]
+SyncMethod = Literal["nearest", "interpolate"]
 
 
 # ------------------------------------------------------------------------------------------------ association
@@ -115,6 +117,47 @@ def associate(
             f"[{ref.min():.6f}, {ref.max():.6f}] s, estimate [{est.min():.6f}, {est.max():.6f}] s"
         )
     return (i_short, i_long) if est_longer else (i_long, i_short)
+
+
+def interpolate_poses(
+    stamps: ArrayLike, positions: ArrayLike, quats: ArrayLike, at: ArrayLike
+) -> tuple[np.ndarray, np.ndarray]:
+    """Poses of a trajectory at other times: linear in position, slerp in orientation.
+
+    Parameters
+    ----------
+    stamps : array_like, shape (N,)
+        Seconds, non-decreasing, N >= 2.
+    positions : array_like, shape (N, 3)
+    quats : array_like, shape (N, 4)
+        xyzw.
+    at : array_like, shape (K,)
+        Query times, seconds.  Times outside ``[stamps[0], stamps[-1]]`` get the first / last pose (no
+        extrapolation); between two equal stamps the earlier pose is used.
+
+    Returns
+    -------
+    positions : ndarray, shape (K, 3)
+    quats : ndarray, shape (K, 4)
+        Unit, xyzw (:func:`dualpose.quat_slerp` on the shorter arc).
+    """
+    t = np.asarray(stamps, dtype=np.float64)
+    p = _positions(positions, "positions")
+    q = _quats(quats, "quats")
+    x = np.asarray(at, dtype=np.float64)
+    if t.ndim != 1 or t.shape[0] < 2:
+        raise ValueError(f"stamps must have shape (N,) with N >= 2; got shape {t.shape}")
+    _same_length(stamps=t, positions=p, quats=q)
+    if np.any(np.diff(t) < 0):
+        raise ValueError("stamps must be sorted (non-decreasing) to interpolate")
+    if x.ndim != 1 or not np.isfinite(x).all():
+        raise ValueError(f"at must be a finite array of shape (K,); got shape {x.shape}")
+    k = np.clip(np.searchsorted(t, x, side="left"), 1, t.shape[0] - 1)
+    dt = t[k] - t[k - 1]
+    frac = np.where(dt > 0.0, (x - t[k - 1]) / np.where(dt > 0.0, dt, 1.0), 0.0)
+    frac = np.clip(frac, 0.0, 1.0)
+    pos = p[k - 1] + frac[:, None] * (p[k] - p[k - 1])
+    return pos, dp.quat_slerp(q[k - 1], q[k], frac)
 
 
 # ------------------------------------------------------------------------------------------------ statistics
@@ -329,11 +372,12 @@ class Evaluation:
     Attributes
     ----------
     idx_ref, idx_est : ndarray of intp, shape (K,)
-        Matched pose indices.
+        Matched pose indices (with ``sync="interpolate"``, those of the longer trajectory are the nearest poses
+        to the interpolated times).
     stamps : ndarray, shape (K,)
-        The reference stamps of the matched poses, seconds.
+        The matched times in the reference's clock, seconds.
     positions_ref, quats_ref : ndarray, shapes (K, 3), (K, 4)
-        Matched reference poses (quaternions normalised).
+        Matched (or interpolated) reference poses (quaternions normalised).
     positions_est, quats_est : ndarray, shapes (K, 3), (K, 4)
         Matched estimate poses after the alignment.
     alignment : Alignment
@@ -409,6 +453,7 @@ def evaluate(
     align_first_n: int | None = None,
     max_diff: float = 0.01,
     offset: float = 0.0,
+    sync: SyncMethod = "nearest",
     rpe_delta: float = 1,
     rpe_unit: RpeUnit = "frames",
     rpe_all_pairs: bool = False,
@@ -420,7 +465,9 @@ def evaluate(
     ``--align --correct_scale``, "scale" = ``--correct_scale`` alone, "origin" = ``--align_origin`` (first
     matched poses made equal), "none"; ``align_first_n`` = ``--n_to_align`` (estimate the se3/sim3/scale alignment
     from the first n matched poses only, apply it to all); ``max_diff`` = ``--t_max_diff``; ``offset`` =
-    ``--t_offset``; ``rpe_delta``, ``rpe_unit`` = ``-d``, ``-u f|m``; ``rpe_all_pairs`` = ``--all_pairs``;
+    ``--t_offset``; ``sync="interpolate"`` = ``--sync_method interpolation`` (after the association, the trajectory
+    with more poses is interpolated -- :func:`interpolate_poses` -- at the matched stamps of the other one instead
+    of taking its nearest poses); ``rpe_delta``, ``rpe_unit`` = ``-d``, ``-u f|m``; ``rpe_all_pairs`` = ``--all_pairs``;
     ``rpe_pairs_from_reference`` = ``--pairs_from_reference`` (by default the pairs are chosen on the aligned
     estimate).  RPE is unchanged by a rigid alignment; "sim3"/"scale" rescale the estimate's translations first.
 
@@ -435,6 +482,15 @@ def evaluate(
     idx_ref, idx_est = associate(reference.stamps, estimate.stamps, max_diff, offset)
     p_ref, q_ref = reference.positions[idx_ref], dp.quat_normalize(reference.quats[idx_ref])
     p_est, q_est = estimate.positions[idx_est], dp.quat_normalize(estimate.quats[idx_est])
+    stamps = reference.stamps[idx_ref]
+    if sync == "interpolate":
+        if len(estimate) > len(reference):
+            p_est, q_est = interpolate_poses(estimate.stamps, estimate.positions, estimate.quats, stamps - offset)
+        else:
+            stamps = estimate.stamps[idx_est] + offset
+            p_ref, q_ref = interpolate_poses(reference.stamps, reference.positions, reference.quats, stamps)
+    elif sync != "nearest":
+        raise ValueError(f"sync must be 'nearest' or 'interpolate'; got {sync!r}")
     if align == "origin":
         alignment = origin_alignment(p_ref[0], q_ref[0], p_est[0], q_est[0])
     else:
@@ -457,6 +513,7 @@ def evaluate(
         "align_first_n": align_first_n,
         "max_diff": max_diff,
         "offset": offset,
+        "sync": sync,
         "rpe_delta": rpe_delta,
         "rpe_unit": rpe_unit,
         "rpe_all_pairs": rpe_all_pairs,
@@ -467,7 +524,7 @@ def evaluate(
     return Evaluation(
         idx_ref=idx_ref,
         idx_est=idx_est,
-        stamps=reference.stamps[idx_ref],
+        stamps=stamps,
         positions_ref=p_ref,
         quats_ref=q_ref,
         positions_est=p_est,
