@@ -4,9 +4,10 @@ Definitions follow Sturm et al. 2012 (TUM RGB-D benchmark, ATE eq. 3 and RPE eq.
 ``evo`` package, whose numbers these functions reproduce (see ``docs/metrics.md`` and the tests):
 
 - association: each pose of the *shorter* trajectory is paired with the nearest-in-time pose of the longer one
-  when ``|dt| <= max_diff`` (``offset`` is added to the estimate's stamps first);
-- alignment: Umeyama SE(3) / Sim(3) of the estimated positions onto the reference ones
-  (:mod:`dualpose.fusion.align`), applied to the whole estimate;
+  when ``|dt| <= max_diff`` (``offset`` is added to the estimate's stamps first); optionally the longer one is then
+  interpolated at the matched stamps (linear + slerp);
+- alignment: Umeyama SE(3) / Sim(3) (or scale only) of the estimated positions onto the reference ones, or the
+  first poses made equal (:mod:`dualpose.fusion.align`), applied to every matched estimate pose;
 - ATE: ``|p_ref_i - (s R p_est_i + t)|`` per matched pose (metres);
 - orientation error: the angle of ``q_ref_i^-1 (x) q_R (x) q_est_i`` (degrees);
 - RPE: for index pairs (i, j) taken on the estimate, the error of the relative motion
