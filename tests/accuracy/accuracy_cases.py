@@ -154,7 +154,9 @@ def _quat_cases() -> list[Case]:
     f64 = ref.to_f64
 
     def add(name: str, angle: tuple, i: int, args: tuple, *extra: str) -> None:
-        out.append(Case(name, _cid(name, angle, i, *extra), angle[0], args, getattr(quat, name), ref.REFERENCES[name]))
+        out.append(
+            Case(name, _cid(name, angle, i, *extra), angle[0], args, getattr(quat, name), ref.REFERENCES[name])
+        )
 
     for angle, i, axis, _ in _angle_axes("quat_exp"):
         s = theta(angle) / 2
@@ -210,17 +212,8 @@ def _dq_cases() -> list[Case]:
     out: list[Case] = []
     f64 = ref.to_f64
 
-    def add(
-        name: str,
-        angle: tuple,
-        i: int,
-        tn: tuple,
-        args: tuple,
-        *extra: str,
-        call: Callable | None = None,
-        parts: tuple = DQ_PARTS,
-        in_bar: bool = True,
-    ) -> None:
+    def add(name: str, angle: tuple, i: int, tn: tuple, args: tuple, *extra: str, call: Callable | None = None,
+            parts: tuple = DQ_PARTS, in_bar: bool = True) -> None:
         cid = _cid(name, angle, i, f"t={tn[0]}", *extra)
         fn = call if call is not None else getattr(dualquat, name)
         out.append(Case(name, cid, angle[0], args, fn, ref.REFERENCES[name], tn[0], parts, in_bar))

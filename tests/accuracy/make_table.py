@@ -62,13 +62,8 @@ def _rows(records: list[dict]) -> list[tuple[str, list[dict]]]:
 
 def _summary_table(records: list[dict], parts: bool = False) -> list[str]:
     groups = list(cases.ANGLE_GROUPS)
-    head = [
-        "function",
-        *[f"θ: {g}" for g in groups],
-        *[f"‖t‖ = {d}" for _, d in cases.TNORMS],
-        "overall max",
-        "worst case",
-    ]
+    head = ["function", *[f"θ: {g}" for g in groups], *[f"‖t‖ = {d}" for _, d in cases.TNORMS], "overall max",
+            "worst case"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for label, mine in _rows(records):
         names = sorted({p for r in mine for p in r["parts"]}, key=lambda p: list(mine[0]["parts"]).index(p))

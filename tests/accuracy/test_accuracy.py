@@ -23,8 +23,8 @@ def test_within_bar(case: cases.Case) -> None:
     computed = case.computed()
     err = ref.normwise_error(computed, case.truth())
     parts = ", ".join(f"{n} {ref.normwise_error(computed, case.truth(), sl):.3g} ε" for n, sl in case.parts)
-    assert err <= ref.BAR, f"{case.cid}: error {err:.4g} ε exceeds the {ref.BAR:g} ε bar" + (
-        f" (parts: {parts})" if parts else ""
+    assert err <= ref.BAR, (
+        f"{case.cid}: error {err:.4g} ε exceeds the {ref.BAR:g} ε bar" + (f" (parts: {parts})" if parts else "")
     )
 
 

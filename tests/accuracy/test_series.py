@@ -50,9 +50,8 @@ ROOTS = {"sinc": (math.pi,)}  # roots in the tested range [0, 4]
 def _points() -> list[tuple[str, float]]:
     pts: list[tuple[str, float]] = [("0", 0.0), ("1e-300", 1e-300), ("1e-20", 1e-20), ("1e-8", 1e-8), ("1e-3", 1e-3)]
     # every cutoff, and half of every cutoff (dqalpha evaluates sinc3 at 2x): 1 ulp below, at, 1 ulp above
-    cuts = sorted(
-        {v for k, v in series.CUTOFFS.items() if k != "atan2c"} | {v / 2 for v in series.CUTOFFS.values() if v > 1e-3}
-    )
+    cuts = sorted({v for k, v in series.CUTOFFS.items() if k != "atan2c"} | {v / 2 for v in series.CUTOFFS.values()
+                                                                             if v > 1e-3})
     for c in cuts:
         pts += [(f"{c:g}-ulp", float(np.nextafter(c, 0.0))), (f"{c:g}", c), (f"{c:g}+ulp", float(np.nextafter(c, 9.0)))]
     pts += [("0.1", 0.1), ("2.2", 2.2), ("-0.7", -0.7), ("-2.6", -2.6)]
@@ -106,19 +105,9 @@ def _atan2c_points() -> list[tuple[str, float, float]]:
     out = []
     for c in (1.0, 0.3, 7.0):
         cut = 1e-4 * c
-        for lab, s in [
-            ("0", 0.0),
-            ("1e-310", 1e-310),
-            ("1e-300", 1e-300),
-            ("1e-20", 1e-20),
-            ("1e-8", 1e-8),
-            ("cut-ulp", float(np.nextafter(cut, 0))),
-            ("cut", cut),
-            ("cut+ulp", float(np.nextafter(cut, 1))),
-            ("0.1", 0.1),
-            ("1", 1.0),
-            ("1e3", 1e3),
-        ]:
+        for lab, s in [("0", 0.0), ("1e-310", 1e-310), ("1e-300", 1e-300), ("1e-20", 1e-20), ("1e-8", 1e-8),
+                       ("cut-ulp", float(np.nextafter(cut, 0))), ("cut", cut), ("cut+ulp", float(np.nextafter(cut, 1))),
+                       ("0.1", 0.1), ("1", 1.0), ("1e3", 1e3)]:
             out.append((f"c={c:g}-s={lab}", s, c))
     for s in (1e-300, 1e-8, 0.5, 1.0):
         out.append((f"c=-1-s={s:g}", s, -1.0))

@@ -151,10 +151,8 @@ def test_twist_translation_uses_left_jacobian(rng: np.random.Generator, angle: f
 def test_dualquat_log_at_minus_one(rng: np.random.Generator, tnorm: float) -> None:
     for t in unit_axes(rng, 4) * tnorm:
         # r = −1 (a 2π rotation): d = ½ t (x) r = [−t/2, 0]; also a non-unit dual part with d_w != 0
-        for s in (
-            np.concatenate([[0.0, 0.0, 0.0, -1.0], -t / 2, [0.0]]),
-            np.concatenate([[0.0, 0.0, 0.0, -2.5], -t, [0.25 * tnorm]]),
-        ):
+        for s in (np.concatenate([[0.0, 0.0, 0.0, -1.0], -t / 2, [0.0]]),
+                  np.concatenate([[0.0, 0.0, 0.0, -2.5], -t, [0.25 * tnorm]])):
             lg = dualquat.dualquat_log(s)
             assert np.all(np.isfinite(lg)), lg
             err = ref.normwise_error(s, ref.dualquat_exp(lg))  # exact exp of the float64 log

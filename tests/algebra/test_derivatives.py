@@ -57,7 +57,6 @@ def mp_jacobian(f, x: np.ndarray) -> list[list]:
         x0 = [mpf(float(v)) for v in x]
         cols = []
         for j in range(n):
-
             def comp(h, i, j=j):
                 xx = list(x0)
                 xx[j] += h
@@ -72,9 +71,8 @@ def mp_dir_derivative(f, x: np.ndarray, xdot: np.ndarray) -> list:
         x0 = [mpf(float(v)) for v in x]
         d = [mpf(float(v)) for v in xdot]
         m = len(f(x0))
-        return [
-            mpmath.diff(lambda h, i=i: f([a + h * b for a, b in zip(x0, d, strict=True)])[i], 0, h=H) for i in range(m)
-        ]
+        return [mpmath.diff(lambda h, i=i: f([a + h * b for a, b in zip(x0, d, strict=True)])[i], 0, h=H)
+                for i in range(m)]
 
 
 def normwise(computed: np.ndarray, ref: list) -> float:
@@ -306,22 +304,15 @@ def test_no_nan_at_identity(rng: np.random.Generator, q: list) -> None:
     qd, qdd = rng.normal(size=(2, 4))
     w, wd = rng.normal(size=(2, 3))
     outs = [
-        dv.quat_exp_jacobian(q),
-        dv.quat_exp_derivative(q, qd),
-        dv.quat_log_jacobian(q),
-        dv.quat_log_derivative(q, qd),
-        dv.quat_exp_jacobian(np.zeros(4)),
-        dv.quat_exp_derivative(np.zeros(4), qd),
-        dv.quat_derivative_from_rotvec_rate(np.zeros(3), w),
-        dv.omega_from_rotvec_rate(np.zeros(3), w),
+        dv.quat_exp_jacobian(q), dv.quat_exp_derivative(q, qd), dv.quat_log_jacobian(q),
+        dv.quat_log_derivative(q, qd), dv.quat_exp_jacobian(np.zeros(4)), dv.quat_exp_derivative(np.zeros(4), qd),
+        dv.quat_derivative_from_rotvec_rate(np.zeros(3), w), dv.omega_from_rotvec_rate(np.zeros(3), w),
         dv.rotvec_rate_from_omega(np.zeros(3), w, "body"),
     ]
     for frame in ("space", "body"):
         outs += [
-            dv.quat_derivative(q, w, frame),
-            dv.omega_from_quat_derivative(q, qd, frame),
-            dv.quat_second_derivative(q, w, wd, frame),
-            dv.angular_acceleration_from_quat(q, qd, qdd, frame),
+            dv.quat_derivative(q, w, frame), dv.omega_from_quat_derivative(q, qd, frame),
+            dv.quat_second_derivative(q, w, wd, frame), dv.angular_acceleration_from_quat(q, qd, qdd, frame),
         ]
     assert all(np.all(np.isfinite(o)) for o in outs)
     jl = dv.quat_log_jacobian(q)

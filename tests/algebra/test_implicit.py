@@ -17,10 +17,8 @@ from dualpose.algebra.quat import matrix_from_quat, quat_conj, quat_from_rotvec,
 
 EPS = np.finfo(float).eps
 finite = st.floats(-10, 10, allow_nan=False, allow_infinity=False)
-unit_quats = (
-    arrays(np.float64, 4, elements=finite)
-    .filter(lambda q: np.linalg.norm(q) > 1e-2)
-    .map(lambda q: q / np.linalg.norm(q))
+unit_quats = arrays(np.float64, 4, elements=finite).filter(lambda q: np.linalg.norm(q) > 1e-2).map(
+    lambda q: q / np.linalg.norm(q)
 )
 vec3 = arrays(np.float64, 3, elements=finite)
 

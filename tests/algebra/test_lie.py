@@ -75,7 +75,9 @@ def ref_inv(m: mp.matrix) -> mp.matrix:
 def mp_hat(xi: np.ndarray) -> mp.matrix:
     w = [mpf(float(x)) for x in xi[:3]]
     v = [mpf(float(x)) for x in xi[3:]]
-    return mp.matrix([[0, -w[2], w[1], v[0]], [w[2], 0, -w[0], v[1]], [-w[1], w[0], 0, v[2]], [0, 0, 0, 0]])
+    return mp.matrix(
+        [[0, -w[2], w[1], v[0]], [w[2], 0, -w[0], v[1]], [-w[1], w[0], 0, v[2]], [0, 0, 0, 0]]
+    )
 
 
 def mp_vee(m: mp.matrix) -> list:
@@ -152,12 +154,8 @@ def test_tiny_angles_not_flushed(theta: float) -> None:
     phi = theta * AXIS
     half = 0.5 * lie.so3_hat(phi)
     off = ~np.eye(3, dtype=bool)
-    for j, sign in (
-        (lie.so3_left_jacobian(phi), 1),
-        (lie.so3_right_jacobian(phi), -1),
-        (lie.so3_left_jacobian_inv(phi), -1),
-        (lie.so3_right_jacobian_inv(phi), 1),
-    ):
+    for j, sign in ((lie.so3_left_jacobian(phi), 1), (lie.so3_right_jacobian(phi), -1),
+                    (lie.so3_left_jacobian_inv(phi), -1), (lie.so3_right_jacobian_inv(phi), 1)):
         np.testing.assert_allclose(j[off], sign * half[off], rtol=2 * EPS, atol=0)
         assert np.all(np.diag(j) == 1.0)
 
@@ -245,11 +243,8 @@ def test_adjoint_identity(rng: np.random.Generator) -> None:
     np.testing.assert_allclose(lie.so3_adjoint(q), tm[:, :3, :3], atol=2 * EPS)
     # Ad(exp ξ) = exp(ad ξ)
     r, tt = lie.se3_exp(xi[0])
-    np.testing.assert_allclose(
-        lie.se3_adjoint_from_matrix(np.block([[r, tt[:, None]], [np.zeros((1, 3)), 1.0]])),
-        expm(lie.se3_ad(xi[0])),
-        atol=1e-13,
-    )
+    np.testing.assert_allclose(lie.se3_adjoint_from_matrix(np.block([[r, tt[:, None]], [np.zeros((1, 3)), 1.0]])),
+                               expm(lie.se3_ad(xi[0])), atol=1e-13)
 
 
 @given(twists, twists)
@@ -285,9 +280,8 @@ def test_exp_log_against_scipy(rng: np.random.Generator) -> None:
     np.testing.assert_allclose(lie.se3_log(rp, tp), principal, atol=1e-7)
     ok = np.linalg.norm(principal[:, :3], axis=1) < 3.0
     np.testing.assert_allclose(lie.se3_log(rp, tp)[ok], principal[ok], atol=1e-13)
-    np.testing.assert_allclose(
-        lie.se3_log(rp, tp), tf.as_exp_coords()[np.linalg.norm(xi[:, :3], axis=1) < math.pi], atol=1e-7
-    )
+    np.testing.assert_allclose(lie.se3_log(rp, tp), tf.as_exp_coords()[np.linalg.norm(xi[:, :3], axis=1) < math.pi],
+                               atol=1e-7)
     np.testing.assert_allclose(lie.so3_log(rp), Rotation.from_matrix(rp).as_rotvec(), atol=1e-13)
 
 

@@ -214,15 +214,8 @@ class TestBadInput:
 
     @pytest.mark.parametrize(
         "fn",
-        [
-            dp.quat_normalize,
-            dp.quat_inv,
-            dp.quat_log,
-            dp.rotvec_from_quat,
-            dp.matrix_from_quat,
-            lambda q: dp.quat_rotate(q, [1, 2, 3]),
-            lambda q: dp.quat_pow(q, 0.5),
-        ],
+        [dp.quat_normalize, dp.quat_inv, dp.quat_log, dp.rotvec_from_quat, dp.matrix_from_quat,
+         lambda q: dp.quat_rotate(q, [1, 2, 3]), lambda q: dp.quat_pow(q, 0.5)],
     )
     def test_zero_quaternion_raises(self, fn):
         with pytest.raises(ValueError, match="must be a nonzero quaternion"):

@@ -262,3 +262,4 @@ def quat_integrate_body(q, w, dt, o):  # noqa: ANN001
     h = 0.5 * norm3(vx, vy, vz)
     f = 0.5 * sinc(h)
     o[0], o[1], o[2], o[3] = qmul(q[0], q[1], q[2], q[3], f * vx, f * vy, f * vz, math.cos(h))
+

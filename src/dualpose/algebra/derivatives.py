@@ -106,7 +106,9 @@ def omega_from_quat_derivative(q: ArrayLike, qdot: ArrayLike, frame: Frame = "sp
     return out
 
 
-def quat_second_derivative(q: ArrayLike, omega: ArrayLike, omega_dot: ArrayLike, frame: Frame = "space") -> np.ndarray:
+def quat_second_derivative(
+    q: ArrayLike, omega: ArrayLike, omega_dot: ArrayLike, frame: Frame = "space"
+) -> np.ndarray:
     """Second time derivative ``q̈ = ½ (ω̇ (x) q + ω (x) q̇)`` with ``q̇ = ½ ω (x) q`` (Dantam 2014 eq. (48)).
 
     In the body frame ``q̈ = ½ (q̇ (x) ω + q (x) ω̇)`` with ``q̇ = ½ q (x) ω``.  Both equal

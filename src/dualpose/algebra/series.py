@@ -110,7 +110,9 @@ def taylor_coefficients(name: str, n_terms: int) -> list[Fraction]:
     elif name == "jinv":
         b = _bernoulli(2 * n_terms + 2)
         # (x/2) cot(x/2) = sum_n (-1)^n B_2n x^2n / (2n)!  ;  jinv = (1 - that) / x^2
-        return [-Fraction((-1) ** m) * b[2 * m] / math.factorial(2 * m) for m in range(1, n_terms + 1)]
+        return [
+            -Fraction((-1) ** m) * b[2 * m] / math.factorial(2 * m) for m in range(1, n_terms + 1)
+        ]
     else:
         raise ValueError(f"unknown series {name!r}")
     coeffs = num[shift:]
