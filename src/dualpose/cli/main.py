@@ -17,6 +17,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "dualpose.cli.demo",
     "dualpose.cli.register",
     "dualpose.cli.reproduce",
+    "dualpose.cli.eval",
 )
 
 

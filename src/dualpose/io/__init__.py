@@ -1,6 +1,29 @@
-"""File readers and writers: BROAD IMU trials, point CSV files.  Import explicitly (``import dualpose.io``); ``import
-dualpose`` does not load this."""
+"""File formats: TUM trajectories, EuRoC IMU and ground-truth CSV, format detection, BROAD IMU trials.
+
+Point CSV files for ``dualpose register``: :mod:`dualpose.io.csv_points`.  Import explicitly; ``import dualpose``
+does not load this.
+
+Quaternions are returned xyzw (scalar last) whatever the file stores; EuRoC nanosecond timestamps are kept exact as
+int64.  Writers never replace an existing file unless ``overwrite=True``.
+"""
 
 from dualpose.io.broad import load_broad
+from dualpose.io.detect import detect_format, read_trajectory
+from dualpose.io.euroc import ImuData, read_euroc_groundtruth, read_euroc_imu, write_euroc_groundtruth, write_euroc_imu
+from dualpose.io.trajectory import Trajectory, seconds_from_ns
+from dualpose.io.tum import read_tum, write_tum
 
-__all__ = ["load_broad"]
+__all__ = [
+    "Trajectory",
+    "ImuData",
+    "seconds_from_ns",
+    "read_tum",
+    "write_tum",
+    "read_euroc_imu",
+    "write_euroc_imu",
+    "read_euroc_groundtruth",
+    "write_euroc_groundtruth",
+    "detect_format",
+    "read_trajectory",
+    "load_broad",
+]

@@ -1,0 +1,164 @@
+"""Least-squares similarity / rigid alignment of two point sets (Umeyama 1991), used to align trajectories.
+
+Umeyama, "Least-squares estimation of transformation parameters between two point patterns", IEEE PAMI 13(4),
+1991: the (s, R, t) minimising ``sum_i |y_i - (s R x_i + t)|^2`` (eq. 1) in closed form from the SVD of the
+cross-covariance (eqs. 38-43), with the reflection correction ``S`` that keeps ``det R = +1``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+import dualpose as dp
+
+__all__ = ["Alignment", "umeyama_alignment", "align_positions", "origin_alignment", "AlignMethod"]
+
+AlignMethod = Literal["se3", "sim3", "scale", "origin", "none"]
+
+
+@dataclass(frozen=True)
+class Alignment:
+    """A similarity transform ``x -> scale * rotation @ x + translation`` applied to an estimated trajectory.
+
+    Attributes
+    ----------
+    rotation : ndarray, shape (3, 3)
+        Proper rotation matrix (det +1).
+    translation : ndarray, shape (3,)
+        Metres.
+    scale : float
+        1 except for ``"sim3"`` and ``"scale"``.
+    method : {"se3", "sim3", "scale", "origin", "none"}
+    """
+
+    rotation: np.ndarray
+    translation: np.ndarray
+    scale: float
+    method: str
+
+    @property
+    def quat(self) -> np.ndarray:
+        """The rotation as a unit quaternion, shape (4,), xyzw."""
+        return dp.quat_from_matrix(self.rotation)
+
+    @property
+    def matrix(self) -> np.ndarray:
+        """The 4x4 homogeneous matrix ``[[s R, t], [0, 1]]``."""
+        m = np.eye(4)
+        m[:3, :3] = self.scale * self.rotation
+        m[:3, 3] = self.translation
+        return m
+
+    def apply(self, positions: ArrayLike, quats: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+        """Transform poses: ``p' = s R p + t`` and ``q' = q_R (x) q``.
+
+        ``positions`` (..., 3) metres, ``quats`` (..., 4) xyzw (norm kept).  Returns the new arrays.
+        """
+        p = np.asarray(positions, dtype=np.float64)
+        q = np.asarray(quats, dtype=np.float64)
+        return self.scale * (p @ self.rotation.T) + self.translation, dp.quat_mul(self.quat, q)
+
+    def as_dict(self) -> dict:
+        return {
+            "method": self.method,
+            "scale": float(self.scale),
+            "rotation": self.rotation.tolist(),
+            "translation": self.translation.tolist(),
+        }
+
+
+def umeyama_alignment(source: ArrayLike, target: ArrayLike, with_scale: bool = False) -> Alignment:
+    """The similarity (or rigid, ``with_scale=False``) transform taking ``source`` onto ``target`` in least squares.
+
+    Parameters
+    ----------
+    source, target : array_like, shape (N, 3)
+        Corresponding points (e.g. estimated and reference positions at matched times), N >= 3.
+    with_scale : bool
+        Estimate the scale too (Sim(3), Umeyama eq. 42); otherwise scale = 1 (SE(3)).
+
+    Returns
+    -------
+    Alignment
+        Minimiser of ``sum |target_i - (s R source_i + t)|^2``: ``R = U S V^T`` (eq. 40), ``s = tr(D S) / sigma_x^2``
+        (eq. 42), ``t = mu_y - s R mu_x`` (eq. 41).
+
+    Raises
+    ------
+    ValueError
+        For shapes other than (N, 3) with matching N, N < 3, non-finite input, or a degenerate configuration
+        (cross-covariance of rank < 2: all points (nearly) collinear or coincident, so the rotation is not unique).
+    """
+    x = np.asarray(source, dtype=np.float64)
+    y = np.asarray(target, dtype=np.float64)
+    if x.ndim != 2 or x.shape[1] != 3:
+        raise ValueError(f"source must have shape (N, 3); got shape {x.shape}")
+    if y.shape != x.shape:
+        raise ValueError(f"target must have the same shape as source {x.shape}; got shape {y.shape}")
+    n = x.shape[0]
+    if n < 3:
+        raise ValueError(f"alignment needs at least 3 corresponding points; got {n}")
+    if not (np.isfinite(x).all() and np.isfinite(y).all()):
+        raise ValueError("source and target must be finite")
+    mu_x, mu_y = x.mean(axis=0), y.mean(axis=0)
+    xc, yc = x - mu_x, y - mu_y
+    sigma2_x = float(np.einsum("ij,ij->", xc, xc)) / n  # eq. 36
+    cov = yc.T @ xc / n  # eq. 38, Sigma_xy
+    u, d, vt = np.linalg.svd(cov)
+    if d[1] <= max(d[0], 1e-300) * 1e-12:
+        raise ValueError(
+            f"alignment is degenerate: the cross-covariance has rank < 2 (singular values {d.tolist()}); "
+            "the points are (nearly) collinear or coincident"
+        )
+    s_diag = np.ones(3)
+    if np.linalg.det(u) * np.linalg.det(vt) < 0.0:  # eq. 43: reflection -> proper rotation
+        s_diag[2] = -1.0
+    rotation = (u * s_diag) @ vt
+    scale = float(np.dot(d, s_diag) / sigma2_x) if with_scale else 1.0
+    translation = mu_y - scale * (rotation @ mu_x)
+    return Alignment(rotation, translation, scale, "sim3" if with_scale else "se3")
+
+
+def align_positions(reference: ArrayLike, estimate: ArrayLike, method: AlignMethod = "se3") -> Alignment:
+    """The alignment of ``estimate`` (N, 3) onto ``reference`` (N, 3) from positions alone.
+
+    ``method``: ``"se3"`` (Umeyama, rigid), ``"sim3"`` (Umeyama with scale), ``"scale"`` (only the Umeyama Sim(3)
+    scale is applied, rotation and translation are left alone -- evo's ``--correct_scale`` without ``--align``) or
+    ``"none"`` (identity).  ``"origin"`` needs orientations: use :func:`origin_alignment`.
+    """
+    if method == "none":
+        return Alignment(np.eye(3), np.zeros(3), 1.0, "none")
+    if method == "scale":
+        return Alignment(np.eye(3), np.zeros(3), umeyama_alignment(estimate, reference, True).scale, "scale")
+    if method not in ("se3", "sim3"):
+        raise ValueError(f"method must be 'se3', 'sim3', 'scale' or 'none'; got {method!r}")
+    return umeyama_alignment(estimate, reference, with_scale=method == "sim3")
+
+
+def origin_alignment(
+    position_ref: ArrayLike, quat_ref: ArrayLike, position_est: ArrayLike, quat_est: ArrayLike
+) -> Alignment:
+    """The rigid transform that puts the estimate's first pose onto the reference's: ``T = T_ref,0 T_est,0^-1``.
+
+    Parameters
+    ----------
+    position_ref, position_est : array_like, shape (3,)
+        Metres.
+    quat_ref, quat_est : array_like, shape (4,)
+        xyzw, normalised here.
+
+    Returns
+    -------
+    Alignment
+        ``method="origin"``, scale 1: ``R = R_ref,0 R_est,0^T``, ``t = p_ref,0 - R p_est,0``.
+    """
+    p_ref, p_est = np.asarray(position_ref, dtype=np.float64), np.asarray(position_est, dtype=np.float64)
+    if p_ref.shape != (3,) or p_est.shape != (3,):
+        raise ValueError(f"positions must have shape (3,); got {p_ref.shape} and {p_est.shape}")
+    q = dp.quat_mul(dp.quat_normalize(quat_ref), dp.quat_conj(dp.quat_normalize(quat_est)))
+    rotation = dp.matrix_from_quat(q)
+    return Alignment(rotation, p_ref - rotation @ p_est, 1.0, "origin")

@@ -1,0 +1,74 @@
+"""TUM RGB-D trajectory files: one pose per line, ``t tx ty tz qx qy qz qw``.
+
+``t`` is in seconds, ``tx ty tz`` the position of the camera/body origin in the world frame (metres) and
+``qx qy qz qw`` its orientation body -> world, scalar last (Sturm et al. 2012, the TUM RGB-D benchmark format; the
+same layout as dualpose's xyzw quaternions).  Fields are separated by whitespace; lines starting with ``#`` are
+comments.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from dualpose.io._text import open_for_writing, parse_float_columns, read_table
+from dualpose.io.trajectory import Trajectory
+
+__all__ = ["read_tum", "write_tum"]
+
+_LAYOUT = "t tx ty tz qx qy qz qw"
+
+
+def read_tum(path: str | os.PathLike) -> Trajectory:
+    """Read a TUM trajectory file.
+
+    Returns
+    -------
+    Trajectory
+        ``stamps`` (N,) s, ``positions`` (N, 3) m, ``quats`` (N, 4) xyzw as written in the file (not normalised),
+        ``name`` = the path.
+
+    Raises
+    ------
+    ValueError
+        ``path:line: ...`` for a line without exactly 8 fields, a field that is not a finite number, or a zero
+        quaternion.
+    """
+    table = read_table(path, None, (8, 8), _LAYOUT)
+    data = parse_float_columns(table, slice(0, 8), _LAYOUT)
+    zero = ~(data[:, 4:8] != 0.0).any(axis=1)
+    if zero.any():
+        raise table.error(int(np.argmax(zero)), "zero quaternion (qx qy qz qw all 0)")
+    return Trajectory(data[:, 0], data[:, 1:4], data[:, 4:8], name=table.path)
+
+
+def write_tum(path: str | os.PathLike, trajectory: Trajectory, *, overwrite: bool = False, header: bool = True) -> None:
+    """Write ``trajectory`` as a TUM file.
+
+    Timestamps are written exactly: from ``stamps_ns`` as ``seconds.nanoseconds`` when present, otherwise with 17
+    significant digits (a float64 round trip is exact).  Positions and quaternions use 17 significant digits.
+
+    Parameters
+    ----------
+    path : path-like
+    trajectory : Trajectory
+    overwrite : bool
+        Replace an existing file; by default an existing file raises ``FileExistsError``.
+    header : bool
+        Write a ``# timestamp tx ty tz qx qy qz qw`` comment line first.
+    """
+    if not isinstance(trajectory, Trajectory):
+        raise TypeError(f"trajectory must be a dualpose.io.Trajectory; got {type(trajectory).__name__}")
+    if trajectory.stamps_ns is not None:
+        whole, frac = np.divmod(trajectory.stamps_ns, 1_000_000_000)
+        stamps = [f"{w}.{f:09d}" for w, f in zip(whole.tolist(), frac.tolist(), strict=True)]
+    else:
+        stamps = [f"{s:.17g}" for s in trajectory.stamps.tolist()]
+    body = np.hstack([trajectory.positions, trajectory.quats])
+    lines = [f"{s} " + " ".join(f"{v:.17g}" for v in row) for s, row in zip(stamps, body.tolist(), strict=True)]
+    with open_for_writing(path, overwrite) as f:
+        if header:
+            f.write("# timestamp tx ty tz qx qy qz qw\n")
+        f.write("\n".join(lines))
+        f.write("\n")
