@@ -68,7 +68,9 @@ def test_noise_free_imu_integrates_to_truth(eight: sim.Trajectory) -> None:
     """Second-order strapdown of the noise-free IMU converges to the truth (×10 rate ⇒ ≈ ×100 smaller error)."""
     errs = []
     for rate in (100.0, 1000.0):
-        run = sim.simulate(eight, seed=1, imu_noise=sim.ImuNoise(update_rate=rate).scaled(0.0), gravity_misalignment_deg=0.7)
+        run = sim.simulate(
+            eight, seed=1, imu_noise=sim.ImuNoise(update_rate=rate).scaled(0.0), gravity_misalignment_deg=0.7
+        )
         p, q = _dead_reckon(run)
         errs.append((np.abs(p - run.truth["position"]).max(), dp.quat_angle(q, run.truth["quat"]).max()))
     assert errs[1][0] < 2e-4 and errs[1][1] < 2e-6
@@ -131,7 +133,9 @@ def test_gravity_misalignment_rotates_gravity() -> None:
     ang = math.degrees(math.atan2(np.linalg.norm(np.cross(run.gravity, [0, 0, -1.0])), -run.gravity[2]))
     assert ang == pytest.approx(1.0)
     # at rest the accelerometer reads -g in the body frame
-    np.testing.assert_allclose(run.accel[0], dp.quat_rotate(dp.quat_conj(run.truth["quat"][0]), -run.gravity), atol=1e-12)
+    np.testing.assert_allclose(
+        run.accel[0], dp.quat_rotate(dp.quat_conj(run.truth["quat"][0]), -run.gravity), atol=1e-12
+    )
 
 
 def test_bad_arguments() -> None:

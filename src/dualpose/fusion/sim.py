@@ -473,8 +473,19 @@ def simulate(
         mag = dp.quat_rotate(dp.quat_conj(q_wb), mag_field) + rng.normal(0.0, magnetometer_sigma, (n, 3))
 
     frames = _make_frames(
-        trajectory, landmarks, camera, q_bc, p_bc, rng, camera_rate, camera_phase, pixel_sigma,
-        landmarks_per_frame, outlier_fraction, dropouts, time_offset,
+        trajectory,
+        landmarks,
+        camera,
+        q_bc,
+        p_bc,
+        rng,
+        camera_rate,
+        camera_phase,
+        pixel_sigma,
+        landmarks_per_frame,
+        outlier_fraction,
+        dropouts,
+        time_offset,
     )
     return SimulatedRun(
         t=t, gyro=gyro, accel=accel, mag=mag, truth=truth, frames=frames, camera=camera, q_bc=q_bc, p_bc=p_bc,
