@@ -359,8 +359,9 @@ class ErrorStateEKF:
         nis = np.full(len(pixels), np.nan)
         acc = np.zeros(len(pixels), np.int64)
         t0 = _time.perf_counter()
-        _k("run")(t, gyro, accel, cam_t, offsets, pixels, points, self.x, self.P, self.gravity, self.noise,
-                  self.intrinsics, self.q_bc, self.p_bc, self.pixel_sigma, self.gate, X, Ps, XF, PF, nis, acc)  # fmt: skip
+        cam = (self.intrinsics, self.q_bc, self.p_bc, self.pixel_sigma, self.gate)
+        _k("run")(t, gyro, accel, cam_t, offsets, pixels, points, self.x, self.P, self.gravity, self.noise, *cam,
+                  X, Ps, XF, PF, nis, acc)  # fmt: skip
         wall = _time.perf_counter() - t0
         self.time = float(t[-1])
         self._u = np.concatenate([gyro[-1], accel[-1]])

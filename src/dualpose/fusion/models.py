@@ -124,7 +124,7 @@ def magnetometer_model(x: np.ndarray, measurement: np.ndarray, field_w: np.ndarr
 
 
 def _rot_be_and_derivs(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``R^{be}`` of ``q^{be}`` (xyzw) as the quadratic form (equal to the rotation for unit q) and ``∂R/∂q_i`` (4, 3, 3)."""
+    """``R^{be}(q^{be})`` (xyzw) as the quadratic form (a rotation for unit q) and ``∂R/∂q_i`` (4, 3, 3)."""
     x, y, z, w = q
     R = np.array(
         [
