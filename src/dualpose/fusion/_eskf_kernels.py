@@ -266,8 +266,6 @@ def run(t, gyro, accel, cam_t, offsets, pixels, points, x, P, gravity, noise, in
     """
     n = t.shape[0]
     nf = cam_t.shape[0]
-    X[0] = x
-    Ps[0] = P
     j = 0
     while j < nf and cam_t[j] < t[0]:
         XF[j] = np.nan
@@ -279,6 +277,8 @@ def run(t, gyro, accel, cam_t, offsets, pixels, points, x, P, gravity, noise, in
         XF[j] = x
         PF[j] = P
         j += 1
+    X[0] = x
+    Ps[0] = P
     g_cur = np.empty(3)
     a_cur = np.empty(3)
     g_mid = np.empty(3)

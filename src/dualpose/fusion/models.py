@@ -97,15 +97,15 @@ def position_model(x: np.ndarray, position: np.ndarray) -> tuple[np.ndarray, np.
 def pose_model(x: np.ndarray, position: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Full pose ``(p, q_wb)`` measurement: residual ``[p_m − p̂, Log(q̂* ⊗ q_m)]`` (6,) and H (6, 15).
 
-    With the right attitude error, ``Log(q̂* ⊗ q̂ ⊗ Exp(δθ)) = δθ`` exactly, so ``H = [[I,0,0,0,0],[0,0,I,0,0]]``.
+    With the right attitude error, ``Log(Exp(−δθ) ⊗ Exp(r_θ)) ≈ r_θ − J_l⁻¹(r_θ) δθ``, so
+    ``H = [[I, 0, 0, 0, 0], [0, 0, J_l⁻¹(r_θ), 0, 0]]`` (the identity when the residual is small).
     """
     x = _state(x)
-    r = np.concatenate(
-        [np.asarray(position, float) - x[0:3], dp.rotvec_from_quat(dp.quat_mul(dp.quat_conj(x[6:10]), quat))]
-    )
+    r_theta = dp.rotvec_from_quat(dp.quat_mul(dp.quat_conj(x[6:10]), quat))
+    r = np.concatenate([np.asarray(position, float) - x[0:3], r_theta])
     H = np.zeros((6, 15))
     H[0:3, 0:3] = np.eye(3)
-    H[3:6, 6:9] = np.eye(3)
+    H[3:6, 6:9] = dp.so3_left_jacobian_inv(r_theta)
     return r, H
 
 
