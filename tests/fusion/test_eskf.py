@@ -117,3 +117,27 @@ def test_bad_input() -> None:
     f.propagate(1.0, np.zeros(3), [0, 0, 9.81])
     with pytest.raises(ValueError, match="older"):
         f.propagate(0.5, np.zeros(3), [0, 0, 9.81])
+
+
+def _realistic_filter(run: sim.SimulatedRun, **kw) -> eskf.ErrorStateEKF:  # noqa: ANN003
+    from dualpose.fusion import initialization, pnp
+
+    rest = run.t < 0.9
+    pix, pts = run.frames.frame(0)
+    first = pnp.solve_pnp(pix, pts, run.camera.matrix, pixel_sigma=run.pixel_sigma)
+    n = run.imu_noise
+    x, P0 = initialization.initial_state_from_rest_and_frame(
+        run.accel[rest], run.gyro[rest], first, run.q_bc, run.p_bc, n.gyroscope_noise_density,
+        n.accelerometer_initial_bias_sigma, n.update_rate,
+    )  # fmt: skip
+    return eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P0, gyro_bias=x[10:13], **kw)
+
+
+@pytest.mark.parametrize("seed", [10, 11])
+def test_eight_with_static_and_pnp_initialisation(seed: int) -> None:
+    """The whole pipeline without any truth: static alignment + first-frame PnP, then the filter."""
+    run = sim.simulate_eight(seed)
+    res = _realistic_filter(run).run_simulation(run)
+    pos_rmse, ori_rmse = _errors(run, res)
+    assert pos_rmse <= 0.01, pos_rmse
+    assert ori_rmse <= 0.5, ori_rmse

@@ -20,10 +20,17 @@ import math
 import numba as nb
 import numpy as np
 
-_jit = nb.njit(cache=True, fastmath=False, nogil=True)
+V, M, T = "f8[::1]", "f8[:,::1]", "f8[:,:,::1]"  # C-contiguous (the Python wrappers ensure it)
+VA, MA = "f8[:]", "f8[:,:]"  # any layout: slices written element by element
 
 
-@_jit
+def _jit(sig: str):  # noqa: ANN202
+    """Eager compilation (explicit signature) so that importing this module compiles or loads every kernel, as
+    the cache-freshness stamps of :mod:`dualpose._kernel_cache` expect."""
+    return nb.njit(sig, cache=True, nogil=True)
+
+
+@_jit(f"void(f8, f8, f8, f8, {MA})")
 def rotmat(qx, qy, qz, qw, out):  # noqa: ANN001, ANN201
     """Rotation matrix of a unit quaternion (xyzw), written to ``out`` (3, 3)."""
     out[0, 0] = 1.0 - 2.0 * (qy * qy + qz * qz)
@@ -37,7 +44,7 @@ def rotmat(qx, qy, qz, qw, out):  # noqa: ANN001, ANN201
     out[2, 2] = 1.0 - 2.0 * (qx * qx + qy * qy)
 
 
-@_jit
+@_jit(f"void({VA}, f8, f8, f8)")
 def quat_mul_exp_inplace(q, rx, ry, rz):  # noqa: ANN001, ANN201
     """``q ← normalize(q ⊗ Exp(r))`` for a rotation vector ``r`` (radians); ``q`` is a (4,) slice, xyzw."""
     a2 = rx * rx + ry * ry + rz * rz
@@ -58,7 +65,7 @@ def quat_mul_exp_inplace(q, rx, ry, rz):  # noqa: ANN001, ANN201
     q[0], q[1], q[2], q[3] = x / n, y / n, z / n, w / n
 
 
-@_jit
+@_jit(f"void({V}, {M}, {V}, {V}, f8, {V}, {V})")
 def predict(x, P, gyro, accel, dt, gravity, noise):  # noqa: ANN001, ANN201
     """Propagate nominal state and covariance over ``dt`` with constant IMU input (Solà eq. 260, 269-270).
 
@@ -108,7 +115,7 @@ def predict(x, P, gyro, accel, dt, gravity, noise):  # noqa: ANN001, ANN201
         P[12 + i, 12 + i] += noise[3] * dt
 
 
-@_jit
+@_jit(f"f8({V}, {V}, {V}, {V}, {VA}, {VA}, {VA}, {MA})")
 def camera_residual_jacobian(x, intr, q_bc, p_bc, pixel, point, r, H):  # noqa: ANN001, ANN201
     """Reprojection residual ``r = pixel − π(R_bcᵀ(R_wbᵀ(z − p) − p_bc))`` (2,) and ``H = ∂π/∂δx`` (2, 15).
 
@@ -147,14 +154,14 @@ def camera_residual_jacobian(x, intr, q_bc, p_bc, pixel, point, r, H):  # noqa: 
     return Z
 
 
-@_jit
+@_jit(f"void({V}, {V}, {V}, {V}, {M}, {M}, {M}, {T}, {V})")
 def camera_batch(x, intr, q_bc, p_bc, pixels, points, r, H, depth):  # noqa: ANN001, ANN201
     """:func:`camera_residual_jacobian` for every row: ``r`` (M, 2), ``H`` (M, 2, 15), ``depth`` (M,)."""
     for m in range(pixels.shape[0]):
         depth[m] = camera_residual_jacobian(x, intr, q_bc, p_bc, pixels[m], points[m], r[m], H[m])
 
 
-@_jit
+@_jit(f"void({V}, {M}, {V})")
 def inject_reset(x, P, dx):  # noqa: ANN001, ANN201
     """Inject ``δx`` into the nominal state and apply the reset Jacobian ``G`` (Solà eq. 285-287): P ← G P Gᵀ."""
     for i in range(6):
@@ -171,7 +178,7 @@ def inject_reset(x, P, dx):  # noqa: ANN001, ANN201
     P[:, :] = GP @ G.T
 
 
-@_jit
+@_jit(f"void({M}, {M}, {M}, {M})")
 def joseph(P, K, H, R):  # noqa: ANN001, ANN201
     """Joseph-form covariance update ``P ← (I − K H) P (I − K H)ᵀ + K R Kᵀ`` in place."""
     A = np.eye(P.shape[0]) - K @ H
@@ -185,7 +192,7 @@ def joseph(P, K, H, R):  # noqa: ANN001, ANN201
             P[j, i] = s
 
 
-@_jit
+@_jit(f"i8({V}, {M}, {V}, {V}, {V}, {M}, {M}, f8, f8, {V}, i8[:])")
 def update_points(x, P, intr, q_bc, p_bc, pixels, points, sigma_px, gate, nis_out, accepted_out):  # noqa: ANN001, ANN201
     """Sequential χ²-gated update with the point correspondences of one frame.
 
@@ -241,7 +248,7 @@ def update_points(x, P, intr, q_bc, p_bc, pixels, points, sigma_px, gate, nis_ou
     return n_acc
 
 
-@_jit
+@_jit(f"f8({V}, {M}, {V}, {M}, {M})")
 def update_dense(x, P, r, H, R):  # noqa: ANN001, ANN201
     """Batch update with residual ``r`` (m,), Jacobian ``H`` (m, 15), noise ``R`` (m, m); returns the NIS."""
     S = H @ P @ H.T + R
@@ -254,7 +261,10 @@ def update_dense(x, P, r, H, R):  # noqa: ANN001, ANN201
     return nis
 
 
-@_jit
+@_jit(
+    f"void({V}, {M}, {M}, {V}, i8[:], {M}, {M}, {V}, {M}, {V}, {V}, {V}, {V}, {V}, f8, f8, "
+    f"{M}, {T}, {M}, {T}, {V}, i8[:])"
+)
 def run(t, gyro, accel, cam_t, offsets, pixels, points, x, P, gravity, noise, intr, q_bc, p_bc, sigma_px, gate,
         X, Ps, XF, PF, nis_out, accepted_out):  # noqa: ANN001, ANN201  # fmt: skip
     """Filter a whole stream.  IMU samples ``t`` (N,), camera times ``cam_t`` (F,) already on the IMU clock.

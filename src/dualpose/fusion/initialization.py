@@ -13,7 +13,7 @@ import numpy as np
 import dualpose as dp
 from dualpose.fusion.pnp import PnPResult
 
-__all__ = ["StaticAlignment", "static_alignment", "body_pose_from_camera"]
+__all__ = ["StaticAlignment", "static_alignment", "body_pose_from_camera", "initial_state_from_rest_and_frame"]
 
 
 @dataclass
@@ -91,3 +91,33 @@ def body_pose_from_camera(
     J[0:3, 0:3] = R_wb @ dp.so3_hat(p_bc) @ R_bc
     cov = J @ pnp.covariance @ J.T
     return p_wb, q_wb, 0.5 * (cov + cov.T)
+
+
+def initial_state_from_rest_and_frame(
+    accel_rest: np.ndarray,
+    gyro_rest: np.ndarray,
+    pnp: PnPResult,
+    q_bc: np.ndarray,
+    p_bc: np.ndarray,
+    gyroscope_noise_density: float,
+    accelerometer_initial_bias_sigma: float,
+    rate: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Error-state-filter start ``(x (16,), P0 (15, 15))`` for a sensor at rest seeing the scene.
+
+    Pose from the first-frame PnP (its covariance), zero velocity (σ 1 mm/s), gyro bias = mean gyro at rest
+    (σ = noise density / √T_rest), accelerometer bias 0 with its turn-on σ (at rest it is not separable from tilt).
+    """
+    al = static_alignment(accel_rest, gyro_rest)
+    p_wb, q_wb, cov = body_pose_from_camera(pnp, q_bc, p_bc)
+    x = np.concatenate([p_wb, np.zeros(3), q_wb, al.gyro_bias, np.zeros(3)])
+    P = np.zeros((15, 15))
+    P[0:3, 0:3] = cov[0:3, 0:3]
+    P[0:3, 6:9] = cov[0:3, 3:6]
+    P[6:9, 0:3] = cov[3:6, 0:3]
+    P[6:9, 6:9] = cov[3:6, 3:6]
+    P[3:6, 3:6] = np.eye(3) * 1e-3**2
+    t_rest = al.n_samples / rate
+    P[9:12, 9:12] = np.eye(3) * (gyroscope_noise_density**2 / t_rest + 1e-4**2)
+    P[12:15, 12:15] = np.eye(3) * accelerometer_initial_bias_sigma**2
+    return x, P
