@@ -31,7 +31,7 @@ def _jit(sig: str):  # noqa: ANN202
 
 
 @_jit(f"void(f8, f8, f8, f8, {MA})")
-def rotmat(qx, qy, qz, qw, out):  # noqa: ANN001, ANN201
+def _rotmat_xyzw(qx, qy, qz, qw, out):  # noqa: ANN001, ANN201
     """Rotation matrix of a unit quaternion (xyzw), written to ``out`` (3, 3)."""
     out[0, 0] = 1.0 - 2.0 * (qy * qy + qz * qz)
     out[0, 1] = 2.0 * (qx * qy - qz * qw)
@@ -72,7 +72,7 @@ def predict(x, P, gyro, accel, dt, gravity, noise):  # noqa: ANN001, ANN201
     ``gyro`` (3,) rad/s and ``accel`` (3,) m/s² are the (held or averaged) measurements over the step.
     """
     R = np.empty((3, 3))
-    rotmat(x[6], x[7], x[8], x[9], R)
+    _rotmat_xyzw(x[6], x[7], x[8], x[9], R)
     wx, wy, wz = gyro[0] - x[10], gyro[1] - x[11], gyro[2] - x[12]
     ab = np.empty(3)
     for i in range(3):
@@ -95,7 +95,7 @@ def predict(x, P, gyro, accel, dt, gravity, noise):  # noqa: ANN001, ANN201
     dq = np.array([0.0, 0.0, 0.0, 1.0])
     quat_mul_exp_inplace(dq, wx * dt, wy * dt, wz * dt)
     Rw = np.empty((3, 3))
-    rotmat(dq[0], dq[1], dq[2], dq[3], Rw)
+    _rotmat_xyzw(dq[0], dq[1], dq[2], dq[3], Rw)
     for i in range(3):
         for j in range(3):
             F[6 + i, 6 + j] = Rw[j, i]
@@ -122,9 +122,9 @@ def camera_residual_jacobian(x, intr, q_bc, p_bc, pixel, point, r, H):  # noqa: 
     Returns the depth Z of the point in the camera frame (the model is valid only for Z > 0).
     """
     R = np.empty((3, 3))
-    rotmat(x[6], x[7], x[8], x[9], R)
+    _rotmat_xyzw(x[6], x[7], x[8], x[9], R)
     Rbc = np.empty((3, 3))
-    rotmat(q_bc[0], q_bc[1], q_bc[2], q_bc[3], Rbc)
+    _rotmat_xyzw(q_bc[0], q_bc[1], q_bc[2], q_bc[3], Rbc)
     d = np.empty(3)
     for i in range(3):
         d[i] = point[i] - x[i]
