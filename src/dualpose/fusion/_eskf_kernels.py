@@ -77,9 +77,6 @@ def predict(x, P, gyro, accel, dt, gravity, noise):  # noqa: ANN001, ANN201
     ab = np.empty(3)
     for i in range(3):
         ab[i] = accel[i] - x[13 + i]
-    aw = R @ ab
-    for i in range(3):
-        aw[i] += gravity[i]
     # --- error-state transition F (Solà eq. 269), written sparsely
     F = np.eye(15)
     for i in range(3):
@@ -100,11 +97,16 @@ def predict(x, P, gyro, accel, dt, gravity, noise):  # noqa: ANN001, ANN201
         for j in range(3):
             F[6 + i, 6 + j] = Rw[j, i]
         F[6 + i, 9 + i] = -dt
-    # --- nominal state
+    # --- nominal state; the specific force is rotated with the mean of the start and end attitudes (trapezoid),
+    # which removes the first-order error ½ ω × a dt² per step of using the start attitude alone
+    quat_mul_exp_inplace(x[6:10], wx * dt, wy * dt, wz * dt)
+    R1 = np.empty((3, 3))
+    _rotmat_xyzw(x[6], x[7], x[8], x[9], R1)
+    aw = 0.5 * ((R + R1) @ ab)
     for i in range(3):
+        aw[i] += gravity[i]
         x[i] += x[3 + i] * dt + 0.5 * aw[i] * dt * dt
         x[3 + i] += aw[i] * dt
-    quat_mul_exp_inplace(x[6:10], wx * dt, wy * dt, wz * dt)
     # --- covariance: P = F P Fᵀ + Q
     FP = F @ P
     P[:, :] = FP @ F.T
