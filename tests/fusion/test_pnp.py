@@ -93,3 +93,31 @@ def test_pnp_bad_input() -> None:
         pnp.solve_pnp(np.zeros((5, 2)), np.zeros((5, 3)), np.eye(3))
     with pytest.raises(ValueError, match="points must"):
         pnp.solve_pnp(np.zeros((8, 2)), np.zeros((7, 3)), np.eye(3))
+
+
+def test_ransac_pnp_with_gross_outliers() -> None:
+    run = sim.simulate_eight(8, outlier_fraction=0.25, pixel_sigma=1.0)
+    f = run.frames
+    for k in (0, 20, 50):
+        pix, pts = f.frame(k)
+        out = f.outlier[f.offsets[k] : f.offsets[k + 1]]
+        res, inl = pnp.solve_pnp_ransac(pix, pts, run.camera.matrix)
+        assert not np.any(inl & out)  # no gross outlier kept
+        assert np.mean(inl[~out]) > 0.9
+        q_wc, c_w = _truth_camera(run, k)
+        e = np.concatenate([dp.rotvec_from_quat(dp.quat_mul(dp.quat_conj(res.q_wc), q_wc)), c_w - res.c_w])
+        assert e @ np.linalg.solve(res.covariance, e) < 22.5  # χ²(6) 99.9 %: within its own covariance
+        assert np.linalg.norm(res.c_w - c_w) < 0.08
+
+
+def test_coplanar_points_use_the_homography_path() -> None:
+    clean = sim.simulate_eight(2, pixel_sigma=0.0)
+    for k in range(0, len(clean.frames), 3):
+        pix, pts = clean.frames.frame(k)
+        wall = np.abs(pts[:, 1]) < 1e-12  # landmarks on the wall plane y = 0
+        if wall.sum() < 6:
+            continue
+        q_wc, c_w = _truth_camera(clean, k)
+        R, t = pnp.pnp_dlt(pix[wall], pts[wall], clean.camera.matrix)
+        np.testing.assert_allclose(R.T, dp.matrix_from_quat(q_wc), atol=1e-8)
+        np.testing.assert_allclose(-R.T @ t, c_w, atol=1e-8)

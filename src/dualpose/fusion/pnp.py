@@ -18,7 +18,7 @@ import numpy as np
 
 import dualpose as dp
 
-__all__ = ["PnPResult", "pnp_dlt", "pnp_refine", "solve_pnp"]
+__all__ = ["PnPResult", "pnp_dlt", "pnp_refine", "solve_pnp", "solve_pnp_ransac"]
 
 
 @dataclass
@@ -50,10 +50,30 @@ def _check(pixels: np.ndarray, points: np.ndarray, K: np.ndarray) -> tuple[np.nd
 
 
 def pnp_dlt(pixels: np.ndarray, points: np.ndarray, K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Linear PnP: returns ``(R_cw (3, 3), t (3,))`` with ``X_c = R_cw X_w + t``."""
+    """Linear PnP: returns ``(R_cw (3, 3), t (3,))`` with ``X_c = R_cw X_w + t``.
+
+    Non-coplanar points: 12-unknown DLT.  When the points are close to a plane (smallest/largest spread < 0.2,
+    e.g. a frame seeing mostly one of two walls) the plane-homography solution is computed as well and the
+    candidate with the lower reprojection error is returned; exactly coplanar points use the homography only.
+    """
     pixels, points, K = _check(pixels, points, K)
     xn = np.linalg.solve(K, np.column_stack([pixels, np.ones(len(pixels))]).T).T[:, :2]
     mu = points.mean(axis=0)
+    _, sv_pts, vt_pts = np.linalg.svd(points - mu, full_matrices=False)
+    flatness = sv_pts[2] / sv_pts[0]
+    candidates = []
+    if flatness > 1e-3:
+        try:
+            candidates.append(_general_dlt(xn, points, mu))
+        except ValueError:
+            pass
+    if flatness < 0.2 or not candidates:
+        candidates.append(_planar_dlt(xn, points, mu, vt_pts))
+    costs = [np.sum(_residuals(R, t, pixels, points, K)[0] ** 2) for R, t in candidates]
+    return candidates[int(np.nanargmin(costs))]
+
+
+def _general_dlt(xn: np.ndarray, points: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     s = np.sqrt(3.0) / np.mean(np.linalg.norm(points - mu, axis=1))
     Xh = np.column_stack([(points - mu) * s, np.ones(len(points))])
     m = len(points)
@@ -64,25 +84,45 @@ def pnp_dlt(pixels: np.ndarray, points: np.ndarray, K: np.ndarray) -> tuple[np.n
     A[1::2, 8:12] = -xn[:, 1:2] * Xh
     _, _, vt = np.linalg.svd(A)
     Pm = vt[-1].reshape(3, 4)
+    if np.mean(Xh @ Pm[2]) < 0:  # P is defined up to sign: put the points in front of the camera
+        Pm = -Pm
     # undo the point normalisation: X' = s (X − mu)
     M = Pm[:, :3] * s
     t = Pm[:, 3] - M @ mu
     u, sv, vt2 = np.linalg.svd(M)
     R = u @ vt2
-    scale = sv.mean()
     if np.linalg.det(R) < 0:
-        R, scale = -R, -scale
-    t = t / scale
-    if np.mean(points @ R[2] + t[2]) < 0:  # points must lie in front; flip the overall sign
-        R, t = -R, -t
-        if np.linalg.det(R) < 0:  # pragma: no cover - the sign flip above keeps det(R) = +1 for 3x3
-            raise ValueError("DLT failed: degenerate configuration")
-    return R, t
+        raise ValueError("DLT failed: degenerate or inconsistent correspondences (reflection)")
+    return R, t / sv.mean()
+
+
+def _planar_dlt(xn: np.ndarray, points: np.ndarray, mu: np.ndarray, vt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pose from a plane-to-image homography (Zhang 2000 §2-3): ``H ∝ [r1 r2 t]`` in plane coordinates."""
+    B = vt.T.copy()  # columns: in-plane axes e1, e2 and the normal
+    B[:, 2] = np.cross(B[:, 0], B[:, 1])
+    uv = (points - mu) @ B[:, :2]
+    sc = np.sqrt(2.0) / np.mean(np.linalg.norm(uv, axis=1))
+    U = np.column_stack([uv * sc, np.ones(len(uv))])
+    m = len(uv)
+    A = np.zeros((2 * m, 9))
+    A[0::2, 0:3] = U
+    A[0::2, 6:9] = -xn[:, :1] * U
+    A[1::2, 3:6] = U
+    A[1::2, 6:9] = -xn[:, 1:2] * U
+    Hm = np.linalg.svd(A)[2][-1].reshape(3, 3) @ np.diag([sc, sc, 1.0])
+    lam = 2.0 / (np.linalg.norm(Hm[:, 0]) + np.linalg.norm(Hm[:, 1]))
+    if Hm[2, 2] * lam < 0:  # the plane origin must be in front of the camera
+        lam = -lam
+    r1, r2, tp = lam * Hm[:, 0], lam * Hm[:, 1], lam * Hm[:, 2]
+    u, _, vt2 = np.linalg.svd(np.column_stack([r1, r2, np.cross(r1, r2)]))
+    Rp = u @ np.diag([1.0, 1.0, np.linalg.det(u @ vt2)]) @ vt2
+    R = Rp @ B.T
+    return R, tp - R @ mu
 
 
 def _residuals(R: np.ndarray, t: np.ndarray, pixels: np.ndarray, points: np.ndarray, K: np.ndarray):
     pc = points @ R.T + t
-    z = pc[:, 2]
+    z = np.where(np.abs(pc[:, 2]) > 1e-12, pc[:, 2], 1e-12)  # RANSAC candidates may put a point on the plane Z = 0
     fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
     pred = np.column_stack([fx * pc[:, 0] / z + cx, fy * pc[:, 1] / z + cy])
     return pixels - pred, pc
@@ -152,3 +192,41 @@ def solve_pnp(
         rms_px=float(np.sqrt(np.mean(r**2))),
         iterations=its,
     )
+
+
+def solve_pnp_ransac(
+    pixels: np.ndarray,
+    points: np.ndarray,
+    K: np.ndarray,
+    pixel_sigma: float = 1.0,
+    threshold_px: float = 6.0,
+    iterations: int = 200,
+    seed: int = 0,
+) -> tuple[PnPResult, np.ndarray]:
+    """Robust PnP: RANSAC over minimal 6-point DLT samples (seeded), then :func:`solve_pnp` on the largest consensus
+    set (reprojection error < ``threshold_px``).  Returns the result and the inlier mask (M,)."""
+    pixels, points, K = _check(pixels, points, K)
+    rng = np.random.default_rng(seed)
+    m = len(pixels)
+    best = np.zeros(m, bool)
+    for _ in range(iterations):
+        idx = rng.choice(m, 6, replace=False)
+        try:
+            R, t = pnp_dlt(pixels[idx], points[idx], K)
+        except (ValueError, np.linalg.LinAlgError):
+            continue
+        r, pc = _residuals(R, t, pixels, points, K)
+        inl = (np.linalg.norm(r, axis=1) < threshold_px) & (pc[:, 2] > 0)
+        if inl.sum() > best.sum():
+            best = inl
+            if best.all():
+                break
+    if best.sum() < 6:
+        raise ValueError(f"RANSAC found no consensus of >= 6 correspondences (best {int(best.sum())} of {m})")
+    res = solve_pnp(pixels[best], points[best], K, pixel_sigma=pixel_sigma)
+    R = dp.matrix_from_quat(res.q_wc).T
+    r, _ = _residuals(R, -R @ res.c_w, pixels, points, K)
+    inliers = np.linalg.norm(r, axis=1) < threshold_px
+    if inliers.sum() > best.sum():
+        res = solve_pnp(pixels[inliers], points[inliers], K, pixel_sigma=pixel_sigma)
+    return res, inliers
