@@ -194,6 +194,35 @@ def joseph(P, K, H, R):  # noqa: ANN001, ANN201
             P[j, i] = s
 
 
+@_jit(f"void({M}, {MA}, {MA}, f8)")
+def joseph_2d(P, K, H, s2):  # noqa: ANN001, ANN201
+    """Joseph update for a 2-row measurement with noise ``s2 I₂``, without forming ``I − K H``:
+    ``B = P − K (H P)``, ``P ← B − (B Hᵀ) Kᵀ + s2 K Kᵀ`` (= (I − KH) P (I − KH)ᵀ + K R Kᵀ), symmetrised."""
+    n = P.shape[0]
+    HP = np.zeros((2, n))
+    for i in range(2):
+        for k in range(n):
+            h = H[i, k]
+            if h != 0.0:
+                for j in range(n):
+                    HP[i, j] += h * P[k, j]
+    for i in range(n):
+        for j in range(n):
+            P[i, j] -= K[i, 0] * HP[0, j] + K[i, 1] * HP[1, j]
+    C = np.zeros((n, 2))
+    for i in range(n):
+        for k in range(n):
+            pik = P[i, k]
+            C[i, 0] += pik * H[0, k]
+            C[i, 1] += pik * H[1, k]
+    for i in range(n):
+        for j in range(i, n):
+            v = P[i, j] - C[i, 0] * K[j, 0] - C[i, 1] * K[j, 1] + s2 * (K[i, 0] * K[j, 0] + K[i, 1] * K[j, 1])
+            w = P[j, i] - C[j, 0] * K[i, 0] - C[j, 1] * K[i, 1] + s2 * (K[j, 0] * K[i, 0] + K[j, 1] * K[i, 1])
+            P[i, j] = 0.5 * (v + w)
+            P[j, i] = P[i, j]
+
+
 @_jit(f"i8({V}, {M}, {V}, {V}, {V}, {M}, {M}, f8, f8, {V}, i8[:])")
 def update_points(x, P, intr, q_bc, p_bc, pixels, points, sigma_px, gate, nis_out, accepted_out):  # noqa: ANN001, ANN201
     """Sequential χ²-gated update with the point correspondences of one frame.
@@ -243,7 +272,7 @@ def update_points(x, P, intr, q_bc, p_bc, pixels, points, sigma_px, gate, nis_ou
             continue
         K = PHt @ Si
         dx += K @ nu
-        joseph(P, K, Hk, Rm)
+        joseph_2d(P, K, Hk, s2)
         accepted_out[k] = 1
         n_acc += 1
     inject_reset(x, P, dx)
