@@ -141,3 +141,22 @@ def test_eight_with_static_and_pnp_initialisation(seed: int) -> None:
     pos_rmse, ori_rmse = _errors(run, res)
     assert pos_rmse <= 0.01, pos_rmse
     assert ori_rmse <= 0.5, ori_rmse
+
+
+def test_magnetometer_updates_remove_the_observable_attitude_error() -> None:
+    """A magnetometer observes rotations perpendicular to the field: after updates at rest, a 5° yaw error is left
+    only along the field direction (rotation about the field is unobservable from it)."""
+    run = sim.simulate_eight(6, magnetometer_sigma=0.01)
+    tr = run.truth
+    q0 = dp.quat_mul(dp.quat_from_rotvec([0.0, 0.0, np.radians(5.0)]), tr["quat"][0])  # world-z (yaw) error
+    P0 = eskf.initial_covariance(attitude_sigma=np.radians(10.0), imu_noise=run.imu_noise)
+    f = eskf.ErrorStateEKF.for_run(run, tr["position"][0], tr["velocity"][0], q0, P0)
+    nis = []
+    for k in range(80):  # 0.8 s at rest, no camera
+        f.propagate(run.t[k], run.gyro[k], run.accel[k])
+        nis.append(f.update_magnetometer(run.mag[k], run.magnetic_field, 0.01**2))
+    err_w = dp.rotvec_from_quat(dp.quat_mul(tr["quat"][79], dp.quat_conj(f.quat)))  # world-frame error
+    m_hat = run.magnetic_field / np.linalg.norm(run.magnetic_field)
+    assert np.degrees(np.linalg.norm(np.cross(err_w, m_hat))) < 0.3
+    assert np.degrees(np.linalg.norm(err_w)) > 1.0  # the part along the field stays
+    assert np.mean(nis[20:]) < 6.0  # χ²(3) mean 3
