@@ -15,6 +15,7 @@ KERNEL_MODULES = (
     "dualpose.algebra._lie_kernels",
     "dualpose.registration._kernels",
     "dualpose.inertial._fold_kernels",
+    "dualpose.fusion._eskf_kernels",
 )
 
 

@@ -1,0 +1,232 @@
+"""Camera pose from 2-D–3-D point correspondences (PnP): normalised DLT + Gauss–Newton reprojection refinement.
+
+Conventions: the result is the camera pose in the world, ``q_wc`` (4,) xyzw (camera→world, active) and the camera
+centre ``c_w`` (3,) metres; internally the world→camera map ``X_c = R_cw X_w + t`` is estimated.  Pixels ``(M, 2)``,
+points ``(M, 3)`` world frame, intrinsic matrix ``K`` (3, 3) without distortion.
+
+The linear stage is the classic 12-unknown DLT on normalised image coordinates (Hartley & Zisserman §7.1) with
+Hartley normalisation of the 3-D points; it needs ≥ 6 non-coplanar points (the two-plane scene is fine).  The
+rotation block is projected onto SO(3) (SVD) and the scale fixed from it; Gauss–Newton then minimises the pixel
+reprojection error over ``(δφ, δt)`` with the left perturbation ``R ← Exp(δφ) R``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+import dualpose as dp
+
+__all__ = ["PnPResult", "pnp_dlt", "pnp_refine", "solve_pnp", "solve_pnp_ransac"]
+
+
+@dataclass
+class PnPResult:
+    """Camera pose ``q_wc`` (4,) xyzw, centre ``c_w`` (3,) m; ``covariance`` (6, 6) of the world-frame
+    ``[δθ_c, δc]`` (camera rotation error in the camera frame, centre error in the world frame) from the
+    Gauss–Newton normal matrix and ``pixel_sigma``; ``rms_px`` the final reprojection RMS; ``iterations``."""
+
+    q_wc: np.ndarray
+    c_w: np.ndarray
+    covariance: np.ndarray
+    rms_px: float
+    iterations: int
+
+
+def _check(pixels: np.ndarray, points: np.ndarray, K: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    pixels = np.asarray(pixels, dtype=np.float64)
+    points = np.asarray(points, dtype=np.float64)
+    K = np.asarray(K, dtype=np.float64)
+    if pixels.ndim != 2 or pixels.shape[1] != 2:
+        raise ValueError(f"pixels must have shape (M, 2); got {pixels.shape}")
+    if points.shape != (len(pixels), 3):
+        raise ValueError(f"points must have shape ({len(pixels)}, 3) to match pixels; got {points.shape}")
+    if K.shape != (3, 3):
+        raise ValueError(f"K must have shape (3, 3); got {K.shape}")
+    if len(pixels) < 6:
+        raise ValueError(f"PnP (DLT) needs at least 6 correspondences; got {len(pixels)}")
+    return pixels, points, K
+
+
+def pnp_dlt(pixels: np.ndarray, points: np.ndarray, K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Linear PnP: returns ``(R_cw (3, 3), t (3,))`` with ``X_c = R_cw X_w + t``.
+
+    Non-coplanar points: 12-unknown DLT.  When the points are close to a plane (smallest/largest spread < 0.2,
+    e.g. a frame seeing mostly one of two walls) the plane-homography solution is computed as well and the
+    candidate with the lower reprojection error is returned; exactly coplanar points use the homography only.
+    """
+    pixels, points, K = _check(pixels, points, K)
+    xn = np.linalg.solve(K, np.column_stack([pixels, np.ones(len(pixels))]).T).T[:, :2]
+    mu = points.mean(axis=0)
+    _, sv_pts, vt_pts = np.linalg.svd(points - mu, full_matrices=False)
+    flatness = sv_pts[2] / sv_pts[0]
+    candidates = []
+    if flatness > 1e-3:
+        try:
+            candidates.append(_general_dlt(xn, points, mu))
+        except ValueError:
+            pass
+    if flatness < 0.2 or not candidates:
+        candidates.append(_planar_dlt(xn, points, mu, vt_pts))
+    costs = [np.sum(_residuals(R, t, pixels, points, K)[0] ** 2) for R, t in candidates]
+    return candidates[int(np.nanargmin(costs))]
+
+
+def _general_dlt(xn: np.ndarray, points: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    s = np.sqrt(3.0) / np.mean(np.linalg.norm(points - mu, axis=1))
+    Xh = np.column_stack([(points - mu) * s, np.ones(len(points))])
+    m = len(points)
+    A = np.zeros((2 * m, 12))
+    A[0::2, 0:4] = Xh
+    A[0::2, 8:12] = -xn[:, :1] * Xh
+    A[1::2, 4:8] = Xh
+    A[1::2, 8:12] = -xn[:, 1:2] * Xh
+    _, _, vt = np.linalg.svd(A)
+    Pm = vt[-1].reshape(3, 4)
+    if np.mean(Xh @ Pm[2]) < 0:  # P is defined up to sign: put the points in front of the camera
+        Pm = -Pm
+    # undo the point normalisation: X' = s (X − mu)
+    M = Pm[:, :3] * s
+    t = Pm[:, 3] - M @ mu
+    u, sv, vt2 = np.linalg.svd(M)
+    R = u @ vt2
+    if np.linalg.det(R) < 0:
+        raise ValueError("DLT failed: degenerate or inconsistent correspondences (reflection)")
+    return R, t / sv.mean()
+
+
+def _planar_dlt(xn: np.ndarray, points: np.ndarray, mu: np.ndarray, vt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pose from a plane-to-image homography (Zhang 2000 §2-3): ``H ∝ [r1 r2 t]`` in plane coordinates."""
+    B = vt.T.copy()  # columns: in-plane axes e1, e2 and the normal
+    B[:, 2] = np.cross(B[:, 0], B[:, 1])
+    uv = (points - mu) @ B[:, :2]
+    sc = np.sqrt(2.0) / np.mean(np.linalg.norm(uv, axis=1))
+    U = np.column_stack([uv * sc, np.ones(len(uv))])
+    m = len(uv)
+    A = np.zeros((2 * m, 9))
+    A[0::2, 0:3] = U
+    A[0::2, 6:9] = -xn[:, :1] * U
+    A[1::2, 3:6] = U
+    A[1::2, 6:9] = -xn[:, 1:2] * U
+    Hm = np.linalg.svd(A)[2][-1].reshape(3, 3) @ np.diag([sc, sc, 1.0])
+    lam = 2.0 / (np.linalg.norm(Hm[:, 0]) + np.linalg.norm(Hm[:, 1]))
+    if Hm[2, 2] * lam < 0:  # the plane origin must be in front of the camera
+        lam = -lam
+    r1, r2, tp = lam * Hm[:, 0], lam * Hm[:, 1], lam * Hm[:, 2]
+    u, _, vt2 = np.linalg.svd(np.column_stack([r1, r2, np.cross(r1, r2)]))
+    Rp = u @ np.diag([1.0, 1.0, np.linalg.det(u @ vt2)]) @ vt2
+    R = Rp @ B.T
+    return R, tp - R @ mu
+
+
+def _residuals(R: np.ndarray, t: np.ndarray, pixels: np.ndarray, points: np.ndarray, K: np.ndarray):
+    pc = points @ R.T + t
+    z = np.where(np.abs(pc[:, 2]) > 1e-12, pc[:, 2], 1e-12)  # RANSAC candidates may put a point on the plane Z = 0
+    fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
+    pred = np.column_stack([fx * pc[:, 0] / z + cx, fy * pc[:, 1] / z + cy])
+    return pixels - pred, pc
+
+
+def pnp_refine(
+    R: np.ndarray,
+    t: np.ndarray,
+    pixels: np.ndarray,
+    points: np.ndarray,
+    K: np.ndarray,
+    iterations: int = 10,
+    tol: float = 1e-10,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Gauss–Newton on the reprojection error; returns ``(R_cw, t, JᵀJ (6, 6), iterations used)``.
+
+    Parameters ``[δφ, δt]`` update ``R ← Exp(δφ) R`` and ``t ← t + δt``;
+    ``∂X_c/∂δφ = −[R X_w]×``, ``∂X_c/∂δt = I``.
+    """
+    pixels, points, K = _check(pixels, points, K)
+    fx, fy = K[0, 0], K[1, 1]
+    R = np.array(R, dtype=np.float64)
+    t = np.array(t, dtype=np.float64)
+    JtJ = np.eye(6)
+    it = 0
+    for it in range(1, iterations + 1):  # noqa: B007
+        r, pc = _residuals(R, t, pixels, points, K)
+        X, Y, Z = pc.T
+        Jp = np.zeros((len(pc), 2, 3))
+        Jp[:, 0, 0] = fx / Z
+        Jp[:, 0, 2] = -fx * X / Z**2
+        Jp[:, 1, 1] = fy / Z
+        Jp[:, 1, 2] = -fy * Y / Z**2
+        rx = pc - t
+        J = np.empty((len(pc), 2, 6))  # ∂π/∂[δφ, δt]
+        J[:, :, 0:3] = -np.einsum("mij,mjk->mik", Jp, dp.so3_hat(rx))
+        J[:, :, 3:6] = Jp
+        J = J.reshape(-1, 6)
+        JtJ = J.T @ J
+        step = np.linalg.solve(JtJ, J.T @ r.reshape(-1))
+        R = dp.matrix_from_quat(dp.quat_from_rotvec(step[:3])) @ R
+        t = t + step[3:]
+        if np.linalg.norm(step) < tol:
+            break
+    return R, t, JtJ, it
+
+
+def solve_pnp(
+    pixels: np.ndarray, points: np.ndarray, K: np.ndarray, pixel_sigma: float = 1.0, iterations: int = 10
+) -> PnPResult:
+    """DLT initial guess + Gauss–Newton refinement; the camera pose in the world with its covariance."""
+    R, t = pnp_dlt(pixels, points, K)
+    R, t, JtJ, its = pnp_refine(R, t, pixels, points, K, iterations=iterations)
+    r, _ = _residuals(R, t, np.asarray(pixels, float), np.asarray(points, float), K)
+    cov_lt = np.linalg.inv(JtJ) * pixel_sigma**2  # over [δφ (world→camera, left), δt]
+    # R_wc = Rᵀ ← Rᵀ Exp(−δφ): camera-frame rotation error δθ_c = −δφ;
+    # c = −Rᵀ t ← −(Exp(δφ) R)ᵀ (t + δt) ≈ c − Rᵀ δt − Rᵀ [t]× δφ
+    Jc = np.zeros((6, 6))
+    Jc[0:3, 0:3] = -np.eye(3)
+    Jc[3:6, 0:3] = -R.T @ dp.so3_hat(t)
+    Jc[3:6, 3:6] = -R.T
+    cov = Jc @ cov_lt @ Jc.T
+    return PnPResult(
+        q_wc=dp.quat_from_matrix(R.T),
+        c_w=-R.T @ t,
+        covariance=0.5 * (cov + cov.T),
+        rms_px=float(np.sqrt(np.mean(r**2))),
+        iterations=its,
+    )
+
+
+def solve_pnp_ransac(
+    pixels: np.ndarray,
+    points: np.ndarray,
+    K: np.ndarray,
+    pixel_sigma: float = 1.0,
+    threshold_px: float = 6.0,
+    iterations: int = 200,
+    seed: int = 0,
+) -> tuple[PnPResult, np.ndarray]:
+    """Robust PnP: RANSAC over minimal 6-point DLT samples (seeded), then :func:`solve_pnp` on the largest consensus
+    set (reprojection error < ``threshold_px``).  Returns the result and the inlier mask (M,)."""
+    pixels, points, K = _check(pixels, points, K)
+    rng = np.random.default_rng(seed)
+    m = len(pixels)
+    best = np.zeros(m, bool)
+    for _ in range(iterations):
+        idx = rng.choice(m, 6, replace=False)
+        try:
+            R, t = pnp_dlt(pixels[idx], points[idx], K)
+        except (ValueError, np.linalg.LinAlgError):
+            continue
+        r, pc = _residuals(R, t, pixels, points, K)
+        inl = (np.linalg.norm(r, axis=1) < threshold_px) & (pc[:, 2] > 0)
+        if inl.sum() > best.sum():
+            best = inl
+            if best.all():
+                break
+    if best.sum() < 6:
+        raise ValueError(f"RANSAC found no consensus of >= 6 correspondences (best {int(best.sum())} of {m})")
+    res = solve_pnp(pixels[best], points[best], K, pixel_sigma=pixel_sigma)
+    R = dp.matrix_from_quat(res.q_wc).T
+    r, _ = _residuals(R, -R @ res.c_w, pixels, points, K)
+    inliers = np.linalg.norm(r, axis=1) < threshold_px
+    if inliers.sum() > best.sum():
+        res = solve_pnp(pixels[inliers], points[inliers], K, pixel_sigma=pixel_sigma)
+    return res, inliers
