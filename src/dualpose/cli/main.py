@@ -18,6 +18,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "dualpose.cli.register",
     "dualpose.cli.reproduce",
     "dualpose.cli.eval",
+    "dualpose.cli.fuse",
 )
 
 
