@@ -33,6 +33,8 @@ def test_metrics_agree_with_the_error_arrays(eskf_result):
     # the SE(3)-aligned ATE cannot exceed the unaligned position RMSE (Umeyama minimises it)
     unaligned = np.sqrt(np.mean(np.sum(res.position_error**2, axis=1)))
     assert res.metrics["ate_rmse_m"] <= unaligned + 1e-12
+    assert res.metrics["position_rmse_unaligned_m"] == pytest.approx(unaligned, rel=1e-12)
+    assert res.metrics["orientation_rmse_unaligned_deg"] <= 0.5
     np.testing.assert_allclose(res.position_error, res.estimate.positions - res.truth.positions, rtol=0, atol=1e-15)
     # NIS coverage recomputed from the per-update NIS with scipy's chi2(2) quantiles
     lo, hi = chi2.ppf([0.025, 0.975], 2)
