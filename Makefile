@@ -22,6 +22,7 @@ $(BSTAMP): $(STAMP)
 
 demo: $(STAMP)
 	$(VENV)/bin/dualpose demo
+	$(VENV)/bin/dualpose fuse --out demo-output --force  # the main job on the built-in simulated run
 
 test: $(STAMP)
 	$(VENV)/bin/ruff check src tests benchmarks
