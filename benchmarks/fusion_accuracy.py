@@ -29,17 +29,6 @@ from dualpose.fusion import consistency, eskf, hol22, initialization, models, pn
 MOVING = (1.0, 6.4)
 
 
-def start_state(run: sim.SimulatedRun) -> tuple[np.ndarray, np.ndarray]:
-    rest = run.t < 0.9
-    pix, pts = run.frames.frame(0)
-    first, _ = pnp.solve_pnp_ransac(pix, pts, run.camera.matrix, pixel_sigma=run.pixel_sigma)
-    n = run.imu_noise
-    return initialization.initial_state_from_rest_and_frame(
-        run.accel[rest], run.gyro[rest], first, run.q_bc, run.p_bc, n.gyroscope_noise_density,
-        n.accelerometer_initial_bias_sigma, n.update_rate,
-    )  # fmt: skip
-
-
 def errors(t: np.ndarray, pos: np.ndarray, quat: np.ndarray, truth_pos: np.ndarray, truth_q: np.ndarray):  # noqa: ANN201
     m = (t >= MOVING[0]) & (t <= MOVING[1])
     e = np.linalg.norm(pos - truth_pos, axis=1)[m]
@@ -48,7 +37,7 @@ def errors(t: np.ndarray, pos: np.ndarray, quat: np.ndarray, truth_pos: np.ndarr
 
 
 def eskf_errors(run: sim.SimulatedRun, frames: bool = True):  # noqa: ANN201
-    x, P0 = start_state(run)
+    x, P0 = initialization.initial_state_from_run(run)
     f = eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P0, gyro_bias=x[10:13])
     if frames:
         res = f.run_simulation(run)
@@ -58,7 +47,7 @@ def eskf_errors(run: sim.SimulatedRun, frames: bool = True):  # noqa: ANN201
 
 
 def hol_errors(run: sim.SimulatedRun):  # noqa: ANN201
-    x, P0 = start_state(run)
+    x, P0 = initialization.initial_state_from_run(run)
     res = hol22.Hol22EKF.from_eskf_state(x, P0, run).run_simulation(run)
     return errors(run.t, res.position, res.quat, run.truth["position"], run.truth["quat"])
 

@@ -205,14 +205,7 @@ class ErrorStateEKF:
         The gravity the filter assumes stays the nominal ``[0, 0, −9.81]`` unless given in ``kwargs``.
         """
         cov = initial_covariance(imu_noise=run.imu_noise) if covariance is None else covariance
-        opts = {
-            "imu_noise": run.imu_noise,
-            "camera": run.camera,
-            "q_bc": run.q_bc,
-            "p_bc": run.p_bc,
-            "pixel_sigma": max(run.pixel_sigma, 1e-3),
-            "camera_time_offset": run.time_offset,
-        }
+        opts = run.sensor_options()
         opts.update(kwargs)
         return cls(position, velocity, quat, cov, **opts)
 

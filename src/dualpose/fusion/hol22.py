@@ -168,14 +168,7 @@ class Hol22EKF:
         P[6:9, 6:9] += np.eye(3) * 0.5**2
         P[13:16, 13:16] += np.eye(3) * 0.1**2
         P[9:13, 9:13] += np.eye(4) * 1e-12
-        opts = {
-            "imu_noise": run.imu_noise,
-            "camera": run.camera,
-            "q_bc": run.q_bc,
-            "p_bc": run.p_bc,
-            "pixel_sigma": max(run.pixel_sigma, 1e-3),
-            "camera_time_offset": run.time_offset,
-        }
+        opts = run.sensor_options()
         opts.update(kwargs)
         return cls(x, P, **opts)
 

@@ -121,3 +121,19 @@ def initial_state_from_rest_and_frame(
     P[9:12, 9:12] = np.eye(3) * (gyroscope_noise_density**2 / t_rest + 1e-4**2)
     P[12:15, 12:15] = np.eye(3) * accelerometer_initial_bias_sigma**2
     return x, P
+
+
+def initial_state_from_run(run, rest_seconds: float = 0.9) -> tuple[np.ndarray, np.ndarray]:  # noqa: ANN001
+    """:func:`initial_state_from_rest_and_frame` for a :class:`~dualpose.fusion.sim.SimulatedRun` (or any object with
+    its fields): the IMU samples of the first ``rest_seconds`` s are the rest period, frame 0 gives the PnP pose
+    (seeded RANSAC + Gauss–Newton, :func:`dualpose.fusion.pnp.solve_pnp_ransac`)."""
+    from dualpose.fusion.pnp import solve_pnp_ransac
+
+    rest = run.t < run.t[0] + rest_seconds
+    pix, pts = run.frames.frame(0)
+    first, _ = solve_pnp_ransac(pix, pts, run.camera.matrix, pixel_sigma=run.pixel_sigma)
+    n = run.imu_noise
+    return initial_state_from_rest_and_frame(
+        run.accel[rest], run.gyro[rest], first, run.q_bc, run.p_bc, n.gyroscope_noise_density,
+        n.accelerometer_initial_bias_sigma, n.update_rate,
+    )  # fmt: skip

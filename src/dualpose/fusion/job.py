@@ -74,19 +74,6 @@ class FuseResult:
     nis_bounds: tuple[float, float]
 
 
-def _start_state(run) -> tuple[np.ndarray, np.ndarray]:  # noqa: ANN001
-    from dualpose.fusion import initialization, pnp
-
-    rest = run.t < run.t[0] + _REST_S
-    pix, pts = run.frames.frame(0)
-    first, _ = pnp.solve_pnp_ransac(pix, pts, run.camera.matrix, pixel_sigma=run.pixel_sigma)
-    n = run.imu_noise
-    return initialization.initial_state_from_rest_and_frame(
-        run.accel[rest], run.gyro[rest], first, run.q_bc, run.p_bc, n.gyroscope_noise_density,
-        n.accelerometer_initial_bias_sigma, n.update_rate,
-    )  # fmt: skip
-
-
 def run_fuse(
     data: str = "sim",
     filter: str = "eskf",  # noqa: A002 -- the CLI option's name
@@ -116,7 +103,7 @@ def run_fuse(
         Unknown ``filter`` or ``data`` other than "sim".
     """
     import dualpose as dp
-    from dualpose.fusion import eskf, hol22, sim
+    from dualpose.fusion import eskf, hol22, initialization, sim
     from dualpose.fusion.metrics import evaluate
 
     if filter not in FILTERS:
@@ -130,7 +117,7 @@ def run_fuse(
 
     run = sim.simulate_eight(int(seed))
     step(0)
-    x, P0 = _start_state(run)
+    x, P0 = initialization.initial_state_from_run(run, _REST_S)
     step(1)
     if filter == "eskf":
 

@@ -385,6 +385,20 @@ class SimulatedRun:
     trajectory: Trajectory
     magnetic_field: np.ndarray = field(default_factory=lambda: np.array([0.4, 0.0, -0.9]))
 
+    def sensor_options(self) -> dict:
+        """Keyword arguments giving a filter this run's sensor set-up (IMU noise, camera, extrinsic, pixel σ, offset).
+
+        Shared by ``ErrorStateEKF.from_simulation`` and ``Hol22EKF.from_simulation``.
+        """
+        return {
+            "imu_noise": self.imu_noise,
+            "camera": self.camera,
+            "q_bc": self.q_bc,
+            "p_bc": self.p_bc,
+            "pixel_sigma": max(self.pixel_sigma, 1e-3),
+            "camera_time_offset": self.time_offset,
+        }
+
 
 def simulate(
     trajectory: Trajectory,

@@ -12,6 +12,7 @@ quadrature (``nodes`` points per sub-interval, exact for polynomials of degree `
 
 from __future__ import annotations
 
+import abc
 import math
 from dataclasses import dataclass
 from typing import Literal
@@ -53,18 +54,18 @@ def _check_frame(frame: str) -> bool:
     return frame == "body"
 
 
-class Motion:
+class Motion(abc.ABC):
     """Base class: subclasses give :meth:`pose` and :meth:`twist`; increments come from quadrature."""
 
     nodes: int = 8
 
+    @abc.abstractmethod
     def pose(self, t: ArrayLike) -> np.ndarray:
         """Pose dual quaternion at times ``t`` (seconds), shape ``t.shape + (8,)``."""
-        raise NotImplementedError
 
+    @abc.abstractmethod
     def twist(self, t: ArrayLike, frame: Frame = "body") -> np.ndarray:
         """Twist ``[ω, v]`` (rad/s, m/s) at times ``t``, shape ``t.shape + (6,)``, in ``frame`` (module doc)."""
-        raise NotImplementedError
 
     def attitude(self, t: ArrayLike) -> np.ndarray:
         """Attitude ``q_b^i`` (xyzw) at times ``t``, shape ``t.shape + (4,)``."""
