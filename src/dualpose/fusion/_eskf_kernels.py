@@ -65,12 +65,10 @@ def quat_mul_exp_inplace(q, rx, ry, rz):  # noqa: ANN001, ANN201
     q[0], q[1], q[2], q[3] = x / n, y / n, z / n, w / n
 
 
-@_jit(f"void({V}, {M}, {V}, {V}, f8, {V}, {V})")
-def predict(x, P, gyro, accel, dt, gravity, noise):  # noqa: ANN001, ANN201
-    """Propagate nominal state and covariance over ``dt`` with constant IMU input (Solà eq. 260, 269-270).
-
-    ``gyro`` (3,) rad/s and ``accel`` (3,) m/s² are the (held or averaged) measurements over the step.
-    """
+@_jit(f"void({V}, {M}, {V}, {V}, f8, {V}, {V}, {M})")
+def predict_transition(x, P, gyro, accel, dt, gravity, noise, F):  # noqa: ANN001, ANN201
+    """:func:`predict` that also writes the error-state transition matrix of the step (Solà eq. 269) to ``F``
+    (15, 15), ``δx⁻_{k+1} ≈ F δx⁺_k`` (the offline smoother needs it)."""
     R = np.empty((3, 3))
     _rotmat_xyzw(x[6], x[7], x[8], x[9], R)
     wx, wy, wz = gyro[0] - x[10], gyro[1] - x[11], gyro[2] - x[12]
@@ -78,7 +76,9 @@ def predict(x, P, gyro, accel, dt, gravity, noise):  # noqa: ANN001, ANN201
     for i in range(3):
         ab[i] = accel[i] - x[13 + i]
     # --- error-state transition F (Solà eq. 269), written sparsely
-    F = np.eye(15)
+    F[:, :] = 0.0
+    for i in range(15):
+        F[i, i] = 1.0
     for i in range(3):
         F[i, 3 + i] = dt
     # -R [a]x dt
@@ -115,6 +115,15 @@ def predict(x, P, gyro, accel, dt, gravity, noise):  # noqa: ANN001, ANN201
         P[6 + i, 6 + i] += noise[0] * dt
         P[9 + i, 9 + i] += noise[2] * dt
         P[12 + i, 12 + i] += noise[3] * dt
+
+
+@_jit(f"void({V}, {M}, {V}, {V}, f8, {V}, {V})")
+def predict(x, P, gyro, accel, dt, gravity, noise):  # noqa: ANN001, ANN201
+    """Propagate nominal state and covariance over ``dt`` with constant IMU input (Solà eq. 260, 269-270).
+
+    ``gyro`` (3,) rad/s and ``accel`` (3,) m/s² are the (held or averaged) measurements over the step.
+    """
+    predict_transition(x, P, gyro, accel, dt, gravity, noise, np.empty((15, 15)))
 
 
 @_jit(f"f8({V}, {V}, {V}, {V}, {VA}, {VA}, {VA}, {MA})")
@@ -292,34 +301,63 @@ def update_dense(x, P, r, H, R):  # noqa: ANN001, ANN201
     return nis
 
 
-@_jit(
-    f"void({V}, {M}, {M}, {V}, i8[:], {M}, {M}, {V}, {M}, {V}, {V}, {V}, {V}, {V}, f8, f8, "
-    f"{M}, {T}, {M}, {T}, {V}, i8[:])"
+_RUN_ARGS = (
+    f"{V}, {M}, {M}, {V}, i8[:], {M}, {M}, {V}, {M}, {V}, {V}, {V}, {V}, {V}, f8, f8, {M}, {T}, {M}, {T}, {V}, i8[:]"
 )
-def run(t, gyro, accel, cam_t, offsets, pixels, points, x, P, gravity, noise, intr, q_bc, p_bc, sigma_px, gate,
-        X, Ps, XF, PF, nis_out, accepted_out):  # noqa: ANN001, ANN201  # fmt: skip
-    """Filter a whole stream.  IMU samples ``t`` (N,), camera times ``cam_t`` (F,) already on the IMU clock.
+_NODE_ARGS = f"b1, {M}, {T}, {M}, {T}, {T}, {V}, i8[:], i8[:]"
 
-    The IMU input is taken as linear between samples: each step uses the mean of the (interpolated) measurements at
-    its two ends, and a step is split exactly at every camera time.  Writes the state/covariance after each IMU time
-    to ``X`` (N, 16), ``Ps`` (N, 15, 15) and after each camera update to ``XF`` (F, 16), ``PF`` (F, 15, 15).
-    Frames before ``t[0]`` or after ``t[-1]`` are skipped (their ``XF`` row is NaN).
+
+@_jit(f"i8(i8, f8, {V}, {M}, {M}, {M}, {T}, {M}, {T}, {T}, {V})")
+def _record_prediction(m, tn, x, P, F, XA, PA, XB, PB, FS, TN):  # noqa: ANN001, ANN201
+    """Store the transition out of node ``m`` and open node ``m + 1`` (prior = posterior = the predicted state)."""
+    FS[m] = F
+    m += 1
+    XA[m] = x
+    PA[m] = P
+    XB[m] = x
+    PB[m] = P
+    TN[m] = tn
+    return m
+
+
+@_jit(f"i8({_RUN_ARGS}, {_NODE_ARGS})")
+def _run_impl(t, gyro, accel, cam_t, offsets, pixels, points, x, P, gravity, noise, intr, q_bc, p_bc, sigma_px, gate,
+              X, Ps, XF, PF, nis_out, accepted_out,
+              record, XA, PA, XB, PB, FS, TN, imu_node, frame_node):  # noqa: ANN001, ANN201  # fmt: skip
+    """The loop of :func:`run`; with ``record`` it also stores every filter node (see :func:`run_recorded`).
+
+    A node is created at ``t[0]`` and after every prediction (to an IMU time or a camera time); a camera update
+    changes the posterior of the current node.  Returns the number of nodes.
     """
     n = t.shape[0]
     nf = cam_t.shape[0]
+    F = np.empty((15, 15))
+    m = 0
+    if record:
+        XA[0] = x
+        PA[0] = P
+        TN[0] = t[0]
+        for j in range(nf):
+            frame_node[j] = -1
     j = 0
     while j < nf and cam_t[j] < t[0]:
         XF[j] = np.nan
         j += 1
-    if j < nf and cam_t[j] == t[0]:
+    while j < nf and cam_t[j] == t[0]:
         a, b = offsets[j], offsets[j + 1]
         update_points(x, P, intr, q_bc, p_bc, pixels[a:b], points[a:b], sigma_px, gate, nis_out[a:b],
                       accepted_out[a:b])  # fmt: skip
         XF[j] = x
         PF[j] = P
+        if record:
+            frame_node[j] = 0
         j += 1
     X[0] = x
     Ps[0] = P
+    if record:
+        XB[0] = x
+        PB[0] = P
+        imu_node[0] = 0
     g_cur = np.empty(3)
     a_cur = np.empty(3)
     g_mid = np.empty(3)
@@ -340,21 +378,68 @@ def run(t, gyro, accel, cam_t, offsets, pixels, points, x, P, gravity, noise, in
                 g_cur[i] = gj
                 a_cur[i] = aj
             if tj > tc:
-                predict(x, P, g_mid, a_mid, tj - tc, gravity, noise)
+                predict_transition(x, P, g_mid, a_mid, tj - tc, gravity, noise, F)
+                if record:
+                    m = _record_prediction(m, tj, x, P, F, XA, PA, XB, PB, FS, TN)
             tc = tj
             a, b = offsets[j], offsets[j + 1]
             update_points(x, P, intr, q_bc, p_bc, pixels[a:b], points[a:b], sigma_px, gate, nis_out[a:b],
                           accepted_out[a:b])  # fmt: skip
             XF[j] = x
             PF[j] = P
+            if record:
+                XB[m] = x
+                PB[m] = P
+                frame_node[j] = m
             j += 1
         if t1 > tc:
             for i in range(3):
                 g_mid[i] = 0.5 * (g_cur[i] + gyro[k + 1, i])
                 a_mid[i] = 0.5 * (a_cur[i] + accel[k + 1, i])
-            predict(x, P, g_mid, a_mid, t1 - tc, gravity, noise)
+            predict_transition(x, P, g_mid, a_mid, t1 - tc, gravity, noise, F)
+            if record:
+                m = _record_prediction(m, t1, x, P, F, XA, PA, XB, PB, FS, TN)
         X[k + 1] = x
         Ps[k + 1] = P
+        if record:
+            imu_node[k + 1] = m
     while j < nf:
         XF[j] = np.nan
         j += 1
+    if record:
+        FS[m] = np.eye(15)  # no transition out of the last node
+    return m + 1
+
+
+@_jit(f"void({_RUN_ARGS})")
+def run(t, gyro, accel, cam_t, offsets, pixels, points, x, P, gravity, noise, intr, q_bc, p_bc, sigma_px, gate,
+        X, Ps, XF, PF, nis_out, accepted_out):  # noqa: ANN001, ANN201  # fmt: skip
+    """Filter a whole stream.  IMU samples ``t`` (N,), camera times ``cam_t`` (F,) already on the IMU clock.
+
+    The IMU input is taken as linear between samples: each step uses the mean of the (interpolated) measurements at
+    its two ends, and a step is split exactly at every camera time.  Writes the state/covariance after each IMU time
+    to ``X`` (N, 16), ``Ps`` (N, 15, 15) and after each camera update to ``XF`` (F, 16), ``PF`` (F, 15, 15).
+    Frames before ``t[0]`` or after ``t[-1]`` are skipped (their ``XF`` row is NaN).
+    """
+    e2, e3 = np.empty((0, 16)), np.empty((0, 15, 15))
+    _run_impl(t, gyro, accel, cam_t, offsets, pixels, points, x, P, gravity, noise, intr, q_bc, p_bc, sigma_px, gate,
+              X, Ps, XF, PF, nis_out, accepted_out,
+              False, e2, e3, e2, e3, e3, np.empty(0), np.empty(0, np.int64), np.empty(0, np.int64))  # fmt: skip
+
+
+@_jit(f"i8({_RUN_ARGS}, {M}, {T}, {M}, {T}, {T}, {V}, i8[:], i8[:])")
+def run_recorded(t, gyro, accel, cam_t, offsets, pixels, points, x, P, gravity, noise, intr, q_bc, p_bc, sigma_px,
+                 gate, X, Ps, XF, PF, nis_out, accepted_out,
+                 XA, PA, XB, PB, FS, TN, imu_node, frame_node):  # noqa: ANN001, ANN201  # fmt: skip
+    """:func:`run` that also stores what the RTS smoother needs, for every filter node ``i`` (K ≤ N + F of them:
+    ``t[0]``, each IMU time and each camera time strictly between IMU times):
+
+    ``XA`` (K, 16) / ``PA`` (K, 15, 15) the prior (predicted) nominal state and covariance, ``XB`` / ``PB`` the
+    posterior (after the camera update and reset at that node; equal to the prior at nodes without an update),
+    ``FS`` (K, 15, 15) the error-state transition from node i to i + 1 (identity for the last node), ``TN`` (K,) the
+    node times, ``imu_node`` (N,) / ``frame_node`` (F,) the node of each IMU time / camera frame (−1: skipped).
+    Arrays must hold at least N + F nodes; returns the number K written.
+    """
+    return _run_impl(t, gyro, accel, cam_t, offsets, pixels, points, x, P, gravity, noise, intr, q_bc, p_bc, sigma_px,
+                     gate, X, Ps, XF, PF, nis_out, accepted_out,
+                     True, XA, PA, XB, PB, FS, TN, imu_node, frame_node)  # fmt: skip

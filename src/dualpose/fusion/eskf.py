@@ -20,7 +20,7 @@ from dualpose._validation import lazy_kernels
 from dualpose.fusion import models
 from dualpose.fusion.sim import ImuNoise, PinholeCamera, SimulatedRun
 
-__all__ = ["ErrorStateEKF", "FilterResult", "InnovationReport", "initial_covariance"]
+__all__ = ["ErrorStateEKF", "FilterNodes", "FilterResult", "InnovationReport", "initial_covariance"]
 
 _k = lazy_kernels("dualpose.fusion._eskf_kernels")
 
@@ -89,12 +89,36 @@ class InnovationReport:
 
 
 @dataclass
+class FilterNodes:
+    """What the filter stores for the offline smoother (:func:`dualpose.fusion.smoother.rts_smooth`).
+
+    A node is the start ``t[0]`` and every time the filter predicts to: each IMU time and each camera time strictly
+    between IMU times (K ≤ N + F nodes).  ``t`` (K,) s; ``prior_states`` / ``posterior_states`` (K, 16) nominal
+    ``[p, v, q_wb xyzw, b_g, b_a]`` before / after the camera update at the node (equal at nodes without one);
+    ``prior_covariance`` / ``posterior_covariance`` (K, 15, 15) error covariance in the chart of the matching
+    nominal state (the posterior one after the reset Jacobian G); ``transition`` (K, 15, 15) the error-state
+    transition ``F`` from node i to i + 1 (Solà eq. 269; identity for the last node); ``imu_node`` (N,) and
+    ``frame_node`` (F,) the node index of each IMU sample and camera frame (−1: frame outside the IMU span).
+    """
+
+    t: np.ndarray
+    prior_states: np.ndarray
+    prior_covariance: np.ndarray
+    posterior_states: np.ndarray
+    posterior_covariance: np.ndarray
+    transition: np.ndarray
+    imu_node: np.ndarray
+    frame_node: np.ndarray
+
+
+@dataclass
 class FilterResult:
     """Output of :meth:`ErrorStateEKF.run`: states at the IMU times.
 
     ``t`` (N,), ``position`` (N, 3), ``velocity`` (N, 3), ``quat`` (N, 4) ``q_wb`` xyzw, ``gyro_bias`` (N, 3),
     ``accel_bias`` (N, 3), ``covariance`` (N, 15, 15) error-state covariance; ``frame_states`` (F, 16) and
-    ``frame_covariance`` (F, 15, 15) right after each camera update; ``innovation`` the NIS report.
+    ``frame_covariance`` (F, 15, 15) right after each camera update; ``innovation`` the NIS report; ``nodes`` the
+    per-node record for the smoother (:class:`FilterNodes`, only with ``run(..., record_nodes=True)``).
     """
 
     t: np.ndarray
@@ -108,6 +132,7 @@ class FilterResult:
     frame_covariance: np.ndarray
     innovation: InnovationReport
     wall_time: float = float("nan")
+    nodes: FilterNodes | None = None
 
 
 class ErrorStateEKF:
@@ -318,6 +343,7 @@ class ErrorStateEKF:
         offsets: np.ndarray,
         pixels: np.ndarray,
         points: np.ndarray,
+        record_nodes: bool = False,
     ) -> FilterResult:
         """Filter a whole recording from the current state (taken to be at ``t[0]``).
 
@@ -327,6 +353,9 @@ class ErrorStateEKF:
         offsets : (F + 1,) int, frame k owns rows ``offsets[k]:offsets[k+1]`` of ``pixels`` (M, 2) and ``points``
         (M, 3).  The IMU signal is taken as linear between samples and each step is split exactly at the camera
         times ``frame_t + camera_time_offset``.
+        record_nodes : bool
+            Also store the prior/posterior states and covariances and the transition matrices of every filter node
+            (``FilterResult.nodes``, about 3 × 1.8 kB per node) for :func:`dualpose.fusion.smoother.rts_smooth`.
         """
         import time as _time
 
@@ -353,8 +382,13 @@ class ErrorStateEKF:
         acc = np.zeros(len(pixels), np.int64)
         t0 = _time.perf_counter()
         cam = (self.intrinsics, self.q_bc, self.p_bc, self.pixel_sigma, self.gate)
-        _k("run")(t, gyro, accel, cam_t, offsets, pixels, points, self.x, self.P, self.gravity, self.noise, *cam,
-                  X, Ps, XF, PF, nis, acc)  # fmt: skip
+        args = (t, gyro, accel, cam_t, offsets, pixels, points, self.x, self.P, self.gravity, self.noise, *cam,
+                X, Ps, XF, PF, nis, acc)  # fmt: skip
+        nodes = None
+        if record_nodes:
+            nodes = _record_run(args, n, nf)
+        else:
+            _k("run")(*args)
         wall = _time.perf_counter() - t0
         self.time = float(t[-1])
         self._u = np.concatenate([gyro[-1], accel[-1]])
@@ -363,13 +397,27 @@ class ErrorStateEKF:
         return FilterResult(
             t=t, position=X[:, 0:3], velocity=X[:, 3:6], quat=X[:, 6:10], gyro_bias=X[:, 10:13],
             accel_bias=X[:, 13:16], covariance=Ps, frame_states=XF, frame_covariance=PF, innovation=rep,
-            wall_time=wall,
+            wall_time=wall, nodes=nodes,
         )  # fmt: skip
 
-    def run_simulation(self, run: SimulatedRun) -> FilterResult:
+    def run_simulation(self, run: SimulatedRun, record_nodes: bool = False) -> FilterResult:
         """:meth:`run` on a :class:`~dualpose.fusion.sim.SimulatedRun`."""
         f = run.frames
-        return self.run(run.t, run.gyro, run.accel, f.t, f.offsets, f.pixels, f.points)
+        return self.run(run.t, run.gyro, run.accel, f.t, f.offsets, f.pixels, f.points, record_nodes=record_nodes)
+
+
+def _record_run(args: tuple, n: int, nf: int) -> FilterNodes:
+    """Run the ``run_recorded`` kernel with ``args`` (those of ``run``) and return the trimmed node record."""
+    cap = n + nf
+    XA, XB = np.empty((cap, 16)), np.empty((cap, 16))
+    PA, PB, FS = np.empty((cap, 15, 15)), np.empty((cap, 15, 15)), np.empty((cap, 15, 15))
+    TN = np.empty(cap)
+    imu_node, frame_node = np.empty(n, np.int64), np.empty(nf, np.int64)
+    k = _k("run_recorded")(*args, XA, PA, XB, PB, FS, TN, imu_node, frame_node)
+    return FilterNodes(
+        t=TN[:k], prior_states=XA[:k], prior_covariance=PA[:k], posterior_states=XB[:k], posterior_covariance=PB[:k],
+        transition=FS[:k], imu_node=imu_node, frame_node=frame_node,
+    )  # fmt: skip
 
 
 def _report(nis: np.ndarray, accepted: np.ndarray, gate: float) -> InnovationReport:
