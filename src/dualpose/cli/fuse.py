@@ -2,7 +2,9 @@
 
 Prints a summary table (or one JSON object with ``--json``); with ``--out DIR`` writes ``trajectory.tum`` (the
 estimate, TUM format), ``metrics.json`` and PNG figures (top view, errors with 3σ bounds, NIS vs χ² bounds).  An
-existing output file is never replaced unless ``--force``.  Exit status: 0 on success, 2 on bad arguments or an
+existing output file is never replaced unless ``--force``.  ``--smooth`` (ESKF only) also runs the offline RTS smoother:
+the table and JSON (``"smoothed"``) report filter and smoother side by side and ``--out`` adds
+``trajectory_smoothed.tum``.  Exit status: 0 on success, 2 on bad arguments or an
 output file that exists.
 """
 
@@ -33,6 +35,12 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument("--out", metavar="DIR", help="write trajectory.tum, metrics.json and PNG figures into DIR")
     p.add_argument("--force", action="store_true", help="replace existing output files")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
+    p.add_argument(
+        "--smooth",
+        action="store_true",
+        help="also run the offline RTS smoother (eskf only) and report its metrics next to the filter's; with --out "
+        "writes trajectory_smoothed.tum",
+    )
     return p
 
 
@@ -45,6 +53,8 @@ def _progress(done: int, total: int, stage: str) -> None:
 
 
 def _table(m: dict) -> str:
+    if "smoothed" in m:
+        return _table_smoothed(m)
     rows = [
         ("data", m["data"]),
         ("filter", m["filter"]),
@@ -59,6 +69,38 @@ def _table(m: dict) -> str:
     return "\n".join(f"{name:<{width}}  {value}" for name, value in rows)
 
 
+#: rows of the filter-vs-smoother table: label, metrics key, format
+_SMOOTHED_ROWS = (
+    ("ATE RMSE (SE(3)) [m]", "ate_rmse_m", ".6f"),
+    ("orientation RMSE [deg]", "orientation_rmse_deg", ".4f"),
+    ("RPE RMSE (0.5 m) [m]", "rpe_rmse_m", ".6f"),
+    ("position RMSE, unaligned [m]", "position_rmse_unaligned_m", ".6f"),
+    ("orientation RMSE, unaligned [deg]", "orientation_rmse_unaligned_deg", ".4f"),
+)
+
+
+def _table_smoothed(m: dict) -> str:
+    """The summary table with a filter and a smoother column (``--smooth``)."""
+    s = m["smoothed"]
+    rows = [("data", m["data"], ""), ("method", "filter", "RTS smoother")]
+    rows += [(label, format(m[key], fmt), format(s[key], fmt)) for label, key, fmt in _SMOOTHED_ROWS]
+    rows += [
+        ("NIS inside 95% band", f"{m['nis_fraction_inside']:.3f}", ""),
+        ("correspondences rejected", f"{m['n_rejected']} of {m['n_correspondences']}", ""),
+        ("real-time factor", f"{m['realtime_factor']:.1f}x", ""),
+        ("backward pass [s]", "", f"{s['smoother_wall_time_s']:.4f}"),
+    ]
+    w0 = max(len(r[0]) for r in rows)
+    w1 = max(len(r[1]) for r in rows)
+    w2 = max(len(r[2]) for r in rows)
+    return "\n".join(f"{a:<{w0}}  {b:>{w1}}  {c:>{w2}}".rstrip() for a, b, c in rows)
+
+
+def _output_files(smooth: bool) -> tuple[str, ...]:
+    """The files ``--out`` writes (``trajectory_smoothed.tum`` too with ``--smooth``)."""
+    return OUTPUT_FILES + (("trajectory_smoothed.tum",) if smooth else ())
+
+
 def _figures(result, out, paths: dict) -> None:  # noqa: ANN001
     import matplotlib
 
@@ -70,6 +112,8 @@ def _figures(result, out, paths: dict) -> None:  # noqa: ANN001
     fig, ax = plt.subplots(figsize=(6, 5))
     ax.plot(result.truth.positions[:, 0], result.truth.positions[:, 1], "k-", label="truth")
     ax.plot(result.estimate.positions[:, 0], result.estimate.positions[:, 1], "r--", label="estimate")
+    if result.smoothed is not None:
+        ax.plot(result.smoothed.positions[:, 0], result.smoothed.positions[:, 1], "g:", label="smoothed")
     ax.set(xlabel="x [m]", ylabel="y [m]", title=f"top view ({result.metrics['filter']})", aspect="equal")
     ax.legend()
     fig.savefig(paths["top_view.png"], dpi=100)
@@ -79,10 +123,14 @@ def _figures(result, out, paths: dict) -> None:  # noqa: ANN001
     for i, name in enumerate("xyz"):
         s3 = 3e3 * result.position_sigma[:, i]
         axs[i].plot(t, 1e3 * result.position_error[:, i], "b-", label="error")
+        if result.smoothed_position_error is not None:
+            axs[i].plot(t, 1e3 * result.smoothed_position_error[:, i], "g-", lw=0.8, label="smoothed")
         axs[i].fill_between(t, -s3, s3, color="0.8", label="±3σ")
         axs[i].set_ylabel(f"{name} error [mm]")
     axs[0].legend(loc="upper right")
     axs[3].plot(t, result.orientation_error_deg, "b-", label="attitude error")
+    if result.smoothed_orientation_error_deg is not None:
+        axs[3].plot(t, result.smoothed_orientation_error_deg, "g-", lw=0.8, label="smoothed")
     if result.orientation_sigma_deg is not None:
         axs[3].plot(t, 3 * result.orientation_sigma_deg, "k--", label="3σ")
     axs[3].set(ylabel="attitude error [deg]", xlabel="t [s]")
@@ -119,13 +167,17 @@ def run(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 2
+    if args.smooth and args.filter != "eskf":
+        print(f"dualpose fuse: error: --smooth needs --filter eskf (got {args.filter!r}): the RTS smoother runs "
+              "over the error-state filter's stored nodes", file=sys.stderr)  # fmt: skip
+        return 2
     paths: dict[str, Path] = {}
     if args.out:
         out = Path(args.out)
         if out.exists() and not out.is_dir():
             print(f"dualpose fuse: error: {out}: not a directory", file=sys.stderr)
             return 2
-        paths = {name: out / name for name in OUTPUT_FILES}
+        paths = {name: out / name for name in _output_files(args.smooth)}
         if not args.force:
             for path in paths.values():
                 if path.exists():
@@ -133,13 +185,15 @@ def run(args: argparse.Namespace) -> int:
                     return 2
     from dualpose.fusion.job import run_fuse
 
-    result = run_fuse(data=args.data, filter=args.filter, seed=args.seed, progress=_progress)
+    result = run_fuse(data=args.data, filter=args.filter, seed=args.seed, progress=_progress, smooth=args.smooth)
     metrics = result.metrics
     if paths:
         from dualpose.io import write_tum
 
         out.mkdir(parents=True, exist_ok=True)
         write_tum(paths["trajectory.tum"], result.estimate, overwrite=args.force)
+        if result.smoothed is not None:
+            write_tum(paths["trajectory_smoothed.tum"], result.smoothed, overwrite=args.force)
         paths["metrics.json"].write_text(json.dumps(metrics, indent=2) + "\n")
         _figures(result, out, paths)
     if args.json:
@@ -150,5 +204,5 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(_table(metrics))
     if paths:
-        print(f"\nwritten to {out}: " + ", ".join(OUTPUT_FILES))
+        print(f"\nwritten to {out}: " + ", ".join(paths))
     return 0

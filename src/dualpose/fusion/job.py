@@ -4,7 +4,9 @@ Only the built-in simulated eight-shaped run (Hol 2008, :func:`dualpose.fusion.s
 input for now.  The filter starts without the truth: static accelerometer alignment over the first 0.9 s of rest
 (gyro bias) + PnP of the first frame (pose), zero velocity -- the same start as ``benchmarks/fusion_accuracy.py``.
 The estimate at every IMU time is compared with the simulator's ground truth by :func:`dualpose.fusion.metrics.evaluate`
-(ATE after SE(3) Umeyama alignment, orientation RMSE, RPE over 0.5 m of path).
+(ATE after SE(3) Umeyama alignment, orientation RMSE, RPE over 0.5 m of path).  With ``smooth=True`` the
+error-state filter's run is also smoothed offline (RTS, :func:`dualpose.fusion.smoother.rts_smooth`) and the same
+metrics are reported for the smoothed trajectory under ``metrics["smoothed"]``.
 """
 
 from __future__ import annotations
@@ -60,6 +62,10 @@ class FuseResult:
         False for the correspondences the χ² gate rejected.
     nis_bounds : tuple of float
         Two-sided 95 % χ²(2) interval.
+    smoothed : Trajectory or None
+        The RTS-smoothed poses at the IMU times (``smooth=True`` only).
+    smoothed_position_error, smoothed_orientation_error_deg : ndarray or None
+        As ``position_error`` (N, 3) and ``orientation_error_deg`` (N,) for the smoothed trajectory.
     """
 
     estimate: Trajectory
@@ -72,6 +78,9 @@ class FuseResult:
     nis: np.ndarray
     nis_accepted: np.ndarray
     nis_bounds: tuple[float, float]
+    smoothed: Trajectory | None = None
+    smoothed_position_error: np.ndarray | None = None
+    smoothed_orientation_error_deg: np.ndarray | None = None
 
 
 def run_fuse(
@@ -79,6 +88,7 @@ def run_fuse(
     filter: str = "eskf",  # noqa: A002 -- the CLI option's name
     seed: int = 0,
     progress: Callable[[int, int, str], None] | None = None,
+    smooth: bool = False,
 ) -> FuseResult:
     """Run ``filter`` on ``data`` and evaluate it against the ground truth.
 
@@ -92,6 +102,9 @@ def run_fuse(
         Seed of the simulation's noise.
     progress : callable, optional
         Called as ``progress(done, total, stage)`` after each stage (simulate, initialise, filter, evaluate).
+    smooth : bool
+        Also run the RTS smoother over the filtered run (``filter="eskf"`` only) and report its metrics under
+        ``metrics["smoothed"]`` (see :func:`_smoothed_metrics`).
 
     Returns
     -------
@@ -100,14 +113,14 @@ def run_fuse(
     Raises
     ------
     ValueError
-        Unknown ``filter`` or ``data`` other than "sim".
+        Unknown ``filter``, ``data`` other than "sim", or ``smooth`` with a filter other than "eskf".
     """
-    import dualpose as dp
     from dualpose.fusion import eskf, hol22, initialization, sim
     from dualpose.fusion.metrics import evaluate
 
     if filter not in FILTERS:
         raise ValueError(f"filter must be one of {FILTERS}; got {filter!r}")
+    _check_smooth(filter, smooth)
     if data != "sim":
         raise ValueError(f"data must be 'sim' (file input is not implemented yet); got {data!r}")
 
@@ -127,7 +140,7 @@ def run_fuse(
         # load the compiled kernel on a throw-away two-sample run, so that ``realtime_factor`` times the filtering
         no_frames = (np.zeros(0), np.zeros(1, np.int64), np.zeros((0, 2)), np.zeros((0, 3)))
         make().run(run.t[:2], run.gyro[:2], run.accel[:2], *no_frames)
-        res = make().run_simulation(run)
+        res = make().run_simulation(run, record_nodes=smooth)
         pos_var = np.diagonal(res.covariance[:, 0:3, 0:3], axis1=1, axis2=2)
         att_var = np.trace(res.covariance[:, 6:9, 6:9], axis1=1, axis2=2)
         ori_sigma = np.degrees(np.sqrt(att_var))
@@ -155,11 +168,12 @@ def run_fuse(
     for key in ("ate_rmse_m", "orientation_rmse_deg", "rpe_rmse_m", "rpe_rotation_rmse_deg"):
         metrics[key] = ed[key]
     metrics.update(rep.summary())
-    pos_err = res.position - run.truth["position"]
-    ori_err = np.degrees(dp.quat_angle(res.quat, run.truth["quat"]))
-    metrics["position_rmse_unaligned_m"] = float(np.sqrt(np.mean(np.sum(pos_err**2, axis=1))))
-    metrics["orientation_rmse_unaligned_deg"] = float(np.sqrt(np.mean(ori_err**2)))
+    pos_err, ori_err, unaligned = _unaligned_errors(res.position, res.quat, run.truth)
+    metrics.update(unaligned)
     metrics["evaluation"] = ed
+    smoothed = _smoothed_metrics(res, run.truth, truth, filter) if smooth else {}
+    if smooth:
+        metrics["smoothed"] = smoothed.pop("metrics")
     step(3)
     return FuseResult(
         estimate=estimate,
@@ -172,4 +186,52 @@ def run_fuse(
         nis=np.asarray(rep.nis),
         nis_accepted=np.asarray(rep.accepted, dtype=bool),
         nis_bounds=(float(rep.bounds[0]), float(rep.bounds[1])),
+        **smoothed,
     )
+
+
+def _unaligned_errors(position: np.ndarray, quat: np.ndarray, truth: dict) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Position error (N, 3) m and attitude-error angle (N,) deg against the simulator's truth (no alignment), and
+    their RMSE as ``{"position_rmse_unaligned_m", "orientation_rmse_unaligned_deg"}``."""
+    import dualpose as dp
+
+    pos_err = position - truth["position"]
+    ori_err = np.degrees(dp.quat_angle(quat, truth["quat"]))
+    rmse = {
+        "position_rmse_unaligned_m": float(np.sqrt(np.mean(np.sum(pos_err**2, axis=1)))),
+        "orientation_rmse_unaligned_deg": float(np.sqrt(np.mean(ori_err**2))),
+    }
+    return pos_err, ori_err, rmse
+
+
+def _check_smooth(filter: str, smooth: bool) -> None:  # noqa: A002
+    if smooth and filter != "eskf":
+        raise ValueError(
+            f"smooth=True (--smooth) needs filter 'eskf': the RTS smoother runs over the error-state filter's "
+            f"stored nodes; got filter {filter!r}"
+        )
+
+
+def _smoothed_metrics(res, truth_arrays: dict, truth: Trajectory, filter: str) -> dict:  # noqa: ANN001, A002
+    """RTS-smooth the filter result ``res`` (recorded nodes) and evaluate it like the filter.
+
+    Returns the extra :class:`FuseResult` fields plus ``"metrics"``: ``ate_rmse_m``, ``orientation_rmse_deg``,
+    ``rpe_rmse_m``, ``rpe_rotation_rmse_deg`` (as the filter's, SE(3)-aligned), ``position_rmse_unaligned_m``,
+    ``orientation_rmse_unaligned_deg`` and ``smoother_wall_time_s`` (backward pass only).
+    """
+    from dualpose.fusion.metrics import evaluate
+    from dualpose.fusion.smoother import rts_smooth
+
+    sm = rts_smooth(res)
+    traj = Trajectory(sm.t, sm.position, sm.quat, name=f"dualpose fuse --filter {filter} --smooth")
+    ed = evaluate(truth, traj, align="se3", rpe_delta=_RPE_DELTA_M, rpe_unit="m").as_dict()
+    pos_err, ori_err, unaligned = _unaligned_errors(sm.position, sm.quat, truth_arrays)
+    metrics = {key: ed[key] for key in ("ate_rmse_m", "orientation_rmse_deg", "rpe_rmse_m", "rpe_rotation_rmse_deg")}
+    metrics.update(unaligned)
+    metrics["smoother_wall_time_s"] = float(sm.wall_time)
+    return {
+        "metrics": metrics,
+        "smoothed": traj,
+        "smoothed_position_error": pos_err,
+        "smoothed_orientation_error_deg": ori_err,
+    }
