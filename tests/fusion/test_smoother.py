@@ -314,6 +314,22 @@ def test_smoothed_nees_is_consistent() -> None:
     assert np.mean((avg >= lo) & (avg <= hi)) > 0.6
 
 
+def test_frames_on_the_imu_grid_share_the_imu_nodes() -> None:
+    """Camera phase 0: every frame falls on an IMU sample (the first one on ``t[0]``), so there is exactly one node
+    per IMU time and the updates happen at IMU nodes; smoothing still helps."""
+    run = sim.simulate_eight(4, camera_phase=0.0)
+    res = _filtered(run)
+    nodes = res.nodes
+    assert len(nodes.t) == len(run.t)
+    cam_t = run.frames.t + run.time_offset
+    np.testing.assert_allclose(nodes.t[nodes.frame_node], cam_t, atol=1e-12)
+    assert nodes.frame_node[0] == 0 and np.any(nodes.prior_states[0] != nodes.posterior_states[0])
+    sm = smoother.rts_smooth(res)
+    pf, of = _rmse(run, res.position, res.quat)
+    ps, os_ = _rmse(run, sm.position, sm.quat)
+    assert ps < 0.8 * pf and os_ < 0.8 * of
+
+
 def test_rts_smooth_bad_input() -> None:
     run = sim.simulate_eight(0)
     x, P0 = initialization.initial_state_from_run(run)
@@ -323,3 +339,13 @@ def test_rts_smooth_bad_input() -> None:
         smoother.rts_smooth(res)
     with pytest.raises(TypeError, match="FilterResult"):
         smoother.rts_smooth(res.position)
+    # biases without prior uncertainty or random walk: the predicted covariance is singular
+    P = P0.copy()
+    P[9:, :] = 0.0
+    P[:, 9:] = 0.0
+    noise = sim.ImuNoise(gyroscope_random_walk=0.0, accelerometer_random_walk=0.0)
+    res = eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P, imu_noise=noise).run_simulation(
+        run, record_nodes=True
+    )
+    with pytest.raises(ValueError, match="singular"):
+        smoother.rts_smooth(res)

@@ -87,7 +87,8 @@ def rts_smooth(filter_result: FilterResult) -> SmoothedResult:
     TypeError
         ``filter_result`` is not a FilterResult.
     ValueError
-        The run was filtered without ``record_nodes=True``.
+        The run was filtered without ``record_nodes=True``, or a predicted covariance is singular (an error-state
+        component with neither prior uncertainty nor process noise).
     """
     if not isinstance(filter_result, FilterResult):
         raise TypeError(f"filter_result must be an eskf.FilterResult; got {type(filter_result).__name__}")
@@ -99,10 +100,16 @@ def rts_smooth(filter_result: FilterResult) -> SmoothedResult:
     Ps = np.empty((k, 15, 15))
     backward = _k("rts_error_state")  # loaded before the clock starts
     t0 = time.perf_counter()
-    backward(
-        nodes.posterior_states, nodes.posterior_covariance, nodes.prior_states, nodes.prior_covariance,
-        nodes.transition, xs, Ps,
-    )  # fmt: skip
+    try:
+        backward(
+            nodes.posterior_states, nodes.posterior_covariance, nodes.prior_states, nodes.prior_covariance,
+            nodes.transition, xs, Ps,
+        )  # fmt: skip
+    except np.linalg.LinAlgError:
+        raise ValueError(
+            "a predicted error covariance of the run is singular: the RTS gain needs every error-state component to "
+            "have prior uncertainty or process noise (e.g. nonzero bias random walks or initial bias sigmas)"
+        ) from None
     wall = time.perf_counter() - t0
     at = nodes.imu_node
     x = xs[at]
