@@ -6,7 +6,9 @@ For each seed this is ``dualpose fuse --smooth --seed S`` (:func:`dualpose.fusio
 without truth (static alignment + first-frame PnP), the smoother runs over its recorded nodes; metrics over the
 whole 6.9 s run: ATE after SE(3) alignment, orientation RMSE after that alignment, and position / orientation RMSE
 in the simulator's frame without alignment.  NEES: Monte-Carlo runs started from the prior around the truth, the
-run-averaged 15-dim NEES of filter and smoother averaged over time, against the two-sided 95 % band.
+run-averaged 15-dim NEES of filter and smoother averaged over time, against the two-sided 95 % band.  Dropout: the
+same start with a 2 s vision dropout (t ∈ [3, 5) s) and 10 % gross outlier correspondences, errors in the
+simulator's frame over the 5.4 s eight (t ∈ [1.0, 6.4] s), as in ``benchmarks/fusion_accuracy.py``.
 """
 
 from __future__ import annotations
@@ -17,7 +19,8 @@ import sys
 
 import numpy as np
 
-from dualpose.fusion import consistency, eskf, models, sim, smoother
+import dualpose as dp
+from dualpose.fusion import consistency, eskf, initialization, models, sim, smoother
 from dualpose.fusion.job import run_fuse
 
 ROWS = (
@@ -52,6 +55,23 @@ def nees_mc(n_runs: int) -> tuple[float, float, float, float]:
     return float((tot_f / n_runs).mean()), float((tot_s / n_runs).mean()), lo, hi
 
 
+def dropout_errors(seed: int) -> np.ndarray:
+    """(2, 3): position RMSE (m), orientation RMSE (deg), max position error (m) of filter and smoother over the
+    eight with a 2 s vision dropout and 10 % outliers."""
+    run = sim.simulate_eight(seed, outlier_fraction=0.1, dropouts=((3.0, 5.0),))
+    x, P0 = initialization.initial_state_from_run(run)
+    f = eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P0, gyro_bias=x[10:13])
+    res = f.run_simulation(run, record_nodes=True)
+    sm = smoother.rts_smooth(res)
+    m = (run.t >= 1.0) & (run.t <= 6.4)
+    out = []
+    for est in (res, sm):
+        e = np.linalg.norm(est.position - run.truth["position"], axis=1)[m]
+        a = np.degrees(dp.quat_angle(est.quat, run.truth["quat"]))[m]
+        out.append([np.sqrt(np.mean(e**2)), np.sqrt(np.mean(a**2)), e.max()])
+    return np.array(out)
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=10)
@@ -78,6 +98,18 @@ def main() -> int:
         f, sm = scale * np.array(filt[key]), scale * np.array(smooth[key])
         lines.append(f"| {label} | {f.mean():.3f} ({f.max():.3f}) | {sm.mean():.3f} ({sm.max():.3f}) | "
                      f"{sm.mean() / f.mean():.2f} |")  # fmt: skip
+    drop = np.array([dropout_errors(s) for s in range(args.seeds)])  # (seeds, 2, 3)
+    lines += [
+        "",
+        f"2 s vision dropout + 10 % outliers, {args.seeds} seeds, over the 5.4 s eight, unaligned, mean (worst seed):",
+        "",
+        "| | position RMSE [mm] | orientation RMSE [deg] | max position error [mm] |",
+        "|---|---:|---:|---:|",
+    ]
+    for k, name in enumerate(("ESKF (filter)", "ESKF + RTS smoother")):
+        v = drop[:, k]
+        lines.append(f"| {name} | {1e3 * v[:, 0].mean():.1f} ({1e3 * v[:, 0].max():.1f}) | {v[:, 1].mean():.3f} "
+                     f"({v[:, 1].max():.3f}) | {1e3 * v[:, 2].mean():.1f} ({1e3 * v[:, 2].max():.1f}) |")  # fmt: skip
     nf, ns, lo, hi = nees_mc(args.nees_runs)
     lines += [
         "",
