@@ -181,7 +181,8 @@ class _SensorFile:
                 nq = float(np.linalg.norm(a))
                 if abs(nq - 1.0) > 1e-6:
                     raise self.error(name, f"must be a unit quaternion xyzw (norm {nq:.9g})")
-                a = a / nq
+                if abs(nq - 1.0) > 1e-12:  # keep a quaternion written with 17 digits bit-exact
+                    a = a / nq
             return a
         if kind == "int":
             if isinstance(v, bool) or not isinstance(v, int) or v <= 0:
@@ -196,7 +197,8 @@ class _SensorFile:
         return float(v)
 
 
-def _sensor_path(path: Path) -> Path:
+def _sensor_path(name: str | os.PathLike) -> Path:
+    path = Path(name)
     if path.is_dir():
         for name in (SENSORS_FILE, "sensors.yaml", "sensors.yml"):
             if (path / name).is_file():
@@ -204,7 +206,9 @@ def _sensor_path(path: Path) -> Path:
         raise RecordingError(f"{path}: a recording directory needs a {SENSORS_FILE} (see docs/fusion.md)")
     if path.is_file():
         return path
-    raise RecordingError(f"{path}: no such file or directory (expected a recording directory or its {SENSORS_FILE})")
+    raise RecordingError(
+        f"{os.fspath(name)}: no such file or directory (expected a recording directory or its {SENSORS_FILE})"
+    )
 
 
 # ------------------------------------------------------------------------------------------------ data files
@@ -356,7 +360,7 @@ def read_recording(path: str | os.PathLike):  # noqa: ANN201 -- Recording (impor
     from dualpose.fusion.recording import Recording
     from dualpose.fusion.sim import CameraIntrinsics, FrameCorrespondences, ImuNoise
 
-    sf = _SensorFile(_sensor_path(Path(path)))
+    sf = _SensorFile(_sensor_path(path))
     top = sf.section(sf.data, "", _TOP_KEYS)
     if top.get("format", FORMAT_NAME) != FORMAT_NAME:
         raise sf.error("format", f"expected '{FORMAT_NAME}'; got {top['format']!r}")
