@@ -193,3 +193,13 @@ def test_missing_things_are_named(copy, tmp_path):
     (copy / "imu.csv").unlink()
     with pytest.raises(RecordingError, match="imu.csv: IMU file not found"):
         read_recording(copy)
+
+
+def test_the_documented_example_sensor_file_is_valid(written, copy):
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "fusion.md").read_text()
+    example = doc.split("```json\n", 1)[1].split("```", 1)[0]
+    (copy / SENSORS_FILE).write_text(example)
+    a, b = read_recording(copy), read_recording(written)
+    np.testing.assert_array_equal(a.q_bc, b.q_bc)
+    np.testing.assert_array_equal(a.camera.matrix, b.camera.matrix)
+    assert a.rest_seconds == 0.9 and a.ground_truth is not None
