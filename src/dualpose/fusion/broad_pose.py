@@ -78,9 +78,7 @@ N_LANDMARKS = 1500
 SHELL_RADII = (2.0, 5.0)
 
 
-def imu_noise_from_rest(
-    gyr: np.ndarray, acc: np.ndarray, rate: float, inflation: float = NOISE_INFLATION
-) -> ImuNoise:
+def imu_noise_from_rest(gyr: np.ndarray, acc: np.ndarray, rate: float, inflation: float = NOISE_INFLATION) -> ImuNoise:
     """IMU noise for a BROAD trial: white-noise densities from samples at rest, the rest from the sensor class.
 
     The measured density is ``std(diff(x)) / √2 / √rate`` (first differences cancel a slowly varying bias and the
