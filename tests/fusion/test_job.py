@@ -64,7 +64,7 @@ def test_hol22_runs_and_tracks():
 
 @pytest.mark.parametrize(
     ("kwargs", "match"),
-    [({"filter": "ukf"}, "filter must be one of"), ({"data": "run.csv"}, "file input is not implemented")],
+    [({"filter": "ukf"}, "filter must be one of"), ({"data": "no/such/run"}, "no/such/run: no such file")],
 )
 def test_bad_arguments_raise(kwargs, match):
     with pytest.raises(ValueError, match=match):

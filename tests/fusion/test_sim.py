@@ -143,3 +143,34 @@ def test_bad_arguments() -> None:
         sim.simulate(sim.eight_trajectory(), outlier_fraction=1.5)
     with pytest.raises(ValueError, match="points_c"):
         sim.PinholeCamera().project(np.zeros((3, 2)))
+
+
+def test_camera_intrinsics_match_the_pinhole_camera_and_validate():
+    cam = sim.PinholeCamera()
+    same = sim.CameraIntrinsics(cam.fx, cam.fy, cam.cx, cam.cy, cam.width, cam.height)
+    pts = np.array([[0.1, -0.2, 1.5], [0.0, 0.0, 2.0]])
+    np.testing.assert_array_equal(same.project(pts), cam.project(pts))
+    np.testing.assert_array_equal(same.matrix, cam.matrix)
+    # an anisotropic camera with an off-centre principal point: u = fx X/Z + cx
+    k = sim.CameraIntrinsics(400.0, 380.0, 311.5, 242.25, 640, 480)
+    np.testing.assert_allclose(k.project(pts[0]), [400 * 0.1 / 1.5 + 311.5, 380 * -0.2 / 1.5 + 242.25], rtol=1e-15)
+    for bad in ({"fx": 0.0}, {"cy": float("nan")}, {"width": 0}, {"height": 2.5}):
+        args = {"fx": 400.0, "fy": 380.0, "cx": 311.5, "cy": 242.25, "width": 640, "height": 480} | bad
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            sim.CameraIntrinsics(**args)
+
+
+def test_frame_counts_and_observations_of_simulated_frames():
+    run = sim.simulate_eight(1)
+    f = run.frames
+    assert isinstance(f, sim.FrameCorrespondences)
+    np.testing.assert_array_equal(f.counts, np.diff(f.offsets))
+    # observe_landmarks with no noise reproduces the projections of the reported landmarks
+    kin = run.trajectory.kinematics(f.t_true[:3])
+    obs = sim.observe_landmarks(kin["quat"], kin["position"], run.landmarks, run.camera, run.q_bc, run.p_bc,
+                                np.random.default_rng(0), pixel_sigma=0.0)  # fmt: skip
+    for k in range(3):
+        a, b = obs["offsets"][k], obs["offsets"][k + 1]
+        pc = sim.camera_points(kin["quat"][k], kin["position"][k], run.q_bc, run.p_bc, obs["points"][a:b])
+        np.testing.assert_allclose(obs["pixels"][a:b], run.camera.project(pc), rtol=0, atol=1e-9)
+        assert b - a == 20 and not obs["outlier"][a:b].any()

@@ -1,11 +1,13 @@
-"""``dualpose fuse``: camera-IMU pose tracking on the simulated eight-shaped run, evaluated against the truth.
+"""``dualpose fuse``: camera-IMU pose tracking on the simulated eight-shaped run or a recording, evaluated against the
+ground truth when there is one.
 
-Prints a summary table (or one JSON object with ``--json``); with ``--out DIR`` writes ``trajectory.tum`` (the
-estimate, TUM format), ``metrics.json`` and PNG figures (top view, errors with 3σ bounds, NIS vs χ² bounds).  An
-existing output file is never replaced unless ``--force``.  ``--smooth`` (ESKF only) also runs the offline RTS smoother:
-the table and JSON (``"smoothed"``) report filter and smoother side by side and ``--out`` adds
-``trajectory_smoothed.tum``.  Exit status: 0 on success, 2 on bad arguments or an
-output file that exists.
+``--data`` is "sim" (default), a recording directory or its ``sensors.json`` (format: ``docs/fusion.md``), or a BROAD
+trial ``.mat`` (pseudo-vision, ``docs/broad-pose.md``). Prints a summary table (or one JSON object with ``--json``);
+with ``--out DIR`` writes ``trajectory.tum`` (the estimate, TUM format), ``metrics.json`` and PNG figures (top view,
+errors with 3σ bounds, NIS vs χ² bounds). An existing output file is never replaced unless ``--force``. ``--smooth``
+(ESKF only) also runs the offline RTS smoother: the table and JSON (``"smoothed"``) report filter and smoother side
+by side and ``--out`` adds ``trajectory_smoothed.tum``. Exit status: 0 on success, 2 on bad arguments, a missing or
+malformed input file (the message names the file and line) or an output file that exists.
 """
 
 from __future__ import annotations
@@ -22,16 +24,20 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     """Register ``dualpose fuse``."""
     p = subparsers.add_parser(
         "fuse",
-        help="camera-IMU tracking (ESKF or Hol's 22-state EKF) on the simulated eight-shaped run",
+        help="camera-IMU tracking (ESKF or Hol's 22-state EKF) on the simulated eight-shaped run or a recording",
         description=(
-            "Run a camera-IMU filter on the built-in simulated eight-shaped run (Hol 2008), starting from static "
-            "alignment + first-frame PnP, and report ATE (SE(3)-aligned), RPE, orientation RMSE, NIS coverage and "
-            "the real-time factor."
+            "Run a camera-IMU filter on the built-in simulated eight-shaped run (Hol 2008) or on a recording, "
+            "starting from static alignment + first-frame PnP, and report ATE (SE(3)-aligned), RPE, orientation "
+            "RMSE (when the recording has ground truth), NIS coverage and the real-time factor."
         ),
     )
-    p.add_argument("--data", default="sim", help="input: 'sim' (default; file input is not implemented yet)")
+    p.add_argument(
+        "--data",
+        default="sim",
+        help="input: 'sim' (default), a recording directory or its sensors.json (docs/fusion.md), or a BROAD .mat",
+    )
     p.add_argument("--filter", choices=("eskf", "hol22"), default="eskf", help="filter (default eskf)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the simulation (0)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the simulation or of BROAD's pseudo-vision (0)")
     p.add_argument("--out", metavar="DIR", help="write trajectory.tum, metrics.json and PNG figures into DIR")
     p.add_argument("--force", action="store_true", help="replace existing output files")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
@@ -53,14 +59,17 @@ def _progress(done: int, total: int, stage: str) -> None:
 
 
 def _table(m: dict) -> str:
+    def num(key: str, spec: str) -> str:
+        return "n/a (no ground truth)" if m[key] is None else format(m[key], spec)
+
     if "smoothed" in m:
-        return _table_smoothed(m)
+        return _table_smoothed(m, num)
     rows = [
         ("data", m["data"]),
         ("filter", m["filter"]),
-        ("ATE RMSE (SE(3)) [m]", f"{m['ate_rmse_m']:.6f}"),
-        ("orientation RMSE [deg]", f"{m['orientation_rmse_deg']:.4f}"),
-        ("RPE RMSE (0.5 m) [m]", f"{m['rpe_rmse_m']:.6f}"),
+        ("ATE RMSE (SE(3)) [m]", num("ate_rmse_m", ".6f")),
+        ("orientation RMSE [deg]", num("orientation_rmse_deg", ".4f")),
+        ("RPE RMSE (0.5 m) [m]", num("rpe_rmse_m", ".6f")),
         ("NIS inside 95% band", f"{m['nis_fraction_inside']:.3f}"),
         ("correspondences rejected", f"{m['n_rejected']} of {m['n_correspondences']}"),
         ("real-time factor", f"{m['realtime_factor']:.1f}x"),
@@ -79,11 +88,13 @@ _SMOOTHED_ROWS = (
 )
 
 
-def _table_smoothed(m: dict) -> str:
+def _table_smoothed(m: dict, num) -> str:  # noqa: ANN001 -- num(key, spec) formats a filter metric or "n/a"
     """The summary table with a filter and a smoother column (``--smooth``)."""
     s = m["smoothed"]
     rows = [("data", m["data"], ""), ("method", "filter", "RTS smoother")]
-    rows += [(label, format(m[key], fmt), format(s[key], fmt)) for label, key, fmt in _SMOOTHED_ROWS]
+    rows += [
+        (label, num(key, fmt), "n/a" if s[key] is None else format(s[key], fmt)) for label, key, fmt in _SMOOTHED_ROWS
+    ]
     rows += [
         ("NIS inside 95% band", f"{m['nis_fraction_inside']:.3f}", ""),
         ("correspondences rejected", f"{m['n_rejected']} of {m['n_correspondences']}", ""),
@@ -108,9 +119,13 @@ def _figures(result, out, paths: dict) -> None:  # noqa: ANN001
     import matplotlib.pyplot as plt
     import numpy as np
 
-    t = result.truth.stamps
+    has_truth = result.truth is not None
+    # errors exist at the estimate rows matched to the truth; without truth only the filter's 3σ bounds are drawn
+    idx = result.error_index if has_truth else np.arange(len(result.estimate))
+    t = result.truth.stamps if has_truth else result.estimate.stamps
     fig, ax = plt.subplots(figsize=(6, 5))
-    ax.plot(result.truth.positions[:, 0], result.truth.positions[:, 1], "k-", label="truth")
+    if has_truth:
+        ax.plot(result.truth.positions[:, 0], result.truth.positions[:, 1], "k-", label="truth")
     ax.plot(result.estimate.positions[:, 0], result.estimate.positions[:, 1], "r--", label="estimate")
     if result.smoothed is not None:
         ax.plot(result.smoothed.positions[:, 0], result.smoothed.positions[:, 1], "g:", label="smoothed")
@@ -121,18 +136,22 @@ def _figures(result, out, paths: dict) -> None:  # noqa: ANN001
 
     fig, axs = plt.subplots(4, 1, figsize=(8, 9), sharex=True)
     for i, name in enumerate("xyz"):
-        s3 = 3e3 * result.position_sigma[:, i]
-        axs[i].plot(t, 1e3 * result.position_error[:, i], "b-", label="error")
-        if result.smoothed_position_error is not None:
-            axs[i].plot(t, 1e3 * result.smoothed_position_error[:, i], "g-", lw=0.8, label="smoothed")
+        s3 = 3e3 * result.position_sigma[idx, i]
+        if has_truth:
+            axs[i].plot(t, 1e3 * result.position_error[:, i], "b-", label="error")
+            if result.smoothed_position_error is not None:
+                axs[i].plot(t, 1e3 * result.smoothed_position_error[:, i], "g-", lw=0.8, label="smoothed")
         axs[i].fill_between(t, -s3, s3, color="0.8", label="±3σ")
         axs[i].set_ylabel(f"{name} error [mm]")
     axs[0].legend(loc="upper right")
-    axs[3].plot(t, result.orientation_error_deg, "b-", label="attitude error")
-    if result.smoothed_orientation_error_deg is not None:
-        axs[3].plot(t, result.smoothed_orientation_error_deg, "g-", lw=0.8, label="smoothed")
+    if not has_truth:
+        axs[0].set_title("no ground truth: the filter's 3σ bounds only")
+    if has_truth:
+        axs[3].plot(t, result.orientation_error_deg, "b-", label="attitude error")
+        if result.smoothed_orientation_error_deg is not None:
+            axs[3].plot(t, result.smoothed_orientation_error_deg, "g-", lw=0.8, label="smoothed")
     if result.orientation_sigma_deg is not None:
-        axs[3].plot(t, 3 * result.orientation_sigma_deg, "k--", label="3σ")
+        axs[3].plot(t, 3 * result.orientation_sigma_deg[idx], "k--", label="3σ")
     axs[3].set(ylabel="attitude error [deg]", xlabel="t [s]")
     axs[3].legend(loc="upper right")
     fig.tight_layout()
@@ -157,16 +176,22 @@ def _figures(result, out, paths: dict) -> None:  # noqa: ANN001
     plt.close(fig)
 
 
+def _run_job(args: argparse.Namespace):  # noqa: ANN202 -- FuseResult or None
+    """``run_fuse`` on ``--data``; a bad input file is reported on stderr (file and line) and gives None."""
+    from dualpose.fusion.job import run_fuse
+    from dualpose.io.recording import RecordingError
+
+    try:
+        return run_fuse(data=args.data, filter=args.filter, seed=args.seed, progress=_progress, smooth=args.smooth)
+    except RecordingError as exc:
+        print(f"\ndualpose fuse: error: {exc}", file=sys.stderr)
+        return None
+
+
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``dualpose fuse``."""
     from pathlib import Path
 
-    if args.data != "sim":
-        print(
-            f"dualpose fuse: error: --data {args.data!r}: file input is not implemented yet; only 'sim' is supported",
-            file=sys.stderr,
-        )
-        return 2
     if args.smooth and args.filter != "eskf":
         print(f"dualpose fuse: error: --smooth needs --filter eskf (got {args.filter!r}): the RTS smoother runs "
               "over the error-state filter's stored nodes", file=sys.stderr)  # fmt: skip
@@ -183,9 +208,9 @@ def run(args: argparse.Namespace) -> int:
                 if path.exists():
                     print(f"dualpose fuse: error: {path}: file exists; use --force to replace it", file=sys.stderr)
                     return 2
-    from dualpose.fusion.job import run_fuse
-
-    result = run_fuse(data=args.data, filter=args.filter, seed=args.seed, progress=_progress, smooth=args.smooth)
+    result = _run_job(args)
+    if result is None:
+        return 2
     metrics = result.metrics
     if paths:
         from dualpose.io import write_tum

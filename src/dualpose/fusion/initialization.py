@@ -13,7 +13,14 @@ import numpy as np
 import dualpose as dp
 from dualpose.fusion.pnp import PnPResult
 
-__all__ = ["StaticAlignment", "static_alignment", "body_pose_from_camera", "initial_state_from_rest_and_frame"]
+__all__ = [
+    "StaticAlignment",
+    "static_alignment",
+    "body_pose_from_camera",
+    "initial_state_from_rest_and_frame",
+    "detect_rest",
+    "initial_state_from_run",
+]
 
 
 @dataclass
@@ -123,16 +130,83 @@ def initial_state_from_rest_and_frame(
     return x, P
 
 
-def initial_state_from_run(run, rest_seconds: float = 0.9) -> tuple[np.ndarray, np.ndarray]:  # noqa: ANN001
-    """:func:`initial_state_from_rest_and_frame` for a :class:`~dualpose.fusion.sim.SimulatedRun` (or any object with
-    its fields): the IMU samples of the first ``rest_seconds`` s are the rest period, frame 0 gives the PnP pose
-    (seeded RANSAC + Gauss–Newton, :func:`dualpose.fusion.pnp.solve_pnp_ransac`)."""
+def detect_rest(
+    t: np.ndarray,
+    gyro: np.ndarray,
+    accel: np.ndarray,
+    gyroscope_noise_density: float,
+    accelerometer_noise_density: float,
+    window_s: float = 0.2,
+    threshold_sigma: float = 5.0,
+) -> float:
+    """Length (s) of the rest period at the start of an IMU stream, from the samples themselves.
+
+    The stream is cut into windows of ``window_s``; the rest ends before the first window whose mean gyro or
+    accelerometer reading differs from the first window's on some axis by more than ``threshold_sigma`` times the
+    standard deviation of that difference under white noise alone (``σ_d = density · √(rate) · √(2 / m)`` for
+    m samples per window), or whose sample standard deviation exceeds 3 × the white-noise one (vibration).
+    The first window is assumed to be at rest.
+
+    Parameters
+    ----------
+    t : (N,) s.  gyro, accel : (N, 3) rad/s, m/s².
+    gyroscope_noise_density, accelerometer_noise_density : float
+        Kalibr white-noise densities (rad/s/√Hz, m/s²/√Hz).
+
+    Returns
+    -------
+    float
+        End of the last rest window minus ``t[0]``, seconds (a whole number of windows, at least one).
+    """
+    t = np.asarray(t, dtype=np.float64)
+    rate = 1.0 / float(np.median(np.diff(t)))
+    m = max(int(round(window_s * rate)), 3)
+    nw = len(t) // m
+    if nw < 1:
+        raise ValueError(f"the IMU stream ({len(t)} samples) is shorter than one rest-detection window ({m})")
+    out = nw
+    for sig, data in ((gyroscope_noise_density, gyro), (accelerometer_noise_density, accel)):
+        w = np.asarray(data, dtype=np.float64)[: nw * m].reshape(nw, m, 3)
+        mean, std = w.mean(axis=1), w.std(axis=1)
+        s_sample = max(sig, 1e-12) * np.sqrt(rate)
+        moving = np.any(np.abs(mean - mean[0]) > threshold_sigma * s_sample * np.sqrt(2.0 / m), axis=1)
+        moving |= np.any(std > 3.0 * s_sample, axis=1)
+        if moving.any():
+            out = min(out, int(np.argmax(moving)))
+    out = max(out, 1)
+    return float(t[out * m - 1] - t[0]) if out * m - 1 < len(t) else float(t[-1] - t[0])
+
+
+def initial_state_from_run(run, rest_seconds: float | None = 0.9) -> tuple[np.ndarray, np.ndarray]:  # noqa: ANN001
+    """:func:`initial_state_from_rest_and_frame` for a :class:`~dualpose.fusion.sim.SimulatedRun` or a
+    :class:`~dualpose.fusion.recording.Recording` (any object with their fields ``t``, ``gyro``, ``accel``,
+    ``frames``, ``camera``, ``pixel_sigma``, ``q_bc``, ``p_bc``, ``imu_noise`` and ``time_offset``).
+
+    The IMU samples of the first ``rest_seconds`` s are the rest period (None: :func:`detect_rest` with the
+    run's noise densities); the first frame captured during the rest with at least 6 correspondences gives the
+    PnP pose (seeded RANSAC + Gauss–Newton, :func:`dualpose.fusion.pnp.solve_pnp_ransac`).  The pose at that
+    frame is the pose at ``t[0]`` because the body is at rest.
+
+    Raises
+    ------
+    ValueError
+        No camera frame with >= 6 correspondences during the rest period.
+    """
     from dualpose.fusion.pnp import solve_pnp_ransac
 
-    rest = run.t < run.t[0] + rest_seconds
-    pix, pts = run.frames.frame(0)
-    first, _ = solve_pnp_ransac(pix, pts, run.camera.matrix, pixel_sigma=run.pixel_sigma)
     n = run.imu_noise
+    if rest_seconds is None:
+        rest_seconds = detect_rest(run.t, run.gyro, run.accel, n.gyroscope_noise_density, n.accelerometer_noise_density)
+    rest = run.t < run.t[0] + rest_seconds
+    t_frames = np.asarray(run.frames.t) + getattr(run, "time_offset", 0.0)
+    usable = (t_frames >= run.t[0]) & (t_frames <= run.t[0] + rest_seconds) & (np.diff(run.frames.offsets) >= 6)
+    if not usable.any():
+        raise ValueError(
+            f"no camera frame with >= 6 correspondences during the rest period [{run.t[0]:.6f}, "
+            f"{run.t[0] + rest_seconds:.6f}] s (IMU clock): the filter starts from a first-frame PnP at rest"
+        )
+    pix, pts = run.frames.frame(int(np.argmax(usable)))
+    first, _ = solve_pnp_ransac(pix, pts, run.camera.matrix, pixel_sigma=run.pixel_sigma)
     return initial_state_from_rest_and_frame(
         run.accel[rest], run.gyro[rest], first, run.q_bc, run.p_bc, n.gyroscope_noise_density,
         n.accelerometer_initial_bias_sigma, n.update_rate,

@@ -29,9 +29,13 @@ import dualpose as dp
 
 __all__ = [
     "ImuNoise",
+    "PinholeModel",
     "PinholeCamera",
+    "CameraIntrinsics",
     "Trajectory",
+    "FrameCorrespondences",
     "CameraFrames",
+    "observe_landmarks",
     "SimulatedRun",
     "eight_trajectory",
     "random_trajectory",
@@ -86,8 +90,26 @@ class ImuNoise:
         )
 
 
+class PinholeModel:
+    """Projection shared by the pinhole cameras; a subclass provides ``fx``, ``fy``, ``cx``, ``cy`` (pixels) and
+    ``width``, ``height``.  Pixel ``u = fx X/Z + cx``, ``v = fy Y/Z + cy`` (camera frame, metres)."""
+
+    @property
+    def matrix(self) -> np.ndarray:
+        """Intrinsic matrix ``K``, shape (3, 3), pixels."""
+        return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
+
+    def project(self, points_c: np.ndarray) -> np.ndarray:
+        """Pixels ``(..., 2)`` of camera-frame points ``(..., 3)`` (metres; Z must be > 0)."""
+        p = np.asarray(points_c, dtype=np.float64)
+        if p.shape[-1:] != (3,):
+            raise ValueError(f"points_c must have shape (..., 3); got {p.shape}")
+        z = p[..., 2]
+        return np.stack([self.fx * p[..., 0] / z + self.cx, self.fy * p[..., 1] / z + self.cy], axis=-1)
+
+
 @dataclass(frozen=True)
-class PinholeCamera:
+class PinholeCamera(PinholeModel):
     """Pinhole camera without distortion.  Pixel ``u = fx X/Z + cx``, ``v = fy Y/Z + cy`` (camera frame, metres).
 
     Defaults: Hol's 320 × 240 camera with f = 3.2 mm and an assumed 15 µm pixel pitch (fx = fy = 213.3 px).
@@ -114,18 +136,39 @@ class PinholeCamera:
     def cy(self) -> float:
         return 0.5 * self.height
 
-    @property
-    def matrix(self) -> np.ndarray:
-        """Intrinsic matrix ``K``, shape (3, 3), pixels."""
-        return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
 
-    def project(self, points_c: np.ndarray) -> np.ndarray:
-        """Pixels ``(..., 2)`` of camera-frame points ``(..., 3)`` (metres; Z must be > 0)."""
-        p = np.asarray(points_c, dtype=np.float64)
-        if p.shape[-1:] != (3,):
-            raise ValueError(f"points_c must have shape (..., 3); got {p.shape}")
-        z = p[..., 2]
-        return np.stack([self.fx * p[..., 0] / z + self.cx, self.fy * p[..., 1] / z + self.cy], axis=-1)
+@dataclass(frozen=True)
+class CameraIntrinsics(PinholeModel):
+    """Pinhole camera given by its intrinsics in pixels (what a calibration file states), no distortion.
+
+    Attributes
+    ----------
+    fx, fy : float
+        Focal lengths, pixels (> 0).
+    cx, cy : float
+        Principal point, pixels.
+    width, height : int
+        Image size, pixels (> 0).
+    """
+
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    width: int
+    height: int
+
+    def __post_init__(self) -> None:
+        for name in ("fx", "fy", "cx", "cy"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v)):
+                raise ValueError(f"{name} must be a finite number of pixels; got {v!r}")
+        if not (self.fx > 0 and self.fy > 0):
+            raise ValueError(f"fx and fy must be > 0 pixels; got {self.fx}, {self.fy}")
+        for name in ("width", "height"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v <= 0:
+                raise ValueError(f"{name} must be a positive whole number of pixels; got {v!r}")
 
 
 def _smoothstep(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -331,21 +374,17 @@ def two_plane_landmarks(rng: np.random.Generator, n: int = 300) -> np.ndarray:
 
 
 @dataclass
-class CameraFrames:
-    """Point correspondences of all frames, flattened.
+class FrameCorrespondences:
+    """2-D–3-D point correspondences of all camera frames, flattened (what the filters consume).
 
-    Frame ``k`` owns rows ``offsets[k]:offsets[k+1]`` of ``pixels`` (M, 2), ``points`` (M, 3) world-frame landmark
-    positions (metres), ``landmark_ids`` (M,) and ``outlier`` (M,) (True where the pixel was replaced by a gross
-    outlier).  ``t`` (F,) are the camera-clock stamps, ``t_true`` (F,) the IMU-clock capture times.
+    Frame ``k`` (camera-clock stamp ``t[k]``, s; ``t`` (F,)) owns rows ``offsets[k]:offsets[k+1]`` of ``pixels``
+    (M, 2) and ``points`` (M, 3) world-frame landmark positions (metres); ``offsets`` (F + 1,) int64.
     """
 
     t: np.ndarray
-    t_true: np.ndarray
     offsets: np.ndarray
     pixels: np.ndarray
     points: np.ndarray
-    landmark_ids: np.ndarray
-    outlier: np.ndarray
 
     def __len__(self) -> int:
         return len(self.t)
@@ -354,6 +393,24 @@ class CameraFrames:
         """``(pixels (m, 2), points (m, 3))`` of frame ``k``."""
         a, b = self.offsets[k], self.offsets[k + 1]
         return self.pixels[a:b], self.points[a:b]
+
+    @property
+    def counts(self) -> np.ndarray:
+        """Number of correspondences per frame, shape (F,)."""
+        return np.diff(self.offsets)
+
+
+@dataclass
+class CameraFrames(FrameCorrespondences):
+    """Simulated frames: :class:`FrameCorrespondences` plus what only a simulator knows.
+
+    ``t_true`` (F,) the IMU-clock capture times, ``landmark_ids`` (M,) and ``outlier`` (M,) (True where the pixel
+    was replaced by a gross outlier).
+    """
+
+    t_true: np.ndarray = field(kw_only=True)
+    landmark_ids: np.ndarray = field(kw_only=True)
+    outlier: np.ndarray = field(kw_only=True)
 
 
 @dataclass
@@ -523,10 +580,46 @@ def _make_frames(
         keep &= ~((t_true >= a) & (t_true < b))
     t_true = t_true[keep]
     kin = traj.kinematics(t_true)
+    obs = observe_landmarks(
+        kin["quat"], kin["position"], landmarks, camera, q_bc, p_bc, rng, sigma, per_frame, outlier_fraction
+    )
+    return CameraFrames(t=t_true - offset, t_true=t_true, **obs)
+
+
+def observe_landmarks(
+    q_wb: np.ndarray,
+    p_wb: np.ndarray,
+    landmarks: np.ndarray,
+    camera: PinholeModel,
+    q_bc: np.ndarray,
+    p_bc: np.ndarray,
+    rng: np.random.Generator,
+    pixel_sigma: float = 1.0,
+    per_frame: int = 20,
+    outlier_fraction: float = 0.0,
+) -> dict[str, np.ndarray]:
+    """Noisy pixel observations of the visible landmarks from F body poses (the simulator's camera model).
+
+    For each pose a landmark is visible when it lies more than 5 cm in front of the camera and projects inside the
+    image; at most ``per_frame`` of them are kept (random subset), their pixels get N(0, ``pixel_sigma``²) noise and
+    a fraction ``outlier_fraction`` is replaced by a uniform random pixel.  Random draws per frame, in frame order:
+    subset, noise, outlier flags, outlier pixels.
+
+    Parameters
+    ----------
+    q_wb : (F, 4) xyzw body→world.  p_wb : (F, 3) m.  landmarks : (L, 3) world frame, m.
+    camera : PinholeModel.  q_bc, p_bc : extrinsic (camera axes and centre in the body frame).
+
+    Returns
+    -------
+    dict
+        ``offsets`` (F + 1,) int64, ``pixels`` (M, 2), ``points`` (M, 3), ``landmark_ids`` (M,) int64,
+        ``outlier`` (M,) bool -- the fields of :class:`CameraFrames` other than the times.
+    """
     offsets = [0]
     pix_all, pts_all, ids_all, out_all = [], [], [], []
-    for k in range(len(t_true)):
-        pc = camera_points(kin["quat"][k], kin["position"][k], q_bc, p_bc, landmarks)
+    for k in range(len(q_wb)):
+        pc = camera_points(q_wb[k], p_wb[k], q_bc, p_bc, landmarks)
         front = pc[:, 2] > 0.05
         uv = np.full((len(pc), 2), -1.0)
         uv[front] = camera.project(pc[front])
@@ -534,7 +627,7 @@ def _make_frames(
         ids = np.flatnonzero(vis)
         if len(ids) > per_frame:
             ids = np.sort(rng.choice(ids, per_frame, replace=False))
-        pix = uv[ids] + rng.normal(0.0, sigma, (len(ids), 2))
+        pix = uv[ids] + rng.normal(0.0, pixel_sigma, (len(ids), 2))
         out = rng.random(len(ids)) < outlier_fraction
         pix[out] = rng.uniform([0.0, 0.0], [camera.width, camera.height], (int(out.sum()), 2))
         pix_all.append(pix)
@@ -542,15 +635,13 @@ def _make_frames(
         ids_all.append(ids)
         out_all.append(out)
         offsets.append(offsets[-1] + len(ids))
-    return CameraFrames(
-        t=t_true - offset,
-        t_true=t_true,
-        offsets=np.asarray(offsets, np.int64),
-        pixels=np.concatenate(pix_all) if pix_all else np.zeros((0, 2)),
-        points=np.concatenate(pts_all) if pts_all else np.zeros((0, 3)),
-        landmark_ids=np.concatenate(ids_all).astype(np.int64) if ids_all else np.zeros(0, np.int64),
-        outlier=np.concatenate(out_all) if out_all else np.zeros(0, bool),
-    )
+    return {
+        "offsets": np.asarray(offsets, np.int64),
+        "pixels": np.concatenate(pix_all) if pix_all else np.zeros((0, 2)),
+        "points": np.concatenate(pts_all) if pts_all else np.zeros((0, 3)),
+        "landmark_ids": np.concatenate(ids_all).astype(np.int64) if ids_all else np.zeros(0, np.int64),
+        "outlier": np.concatenate(out_all) if out_all else np.zeros(0, bool),
+    }
 
 
 def simulate_eight(seed: int = 0, **kwargs) -> SimulatedRun:  # noqa: ANN003

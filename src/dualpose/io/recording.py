@@ -1,0 +1,496 @@
+"""Camera-IMU recordings on disk: the input format of ``dualpose fuse --data PATH`` (reader and writer).
+
+A recording is a directory (or the sensor file inside it, whose ``files`` entry may point elsewhere)::
+
+    sensors.json          camera intrinsics, body->camera extrinsic, pixel sigma, IMU noise (Kalibr names),
+                          gravity, camera time offset, optional rest period; names the other files
+    imu.csv               EuRoC IMU CSV (int ns, rad/s, m/s^2) -- or a whitespace text file "t wx wy wz ax ay az" (s)
+    correspondences.csv   one 2-D-3-D correspondence per row: timestamp [ns], u [px], v [px], X [m], Y [m], Z [m];
+                          consecutive rows with the same timestamp form one frame (camera clock)
+    groundtruth.csv       optional: EuRoC ground-truth CSV or a TUM trajectory (for evaluation)
+
+The full specification, with an example sensor file, is in ``docs/fusion.md`` ("Recording format for
+``dualpose fuse --data``").  Every problem is reported as a :class:`RecordingError` (a ValueError) naming the file
+and, where there is one, the line.  Quaternions are xyzw (scalar last) in the sensor file, like everywhere in
+dualpose; EuRoC ground truth stores wxyz and is converted by its reader.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+
+from dualpose.io._text import open_for_writing, parse_float_columns, parse_int_column, read_table
+from dualpose.io.detect import read_trajectory
+from dualpose.io.euroc import ImuData, read_euroc_imu, write_euroc_groundtruth, write_euroc_imu
+from dualpose.io.trajectory import Trajectory, seconds_from_ns
+
+__all__ = [
+    "RecordingError",
+    "SENSORS_FILE",
+    "read_recording",
+    "write_recording",
+    "read_imu",
+    "read_correspondences",
+]
+
+#: name of the sensor file looked up in a recording directory (``sensors.yaml``/``.yml`` also, with PyYAML)
+SENSORS_FILE = "sensors.json"
+FORMAT_NAME = "dualpose-recording"
+FORMAT_VERSION = 1
+
+_DEFAULT_FILES = {"imu": "imu.csv", "correspondences": "correspondences.csv"}
+_CORR_LAYOUT = "timestamp [ns], u [px], v [px], X [m], Y [m], Z [m]"
+_CORR_HEADER = "#timestamp [ns],u [px],v [px],X [m],Y [m],Z [m]"
+_IMU_TEXT_LAYOUT = "t [s] wx wy wz [rad/s] ax ay az [m/s^2]"
+
+# sensor-file schema: key -> (required, kind, help); kinds: num, pos (> 0), nonneg, int (> 0), vec3, quat, str
+_CAMERA_KEYS = {
+    "fx": (True, "pos", "focal length x, px"),
+    "fy": (True, "pos", "focal length y, px"),
+    "cx": (True, "num", "principal point x, px"),
+    "cy": (True, "num", "principal point y, px"),
+    "width": (True, "int", "image width, px"),
+    "height": (True, "int", "image height, px"),
+    "pixel_sigma": (True, "pos", "pixel noise standard deviation, px"),
+    "q_bc": (True, "quat", "camera axes in the body frame, xyzw"),
+    "p_bc": (True, "vec3", "camera centre in the body frame, m"),
+    "timeshift_cam_imu": (False, "num", "t_imu = t_cam + timeshift_cam_imu, s (default 0)"),
+}
+_IMU_KEYS = {
+    "gyroscope_noise_density": (True, "pos", "rad/s/sqrt(Hz)"),
+    "gyroscope_random_walk": (True, "nonneg", "rad/s^2/sqrt(Hz)"),
+    "accelerometer_noise_density": (True, "pos", "m/s^2/sqrt(Hz)"),
+    "accelerometer_random_walk": (True, "nonneg", "m/s^3/sqrt(Hz)"),
+    "gyroscope_initial_bias_sigma": (False, "nonneg", "rad/s (default 0.5 deg/s)"),
+    "accelerometer_initial_bias_sigma": (False, "nonneg", "m/s^2 (default 0.05)"),
+    "update_rate": (False, "pos", "Hz (default: from the IMU stamps)"),
+}
+_FILES_KEYS = {
+    "imu": (False, "str", "IMU file (default imu.csv)"),
+    "correspondences": (False, "str", "correspondence file (default correspondences.csv)"),
+    "groundtruth": (False, "str", "ground truth, EuRoC CSV or TUM (optional)"),
+}
+_TOP_KEYS = {
+    "format": (False, "str", f"'{FORMAT_NAME}'"),
+    "version": (False, "int", f"{FORMAT_VERSION}"),
+    "files": (False, "dict", "file names relative to the sensor file"),
+    "camera": (True, "dict", "intrinsics, extrinsic, pixel sigma"),
+    "imu": (True, "dict", "noise densities (Kalibr imu.yaml names)"),
+    "gravity": (False, "vec3", "world gravity, m/s^2 (default [0, 0, -9.81])"),
+    "rest_duration_s": (False, "pos", "leading rest period, s (default: detected)"),
+}
+
+
+class RecordingError(ValueError):
+    """A recording that cannot be read or used; the message names the file and, where there is one, the line."""
+
+
+# ------------------------------------------------------------------------------------------------ sensor file
+
+
+class _SensorFile:
+    """The parsed sensor file with line lookup for error messages."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        try:
+            self.text = path.read_text(encoding="utf-8-sig")
+        except OSError as exc:
+            raise RecordingError(f"{path}: cannot read ({exc.strerror or exc})") from None
+        except UnicodeDecodeError as exc:
+            raise RecordingError(f"{path}: not a UTF-8 text file ({exc})") from None
+        self.yaml = path.suffix.lower() in (".yaml", ".yml")
+        if self.yaml:
+            try:
+                import yaml
+            except ImportError:
+                raise RecordingError(f"{path}: reading a YAML sensor file needs PyYAML; or write it as JSON") from None
+            try:
+                self.data = yaml.safe_load(self.text)
+            except yaml.YAMLError as exc:
+                mark = getattr(exc, "problem_mark", None)
+                where = f":{mark.line + 1}" if mark is not None else ""
+                raise RecordingError(f"{path}{where}: YAML syntax error: {getattr(exc, 'problem', exc)}") from None
+        else:
+            try:
+                self.data = json.loads(self.text)
+            except json.JSONDecodeError as exc:
+                msg = f"{path}:{exc.lineno}: JSON syntax error: {exc.msg} (column {exc.colno})"
+                raise RecordingError(msg) from None
+        if not isinstance(self.data, dict):
+            raise RecordingError(f"{path}: the sensor file must hold an object (mapping) at the top level")
+
+    def line(self, dotted: str) -> int | None:
+        """1-based line where the (last part of the) dotted key is written, searching after its parent's line."""
+        lines = self.text.splitlines()
+        start = 0
+        for part in dotted.split("."):
+            pat = re.compile(rf'(^|[\s{{,])"?{re.escape(part)}"?\s*:')
+            for i in range(start, len(lines)):
+                if pat.search(lines[i]):
+                    start = i
+                    break
+            else:
+                return None
+        return start + 1
+
+    def error(self, dotted: str, message: str) -> RecordingError:
+        ln = self.line(dotted)
+        return RecordingError(f"{self.path}{'' if ln is None else f':{ln}'}: {dotted}: {message}")
+
+    def section(self, data: dict, prefix: str, schema: dict) -> dict:
+        """Validate ``data`` against ``schema`` (unknown keys, missing keys, kinds); returns converted values."""
+        out = {}
+        for key in data:
+            if key not in schema:
+                raise self.error(f"{prefix}{key}", f"unknown key (expected: {', '.join(schema)})")
+        for key, (required, kind, what) in schema.items():
+            name = f"{prefix}{key}"
+            if key not in data or data[key] is None:
+                if required:
+                    where = f" in '{prefix[:-1]}'" if prefix else ""
+                    raise RecordingError(f"{self.path}: {name}: missing{where} ({what})")
+                continue
+            out[key] = self._convert(name, data[key], kind, what)
+        return out
+
+    def _convert(self, name: str, v: object, kind: str, what: str) -> object:
+        def is_num(x: object) -> bool:
+            return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+        if kind == "dict":
+            if not isinstance(v, dict):
+                raise self.error(name, f"must be an object ({what}); got {v!r}")
+            return v
+        if kind == "str":
+            if not isinstance(v, (str, int)):
+                raise self.error(name, f"must be a string ({what}); got {v!r}")
+            return str(v)
+        if kind in ("vec3", "quat"):
+            n = 3 if kind == "vec3" else 4
+            if not (isinstance(v, list) and len(v) == n and all(is_num(x) for x in v)):
+                raise self.error(name, f"must be a list of {n} finite numbers ({what}); got {v!r}")
+            a = np.asarray(v, dtype=np.float64)
+            if kind == "quat":
+                nq = float(np.linalg.norm(a))
+                if abs(nq - 1.0) > 1e-6:
+                    raise self.error(name, f"must be a unit quaternion xyzw (norm {nq:.9g})")
+                if abs(nq - 1.0) > 1e-12:  # keep a quaternion written with 17 digits bit-exact
+                    a = a / nq
+            return a
+        if kind == "int":
+            if isinstance(v, bool) or not isinstance(v, int) or v <= 0:
+                raise self.error(name, f"must be a positive whole number ({what}); got {v!r}")
+            return v
+        if not is_num(v):
+            raise self.error(name, f"must be a finite number ({what}); got {v!r}")
+        if kind == "pos" and not v > 0:
+            raise self.error(name, f"must be > 0 ({what}); got {v!r}")
+        if kind == "nonneg" and not v >= 0:
+            raise self.error(name, f"must be >= 0 ({what}); got {v!r}")
+        return float(v)
+
+
+def _sensor_path(name: str | os.PathLike) -> Path:
+    path = Path(name)
+    if path.is_dir():
+        for name in (SENSORS_FILE, "sensors.yaml", "sensors.yml"):
+            if (path / name).is_file():
+                return path / name
+        raise RecordingError(f"{path}: a recording directory needs a {SENSORS_FILE} (see docs/fusion.md)")
+    if path.is_file():
+        return path
+    raise RecordingError(
+        f"{os.fspath(name)}: no such file or directory (expected a recording directory or its {SENSORS_FILE})"
+    )
+
+
+# ------------------------------------------------------------------------------------------------ data files
+
+
+def _row_line(path: str | os.PathLike, k: int) -> int:
+    """1-based line number of the k-th data row (not blank, not a ``#`` comment) of a text file."""
+    with open(path, encoding="utf-8-sig") as f:
+        j = -1
+        for i, line in enumerate(f, start=1):
+            s = line.strip()
+            if s and not s.startswith("#"):
+                j += 1
+                if j == k:
+                    return i
+    return 0  # pragma: no cover - k is always a valid row index
+
+
+def _check_increasing(path: str | os.PathLike, ns: np.ndarray, strict: bool, what: str) -> None:
+    d = np.diff(ns)
+    bad = (d <= 0) if strict else (d < 0)
+    if bad.any():
+        k = int(np.argmax(bad)) + 1
+        order = "strictly increasing" if strict else "non-decreasing"
+        raise RecordingError(
+            f"{path}:{_row_line(path, k)}: {what} timestamps must be {order}; {ns[k]} follows {ns[k - 1]}"
+        )
+
+
+def _ns_from_decimal_seconds(table, column: int) -> np.ndarray:  # noqa: ANN001
+    """Exact int64 nanoseconds from decimal-second strings (``"1403636579.763555584"``); exponent notation is
+    converted through float64."""
+    out = np.empty(len(table.rows), np.int64)
+    for k, row in enumerate(table.rows):
+        cell = row[column]
+        m = re.fullmatch(r"([+-]?)(\d*)(?:\.(\d*))?", cell)
+        try:
+            if m is not None and (m.group(2) or m.group(3)):
+                frac = (m.group(3) or "")[:9].ljust(9, "0")
+                v = int(m.group(2) or "0") * 1_000_000_000 + int(frac)
+                out[k] = -v if m.group(1) == "-" else v
+            else:
+                x = float(cell)
+                if not math.isfinite(x):
+                    raise ValueError
+                out[k] = round(x * 1e9)
+        except (ValueError, OverflowError):
+            raise table.error(k, f"timestamp [s]: {cell!r} is not a finite number") from None
+    return out
+
+
+def read_imu(path: str | os.PathLike) -> ImuData:
+    """Read an IMU file: an EuRoC CSV (comma-separated, integer ns stamps) or a whitespace-separated text file
+    ``t wx wy wz ax ay az`` with ``t`` in seconds (the TUM style).  Stamps must be strictly increasing.
+
+    Raises
+    ------
+    RecordingError
+        ``path:line: ...`` for a malformed row or a stamp out of order.
+    """
+    p = str(path)
+    try:
+        with open(p, encoding="utf-8-sig") as f:
+            first = next((s.strip() for s in f if s.strip() and not s.strip().startswith("#")), "")
+        if "," in first:
+            imu = read_euroc_imu(p)
+        else:
+            table = read_table(p, None, (7, 7), _IMU_TEXT_LAYOUT)
+            ns = _ns_from_decimal_seconds(table, 0)
+            data = parse_float_columns(table, slice(1, 7), _IMU_TEXT_LAYOUT)
+            imu = ImuData(ns, seconds_from_ns(ns), data[:, 0:3], data[:, 3:6], p)
+    except FileNotFoundError:
+        raise RecordingError(f"{p}: IMU file not found") from None
+    except RecordingError:
+        raise
+    except (ValueError, OSError) as exc:
+        raise RecordingError(str(exc)) from None
+    if len(imu) < 2:
+        raise RecordingError(f"{p}: at least two IMU samples are needed; found {len(imu)}")
+    _check_increasing(p, imu.stamps_ns, True, "IMU")
+    return imu
+
+
+def read_correspondences(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Read a correspondence CSV: ``timestamp [ns], u [px], v [px], X [m], Y [m], Z [m]`` per row.
+
+    A first line whose first field is not an integer is taken as a header; ``#`` lines are comments.  Rows with
+    the same timestamp form one frame and must be consecutive (timestamps non-decreasing).
+
+    Returns
+    -------
+    frame_ns : ndarray of int64, shape (F,)
+        Frame stamps, camera clock, ns.
+    offsets : ndarray of int64, shape (F + 1,)
+        Frame k owns rows ``offsets[k]:offsets[k+1]``.
+    pixels : ndarray, shape (M, 2)
+    points : ndarray, shape (M, 3)
+        World-frame landmark positions, m.
+
+    Raises
+    ------
+    RecordingError
+        ``path:line: ...`` for a row without 6 fields, a non-integer stamp, a non-finite value or a stamp out of
+        order.
+    """
+    p = str(path)
+    try:
+        table = read_table(p, ",", (6, 6), _CORR_LAYOUT)
+        if table.rows and not table.rows[0][0].lstrip("+-").isdigit():
+            table.rows.pop(0)
+            table.linenos.pop(0)
+            if not table.rows:
+                raise RecordingError(f"{p}: no data rows (expected {_CORR_LAYOUT})")
+        ns = parse_int_column(table, 0, "timestamp [ns]")
+        data = parse_float_columns(table, slice(1, 6), _CORR_LAYOUT)
+    except FileNotFoundError:
+        raise RecordingError(f"{p}: correspondence file not found") from None
+    except RecordingError:
+        raise
+    except (ValueError, OSError) as exc:
+        raise RecordingError(str(exc)) from None
+    d = np.diff(ns)
+    if np.any(d < 0):
+        k = int(np.argmax(d < 0)) + 1
+        raise RecordingError(
+            f"{p}:{table.linenos[k]}: correspondence timestamps must be non-decreasing (rows of a frame together); "
+            f"{ns[k]} follows {ns[k - 1]}"
+        )
+    starts = np.concatenate([[0], np.flatnonzero(d) + 1])
+    offsets = np.concatenate([starts, [len(ns)]]).astype(np.int64)
+    return ns[starts], offsets, data[:, 0:2].copy(), data[:, 2:5].copy()
+
+
+# ------------------------------------------------------------------------------------------------ recording
+
+
+def read_recording(path: str | os.PathLike):  # noqa: ANN201 -- Recording (imported lazily)
+    """Read a recording (directory or sensor file) into a :class:`~dualpose.fusion.recording.Recording`.
+
+    Times are float seconds on the IMU clock's epoch (``seconds_from_ns`` of the files' nanoseconds); the exact
+    IMU nanoseconds are kept in ``stamps_ns``.  A ground-truth file, when named, is read with
+    :func:`dualpose.io.read_trajectory` (EuRoC CSV or TUM, detected).
+
+    Raises
+    ------
+    RecordingError
+        Anything missing or malformed, with the file (and line).
+    """
+    from dualpose.fusion.recording import Recording
+    from dualpose.fusion.sim import CameraIntrinsics, FrameCorrespondences, ImuNoise
+
+    sf = _SensorFile(_sensor_path(path))
+    top = sf.section(sf.data, "", _TOP_KEYS)
+    if top.get("format", FORMAT_NAME) != FORMAT_NAME:
+        raise sf.error("format", f"expected '{FORMAT_NAME}'; got {top['format']!r}")
+    if top.get("version", FORMAT_VERSION) != FORMAT_VERSION:
+        raise sf.error("version", f"this dualpose reads version {FORMAT_VERSION}; got {top['version']!r}")
+    cam = sf.section(top["camera"], "camera.", _CAMERA_KEYS)
+    imu_cfg = sf.section(top["imu"], "imu.", _IMU_KEYS)
+    files = {**_DEFAULT_FILES, **sf.section(top.get("files", {}), "files.", _FILES_KEYS)}
+    base = sf.path.parent
+
+    imu = read_imu(base / files["imu"])
+    frame_ns, offsets, pixels, points = read_correspondences(base / files["correspondences"])
+    truth = None
+    if "groundtruth" in files:
+        gt_path = base / files["groundtruth"]
+        try:
+            truth = read_trajectory(gt_path)
+        except FileNotFoundError:
+            raise RecordingError(f"{gt_path}: ground-truth file not found (named in {sf.path})") from None
+        except ValueError as exc:
+            raise RecordingError(str(exc)) from None
+
+    default_noise = ImuNoise()
+    rate = imu_cfg.get("update_rate", 1.0 / float(np.median(np.diff(imu.stamps))))
+    noise = ImuNoise(
+        gyroscope_noise_density=imu_cfg["gyroscope_noise_density"],
+        gyroscope_random_walk=imu_cfg["gyroscope_random_walk"],
+        accelerometer_noise_density=imu_cfg["accelerometer_noise_density"],
+        accelerometer_random_walk=imu_cfg["accelerometer_random_walk"],
+        gyroscope_initial_bias_sigma=imu_cfg.get(
+            "gyroscope_initial_bias_sigma", default_noise.gyroscope_initial_bias_sigma
+        ),
+        accelerometer_initial_bias_sigma=imu_cfg.get(
+            "accelerometer_initial_bias_sigma", default_noise.accelerometer_initial_bias_sigma
+        ),
+        update_rate=rate,
+    )
+    camera = CameraIntrinsics(cam["fx"], cam["fy"], cam["cx"], cam["cy"], cam["width"], cam["height"])
+    frames = FrameCorrespondences(seconds_from_ns(frame_ns), offsets, pixels, points)
+    return Recording(
+        t=imu.stamps, gyro=imu.gyro, accel=imu.accel, frames=frames, camera=camera, q_bc=cam["q_bc"],
+        p_bc=cam["p_bc"], pixel_sigma=cam["pixel_sigma"], imu_noise=noise,
+        time_offset=cam.get("timeshift_cam_imu", 0.0), gravity=top.get("gravity", np.array([0.0, 0.0, -9.81])),
+        rest_seconds=top.get("rest_duration_s"), ground_truth=truth, stamps_ns=imu.stamps_ns, name=str(path),
+    )  # fmt: skip
+
+
+def _ns(seconds: np.ndarray) -> np.ndarray:
+    return np.round(np.asarray(seconds, dtype=np.float64) * 1e9).astype(np.int64)
+
+
+def write_recording(directory: str | os.PathLike, recording, *, overwrite: bool = False) -> Path:  # noqa: ANN001
+    """Write a :class:`~dualpose.fusion.recording.Recording` or a :class:`~dualpose.fusion.sim.SimulatedRun` as
+    a recording directory that :func:`read_recording` (and ``dualpose fuse --data DIR``) reads back.
+
+    Files: ``sensors.json``, ``imu.csv`` (EuRoC), ``correspondences.csv`` and, when there is ground truth,
+    ``groundtruth.csv`` (EuRoC; for a simulated run with velocity and biases).  Float seconds are written as
+    nanoseconds rounded to the nearest integer; all values with 17 significant digits (exact round trip).  A
+    simulated run is converted with :func:`~dualpose.fusion.recording.recording_from_simulation` (rest period 0.9 s,
+    the nominal gravity).  Frames without correspondences are not written (nothing to update with).
+
+    Parameters
+    ----------
+    directory : path-like
+        Created if missing.
+    overwrite : bool
+        Replace existing files; by default an existing file raises ``FileExistsError``.
+
+    Returns
+    -------
+    Path
+        The sensor file.
+    """
+    from dualpose.fusion.recording import Recording, recording_from_simulation
+    from dualpose.fusion.sim import SimulatedRun
+
+    extra = {}
+    if isinstance(recording, SimulatedRun):
+        run = recording
+        extra = {k: run.truth[k] for k in ("velocity", "gyro_bias", "accel_bias")}
+        recording = recording_from_simulation(run)
+    if not isinstance(recording, Recording):
+        raise TypeError(f"recording must be a Recording or a SimulatedRun; got {type(recording).__name__}")
+    rec = recording
+    out = Path(directory)
+    out.mkdir(parents=True, exist_ok=True)
+    names = {"imu": "imu.csv", "correspondences": "correspondences.csv"}
+    if not overwrite:
+        targets = [SENSORS_FILE, *names.values()] + (["groundtruth.csv"] if rec.ground_truth is not None else [])
+        for name in targets:
+            if (out / name).exists():
+                raise FileExistsError(f"{out / name}: file exists; pass overwrite=True (CLI: --force) to replace it")
+
+    stamps_ns = rec.stamps_ns if rec.stamps_ns is not None else _ns(rec.t)
+    write_euroc_imu(out / names["imu"], ImuData(stamps_ns, rec.t, rec.gyro, rec.accel), overwrite=overwrite)
+
+    f = rec.frames
+    counts = np.diff(f.offsets)
+    row_ns = np.repeat(_ns(f.t), counts)
+    values = np.hstack([f.pixels, f.points])
+    lines = [
+        f"{t}," + ",".join(f"{v:.17g}" for v in row) for t, row in zip(row_ns.tolist(), values.tolist(), strict=True)
+    ]
+    with open_for_writing(out / names["correspondences"], overwrite) as fh:
+        fh.write(_CORR_HEADER + "\n")
+        fh.write("".join(line + "\n" for line in lines))
+
+    if rec.ground_truth is not None:
+        gt = rec.ground_truth
+        gt_ns = gt.stamps_ns if gt.stamps_ns is not None else _ns(gt.stamps)
+        gt = Trajectory(gt.stamps, gt.positions, gt.quats, gt_ns, gt.name, extra or gt.extra)
+        write_euroc_groundtruth(out / "groundtruth.csv", gt, overwrite=overwrite)
+        names["groundtruth"] = "groundtruth.csv"
+
+    c, n = rec.camera, rec.imu_noise
+    sensors = {
+        "format": FORMAT_NAME,
+        "version": FORMAT_VERSION,
+        "files": names,
+        "camera": {
+            "fx": float(c.fx), "fy": float(c.fy), "cx": float(c.cx), "cy": float(c.cy),
+            "width": int(c.width), "height": int(c.height), "pixel_sigma": float(rec.pixel_sigma),
+            "q_bc": [float(v) for v in rec.q_bc], "p_bc": [float(v) for v in rec.p_bc],
+            "timeshift_cam_imu": float(rec.time_offset),
+        },
+        "imu": {key: float(getattr(n, key)) for key in _IMU_KEYS},
+        "gravity": [float(v) for v in rec.gravity],
+    }  # fmt: skip
+    if rec.rest_seconds is not None:
+        sensors["rest_duration_s"] = float(rec.rest_seconds)
+    with open_for_writing(out / SENSORS_FILE, overwrite) as fh:
+        fh.write(json.dumps(sensors, indent=2) + "\n")
+    return out / SENSORS_FILE
