@@ -102,6 +102,35 @@ def call_kernel(ufunc: np.ufunc, args: tuple, names: Sequence[str], out: np.ndar
         raise ValueError(f"{err}; or out has the wrong shape {out.shape}") from None
 
 
+#: below this many elements the gufunc path (lower call overhead) is used even when the flat loops apply
+FLAT_MIN_ELEMENTS = 64
+
+
+def try_flat_kernel(kernel: Callable[..., int], arrays: tuple[np.ndarray, ...], out: np.ndarray | None,
+                    width: int) -> np.ndarray | None:
+    """Run a flat row-loop kernel (see :mod:`dualpose.algebra._flat_kernels`) when the inputs allow it.
+
+    Applies when every array is C-contiguous with the same leading shape (no broadcasting), there are at least
+    :data:`FLAT_MIN_ELEMENTS` elements, and ``out`` is None or a C-contiguous float64 array of the result's shape.
+    Returns the result, or None when the kernel does not apply or flagged an element it leaves to the gufunc
+    (which the caller then runs, over everything).
+    """
+    lead = arrays[0].shape[:-1]
+    if arrays[0].size < FLAT_MIN_ELEMENTS * arrays[0].shape[-1]:
+        return None
+    for a in arrays:
+        if a.shape[:-1] != lead or not a.flags.c_contiguous:
+            return None
+    shape = (*lead, width)
+    if out is None:
+        out = np.empty(shape)
+    elif type(out) is not np.ndarray or out.dtype != np.float64 or out.shape != shape or not out.flags.c_contiguous:
+        return None
+    if kernel(*(a.reshape(-1) for a in arrays), out.reshape(-1)) != 0:
+        return None
+    return out
+
+
 def raise_if_zero_norm(out: np.ndarray, arg: np.ndarray, name: str, what: str = "a nonzero quaternion") -> None:
     """Kernels write NaN where an input that must be nonzero is zero; turn that into a ValueError.
 

@@ -66,3 +66,44 @@ def test_bad_shapes() -> None:
         hol22.Hol22EKF(np.zeros(21), np.eye(22))
     with pytest.raises(ValueError, match="x must"):
         hol22.process_model(np.zeros(16), 0.01)
+
+
+def _python_algorithm_1(f: hol22.Hol22EKF, run: sim.SimulatedRun, n: int) -> tuple[np.ndarray, np.ndarray, list]:
+    """Hol's Algorithm 1 written with the step methods (the numpy reference of the compiled ``run``)."""
+    fr = run.frames
+    cam_t = fr.t + f.camera_time_offset
+    X, Ps, accepted = [], [], []
+    j, tc = 0, run.t[0]
+    while j < len(cam_t) and cam_t[j] < run.t[0]:
+        j += 1
+    for k in range(n):
+        while j < len(cam_t) and cam_t[j] <= run.t[k]:
+            f.time_update(cam_t[j] - tc)
+            tc = cam_t[j]
+            px, pts = fr.frame(j)
+            accepted.append(f.camera_update(px, pts))
+            j += 1
+        f.time_update(run.t[k] - tc)
+        tc = run.t[k]
+        f.imu_update(run.accel[k], run.gyro[k])
+        X.append(f.x.copy())
+        Ps.append(f.P.copy())
+    return np.array(X), np.array(Ps), accepted
+
+
+def test_compiled_run_equals_the_step_methods() -> None:
+    """The compiled Algorithm 1 reproduces the numpy step methods (states, covariances, gating decisions)."""
+    run = sim.simulate_eight(5, outlier_fraction=0.1)
+    n = 160  # 1.6 s: 20 camera frames
+    ref_filter, fast_filter = _start(run, 5), _start(run, 5)
+    X, Ps, accepted = _python_algorithm_1(ref_filter, run, n)
+    fr = run.frames
+    nf = int(np.searchsorted(fr.t, run.t[n - 1], side="right"))
+    res = fast_filter.run(run.t[:n], run.gyro[:n], run.accel[:n], fr.t[:nf], fr.offsets[: nf + 1],
+                          fr.pixels[: fr.offsets[nf]], fr.points[: fr.offsets[nf]])  # fmt: skip
+    assert len(accepted) == nf > 15
+    np.testing.assert_allclose(res.position, X[:, 0:3], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(res.quat, dp.quat_conj(X[:, 9:13]), rtol=0, atol=1e-10)
+    np.testing.assert_allclose(res.covariance, Ps, rtol=1e-6, atol=1e-14)
+    np.testing.assert_array_equal(res.innovation.accepted, np.concatenate(accepted))
+    assert not res.innovation.accepted.all()  # the outliers were gated

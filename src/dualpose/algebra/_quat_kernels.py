@@ -10,7 +10,7 @@ import math
 
 import numba as nb
 
-from dualpose.algebra._kutil import log_norm, norm3, norm4, qmul, quat_of_rotmat, rotate_any, rotmat
+from dualpose.algebra._kutil import norm3, norm4, qmul, quat_log_parts, quat_of_rotmat, rotate_any, rotmat
 from dualpose.algebra.series import atan2c, sinc
 
 _V = "float64[:]"
@@ -76,12 +76,7 @@ def quat_log(q, o):  # noqa: ANN001
     # Dantam 2014 eq. (25)-(28); at q_v = 0, q_w < 0 the axis x is chosen (any axis is a logarithm).
     # A zero q gives atan2c(0, 0) = NaN in the vector part (the wrapper raises).
     x, y, z, w = q[0], q[1], q[2], q[3]
-    f = atan2c(norm3(x, y, z), w)
-    if f == math.inf:
-        o[0], o[1], o[2] = math.pi, 0.0, 0.0
-    else:
-        o[0], o[1], o[2] = f * x, f * y, f * z
-    o[3] = log_norm(x, y, z, w)
+    o[0], o[1], o[2], o[3] = quat_log_parts(x, y, z, w, atan2c(norm3(x, y, z), w))
 
 
 @gu(f"{_V},{_S},{_V}", "(n),()->(n)")

@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from dualpose._validation import (
+    FLAT_MIN_ELEMENTS,
     as_array,
     as_scalar_array,
     call_kernel,
@@ -24,6 +25,7 @@ from dualpose._validation import (
     identity_array,
     lazy_kernels,
     raise_if_zero_norm,
+    try_flat_kernel,
 )
 
 __all__ = [
@@ -52,6 +54,7 @@ __all__ = [
     "quat_identity",
 ]
 
+_fk = lazy_kernels("dualpose.algebra._flat_kernels")
 _k = lazy_kernels("dualpose.algebra._quat_kernels")
 _D3 = np.empty(3)
 _D4 = np.empty(4)
@@ -140,8 +143,27 @@ def quat_log(q: ArrayLike) -> np.ndarray:
     Raises ``ValueError`` for a zero quaternion.
     """
     q = as_array(q, "q", 4)
+    if q.size >= 4 * FLAT_MIN_ELEMENTS and q.flags.c_contiguous:
+        return _quat_log_flat(q)
     out = _k("quat_log")(q)
     raise_if_zero_norm(out, q, "q")
+    return out
+
+
+def _quat_log_flat(q: np.ndarray) -> np.ndarray:
+    """:func:`quat_log` of a C-contiguous (..., 4) array in three vectorised passes.
+
+    The angle comes from NumPy's ``arctan2``, which uses SIMD (≤ 1 ulp) where the CPU has it: one libm ``atan2``
+    call per element is more than half of the gufunc's time.  The values match the gufunc's to an ulp.
+    """
+    qf = q.reshape(-1)
+    s = np.empty(qf.size // 4)
+    phi = np.empty_like(s)
+    _fk("quat_log_prepare")(qf, s, phi)
+    np.arctan2(s, phi, out=phi)
+    out = np.empty(q.shape)
+    if _fk("quat_log_finish")(qf, s, phi, out.reshape(-1)):
+        raise_if_zero_norm(out, q, "q")
     return out
 
 
@@ -187,6 +209,9 @@ def quat_rotate(q: ArrayLike, v: ArrayLike, out: np.ndarray | None = None) -> np
     """
     q = as_array(q, "q", 4)
     v = as_array(v, "v", 3)
+    res = try_flat_kernel(_fk("quat_rotate"), (q, v), out, 3)
+    if res is not None:
+        return res
     res = call_kernel(_k("quat_rotate"), (q, v), ("q", "v"), out)
     raise_if_zero_norm(res[..., 0], q, "q")  # a zero q makes every component NaN; one column is enough
     return res

@@ -249,14 +249,39 @@ def atan2c(s: float, c: float) -> float:
     ``s == 0`` and ``c < 0`` the value is +inf (the caller picks an axis), at ``s == c == 0`` it is NaN.
     """
     if s <= 1e-4 * c and c > 0.0:  # first test is false for almost all data (predictable, sign-independent)
-        y = s / c
-        y2 = y * y
-        return (1.0 + y2 * (-1.0 / 3.0 + y2 * (0.2 - y2 / 7.0))) / c
+        return _atan2c_series(s, c)
     if s == 0.0:
-        if c < 0.0:
-            return np.inf
-        return np.nan
+        return _atan2c_at_zero(c)
     return math.atan2(s, c) / s
+
+
+@_jit
+def atan2c_given(s: float, c: float, phi: float) -> float:
+    """:func:`atan2c` when ``phi = atan2(s, c)`` has already been computed (e.g. by NumPy's SIMD ``arctan2``).
+
+    Same guarded series for ``s <= 1e-4 c`` (``phi`` is ignored there) and the same values at ``s == 0``.
+    """
+    if s <= 1e-4 * c and c > 0.0:
+        return _atan2c_series(s, c)
+    if s == 0.0:
+        return _atan2c_at_zero(c)
+    return phi / s
+
+
+@_jit
+def _atan2c_series(s: float, c: float) -> float:
+    # (1/c)(1 - y**2/3 + y**4/5 - y**6/7), y = s/c <= 1e-4: truncation error below 1e-32
+    y = s / c
+    y2 = y * y
+    return (1.0 + y2 * (-1.0 / 3.0 + y2 * (0.2 - y2 / 7.0))) / c
+
+
+@_jit
+def _atan2c_at_zero(c: float) -> float:
+    # s == 0: +inf on the negative real axis (the caller picks an axis), NaN at s == c == 0
+    if c < 0.0:
+        return np.inf
+    return np.nan
 
 
 @_jit

@@ -13,10 +13,12 @@ KERNEL_MODULES = (
     "dualpose.algebra._quat_kernels",
     "dualpose.algebra._dualquat_kernels",
     "dualpose.algebra._lie_kernels",
+    "dualpose.algebra._flat_kernels",
     "dualpose.registration._kernels",
     "dualpose.inertial._fold_kernels",
     "dualpose.fusion._eskf_kernels",
     "dualpose.fusion._smoother_kernels",
+    "dualpose.fusion._hol22_kernels",
 )
 
 

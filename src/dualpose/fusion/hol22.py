@@ -6,8 +6,10 @@ constant acceleration and angular velocity driven by white noise, biases random 
 ``q_{t+1} = exp(−T/2 ω) ⊙ q_t``.  Accelerometer (eq. 11a) and gyroscope (eq. 11b) are *measurements* processed at
 every IMU sample; camera frames (eq. 11c, the implicit ``[−f I₂, zⁱ] z^c = 0`` form, noise covariance
 ``(Z σ_px)² I₂`` with the predicted depth Z) whenever a frame arrives, after a time update to the frame time.  The
-quaternion is renormalised after each update and its covariance block projected accordingly.  Plain numpy
-(22 × 22 matrices); the error-state filter (:mod:`dualpose.fusion.eskf`) is the faster, recommended default.
+quaternion is renormalised after each update and its covariance block projected accordingly.  The step methods
+are plain numpy (the readable reference); :meth:`Hol22EKF.run` is the same algorithm compiled
+(:mod:`dualpose.fusion._hol22_kernels`).  The error-state filter (:mod:`dualpose.fusion.eskf`) is the faster,
+recommended default.
 """
 
 from __future__ import annotations
@@ -178,13 +180,18 @@ class Hol22EKF:
         if T <= 0.0:
             return
         self.x, F = process_model(self.x, T)
+        self.P = F @ self.P @ F.T + np.diag(self.process_noise_diagonal() * T)
+
+    def process_noise_diagonal(self) -> np.ndarray:
+        """Spectral densities (22,) on the diagonal of ``Q = diag(·) T``: b̈ (eq. 9c), ω (eq. 9e) and the bias
+        random walks (eq. 9f, 9g); zero elsewhere."""
         pn, n = self.process_noise, self.imu_noise
-        Q = np.zeros(22)
-        Q[6:9] = pn.acceleration * T
-        Q[13:16] = pn.angular_velocity * T
-        Q[16:19] = n.gyroscope_random_walk**2 * T
-        Q[19:22] = n.accelerometer_random_walk**2 * T
-        self.P = F @ self.P @ F.T + np.diag(Q)
+        q = np.zeros(22)
+        q[6:9] = pn.acceleration
+        q[13:16] = pn.angular_velocity
+        q[16:19] = n.gyroscope_random_walk**2
+        q[19:22] = n.accelerometer_random_walk**2
+        return q
 
     def _normalise(self) -> None:
         q = self.x[9:13]
@@ -266,35 +273,46 @@ class Hol22EKF:
         points: np.ndarray,
     ) -> Hol22Result:
         """Hol's Algorithm 1 over a recording (layouts as :meth:`ErrorStateEKF.run`); the current state is at
-        ``t[0]``.  Camera frames are processed at their own times (time update to the frame time first)."""
-        t = np.asarray(t, dtype=np.float64)
+        ``t[0]``.  Camera frames are processed at their own times (time update to the frame time first).
+
+        Runs as one compiled loop (:mod:`dualpose.fusion._hol22_kernels`) with the same equations as
+        :meth:`time_update`, :meth:`camera_update` and :meth:`imu_update` called in that order.
+        """
+        from dualpose._validation import lazy_kernels
+
+        kernel = lazy_kernels("dualpose.fusion._hol22_kernels")("run")
+        t = np.ascontiguousarray(t, dtype=np.float64)
         n = len(t)
+        gyro = np.ascontiguousarray(gyro, dtype=np.float64)
+        accel = np.ascontiguousarray(accel, dtype=np.float64)
         if gyro.shape != (n, 3) or accel.shape != (n, 3):
             raise ValueError(f"gyro and accel must have shape ({n}, 3); got {gyro.shape} and {accel.shape}")
-        cam_t = np.asarray(frame_t, dtype=np.float64) + self.camera_time_offset
+        if n < 1 or np.any(np.diff(t) < 0):
+            raise ValueError("t must hold non-decreasing IMU times")
+        cam_t = np.ascontiguousarray(frame_t, dtype=np.float64) + self.camera_time_offset
+        offsets = np.ascontiguousarray(offsets, dtype=np.int64)
+        pixels = np.ascontiguousarray(pixels, dtype=np.float64).reshape(-1, 2)
+        points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+        if len(offsets) != len(cam_t) + 1 or offsets[-1] != len(pixels) or len(points) != len(pixels):
+            raise ValueError("offsets must have F + 1 entries ending at len(pixels) == len(points)")
         X = np.empty((n, 22))
         Ps = np.empty((n, 22, 22))
-        j = 0
-        while j < len(cam_t) and cam_t[j] < t[0]:
-            j += 1
-        tc = t[0]
+        nis = np.full(len(pixels), np.nan)
+        acc = np.zeros(len(pixels), np.int64)
+        Rcb = dp.matrix_from_quat(dp.quat_conj(self.q_bc))
+        self.x = np.ascontiguousarray(self.x)
+        self.P = np.ascontiguousarray(self.P)
         t0 = _time.perf_counter()
-        for k in range(n):
-            while j < len(cam_t) and cam_t[j] <= t[k]:
-                self.time_update(cam_t[j] - tc)
-                tc = cam_t[j]
-                a, b = offsets[j], offsets[j + 1]
-                self.camera_update(pixels[a:b], points[a:b])
-                j += 1
-            self.time_update(t[k] - tc)
-            tc = t[k]
-            self.imu_update(accel[k], gyro[k])
-            X[k] = self.x
-            Ps[k] = self.P
+        kernel(t, gyro, accel, cam_t, offsets, pixels, points, self.x, self.P, self.process_noise_diagonal(),
+               self.gravity, self.R_imu, np.array(self.intrinsics, dtype=np.float64), self.p_bc, Rcb,
+               self.pixel_sigma, self.gate, X, Ps, nis, acc)  # fmt: skip
         wall = _time.perf_counter() - t0
-        nis = np.concatenate(self._nis) if self._nis else np.zeros(0)
-        acc = np.concatenate(self._acc) if self._acc else np.zeros(0, bool)
-        rep = InnovationReport(nis, acc, 2, (float(chi2.ppf(0.025, 2)), float(chi2.ppf(0.975, 2))), self.gate)
+        used = ~np.isnan(nis)
+        self._nis.append(nis[used])
+        self._acc.append(acc[used].astype(bool))
+        rep = InnovationReport(
+            nis[used], acc[used].astype(bool), 2, (float(chi2.ppf(0.025, 2)), float(chi2.ppf(0.975, 2))), self.gate
+        )
         return Hol22Result(
             t=t, position=X[:, 0:3], velocity=X[:, 3:6], acceleration=X[:, 6:9], quat=dp.quat_conj(X[:, 9:13]),
             omega=X[:, 13:16], gyro_bias=X[:, 16:19], accel_bias=X[:, 19:22], covariance=Ps, innovation=rep,
