@@ -68,8 +68,10 @@ def _table(m: dict) -> str:
         ("data", m["data"]),
         ("filter", m["filter"]),
         ("ATE RMSE (SE(3)) [m]", num("ate_rmse_m", ".6f")),
-        ("orientation RMSE [deg]", num("orientation_rmse_deg", ".4f")),
+        ("orientation RMSE (SE(3)) [deg]", num("orientation_rmse_deg", ".4f")),
         ("RPE RMSE (0.5 m) [m]", num("rpe_rmse_m", ".6f")),
+        ("position RMSE, unaligned [m]", num("position_rmse_unaligned_m", ".6f")),
+        ("orientation RMSE, unaligned [deg]", num("orientation_rmse_unaligned_deg", ".4f")),
         ("NIS inside 95% band", f"{m['nis_fraction_inside']:.3f}"),
         ("correspondences rejected", f"{m['n_rejected']} of {m['n_correspondences']}"),
         ("real-time factor", f"{m['realtime_factor']:.1f}x"),
@@ -81,7 +83,7 @@ def _table(m: dict) -> str:
 #: rows of the filter-vs-smoother table: label, metrics key, format
 _SMOOTHED_ROWS = (
     ("ATE RMSE (SE(3)) [m]", "ate_rmse_m", ".6f"),
-    ("orientation RMSE [deg]", "orientation_rmse_deg", ".4f"),
+    ("orientation RMSE (SE(3)) [deg]", "orientation_rmse_deg", ".4f"),
     ("RPE RMSE (0.5 m) [m]", "rpe_rmse_m", ".6f"),
     ("position RMSE, unaligned [m]", "position_rmse_unaligned_m", ".6f"),
     ("orientation RMSE, unaligned [deg]", "orientation_rmse_unaligned_deg", ".4f"),
