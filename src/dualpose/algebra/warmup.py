@@ -16,6 +16,7 @@ KERNEL_MODULES = (
     "dualpose.registration._kernels",
     "dualpose.inertial._fold_kernels",
     "dualpose.fusion._eskf_kernels",
+    "dualpose.fusion._ahrs_kernels",
 )
 
 
