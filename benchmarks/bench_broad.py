@@ -12,7 +12,7 @@ Run ``.venv/bin/python benchmarks/bench_broad.py [--markdown docs/broad.md]`` (n
 Scoring: BROAD's metric (:mod:`dualpose.fusion.orientation_errors`), movement samples, NaN reference samples skipped;
 9D as is (the optical frame is magnetic ENU), 6D after removing the one constant heading offset that minimises the
 total RMSE (same rule for both filters).  µs/sample: wall time of one batch call over the whole trial divided by its
-samples (dualpose: the numba kernel after compilation; VQF: its C++ ``updateBatch``), best of 3.
+samples (dualpose: the compiled kernel after compilation; VQF: its C++ ``updateBatch``), best of 3.
 """
 
 from __future__ import annotations

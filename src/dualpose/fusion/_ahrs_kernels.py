@@ -150,14 +150,19 @@ def heading_of_field(m_e, out_h, eps):  # noqa: ANN001, ANN201
     return math.atan2(m_e[0], m_e[1])
 
 
-@_jit("void(f8[:,::1], f8[:,::1], f8[:,::1], f8, f8[::1], f8[::1], f8[:,::1], f8[::1], f8[:,::1], f8[:,::1], f8[::1])")
-def run_ahrs(gyr, acc, mag, dt, q, b, P, params, out_q, out_b, stats):  # noqa: ANN001, ANN201
+@_jit(
+    "void(f8[:,::1], f8[:,::1], f8[:,::1], f8, f8[::1], f8[::1], f8[:,::1], f8[::1], f8[:,::1], f8[:,::1],"
+    " f8[:,::1], f8[:,::1], f8[::1])"
+)
+def run_ahrs(gyr, acc, mag, dt, q, b, P, params, Ha, Hm, out_q, out_b, stats):  # noqa: ANN001, ANN201
     """Run the filter over all samples; ``q`` (4,), ``b`` (3,), ``P`` (6, 6) are the initial state, updated in place.
 
     Per sample k: predict ``q ← q ⊗ Exp((ω_k − b) dt)``, ``P ← F P Fᵀ + Q`` with ``F = [[I, −R dt], [0, I]]``,
     ``Q = diag((σ_g² + ε²|ω|²) dt I, σ_b² dt I)``; accumulate ``R̂ a_k`` and ``R̂ m_k``; at a window's end the
     accelerometer update of inclination and (9D) the magnetometer heading update.
-    Writes ``out_q[k]`` (xyzw) and ``out_b[k]`` after the updates of sample k.
+    ``Ha`` (2, 6) and ``Hm`` (1, 6) are the measurement Jacobians of :func:`dualpose.fusion.ahrs.accelerometer_jacobian`
+    and :func:`dualpose.fusion.ahrs.heading_jacobian`.  Writes ``out_q[k]`` (xyzw) and ``out_b[k]`` after the
+    updates of sample k.
     """
     n = gyr.shape[0]
     gyr_var, bias_var, acc_var, grav = params[P_GYR_VAR], params[P_BIAS_VAR], params[P_ACC_VAR], params[P_GRAVITY]
@@ -170,12 +175,8 @@ def run_ahrs(gyr, acc, mag, dt, q, b, P, params, out_q, out_b, stats):  # noqa: 
     hh = np.empty(1)
     dx = np.empty(6)
     Ka = np.zeros((6, 2))
-    Ha = np.zeros((2, 6))
-    Ha[0, 1] = -grav
-    Ha[1, 0] = grav
+    PH = np.zeros((6, 2))
     Km = np.zeros((6, 1))
-    Hm = np.zeros((1, 6))
-    Hm[0, 2] = 1.0
     acc_closed = 0
     mag_closed = 0
     acc_alpha, mag_alpha = params[P_ACC_ADAPT], params[P_MAG_ADAPT]
@@ -253,15 +254,27 @@ def run_ahrs(gyr, acc, mag, dt, q, b, P, params, out_q, out_b, stats):  # noqa: 
             # innovation-based (Sage-Husa / Mehra) estimate of the unmodelled acceleration variance per axis:
             # E[νᵀν]/2 = tr(HPHᵀ)/2 + r  ⇒  r̂ ← (1 − α) r̂ + α max(νᵀν/2 − tr(HPHᵀ)/2 − σ²/N, 0)
             if acc_alpha > 0.0:
-                hph = 0.5 * grav * grav * (P[0, 0] + P[1, 1])
+                hph = 0.0  # tr(H P Hᵀ) / 2
+                for i in range(2):
+                    for j in range(6):
+                        for m in range(6):
+                            hph += 0.5 * Ha[i, j] * P[j, m] * Ha[i, m]
                 acc_extra = (1.0 - acc_alpha) * acc_extra + acc_alpha * max(
                     0.5 * (v[0] * v[0] + v[1] * v[1]) - hph - acc_var / n_win, 0.0
                 )
             r = acc_var / n_win + dev * dev + acc_extra
-            # S = H P Hᵀ + r I with H = [[0, -g, 0, 0...], [g, 0, 0, ...]]
-            s00 = grav * grav * P[1, 1] + r
-            s01 = -grav * grav * P[1, 0]
-            s11 = grav * grav * P[0, 0] + r
+            # S = H P Hᵀ + r I
+            for i in range(6):
+                for c in range(2):
+                    t = 0.0
+                    for m in range(6):
+                        t += P[i, m] * Ha[c, m]
+                    PH[i, c] = t
+            s00, s01, s11 = r, 0.0, r
+            for m in range(6):
+                s00 += Ha[0, m] * PH[m, 0]
+                s01 += Ha[0, m] * PH[m, 1]
+                s11 += Ha[1, m] * PH[m, 1]
             det = s00 * s11 - s01 * s01
             i00, i01, i11 = s11 / det, -s01 / det, s00 / det
             nis = v[0] * (i00 * v[0] + i01 * v[1]) + v[1] * (i01 * v[0] + i11 * v[1])
@@ -275,8 +288,7 @@ def run_ahrs(gyr, acc, mag, dt, q, b, P, params, out_q, out_b, stats):  # noqa: 
                 if _CHI2_2_LO <= nis <= _CHI2_2_HI:
                     stats[S_ACC_INSIDE] += 1.0
                 for i in range(6):
-                    ph0 = -grav * P[i, 1]  # (P Hᵀ)[i, 0]
-                    ph1 = grav * P[i, 0]
+                    ph0, ph1 = PH[i, 0], PH[i, 1]
                     Ka[i, 0] = ph0 * i00 + ph1 * i01
                     Ka[i, 1] = ph0 * i01 + ph1 * i11
                 Ka[2, 0] = 0.0  # the accelerometer never corrects heading
@@ -296,10 +308,18 @@ def run_ahrs(gyr, acc, mag, dt, q, b, P, params, out_q, out_b, stats):  # noqa: 
                 stats[S_MAG_SKIPPED] += 1.0
             else:
                 r0 = (mag_var / n_win + mag_dist) / (h * h)
+                for i in range(6):
+                    t = 0.0
+                    for m in range(6):
+                        t += P[i, m] * Hm[0, m]
+                    Km[i, 0] = t  # P Hᵀ for now
+                hph = 0.0
+                for m in range(6):
+                    hph += Hm[0, m] * Km[m, 0]
                 if mag_alpha > 0.0:
-                    mag_extra = (1.0 - mag_alpha) * mag_extra + mag_alpha * max(psi * psi - P[2, 2] - r0, 0.0)
+                    mag_extra = (1.0 - mag_alpha) * mag_extra + mag_alpha * max(psi * psi - hph - r0, 0.0)
                 r = r0 + mag_extra
-                s = P[2, 2] + r
+                s = hph + r
                 nis = psi * psi / s
                 if nis > mag_gate and mag_closed < release:
                     mag_closed += 1
@@ -311,7 +331,7 @@ def run_ahrs(gyr, acc, mag, dt, q, b, P, params, out_q, out_b, stats):  # noqa: 
                     if _CHI2_1_LO <= nis <= _CHI2_1_HI:
                         stats[S_MAG_INSIDE] += 1.0
                     for i in range(6):
-                        Km[i, 0] = P[i, 2] / s
+                        Km[i, 0] /= s
                     Km[0, 0] = 0.0  # the magnetometer never corrects inclination
                     Km[1, 0] = 0.0
                     for i in range(6):

@@ -1,4 +1,4 @@
-"""Orientation-only error-state filter (AHRS): gyroscope + accelerometer (+ magnetometer), numba kernel.
+"""Orientation-only error-state filter (AHRS): gyroscope + accelerometer (+ magnetometer), compiled kernel.
 
 The error-state filter of :mod:`dualpose.fusion.eskf` reduced to orientation and gyroscope bias:
 
@@ -63,6 +63,8 @@ __all__ = [
     "initial_orientation",
     "rest_statistics",
     "estimate_orientation",
+    "accelerometer_jacobian",
+    "heading_jacobian",
 ]
 
 _k = lazy_kernels("dualpose.fusion._ahrs_kernels")
@@ -184,6 +186,33 @@ class AhrsResult:
     def us_per_sample(self) -> float:
         """Kernel wall time per sample, µs."""
         return 1e6 * self.seconds / max(self.quat.shape[0], 1)
+
+
+def accelerometer_jacobian(gravity: float) -> np.ndarray:
+    """Jacobian (2, 6) of the accelerometer measurement w.r.t. the error state ``[δθ, δb]``.
+
+    Measurement: ``y = [R̂ a]_{x,y}``, the horizontal components of the specific force rotated into the estimated
+    earth frame.  With ``R = Exp(δθ) R̂`` and a noise-free specific force ``a = Rᵀ g_e``, ``g_e = (0, 0, g)``:
+    ``y = [Exp(−δθ) g_e]_{x,y} ≈ [g_e × δθ]_{x,y} = (−g δθ_y, g δθ_x)``.
+    """
+    H = np.zeros((2, 6))
+    H[0, 1] = -gravity
+    H[1, 0] = gravity
+    return H
+
+
+def heading_jacobian() -> np.ndarray:
+    """Jacobian (1, 6) of the heading measurement as used: ``∂ψ/∂δθ_z = 1``, nothing else.
+
+    Measurement: ``ψ = atan2(m̂_x, m̂_y)`` of the field in the estimated earth frame, ``m̂ = Exp(−δθ) m_e``.  A
+    rotation of the estimate by ``−δθ_z`` about the vertical turns the field's horizontal projection by ``+δθ_z``
+    (clockwise, from north towards east), so ``∂ψ/∂δθ_z = 1``.  The exact derivative also has tilt terms
+    (``∂ψ/∂δθ_{x,y}`` ∝ ``m_z / |m_h|``): they are deliberately dropped, and the gain rows of ``δθ_{x,y}`` are zeroed,
+    so that the magnetometer observes heading only (a magnetic disturbance cannot tilt the estimate).
+    """
+    H = np.zeros((1, 6))
+    H[0, 2] = 1.0
+    return H
 
 
 def _as_samples(x: object, name: str, n: int | None = None) -> np.ndarray:
@@ -343,10 +372,13 @@ def estimate_orientation(
         raise ValueError(f"rate must be a positive number of Hz; got {rate}")
     if n_rest is None:
         n_rest = min(n, int(round(rate)))
+        n_rest = n_rest if n_rest >= 10 else 0
     if not 0 <= n_rest <= n:
         raise ValueError(f"n_rest must be in [0, {n}]; got {n_rest}")
+    if 0 < n_rest < 10:
+        raise ValueError(f"n_rest must be 0 (no rest period) or at least 10 samples; got {n_rest}")
 
-    rest = rest_statistics(gyr, acc, mag_arr, rate, n_rest) if n_rest >= 10 else None
+    rest = rest_statistics(gyr, acc, mag_arr, rate, n_rest) if n_rest else None
     if rest is not None:
         est = rest.noise
         noise = noise or AhrsNoise(
@@ -408,7 +440,8 @@ def estimate_orientation(
     stats = np.zeros(mod.N_STATS)
     mag_in = mag_arr if mag_arr is not None else np.zeros((n, 3))
     t0 = time.perf_counter()
-    kern(gyr, acc, mag_in, 1.0 / rate, q, b, P, params, out_q, out_b, stats)
+    Ha, Hm = accelerometer_jacobian(gravity), heading_jacobian()
+    kern(gyr, acc, mag_in, 1.0 / rate, q, b, P, params, Ha, Hm, out_q, out_b, stats)
     seconds = time.perf_counter() - t0
 
     acc_acc = n // n_win - stats[mod.S_ACC_REJECTED]
