@@ -192,7 +192,8 @@ def test_heading_jacobian_matches_finite_differences_in_heading():
     ],
 )
 def test_bad_arguments_raise_naming_them(kwargs, match):
-    args = {"gyr": np.zeros((5, 3)), "acc": np.tile([0, 0, G], (5, 1)), "mag": np.tile(FIELD_ENU, (5, 1)), "rate": 100.0}
+    acc, mag = np.tile([0, 0, G], (5, 1)), np.tile(FIELD_ENU, (5, 1))
+    args = {"gyr": np.zeros((5, 3)), "acc": acc, "mag": mag, "rate": 100.0}
     if "n_rest" in kwargs and kwargs["n_rest"] == 9:
         args = {k: (np.repeat(v, 4, axis=0) if isinstance(v, np.ndarray) else v) for k, v in args.items()}
     extra = {k: kwargs.pop(k) for k in ("n_rest", "window") if k in kwargs}
