@@ -41,7 +41,8 @@ P_ACC_ADAPT = 11  # forgetting factor α (per sample) of the innovation-based es
 P_MAG_ADAPT = 12  # same for the heading noise
 P_WINDOW = 13  # samples averaged (in the earth frame) per accelerometer / magnetometer update
 P_GYR_SCALE_VAR = 14  # gyroscope scale-factor / misalignment variance ε² times its correlation time, s
-N_PARAMS = 15
+P_STRIDE = 15  # samples between updates (≤ window; windows overlap when smaller)
+N_PARAMS = 16
 
 # stats indices
 S_ACC_REJECTED = 0
@@ -130,13 +131,27 @@ def inject_and_reset(q, b, P, dx):  # noqa: ANN001, ANN201
             P[i, j] = Pn[i, j]
 
 
-@_jit("void(f8[::1], f8[::1])")
-def rotate_small_inplace(vec, dx):  # noqa: ANN001, ANN201
-    """``vec ← (I + [δθ]×) vec`` with ``δθ = dx[:3]`` (first order of ``Exp(δθ) vec``; δθ is one update's step)."""
-    sx, sy, sz = vec[0], vec[1], vec[2]
-    vec[0] += dx[1] * sz - dx[2] * sy
-    vec[1] += dx[2] * sx - dx[0] * sz
-    vec[2] += dx[0] * sy - dx[1] * sx
+@_jit("void(f8[:,::1], f8[::1])")
+def left_rotate_inplace(C, dx):  # noqa: ANN001, ANN201
+    """``C ← Exp(δθ) C`` for a rotation matrix ``C`` (3, 3) and ``δθ = dx[:3]`` (Rodrigues, guarded near 0)."""
+    x, y, z = dx[0], dx[1], dx[2]
+    a2 = x * x + y * y + z * z
+    if a2 < 1e-8:
+        s, c = 1.0 - a2 / 6.0, 0.5 - a2 / 24.0
+    else:
+        a = math.sqrt(a2)
+        s, c = math.sin(a) / a, (1.0 - math.cos(a)) / a2
+    E = np.empty((3, 3))
+    E[0, 0] = 1.0 - c * (y * y + z * z)
+    E[1, 1] = 1.0 - c * (x * x + z * z)
+    E[2, 2] = 1.0 - c * (x * x + y * y)
+    E[0, 1], E[1, 0] = c * x * y - s * z, c * x * y + s * z
+    E[0, 2], E[2, 0] = c * x * z + s * y, c * x * z - s * y
+    E[1, 2], E[2, 1] = c * y * z - s * x, c * y * z + s * x
+    Cn = E @ C
+    for i in range(3):
+        for j in range(3):
+            C[i, j] = Cn[i, j]
 
 
 @_jit("f8(f8[::1], f8[::1], f8)")
@@ -183,13 +198,23 @@ def run_ahrs(gyr, acc, mag, dt, q, b, P, params, Ha, Hm, out_q, out_b, stats):  
     acc_extra = 0.0
     n_win = max(1, int(params[P_WINDOW]))
     scale_var = params[P_GYR_SCALE_VAR]
+    stride = max(1, min(n_win, int(params[P_STRIDE])))
+    overlap = n_win / stride
+    acc_alpha = min(1.0, acc_alpha * stride)  # the forgetting factors are given per sample
+    mag_alpha = min(1.0, mag_alpha * stride)
+    release = max(1.0, release / stride)  # the gates count updates
     acc_sum = np.zeros(3)
     mag_sum = np.zeros(3)
     mag_mean = np.zeros(3)
+    ring_a = np.zeros((n_win, 3))
+    ring_m = np.zeros((n_win, 3))
+    ring_d = np.zeros(n_win)
+    Cm = np.eye(3)  # accumulated corrections: current earth frame = Cm · uncorrected frame
     mag_dist_sum = 0.0
     mag_dist = 0.0
-    acc_count = 0
-    release = max(1.0, release / n_win)  # the gates count windows
+    head = 0
+    filled = 0
+    since = 0
     mag_extra = 0.0
     for k in range(n):
         # ---- predict: gyroscope as input (global error: δθ̇ = −R δb + R n_g)
@@ -222,33 +247,40 @@ def run_ahrs(gyr, acc, mag, dt, q, b, P, params, Ha, Hm, out_q, out_b, stats):  
             P[i + 3, i + 3] += bias_var * dt
         _rotmat_xyzw(q[0], q[1], q[2], q[3], R)
 
-        # ---- accelerometer: horizontal components of the earth-frame specific force, averaged over a window of
-        # n_win samples, must vanish (2-D, heading-free).  Averaging in the earth frame removes the linear
-        # acceleration of a body whose velocity stays bounded (its mean over T is Δv / T).
+        # ---- accumulate the window: specific force and field rotated into the estimated earth frame.  They are
+        # stored in the "uncorrected" frame (the earth frame before all corrections so far, C⁻¹ R̂ v) so that a
+        # correction applied later rotates the whole window at once: current-frame mean = C · mean.
         ax, ay, az = acc[k, 0], acc[k, 1], acc[k, 2]
         for i in range(3):
-            acc_sum[i] += R[i, 0] * ax + R[i, 1] * ay + R[i, 2] * az
+            v[i] = R[i, 0] * ax + R[i, 1] * ay + R[i, 2] * az
+        for i in range(3):
+            e = Cm[0, i] * v[0] + Cm[1, i] * v[1] + Cm[2, i] * v[2]
+            acc_sum[i] += e - ring_a[head, i]
+            ring_a[head, i] = e
         if use_mag:
             mx, my, mz = mag[k, 0], mag[k, 1], mag[k, 2]
             for i in range(3):
                 v[i] = R[i, 0] * mx + R[i, 1] * my + R[i, 2] * mz
-                mag_sum[i] += v[i]
             # disturbance lower bound of this sample: change of the field's magnitude and dip from the reference
             hs = math.sqrt(v[0] * v[0] + v[1] * v[1])
             dn = math.sqrt(mx * mx + my * my + mz * mz) - mag_norm
             dd = mag_norm * (math.atan2(-v[2], hs) - mag_dip)
-            mag_dist_sum += dn * dn + dd * dd
-        acc_count += 1
-        window_done = acc_count >= n_win
-        if window_done:
+            dist = dn * dn + dd * dd
+            mag_dist_sum += dist - ring_d[head]
+            ring_d[head] = dist
             for i in range(3):
-                v[i] = acc_sum[i] / acc_count
-                acc_sum[i] = 0.0
-                mag_mean[i] = mag_sum[i] / acc_count
-                mag_sum[i] = 0.0
-            mag_dist = mag_dist_sum / acc_count
-            mag_dist_sum = 0.0
-            acc_count = 0
+                e = Cm[0, i] * v[0] + Cm[1, i] * v[1] + Cm[2, i] * v[2]
+                mag_sum[i] += e - ring_m[head, i]
+                ring_m[head, i] = e
+        head = head + 1 if head + 1 < n_win else 0
+        filled = min(filled + 1, n_win)
+        since += 1
+        window_done = filled == n_win and since >= stride
+        if window_done:
+            since = 0
+            for i in range(3):
+                v[i] = (Cm[i, 0] * acc_sum[0] + Cm[i, 1] * acc_sum[1] + Cm[i, 2] * acc_sum[2]) / n_win
+            mag_dist = max(mag_dist_sum / n_win, 0.0)
             # |mean a_lin| >= | |mean R a| - g |: that much unmodelled acceleration is certainly present
             dev = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) - grav
             # innovation-based (Sage-Husa / Mehra) estimate of the unmodelled acceleration variance per axis:
@@ -262,7 +294,8 @@ def run_ahrs(gyr, acc, mag, dt, q, b, P, params, Ha, Hm, out_q, out_b, stats):  
                 acc_extra = (1.0 - acc_alpha) * acc_extra + acc_alpha * max(
                     0.5 * (v[0] * v[0] + v[1] * v[1]) - hph - acc_var / n_win, 0.0
                 )
-            r = acc_var / n_win + dev * dev + acc_extra
+            # overlapping windows share samples: each update carries 1/overlap of a window's information
+            r = (acc_var / n_win + dev * dev + acc_extra) * overlap
             # S = H P Hᵀ + r I
             for i in range(6):
                 for c in range(2):
@@ -297,17 +330,19 @@ def run_ahrs(gyr, acc, mag, dt, q, b, P, params, Ha, Hm, out_q, out_b, stats):  
                     dx[i] = Ka[i, 0] * v[0] + Ka[i, 1] * v[1]
                 joseph_update(P, Ka, Ha, r)
                 inject_and_reset(q, b, P, dx)
-                rotate_small_inplace(mag_mean, dx)  # keep the window's mean field in the corrected earth frame
+                left_rotate_inplace(Cm, dx)
 
         # ---- magnetometer (9D): heading of the horizontal part of the field averaged in the earth frame over the
         # same window (inclination-decoupled), with the field's per-sample disturbance level accumulated alongside
         if use_mag and window_done:
+            for i in range(3):
+                mag_mean[i] = (Cm[i, 0] * mag_sum[0] + Cm[i, 1] * mag_sum[1] + Cm[i, 2] * mag_sum[2]) / n_win
             psi = heading_of_field(mag_mean, hh, 1e-3 * mag_norm)
             h = hh[0]
             if math.isnan(psi):
                 stats[S_MAG_SKIPPED] += 1.0
             else:
-                r0 = (mag_var / n_win + mag_dist) / (h * h)
+                r0 = (mag_var / n_win + mag_dist) / (h * h) * overlap
                 for i in range(6):
                     t = 0.0
                     for m in range(6):
@@ -338,6 +373,7 @@ def run_ahrs(gyr, acc, mag, dt, q, b, P, params, Ha, Hm, out_q, out_b, stats):  
                         dx[i] = Km[i, 0] * psi
                     joseph_update(P, Km, Hm, r)
                     inject_and_reset(q, b, P, dx)
+                    left_rotate_inplace(Cm, dx)
         for i in range(4):
             out_q[k, i] = q[i]
         for i in range(3):

@@ -7,13 +7,15 @@ The error-state filter of :mod:`dualpose.fusion.eskf` reduced to orientation and
 * error state ``δx = [δθ, δb]`` (6,) with a **global** 3-parameter attitude error ``q = Exp(δθ) ⊗ q̂``: ``δθ_z``
   is the heading error and ``(δθ_x, δθ_y)`` the inclination error, so the two are separated by construction;
 * predict with the gyroscope as input (Solà 2017 §5 with the global error: ``δθ̇ = −R δb + R n_g``);
-* measurements are processed once per window of ``window`` seconds (default 3 s): the specific force ``a`` and the
-  field ``m`` of every sample are rotated into the estimated earth frame with that sample's estimate and averaged.
-  The mean linear acceleration of a body whose velocity stays bounded is Δv / T over a window T, so averaging in the
-  earth frame removes most of it (the idea behind VQF's inertial-frame low-pass filter, Laidig & Seel 2023), and
-  it averages sensor noise and fast tilt-coupled heading errors.  Between window ends there are no injections,
-  so every sample's earth-frame vector carries the same (slowly varying) error; after the accelerometer update the
-  window's mean field is rotated by the correction before the heading update uses it;
+* measurements are sliding-window means: the specific force ``a`` and the field ``m`` of every sample are rotated
+  into the estimated earth frame with that sample's estimate and averaged over the last ``window`` seconds
+  (default 3 s); an update is made every ``update_interval`` (0.1 s).  The mean linear acceleration of a body whose
+  velocity stays bounded is Δv / T over a window T, so averaging in the earth frame removes most of it (the idea
+  behind VQF's inertial-frame low-pass filter, Laidig & Seel 2023); it also averages sensor noise and fast
+  tilt-coupled heading errors.  The window's vectors are stored in the *uncorrected* frame (``C⁻¹ R̂ v`` with ``C``
+  the product of all corrections applied so far), so every correction rotates the whole window at once
+  (current-frame mean ``= C · mean``).  Overlapping windows share samples: each update's noise is multiplied by
+  the overlap ``window / update_interval``;
 * accelerometer update: the horizontal components of the mean earth-frame specific force must vanish (2-D
   measurement ``y = [mean R̂ a]_{x,y}``, ``H = [[0, −g, 0, 0₃], [g, 0, 0, 0₃]]``).  It carries no heading
   information and its gain row for ``δθ_z`` is zeroed;
@@ -317,6 +319,7 @@ def estimate_orientation(
     window: float = 3.0,
     mag_adapt: bool = False,
     gyro_scale_sigma: float = 0.005,
+    update_interval: float = 0.1,
 ) -> AhrsResult:
     """Estimate the orientation of an IMU from gyroscope, accelerometer and (9D) magnetometer samples.
 
@@ -349,6 +352,11 @@ def estimate_orientation(
         Seconds of samples averaged in the estimated earth frame per accelerometer / magnetometer update (default
         3 s; the mean linear acceleration over T is Δv / T, so bounded-velocity motion averages out).  Rounded to
         whole samples; the outputs are still per sample.
+    update_interval : float
+        Seconds between updates (default 0.1 s, capped at ``window``).  Consecutive windows then overlap by
+        ``window / update_interval`` and share their samples, so each update's noise is multiplied by that overlap
+        factor (an update carries only its share of a window's information).  The result is insensitive to the
+        interval once it is well below the window (BROAD means change < 0.01° between 0.25 s and 0.03 s).
     mag_adapt : bool
         Also adapt the heading noise from the innovations (default False: a drifting heading would be absorbed into
         the estimated noise instead of being corrected).
@@ -424,8 +432,12 @@ def estimate_orientation(
         raise ValueError(f"window must be a positive number of seconds; got {window}")
     n_win = max(1, int(round(window * rate)))
     params[mod.P_WINDOW] = n_win
+    if not update_interval > 0:
+        raise ValueError(f"update_interval must be a positive number of seconds; got {update_interval}")
+    stride = min(n_win, max(1, int(round(update_interval * rate))))
+    params[mod.P_STRIDE] = stride
     params[mod.P_GYR_SCALE_VAR] = gyro_scale_sigma**2 * 1.0
-    params[mod.P_ACC_ADAPT] = min(1.0, n_win / (adapt_time * rate)) if adapt_time > 0 else 0.0
+    params[mod.P_ACC_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 else 0.0
     params[mod.P_MAG_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 and mag_adapt else 0.0
     # initial attitude uncertainty: the direction of a mean of N noisy specific forces (inclination) and fields
     # (heading); heading is unknown in 6D (π is only a nominal value: no update ever uses it)
@@ -444,8 +456,9 @@ def estimate_orientation(
     kern(gyr, acc, mag_in, 1.0 / rate, q, b, P, params, Ha, Hm, out_q, out_b, stats)
     seconds = time.perf_counter() - t0
 
-    acc_acc = n // n_win - stats[mod.S_ACC_REJECTED]
-    mag_acc = (n // n_win - stats[mod.S_MAG_REJECTED] - stats[mod.S_MAG_SKIPPED]) if use_mag else 0
+    n_updates = max(0, (n - n_win) // stride + 1)
+    acc_acc = n_updates - stats[mod.S_ACC_REJECTED]
+    mag_acc = (n_updates - stats[mod.S_MAG_REJECTED] - stats[mod.S_MAG_SKIPPED]) if use_mag else 0
     return AhrsResult(
         quat=out_q,
         gyroscope_bias=out_b,
