@@ -9,11 +9,11 @@ Imported lazily.  Layouts (xyzw quaternions, earth frame ENU, ``q`` rotates body
 * ``params`` (``N_PARAMS``,) see the ``P_*`` indices below;
 * ``stats`` (``N_STATS``,) counters written by the run, see the ``S_*`` indices.
 
-One call processes a whole recording: one predict (gyroscope as input) per sample; at the end of every window of
-``params[P_WINDOW]`` samples one accelerometer update and (9D) one magnetometer heading update with the window's
-earth-frame mean specific force and field.  Covariance updates use the Joseph form, which stays valid for the
-deliberately restricted gains (the accelerometer does not correct heading, the magnetometer does not correct
-inclination).
+One call processes a whole recording: one predict (gyroscope as input) per sample; every ``params[P_STRIDE]``
+samples (once the first window is full) one accelerometer update and (9D) one magnetometer heading update with the
+earth-frame mean specific force and field of the last ``params[P_WINDOW]`` samples.  Covariance updates use the
+Joseph form, which stays valid for the deliberately restricted gains (the accelerometer does not correct heading,
+the magnetometer does not correct inclination).
 """
 
 from __future__ import annotations
@@ -173,8 +173,8 @@ def run_ahrs(gyr, acc, mag, dt, q, b, P, params, Ha, Hm, out_q, out_b, stats):  
     """Run the filter over all samples; ``q`` (4,), ``b`` (3,), ``P`` (6, 6) are the initial state, updated in place.
 
     Per sample k: predict ``q ← q ⊗ Exp((ω_k − b) dt)``, ``P ← F P Fᵀ + Q`` with ``F = [[I, −R dt], [0, I]]``,
-    ``Q = diag((σ_g² + ε²|ω|²) dt I, σ_b² dt I)``; accumulate ``R̂ a_k`` and ``R̂ m_k``; at a window's end the
-    accelerometer update of inclination and (9D) the magnetometer heading update.
+    ``Q = diag((σ_g² + ε²|ω|²) dt I, σ_b² dt I)``; accumulate ``R̂ a_k`` and ``R̂ m_k`` in the sliding window; every
+    stride samples the accelerometer update of inclination and (9D) the magnetometer heading update.
     ``Ha`` (2, 6) and ``Hm`` (1, 6) are the measurement Jacobians of :func:`dualpose.fusion.ahrs.accelerometer_jacobian`
     and :func:`dualpose.fusion.ahrs.heading_jacobian`.  Writes ``out_q[k]`` (xyzw) and ``out_b[k]`` after the
     updates of sample k.
