@@ -19,6 +19,7 @@ KERNEL_MODULES = (
     "dualpose.fusion._eskf_kernels",
     "dualpose.fusion._smoother_kernels",
     "dualpose.fusion._hol22_kernels",
+    "dualpose.fusion._ahrs_kernels",
 )
 
 

@@ -1,0 +1,130 @@
+"""dualpose's orientation-only filter on the BROAD trials next to VQF and BROAD's published Madgwick results.
+
+Run ``.venv/bin/python benchmarks/bench_broad.py [--markdown docs/broad.md]`` (needs the ``bench`` extra for
+``vqf``; ``make bench`` installs it).  Everything runs in one process on the trials in ``../shared/data/broad``.
+
+* dualpose 9D / 6D: :func:`dualpose.fusion.ahrs.estimate_orientation` with its defaults (no per-trial setting), the
+  rest period before the first movement sample used for initialisation and noise estimation.
+* VQF 9D / 6D: ``vqf.VQF(Ts).updateBatch(gyr, acc, mag)`` with its default parameters (Laidig & Seel 2023), both
+  outputs of one run.
+* Madgwick: BROAD's published total RMSE at β = 0.12 (Laidig et al. 2021, ``results_madgwick``), not re-run.
+
+Scoring: BROAD's metric (:mod:`dualpose.fusion.orientation_errors`), movement samples, NaN reference samples skipped;
+9D as is (the optical frame is magnetic ENU), 6D after removing the one constant heading offset that minimises the
+total RMSE (same rule for both filters).  µs/sample: wall time of one batch call over the whole trial divided by its
+samples (dualpose: the compiled kernel after compilation; VQF: its C++ ``updateBatch``), best of 3.
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from dualpose.fusion.ahrs import estimate_orientation
+from dualpose.fusion.orientation_errors import orientation_rmse
+from dualpose.io import load_broad
+
+DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "broad"
+#: BROAD's published Madgwick total RMSE (deg) at β = 0.12, by trial number (Laidig et al. 2021)
+MADGWICK_012 = {"01": 2.310, "06": 2.307, "10": 3.569, "15": 12.304, "21": 7.158, "24": 1.768, "28": 8.329}
+
+
+def _run_vqf(trial) -> tuple[np.ndarray, np.ndarray, float]:  # noqa: ANN001
+    import vqf
+
+    gyr, acc, mag = (np.ascontiguousarray(a) for a in (trial.gyr, trial.acc, trial.mag))
+    best = np.inf
+    for _ in range(3):
+        f = vqf.VQF(1.0 / trial.rate)
+        t0 = time.perf_counter()
+        out = f.updateBatch(gyr, acc, mag)
+        best = min(best, time.perf_counter() - t0)
+    wxyz = [1, 2, 3, 0]
+    return out["quat9D"][:, wxyz], out["quat6D"][:, wxyz], 1e6 * best / gyr.shape[0]
+
+
+def _run_dualpose(trial, use_mag: bool):  # noqa: ANN001, ANN202
+    best = None
+    for _ in range(3):
+        r = estimate_orientation(trial.gyr, trial.acc, trial.mag, trial.rate, use_mag=use_mag,
+                                 n_rest=trial.static_start)
+        best = r if best is None or r.seconds < best.seconds else best
+    return best
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--markdown", help="write the tables into this Markdown file (section '## Orientation (AHRS)')")
+    args = ap.parse_args()
+    files = sorted(DATA.glob("*.mat"))
+    if not files:
+        print(f"no BROAD trials in {DATA}", file=sys.stderr)
+        return 1
+    rows = []
+    for path in files:
+        t = load_broad(path)
+        key = t.name[:2]
+        d9, d6 = _run_dualpose(t, True), _run_dualpose(t, False)
+        v9q, v6q, v_us = _run_vqf(t)
+        s = {
+            "dualpose 9D": (orientation_rmse(d9.quat, t.quat, t.movement), d9.us_per_sample),
+            "dualpose 6D": (orientation_rmse(d6.quat, t.quat, t.movement, fit_heading_offset=True), d6.us_per_sample),
+            "VQF 9D": (orientation_rmse(v9q, t.quat, t.movement), v_us),
+            "VQF 6D": (orientation_rmse(v6q, t.quat, t.movement, fit_heading_offset=True), v_us),
+        }
+        rows.append((t.name, key, s))
+        print(t.name, "  ".join(f"{k}: {v[0].total_rmse_deg:.3f}" for k, v in s.items()),
+              f"Madgwick: {MADGWICK_012.get(key, float('nan')):.3f}", flush=True)
+
+    lines = _markdown(rows)
+    text = "\n".join(lines)
+    print(text)
+    if args.markdown:
+        _write_section(Path(args.markdown), text)
+    return 0
+
+
+def _markdown(rows: list) -> list[str]:
+    methods = ["dualpose 9D", "dualpose 6D", "VQF 9D", "VQF 6D"]
+    out = [
+        "| trial | method | total RMSE (°) | heading RMSE (°) | inclination RMSE (°) | µs/sample |",
+        "|---|---|---:|---:|---:|---:|",
+    ]
+    for name, key, s in rows:
+        for m in methods:
+            sc, us = s[m]
+            off = f" (offset {sc.heading_offset_deg:+.1f}°)" if sc.heading_offset_deg else ""
+            out.append(f"| {name} | {m}{off} | {sc.total_rmse_deg:.3f} | {sc.heading_rmse_deg:.3f} | "
+                       f"{sc.inclination_rmse_deg:.3f} | {us:.2f} |")
+        out.append(f"| {name} | Madgwick β=0.12 (published) | {MADGWICK_012.get(key, float('nan')):.3f} | – | – | – |")
+    out += ["", "Mean over the trials (total RMSE, °):", "", "| method | mean total RMSE (°) | mean µs/sample |",
+            "|---|---:|---:|"]
+    for m in methods:
+        out.append(f"| {m} | {np.mean([s[m][0].total_rmse_deg for _, _, s in rows]):.3f} | "
+                   f"{np.mean([s[m][1] for _, _, s in rows]):.2f} |")
+    keys = [k for _, k, _ in rows if k in MADGWICK_012]
+    out.append(f"| Madgwick β=0.12 (published) | {np.mean([MADGWICK_012[k] for k in keys]):.3f} | – |")
+    out += ["", f"Machine: {platform.processor() or platform.machine()}, Python {platform.python_version()}, "
+            f"numpy {np.__version__}."]
+    return out
+
+
+def _write_section(path: Path, table: str) -> None:
+    """Replace the generated block between the markers (kept by hand-written text around it)."""
+    begin, end = "<!-- bench_broad:begin -->", "<!-- bench_broad:end -->"
+    text = path.read_text() if path.exists() else ""
+    block = f"{begin}\n{table}\n{end}"
+    if begin in text and end in text:
+        text = text[: text.index(begin)] + block + text[text.index(end) + len(end):]
+    else:
+        text += ("\n" if text else "") + block + "\n"
+    path.write_text(text)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

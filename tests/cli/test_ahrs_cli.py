@@ -1,0 +1,49 @@
+"""``dualpose ahrs``: JSON keys, 9D/6D, table output, errors naming the file."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from dualpose.cli.main import main
+
+BROAD = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "broad"
+TRIAL = BROAD / "24_disturbed_tapping_A.mat"
+KEYS = ("total_rmse_deg", "heading_rmse_deg", "inclination_rmse_deg", "us_per_sample")
+
+
+@pytest.fixture(autouse=True)
+def _data():
+    if not BROAD.is_dir():
+        pytest.skip("BROAD data directory missing")
+
+
+@pytest.mark.parametrize("flag", ["--mag", "--no-mag"])
+def test_json_keys(flag, capsys):
+    assert main(["ahrs", str(TRIAL), flag, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    for key in KEYS:
+        assert isinstance(out[key], float) and out[key] > 0
+    assert out["mode"] == ("9D" if flag == "--mag" else "6D")
+    assert out["total_rmse_deg"] >= max(out["heading_rmse_deg"], out["inclination_rmse_deg"])
+    assert out["total_rmse_deg"] < 1.768  # BROAD's published Madgwick result on this trial
+    assert (out["heading_offset_deg"] != 0.0) == (flag == "--no-mag")
+
+
+def test_table(capsys):
+    assert main(["ahrs", str(TRIAL)]) == 0
+    text = capsys.readouterr().out
+    assert "24_disturbed_tapping_A (9D" in text and "inclination RMSE" in text and "us/sample" in text
+
+
+def test_missing_and_bad_files_name_the_file(tmp_path, capsys):
+    missing = tmp_path / "nope.mat"
+    assert main(["ahrs", str(missing), "--json"]) == 2
+    assert str(missing) in capsys.readouterr().err
+    bad = tmp_path / "bad.mat"
+    bad.write_text("not a MATLAB file\n")
+    assert main(["ahrs", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert str(bad) in err and "error" in err

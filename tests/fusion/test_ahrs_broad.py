@@ -1,0 +1,65 @@
+"""dualpose's AHRS on the real BROAD trials against BROAD's published Madgwick results (Laidig et al. 2021).
+
+Madgwick's total RMSE at β = 0.12 is the published reference (BROAD ``example_code/out/results_madgwick``);
+dualpose runs with its defaults (the same settings for every trial), 9D, scored exactly as BROAD scores (no
+alignment).  Trial 06 (fast rotation) is the one trial where dualpose's 9D estimate does not beat Madgwick's
+published value (nor does VQF's: see docs/broad.md); it is kept as a strict expected failure so that the gap stays
+visible and an improvement is noticed.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from dualpose.fusion.ahrs import estimate_orientation
+from dualpose.fusion.orientation_errors import orientation_rmse
+from dualpose.io import load_broad
+
+BROAD = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "broad"
+MADGWICK_012 = {
+    "01_undisturbed_slow_rotation_A": 2.310,
+    "06_undisturbed_fast_rotation_A": 2.307,
+    "10_undisturbed_slow_translation_A": 3.569,
+    "15_undisturbed_fast_translation_A": 12.304,
+    "21_undisturbed_fast_combined": 7.158,
+    "24_disturbed_tapping_A": 1.768,
+    "28_disturbed_stationary_magnet_A": 8.329,
+}
+KNOWN_MISS = {"06_undisturbed_fast_rotation_A"}
+
+
+def _trial(name: str):
+    path = BROAD / f"{name}.mat"
+    if not BROAD.is_dir():
+        pytest.skip("BROAD data directory missing")
+    return load_broad(path)
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(n, marks=pytest.mark.xfail(strict=True, reason="fast rotation: 9D heading worse than Madgwick"))
+        if n in KNOWN_MISS
+        else n
+        for n in MADGWICK_012
+    ],
+)
+def test_9d_beats_published_madgwick(name):
+    t = _trial(name)
+    res = estimate_orientation(t.gyr, t.acc, t.mag, t.rate, use_mag=True, n_rest=t.static_start)
+    score = orientation_rmse(res.quat, t.quat, t.movement)
+    assert score.total_rmse_deg < MADGWICK_012[name]
+
+
+@pytest.mark.parametrize("name", ["15_undisturbed_fast_translation_A", "28_disturbed_stationary_magnet_A"])
+def test_6d_inclination_matches_9d(name):
+    # the magnetometer only acts on heading: dropping it must leave the inclination (almost) unchanged
+    t = _trial(name)
+    r9 = estimate_orientation(t.gyr, t.acc, t.mag, t.rate, use_mag=True, n_rest=t.static_start)
+    r6 = estimate_orientation(t.gyr, t.acc, None, t.rate, use_mag=False, n_rest=t.static_start)
+    s9 = orientation_rmse(r9.quat, t.quat, t.movement)
+    s6 = orientation_rmse(r6.quat, t.quat, t.movement, fit_heading_offset=True)
+    assert s6.inclination_rmse_deg < 2.5
+    assert abs(s6.inclination_rmse_deg - s9.inclination_rmse_deg) < 0.2
