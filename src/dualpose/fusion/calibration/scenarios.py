@@ -1,0 +1,74 @@
+"""Simulated calibration recordings (for tests, benchmarks and ``dualpose calibrate``): static poses in front of
+the two-plane scene of :mod:`dualpose.fusion.sim`.
+
+The scene's floor plane (z = 0) plays the calibration pattern lying level; with ``gravity_misalignment_deg = 0``
+its "up" is the world z axis.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+import dualpose as dp
+from dualpose.fusion import sim
+
+__all__ = ["static_trajectory", "calibration_camera_poses", "simulate_static_poses", "random_extrinsic"]
+
+
+def static_trajectory(q_wb: np.ndarray, p_wb: np.ndarray, duration: float) -> sim.Trajectory:
+    """A :class:`~dualpose.fusion.sim.Trajectory` at rest at body pose ``(q_wb (4,) xyzw, p_wb (3,) m)``."""
+    z = np.zeros((1, 3))
+    return sim.Trajectory(
+        p0=np.asarray(p_wb, float), q0=np.asarray(q_wb, float), pos_amp=z, pos_harm=np.ones(1), pos_phase=z,
+        rot_amp=z, rot_harm=np.ones(1), rot_phase=z, phase_kind="linear", omega0=0.0, duration=float(duration),
+    )  # fmt: skip
+
+
+def calibration_camera_poses(n_poses: int, seed: int, max_roll_deg: float = 40.0) -> tuple[np.ndarray, np.ndarray]:
+    """``n_poses`` camera poses ``(q_wc (n, 4), c_w (n, 3))`` looking at the scene from different heights and
+    sides, rolled about the optical axis by up to ``max_roll_deg`` (so the gravity direction differs between poses
+    about two axes), seeded."""
+    rng = np.random.default_rng(seed)
+    q = np.empty((n_poses, 4))
+    c = np.empty((n_poses, 3))
+    for k in range(n_poses):  # a handful of poses: the per-pose construction is not a hot path
+        eye = sim.CAMERA_HOME + rng.uniform([-0.5, -0.35, -0.45], [0.5, 0.15, 0.45])
+        target = sim.SCENE_TARGET + rng.uniform([-0.2, -0.05, -0.15], [0.2, 0.2, 0.15])
+        roll = math.radians(rng.uniform(-max_roll_deg, max_roll_deg))
+        q[k] = dp.quat_mul(sim.look_at_quat(eye, target), dp.quat_from_rotvec([0.0, 0.0, roll]))
+        c[k] = eye
+    return q, c
+
+
+def random_extrinsic(seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """A random camera→body rotation near a forward-looking mount (±25° about each axis) and lever arm (±5 cm)."""
+    rng = np.random.default_rng(seed)
+    q_nominal, _ = sim.default_extrinsic()
+    q = dp.quat_mul(q_nominal, dp.quat_from_rotvec(rng.uniform(-0.45, 0.45, 3)))
+    return q, rng.uniform(-0.05, 0.05, 3)
+
+
+def simulate_static_poses(
+    n_poses: int,
+    seed: int,
+    extrinsic: tuple[np.ndarray, np.ndarray] | None = None,
+    duration: float = 1.0,
+    max_roll_deg: float = 40.0,
+    **simulate_kwargs,  # noqa: ANN003
+) -> list[sim.SimulatedRun]:
+    """One :class:`~dualpose.fusion.sim.SimulatedRun` at rest per pose of :func:`calibration_camera_poses`
+    (``duration`` s each, seeded ``seed * 1000 + k``); ``simulate_kwargs`` go to :func:`dualpose.fusion.sim.simulate`
+    (e.g. ``imu_noise``, ``pixel_sigma``, ``gravity_misalignment_deg``).  The IMU's turn-on bias is drawn per run."""
+    q_bc, p_bc = sim.default_extrinsic() if extrinsic is None else extrinsic
+    q_bc = np.asarray(q_bc, float)
+    p_bc = np.asarray(p_bc, float)
+    q_wc, c_w = calibration_camera_poses(n_poses, seed, max_roll_deg)
+    q_wb = dp.quat_mul(q_wc, dp.quat_conj(q_bc))
+    p_wb = c_w - dp.quat_rotate(q_wb, p_bc)
+    return [
+        sim.simulate(static_trajectory(q_wb[k], p_wb[k], duration), seed=seed * 1000 + k, extrinsic=(q_bc, p_bc),
+                     **simulate_kwargs)  # fmt: skip
+        for k in range(n_poses)
+    ]
