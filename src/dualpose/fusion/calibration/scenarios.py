@@ -56,19 +56,28 @@ def simulate_static_poses(
     extrinsic: tuple[np.ndarray, np.ndarray] | None = None,
     duration: float = 1.0,
     max_roll_deg: float = 40.0,
+    pose_seed: int | None = None,
     **simulate_kwargs,  # noqa: ANN003
 ) -> list[sim.SimulatedRun]:
-    """One :class:`~dualpose.fusion.sim.SimulatedRun` at rest per pose of :func:`calibration_camera_poses`
-    (``duration`` s each, seeded ``seed * 1000 + k``); ``simulate_kwargs`` go to :func:`dualpose.fusion.sim.simulate`
-    (e.g. ``imu_noise``, ``pixel_sigma``, ``gravity_misalignment_deg``).  The IMU's turn-on bias is drawn per run."""
+    """One :class:`~dualpose.fusion.sim.SimulatedRun` at rest per pose of :func:`calibration_camera_poses`.
+
+    Each lasts ``duration`` s.  Poses are seeded by ``pose_seed`` (default ``seed``), sensor noise by
+    ``seed * 1000 + k``: a fixed ``pose_seed`` and varying ``seed`` is a Monte-Carlo run over one geometry.
+    ``simulate_kwargs`` go to :func:`dualpose.fusion.sim.simulate` (e.g. ``imu_noise``, ``pixel_sigma``,
+    ``gravity_misalignment_deg``).  The IMU's turn-on bias is drawn per run.
+    """
     q_bc, p_bc = sim.default_extrinsic() if extrinsic is None else extrinsic
     q_bc = np.asarray(q_bc, float)
     p_bc = np.asarray(p_bc, float)
-    q_wc, c_w = calibration_camera_poses(n_poses, seed, max_roll_deg)
+    q_wc, c_w = calibration_camera_poses(n_poses, seed if pose_seed is None else pose_seed, max_roll_deg)
     q_wb = dp.quat_mul(q_wc, dp.quat_conj(q_bc))
     p_wb = c_w - dp.quat_rotate(q_wb, p_bc)
     return [
-        sim.simulate(static_trajectory(q_wb[k], p_wb[k], duration), seed=seed * 1000 + k, extrinsic=(q_bc, p_bc),
-                     **simulate_kwargs)  # fmt: skip
+        sim.simulate(
+            static_trajectory(q_wb[k], p_wb[k], duration),
+            seed=seed * 1000 + k,
+            extrinsic=(q_bc, p_bc),
+            **simulate_kwargs,
+        )  # fmt: skip
         for k in range(n_poses)
     ]

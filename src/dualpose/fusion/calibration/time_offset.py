@@ -13,8 +13,8 @@ into the camera frame with the extrinsic (``ω_c = R_bcᵀ ω_b``).  The cost
 
 (the gyro bias ``b`` is solved in closed form for every ``d``) is evaluated on a grid (the coarse
 cross-correlation), the best grid point is refined with a parabola through its neighbours and then by a bounded
-1-D minimisation of the continuous ``C(d)``.  Without an extrinsic, the rate magnitudes ``|ω|`` are matched
-instead (bias-sensitive, coarser).
+1-D minimisation of the continuous ``C(d)``.  Without an extrinsic, ``R_bc`` is estimated with the offset
+(the rate vectors are registered for every candidate: ``ω̄_c = R_cb ω̄_gyro − R_cb b``).
 
 Stage 2 (:func:`refine_time_offset_in_filter`): the error-state filter is re-run with ``camera_time_offset = d``
 and the mean gated NIS of the camera correspondences is minimised over ``d`` in a small bracket around the
@@ -55,7 +55,9 @@ class TimeOffsetEstimate:
     coarse_offset : float
         Best grid point (s) before the sub-sample refinement.
     gyro_bias : ndarray (3,)
-        Gyro bias (body frame, rad/s) solved with the offset (zeros in magnitude mode).
+        Gyro bias (body frame, rad/s) solved with the offset.
+    q_bc : ndarray (4,)
+        Camera→body rotation used (the given one) or estimated from the rates (registration mode), xyzw.
     rms_residual : float
         RMS rate residual at the optimum, rad/s.
     grid, cost : ndarray (G,)
@@ -63,7 +65,7 @@ class TimeOffsetEstimate:
     n_intervals : int
         Frame intervals used.
     mode : str
-        ``"vector"`` (extrinsic given) or ``"magnitude"``.
+        ``"extrinsic"`` (``q_bc`` given) or ``"registration"`` (rotation estimated with the offset).
     """
 
     offset: float
@@ -74,6 +76,7 @@ class TimeOffsetEstimate:
     grid: np.ndarray
     cost: np.ndarray
     n_intervals: int
+    q_bc: np.ndarray
     mode: str
 
 
@@ -211,7 +214,7 @@ def gyro_mean_rates(t: np.ndarray, gyro: np.ndarray, a: np.ndarray, b: np.ndarra
 
 
 class _RateCost:
-    """``C(d)`` of the module docstring for fixed data (vector or magnitude mode)."""
+    """``C(d)`` of the module docstring for fixed data (given rotation, or registered per candidate)."""
 
     def __init__(self, t, gyro, t0, t1, omega_c, R_cb):  # noqa: ANN001
         self.t, self.gyro = t, gyro
@@ -221,21 +224,23 @@ class _RateCost:
     def valid(self, d: float) -> np.ndarray:
         return (self.t0 + d >= self.t[0]) & (self.t1 + d <= self.t[-1])
 
-    def residuals(self, d: float, keep: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def residuals(self, d: float, keep: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Centred rate residuals (P, 3), the gyro bias (3,) body frame and ``R_cb`` (3, 3) at offset ``d``."""
         a, b = self.t0[keep] + d, self.t1[keep] + d
         ia = _integral_at(self.t, self.gyro, self.cum, self.slope, a)
         ib = _integral_at(self.t, self.gyro, self.cum, self.slope, b)
         g = (ib - ia) / (b - a)[:, None]
-        if self.R_cb is None:
-            r = np.linalg.norm(g, axis=1) - np.linalg.norm(self.omega_c[keep], axis=1)
-            return r - r.mean(), np.zeros(3)
-        r = g @ self.R_cb.T - self.omega_c[keep]
+        R_cb = self.R_cb
+        if R_cb is None:  # ω_c = R_cb ω_gyro + t (t = −R_cb b): a point registration of the rate vectors
+            from dualpose.registration import register_pose
+
+            R_cb = register_pose(np.ascontiguousarray(g), np.ascontiguousarray(self.omega_c[keep])).rotation_matrix
+        r = g @ R_cb.T - self.omega_c[keep]
         bias_c = r.mean(axis=0)
-        return r - bias_c, self.R_cb.T @ bias_c
+        return r - bias_c, R_cb.T @ bias_c, R_cb
 
     def __call__(self, d: float, keep: np.ndarray) -> float:
-        r, _ = self.residuals(d, keep)
-        return float(np.sum(r**2))
+        return float(np.sum(self.residuals(d, keep)[0] ** 2))
 
 
 def estimate_time_offset(
@@ -255,8 +260,10 @@ def estimate_time_offset(
     frame_t : (F,) camera stamps (camera clock), s.  q_wc : (F, 4) per-frame camera orientation xyzw (e.g. from
         :func:`frame_poses`; NaN rows are skipped).
     q_bc : (4,) xyzw, optional
-        Camera→body rotation (camera axes in the body frame).  With it the full rate vectors are compared; without
-        it only their magnitudes.
+        Camera→body rotation (camera axes in the body frame), used to rotate the gyro rates into the camera frame.
+        Without it the rotation is estimated for every candidate offset by registering the rate vectors
+        (:func:`dualpose.registration.register_pose`, points = rates, translation = bias), at some cost in
+        precision.
     max_offset : float
         Search ``|offset| <= max_offset`` s.
     grid_step : float, optional
@@ -301,15 +308,15 @@ def estimate_time_offset(
     lo, hi = max(d0 - step, -max_offset), min(d0 + step, max_offset)
     res = minimize_scalar(lambda d: cost(d, keep), bounds=(lo, hi), method="bounded", options={"xatol": 1e-6})
     d = float(res.x)
-    r, bias = cost.residuals(d, keep)
+    r, bias, R_cb_used = cost.residuals(d, keep)
     h = 1e-4  # ∂r/∂d by a central difference of the (centred) residual vector
     dr = (cost.residuals(d + h, keep)[0] - cost.residuals(d - h, keep)[0]) / (2 * h)
-    r2, dr2 = r.reshape(len(r), -1), dr.reshape(len(r), -1)
-    n_params = 1 + (3 if R_cb is not None else 1)
-    sigma = _offset_sigma(r2, dr2, frame_index[keep], (t1 - t0)[keep], n_params)
+    n_params = 4 if R_cb is not None else 7
+    sigma = _offset_sigma(r, dr, frame_index[keep], (t1 - t0)[keep], n_params)
     return TimeOffsetEstimate(
         offset=d, sigma=sigma, coarse_offset=coarse, gyro_bias=bias, rms_residual=float(np.sqrt(np.mean(r**2))),
-        grid=grid, cost=values, n_intervals=int(keep.sum()), mode="vector" if R_cb is not None else "magnitude",
+        grid=grid, cost=values, n_intervals=int(keep.sum()), q_bc=dp.quat_from_matrix(R_cb_used.T),
+        mode="extrinsic" if R_cb is not None else "registration",
     )  # fmt: skip
 
 
