@@ -12,9 +12,7 @@ from scipy.integrate import quad
 import dualpose as dp
 from dualpose.fusion import calibration as cal
 from dualpose.fusion import sim
-from dualpose.fusion.calibration.scenarios import random_extrinsic, simulate_static_poses
-from dualpose.fusion.eskf import ErrorStateEKF
-from dualpose.fusion.initialization import initial_state_from_run
+from dualpose.fusion.calibration.scenarios import calibrate_run_time_offset, random_extrinsic, simulate_static_poses
 
 BIAS_FREE_ACCEL = sim.ImuNoise(accelerometer_initial_bias_sigma=0.0, accelerometer_random_walk=0.0)
 
@@ -207,16 +205,9 @@ def test_time_offset_rate_matching_then_filter(offset_runs: dict, offset: float)
     first = cal.estimate_time_offset(run.t, run.gyro, f.t, q, run.q_bc)
     assert abs(first.offset - offset) < 4 * first.sigma and abs(first.offset - offset) < 0.012
     assert 1e-3 < first.sigma < 1e-2 and first.mode == "extrinsic"
-    x, P = initial_state_from_run(run)
-
-    def make_filter() -> ErrorStateEKF:  # a filter that (wrongly) believes the offset is 0: the search sets it
-        return ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P, gyro_bias=x[10:13], accel_bias=x[13:16],
-                                     camera_time_offset=0.0)  # fmt: skip
-
-    refined = cal.refine_time_offset_in_filter(
-        make_filter, run.t, run.gyro, run.accel, f.t, f.offsets, f.pixels, f.points, first.offset,
-        half_width=max(4 * first.sigma, 0.005),
-    )  # fmt: skip
+    again, refined = calibrate_run_time_offset(run, run.q_bc)  # the same stage 1, then the filter search
+    assert again.offset == first.offset
+    assert refined.bounds[1] - refined.bounds[0] >= 0.01
     assert abs(refined.offset - offset) < 0.002  # the goal: ≤ 1–2 ms after refinement
     assert refined.mean_nis == pytest.approx(refined.scores.min())
 

@@ -7,6 +7,7 @@ its "up" is the world z axis.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -14,7 +15,13 @@ import numpy as np
 import dualpose as dp
 from dualpose.fusion import sim
 
-__all__ = ["static_trajectory", "calibration_camera_poses", "simulate_static_poses", "random_extrinsic"]
+__all__ = [
+    "static_trajectory",
+    "calibration_camera_poses",
+    "simulate_static_poses",
+    "random_extrinsic",
+    "calibrate_run_time_offset",
+]
 
 
 def static_trajectory(q_wb: np.ndarray, p_wb: np.ndarray, duration: float) -> sim.Trajectory:
@@ -64,7 +71,9 @@ def simulate_static_poses(
     Each lasts ``duration`` s.  Poses are seeded by ``pose_seed`` (default ``seed``), sensor noise by
     ``seed * 1000 + k``: a fixed ``pose_seed`` and varying ``seed`` is a Monte-Carlo run over one geometry.
     ``simulate_kwargs`` go to :func:`dualpose.fusion.sim.simulate` (e.g. ``imu_noise``, ``pixel_sigma``,
-    ``gravity_misalignment_deg``).  The IMU's turn-on bias is drawn per run.
+    ``gravity_misalignment_deg``).  The IMU's turn-on biases are drawn once (seeded by ``seed``, with the
+    ``imu_noise`` turn-on sigmas) and shared by all poses, as in one calibration session; the bias random walk and
+    white noise are independent per pose.
     """
     q_bc, p_bc = sim.default_extrinsic() if extrinsic is None else extrinsic
     q_bc = np.asarray(q_bc, float)
@@ -72,12 +81,55 @@ def simulate_static_poses(
     q_wc, c_w = calibration_camera_poses(n_poses, seed if pose_seed is None else pose_seed, max_roll_deg)
     q_wb = dp.quat_mul(q_wc, dp.quat_conj(q_bc))
     p_wb = c_w - dp.quat_rotate(q_wb, p_bc)
-    return [
-        sim.simulate(
+    noise = simulate_kwargs.pop("imu_noise", None) or sim.ImuNoise()
+    rng = np.random.default_rng([seed, 2])
+    bg = rng.normal(0.0, noise.gyroscope_initial_bias_sigma, 3)
+    ba = rng.normal(0.0, noise.accelerometer_initial_bias_sigma, 3)
+    per_pose = dataclasses.replace(noise, gyroscope_initial_bias_sigma=0.0, accelerometer_initial_bias_sigma=0.0)
+    runs = []
+    for k in range(n_poses):
+        run = sim.simulate(
             static_trajectory(q_wb[k], p_wb[k], duration),
             seed=seed * 1000 + k,
             extrinsic=(q_bc, p_bc),
+            imu_noise=per_pose,
             **simulate_kwargs,
-        )  # fmt: skip
-        for k in range(n_poses)
-    ]
+        )
+        run.gyro += bg
+        run.accel += ba
+        run.truth["gyro_bias"] += bg
+        run.truth["accel_bias"] += ba
+        run.imu_noise = noise
+        runs.append(run)
+    return runs
+
+
+def calibrate_run_time_offset(run: sim.SimulatedRun, q_bc: np.ndarray | None = None, refine: bool = True):  # noqa: ANN201
+    """Both time-offset stages on a simulated run that starts at rest (e.g. ``sim.simulate_eight``).
+
+    Per-frame robust PnP → :func:`~.time_offset.estimate_time_offset` (with ``q_bc``; ``None`` estimates the rotation
+    too) → if ``refine``, :func:`~.time_offset.refine_time_offset_in_filter` over ``±max(4σ, 5 ms)`` with the
+    error-state filter started from the rest period + first-frame PnP
+    (:func:`dualpose.fusion.initialization.initial_state_from_run`).  Returns ``(TimeOffsetEstimate,
+    FilterTimeOffsetEstimate or None)``.
+    """
+    from dualpose.fusion.calibration.time_offset import estimate_time_offset, frame_poses, refine_time_offset_in_filter
+    from dualpose.fusion.eskf import ErrorStateEKF
+    from dualpose.fusion.initialization import initial_state_from_run
+
+    f = run.frames
+    q_wc = frame_poses(f.t, f.offsets, f.pixels, f.points, run.camera.matrix, pixel_sigma=max(run.pixel_sigma, 1e-3))
+    first = estimate_time_offset(run.t, run.gyro, f.t, q_wc, q_bc)
+    if not refine:
+        return first, None
+    x, P = initial_state_from_run(run)
+
+    def make_filter() -> ErrorStateEKF:  # the run's true offset is NOT passed on: the search sets the attribute
+        return ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P, gyro_bias=x[10:13], accel_bias=x[13:16],
+                                     camera_time_offset=0.0)  # fmt: skip
+
+    second = refine_time_offset_in_filter(
+        make_filter, run.t, run.gyro, run.accel, f.t, f.offsets, f.pixels, f.points, first.offset,
+        half_width=max(4 * first.sigma, 0.005),
+    )  # fmt: skip
+    return first, second
