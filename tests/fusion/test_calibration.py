@@ -180,7 +180,7 @@ def test_gyro_mean_rates_exact_integral() -> None:
 def test_vision_rates_equal_true_mean_rates_without_noise() -> None:
     run = sim.simulate_eight(seed=1, pixel_sigma=0.0, imu_noise=sim.ImuNoise().scaled(0.0))
     f = run.frames
-    q = cal.frame_poses(f.t, f.offsets, f.pixels, f.points, run.camera.matrix)
+    q, _ = cal.frame_poses(f.t, f.offsets, f.pixels, f.points, run.camera.matrix)
     t0, t1, w_c = cal.vision_rotation_rates(f.t, q)
     w_b = cal.gyro_mean_rates(run.t, run.truth["omega"], t0, t1)
     # ω_c = R_bcᵀ ω_b; Log of the relative rotation vs the mean rate differ by O(ω² Δt²) (< 2e-3 rad/s here)
@@ -193,18 +193,20 @@ def offset_runs() -> dict[float, tuple]:
     for i, off in enumerate((-0.030, -0.015, -0.005, 0.005, 0.015, 0.030)):
         run = sim.simulate_eight(seed=40 + i, time_offset=off)
         f = run.frames
-        q = cal.frame_poses(f.t, f.offsets, f.pixels, f.points, run.camera.matrix)
-        out[off] = (run, q)
+        out[off] = (run, *cal.frame_poses(f.t, f.offsets, f.pixels, f.points, run.camera.matrix))
     return out
 
 
 @pytest.mark.parametrize("offset", [-0.030, -0.015, -0.005, 0.005, 0.015, 0.030])
 def test_time_offset_rate_matching_then_filter(offset_runs: dict, offset: float) -> None:
-    run, q = offset_runs[offset]
+    run, q, cov = offset_runs[offset]
     f = run.frames
-    first = cal.estimate_time_offset(run.t, run.gyro, f.t, q, run.q_bc)
-    assert abs(first.offset - offset) < 4 * first.sigma and abs(first.offset - offset) < 0.012
-    assert 1e-3 < first.sigma < 1e-2 and first.mode == "extrinsic"
+    plain = cal.estimate_time_offset(run.t, run.gyro, f.t, q, run.q_bc)
+    first = cal.estimate_time_offset(run.t, run.gyro, f.t, q, run.q_bc, attitude_covariance=cov,
+                                     gyroscope_noise_density=run.imu_noise.gyroscope_noise_density)  # fmt: skip
+    for est in (plain, first):
+        assert abs(est.offset - offset) < 4 * est.sigma and abs(est.offset - offset) < 0.012
+        assert 1e-3 < est.sigma < 1e-2 and est.mode == "extrinsic"
     again, refined = calibrate_run_time_offset(run, run.q_bc)  # the same stage 1, then the filter search
     assert again.offset == first.offset
     assert refined.bounds[1] - refined.bounds[0] >= 0.01
@@ -213,7 +215,7 @@ def test_time_offset_rate_matching_then_filter(offset_runs: dict, offset: float)
 
 
 def test_time_offset_without_extrinsic_estimates_rotation(offset_runs: dict) -> None:
-    run, q = offset_runs[0.015]
+    run, q, _ = offset_runs[0.015]
     est = cal.estimate_time_offset(run.t, run.gyro, run.frames.t, q)
     assert est.mode == "registration"
     assert abs(est.offset - 0.015) < max(4 * est.sigma, 0.004)
@@ -225,7 +227,7 @@ def test_time_offset_sign_convention_matches_simulator() -> None:
     clean = sim.simulate_eight(seed=3, pixel_sigma=0.0, imu_noise=sim.ImuNoise().scaled(0.0), time_offset=0.02)
     np.testing.assert_allclose(clean.frames.t + 0.02, clean.frames.t_true)
     f = clean.frames
-    q = cal.frame_poses(f.t, f.offsets, f.pixels, f.points, clean.camera.matrix)
+    q, _ = cal.frame_poses(f.t, f.offsets, f.pixels, f.points, clean.camera.matrix)
     est = cal.estimate_time_offset(clean.t, clean.gyro, f.t, q, clean.q_bc)
     assert abs(est.offset - 0.02) < 2e-4
 

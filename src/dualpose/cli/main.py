@@ -19,6 +19,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "dualpose.cli.reproduce",
     "dualpose.cli.eval",
     "dualpose.cli.fuse",
+    "dualpose.cli.calibrate",
 )
 
 

@@ -104,13 +104,22 @@ def simulate_static_poses(
     return runs
 
 
-def calibrate_run_time_offset(run: sim.SimulatedRun, q_bc: np.ndarray | None = None, refine: bool = True):  # noqa: ANN201
+def calibrate_run_time_offset(
+    run: sim.SimulatedRun,
+    q_bc: np.ndarray | None = None,
+    refine: bool = True,
+    weighted: bool = True,
+    **filter_kwargs,  # noqa: ANN003
+):  # noqa: ANN201
     """Both time-offset stages on a simulated run that starts at rest (e.g. ``sim.simulate_eight``).
 
     Per-frame robust PnP → :func:`~.time_offset.estimate_time_offset` (with ``q_bc``; ``None`` estimates the rotation
-    too) → if ``refine``, :func:`~.time_offset.refine_time_offset_in_filter` over ``±max(4σ, 5 ms)`` with the
+    too; ``weighted`` passes the PnP attitude covariances and the gyro noise density) → if ``refine``,
+    :func:`~.time_offset.refine_time_offset_in_filter` over ``±max(4σ, 5 ms)`` with the
     error-state filter started from the rest period + first-frame PnP
-    (:func:`dualpose.fusion.initialization.initial_state_from_run`).  Returns ``(TimeOffsetEstimate,
+    (:func:`dualpose.fusion.initialization.initial_state_from_run`; ``filter_kwargs`` go to
+    ``ErrorStateEKF.for_run``, e.g. the estimated ``gravity`` — the filter's NIS only locates the offset well when
+    the rest of its model is right).  Returns ``(TimeOffsetEstimate,
     FilterTimeOffsetEstimate or None)``.
     """
     from dualpose.fusion.calibration.time_offset import estimate_time_offset, frame_poses, refine_time_offset_in_filter
@@ -118,15 +127,18 @@ def calibrate_run_time_offset(run: sim.SimulatedRun, q_bc: np.ndarray | None = N
     from dualpose.fusion.initialization import initial_state_from_run
 
     f = run.frames
-    q_wc = frame_poses(f.t, f.offsets, f.pixels, f.points, run.camera.matrix, pixel_sigma=max(run.pixel_sigma, 1e-3))
-    first = estimate_time_offset(run.t, run.gyro, f.t, q_wc, q_bc)
+    q_wc, cov = frame_poses(f.t, f.offsets, f.pixels, f.points, run.camera.matrix, max(run.pixel_sigma, 1e-3))
+    first = estimate_time_offset(
+        run.t, run.gyro, f.t, q_wc, q_bc, attitude_covariance=cov if weighted else None,
+        gyroscope_noise_density=run.imu_noise.gyroscope_noise_density,
+    )  # fmt: skip
     if not refine:
         return first, None
     x, P = initial_state_from_run(run)
 
     def make_filter() -> ErrorStateEKF:  # the run's true offset is NOT passed on: the search sets the attribute
         return ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P, gyro_bias=x[10:13], accel_bias=x[13:16],
-                                     camera_time_offset=0.0)  # fmt: skip
+                                     camera_time_offset=0.0, **filter_kwargs)  # fmt: skip
 
     second = refine_time_offset_in_filter(
         make_filter, run.t, run.gyro, run.accel, f.t, f.offsets, f.pixels, f.points, first.offset,

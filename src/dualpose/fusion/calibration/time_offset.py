@@ -117,11 +117,12 @@ def frame_poses(
     K: np.ndarray,
     pixel_sigma: float = 1.0,
     min_points: int = 6,
-) -> np.ndarray:
-    """Per-frame camera orientations ``q_wc`` (F, 4) xyzw from robust PnP (NaN rows where PnP is impossible).
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per-frame camera orientations from robust PnP (:func:`dualpose.fusion.pnp.solve_pnp_ransac`).
 
     ``offsets`` (F + 1,) int: frame k owns rows ``offsets[k]:offsets[k+1]`` of ``pixels`` (M, 2) and ``points``
-    (M, 3) (the layout of :class:`dualpose.fusion.sim.CameraFrames`).
+    (M, 3) (the layout of :class:`dualpose.fusion.sim.CameraFrames`).  Returns ``q_wc`` (F, 4) xyzw and the
+    camera-frame attitude covariance (F, 3, 3) rad² of each (NaN rows where PnP is impossible).
     """
     from dualpose.fusion.pnp import solve_pnp_ransac
 
@@ -130,6 +131,7 @@ def frame_poses(
     if offsets.shape != (n + 1,):
         raise ValueError(f"offsets must have shape ({n + 1},) (one more than frame_t); got {offsets.shape}")
     q = np.full((n, 4), np.nan)
+    cov = np.full((n, 3, 3), np.nan)
     for k in range(n):  # one PnP per frame: the per-frame solve is the unit of work
         a, b = offsets[k], offsets[k + 1]
         if b - a < min_points:
@@ -139,7 +141,8 @@ def frame_poses(
         except (ValueError, np.linalg.LinAlgError):
             continue
         q[k] = res.q_wc
-    return q
+        cov[k] = res.covariance[:3, :3]
+    return q, cov
 
 
 def _rates_with_frames(frame_t: np.ndarray, q_wc: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -150,7 +153,7 @@ def _rates_with_frames(frame_t: np.ndarray, q_wc: np.ndarray) -> tuple[np.ndarra
     ok = np.all(np.isfinite(q), axis=1)
     k = np.flatnonzero(ok[:-1] & ok[1:])
     rel = dp.quat_mul(dp.quat_conj(q[k]), q[k + 1])
-    return t[k], t[k + 1], dp.rotvec_from_quat(rel) / (t[k + 1] - t[k])[:, None], k
+    return t[k], t[k + 1], dp.rotvec_from_quat(rel) / (t[k + 1] - t[k])[:, None], k, rel
 
 
 def vision_rotation_rates(frame_t: np.ndarray, q_wc: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -168,12 +171,13 @@ def vision_rotation_rates(frame_t: np.ndarray, q_wc: np.ndarray) -> tuple[np.nda
 
 
 def _offset_sigma(r: np.ndarray, dr: np.ndarray, k: np.ndarray, dt: np.ndarray, n_params: int) -> float:
-    """First-order σ of the offset when the rate residuals come from differenced per-frame attitude noise.
+    """First-order σ of the offset from the residual scatter (no attitude covariances given).
 
-    ``r_k = (n_k+1 − n_k) / Δt_k`` with i.i.d. attitude errors ``n`` (σ_θ per axis), so neighbouring residuals are
-    anti-correlated; the offset error ``δd = −Σ dr·r / Σ dr²`` then has variance
+    ``r_k = (n_k+1 − n_k) / Δt_k`` with i.i.d. isotropic attitude errors ``n`` (σ_θ per axis), so neighbouring
+    residuals are anti-correlated; the offset error ``δd = −Σ dr·r / Σ dr²`` then has variance
     ``σ_θ² ‖Dᵀ dr‖² / (Σ dr²)²`` (``D`` the differencing operator), and σ_θ² is estimated from the residuals.
-    Gyro white noise averaged over a frame interval is an order of magnitude smaller and is neglected.
+    PnP attitude noise is anisotropic (rotation about the optical axis is much better determined), so this is
+    only indicative; give the covariances for the weighted estimator and its model-based σ.
     """
     w = 1.0 / dt[:, None]
     s2_theta = float(np.sum(r**2)) / max(float(np.sum(2.0 * w**2)) * r.shape[1] - n_params, 1.0)
@@ -182,6 +186,31 @@ def _offset_sigma(r: np.ndarray, dr: np.ndarray, k: np.ndarray, dt: np.ndarray, 
     np.add.at(back, k, -dr * w)
     curv = float(np.sum(dr**2))
     return float(np.sqrt(s2_theta * float(np.sum(back**2)) / max(curv, 1e-300) ** 2))
+
+
+def _offset_sigma_weighted(
+    dr: np.ndarray,
+    W: np.ndarray,
+    k: np.ndarray,
+    dt: np.ndarray,
+    R_rel: np.ndarray,
+    cov: np.ndarray,
+    c_gyro: np.ndarray,
+) -> float:
+    """First-order σ of the weighted estimate: ``δd = −Σ drᵀ W r / Σ drᵀ W dr`` with
+    ``r_k = (n_k+1 − R_rel,kᵀ n_k) / Δt_k + e_k``, ``Cov(n_j) = cov[j]`` (every frame's error enters two
+    intervals) and independent gyro-mean noise ``Cov(e_k) = c_gyro[k]``."""
+    wd = np.einsum("kij,kj->ki", W, dr) / dt[:, None]  # W_k dr_k / Δt_k
+    g = np.zeros((len(cov), 3))
+    np.add.at(g, k + 1, wd)
+    np.add.at(g, k, -np.einsum("kij,kj->ki", R_rel, wd))
+    used = np.zeros(len(cov), bool)
+    used[k] = used[k + 1] = True
+    var = float(np.einsum("ji,jil,jl->", g[used], cov[used], g[used]))
+    wdr = wd * dt[:, None]
+    var += float(np.einsum("ki,kij,kj->", wdr, c_gyro, wdr))
+    curv = float(np.einsum("ki,kij,kj->", dr, W, dr))
+    return float(np.sqrt(var) / max(curv, 1e-300))
 
 
 def _gyro_integral(t: np.ndarray, gyro: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -216,10 +245,10 @@ def gyro_mean_rates(t: np.ndarray, gyro: np.ndarray, a: np.ndarray, b: np.ndarra
 class _RateCost:
     """``C(d)`` of the module docstring for fixed data (given rotation, or registered per candidate)."""
 
-    def __init__(self, t, gyro, t0, t1, omega_c, R_cb):  # noqa: ANN001
+    def __init__(self, t, gyro, t0, t1, omega_c, R_cb, W):  # noqa: ANN001
         self.t, self.gyro = t, gyro
         self.cum, self.slope = _gyro_integral(t, gyro)
-        self.t0, self.t1, self.omega_c, self.R_cb = t0, t1, omega_c, R_cb
+        self.t0, self.t1, self.omega_c, self.R_cb, self.W = t0, t1, omega_c, R_cb, W
 
     def valid(self, d: float) -> np.ndarray:
         return (self.t0 + d >= self.t[0]) & (self.t1 + d <= self.t[-1])
@@ -236,11 +265,18 @@ class _RateCost:
 
             R_cb = register_pose(np.ascontiguousarray(g), np.ascontiguousarray(self.omega_c[keep])).rotation_matrix
         r = g @ R_cb.T - self.omega_c[keep]
-        bias_c = r.mean(axis=0)
+        if self.W is None:
+            bias_c = r.mean(axis=0)
+        else:  # weighted mean
+            W = self.W[keep]
+            bias_c = np.linalg.solve(W.sum(axis=0), np.einsum("kij,kj->i", W, r))
         return r - bias_c, R_cb.T @ bias_c, R_cb
 
     def __call__(self, d: float, keep: np.ndarray) -> float:
-        return float(np.sum(self.residuals(d, keep)[0] ** 2))
+        r = self.residuals(d, keep)[0]
+        if self.W is None:
+            return float(np.sum(r**2))
+        return float(np.einsum("ki,kij,kj->", r, self.W[keep], r))
 
 
 def estimate_time_offset(
@@ -249,8 +285,11 @@ def estimate_time_offset(
     frame_t: np.ndarray,
     q_wc: np.ndarray,
     q_bc: np.ndarray | None = None,
+    attitude_covariance: np.ndarray | None = None,
+    gyroscope_noise_density: float = 0.0,
     max_offset: float = 0.1,
     grid_step: float | None = None,
+    gauss_newton_iterations: int = 10,
 ) -> TimeOffsetEstimate:
     """Camera–IMU time offset ``t_imu = t_cam + offset`` from gyro rates and vision rotation rates (stage 1).
 
@@ -264,10 +303,20 @@ def estimate_time_offset(
         Without it the rotation is estimated for every candidate offset by registering the rate vectors
         (:func:`dualpose.registration.register_pose`, points = rates, translation = bias), at some cost in
         precision.
+    attitude_covariance : (F, 3, 3), optional
+        Camera-frame attitude covariance of each ``q_wc`` (rad², from :func:`frame_poses`).  With it each interval's
+        rate residual is weighted by the inverse of its covariance ``(Σ_k+1 + R_relᵀ Σ_k R_rel) / Δt²`` and ``sigma``
+        is the model-based first-order σ; without it the residuals are unweighted and ``sigma`` comes from their
+        scatter (isotropic-noise approximation).
+    gyroscope_noise_density : float
+        rad/s/√Hz; with ``attitude_covariance``, the white gyro noise of each interval mean (``σ_g² / Δt`` per
+        axis) is added to the interval covariance.
     max_offset : float
         Search ``|offset| <= max_offset`` s.
     grid_step : float, optional
         Coarse grid spacing, s (default: the IMU sample period).
+    gauss_newton_iterations : int
+        Final Gauss–Newton steps with the slope averaged over ±¼ frame interval (0: stop at the Brent minimum).
 
     Raises
     ------
@@ -276,9 +325,22 @@ def estimate_time_offset(
     """
     t = _as_times(t, "t", 3)
     gyro = _as_n3(gyro, "gyro", len(t))
-    t0, t1, omega_c, frame_index = _rates_with_frames(frame_t, q_wc)
+    t0, t1, omega_c, frame_index, rel = _rates_with_frames(frame_t, q_wc)
     if len(t0) < 8:
         raise ValueError(f"need at least 8 consecutive pairs of valid frame poses; got {len(t0)}")
+    W = cov = R_rel = c_gyro = None
+    if attitude_covariance is not None:
+        cov = np.asarray(attitude_covariance, dtype=np.float64)
+        if cov.shape != (len(frame_t), 3, 3):
+            raise ValueError(f"attitude_covariance must have shape ({len(frame_t)}, 3, 3); got {cov.shape}")
+        R_rel = dp.matrix_from_quat(rel)
+        c_int = cov[frame_index + 1] + np.einsum("kji,kjl,klm->kim", R_rel, cov[frame_index], R_rel)
+        c_int /= ((t1 - t0) ** 2)[:, None, None]
+        c_gyro = np.eye(3) * gyroscope_noise_density**2 / (t1 - t0)[:, None, None]
+        c_int += c_gyro
+        if not np.isfinite(c_int).all():
+            raise ValueError("attitude_covariance must be finite wherever q_wc is")
+        W = np.linalg.inv(c_int)
     R_cb = None
     if q_bc is not None:
         q_bc = np.asarray(q_bc, dtype=np.float64)
@@ -288,7 +350,7 @@ def estimate_time_offset(
     if not max_offset > 0:
         raise ValueError(f"max_offset must be > 0; got {max_offset}")
     step = float(np.median(np.diff(t))) if grid_step is None else float(grid_step)
-    cost = _RateCost(t, gyro, t0, t1, omega_c, R_cb)
+    cost = _RateCost(t, gyro, t0, t1, omega_c, R_cb, W)
     keep = cost.valid(-max_offset) & cost.valid(max_offset)  # the same intervals for every candidate
     if keep.sum() < 8:
         raise ValueError(f"only {int(keep.sum())} frame intervals lie inside the IMU record for |offset| <= "
@@ -308,11 +370,24 @@ def estimate_time_offset(
     lo, hi = max(d0 - step, -max_offset), min(d0 + step, max_offset)
     res = minimize_scalar(lambda d: cost(d, keep), bounds=(lo, hi), method="bounded", options={"xatol": 1e-6})
     d = float(res.x)
+    # Gauss–Newton with a smoothed slope: ∂r/∂d by a central difference over ±¼ frame interval.  The exact slope
+    # (ω(b + d) − ω(a + d)) / (b − a) depends on single gyro samples, so the cost is rough at the sample scale and
+    # its minimiser jitters; the estimating equation Σ drᵀ W r = 0 with the averaged slope does not.
+    h = 0.25 * float(np.median(t1 - t0))
+    wk = np.broadcast_to(np.eye(3), (int(keep.sum()), 3, 3)) if W is None else W[keep]
+    for _ in range(gauss_newton_iterations):
+        r = cost.residuals(d, keep)[0]
+        dr = (cost.residuals(d + h, keep)[0] - cost.residuals(d - h, keep)[0]) / (2 * h)
+        step = -float(np.einsum("ki,kij,kj->", dr, wk, r)) / float(np.einsum("ki,kij,kj->", dr, wk, dr))
+        d = float(np.clip(d + step, -max_offset, max_offset))
+        if abs(step) < 1e-7:
+            break
     r, bias, R_cb_used = cost.residuals(d, keep)
-    h = 1e-4  # ∂r/∂d by a central difference of the (centred) residual vector
     dr = (cost.residuals(d + h, keep)[0] - cost.residuals(d - h, keep)[0]) / (2 * h)
-    n_params = 4 if R_cb is not None else 7
-    sigma = _offset_sigma(r, dr, frame_index[keep], (t1 - t0)[keep], n_params)
+    if W is None:
+        sigma = _offset_sigma(r, dr, frame_index[keep], (t1 - t0)[keep], 4 if R_cb is not None else 7)
+    else:
+        sigma = _offset_sigma_weighted(dr, W[keep], frame_index[keep], (t1 - t0)[keep], R_rel[keep], cov, c_gyro[keep])
     return TimeOffsetEstimate(
         offset=d, sigma=sigma, coarse_offset=coarse, gyro_bias=bias, rms_residual=float(np.sqrt(np.mean(r**2))),
         grid=grid, cost=values, n_intervals=int(keep.sum()), q_bc=dp.quat_from_matrix(R_cb_used.T),
