@@ -10,8 +10,11 @@ Run ``.venv/bin/python benchmarks/calibration_accuracy.py [--runs 200] [--markdo
 * Scene gravity alignment: the eight's first 0.9 s at rest (12 frames), scene vertical misaligned by 1° and 5°;
   angular error of the gravity direction vs the predicted σ, and the ESKF position RMSE over the eight with the
   nominal vs the estimated gravity.
-* Time offset: the eight with injected offsets ±5, ±15, ±30 ms; stage 1 (rate matching with the extrinsic, and
-  without it: registration mode) and stage 2 (filter NIS search).
+* Time offset: the eight with injected offsets ±5, ±15, ±30 ms; stage 1 (rate matching: without the extrinsic =
+  registration mode; with it, unweighted (the default; σ from the PnP + gyro covariances) and weighted by those
+  covariances) and stage 2 (filter NIS search from the default stage 1).
+* Full chain: ``dualpose calibrate`` (each stage on the previous stages' estimates, uncalibrated accelerometer
+  bias), 5° scene tilt, −20 ms offset.
 """
 
 from __future__ import annotations
@@ -107,31 +110,54 @@ def time_offset_rows(runs_per_offset: int) -> list[str]:
     rows = []
     all_first, all_second = [], []
     for j, off in enumerate((-0.030, -0.015, -0.005, 0.005, 0.015, 0.030)):
-        e1, s1, e0, e2, wall = [], [], [], [], []
+        e1, s1, e0, eu, e2, wall = [], [], [], [], [], []
         for i in range(runs_per_offset):
             run = sim.simulate_eight(seed=100 + 10 * j + i, time_offset=off)
             t0 = time.perf_counter()
             first, second = calibrate_run_time_offset(run, run.q_bc)
             wall.append(time.perf_counter() - t0)
             blind, _ = calibrate_run_time_offset(run, None, refine=False)
+            weighted, _ = calibrate_run_time_offset(run, run.q_bc, refine=False, weighted=True)
             e1.append(first.offset - off)
             s1.append(first.sigma)
             e0.append(blind.offset - off)
+            eu.append(weighted.offset - off)
             e2.append(second.offset - off)
-        e1, e0, e2 = (1e3 * np.array(v) for v in (e1, e0, e2))
+        e1, e0, eu, e2 = (1e3 * np.array(v) for v in (e1, e0, eu, e2))
         all_first.extend(e1)
         all_second.extend(e2)
         rows.append(
             f"| {1e3 * off:+.0f} | {np.sqrt(np.mean(e0**2)):.2f} | {np.sqrt(np.mean(e1**2)):.2f} "
-            f"({np.abs(e1).max():.2f}) | {1e3 * np.mean(s1):.2f} | {np.mean(e2):+.2f} | "
-            f"{np.sqrt(np.mean(e2**2)):.2f} ({np.abs(e2).max():.2f}) | {np.mean(wall):.2f} |"
+            f"({np.abs(e1).max():.2f}) | {1e3 * np.mean(s1):.2f} | {np.sqrt(np.mean(eu**2)):.2f} | "
+            f"{np.mean(e2):+.2f} | {np.sqrt(np.mean(e2**2)):.2f} ({np.abs(e2).max():.2f}) | {np.mean(wall):.2f} |"
         )
     a1, a2 = np.array(all_first), np.array(all_second)
     rows.append(
-        f"| all | | {np.sqrt(np.mean(a1**2)):.2f} ({np.abs(a1).max():.2f}) | | {np.mean(a2):+.2f} | "
+        f"| all | | {np.sqrt(np.mean(a1**2)):.2f} ({np.abs(a1).max():.2f}) | | | {np.mean(a2):+.2f} | "
         f"{np.sqrt(np.mean(a2**2)):.2f} ({np.abs(a2).max():.2f}) | |"
     )
     return rows
+
+
+def chain_rows(seeds: int) -> list[str]:
+    from dualpose.cli.calibrate import run_calibrate
+
+    ms = [run_calibrate(seed=s, gravity_misalignment_deg=5.0, time_offset_ms=-20.0) for s in range(seeds)]
+
+    def rms(key: str) -> float:
+        return math.sqrt(np.mean([m[key] ** 2 for m in ms]))
+
+    def mean(key: str) -> float:
+        return float(np.mean([m[key] for m in ms]))
+
+    return [
+        f"| camera-IMU rotation error [deg] | {rms('extrinsic_error_deg'):.3f} | "
+        f"{max(m['extrinsic_error_deg'] for m in ms):.3f} | {mean('extrinsic_sigma_deg'):.3f} |",
+        f"| gravity direction error [deg] | {rms('gravity_error_deg'):.3f} | "
+        f"{max(m['gravity_error_deg'] for m in ms):.3f} | {mean('gravity_sigma_deg'):.3f} |",
+        f"| time offset after the filter [ms] | {rms('time_offset_error_ms'):.2f} | "
+        f"{max(abs(m['time_offset_error_ms']) for m in ms):.2f} | |",
+    ]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -139,6 +165,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--runs", type=int, default=200, help="Monte-Carlo runs for the extrinsic rotation")
     ap.add_argument("--gravity-runs", type=int, default=30)
     ap.add_argument("--offset-runs", type=int, default=5, help="runs per injected time offset")
+    ap.add_argument("--chain-runs", type=int, default=10, help="seeds of the full dualpose-calibrate chain")
     ap.add_argument("--markdown", help="also write the tables to this file (refuses to overwrite without --force)")
     ap.add_argument("--force", action="store_true")
     args = ap.parse_args(argv)
@@ -161,9 +188,16 @@ def main(argv: list[str] | None = None) -> int:
         f"### Time offset (eight, {args.offset_runs} seeds per offset; errors in ms)",
         "",
         "| injected [ms] | stage 1 without extrinsic RMS | stage 1 RMS (max) | stage 1 predicted σ | "
-        "filter mean error | filter RMS (max) | s/run |",
-        "|---|---:|---:|---:|---:|---:|---:|",
+        "stage 1 weighted RMS | filter mean error | filter RMS (max) | s/run |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|",
         *time_offset_rows(args.offset_runs),
+        "",
+        "### Full chain (`dualpose calibrate --gravity-misalignment 5 --time-offset -20`, "
+        f"seeds 0–{args.chain_runs - 1})",
+        "",
+        "| quantity | RMS error | max | mean predicted σ |",
+        "|---|---:|---:|---:|",
+        *chain_rows(args.chain_runs),
     ]
     text = "\n".join(out)
     print(text)

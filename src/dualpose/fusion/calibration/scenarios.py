@@ -108,13 +108,14 @@ def calibrate_run_time_offset(
     run: sim.SimulatedRun,
     q_bc: np.ndarray | None = None,
     refine: bool = True,
-    weighted: bool = True,
+    weighted: bool = False,
     **filter_kwargs,  # noqa: ANN003
 ):  # noqa: ANN201
     """Both time-offset stages on a simulated run that starts at rest (e.g. ``sim.simulate_eight``).
 
     Per-frame robust PnP → :func:`~.time_offset.estimate_time_offset` (with ``q_bc``; ``None`` estimates the rotation
-    too; ``weighted`` passes the PnP attitude covariances and the gyro noise density) → if ``refine``,
+    too; the PnP attitude covariances and the gyro noise density give its σ, ``weighted`` also weights with them)
+    → if ``refine``,
     :func:`~.time_offset.refine_time_offset_in_filter` over ``±max(4σ, 5 ms)`` with the
     error-state filter started from the rest period + first-frame PnP
     (:func:`dualpose.fusion.initialization.initial_state_from_run`; ``filter_kwargs`` go to
@@ -129,8 +130,8 @@ def calibrate_run_time_offset(
     f = run.frames
     q_wc, cov = frame_poses(f.t, f.offsets, f.pixels, f.points, run.camera.matrix, max(run.pixel_sigma, 1e-3))
     first = estimate_time_offset(
-        run.t, run.gyro, f.t, q_wc, q_bc, attitude_covariance=cov if weighted else None,
-        gyroscope_noise_density=run.imu_noise.gyroscope_noise_density,
+        run.t, run.gyro, f.t, q_wc, q_bc, attitude_covariance=cov,
+        gyroscope_noise_density=run.imu_noise.gyroscope_noise_density, weighted=weighted,
     )  # fmt: skip
     if not refine:
         return first, None
