@@ -89,15 +89,16 @@ def static_period(
 
 
 def static_period_from_run(run, t_start: float | None = None, t_end: float | None = None) -> StaticPeriod:  # noqa: ANN001
-    """:func:`static_period` over ``[t_start, t_end]`` (IMU clock, s; default the whole run) of a
-    :class:`~dualpose.fusion.sim.SimulatedRun` (or any object with its fields): IMU samples in the window and the
-    frames whose IMU-clock time ``frames.t + time_offset`` is in it."""
+    """:func:`static_period` over ``[t_start, t_end]`` (s; default the whole run) of a
+    :class:`~dualpose.fusion.sim.SimulatedRun` (or any object with its fields): the IMU samples and the camera
+    frames stamped in the window.  The two clocks differ by the (unknown) time offset, so keep the window a few
+    tens of ms inside the period at rest; the true offset is not used.
+    """
     t0 = run.t[0] if t_start is None else t_start
     t1 = run.t[-1] if t_end is None else t_end
     sel = (run.t >= t0) & (run.t <= t1)
     f = run.frames
-    ft = f.t + run.time_offset
-    ks = np.flatnonzero((ft >= t0) & (ft <= t1))
+    ks = np.flatnonzero((f.t >= t0) & (f.t <= t1))
     if len(ks) == 0:
         raise ValueError(f"no camera frame in the static window [{t0}, {t1}] s")
     rows = np.concatenate([np.arange(f.offsets[k], f.offsets[k + 1]) for k in ks])
