@@ -20,6 +20,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "dualpose.cli.eval",
     "dualpose.cli.fuse",
     "dualpose.cli.ahrs",
+    "dualpose.cli.calibrate",
 )
 
 

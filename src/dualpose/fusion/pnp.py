@@ -82,7 +82,7 @@ def _general_dlt(xn: np.ndarray, points: np.ndarray, mu: np.ndarray) -> tuple[np
     A[0::2, 8:12] = -xn[:, :1] * Xh
     A[1::2, 4:8] = Xh
     A[1::2, 8:12] = -xn[:, 1:2] * Xh
-    _, _, vt = np.linalg.svd(A)
+    _, _, vt = np.linalg.svd(A, full_matrices=False)
     Pm = vt[-1].reshape(3, 4)
     if np.mean(Xh @ Pm[2]) < 0:  # P is defined up to sign: put the points in front of the camera
         Pm = -Pm
@@ -109,7 +109,7 @@ def _planar_dlt(xn: np.ndarray, points: np.ndarray, mu: np.ndarray, vt: np.ndarr
     A[0::2, 6:9] = -xn[:, :1] * U
     A[1::2, 3:6] = U
     A[1::2, 6:9] = -xn[:, 1:2] * U
-    Hm = np.linalg.svd(A)[2][-1].reshape(3, 3) @ np.diag([sc, sc, 1.0])
+    Hm = np.linalg.svd(A, full_matrices=False)[2][-1].reshape(3, 3) @ np.diag([sc, sc, 1.0])
     lam = 2.0 / (np.linalg.norm(Hm[:, 0]) + np.linalg.norm(Hm[:, 1]))
     if Hm[2, 2] * lam < 0:  # the plane origin must be in front of the camera
         lam = -lam

@@ -237,23 +237,14 @@ class PoseEstimate:
             raise ValueError(f"covariance undefined: part of the pose is unobservable (degeneracy={self.degeneracy!r})")
         import dualpose as dp
 
-        p0, _, beta, n0, _, alpha = self._data
+        p0, _, beta, _, _, _ = self._data
         r = self.rotation_matrix
         c0 = beta @ p0 / beta.sum()
-        q = (p0 - c0) @ r.T
-        u = n0 @ r.T
-        kq = dp.so3_hat(q)  # (n, 3, 3)
-        ku = dp.so3_hat(u)
-        gram_q = np.einsum("nki,nkj->nij", kq, kq)  # (q×)ᵀ(q×) = |q|² I − q qᵀ
-        gram_u = np.einsum("nki,nkj->nij", ku, ku)
-        h_rot = np.einsum("n,nij->ij", beta, gram_q) + np.einsum("n,nij->ij", alpha, gram_u)
+        gram_q, gram_u, h_inv = self._rotation_information()
+        alpha = self._data[5]
         s_rot = sigma_points**2 * np.einsum("n,nij->ij", beta**2, gram_q) + sigma_directions**2 * np.einsum(
             "n,nij->ij", alpha**2, gram_u
         )
-        try:
-            h_inv = np.linalg.inv(h_rot)
-        except np.linalg.LinAlgError:
-            raise ValueError("covariance undefined: the rotation information matrix is singular") from None
         cov = np.zeros((6, 6))
         cov[:3, :3] = h_inv @ s_rot @ h_inv
         cov[3:, 3:] = np.eye(3) * sigma_points**2 * float((beta**2).sum()) / float(beta.sum()) ** 2
@@ -261,6 +252,85 @@ class PoseEstimate:
         t_map = np.eye(6)
         t_map[3:, :3] = dp.so3_hat(r @ c0)
         return t_map @ cov @ t_map.T
+
+    def _rotation_information(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(gram_q (n, 3, 3), gram_u (m, 3, 3), H_rot⁻¹ (3, 3))`` on centred points: ``gram = (x×)ᵀ(x×)`` of the
+        rotated centred model points ``q`` and rotated model directions ``u``; ``H_rot = Σβ gram_q + Σα gram_u``."""
+        import dualpose as dp
+
+        p0, _, beta, n0, _, alpha = self._data
+        r = self.rotation_matrix
+        c0 = beta @ p0 / beta.sum() if beta.sum() > 0 else np.zeros(3)
+        kq = dp.so3_hat((p0 - c0) @ r.T)  # (n, 3, 3)
+        ku = dp.so3_hat(n0 @ r.T)
+        gram_q = np.einsum("nki,nkj->nij", kq, kq)  # (q×)ᵀ(q×) = |q|² I − q qᵀ
+        gram_u = np.einsum("nki,nkj->nij", ku, ku)
+        h_rot = np.einsum("n,nij->ij", beta, gram_q) + np.einsum("n,nij->ij", alpha, gram_u)
+        try:
+            h_inv = np.linalg.inv(h_rot)
+        except np.linalg.LinAlgError:
+            raise ValueError("covariance undefined: the rotation information matrix is singular") from None
+        return gram_q, gram_u, h_inv
+
+    def direction_influence(self) -> np.ndarray:
+        """First-order influence (m, 3, 3) of an error on each *measured* direction on the rotation error.
+
+        With ``ñ_j = ñ_j,true + e_j``, the estimate moves by ``R̂ = exp(ε×) R_true`` (left, measured frame; ``ε`` is
+        minus the ``δθ`` of :meth:`covariance`) with ``ε = Σ_j G_j e_j``, ``G_j = H_rot⁻¹ α_j (u_j×)``,
+        ``u_j = R n⁰_j`` (valid with or without points; the centred-point problem decouples rotation from
+        translation).  An error ``e⁰_j`` on a
+        *model* direction acts like the measured error ``−R e⁰_j``.  Use it to propagate correlated or anisotropic
+        direction errors: ``Cov(δθ) = Σ_j G_j C_j G_jᵀ`` for independent errors of covariance ``C_j`` (3, 3), or
+        ``(Σ_j G_j M_j) Σ (Σ_j G_j M_j)ᵀ`` for errors ``e_j = M_j b`` sharing a common source ``b``.
+
+        Raises
+        ------
+        ValueError
+            When the rotation is not unique (``rotation_unique`` False).
+        """
+        if not self.rotation_unique:
+            raise ValueError(
+                f"direction influence undefined: the rotation is not unique (degeneracy={self.degeneracy!r})"
+            )
+        import dualpose as dp
+
+        _, _, h_inv = self._rotation_information()
+        n0, alpha = self._data[3], self._data[5]
+        ku = dp.so3_hat(n0 @ self.rotation_matrix.T)  # (m, 3, 3), (u×)ᵀ = −(u×)
+        return np.einsum("ij,m,mjk->mik", h_inv, alpha, ku)
+
+    def rotation_covariance(
+        self,
+        sigma_points: float = 0.0,
+        sigma_directions: float = 0.0,
+        direction_covariances: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """First-order covariance (3, 3) of the rotation error ``δθ`` alone (left perturbation, measured frame).
+
+        Unlike :meth:`covariance` it needs only a unique rotation, so it covers the directions-only (Wahba) case.
+        Noise on the measured data: isotropic ``sigma_points`` per point coordinate and ``sigma_directions`` per
+        direction coordinate, or per-direction covariances ``direction_covariances`` (m, 3, 3) in the measured
+        frame (anisotropic, e.g. tangent-plane noise; the radial part has no first-order effect).  The sandwich
+        ``H_rot⁻¹ (σ_p² Σβ² gram_q) H_rot⁻¹ + Σ_j G_j C_j G_jᵀ`` with :meth:`direction_influence` ``G_j``; with
+        isotropic directions this equals ``covariance(...)[:3, :3]``.
+        """
+        if not (np.isfinite(sigma_points) and np.isfinite(sigma_directions)) or min(sigma_points, sigma_directions) < 0:
+            raise ValueError("sigma_points and sigma_directions must be finite and non-negative")
+        m = self.n_directions
+        if direction_covariances is None:
+            cd = np.broadcast_to(np.eye(3) * sigma_directions**2, (m, 3, 3))
+        else:
+            cd = np.asarray(direction_covariances, dtype=np.float64)
+            if cd.shape != (m, 3, 3) or not np.isfinite(cd).all():
+                raise ValueError(f"direction_covariances must be a finite array of shape ({m}, 3, 3); got {cd.shape}")
+            if sigma_directions != 0.0:
+                raise ValueError("give sigma_directions or direction_covariances, not both")
+        g = self.direction_influence()
+        gram_q, _, h_inv = self._rotation_information()
+        beta = self._data[2]
+        cov = sigma_points**2 * h_inv @ np.einsum("n,nij->ij", beta**2, gram_q) @ h_inv
+        cov = cov + np.einsum("mij,mjk,mlk->il", g, cd, g)
+        return 0.5 * (cov + cov.T)
 
     def __repr__(self) -> str:
         with np.printoptions(precision=6, suppress=True):
