@@ -64,7 +64,7 @@ def test_recovers_injected_lag(lag_ms):
 
 
 def test_hard_iron_offset_does_not_bias_the_lag():
-    hard_iron = np.array([6.0, -4.0, 9.0])  # µT, ~20 % of the field
+    hard_iron = np.array([6.0, -4.0, 9.0])  # µT, ~25 % of the field
     _, gyr, mag, bias = _recording(0.012, seed=3, hard_iron=hard_iron)
     est = estimate_sensor_time_offset(gyr, mag, RATE, gyroscope_bias=bias, norm_tolerance=1.0)
     assert est.valid and abs(est.offset_ms - 12.0) < 1.0
