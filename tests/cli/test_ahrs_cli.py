@@ -30,12 +30,17 @@ def test_json_keys(flag, capsys):
     assert out["total_rmse_deg"] >= max(out["heading_rmse_deg"], out["inclination_rmse_deg"])
     assert out["total_rmse_deg"] < 1.768  # BROAD's published Madgwick result on this trial
     assert (out["heading_offset_deg"] != 0.0) == (flag == "--no-mag")
+    if flag == "--mag":  # estimated from gyro + mag only; BROAD's magnetometer lags by ~11 ms in every trial
+        assert isinstance(out["mag_time_offset_ms"], float) and 5.0 < out["mag_time_offset_ms"] < 20.0
+    else:
+        assert out["mag_time_offset_ms"] is None
 
 
 def test_table(capsys):
     assert main(["ahrs", str(TRIAL)]) == 0
     text = capsys.readouterr().out
     assert "24_disturbed_tapping_A (9D" in text and "inclination RMSE" in text and "us/sample" in text
+    assert "mag time offset" in text
 
 
 def test_missing_and_bad_files_name_the_file(tmp_path, capsys):

@@ -2,18 +2,21 @@
 
 Madgwick's total RMSE at β = 0.12 is the published reference (BROAD ``example_code/out/results_madgwick``);
 dualpose runs with its defaults (the same settings for every trial), 9D, scored exactly as BROAD scores (no
-alignment).  Trial 06 (fast rotation) is the one trial where dualpose's 9D estimate does not beat Madgwick's
-published value (nor does VQF's: see docs/broad.md); it is kept as a strict expected failure so that the gap stays
-visible and an improvement is noticed.
+alignment), including the default magnetometer–gyroscope time-offset estimation (from the IMU data alone).  Trial
+06 (fast rotation) is the one trial where dualpose's 9D estimate does not beat Madgwick's published value (nor does
+VQF's: see docs/broad.md; compensating the ~11 ms magnetometer lag lowers it only from 3.43° to 3.38°); it is kept as
+a strict expected failure so that the gap stays visible and an improvement is noticed.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from dualpose.fusion.ahrs import estimate_orientation
+from dualpose.fusion.ahrs_time_offset import estimate_sensor_time_offset
 from dualpose.fusion.orientation_errors import orientation_rmse
 from dualpose.io import load_broad
 
@@ -63,3 +66,18 @@ def test_6d_inclination_matches_9d(name):
     s6 = orientation_rmse(r6.quat, t.quat, t.movement, fit_heading_offset=True)
     assert s6.inclination_rmse_deg < 2.5
     assert abs(s6.inclination_rmse_deg - s9.inclination_rmse_deg) < 0.2
+
+
+def test_mag_time_offset_is_a_sensor_property():
+    # estimated per recording from gyro + mag only (no reference): if the lag is a property of the sensor, the seven
+    # independent estimates agree (measured 10.8-11.6 ms); the accelerometer, whose "static field" assumption is
+    # broken by linear acceleration, gives no clear minimum (cost ratio close to 1, docs/broad.md)
+    estimates = []
+    for name in MADGWICK_012:
+        t = _trial(name)
+        bias = np.median(t.gyr[: t.static_start], axis=0)
+        est = estimate_sensor_time_offset(t.gyr, t.mag, t.rate, gyroscope_bias=bias)
+        assert est.valid and est.cost_ratio < 0.95
+        estimates.append(est.offset_ms)
+    assert np.ptp(estimates) < 1.5
+    assert 3.5 < np.median(estimates) < 30.0  # a lag of more than one sample (3.5 ms), inside the search range

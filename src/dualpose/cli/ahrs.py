@@ -62,6 +62,8 @@ def run(args: argparse.Namespace) -> int:
         "us_per_sample": result.us_per_sample,
         "acc_rejected": result.acc_rejected,
         "mag_rejected": result.mag_rejected,
+        # compensated magnetometer lag behind the gyroscope, estimated from the IMU data alone (None in 6D)
+        "mag_time_offset_ms": result.mag_time_offset_ms if args.mag else None,
     }
     has_ref = bool(np.isfinite(trial.quat[trial.movement]).all(axis=1).any())
     if has_ref:
@@ -81,5 +83,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"  heading offset removed (6D): {out['heading_offset_deg']:.2f} deg")
     else:
         print("  no reference orientation on the movement samples: nothing scored")
+    if args.mag:
+        print(f"  mag time offset   {out['mag_time_offset_ms']:8.3f} ms (estimated from the IMU data, compensated)")
     print(f"  filter time       {out['us_per_sample']:8.3f} us/sample")
     return 0
