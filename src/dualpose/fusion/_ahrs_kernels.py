@@ -64,23 +64,14 @@ def _jit(sig: str):  # noqa: ANN202
 
 @_jit("void(f8[::1], f8, f8, f8)")
 def exp_mul_quat_inplace(q, rx, ry, rz):  # noqa: ANN001, ANN201
-    """``q ← normalize(Exp(r) ⊗ q)`` (global error injection); ``q`` (4,) xyzw, ``r`` a rotation vector (rad)."""
-    a2 = rx * rx + ry * ry + rz * rz
-    a = math.sqrt(a2)
-    if a < 1e-4:
-        s = 0.5 - a2 / 48.0
-        c = 1.0 - a2 / 8.0
-    else:
-        s = math.sin(0.5 * a) / a
-        c = math.cos(0.5 * a)
-    ax, ay, az, aw = s * rx, s * ry, s * rz, c
-    bx, by, bz, bw = q[0], q[1], q[2], q[3]
-    x = aw * bx + bw * ax + ay * bz - az * by
-    y = aw * by + bw * ay + az * bx - ax * bz
-    z = aw * bz + bw * az + ax * by - ay * bx
-    w = aw * bw - ax * bx - ay * by - az * bz
-    n = math.sqrt(x * x + y * y + z * z + w * w)
-    q[0], q[1], q[2], q[3] = x / n, y / n, z / n, w / n
+    """``q ← normalize(Exp(r) ⊗ q)`` (global error injection); ``q`` (4,) xyzw, ``r`` a rotation vector (rad).
+
+    Evaluated as ``q ⊗ Exp(R(q)ᵀ r)`` (the same rotation, applied in the body frame) with the error-state
+    filter's local injection."""
+    x, y, z, w = -q[0], -q[1], -q[2], q[3]  # q*, whose rotation is R(q)ᵀ
+    ax, ay, az = y * rz - z * ry + w * rx, z * rx - x * rz + w * ry, x * ry - y * rx + w * rz
+    bx, by, bz = y * az - z * ay, z * ax - x * az, x * ay - y * ax
+    quat_mul_exp_inplace(q, rx + 2.0 * bx, ry + 2.0 * by, rz + 2.0 * bz)
 
 
 @_jit("void(f8[:,::1], f8[:,::1], f8[:,::1], f8)")

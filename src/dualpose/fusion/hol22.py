@@ -281,20 +281,12 @@ class Hol22EKF:
         from dualpose._validation import lazy_kernels
 
         kernel = lazy_kernels("dualpose.fusion._hol22_kernels")("run")
-        t = np.ascontiguousarray(t, dtype=np.float64)
+        from dualpose.fusion._stream import check_streams
+
+        t, gyro, accel, cam_t, offsets, pixels, points = check_streams(
+            t, gyro, accel, frame_t, offsets, pixels, points, self.camera_time_offset, strictly_increasing=False
+        )
         n = len(t)
-        gyro = np.ascontiguousarray(gyro, dtype=np.float64)
-        accel = np.ascontiguousarray(accel, dtype=np.float64)
-        if gyro.shape != (n, 3) or accel.shape != (n, 3):
-            raise ValueError(f"gyro and accel must have shape ({n}, 3); got {gyro.shape} and {accel.shape}")
-        if n < 1 or np.any(np.diff(t) < 0):
-            raise ValueError("t must hold non-decreasing IMU times")
-        cam_t = np.ascontiguousarray(frame_t, dtype=np.float64) + self.camera_time_offset
-        offsets = np.ascontiguousarray(offsets, dtype=np.int64)
-        pixels = np.ascontiguousarray(pixels, dtype=np.float64).reshape(-1, 2)
-        points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
-        if len(offsets) != len(cam_t) + 1 or offsets[-1] != len(pixels) or len(points) != len(pixels):
-            raise ValueError("offsets must have F + 1 entries ending at len(pixels) == len(points)")
         X = np.empty((n, 22))
         Ps = np.empty((n, 22, 22))
         nis = np.full(len(pixels), np.nan)

@@ -1,0 +1,54 @@
+"""Validation of the sensor streams the batch filters take (not public API)."""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+
+class Streams(NamedTuple):
+    """C-contiguous float64 IMU and camera streams; ``cam_t`` is on the IMU clock."""
+
+    t: np.ndarray
+    gyro: np.ndarray
+    accel: np.ndarray
+    cam_t: np.ndarray
+    offsets: np.ndarray
+    pixels: np.ndarray
+    points: np.ndarray
+
+
+def check_streams(
+    t: np.ndarray, gyro: np.ndarray, accel: np.ndarray, frame_t: np.ndarray, offsets: np.ndarray,
+    pixels: np.ndarray, points: np.ndarray, camera_time_offset: float, *, strictly_increasing: bool,
+) -> Streams:  # fmt: skip
+    """Check the shapes of a recording and return it as contiguous arrays.
+
+    ``t`` (N,) IMU times, s; ``gyro``, ``accel`` (N, 3); ``frame_t`` (F,) camera stamps on the camera clock, moved to
+    the IMU clock by ``+ camera_time_offset``; ``offsets`` (F + 1,) int, frame k owns rows ``offsets[k]:offsets[k+1]``
+    of ``pixels`` (M, 2) and ``points`` (M, 3).  ``strictly_increasing``: at least two strictly increasing IMU times
+    (else: at least one, non-decreasing).
+
+    Raises
+    ------
+    ValueError
+        Naming the offending argument and the expected shape.
+    """
+    t = np.ascontiguousarray(t, dtype=np.float64)
+    n = len(t)
+    gyro = np.ascontiguousarray(gyro, dtype=np.float64)
+    accel = np.ascontiguousarray(accel, dtype=np.float64)
+    if gyro.shape != (n, 3) or accel.shape != (n, 3):
+        raise ValueError(f"gyro and accel must have shape ({n}, 3); got {gyro.shape} and {accel.shape}")
+    if strictly_increasing and (n < 2 or np.any(np.diff(t) <= 0)):
+        raise ValueError("t must hold at least two strictly increasing IMU times")
+    if not strictly_increasing and (n < 1 or np.any(np.diff(t) < 0)):
+        raise ValueError("t must hold non-decreasing IMU times")
+    cam_t = np.ascontiguousarray(frame_t, dtype=np.float64) + camera_time_offset
+    offsets = np.ascontiguousarray(offsets, dtype=np.int64)
+    pixels = np.ascontiguousarray(pixels, dtype=np.float64).reshape(-1, 2)
+    points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    if len(offsets) != len(cam_t) + 1 or offsets[-1] != len(pixels) or len(points) != len(pixels):
+        raise ValueError("offsets must have F + 1 entries ending at len(pixels) == len(points)")
+    return Streams(t, gyro, accel, cam_t, offsets, pixels, points)
