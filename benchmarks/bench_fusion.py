@@ -26,6 +26,7 @@ import timeit
 
 import numpy as np
 
+from _report import emit
 from dualpose.fusion import eskf, hol22, sim
 
 
@@ -151,14 +152,7 @@ def main() -> int:
     ]
     lines += [f"| {name} | {us:,.1f} | {note} |" for name, us, note in rows]
     text = "\n".join(lines)
-    print(text)
-    if args.markdown:
-        if os.path.exists(args.markdown):
-            print(f"{args.markdown} exists; not overwritten", file=sys.stderr)
-            return 1
-        with open(args.markdown, "w") as fh:
-            fh.write(text + "\n")
-    return 0
+    return emit(text, args.markdown)
 
 
 if __name__ == "__main__":

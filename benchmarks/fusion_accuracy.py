@@ -18,12 +18,11 @@ zero velocity.  Rows:
 from __future__ import annotations
 
 import argparse
-import os
-import sys
 
 import numpy as np
 
 import dualpose as dp
+from _report import emit
 from dualpose.fusion import consistency, eskf, hol22, initialization, models, pnp, sim
 
 MOVING = (1.0, 6.4)
@@ -127,14 +126,7 @@ def main() -> int:
         f"fraction of time steps inside {inside:.3f}.",
     ]
     text = "\n".join(lines)
-    print(text)
-    if args.markdown:
-        if os.path.exists(args.markdown):
-            print(f"{args.markdown} exists; not overwritten", file=sys.stderr)
-            return 1
-        with open(args.markdown, "w") as fh:
-            fh.write(text + "\n")
-    return 0
+    return emit(text, args.markdown)
 
 
 if __name__ == "__main__":

@@ -14,12 +14,11 @@ simulator's frame over the 5.4 s eight (t ∈ [1.0, 6.4] s), as in ``benchmarks/
 from __future__ import annotations
 
 import argparse
-import os
-import sys
 
 import numpy as np
 
 import dualpose as dp
+from _report import emit
 from dualpose.fusion import consistency, eskf, initialization, models, sim, smoother
 from dualpose.fusion.job import run_fuse
 
@@ -117,14 +116,7 @@ def main() -> int:
         f"[{lo:.2f}, {hi:.2f}].  Backward pass: median {1e3 * np.median(wall):.1f} ms per run (6.9 s of data).",
     ]
     text = "\n".join(lines)
-    print(text)
-    if args.markdown:
-        if os.path.exists(args.markdown):
-            print(f"{args.markdown} exists; not overwritten", file=sys.stderr)
-            return 1
-        with open(args.markdown, "w") as fh:
-            fh.write(text + "\n")
-    return 0
+    return emit(text, args.markdown)
 
 
 if __name__ == "__main__":
