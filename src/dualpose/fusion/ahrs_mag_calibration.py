@@ -15,8 +15,8 @@ over the *undisturbed* samples (``|m|`` within ``norm_tolerance`` of its median;
 the calibrated magnitude and refitted, so that a large hard iron does not truncate the data selectively):
 ``"hard_iron"`` (``D = 0``, 4 parameters: the classical sphere fit), ``"diagonal"`` (``D`` diagonal: per-axis
 scale, 6) and ``"symmetric"`` (full symmetric ``D``: soft iron without a rotation part, 9).  Then ``b = M⁻¹ v``
-and ``A = M^½`` (symmetric), refined by geometric least squares of ``|A (m − b)| − r`` (the algebraic fit is biased by the noise in its
-quadratic regressors).
+and ``A = M^½`` (symmetric), refined by geometric least squares of ``|A (m − b)| − r`` (the algebraic fit is
+biased by the noise in its quadratic regressors).
 
 The decision to apply a model is taken by fixed, reference-free criteria computed from the magnetometer alone (the
 same thresholds for every recording; docs/broad.md says what was known when they were chosen):
