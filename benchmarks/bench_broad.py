@@ -6,7 +6,10 @@ Run ``.venv/bin/python benchmarks/bench_broad.py [--markdown docs/broad.md]`` (n
 * dualpose 9D / 6D: :func:`dualpose.fusion.ahrs.estimate_orientation` with its defaults (no per-trial setting), the
   rest period before the first movement sample used for initialisation and noise estimation; 9D includes the
   default magnetometer–gyroscope time-offset estimation from the IMU data; "9D, τ = 0" switches it off (the
-  previous behaviour).
+  previous behaviour); both include the default magnetometer self-calibration decision
+  (:mod:`dualpose.fusion.ahrs_mag_calibration`: applied only when reference-free criteria hold), "9D, no mag
+  calibration" switches that off (the behaviour before it existed).
+* Magnetometer self-calibration: the decision per trial, its reason and numbers, and the estimation µs/sample.
 * Time offsets: :func:`dualpose.fusion.ahrs_time_offset.estimate_sensor_time_offset` per trial on the magnetometer
   (as used by the 9D filter) and, as a check, on the accelerometer (samples with ``|a|`` within 5 % of its median;
   the static-field model only holds without linear acceleration).
@@ -31,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from dualpose.fusion.ahrs import estimate_orientation
+from dualpose.fusion.ahrs_mag_calibration import estimate_mag_calibration
 from dualpose.fusion.ahrs_time_offset import estimate_sensor_time_offset
 from dualpose.fusion.orientation_errors import orientation_rmse
 from dualpose.io import load_broad
@@ -71,12 +75,21 @@ def main() -> int:
     if not files:
         print(f"no BROAD trials in {DATA}", file=sys.stderr)
         return 1
-    rows, offsets = [], []
+    rows, offsets, calibrations = [], [], []
     for path in files:
         t = load_broad(path)
         key = t.name[:2]
         d9, d6 = _run_dualpose(t, True), _run_dualpose(t, False)
         d9_0 = _run_dualpose(t, True, mag_time_offset=0.0)
+        d9_nc = _run_dualpose(t, True, mag_calibration=None)
+        cal_s = np.inf
+        for _ in range(3):
+            t0 = time.perf_counter()
+            estimate_mag_calibration(t.mag, noise_spread=d9.mag_calibration.noise_spread)
+            cal_s = min(cal_s, time.perf_counter() - t0)
+        calibrations.append((t.name, d9.mag_calibration, 1e6 * cal_s / t.gyr.shape[0],
+                             orientation_rmse(d9.quat, t.quat, t.movement).total_rmse_deg,
+                             orientation_rmse(d9_nc.quat, t.quat, t.movement).total_rmse_deg))
         bias = np.median(t.gyr[: t.static_start], axis=0)
         acc_est = estimate_sensor_time_offset(t.gyr, t.acc, t.rate, gyroscope_bias=bias, norm_tolerance=0.05)
         est_s = np.inf
@@ -89,6 +102,7 @@ def main() -> int:
         s = {
             "dualpose 9D": (orientation_rmse(d9.quat, t.quat, t.movement), d9.us_per_sample),
             "dualpose 9D, τ = 0": (orientation_rmse(d9_0.quat, t.quat, t.movement), d9_0.us_per_sample),
+            "dualpose 9D, no mag calibration": (orientation_rmse(d9_nc.quat, t.quat, t.movement), d9_nc.us_per_sample),
             "dualpose 6D": (orientation_rmse(d6.quat, t.quat, t.movement, fit_heading_offset=True), d6.us_per_sample),
             "VQF 9D": (orientation_rmse(v9q, t.quat, t.movement), v_us),
             "VQF 6D": (orientation_rmse(v6q, t.quat, t.movement, fit_heading_offset=True), v_us),
@@ -97,7 +111,7 @@ def main() -> int:
         print(t.name, "  ".join(f"{k}: {v[0].total_rmse_deg:.3f}" for k, v in s.items()),
               f"Madgwick: {MADGWICK_012.get(key, float('nan')):.3f}", flush=True)
 
-    lines = _markdown(rows) + ["", *_offset_table(offsets)]
+    lines = _markdown(rows) + ["", *_offset_table(offsets), "", *_calibration_table(calibrations)]
     text = "\n".join(lines)
     print(text)
     if args.markdown:
@@ -106,7 +120,8 @@ def main() -> int:
 
 
 def _markdown(rows: list) -> list[str]:
-    methods = ["dualpose 9D", "dualpose 9D, τ = 0", "dualpose 6D", "VQF 9D", "VQF 6D"]
+    methods = ["dualpose 9D", "dualpose 9D, no mag calibration", "dualpose 9D, τ = 0", "dualpose 6D", "VQF 9D",
+               "VQF 6D"]
     out = [
         "| trial | method | total RMSE (°) | heading RMSE (°) | inclination RMSE (°) | µs/sample |",
         "|---|---|---:|---:|---:|---:|",
@@ -144,6 +159,27 @@ def _offset_table(offsets: list) -> list[str]:
     ms = [m.offset_ms for _, m, _, _ in offsets if m.valid]
     out += ["", f"Magnetometer lag over the trials: mean {np.mean(ms):.2f} ms, standard deviation "
             f"{np.std(ms, ddof=1):.2f} ms, range {min(ms):.2f}–{max(ms):.2f} ms."]
+    return out
+
+
+def _calibration_table(calibrations: list) -> list[str]:
+    out = [
+        "Magnetometer self-calibration per trial (decision from the magnetometer alone; spreads: relative standard "
+        "deviation of |m| in excess of the noise; σ_b: largest standard error of the hard-iron offset of the "
+        "symmetric model; total RMSE with and without the calibration step):",
+        "",
+        "| trial | coverage λ_min | noise | spread raw | hard iron | diagonal | symmetric | σ_b sym. (µT) | "
+        "σ_A sym. | applied | 9D total (°) | 9D without (°) | estimation µs/sample |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|",
+    ]
+    for name, c, us, with_cal, without in calibrations:
+        cand = c.candidates
+        sp = [f"{cand[k]['spread']:.4f}" if k in cand else "–" for k in ("hard_iron", "diagonal", "symmetric")]
+        sym = cand.get("symmetric")
+        sb = f"{sym['offset_sigma']:.2f} | {sym['matrix_sigma']:.4f}" if sym else "– | –"
+        dec = c.model if c.applied else ("no (coverage)" if "coverage" in c.reason else "no")
+        out.append(f"| {name} | {c.coverage[0]:.2g} | {c.noise_spread:.4f} | {c.spread_before:.4f} | "
+                   f"{' | '.join(sp)} | {sb} | {dec} | {with_cal:.3f} | {without:.3f} | {us:.2f} |")
     return out
 
 

@@ -32,15 +32,24 @@ def test_json_keys(flag, capsys):
     assert (out["heading_offset_deg"] != 0.0) == (flag == "--no-mag")
     if flag == "--mag":  # estimated from gyro + mag only; BROAD's magnetometer lags by ~11 ms in every trial
         assert isinstance(out["mag_time_offset_ms"], float) and 5.0 < out["mag_time_offset_ms"] < 20.0
+        # the self-calibration decision and its parameters are reported (applied only when the data support it)
+        assert isinstance(out["mag_calibration_applied"], bool)
+        assert (out["mag_calibration_model"] != "none") == out["mag_calibration_applied"]
+        assert len(out["mag_hard_iron_uT"]) == 3 and len(out["mag_soft_iron_matrix"]) == 3
+        if out["mag_calibration_applied"]:
+            assert out["mag_norm_spread_after"] < out["mag_norm_spread_before"]
+        else:
+            assert out["mag_hard_iron_uT"] == [0.0, 0.0, 0.0]
     else:
         assert out["mag_time_offset_ms"] is None
+        assert out["mag_calibration_applied"] is None and "mag_calibration_model" not in out
 
 
 def test_table(capsys):
     assert main(["ahrs", str(TRIAL)]) == 0
     text = capsys.readouterr().out
     assert "24_disturbed_tapping_A (9D" in text and "inclination RMSE" in text and "us/sample" in text
-    assert "mag time offset" in text
+    assert "mag time offset" in text and "mag calibration" in text
 
 
 def test_missing_and_bad_files_name_the_file(tmp_path, capsys):

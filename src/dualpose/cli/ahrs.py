@@ -64,7 +64,11 @@ def run(args: argparse.Namespace) -> int:
         "mag_rejected": result.mag_rejected,
         # compensated magnetometer lag behind the gyroscope, estimated from the IMU data alone (None in 6D)
         "mag_time_offset_ms": result.mag_time_offset_ms if args.mag else None,
+        # magnetometer self-calibration: applied only when the data support it (None in 6D)
+        "mag_calibration_applied": result.mag_calibration_applied if args.mag else None,
     }
+    if args.mag and result.mag_calibration is not None:
+        out.update(result.mag_calibration.as_dict())
     has_ref = bool(np.isfinite(trial.quat[trial.movement]).all(axis=1).any())
     if has_ref:
         score = orientation_rmse(result.quat, trial.quat, trial.movement, fit_heading_offset=not args.mag)
@@ -85,5 +89,8 @@ def run(args: argparse.Namespace) -> int:
         print("  no reference orientation on the movement samples: nothing scored")
     if args.mag:
         print(f"  mag time offset   {out['mag_time_offset_ms']:8.3f} ms (estimated from the IMU data, compensated)")
+    if args.mag and result.mag_calibration is not None:
+        cal = result.mag_calibration
+        print(f"  mag calibration   {'applied' if cal.applied else 'not applied'} ({cal.reason})")
     print(f"  filter time       {out['us_per_sample']:8.3f} us/sample")
     return 0

@@ -38,6 +38,11 @@ The error-state filter of :mod:`dualpose.fusion.eskf` reduced to orientation and
   from the recording's own gyroscope and magnetometer (kinematic residual ``dm/dt + ω(t − τ) × m = 0`` of a static
   field, :mod:`dualpose.fusion.ahrs_time_offset`) and compensated by re-sampling the magnetometer before filtering.
   In fast rotation a lag τ turns the measured field by ``ω τ`` (at 5 rad/s and 11 ms: 3°).
+* magnetometer self-calibration (hard iron / per-axis scale / symmetric soft iron) from the recording's own field
+  samples, applied only when objective criteria fixed in advance say the data support it (orientation coverage,
+  well-determined parameters, the field-magnitude spread in excess of the noise at least halved;
+  :mod:`dualpose.fusion.ahrs_mag_calibration`); otherwise the raw field is used.  It runs before the time-offset
+  estimate and the rest statistics.
 
 Noise is set on principle, never per trial: white-noise levels of the three sensors are estimated from the rest
 period at the start of the recording (robustly: median absolute deviation); the bias random walk and the relative
@@ -61,6 +66,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from dualpose._validation import lazy_kernels
+from dualpose.fusion.ahrs_mag_calibration import MagCalibration, estimate_mag_calibration
 from dualpose.fusion.ahrs_time_offset import SensorTimeOffset, estimate_sensor_time_offset, shift_samples
 
 __all__ = [
@@ -178,6 +184,9 @@ class AhrsResult:
         Lag of the magnetometer behind the gyroscope that was compensated, s (0.0 in 6D or when not estimable).
     mag_time_offset_estimate : SensorTimeOffset or None
         The estimator's full result when ``mag_time_offset="estimate"`` (None otherwise).
+    mag_calibration : MagCalibration or None
+        The magnetometer self-calibration decision and parameters when ``mag_calibration="auto"`` in 9D (None
+        otherwise); see :attr:`mag_calibration_applied`.
     """
 
     quat: np.ndarray
@@ -194,6 +203,12 @@ class AhrsResult:
     seconds: float = 0.0
     mag_time_offset: float = 0.0
     mag_time_offset_estimate: SensorTimeOffset | None = None
+    mag_calibration: MagCalibration | None = None
+
+    @property
+    def mag_calibration_applied(self) -> bool:
+        """Whether a magnetometer self-calibration was applied before filtering."""
+        return self.mag_calibration is not None and self.mag_calibration.applied
 
     @property
     def mag_time_offset_ms(self) -> float:
@@ -337,6 +352,7 @@ def estimate_orientation(
     gyro_scale_sigma: float = 0.005,
     update_interval: float = 0.1,
     mag_time_offset: str | float = "estimate",
+    mag_calibration: str | MagCalibration | None = "auto",
 ) -> AhrsResult:
     """Estimate the orientation of an IMU from gyroscope, accelerometer and (9D) magnetometer samples.
 
@@ -389,6 +405,12 @@ def estimate_orientation(
         little rotation) nothing is shifted.  A number is used as given; 0 switches the compensation off.  In fast
         rotation a lag τ makes the magnetometer read a heading rotated by ``ω τ`` (BROAD: τ ≈ 11 ms in every trial,
         docs/broad.md).  Ignored in 6D.
+    mag_calibration : "auto", MagCalibration or None
+        ``"auto"`` (default): fit hard iron / per-axis scale / symmetric soft iron to this recording's field samples
+        and apply the smallest model that passes the decision rule of
+        :func:`~dualpose.fusion.ahrs_mag_calibration.estimate_mag_calibration` (noise level of ``|m|`` from the rest
+        period when there is one); raw data otherwise.  A :class:`MagCalibration` is applied as given (if its
+        ``applied`` flag is set); None switches it off.  Runs before the time-offset estimate.  Ignored in 6D.
 
     Returns
     -------
@@ -418,6 +440,21 @@ def estimate_orientation(
     elif not np.isfinite(float(mag_time_offset)):
         raise ValueError(f"mag_time_offset must be a finite number of seconds; got {mag_time_offset}")
 
+    if isinstance(mag_calibration, str) and mag_calibration != "auto":
+        raise ValueError(f'mag_calibration must be "auto", a MagCalibration or None; got {mag_calibration!r}')
+    if not (mag_calibration is None or isinstance(mag_calibration, (str, MagCalibration))):
+        raise TypeError(f'mag_calibration must be "auto", a MagCalibration or None; got {type(mag_calibration)}')
+    mag_cal = None
+    if use_mag and mag_calibration is not None:
+        if mag_calibration == "auto":
+            noise_spread = None
+            if n_rest:
+                rn = np.linalg.norm(mag_arr[:n_rest], axis=1)
+                noise_spread = float(1.4826 * np.median(np.abs(rn - np.median(rn))) / np.median(rn))
+            mag_cal = estimate_mag_calibration(mag_arr, noise_spread=noise_spread)
+        else:
+            mag_cal = mag_calibration
+        mag_arr = np.ascontiguousarray(mag_cal.apply(mag_arr))
     rest = rest_statistics(gyr, acc, mag_arr, rate, n_rest) if n_rest else None
     mag_offset, mag_offset_est = 0.0, None
     if use_mag:
@@ -517,6 +554,7 @@ def estimate_orientation(
         seconds=seconds,
         mag_time_offset=mag_offset,
         mag_time_offset_estimate=mag_offset_est,
+        mag_calibration=mag_cal,
     )
 
 
