@@ -24,6 +24,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument("file", help="BROAD trial file (.mat)")
     p.add_argument("--mag", dest="mag", action=argparse.BooleanOptionalAction, default=True,
                    help="use the magnetometer (9D, default) or not (--no-mag: 6D)")
+    p.add_argument("--mag-calibration", action="store_true",
+                   help="self-calibrate the magnetometer (hard/soft iron) when the recording supports it")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     return p
 
@@ -49,7 +51,8 @@ def run(args: argparse.Namespace) -> int:
         return 2
     try:
         result = estimate_orientation(
-            trial.gyr, trial.acc, trial.mag, trial.rate, use_mag=args.mag, n_rest=max(trial.static_start, 10)
+            trial.gyr, trial.acc, trial.mag, trial.rate, use_mag=args.mag, n_rest=max(trial.static_start, 10),
+            mag_calibration="auto" if args.mag_calibration else None,
         )
     except ValueError as exc:
         print(f"dualpose ahrs: error: {args.file}: {exc}", file=sys.stderr)
@@ -64,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
         "mag_rejected": result.mag_rejected,
         # compensated magnetometer lag behind the gyroscope, estimated from the IMU data alone (None in 6D)
         "mag_time_offset_ms": result.mag_time_offset_ms if args.mag else None,
-        # magnetometer self-calibration: applied only when the data support it (None in 6D)
+        # magnetometer self-calibration (--mag-calibration): applied only when the data support it (None in 6D)
         "mag_calibration_applied": result.mag_calibration_applied if args.mag else None,
     }
     if args.mag and result.mag_calibration is not None:
