@@ -26,7 +26,7 @@ import timeit
 
 import numpy as np
 
-from _report import emit
+from _common import emit
 from dualpose.fusion import eskf, hol22, sim
 
 

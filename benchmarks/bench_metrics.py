@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import copy
 import platform
-import time
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +25,7 @@ from evo.core import metrics as em
 from evo.core import sync
 from evo.tools import file_interface as fi
 
+from _common import best_of
 from dualpose.fusion.metrics import evaluate
 from dualpose.io import read_trajectory
 
@@ -65,15 +65,6 @@ def ours_pipeline(ref, est, align: str, delta: float, unit: str) -> dict[str, di
     }
 
 
-def best_of(fn, k: int = 5) -> float:
-    times = []
-    for _ in range(k):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--markdown", help="also write the tables to this Markdown file")
@@ -103,8 +94,8 @@ def main() -> None:
                         f"| {est_name} vs {ref_name} | {align} | {step} | {metric} | {a[metric]['rmse']:.9f} | "
                         f"{b[metric]['rmse']:.9f} | {diff:.1e} |"
                     )
-        t_evo = best_of(lambda: evo_pipeline(evo_ref, evo_est, "se3", 1, "frames"))  # noqa: B023
-        t_ours = best_of(lambda: ours_pipeline(ours_ref, ours_est, "se3", 1, "frames"))  # noqa: B023
+        t_evo = best_of(lambda: evo_pipeline(evo_ref, evo_est, "se3", 1, "frames"), 5)  # noqa: B023
+        t_ours = best_of(lambda: ours_pipeline(ours_ref, ours_est, "se3", 1, "frames"), 5)  # noqa: B023
         speed.append(
             f"| {est_name} vs {ref_name} | associate + se3 + ATE + orientation + RPE(1 frame) | {t_evo * 1e3:.1f} | "
             f"{t_ours * 1e3:.1f} | {t_evo / t_ours:.1f} |"

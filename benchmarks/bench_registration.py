@@ -24,10 +24,8 @@ Times are the best of k calls (the machine may be shared); ``gc`` is disabled wh
 from __future__ import annotations
 
 import argparse
-import gc
 import math
 import platform
-import time
 import timeit
 
 import numba as nb
@@ -36,6 +34,7 @@ import scipy
 from scipy.spatial.transform import Rotation
 
 import dualpose as dp
+from _common import best_of
 from dualpose.registration import register_pose, register_pose_batch
 
 
@@ -153,19 +152,6 @@ def scipy_loop(p0: np.ndarray, p1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 # ------------------------------------------------------------------------------------------------------ timing
-def best_of(fn, k: int = 7) -> float:  # noqa: ANN001
-    gc.disable()
-    try:
-        times = []
-        for _ in range(k):
-            t0 = time.perf_counter()
-            fn()
-            times.append(time.perf_counter() - t0)
-        return min(times)
-    finally:
-        gc.enable()
-
-
 def same_rotation(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.minimum(np.abs(a - b).max(axis=-1), np.abs(a + b).max(axis=-1)).max())
 

@@ -22,8 +22,8 @@ import argparse
 import numpy as np
 
 import dualpose as dp
-from _report import emit
-from dualpose.fusion import consistency, eskf, hol22, initialization, models, pnp, sim
+from _common import emit
+from dualpose.fusion import consistency, eskf, hol22, initialization, pnp, sim
 
 MOVING = (1.0, 6.4)
 
@@ -70,13 +70,8 @@ def nees_mc(n_runs: int = 25) -> tuple[float, float, float, float]:
     total = 0.0
     for s in range(n_runs):
         run = sim.simulate(traj, seed=5000 + s)
-        P0 = eskf.initial_covariance(imu_noise=run.imu_noise)
-        d = np.random.default_rng([s, 7]).multivariate_normal(np.zeros(15), P0)
-        tr = run.truth
-        x = models.boxplus(np.concatenate([tr["position"][0], tr["velocity"][0], tr["quat"][0], np.zeros(6)]), d)
-        res = eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P0).run_simulation(run)
-        e = consistency.error_state(tr, res.position, res.velocity, res.quat, res.gyro_bias, res.accel_bias)
-        total = total + consistency.nees(e, res.covariance)
+        res = consistency.filter_from_prior(run, np.random.default_rng([s, 7])).run_simulation(run)
+        total = total + consistency.nees_against_truth(run.truth, res)
     avg = total / n_runs
     lo, hi = consistency.nees_band(15, n_runs)
     return float(avg.mean()), lo, hi, float(np.mean((avg >= lo) & (avg <= hi)))

@@ -18,8 +18,8 @@ import argparse
 import numpy as np
 
 import dualpose as dp
-from _report import emit
-from dualpose.fusion import consistency, eskf, initialization, models, sim, smoother
+from _common import emit
+from dualpose.fusion import consistency, eskf, initialization, sim, smoother
 from dualpose.fusion.job import run_fuse
 
 ROWS = (
@@ -37,19 +37,9 @@ def nees_mc(n_runs: int) -> tuple[float, float, float, float]:
     tot_f = tot_s = 0.0
     for s in range(n_runs):
         run = sim.simulate(traj, seed=5000 + s)
-        P0 = eskf.initial_covariance(imu_noise=run.imu_noise)
-        d = np.random.default_rng([s, 7]).multivariate_normal(np.zeros(15), P0)
-        tr = run.truth
-        x = models.boxplus(np.concatenate([tr["position"][0], tr["velocity"][0], tr["quat"][0], np.zeros(6)]), d)
-        res = eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P0).run_simulation(run, record_nodes=True)
-        sm = smoother.rts_smooth(res)
-        for est, tot in ((res, "f"), (sm, "s")):
-            e = consistency.error_state(tr, est.position, est.velocity, est.quat, est.gyro_bias, est.accel_bias)
-            v = consistency.nees(e, est.covariance)
-            if tot == "f":
-                tot_f = tot_f + v
-            else:
-                tot_s = tot_s + v
+        res = consistency.filter_from_prior(run, np.random.default_rng([s, 7])).run_simulation(run, record_nodes=True)
+        tot_f = tot_f + consistency.nees_against_truth(run.truth, res)
+        tot_s = tot_s + consistency.nees_against_truth(run.truth, smoother.rts_smooth(res))
     lo, hi = consistency.nees_band(15, n_runs)
     return float((tot_f / n_runs).mean()), float((tot_s / n_runs).mean()), lo, hi
 

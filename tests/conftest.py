@@ -1,6 +1,9 @@
-"""Shared test settings: seeded randomness and a hypothesis profile sized for CI."""
+"""Shared test settings: seeded randomness, a hypothesis profile sized for CI, and the BROAD trial the data tests
+share."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,3 +16,17 @@ settings.load_profile("ci")
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(20261122)
+
+
+#: the BROAD trials beside the checkout (``<repo>/../shared/data/broad``)
+BROAD_DIR = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "broad"
+
+
+@pytest.fixture(scope="session")
+def trial():  # noqa: ANN201 -- dualpose.io.BroadTrial
+    """BROAD trial 06 (fast rotation), loaded once; skipped when the data directory is missing."""
+    if not BROAD_DIR.is_dir():
+        pytest.skip("BROAD data directory missing")
+    from dualpose.io import load_broad
+
+    return load_broad(BROAD_DIR / "06_undisturbed_fast_rotation_A.mat")

@@ -13,17 +13,9 @@ import dualpose as dp
 from dualpose.cli.main import main
 from dualpose.fusion import broad_pose as bp
 from dualpose.fusion import sim
-from dualpose.io import load_broad
 
 BROAD = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "broad"
 TRIAL = BROAD / "06_undisturbed_fast_rotation_A.mat"
-
-
-@pytest.fixture(scope="module")
-def trial():
-    if not BROAD.is_dir():
-        pytest.skip("BROAD data directory missing")
-    return load_broad(TRIAL)
 
 
 @pytest.fixture(scope="module")

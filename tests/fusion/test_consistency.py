@@ -8,18 +8,14 @@ import numpy as np
 import pytest
 
 import dualpose as dp
-from dualpose.fusion import consistency, eskf, models, sim
+from dualpose.fusion import consistency, eskf, sim
 
 N_RUNS = 25
 
 
 def _start(run: sim.SimulatedRun, seed: int) -> eskf.ErrorStateEKF:
     """Initial state drawn from the filter's prior around the truth (biases start at 0, within the prior)."""
-    P0 = eskf.initial_covariance(imu_noise=run.imu_noise)
-    d = np.random.default_rng([seed, 7]).multivariate_normal(np.zeros(15), P0)
-    tr = run.truth
-    x = models.boxplus(np.concatenate([tr["position"][0], tr["velocity"][0], tr["quat"][0], np.zeros(6)]), d)
-    return eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P0)
+    return consistency.filter_from_prior(run, np.random.default_rng([seed, 7]))
 
 
 def test_nees_over_25_runs_inside_95_band() -> None:
@@ -29,8 +25,7 @@ def test_nees_over_25_runs_inside_95_band() -> None:
     for s in range(N_RUNS):
         run = sim.simulate(traj, seed=1000 + s)
         res = _start(run, s).run_simulation(run)
-        e = consistency.error_state(run.truth, res.position, res.velocity, res.quat, res.gyro_bias, res.accel_bias)
-        total = total + consistency.nees(e, res.covariance)
+        total = total + consistency.nees_against_truth(run.truth, res)
     avg = total / N_RUNS
     lo, hi = consistency.nees_band(15, N_RUNS)
     assert lo == pytest.approx(12.93, abs=0.01) and hi == pytest.approx(17.22, abs=0.01)

@@ -13,13 +13,6 @@ BROAD = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "broad"
 TRIAL = BROAD / "06_undisturbed_fast_rotation_A.mat"
 
 
-@pytest.fixture(scope="module")
-def trial():
-    if not BROAD.is_dir():
-        pytest.skip("BROAD data directory missing")
-    return load_broad(TRIAL)
-
-
 def test_fields_and_quaternion_order(trial):
     raw = loadmat(TRIAL)
     n = raw["imu_gyr"].shape[0]

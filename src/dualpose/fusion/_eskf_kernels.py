@@ -232,6 +232,59 @@ def joseph_2d(P, K, H, s2):  # noqa: ANN001, ANN201
             P[j, i] = P[i, j]
 
 
+@_jit(f"i8({M}, {M}, {T}, {V}, {V}, f8, {V}, {V}, i8[:])")
+def sequential_gated_update(P, r, H, s2, depth, gate, dx, nis_out, accepted_out):  # noqa: ANN001, ANN201
+    """χ²-gated sequential update with M two-row measurements linearised at one state, in place on ``P``.
+
+    ``r`` (M, 2) residuals and ``H`` (M, 2, n) Jacobians at the linearisation point, ``s2`` (M,) noise variances
+    (``s2[k] I₂``), ``depth`` (M,) camera depths (rows with depth ≤ 1e-6 are skipped, NIS inf).  Rows are taken in
+    increasing order of their prior NIS (so that after a dropout the most consistent ones tighten ``P`` before the
+    doubtful ones are gated); each sees ``r − H dx`` with the correction ``dx`` (n,) accumulated so far (the
+    sequence equals one batch update of the accepted rows) and the current ``P`` (Joseph form, :func:`joseph_2d`).
+    ``nis_out`` (M,) receives each row's NIS at its turn, ``accepted_out`` (M,) 1/0; returns the number accepted.
+    ``dx`` is left for the caller to inject.  Shared by the error-state filter and Hol's 22-state filter.
+    """
+    m = r.shape[0]
+    prior = np.empty(m)
+    for k in range(m):
+        if depth[k] <= 1e-6:
+            prior[k] = np.inf
+            continue
+        S = H[k] @ P @ H[k].T
+        S[0, 0] += s2[k]
+        S[1, 1] += s2[k]
+        det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
+        a, b = r[k, 0], r[k, 1]
+        prior[k] = (S[1, 1] * a * a - 2.0 * S[0, 1] * a * b + S[0, 0] * b * b) / det
+    nu = np.empty(2)
+    n_acc = 0
+    for k in np.argsort(prior):
+        accepted_out[k] = 0
+        nis_out[k] = np.inf
+        if depth[k] <= 1e-6:
+            continue
+        Hk = H[k]
+        hd = Hk @ dx
+        nu[0] = r[k, 0] - hd[0]
+        nu[1] = r[k, 1] - hd[1]
+        PHt = P @ Hk.T
+        S = Hk @ PHt
+        S[0, 0] += s2[k]
+        S[1, 1] += s2[k]
+        det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
+        Si = np.array([[S[1, 1], -S[0, 1]], [-S[1, 0], S[0, 0]]]) / det
+        nis = nu[0] * (Si[0, 0] * nu[0] + Si[0, 1] * nu[1]) + nu[1] * (Si[1, 0] * nu[0] + Si[1, 1] * nu[1])
+        nis_out[k] = nis
+        if nis > gate:
+            continue
+        K = PHt @ Si
+        dx += K @ nu
+        joseph_2d(P, K, Hk, s2[k])
+        accepted_out[k] = 1
+        n_acc += 1
+    return n_acc
+
+
 @_jit(f"i8({V}, {M}, {V}, {V}, {V}, {M}, {M}, f8, f8, {V}, i8[:])")
 def update_points(x, P, intr, q_bc, p_bc, pixels, points, sigma_px, gate, nis_out, accepted_out):  # noqa: ANN001, ANN201
     """Sequential χ²-gated update with the point correspondences of one frame.
@@ -247,43 +300,8 @@ def update_points(x, P, intr, q_bc, p_bc, pixels, points, sigma_px, gate, nis_ou
     H = np.empty((m, 2, 15))
     depth = np.empty(m)
     camera_batch(x, intr, q_bc, p_bc, pixels, points, r, H, depth)
-    s2 = sigma_px * sigma_px
-    Rm = np.eye(2) * s2
-    prior = np.empty(m)
-    for k in range(m):
-        if depth[k] <= 1e-6:
-            prior[k] = np.inf
-            continue
-        S = H[k] @ P @ H[k].T + Rm
-        det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
-        a, b = r[k, 0], r[k, 1]
-        prior[k] = (S[1, 1] * a * a - 2.0 * S[0, 1] * a * b + S[0, 0] * b * b) / det
-    order = np.argsort(prior)
     dx = np.zeros(15)
-    nu = np.empty(2)
-    n_acc = 0
-    for k in order:
-        accepted_out[k] = 0
-        if depth[k] <= 1e-6:
-            nis_out[k] = np.inf
-            continue
-        Hk = H[k]
-        hd = Hk @ dx
-        nu[0] = r[k, 0] - hd[0]
-        nu[1] = r[k, 1] - hd[1]
-        PHt = P @ Hk.T
-        S = Hk @ PHt + Rm
-        det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
-        Si = np.array([[S[1, 1], -S[0, 1]], [-S[1, 0], S[0, 0]]]) / det
-        nis = nu[0] * (Si[0, 0] * nu[0] + Si[0, 1] * nu[1]) + nu[1] * (Si[1, 0] * nu[0] + Si[1, 1] * nu[1])
-        nis_out[k] = nis
-        if nis > gate:
-            continue
-        K = PHt @ Si
-        dx += K @ nu
-        joseph_2d(P, K, Hk, s2)
-        accepted_out[k] = 1
-        n_acc += 1
+    n_acc = sequential_gated_update(P, r, H, np.full(m, sigma_px * sigma_px), depth, gate, dx, nis_out, accepted_out)
     inject_reset(x, P, dx)
     return n_acc
 

@@ -20,7 +20,7 @@ import math
 import numba as nb
 import numpy as np
 
-from dualpose.fusion._eskf_kernels import joseph, joseph_2d
+from dualpose.fusion._eskf_kernels import joseph, sequential_gated_update
 
 V, M, T = "f8[::1]", "f8[:,::1]", "f8[:,:,::1]"
 VA = "f8[:]"  # any layout (slices and rows)
@@ -197,41 +197,12 @@ def camera_update(x, P, pixels, points, intr, p_bc, Rcb, depth_floor_sigma, sigm
                     acc += AR[i, a] * (dR[q, a, 0] * d[0] + dR[q, a, 1] * d[1] + dR[q, a, 2] * d[2])
                 H[k, i, 9 + q] = acc
     floor = depth_floor_sigma[0]
-    prior = np.full(m, np.inf)
+    s2 = np.empty(m)
     for k in range(m):
-        if depth[k] > 1e-6:
-            s2 = (max(depth[k], floor) * sigma_px) ** 2
-            S = H[k] @ P @ H[k].T
-            S[0, 0] += s2
-            S[1, 1] += s2
-            a, b = h[k, 0], h[k, 1]
-            prior[k] = (S[1, 1] * a * a - 2.0 * S[0, 1] * a * b + S[0, 0] * b * b) / (S[0, 0] * S[1, 1] - S[0, 1] ** 2)
+        s2[k] = (max(depth[k], floor) * sigma_px) ** 2
+        h[k, 0], h[k, 1] = -h[k, 0], -h[k, 1]  # residual: measured 0 minus predicted h
     dx = np.zeros(22)
-    nu = np.empty(2)
-    for k in np.argsort(prior):
-        acc_out[k] = 0
-        nis_out[k] = np.inf
-        if depth[k] <= 1e-6:
-            continue
-        Hk = H[k]
-        hd = Hk @ dx
-        nu[0] = -h[k, 0] - hd[0]
-        nu[1] = -h[k, 1] - hd[1]
-        s2 = (max(depth[k], floor) * sigma_px) ** 2
-        PHt = P @ Hk.T
-        S = Hk @ PHt
-        S[0, 0] += s2
-        S[1, 1] += s2
-        det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
-        Si = np.array([[S[1, 1], -S[0, 1]], [-S[1, 0], S[0, 0]]]) / det
-        nis = nu[0] * (Si[0, 0] * nu[0] + Si[0, 1] * nu[1]) + nu[1] * (Si[1, 0] * nu[0] + Si[1, 1] * nu[1])
-        nis_out[k] = nis
-        if nis > gate:
-            continue
-        K = PHt @ Si
-        dx += K @ nu
-        joseph_2d(P, K, Hk, s2)
-        acc_out[k] = 1
+    sequential_gated_update(P, h, H, s2, depth, gate, dx, nis_out, acc_out)
     x += dx
     normalise(x, P)
 

@@ -67,7 +67,12 @@ from scipy.stats import chi2
 
 from dualpose._validation import lazy_kernels
 from dualpose.fusion.ahrs_mag_calibration import MagCalibration, estimate_mag_calibration
-from dualpose.fusion.ahrs_time_offset import SensorTimeOffset, estimate_sensor_time_offset, shift_samples
+from dualpose.fusion.ahrs_time_offset import (
+    SensorTimeOffset,
+    check_samples,
+    estimate_sensor_time_offset,
+    shift_samples,
+)
 
 __all__ = [
     "AhrsNoise",
@@ -248,17 +253,6 @@ def heading_jacobian() -> np.ndarray:
     return H
 
 
-def _as_samples(x: object, name: str, n: int | None = None) -> np.ndarray:
-    a = np.asarray(x, dtype=np.float64)
-    if a.ndim != 2 or a.shape[1] != 3:
-        raise ValueError(f"{name} must have shape (n, 3); got shape {a.shape}")
-    if n is not None and a.shape[0] != n:
-        raise ValueError(f"{name} must have {n} samples like gyr; got {a.shape[0]}")
-    if not np.isfinite(a).all():
-        raise ValueError(f"{name} contains NaN or inf samples")
-    return np.ascontiguousarray(a)
-
-
 def _robust_sigma(x: np.ndarray) -> float:
     """Per-sample white-noise sigma pooled over the axes: 1.4826 × median absolute deviation (robust to a few
     disturbed samples in the rest period)."""
@@ -418,14 +412,14 @@ def estimate_orientation(
     -------
     AhrsResult
     """
-    gyr = _as_samples(gyr, "gyr")
+    gyr = check_samples(gyr, "gyr")
     n = gyr.shape[0]
     if n < 1:
         raise ValueError("gyr must contain at least one sample")
-    acc = _as_samples(acc, "acc", n)
+    acc = check_samples(acc, "acc", n)
     if use_mag and mag is None:
         raise ValueError("use_mag=True needs mag samples (n, 3); pass use_mag=False for 6D")
-    mag_arr = _as_samples(mag, "mag", n) if mag is not None else None
+    mag_arr = check_samples(mag, "mag", n) if mag is not None else None
     if not (np.isfinite(rate) and rate > 0):
         raise ValueError(f"rate must be a positive number of Hz; got {rate}")
     if n_rest is None:

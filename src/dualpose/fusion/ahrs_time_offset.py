@@ -82,7 +82,9 @@ def _lowpass(x: np.ndarray, rate: float, cutoff: float) -> np.ndarray:
     return sosfiltfilt(sos, x, axis=0)
 
 
-def _check_stream(x: object, name: str, n: int | None = None) -> np.ndarray:
+def check_samples(x: object, name: str, n: int | None = None) -> np.ndarray:
+    """``x`` as a C-contiguous float64 (n, 3) array of finite samples (``n`` samples when given); ValueError naming
+    ``name`` otherwise.  Shared by the AHRS entry points."""
     a = np.asarray(x, dtype=np.float64)
     if a.ndim != 2 or a.shape[1] != 3:
         raise ValueError(f"{name} must have shape (n, 3); got shape {a.shape}")
@@ -90,7 +92,7 @@ def _check_stream(x: object, name: str, n: int | None = None) -> np.ndarray:
         raise ValueError(f"{name} must have {n} samples like gyr; got {a.shape[0]}")
     if not np.isfinite(a).all():
         raise ValueError(f"{name} contains NaN or inf samples")
-    return a
+    return np.ascontiguousarray(a)
 
 
 def estimate_sensor_time_offset(
@@ -135,9 +137,9 @@ def estimate_sensor_time_offset(
     """
     from scipy.optimize import minimize_scalar
 
-    gyr = _check_stream(gyr, "gyr")
+    gyr = check_samples(gyr, "gyr")
     n = gyr.shape[0]
-    vec = _check_stream(vec, "vec", n)
+    vec = check_samples(vec, "vec", n)
     if not (np.isfinite(rate) and rate > 0):
         raise ValueError(f"rate must be a positive number of Hz; got {rate}")
     if not (np.isfinite(max_offset) and max_offset > 0):

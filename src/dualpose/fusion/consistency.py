@@ -11,7 +11,7 @@ from scipy.stats import chi2
 
 import dualpose as dp
 
-__all__ = ["error_state", "nees", "nees_band"]
+__all__ = ["error_state", "filter_from_prior", "nees", "nees_against_truth", "nees_band"]
 
 
 def error_state(
@@ -43,3 +43,27 @@ def nees_band(dim: int, runs: int, probability: float = 0.95) -> tuple[float, fl
     lo = chi2.ppf((1.0 - probability) / 2.0, runs * dim) / runs
     hi = chi2.ppf((1.0 + probability) / 2.0, runs * dim) / runs
     return float(lo), float(hi)
+
+
+def nees_against_truth(truth: dict[str, np.ndarray], estimate) -> np.ndarray:  # noqa: ANN001
+    """NEES (N,) of a filter or smoother result (``position``, ``velocity``, ``quat``, ``gyro_bias``, ``accel_bias``,
+    ``covariance`` (N, 15, 15)) against a simulation's ``truth`` at the same times."""
+    e = error_state(truth, estimate.position, estimate.velocity, estimate.quat, estimate.gyro_bias,
+                    estimate.accel_bias)  # fmt: skip
+    return nees(e, estimate.covariance)
+
+
+def filter_from_prior(run, rng: np.random.Generator):  # noqa: ANN001, ANN201 -- SimulatedRun -> ErrorStateEKF
+    """An :class:`~dualpose.fusion.eskf.ErrorStateEKF` for a simulated ``run`` started from a draw of its own prior.
+
+    The initial error ``δx ~ N(0, P0)`` (``P0 = initial_covariance(run.imu_noise)``) is applied with ⊞ to the true
+    position, velocity and attitude at ``t[0]`` and to zero biases (the prior covers the turn-on biases), so that
+    the filter's initial covariance is honest -- the set-up of a Monte-Carlo NEES test.
+    """
+    from dualpose.fusion import eskf, models
+
+    P0 = eskf.initial_covariance(imu_noise=run.imu_noise)
+    d = rng.multivariate_normal(np.zeros(15), P0)
+    tr = run.truth
+    x = models.boxplus(np.concatenate([tr["position"][0], tr["velocity"][0], tr["quat"][0], np.zeros(6)]), d)
+    return eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P0)

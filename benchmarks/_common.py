@@ -1,0 +1,35 @@
+"""Shared pieces of the benchmark scripts: best-of-k wall time, and printing / writing the Markdown report."""
+
+from __future__ import annotations
+
+import gc
+import os
+import sys
+import time
+from collections.abc import Callable
+
+
+def emit(text: str, markdown: str | None) -> int:
+    """Print ``text``; write it to ``markdown`` unless that file exists (never overwritten).  Returns the exit code."""
+    print(text)
+    if markdown:
+        if os.path.exists(markdown):
+            print(f"{markdown} exists; not overwritten", file=sys.stderr)
+            return 1
+        with open(markdown, "w") as fh:
+            fh.write(text + "\n")
+    return 0
+
+
+def best_of(fn: Callable[[], object], k: int = 7) -> float:
+    """Smallest wall time (s) of ``k`` calls of ``fn``, garbage collection paused."""
+    gc.disable()
+    try:
+        times = []
+        for _ in range(k):
+            t0 = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - t0)
+        return min(times)
+    finally:
+        gc.enable()
