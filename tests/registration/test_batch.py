@@ -104,6 +104,33 @@ def test_batch_nan_names_problem():
         register_pose_batch(p, q)
 
 
+@pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf])
+@pytest.mark.parametrize("which", ["model_points", "measured_points"])
+def test_batch_non_finite_point_found_past_first_block(value, which):
+    """The kernel finds a non-finite input from its sums (0·inf and inf - inf are NaN), also where the point has
+    zero weight, in a later block of problems, and names the problem and the input."""
+    rng = np.random.default_rng(7)
+    p = rng.normal(size=(100, 5, 3))
+    q = p + 1.0
+    w = np.ones((100, 5))
+    w[77, 3] = 0.0
+    (p if which == "model_points" else q)[77, 3, 1] = value
+    with pytest.raises(ValueError, match=f"problem 77: {which} contains NaN or infinity"):
+        register_pose_batch(p, q, w)
+
+
+def test_batch_overflowing_moments_raise_instead_of_nan():
+    """Finite inputs whose moments overflow are not called non-finite, and give an error instead of a NaN pose."""
+    p = np.random.default_rng(8).normal(size=(3, 5, 3))
+    p[1] *= 1e200
+    with pytest.raises(ValueError, match="problem 1: the weighted second moments overflow"):
+        register_pose_batch(p, p + 1.0)
+    with pytest.raises(ValueError, match="^the weighted second moments overflow"):
+        register_pose(p[1], p[1] + 1.0)
+    res = register_pose_batch(p[[0, 2]] * 1e100, p[[0, 2]] * 1e100 + 1.0)  # large but representable moments
+    assert np.allclose(res.quat, [0, 0, 0, 1], atol=1e-12)
+
+
 @pytest.mark.parametrize("kind", ["random", "thin", "near-line", "half-turn", "noisy", "tiny", "huge"])
 def test_closed_form_eigen_solve_against_lapack(kind):
     """The batch kernel's closed-form eigen-solve (with its Jacobi fallback) against numpy's LAPACK eigh of Horn's N

@@ -12,7 +12,7 @@ from numpy.typing import ArrayLike
 
 from dualpose._validation import lazy_kernels
 from dualpose.registration._inputs import method_code, prepare_batch
-from dualpose.registration.estimate import _BAD_INPUT, PoseEstimate
+from dualpose.registration.estimate import PoseEstimate, bad_input_message
 
 __all__ = ["PoseBatch", "register_pose_batch"]
 
@@ -128,5 +128,5 @@ def register_pose_batch(
     bad = rows[:, 24] != 0.0
     if bad.any():
         i = int(np.argmax(bad))
-        raise ValueError(f"problem {i}: {_BAD_INPUT[int(rows[i, 24]) - 1]} contains NaN or infinity")
+        raise ValueError(f"problem {i}: {bad_input_message(rows[i, 24])}")
     return PoseBatch(rows, method, data)

@@ -24,6 +24,13 @@ __all__ = ["PoseEstimate", "register_pose", "classify_degeneracy"]
 _k = lazy_kernels("dualpose.registration._kernels")
 _BAD_INPUT = ("model_points", "measured_points", "model_directions", "measured_directions")  # = _kernels.BAD_INPUT
 
+
+def bad_input_message(code: float) -> str:
+    """The error for a non-zero result-row code ``out[24]`` of the kernel (see ``_kernels``)."""
+    if int(code) == len(_BAD_INPUT) + 1:
+        return "the weighted second moments overflow (coordinates of about 1e150 or more): rescale the inputs"
+    return f"{_BAD_INPUT[int(code) - 1]} contains NaN or infinity"
+
 #: relative size (squared length, against the largest model scatter eigenvalue: a relative thickness of ~1e-5)
 #: below which a direction of the model scatter counts as empty when labelling a degeneracy
 _RANK_RTOL = 1e-10
@@ -425,6 +432,6 @@ def register_pose(
     row = np.empty(25)
     _k("solve_one")(*data, code, bool(scale), row)
     if row[24]:
-        raise ValueError(f"{_BAD_INPUT[int(row[24]) - 1]} contains NaN or infinity")
+        raise ValueError(bad_input_message(row[24]))
     return PoseEstimate(row, method, data)
 
