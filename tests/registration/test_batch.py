@@ -166,3 +166,7 @@ def test_closed_form_eigen_solve_against_lapack(kind):
         # problems reported as not unique have a gap at the tolerance (1e-9 of the spectrum's scale): there the
         # smallest optimal rotation is returned, not LAPACK's arbitrary vector
         assert np.all(rel_gap[~unique] <= 4e-9)
+    # all four eigenvalues of N (Newton for the largest two, the deflated quadratic for the rest) against LAPACK
+    ev = np.array([res[i].eigenvalues for i in range(0, b, 7)])
+    scale = np.abs(w[::7]).max(axis=1, keepdims=True)
+    assert (np.abs(ev - w[::7, ::-1]) / scale).max() <= 1e-12
