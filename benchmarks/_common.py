@@ -33,3 +33,21 @@ def best_of(fn: Callable[[], object], k: int = 7) -> float:
         return min(times)
     finally:
         gc.enable()
+
+
+def best_of_interleaved(fns: dict[str, Callable[[], object]], k: int = 9) -> dict[str, float]:
+    """Smallest wall time (s) of each function over ``k`` rounds, each round calling every function once.
+
+    Interleaving puts every contender under the same machine load, so their ratios hold on a shared machine.
+    """
+    best = dict.fromkeys(fns, float("inf"))
+    gc.disable()
+    try:
+        for _ in range(k):
+            for name, fn in fns.items():
+                t0 = time.perf_counter()
+                fn()
+                best[name] = min(best[name], time.perf_counter() - t0)
+        return best
+    finally:
+        gc.enable()

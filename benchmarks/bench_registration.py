@@ -1,7 +1,7 @@
 """Speed of dualpose.registration against scipy and against an unrolled closed-form reference loop, in one process.
 
 Run: ``.venv/bin/python benchmarks/bench_registration.py`` (``--quick`` for B = 10,000; ``--markdown PATH`` also
-writes the tables).
+writes the tables to a new file).
 
 What is timed
 -------------
@@ -18,7 +18,8 @@ What is timed
   repeats).
 
 Before timing, every method's rotations are checked against scipy on a subset (|Δq| <= 1e-9 after the sign).
-Times are the best of k calls (the machine may be shared); ``gc`` is disabled while timing.
+Times are the best of k calls (the machine may be shared); the reference loop and the batch methods are timed
+in interleaved rounds so that they see the same load; ``gc`` is disabled while timing.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ import scipy
 from scipy.spatial.transform import Rotation
 
 import dualpose as dp
-from _common import best_of
+from _common import best_of, best_of_interleaved, emit
 from dualpose.registration import register_pose, register_pose_batch
 
 
@@ -188,12 +189,15 @@ def main(argv: list[str] | None = None) -> int:
             raise SystemExit(f"{name} disagrees with scipy: |Δq| = {dq_err:.2e}, |Δt| = {dt_err:.2e}")
 
     rows = []
-    t_ref = best_of(lambda: reference_loop(p0, p1, out))
+    timed = {"ref": lambda: reference_loop(p0, p1, out)}
+    for m in ("dq", "horn", "svd"):
+        timed[m] = lambda m=m: register_pose_batch(p0, p1, method=m)
+    best = best_of_interleaved(timed)
+    t_ref = best["ref"]
     t_scipy = best_of(lambda: scipy_loop(p0[:sub], p1[:sub]), k=3) / sub * big
     rows.append(("reference loop (numba, unrolled closed form)", t_ref, None))
     for m in ("dq", "horn", "svd"):
-        t = best_of(lambda m=m: register_pose_batch(p0, p1, method=m))
-        rows.append((f"register_pose_batch(method={m!r})", t, m))
+        rows.append((f"register_pose_batch(method={m!r})", best[m], m))
     rows.append((f"scipy align_vectors + centroids, Python loop (timed on {sub:,})", t_scipy, None))
 
     lines = [
@@ -234,14 +238,9 @@ def main(argv: list[str] | None = None) -> int:
         f"{sub:,} problems): " + ", ".join(f"{k}: |Δq| {v[0]:.1e}, |Δt| {v[1]:.1e}" for k, v in checks.items()),
         "",
         f"numpy {np.__version__}, scipy {scipy.__version__}, numba {nb.__version__}, Python "
-        f"{platform.python_version()}, {platform.machine()}; best of 7 calls (scipy loop: best of 3).",
+        f"{platform.python_version()}, {platform.machine()}; best of 9 interleaved rounds (scipy loop: best of 3).",
     ]
-    text = "\n".join(lines)
-    print(text)
-    if args.markdown:
-        with open(args.markdown, "w", encoding="utf-8") as fh:
-            fh.write(text + "\n")
-    return 0
+    return emit("\n".join(lines), args.markdown)
 
 
 if __name__ == "__main__":
