@@ -361,6 +361,16 @@ def _first_bad_input(p0, p1, n0, n1, b):  # noqa: ANN001, ANN201
 
 
 @_inline
+def _add_outer(s00, s01, s02, s10, s11, s12, s20, s21, s22, x1, y1, z1, x0, y0, z0):  # noqa: ANN001, ANN201
+    """``s + x1 x0ᵀ`` for the 3x3 ``s`` given row-major as scalars."""
+    return (
+        s00 + x1 * x0, s01 + x1 * y0, s02 + x1 * z0,
+        s10 + y1 * x0, s11 + y1 * y0, s12 + y1 * z0,
+        s20 + z1 * x0, s21 + z1 * y0, s22 + z1 * z0,
+    )  # fmt: skip
+
+
+@_inline
 def _horn_matrix(s00, s01, s02, s10, s11, s12, s20, s21, s22):  # noqa: ANN001, ANN201
     """Upper triangle (a00 a01 a02 a03 a11 a12 a13 a22 a23 a33) of Horn's (1987) ``N`` in xyzw order.
 
@@ -502,30 +512,18 @@ def solve_batch(p0, p1, beta, n0, n1, alpha, method, want_scale, out):  # noqa: 
                 g1y += bk * d1y
                 g1z += bk * d1z
                 x1, y1, z1 = bk * d1x, bk * d1y, bk * d1z
-                s00 += x1 * x0
-                s01 += x1 * y0
-                s02 += x1 * z0
-                s10 += y1 * x0
-                s11 += y1 * y0
-                s12 += y1 * z0
-                s20 += z1 * x0
-                s21 += z1 * y0
-                s22 += z1 * z0
+                s00, s01, s02, s10, s11, s12, s20, s21, s22 = _add_outer(
+                    s00, s01, s02, s10, s11, s12, s20, s21, s22, x1, y1, z1, x0, y0, z0
+                )
             asum = 0.0
             for k in range(ndir):
                 ak = alpha[b, k]
                 asum += ak
                 x0, y0, z0 = n0[b, k, 0], n0[b, k, 1], n0[b, k, 2]
                 x1, y1, z1 = ak * n1[b, k, 0], ak * n1[b, k, 1], ak * n1[b, k, 2]
-                s00 += x1 * x0
-                s01 += x1 * y0
-                s02 += x1 * z0
-                s10 += y1 * x0
-                s11 += y1 * y0
-                s12 += y1 * z0
-                s20 += z1 * x0
-                s21 += z1 * y0
-                s22 += z1 * z0
+                s00, s01, s02, s10, s11, s12, s20, s21, s22 = _add_outer(
+                    s00, s01, s02, s10, s11, s12, s20, s21, s22, x1, y1, z1, x0, y0, z0
+                )
             # a NaN or infinity anywhere in the inputs makes these sums non-finite (0·inf and inf - inf are NaN):
             # only then look for the culprit; finite inputs whose moments overflow get their own code
             chk = ax + ay + az + bx + by + bz + ss0 + ss1 + s00 + s01 + s02 + s10 + s11 + s12 + s20 + s21 + s22
