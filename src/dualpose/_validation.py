@@ -111,7 +111,9 @@ def try_flat_kernel(kernel: Callable[..., int], arrays: tuple[np.ndarray, ...], 
     """Run a flat row-loop kernel (see :mod:`dualpose.algebra._flat_kernels`) when the inputs allow it.
 
     Applies when every array is C-contiguous with the same leading shape (no broadcasting), there are at least
-    :data:`FLAT_MIN_ELEMENTS` elements, and ``out`` is None or a C-contiguous float64 array of the result's shape.
+    :data:`FLAT_MIN_ELEMENTS` elements, and ``out`` is None or a C-contiguous float64 array of the result's shape
+    that is either one of the input arrays itself (in place: the kernels read each row, or block of rows, before
+    writing it) or shares no memory with them (other overlaps are left to the gufunc, which NumPy runs on copies).
     Returns the result, or None when the kernel does not apply or flagged an element it leaves to the gufunc
     (which the caller then runs, over everything).
     """
@@ -126,6 +128,10 @@ def try_flat_kernel(kernel: Callable[..., int], arrays: tuple[np.ndarray, ...], 
         out = np.empty(shape)
     elif type(out) is not np.ndarray or out.dtype != np.float64 or out.shape != shape or not out.flags.c_contiguous:
         return None
+    else:
+        for a in arrays:
+            if a is not out and np.may_share_memory(out, a):
+                return None
     if kernel(*(a.reshape(-1) for a in arrays), out.reshape(-1)) != 0:
         return None
     return out

@@ -1,10 +1,12 @@
 """The flat row-loop paths (C-contiguous batches of >= 64 elements) against mpmath and against the gufunc path.
 
-``quat_rotate`` and ``quat_log`` switch to vectorised loops over flat buffers for
-C-contiguous input without broadcasting (``dualpose.algebra._flat_kernels``); everything else -- broadcasting,
-strided views, small batches, extreme norms, zeros -- goes through the gufuncs.  Here the same data is pushed
-through both paths (a strided copy forces the gufunc), and the flat ``quat_log`` is held to the 4ε bar of the
-accuracy suite on every one of its mpmath cases at once.
+``quat_rotate``, ``quat_log`` and ``dualquat_transform`` switch to vectorised loops over flat buffers for
+C-contiguous input without broadcasting (``dualpose.algebra._flat_kernels``; the transform through the explicit
+8-row SIMD blocks of ``dualpose.algebra._simd``); everything else -- broadcasting, strided views, small batches,
+extreme norms, zeros, outputs overlapping an input -- goes through the gufuncs.  Here the same data is pushed
+through both paths (a strided copy forces the gufunc), the flat ``quat_log`` is held to the 4ε bar of the
+accuracy suite on every one of its mpmath cases at once, and the flat transform is checked against an
+extended-precision evaluation of ``R p + t``.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import dualpose as dp
+import dualpose.algebra.dualquat as dq_module
 from dualpose._validation import FLAT_MIN_ELEMENTS
 
 N = 4 * FLAT_MIN_ELEMENTS
@@ -129,3 +132,118 @@ def test_flat_paths_agree_with_gufuncs_for_any_batch_size(n: int, seed: int) -> 
     np.testing.assert_array_equal(dp.dualquat_transform(dq, v), dp.dualquat_transform(strided(dq), v))
     g = dp.quat_log(strided(q))
     assert np.max(np.abs(dp.quat_log(q) - g) / np.linalg.norm(g, axis=-1, keepdims=True)) <= 4 * np.finfo(float).eps
+
+
+# --- dualquat_transform: 8-row SIMD blocks plus a scalar tail -------------------------------------------------------
+
+
+def random_dualquats(rng: np.random.Generator, n: int) -> np.ndarray:
+    """Non-unit real parts (see :func:`random_quats`) and dual parts spread over 1e-6 .. 1e6."""
+    return np.concatenate([random_quats(rng, n), rng.normal(size=(n, 4)) * 10.0 ** rng.uniform(-6, 6, (n, 1))], -1)
+
+
+def flat_calls(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """Count the calls of the flat transform kernel made by ``dp.dualquat_transform`` from now on."""
+    calls: list[int] = []
+    kernel = dq_module._fk("dualquat_transform")
+
+    def spy(*args: np.ndarray) -> int:
+        calls.append(1)
+        return kernel(*args)
+
+    get = dq_module._fk
+    monkeypatch.setattr(dq_module, "_fk", lambda name: spy if name == "dualquat_transform" else get(name))
+    return calls
+
+
+def test_transform_flat_matches_mpmath() -> None:
+    """Every row within 4ε of R p + t evaluated in mpmath from the same float64 dual quaternion (R of r/|r|,
+    t = 2 d (x) r* / |r|², Dantam 2014 eq. (78)), normwise over |R p| + |t| (the scale of the rounding)."""
+    rng = np.random.default_rng(9)
+    n = 203  # 25 blocks of 8 and a tail of 3
+    s, p = random_dualquats(rng, n), rng.normal(size=(n, 3)) * 10.0 ** rng.uniform(-6, 6, (n, 1))
+    got = dp.dualquat_transform(s, p)
+    worst = 0.0
+    with ref.mp.workdps(ref.DPS):
+        for k in range(n):
+            sk, pk = ref.exact(s[k]), ref.exact(p[k])
+            rp = [ref.mp.fsum(m * c for m, c in zip(row, pk, strict=True)) for row in ref.rot_matrix(sk[:4])]
+            t = ref.dq_translation(sk)
+            err = ref.norm([float(g) - (a + b) for g, a, b in zip(got[k], rp, t, strict=True)])
+            worst = max(worst, float(err / (ref.norm(rp) + ref.norm(t)) / ref.EPS))
+    assert worst <= ref.BAR, f"worst row {worst:.3g} ε"
+
+
+@settings(max_examples=20, deadline=None)
+@given(n=st.integers(FLAT_MIN_ELEMENTS, 4 * FLAT_MIN_ELEMENTS), seed=st.integers(0, 2**32 - 1),
+       bad_row=st.integers(0, 10**6))
+def test_transform_flat_bit_for_bit_and_nan_rows_stay_local(n: int, seed: int, bad_row: int) -> None:
+    """Any batch size (blocks of 8 plus a 0..7-row tail): equal to the gufunc bit for bit; a NaN anywhere in one
+    row (block or tail) makes exactly that output row NaN, on both paths."""
+    rng = np.random.default_rng(seed)
+    s, p = random_dualquats(rng, n), rng.normal(size=(n, 3))
+    np.testing.assert_array_equal(dp.dualquat_transform(s, p), dp.dualquat_transform(strided(s), p))
+    row, col = bad_row % n, bad_row % 11
+    (s if col < 8 else p)[row, col % 8] = np.nan
+    flat, guf = dp.dualquat_transform(s, p), dp.dualquat_transform(strided(s), p)
+    np.testing.assert_array_equal(flat, guf)
+    assert np.isnan(flat[row]).all() and np.isfinite(np.delete(flat, row, axis=0)).all()
+
+
+@pytest.mark.parametrize("row", [13, 4 * FLAT_MIN_ELEMENTS + 2])  # in an 8-row block; in the tail
+@pytest.mark.parametrize("norm", [1e-200, 1e200, 0.0])
+def test_transform_flat_flags_extreme_norms_for_the_gufunc(row: int, norm: float) -> None:
+    rng = np.random.default_rng(10)
+    n = 4 * FLAT_MIN_ELEMENTS + 5
+    s, p = random_dualquats(rng, n), rng.normal(size=(n, 3))
+    # 1 rad about z and t = (1, 2, 3), scaled by `norm` (a scaled dual quaternion is the same transform)
+    s[row] = norm * dp.dualquat_from_qt([0.0, 0.0, np.sin(0.5), np.cos(0.5)], [1.0, 2.0, 3.0])
+    if norm == 0.0:
+        s[row, 4:] = 1.0
+        with pytest.raises(ValueError, match=rf"element \({row},\) is zero"):
+            dp.dualquat_transform(s, p)
+        return
+    got = dp.dualquat_transform(s, p)
+    np.testing.assert_array_equal(got, dp.dualquat_transform(strided(s), p))
+    c, si = np.cos(1.0), np.sin(1.0)
+    expect = [c * p[row, 0] - si * p[row, 1] + 1.0, si * p[row, 0] + c * p[row, 1] + 2.0, p[row, 2] + 3.0]
+    np.testing.assert_allclose(got[row], expect, rtol=0, atol=1e-14)
+
+
+def test_transform_out_in_place_and_overlapping(monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = np.random.default_rng(11)
+    n = 3 * FLAT_MIN_ELEMENTS + 7
+    s, p = random_dualquats(rng, n), rng.normal(size=(n, 3))
+    expect = dp.dualquat_transform(strided(s), p)
+    calls = flat_calls(monkeypatch)
+    out = np.empty((n, 3))
+    assert dp.dualquat_transform(s, p, out=out) is out
+    np.testing.assert_array_equal(out, expect)
+    q = p.copy()
+    assert dp.dualquat_transform(s, q, out=q) is q  # in place: each 8-row block is loaded before it is stored
+    np.testing.assert_array_equal(q, expect)
+    assert len(calls) == 2
+    buf = np.zeros((n + 1, 3))  # out shifted by one row over the points: the gufunc, on NumPy's copies
+    buf[:n] = p
+    dp.dualquat_transform(s, buf[:n], out=buf[1:])
+    np.testing.assert_array_equal(buf[1:], expect)
+    fortran = np.asfortranarray(np.empty((n, 3)))
+    dp.dualquat_transform(s, p, out=fortran)
+    np.testing.assert_array_equal(fortran, expect)
+    assert len(calls) == 2
+
+
+def test_transform_broadcasting_and_strided_input_take_the_gufunc(monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = np.random.default_rng(12)
+    n = 2 * FLAT_MIN_ELEMENTS
+    s, p = random_dualquats(rng, n), rng.normal(size=(n, 3))
+    calls = flat_calls(monkeypatch)
+    one = dp.dualquat_transform(s[5], p)  # one transform, many points
+    np.testing.assert_array_equal(one, dp.dualquat_transform(np.tile(s[5], (n, 1)), p))
+    assert len(calls) == 1  # only the tiled call
+    many = dp.dualquat_transform(s[:, None, :], p[None, :3, :])  # (n, 3, 3) by broadcasting
+    np.testing.assert_array_equal(many[:, 1], dp.dualquat_transform(s, np.tile(p[1], (n, 1))))
+    assert len(calls) == 2
+    dp.dualquat_transform(strided(s), p)
+    dp.dualquat_transform(s[: FLAT_MIN_ELEMENTS - 1], p[: FLAT_MIN_ELEMENTS - 1])
+    assert len(calls) == 2

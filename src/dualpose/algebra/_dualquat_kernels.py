@@ -13,7 +13,17 @@ import math
 
 import numba as nb
 
-from dualpose.algebra._kutil import cross, jit, log_norm, norm3, norm4, qmul, rotmat, unit_scale
+from dualpose.algebra._kutil import (
+    cross,
+    jit,
+    log_norm,
+    norm3,
+    norm4,
+    qmul,
+    rotmat,
+    transform_point,
+    unit_scale,
+)
 from dualpose.algebra.series import atan2c, dqalpha, dsinc, sinc
 
 _V = "float64[:]"
@@ -299,20 +309,14 @@ def dualquat_from_rt(m, r, d8, o):  # noqa: ANN001
 
 @gu(f"{_V},{_V},{_V}", "(n),(m)->(m)")
 def dualquat_transform(s, p, o):  # noqa: ANN001
-    # p' = R p + t (Dantam 2014 eq. (95) in the implicit form (106)) with R p = p + s2 r_v x (r_v x p + w p) (45) and
-    # t = s2 (w d_v - d_w r_v + r_v x d_v) (78), fused into p + s2 [r_v x (r_v x p + w p + d_v) + w d_v - d_w r_v];
-    # s2 = 2/|r|**2 normalises a non-unit real part.
+    # p' = R p + t (Dantam 2014 eq. (95) in the implicit form (106)), see _kutil.transform_point; s2 = 2/|r|**2
+    # normalises a non-unit real part (extreme norms rescaled first).  The flat kernel uses the same helper.
     x, y, z, w = s[0], s[1], s[2], s[3]
     dx, dy, dz, dw = s[4], s[5], s[6], s[7]
-    px, py, pz = p[0], p[1], p[2]
     c, s2 = unit_scale(x, y, z, w)
     if c != 1.0:
         x, y, z, w, dx, dy, dz, dw = c * x, c * y, c * z, c * w, c * dx, c * dy, c * dz, c * dw
-    cx, cy, cz = cross(x, y, z, px, py, pz)
-    bx, by, bz = cross(x, y, z, cx + w * px + dx, cy + w * py + dy, cz + w * pz + dz)
-    o[0] = px + s2 * (bx + w * dx - dw * x)
-    o[1] = py + s2 * (by + w * dy - dw * y)
-    o[2] = pz + s2 * (bz + w * dz - dw * z)
+    o[0], o[1], o[2] = transform_point(x, y, z, w, dx, dy, dz, dw, p[0], p[1], p[2], s2)
 
 
 @gu(f"{_V},{_V}", "(n)->(n)")

@@ -6,8 +6,14 @@ from vectorising across elements.  For the common case -- equal leading shapes, 
 Python wrappers pass flat 1-D views to these loops instead.  LLVM vectorises them (AVX2/AVX-512 across elements)
 and they compute bit for bit the same values as the gufuncs (no fast-math, no contraction).
 
-(A flat ``dualquat_transform`` was tried and dropped: its stride-8 loads make LLVM emit AVX-512 gathers, 3-6x
-slower than the gufunc on AMD Zen.)
+``dualquat_transform`` is the exception: a plain stride-8 row loop makes LLVM emit AVX-512 gathers (3-6x slower
+than the gufunc on AMD Zen), so its loop hands blocks of eight rows to an explicit-SIMD intrinsic
+(:mod:`~dualpose.algebra._simd`: whole-row vector loads, in-register transposes) and does only the last ``N mod 8``
+rows in scalar code.  It uses the gufunc's own formula (:func:`~dualpose.algebra._kutil.transform_point`), also
+bit for bit.  What else was tried for it, each measured at N = 1e6 against the fused-loop floor (gufunc: 2.1-2.3x):
+a row loop without gathers (global ``+prefer-no-gather``: LLVM's factor-8 interleaved loads, 2.1-3.1x); a row loop
+the loop vectoriser cannot take (early exit) so that only SLP packs the row body (1.7x, multiply-bound scalar
+code); copying blocks of 16-48 rows into SoA buffers (about 1.55x, but 4x slower at blocks >= 256).
 
 Kernels that need ``2/|q|**2`` only handle ordinary norms in ``[1e-280, 1e280]``: they return a nonzero flag when
 any element is outside that range (or zero), and the wrapper then recomputes with the gufunc, which rescales
@@ -18,7 +24,8 @@ from __future__ import annotations
 
 import numba as nb
 
-from dualpose.algebra._kutil import _HUGE, _TINY, norm3, quat_log_parts, rotate
+from dualpose.algebra._kutil import _HUGE, _TINY, norm3, quat_log_parts, rotate, transform_point
+from dualpose.algebra._simd import LANES, dualquat_transform_block
 from dualpose.algebra.series import atan2c_given
 
 _V = "float64[::1]"
@@ -57,3 +64,23 @@ def quat_log_finish(q, s, phi, o):  # noqa: ANN001, ANN201
         zero |= (si == 0.0) & (w == 0.0)
         o[4 * i], o[4 * i + 1], o[4 * i + 2], o[4 * i + 3] = quat_log_parts(x, y, z, w, atan2c_given(si, w, phi[i]))
     return zero
+
+
+@_flat(f"int64({_V}, {_V}, {_V})")
+def dualquat_transform(s, p, o):  # noqa: ANN001, ANN201
+    """``o[i] = R p[i] + t`` of the dual quaternion ``s[i]`` over flat (N*8,), (N*3,), (N*3,) buffers, eight rows at
+    a time; returns 0 when every |r|² was ordinary.  ``o`` may be ``p``."""
+    n = p.shape[0] // 3
+    m = n - n % LANES
+    bad = 0
+    for i in range(0, m, LANES):
+        bad |= dualquat_transform_block(s, p, o, i)
+    for i in range(m, n):
+        x, y, z, w = s[8 * i], s[8 * i + 1], s[8 * i + 2], s[8 * i + 3]
+        n2 = x * x + y * y + z * z + w * w
+        bad |= (n2 < _TINY) | (n2 > _HUGE)
+        o[3 * i], o[3 * i + 1], o[3 * i + 2] = transform_point(
+            x, y, z, w, s[8 * i + 4], s[8 * i + 5], s[8 * i + 6], s[8 * i + 7], p[3 * i], p[3 * i + 1], p[3 * i + 2],
+            2.0 / n2,
+        )
+    return bad

@@ -74,6 +74,21 @@ def rotate(x, y, z, w, vx, vy, vz, s2):  # noqa: ANN001, ANN201
 
 
 @jit
+def transform_point(x, y, z, w, dx, dy, dz, dw, px, py, pz, s2):  # noqa: ANN001, ANN201
+    """``R p + t`` for the dual quaternion ``[x, y, z, w, dx, dy, dz, dw]``; ``s2 = 2/|r|**2``.
+
+    R p = p + s2 r_v x (r_v x p + w p) (Dantam 2014 eq. (45)) and t = s2 (w d_v - d_w r_v + r_v x d_v) (eq. (78)),
+    fused into p + s2 [r_v x (r_v x p + w p + d_v) + w d_v - d_w r_v].  Only ``+ - *`` on the arguments and no
+    calls: :mod:`~dualpose.algebra._simd` also evaluates this very function (``.py_func``) on LLVM vectors of
+    eight rows, so the vectorised flat kernel rounds exactly as the gufunc does.
+    """
+    cx, cy, cz = y * pz - z * py, z * px - x * pz, x * py - y * px
+    ax, ay, az = cx + w * px + dx, cy + w * py + dy, cz + w * pz + dz
+    bx, by, bz = y * az - z * ay, z * ax - x * az, x * ay - y * ax
+    return (px + s2 * (bx + w * dx - dw * x), py + s2 * (by + w * dy - dw * y), pz + s2 * (bz + w * dz - dw * z))
+
+
+@jit
 def unit_scale(x, y, z, w):  # noqa: ANN001, ANN201
     """(c, s2) with s2 = 2/|c q|**2, for formulas that need 2/|q|**2 (rotation, matrices, transforms).
 

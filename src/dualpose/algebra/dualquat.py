@@ -28,6 +28,7 @@ from dualpose._validation import (
     identity_array,
     lazy_kernels,
     raise_if_zero_norm,
+    try_flat_kernel,
 )
 
 __all__ = [
@@ -56,6 +57,7 @@ __all__ = [
 
 _k = lazy_kernels("dualpose.algebra._dualquat_kernels")
 _qk = lazy_kernels("dualpose.algebra._quat_kernels")
+_fk = lazy_kernels("dualpose.algebra._flat_kernels")
 _D2 = np.empty(2)
 _D3 = np.empty(3)
 _D4 = np.empty(4)
@@ -257,6 +259,9 @@ def dualquat_transform(s: ArrayLike, points: ArrayLike, out: np.ndarray | None =
     """
     s = as_array(s, "s", 8)
     p = as_array(points, "points", 3)
+    res = try_flat_kernel(_fk("dualquat_transform"), (s, p), out, 3)
+    if res is not None:
+        return res
     res = call_kernel(_k("dualquat_transform"), (s, p), ("s", "points"), out)
     _raise_zero(res[..., 0], s, "s")  # a zero real part makes every component NaN; one column is enough
     return res
