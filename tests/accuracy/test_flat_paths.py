@@ -1,15 +1,17 @@
 """The flat row-loop paths (C-contiguous batches of >= 64 elements) against mpmath and against the gufunc path.
 
-``quat_rotate``, ``quat_log`` and ``dualquat_transform`` switch to vectorised loops over flat buffers for
-C-contiguous input without broadcasting (``dualpose.algebra._flat_kernels``; the transform through the explicit
-8-row SIMD blocks of ``dualpose.algebra._simd``); everything else -- broadcasting, strided views, small batches,
-extreme norms, zeros, outputs overlapping an input -- goes through the gufuncs.  Here the same data is pushed
-through both paths (a strided copy forces the gufunc), the flat ``quat_log`` is held to the 4ε bar of the
-accuracy suite on every one of its mpmath cases at once, and the flat transform is checked against an
-extended-precision evaluation of ``R p + t``.
+``quat_rotate``, ``quat_log``, ``dualquat_transform`` and ``dualquat_mul`` switch to vectorised loops over flat
+buffers for C-contiguous input without broadcasting (``dualpose.algebra._flat_kernels``; the transform and the
+product through the explicit 8-row SIMD blocks of ``dualpose.algebra._simd``); everything else -- broadcasting,
+strided views, small batches, extreme norms, zeros, outputs overlapping an input -- goes through the gufuncs.  Here
+the same data is pushed through both paths (a strided copy forces the gufunc), the flat ``quat_log`` is held to
+the 4ε bar of the accuracy suite on every one of its mpmath cases at once, the flat transform is checked against
+an extended-precision evaluation of ``R p + t``, and the flat product against exact rational arithmetic.
 """
 
 from __future__ import annotations
+
+from fractions import Fraction
 
 import accuracy_cases as cases
 import accuracy_reference as ref
@@ -142,17 +144,17 @@ def random_dualquats(rng: np.random.Generator, n: int) -> np.ndarray:
     return np.concatenate([random_quats(rng, n), rng.normal(size=(n, 4)) * 10.0 ** rng.uniform(-6, 6, (n, 1))], -1)
 
 
-def flat_calls(monkeypatch: pytest.MonkeyPatch) -> list[int]:
-    """Count the calls of the flat transform kernel made by ``dp.dualquat_transform`` from now on."""
+def flat_calls(monkeypatch: pytest.MonkeyPatch, func: str = "dualquat_transform") -> list[int]:
+    """Count the calls of the flat kernel ``func`` made by ``dp.<func>`` from now on."""
     calls: list[int] = []
-    kernel = dq_module._fk("dualquat_transform")
+    kernel = dq_module._fk(func)
 
     def spy(*args: np.ndarray) -> int:
         calls.append(1)
         return kernel(*args)
 
     get = dq_module._fk
-    monkeypatch.setattr(dq_module, "_fk", lambda name: spy if name == "dualquat_transform" else get(name))
+    monkeypatch.setattr(dq_module, "_fk", lambda name: spy if name == func else get(name))
     return calls
 
 
@@ -210,27 +212,38 @@ def test_transform_flat_flags_extreme_norms_for_the_gufunc(row: int, norm: float
     np.testing.assert_allclose(got[row], expect, rtol=0, atol=1e-14)
 
 
+def check_out_argument(monkeypatch: pytest.MonkeyPatch, func: str, args: tuple[np.ndarray, ...], width: int) -> None:
+    """``out=`` of ``dp.<func>`` equals the gufunc result: a fresh array and in place over each input of the output's
+    shape on the flat kernel (its 8-row blocks are loaded before they are stored); an ``out`` shifted by one row
+    over such an input and a Fortran-ordered ``out`` on the gufunc."""
+    f = getattr(dp, func)
+    n = args[0].shape[0]
+    expect = f(strided(args[0]), *args[1:])
+    calls = flat_calls(monkeypatch, func)
+    out = np.empty((n, width))
+    assert f(*args, out=out) is out
+    np.testing.assert_array_equal(out, expect)
+    same = [k for k, a in enumerate(args) if a.shape == out.shape]
+    assert same
+    for k in same:
+        mine = [a.copy() if j == k else a for j, a in enumerate(args)]
+        assert f(*mine, out=mine[k]) is mine[k]
+        np.testing.assert_array_equal(mine[k], expect)
+    assert len(calls) == 1 + len(same)
+    buf = np.zeros((n + 1, width))
+    buf[:n] = args[same[0]]
+    f(*[buf[:n] if j == same[0] else a for j, a in enumerate(args)], out=buf[1:])
+    np.testing.assert_array_equal(buf[1:], expect)
+    fortran = np.asfortranarray(np.empty((n, width)))
+    f(*args, out=fortran)
+    np.testing.assert_array_equal(fortran, expect)
+    assert len(calls) == 1 + len(same)
+
+
 def test_transform_out_in_place_and_overlapping(monkeypatch: pytest.MonkeyPatch) -> None:
     rng = np.random.default_rng(11)
     n = 3 * FLAT_MIN_ELEMENTS + 7
-    s, p = random_dualquats(rng, n), rng.normal(size=(n, 3))
-    expect = dp.dualquat_transform(strided(s), p)
-    calls = flat_calls(monkeypatch)
-    out = np.empty((n, 3))
-    assert dp.dualquat_transform(s, p, out=out) is out
-    np.testing.assert_array_equal(out, expect)
-    q = p.copy()
-    assert dp.dualquat_transform(s, q, out=q) is q  # in place: each 8-row block is loaded before it is stored
-    np.testing.assert_array_equal(q, expect)
-    assert len(calls) == 2
-    buf = np.zeros((n + 1, 3))  # out shifted by one row over the points: the gufunc, on NumPy's copies
-    buf[:n] = p
-    dp.dualquat_transform(s, buf[:n], out=buf[1:])
-    np.testing.assert_array_equal(buf[1:], expect)
-    fortran = np.asfortranarray(np.empty((n, 3)))
-    dp.dualquat_transform(s, p, out=fortran)
-    np.testing.assert_array_equal(fortran, expect)
-    assert len(calls) == 2
+    check_out_argument(monkeypatch, "dualquat_transform", (random_dualquats(rng, n), rng.normal(size=(n, 3))), 3)
 
 
 def test_transform_broadcasting_and_strided_input_take_the_gufunc(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -247,3 +260,99 @@ def test_transform_broadcasting_and_strided_input_take_the_gufunc(monkeypatch: p
     dp.dualquat_transform(strided(s), p)
     dp.dualquat_transform(s[: FLAT_MIN_ELEMENTS - 1], p[: FLAT_MIN_ELEMENTS - 1])
     assert len(calls) == 2
+
+
+# --- dualquat_mul: 8-row SIMD blocks (two inputs) plus a scalar tail -----------------------------------------------
+
+
+def exact_dualquat_product(a: np.ndarray, b: np.ndarray) -> tuple[list[Fraction], list[Fraction]]:
+    """``a (x) b`` in exact rational arithmetic from the float64 rows (Dantam 2014 eq. (79), written out
+    independently of the kernels: Hamilton product via scalar and vector parts), and for each component the sum
+    of the absolute values of its products (the scale of the rounding error)."""
+
+    def qmul_terms(p: list[Fraction], q: list[Fraction]) -> list[list[Fraction]]:
+        (px, py, pz, pw), (qx, qy, qz, qw) = p, q
+        # [pw q_v + qw p_v + p_v x q_v, pw qw - p_v . q_v], each component as its four products
+        return [
+            [pw * qx, qw * px, py * qz, -pz * qy],
+            [pw * qy, qw * py, pz * qx, -px * qz],
+            [pw * qz, qw * pz, px * qy, -py * qx],
+            [pw * qw, -px * qx, -py * qy, -pz * qz],
+        ]
+
+    fa, fb = [Fraction(x) for x in a], [Fraction(x) for x in b]
+    terms = qmul_terms(fa[:4], fb[:4]) + [
+        e + f for e, f in zip(qmul_terms(fa[:4], fb[4:]), qmul_terms(fa[4:], fb[:4]), strict=True)
+    ]
+    return [sum(t, Fraction(0)) for t in terms], [sum((abs(x) for x in t), Fraction(0)) for t in terms]
+
+
+def test_dualquat_mul_flat_matches_exact_arithmetic(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every component of 203 products (25 blocks of 8 and a tail of 3, magnitudes over 24 decades) within the
+    a priori bound of a float64 sum of products, |error| <= γ_k Σ|products| (Higham 2002, eq. (3.4)), k = 4
+    roundings on the way of each real-part product and 5 for the dual part (two 4-term sums, then their sum)."""
+    rng = np.random.default_rng(13)
+    n = 203
+    a, b = random_dualquats(rng, n), random_dualquats(rng, n)
+    calls = flat_calls(monkeypatch, "dualquat_mul")
+    got = dp.dualquat_mul(a, b)
+    assert len(calls) == 1
+    u = Fraction(1, 2**53)
+    gamma = [k * u / (1 - k * u) for k in (4, 4, 4, 4, 5, 5, 5, 5)]
+    worst = 0.0
+    for r in range(n):
+        truth, scale = exact_dualquat_product(a[r], b[r])
+        for c in range(8):
+            err = abs(Fraction(got[r, c]) - truth[c])
+            assert err <= gamma[c] * scale[c], f"row {r} component {c}"
+            worst = max(worst, float(err / scale[c] / u)) if scale[c] else worst
+    assert worst > 0.0  # the products do round: the bound is exercised, not met trivially
+
+
+@settings(max_examples=20, deadline=None)
+@given(n=st.integers(FLAT_MIN_ELEMENTS, 4 * FLAT_MIN_ELEMENTS), seed=st.integers(0, 2**32 - 1),
+       bad=st.integers(0, 10**6))
+def test_dualquat_mul_flat_bit_for_bit_and_nan_rows_stay_local(n: int, seed: int, bad: int) -> None:
+    """Any batch size (blocks of 8 plus a 0..7-row tail): equal to the gufunc bit for bit; a NaN anywhere in one
+    row of ``a`` or ``b`` (block or tail) makes exactly that output row NaN -- every component of the product
+    reads all 8 of one input and ``r``, or for the real part 4 and 4 -- on both paths."""
+    rng = np.random.default_rng(seed)
+    a, b = random_dualquats(rng, n), random_dualquats(rng, n)
+    np.testing.assert_array_equal(dp.dualquat_mul(a, b), dp.dualquat_mul(strided(a), b))
+    row, col = bad % n, bad % 16
+    (a if col < 8 else b)[row, col % 8] = np.nan
+    flat, guf = dp.dualquat_mul(a, b), dp.dualquat_mul(a, strided(b))
+    np.testing.assert_array_equal(flat, guf)
+    reads_nan = np.ones(8, bool) if col % 8 < 4 else np.arange(8) >= 4  # a NaN dual part only reaches the dual part
+    assert np.isnan(flat[row]).tolist() == reads_nan.tolist()
+    assert np.isfinite(np.delete(flat, row, axis=0)).all()
+
+
+def test_dualquat_mul_out_in_place_and_overlapping(monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = np.random.default_rng(14)
+    n = 3 * FLAT_MIN_ELEMENTS + 7
+    a, b = random_dualquats(rng, n), random_dualquats(rng, n)
+    check_out_argument(monkeypatch, "dualquat_mul", (a, b), 8)  # in place over a, then over b
+    sq = a.copy()
+    dp.dualquat_mul(sq, sq, out=sq)  # both inputs and the output one array
+    np.testing.assert_array_equal(sq, dp.dualquat_mul(strided(a), a))
+
+
+def test_dualquat_mul_broadcasting_strided_and_small_batches_take_the_gufunc(monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = np.random.default_rng(15)
+    n = 2 * FLAT_MIN_ELEMENTS
+    a, b = random_dualquats(rng, n), random_dualquats(rng, n)
+    calls = flat_calls(monkeypatch, "dualquat_mul")
+    one = dp.dualquat_mul(a[5], b)  # one transform composed with many
+    np.testing.assert_array_equal(one, dp.dualquat_mul(np.tile(a[5], (n, 1)), b))
+    assert len(calls) == 1  # only the tiled call
+    table = dp.dualquat_mul(a[:, None, :], b[None, :3, :])  # (n, 3, 8) by broadcasting
+    np.testing.assert_array_equal(table[:, 2], dp.dualquat_mul(a, np.tile(b[2], (n, 1))))
+    assert len(calls) == 2
+    dp.dualquat_mul(a, strided(b))
+    small = dp.dualquat_mul(a[: FLAT_MIN_ELEMENTS - 1], b[: FLAT_MIN_ELEMENTS - 1])
+    np.testing.assert_array_equal(small, dp.dualquat_mul(a, b)[: FLAT_MIN_ELEMENTS - 1])
+    assert len(calls) == 3
+    grid = dp.dualquat_mul(a.reshape(8, n // 8, 8), b.reshape(8, n // 8, 8))  # any leading shape, flat when equal
+    np.testing.assert_array_equal(grid.reshape(n, 8), dp.dualquat_mul(strided(a), b))
+    assert len(calls) == 4

@@ -15,6 +15,7 @@ import numba as nb
 
 from dualpose.algebra._kutil import (
     cross,
+    dq_mul,
     jit,
     log_norm,
     norm3,
@@ -39,15 +40,6 @@ def gu(types: str, layout: str):  # noqa: ANN201
 # ---------------------------------------------------------------------------------------------------------------
 # inline helpers (8 scalars in, 8 scalars out)
 # ---------------------------------------------------------------------------------------------------------------
-
-
-@jit
-def dq_mul(ax, ay, az, aw, bx, by, bz, bw, cx, cy, cz, cw, dx, dy, dz, dw):  # noqa: ANN001, ANN201
-    """(a + ε b)(c + ε d) = a c + ε (a d + b c): Dantam 2014 eq. (79)."""
-    rx, ry, rz, rw = qmul(ax, ay, az, aw, cx, cy, cz, cw)
-    ex, ey, ez, ew = qmul(ax, ay, az, aw, dx, dy, dz, dw)
-    fx, fy, fz, fw = qmul(bx, by, bz, bw, cx, cy, cz, cw)
-    return rx, ry, rz, rw, ex + fx, ey + fy, ez + fz, ew + fw
 
 
 @jit
@@ -199,13 +191,10 @@ def dq_exp_twist(wx, wy, wz, vx, vy, vz):  # noqa: ANN001, ANN201
 
 @gu(f"{_V},{_V},{_V}", "(n),(n)->(n)")
 def dualquat_mul(a, b, o):  # noqa: ANN001
-    # Dantam 2014 eq. (79)
-    ax, ay, az, aw = a[0], a[1], a[2], a[3]
-    bx, by, bz, bw = b[0], b[1], b[2], b[3]
-    o[0], o[1], o[2], o[3] = qmul(ax, ay, az, aw, bx, by, bz, bw)
-    ex, ey, ez, ew = qmul(ax, ay, az, aw, b[4], b[5], b[6], b[7])
-    fx, fy, fz, fw = qmul(a[4], a[5], a[6], a[7], bx, by, bz, bw)
-    o[4], o[5], o[6], o[7] = ex + fx, ey + fy, ez + fz, ew + fw
+    # Dantam 2014 eq. (79); the flat kernel (C-contiguous batches) uses the same helper
+    o[0], o[1], o[2], o[3], o[4], o[5], o[6], o[7] = dq_mul(
+        a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]
+    )
 
 
 @gu(f"{_V},{_V}", "(n)->(n)")

@@ -58,6 +58,20 @@ def qmul(ax, ay, az, aw, bx, by, bz, bw):  # noqa: ANN001, ANN201
 
 
 @jit
+def dq_mul(ax, ay, az, aw, bx, by, bz, bw, cx, cy, cz, cw, dx, dy, dz, dw):  # noqa: ANN001, ANN201
+    """(a + ε b)(c + ε d) = a c + ε (a d + b c): Dantam 2014 eq. (79), dual quaternions as 2 x 4 xyzw scalars.
+
+    The one formula of the product: the gufunc, the flat kernel's tail and its SIMD blocks (which evaluate it on
+    eight rows at once, :func:`~dualpose.algebra._simd.lane_formula`) all call it, so they agree bit for bit.
+    Only ``+ - *`` and :func:`qmul` (the same), for that reason.
+    """
+    rx, ry, rz, rw = qmul(ax, ay, az, aw, cx, cy, cz, cw)
+    ex, ey, ez, ew = qmul(ax, ay, az, aw, dx, dy, dz, dw)
+    fx, fy, fz, fw = qmul(bx, by, bz, bw, cx, cy, cz, cw)
+    return rx, ry, rz, rw, ex + fx, ey + fy, ez + fz, ew + fw
+
+
+@jit
 def cross(ax, ay, az, bx, by, bz):  # noqa: ANN001, ANN201
     return (ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx)
 
@@ -78,9 +92,9 @@ def transform_point(x, y, z, w, dx, dy, dz, dw, px, py, pz, s2):  # noqa: ANN001
     """``R p + t`` for the dual quaternion ``[x, y, z, w, dx, dy, dz, dw]``; ``s2 = 2/|r|**2``.
 
     R p = p + s2 r_v x (r_v x p + w p) (Dantam 2014 eq. (45)) and t = s2 (w d_v - d_w r_v + r_v x d_v) (eq. (78)),
-    fused into p + s2 [r_v x (r_v x p + w p + d_v) + w d_v - d_w r_v].  Only ``+ - *`` on the arguments and no
-    calls: :mod:`~dualpose.algebra._simd` also evaluates this very function (``.py_func``) on LLVM vectors of
-    eight rows, so the vectorised flat kernel rounds exactly as the gufunc does.
+    fused into p + s2 [r_v x (r_v x p + w p + d_v) + w d_v - d_w r_v].  Only ``+ - *`` on the arguments:
+    :mod:`~dualpose.algebra._simd` also evaluates this very function (its Python code) on LLVM vectors of eight
+    rows, so the vectorised flat kernel rounds exactly as the gufunc does.
     """
     cx, cy, cz = y * pz - z * py, z * px - x * pz, x * py - y * px
     ax, ay, az = cx + w * px + dx, cy + w * py + dy, cz + w * pz + dz

@@ -95,6 +95,9 @@ def dualquat_mul(a: ArrayLike, b: ArrayLike, out: np.ndarray | None = None) -> n
     """
     a = as_array(a, "a", 8)
     b = as_array(b, "b", 8)
+    res = try_flat_kernel(_fk("dualquat_mul"), (a, b), out, 8)
+    if res is not None:
+        return res
     return call_kernel(_k("dualquat_mul"), (a, b), ("a", "b"), out)
 
 
