@@ -23,16 +23,7 @@ def emit(text: str, markdown: str | None) -> int:
 
 def best_of(fn: Callable[[], object], k: int = 7) -> float:
     """Smallest wall time (s) of ``k`` calls of ``fn``, garbage collection paused."""
-    gc.disable()
-    try:
-        times = []
-        for _ in range(k):
-            t0 = time.perf_counter()
-            fn()
-            times.append(time.perf_counter() - t0)
-        return min(times)
-    finally:
-        gc.enable()
+    return best_of_interleaved({"fn": fn}, k)["fn"]
 
 
 def best_of_interleaved(fns: dict[str, Callable[[], object]], k: int = 9) -> dict[str, float]:

@@ -51,35 +51,44 @@ def _fail(msg: str) -> int:
     return 2
 
 
+def _read_pair(path_a: str, path_b: str, what: str, noun: str) -> tuple:
+    """Two files of corresponding 3-vectors; ValueError when their lengths differ."""
+    from dualpose.io.csv_points import read_columns
+
+    a = read_columns(path_a, 3, f"{what} (x, y, z)")
+    b = read_columns(path_b, 3, f"{what} (x, y, z)")
+    if len(a) != len(b):
+        raise ValueError(f"{path_a} has {len(a)} {noun} but {path_b} has {len(b)}")
+    return a, b
+
+
+def _read_weights(path: str, n: int, noun: str) -> object:
+    """One weight per line for ``n`` correspondences; ValueError otherwise."""
+    from dualpose.io.csv_points import read_columns
+
+    w = read_columns(path, 1, "weights")
+    if len(w) != n:
+        raise ValueError(f"{path} has {len(w)} weight(s) for {n} {noun}")
+    return w
+
+
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``dualpose register``."""
     import numpy as np
 
-    from dualpose.io.csv_points import CsvFormatError, read_columns
+    from dualpose.io.csv_points import CsvFormatError
     from dualpose.registration import register_pose, register_pose_ransac
 
     try:
-        model = read_columns(args.model, 3, "points (x, y, z)")
-        measured = read_columns(args.measured, 3, "points (x, y, z)")
-        if len(model) != len(measured):
-            return _fail(f"{args.model} has {len(model)} point(s) but {args.measured} has {len(measured)}")
+        model, measured = _read_pair(args.model, args.measured, "points", "point(s)")
         kw: dict = {"method": args.method}
         if args.weights:
-            w = read_columns(args.weights, 1, "weights")
-            if len(w) != len(model):
-                return _fail(f"{args.weights} has {len(w)} weight(s) for {len(model)} point(s)")
-            kw["point_weights"] = w
+            kw["point_weights"] = _read_weights(args.weights, len(model), "point(s)")
         if args.directions:
-            d0 = read_columns(args.directions[0], 3, "directions (x, y, z)")
-            d1 = read_columns(args.directions[1], 3, "directions (x, y, z)")
-            if len(d0) != len(d1):
-                return _fail(f"{args.directions[0]} has {len(d0)} direction(s) but {args.directions[1]} has {len(d1)}")
+            d0, d1 = _read_pair(*args.directions, "directions", "direction(s)")
             kw.update(model_directions=d0, measured_directions=d1)
             if args.direction_weights:
-                a = read_columns(args.direction_weights, 1, "weights")
-                if len(a) != len(d0):
-                    return _fail(f"{args.direction_weights} has {len(a)} weight(s) for {len(d0)} direction(s)")
-                kw["direction_weights"] = a
+                kw["direction_weights"] = _read_weights(args.direction_weights, len(d0), "direction(s)")
         elif args.direction_weights:
             return _fail("--direction-weights needs --directions")
         inliers = None

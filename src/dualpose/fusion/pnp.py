@@ -73,16 +73,22 @@ def pnp_dlt(pixels: np.ndarray, points: np.ndarray, K: np.ndarray) -> tuple[np.n
     return candidates[int(np.nanargmin(costs))]
 
 
+def _dlt_design(xn: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """DLT design matrix (2m, 3k) of ``x ~ M X`` for normalised image points ``xn`` (m, 2) and homogeneous ``X``
+    (m, k): rows ``[Xᵀ, 0, −u Xᵀ]`` and ``[0, Xᵀ, −v Xᵀ]`` (k = 4: the 3x4 projection, k = 3: a homography)."""
+    m, k = X.shape
+    A = np.zeros((2 * m, 3 * k))
+    A[0::2, 0:k] = X
+    A[0::2, 2 * k :] = -xn[:, :1] * X
+    A[1::2, k : 2 * k] = X
+    A[1::2, 2 * k :] = -xn[:, 1:2] * X
+    return A
+
+
 def _general_dlt(xn: np.ndarray, points: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     s = np.sqrt(3.0) / np.mean(np.linalg.norm(points - mu, axis=1))
     Xh = np.column_stack([(points - mu) * s, np.ones(len(points))])
-    m = len(points)
-    A = np.zeros((2 * m, 12))
-    A[0::2, 0:4] = Xh
-    A[0::2, 8:12] = -xn[:, :1] * Xh
-    A[1::2, 4:8] = Xh
-    A[1::2, 8:12] = -xn[:, 1:2] * Xh
-    _, _, vt = np.linalg.svd(A, full_matrices=False)
+    _, _, vt = np.linalg.svd(_dlt_design(xn, Xh), full_matrices=False)
     Pm = vt[-1].reshape(3, 4)
     if np.mean(Xh @ Pm[2]) < 0:  # P is defined up to sign: put the points in front of the camera
         Pm = -Pm
@@ -103,13 +109,7 @@ def _planar_dlt(xn: np.ndarray, points: np.ndarray, mu: np.ndarray, vt: np.ndarr
     uv = (points - mu) @ B[:, :2]
     sc = np.sqrt(2.0) / np.mean(np.linalg.norm(uv, axis=1))
     U = np.column_stack([uv * sc, np.ones(len(uv))])
-    m = len(uv)
-    A = np.zeros((2 * m, 9))
-    A[0::2, 0:3] = U
-    A[0::2, 6:9] = -xn[:, :1] * U
-    A[1::2, 3:6] = U
-    A[1::2, 6:9] = -xn[:, 1:2] * U
-    Hm = np.linalg.svd(A, full_matrices=False)[2][-1].reshape(3, 3) @ np.diag([sc, sc, 1.0])
+    Hm = np.linalg.svd(_dlt_design(xn, U), full_matrices=False)[2][-1].reshape(3, 3) @ np.diag([sc, sc, 1.0])
     lam = 2.0 / (np.linalg.norm(Hm[:, 0]) + np.linalg.norm(Hm[:, 1]))
     if Hm[2, 2] * lam < 0:  # the plane origin must be in front of the camera
         lam = -lam

@@ -551,7 +551,7 @@ def solve_batch(p0, p1, beta, n0, n1, alpha, method, want_scale, out):  # noqa: 
                 bound = 0.5 * const * (1.0 + 1e-12)
             c3, c2, c1, c0, lam, scale = _char_poly(a00, a01, a02, a03, a11, a12, a13, a22, a23, a33, bound)
             eig[_C3, j], eig[_C2, j], eig[_C1, j], eig[_C0, j] = c3, c2, c1, c0
-            eig[_L1, j], eig[_L2, j], eig[_SCALE, j] = lam, lam, scale
+            eig[_L1, j], eig[_SCALE, j] = lam, scale  # _largest_roots sets _L2
             blk[j, _A + 0], blk[j, _A + 1], blk[j, _A + 2], blk[j, _A + 3], blk[j, _A + 4] = a00, a01, a02, a03, a11
             blk[j, _A + 5], blk[j, _A + 6], blk[j, _A + 7], blk[j, _A + 8], blk[j, _A + 9] = a12, a13, a22, a23, a33
             blk[j, _S + 0], blk[j, _S + 1], blk[j, _S + 2] = s00, s01, s02
