@@ -13,7 +13,7 @@ $(PY):
 $(STAMP): $(PY) pyproject.toml
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e '.[test]'
-	$(PY) -m dualpose.algebra.warmup
+	$(PY) -m dualpose.warmup
 	touch $(STAMP)
 
 $(BSTAMP): $(STAMP)
@@ -26,7 +26,7 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(VENV)/bin/ruff check src tests benchmarks
-	$(PY) -m dualpose.algebra.warmup  # rebuild kernels once, before parallel workers load them
+	$(PY) -m dualpose.warmup  # rebuild kernels once, before parallel workers load them
 	$(PY) -m pytest -q -n 2 -p no:cacheprovider
 
 bench: $(BSTAMP)

@@ -3,21 +3,21 @@
 Run ``.venv/bin/python benchmarks/bench_broad.py [--markdown docs/broad.md]`` (needs the ``bench`` extra for
 ``vqf``; ``make bench`` installs it).  Everything runs in one process on the trials in ``../shared/data/broad``.
 
-* dualpose 9D / 6D: :func:`dualpose.fusion.ahrs.estimate_orientation` with its defaults (no per-trial setting), the
+* dualpose 9D / 6D: :func:`dualpose.estimation.ahrs.estimate_orientation` with its defaults (no per-trial setting), the
   rest period before the first movement sample used for initialisation and noise estimation; 9D includes the
   default magnetometer–gyroscope time-offset estimation from the IMU data; "9D, τ = 0" switches it off (the
   previous behaviour); "9D + mag calibration" adds the optional magnetometer self-calibration
-  (``mag_calibration="auto"``, :mod:`dualpose.fusion.ahrs_mag_calibration`: applied only when reference-free
+  (``mag_calibration="auto"``, :mod:`dualpose.calibration.magnetometer`: applied only when reference-free
   criteria hold; off by default).
 * Magnetometer self-calibration: the decision per trial, its reason and numbers, and the estimation µs/sample.
-* Time offsets: :func:`dualpose.fusion.ahrs_time_offset.estimate_sensor_time_offset` per trial on the magnetometer
+* Time offsets: :func:`dualpose.calibration.sensor_time_offset.estimate_sensor_time_offset` per trial on the magnetometer
   (as used by the 9D filter) and, as a check, on the accelerometer (samples with ``|a|`` within 5 % of its median;
   the static-field model only holds without linear acceleration).
 * VQF 9D / 6D: ``vqf.VQF(Ts).updateBatch(gyr, acc, mag)`` with its default parameters (Laidig & Seel 2023), both
   outputs of one run.
 * Madgwick: BROAD's published total RMSE at β = 0.12 (Laidig et al. 2021, ``results_madgwick``), not re-run.
 
-Scoring: BROAD's metric (:mod:`dualpose.fusion.orientation_errors`), movement samples, NaN reference samples skipped;
+Scoring: BROAD's metric (:mod:`dualpose.evaluation.orientation_errors`), movement samples, NaN reference samples skipped;
 9D as is (the optical frame is magnetic ENU), 6D after removing the one constant heading offset that minimises the
 total RMSE (same rule for both filters).  µs/sample: wall time of one batch call over the whole trial divided by its
 samples (dualpose: the compiled kernel after compilation; VQF: its C++ ``updateBatch``), best of 3.
@@ -33,10 +33,10 @@ from pathlib import Path
 
 import numpy as np
 
-from dualpose.fusion.ahrs import estimate_orientation
-from dualpose.fusion.ahrs_mag_calibration import estimate_mag_calibration
-from dualpose.fusion.ahrs_time_offset import estimate_sensor_time_offset
-from dualpose.fusion.orientation_errors import orientation_rmse
+from dualpose.calibration.magnetometer import estimate_mag_calibration
+from dualpose.calibration.sensor_time_offset import estimate_sensor_time_offset
+from dualpose.estimation.ahrs import estimate_orientation
+from dualpose.evaluation.orientation_errors import orientation_rmse
 from dualpose.io import load_broad
 
 DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "broad"

@@ -27,7 +27,8 @@ import timeit
 import numpy as np
 
 from _common import emit
-from dualpose.fusion import eskf, hol22, sim
+from dualpose import sim
+from dualpose.estimation import eskf, hol22
 
 
 def best_us(fn, number: int) -> float:  # noqa: ANN001
@@ -51,11 +52,11 @@ def main() -> int:
     # --- whole run
     walls = []
     for _ in range(15):
-        walls.append(new_filter().run_simulation(run).wall_time)
+        walls.append(new_filter().run_recording(run).wall_time)
     wall = min(walls)
     n_imu, n_frames = len(run.t), len(run.frames)
     rows.append(("ESKF whole eight run (batch `run`, numba)", wall * 1e6, f"{duration / wall:.0f}x real time"))
-    hwall = min(hol22.Hol22EKF.from_eskf_state(new_filter().x, new_filter().P, run).run_simulation(run).wall_time
+    hwall = min(hol22.Hol22EKF.from_eskf_state(new_filter().x, new_filter().P, run).run_recording(run).wall_time
                 for _ in range(15))  # fmt: skip
     rows.append(("Hol22 whole eight run (batch `run`, numba)", hwall * 1e6, f"{duration / hwall:.0f}x real time"))
     # online API over the run
@@ -80,7 +81,7 @@ def main() -> int:
     )
 
     # --- per call
-    from dualpose.fusion import _eskf_kernels as K
+    from dualpose.estimation import _eskf_kernels as K
 
     g, a = run.gyro[300].copy(), run.accel[300].copy()
     f = new_filter()
@@ -91,7 +92,7 @@ def main() -> int:
     pix, pts = run.frames.frame(40)
     pix = np.ascontiguousarray(pix)
     pts = np.ascontiguousarray(pts)
-    kin = run.trajectory.kinematics(run.frames.t_true[40:41])
+    kin = run.motion.kinematics(run.frames.t_true[40:41])
     fu = new_filter()
     fu.x[0:3], fu.x[3:6], fu.x[6:10] = kin["position"][0], kin["velocity"][0], kin["quat"][0]
     nis1, acc1 = np.empty(1), np.zeros(1, np.int64)

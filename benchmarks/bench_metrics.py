@@ -1,4 +1,4 @@
-"""dualpose.fusion.metrics against evo (the reference implementation of ATE/RPE): agreement and speed.
+"""dualpose.evaluation.metrics against evo (the reference implementation of ATE/RPE): agreement and speed.
 
 Run ``.venv/bin/python benchmarks/bench_metrics.py [--markdown PATH]`` (evo is in the ``test`` extra).
 
@@ -26,7 +26,7 @@ from evo.core import sync
 from evo.tools import file_interface as fi
 
 from _common import best_of
-from dualpose.fusion.metrics import evaluate
+from dualpose.evaluation.metrics import evaluate
 from dualpose.io import read_trajectory
 
 DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "tum"

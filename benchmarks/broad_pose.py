@@ -2,9 +2,9 @@
 
 Run ``.venv/bin/python benchmarks/broad_pose.py [--data ../shared/data/broad] [--markdown docs/broad-pose.md]``.
 
-For every trial: :func:`dualpose.fusion.broad_pose.run_broad_pose` with continuous vision and with 2 s vision
+For every trial: :func:`dualpose.pipelines.broad_pose.run_broad_pose` with continuous vision and with 2 s vision
 dropouts every 10 s of the movement phase; then the sweep of the noise inflation (and the run without the
-IMU/reference time offset) that documents the choice of :data:`~dualpose.fusion.broad_pose.NOISE_INFLATION`.
+IMU/reference time offset) that documents the choice of :data:`~dualpose.pipelines.broad_pose.NOISE_INFLATION`.
 Prints a markdown document (the table of ``docs/broad-pose.md``) and writes it with ``--markdown PATH``.
 """
 
@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from dualpose.fusion import broad_pose as bp
 from dualpose.io import load_broad
+from dualpose.pipelines import broad_pose as bp
 
 DEFAULT_DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "broad"
 DROPOUT = (2.0, 10.0)
@@ -97,14 +97,14 @@ def render(main_rows: list[str], drop_rows: list[str], sweep_rows: list[str], tr
         "",
         "Data: BROAD — Laidig, Caruso, Cereatti, Seel, *BROAD — A Benchmark for Robust Inertial Orientation "
         "Estimation*, Data 2021, 6(7), 72 (CC BY 4.0); the seven trials in `../shared/data/broad/`.  The real IMU "
-        f"({rate} Hz) drives the error-state filter (`dualpose.fusion.eskf.ErrorStateEKF`); the camera is virtual: "
+        f"({rate} Hz) drives the error-state filter (`dualpose.estimation.eskf.ErrorStateEKF`); the camera is virtual: "
         f"{bp.N_LANDMARKS} landmarks in a spherical shell of radii {bp.SHELL_RADII[0]:g}–{bp.SHELL_RADII[1]:g} m "
         "around the trial's mean position are projected through the optical reference pose (`opt_quat`, `opt_pos`, "
         f"interpolated) at {bp.CAMERA_RATE:g} Hz with {bp.PIXEL_SIGMA:g} px noise into the simulator's 320 × 240 "
         f"camera (f = 213.3 px, default extrinsic), {bp.PER_FRAME} correspondences per frame; no frame while the "
         "reference is NaN.",
         "",
-        "Library: `dualpose.fusion.broad_pose.run_broad_pose(trial, dropout=None | (length_s, period_s))`; CLI: "
+        "Library: `dualpose.pipelines.broad_pose.run_broad_pose(trial, dropout=None | (length_s, period_s))`; CLI: "
         "`dualpose fuse --data ../shared/data/broad/01_undisturbed_slow_rotation_A.mat` (the job's summary; its "
         "orientation RMSE is after the SE(3) alignment, see below).",
         "",

@@ -28,12 +28,15 @@ import time
 import numpy as np
 
 import dualpose as dp
-from dualpose.fusion import calibration as cal
-from dualpose.fusion import eskf, initialization, sim
-from dualpose.fusion.calibration.scenarios import calibrate_run_time_offset, random_extrinsic, simulate_static_poses
+from dualpose import calibration as cal
+from dualpose import sim
+from dualpose.estimation import eskf, initialization
+from dualpose.pipelines.calibrate import calibrate_run_time_offset
+from dualpose.sim.calibration_scenarios import random_extrinsic, simulate_static_poses
+from dualpose.types import ImuNoise
 
 MOVING = (1.0, 6.4)
-BIAS_FREE = sim.ImuNoise(accelerometer_initial_bias_sigma=0.0, accelerometer_random_walk=0.0)
+BIAS_FREE = ImuNoise(accelerometer_initial_bias_sigma=0.0, accelerometer_random_walk=0.0)
 
 
 def extrinsic_rows(runs: int) -> list[str]:
@@ -41,7 +44,7 @@ def extrinsic_rows(runs: int) -> list[str]:
     cases = [
         ("default", sim.default_extrinsic(), BIAS_FREE, False),
         ("random (seed 5)", random_extrinsic(5), BIAS_FREE, False),
-        ("default, accel bias 0.05 m/s²", sim.default_extrinsic(), sim.ImuNoise(), True),
+        ("default, accel bias 0.05 m/s²", sim.default_extrinsic(), ImuNoise(), True),
     ]
     for name, ext, noise, with_bias in cases:
         t0 = time.perf_counter()
@@ -71,7 +74,7 @@ def _eskf_position_rmse(run: sim.SimulatedRun, gravity: np.ndarray) -> float:
     x, P = initialization.initial_state_from_run(run)
     f = eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P, gyro_bias=x[10:13], accel_bias=x[13:16],
                                    gravity=gravity)  # fmt: skip
-    res = f.run_simulation(run)
+    res = f.run_recording(run)
     m = (run.t >= MOVING[0]) & (run.t <= MOVING[1])
     return float(np.sqrt(np.mean(np.sum((res.position - run.truth["position"])[m] ** 2, axis=1))))
 
@@ -79,7 +82,7 @@ def _eskf_position_rmse(run: sim.SimulatedRun, gravity: np.ndarray) -> float:
 def gravity_rows(runs: int) -> list[str]:
     rows = []
     for mis in (1.0, 5.0):
-        for label, noise in (("calibrated (bias-free)", BIAS_FREE), ("turn-on bias σ 0.05 m/s²", sim.ImuNoise())):
+        for label, noise in (("calibrated (bias-free)", BIAS_FREE), ("turn-on bias σ 0.05 m/s²", ImuNoise())):
             errs, sig, tilt, rm_nom, rm_est = [], [], [], [], []
             bias_cov = np.eye(3) * noise.accelerometer_initial_bias_sigma**2
             for seed in range(runs):
@@ -140,9 +143,9 @@ def time_offset_rows(runs_per_offset: int) -> list[str]:
 
 
 def chain_rows(seeds: int) -> list[str]:
-    from dualpose.cli.calibrate import run_calibrate
+    from dualpose.pipelines.calibrate import calibrate_simulated_session
 
-    ms = [run_calibrate(seed=s, gravity_misalignment_deg=5.0, time_offset_ms=-20.0) for s in range(seeds)]
+    ms = [calibrate_simulated_session(seed=s, gravity_misalignment_deg=5.0, time_offset_ms=-20.0) for s in range(seeds)]
 
     def rms(key: str) -> float:
         return math.sqrt(np.mean([m[key] ** 2 for m in ms]))

@@ -23,7 +23,9 @@ import numpy as np
 
 import dualpose as dp
 from _common import emit
-from dualpose.fusion import consistency, eskf, hol22, initialization, pnp, sim
+from dualpose import sim
+from dualpose.estimation import consistency, eskf, hol22, initialization
+from dualpose.registration import pnp
 
 MOVING = (1.0, 6.4)
 
@@ -39,7 +41,7 @@ def eskf_errors(run: sim.SimulatedRun, frames: bool = True):  # noqa: ANN201
     x, P0 = initialization.initial_state_from_run(run)
     f = eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P0, gyro_bias=x[10:13])
     if frames:
-        res = f.run_simulation(run)
+        res = f.run_recording(run)
     else:
         res = f.run(run.t, run.gyro, run.accel, np.zeros(0), np.zeros(1, np.int64), np.zeros((0, 2)), np.zeros((0, 3)))
     return errors(run.t, res.position, res.quat, run.truth["position"], run.truth["quat"]), res
@@ -47,7 +49,7 @@ def eskf_errors(run: sim.SimulatedRun, frames: bool = True):  # noqa: ANN201
 
 def hol_errors(run: sim.SimulatedRun):  # noqa: ANN201
     x, P0 = initialization.initial_state_from_run(run)
-    res = hol22.Hol22EKF.from_eskf_state(x, P0, run).run_simulation(run)
+    res = hol22.Hol22EKF.from_eskf_state(x, P0, run).run_recording(run)
     return errors(run.t, res.position, res.quat, run.truth["position"], run.truth["quat"])
 
 
@@ -61,16 +63,16 @@ def pnp_errors(run: sim.SimulatedRun):  # noqa: ANN201
         )
         P.append(p_wb)
         Q.append(q_wb)
-    kin = run.trajectory.kinematics(f.t_true)
+    kin = run.motion.kinematics(f.t_true)
     return errors(f.t_true, np.array(P), np.array(Q), kin["position"], kin["quat"])
 
 
 def nees_mc(n_runs: int = 25) -> tuple[float, float, float, float]:
-    traj = sim.eight_trajectory()
+    traj = sim.eight_motion()
     total = 0.0
     for s in range(n_runs):
         run = sim.simulate(traj, seed=5000 + s)
-        res = consistency.filter_from_prior(run, np.random.default_rng([s, 7])).run_simulation(run)
+        res = consistency.filter_from_prior(run, np.random.default_rng([s, 7])).run_recording(run)
         total = total + consistency.nees_against_truth(run.truth, res)
     avg = total / n_runs
     lo, hi = consistency.nees_band(15, n_runs)

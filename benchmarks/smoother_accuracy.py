@@ -2,7 +2,7 @@
 
 Run ``.venv/bin/python benchmarks/smoother_accuracy.py [--seeds 10] [--nees-runs 25] [--markdown PATH]``.
 
-For each seed this is ``dualpose fuse --smooth --seed S`` (:func:`dualpose.fusion.job.run_fuse`): the ESKF starts
+For each seed this is ``dualpose fuse --smooth --seed S`` (:func:`dualpose.pipelines.fuse.run_fuse`): the ESKF starts
 without truth (static alignment + first-frame PnP), the smoother runs over its recorded nodes; metrics over the
 whole 6.9 s run: ATE after SE(3) alignment, orientation RMSE after that alignment, and position / orientation RMSE
 in the simulator's frame without alignment.  NEES: Monte-Carlo runs started from the prior around the truth, the
@@ -19,8 +19,9 @@ import numpy as np
 
 import dualpose as dp
 from _common import emit
-from dualpose.fusion import consistency, eskf, initialization, sim, smoother
-from dualpose.fusion.job import run_fuse
+from dualpose import sim
+from dualpose.estimation import consistency, eskf, initialization, smoother
+from dualpose.pipelines.fuse import run_fuse
 
 ROWS = (
     ("ATE RMSE, SE(3) [mm]", "ate_rmse_m", 1e3),
@@ -33,11 +34,11 @@ ROWS = (
 
 def nees_mc(n_runs: int) -> tuple[float, float, float, float]:
     """Time-averaged Monte-Carlo NEES of filter and smoother and the band (seeds as benchmarks/fusion_accuracy.py)."""
-    traj = sim.eight_trajectory()
+    traj = sim.eight_motion()
     tot_f = tot_s = 0.0
     for s in range(n_runs):
         run = sim.simulate(traj, seed=5000 + s)
-        res = consistency.filter_from_prior(run, np.random.default_rng([s, 7])).run_simulation(run, record_nodes=True)
+        res = consistency.filter_from_prior(run, np.random.default_rng([s, 7])).run_recording(run, record_nodes=True)
         tot_f = tot_f + consistency.nees_against_truth(run.truth, res)
         tot_s = tot_s + consistency.nees_against_truth(run.truth, smoother.rts_smooth(res))
     lo, hi = consistency.nees_band(15, n_runs)
@@ -50,7 +51,7 @@ def dropout_errors(seed: int) -> np.ndarray:
     run = sim.simulate_eight(seed, outlier_fraction=0.1, dropouts=((3.0, 5.0),))
     x, P0 = initialization.initial_state_from_run(run)
     f = eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P0, gyro_bias=x[10:13])
-    res = f.run_simulation(run, record_nodes=True)
+    res = f.run_recording(run, record_nodes=True)
     sm = smoother.rts_smooth(res)
     m = (run.t >= 1.0) & (run.t <= 6.4)
     out = []

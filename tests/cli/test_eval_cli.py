@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from dualpose.cli.main import main
-from dualpose.fusion.metrics import evaluate
+from dualpose.evaluation.metrics import evaluate
 from dualpose.io import read_trajectory
 
 DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "tum"

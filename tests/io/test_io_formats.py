@@ -99,7 +99,7 @@ def test_same_values_as_evo_readers(data_dir):
 # ---------------------------------------------------------------- round trips
 
 
-def _random_trajectory(rng: np.random.Generator, n: int = 50, ns: bool = False) -> Trajectory:
+def _random_motion(rng: np.random.Generator, n: int = 50, ns: bool = False) -> Trajectory:
     stamps_ns = np.int64(1_403_715_524_907_143_168) + np.cumsum(rng.integers(1, 10_000_000, n)).astype(np.int64)
     q = rng.normal(size=(n, 4))
     q /= np.linalg.norm(q, axis=1, keepdims=True)
@@ -108,7 +108,7 @@ def _random_trajectory(rng: np.random.Generator, n: int = 50, ns: bool = False) 
 
 
 def test_tum_round_trip_is_exact(tmp_path, rng):
-    traj = _random_trajectory(rng)
+    traj = _random_motion(rng)
     write_tum(tmp_path / "a.txt", traj)
     back = read_tum(tmp_path / "a.txt")
     np.testing.assert_array_equal(back.stamps, traj.stamps)
@@ -118,7 +118,7 @@ def test_tum_round_trip_is_exact(tmp_path, rng):
 
 
 def test_tum_written_from_nanoseconds_keeps_them_in_the_text(tmp_path, rng):
-    traj = _random_trajectory(rng, ns=True)
+    traj = _random_motion(rng, ns=True)
     write_tum(tmp_path / "a.txt", traj, header=False)
     first = (tmp_path / "a.txt").read_text().splitlines()[0].split()[0]
     whole, frac = divmod(int(traj.stamps_ns[0]), 10**9)
@@ -127,7 +127,7 @@ def test_tum_written_from_nanoseconds_keeps_them_in_the_text(tmp_path, rng):
 
 
 def test_euroc_groundtruth_round_trip_is_exact(tmp_path, rng):
-    traj = _random_trajectory(rng, ns=True)
+    traj = _random_motion(rng, ns=True)
     write_euroc_groundtruth(tmp_path / "gt.csv", traj)
     assert detect_format(tmp_path / "gt.csv") == "euroc_groundtruth"
     back = read_euroc_groundtruth(tmp_path / "gt.csv")
@@ -172,7 +172,7 @@ def test_seconds_from_ns_is_more_exact_than_dividing(rng):
 
 
 def test_writers_never_overwrite_unless_asked(tmp_path, rng):
-    traj = _random_trajectory(rng, ns=True)
+    traj = _random_motion(rng, ns=True)
     target = tmp_path / "out.txt"
     target.write_text("precious\n")
     with pytest.raises(FileExistsError, match="out.txt"):

@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dualpose.fusion import sim
-from dualpose.fusion.recording import recording_from_simulation
+from dualpose import sim
 from dualpose.io import RecordingError, read_recording, write_recording
 from dualpose.io.recording import SENSORS_FILE, read_correspondences, read_imu
+from dualpose.sim import recording_from_simulation
 
 
 @pytest.fixture(scope="module")
@@ -24,7 +24,7 @@ def run() -> sim.SimulatedRun:
 @pytest.fixture(scope="module")
 def written(run, tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("rec") / "eight"
-    write_recording(out, run)
+    write_recording(out, sim.recording_from_simulation(run))
     return out
 
 
@@ -66,9 +66,9 @@ def test_round_trip_reproduces_the_run(run, written):
 def test_writer_never_overwrites_without_permission(run, written):
     before = (written / SENSORS_FILE).read_text()
     with pytest.raises(FileExistsError, match="file exists"):
-        write_recording(written, run)
+        write_recording(written, sim.recording_from_simulation(run))
     assert (written / SENSORS_FILE).read_text() == before
-    with pytest.raises(TypeError, match="Recording or a SimulatedRun"):
+    with pytest.raises(TypeError, match="must be a dualpose.types.Recording"):
         write_recording(written, "not a run", overwrite=True)
 
 

@@ -33,6 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from dualpose._validation import as_array
+from dualpose.algebra import dualquat as _dualquat
 from dualpose.algebra import interop as _interop
 from dualpose.algebra import quat as _q
 
@@ -40,12 +41,6 @@ __all__ = ["Quaternion", "DualQuaternion"]
 
 _B = TypeVar("_B", bound="_Batch")
 
-
-def _dq() -> Any:
-    """The dual-quaternion module, imported on first use (it is cheap, but keeps this module importable alone)."""
-    from dualpose.algebra import dualquat
-
-    return dualquat
 
 
 def _shape(shape: int | tuple[int, ...] | None) -> tuple[int, ...]:
@@ -299,17 +294,17 @@ class DualQuaternion(_Batch):
     @classmethod
     def from_qt(cls, q: Quaternion | ArrayLike, t: ArrayLike) -> DualQuaternion:
         """From rotations ``q`` (..., 4, xyzw) and translations ``t`` (..., 3): ``[q, ½ t (x) q]``."""
-        return cls._wrap(_dq().dualquat_from_qt(_arr(q), t))
+        return cls._wrap(_dualquat.dualquat_from_qt(_arr(q), t))
 
     @classmethod
     def from_matrix(cls, matrix: ArrayLike) -> DualQuaternion:
         """From homogeneous transforms (..., 4, 4) ``[[R, t], [0, 1]]``."""
-        return cls._wrap(_dq().dualquat_from_matrix(matrix))
+        return cls._wrap(_dualquat.dualquat_from_matrix(matrix))
 
     @classmethod
     def from_twist(cls, twist: ArrayLike) -> DualQuaternion:
         """From exponential coordinates ``[ω, v]`` (..., 6): ``exp([[ω×, v], [0, 0]])`` (scipy ``from_exp_coords``)."""
-        return cls._wrap(_dq().dualquat_from_twist(twist))
+        return cls._wrap(_dualquat.dualquat_from_twist(twist))
 
     @classmethod
     def from_screw(
@@ -320,12 +315,12 @@ class DualQuaternion(_Batch):
         ``axis`` n (..., 3, unit), ``point`` p (..., 3) on the axis, ``pitch_distance`` d (...; translation along n,
         length units -- not the pitch ratio d/θ), ``angle`` θ (..., radians).
         """
-        return cls._wrap(_dq().dualquat_from_screw(axis, point, pitch_distance, angle))
+        return cls._wrap(_dualquat.dualquat_from_screw(axis, point, pitch_distance, angle))
 
     @classmethod
     def identity(cls, shape: int | tuple[int, ...] | None = None) -> DualQuaternion:
         """Identity ``[0, 0, 0, 1, 0, 0, 0, 0]``; ``shape=None`` gives a single element."""
-        return cls._wrap(_dq().dualquat_identity(_shape(shape)))
+        return cls._wrap(_dualquat.dualquat_identity(_shape(shape)))
 
     @classmethod
     def random(
@@ -338,7 +333,7 @@ class DualQuaternion(_Batch):
         g = np.random.default_rng(rng)
         s = _shape(shape)
         q = _q.quat_normalize(g.standard_normal((*s, 4)))
-        return cls._wrap(_dq().dualquat_from_qt(q, translation_scale * g.standard_normal((*s, 3))))
+        return cls._wrap(_dualquat.dualquat_from_qt(q, translation_scale * g.standard_normal((*s, 3))))
 
     @classmethod
     def from_scipy(cls, transform: Any) -> DualQuaternion:
@@ -348,22 +343,22 @@ class DualQuaternion(_Batch):
     # -- conversions --------------------------------------------------------------------------------------------
     def as_matrix(self) -> np.ndarray:
         """Homogeneous transforms (..., 4, 4)."""
-        return _dq().matrix_from_dualquat(self._a)
+        return _dualquat.matrix_from_dualquat(self._a)
 
     def as_qt(self) -> tuple[np.ndarray, np.ndarray]:
         """Rotations (..., 4, xyzw) and translations (..., 3)."""
-        return _dq().qt_from_dualquat(self._a)
+        return _dualquat.qt_from_dualquat(self._a)
 
     def as_twist(self) -> np.ndarray:
         """Exponential coordinates ``[ω, v]`` (..., 6) (scipy ``as_exp_coords`` order)."""
-        return _dq().twist_from_dualquat(self._a)
+        return _dualquat.twist_from_dualquat(self._a)
 
     def as_screw(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Walker screw parameters ``(axis n, point p ⊥ n, distance d, angle θ)``.
 
         Shapes (..., 3), (..., 3), (...), (...); ``d`` is a length, θ in radians (Walker 1991 eqs. (8)-(12)).
         """
-        return _dq().screw_from_dualquat(self._a)
+        return _dualquat.screw_from_dualquat(self._a)
 
     @property
     def rotation(self) -> Quaternion:
@@ -373,7 +368,7 @@ class DualQuaternion(_Batch):
     @property
     def translation(self) -> np.ndarray:
         """Translations (..., 3), ``t = 2 vec(dual (x) real*)`` for unit input."""
-        return _dq().qt_from_dualquat(self._a)[1]
+        return _dualquat.qt_from_dualquat(self._a)[1]
 
     def to_scipy(self) -> Any:
         """A :class:`scipy.spatial.transform.RigidTransform` of the same batch shape.  Imports scipy."""
@@ -383,47 +378,47 @@ class DualQuaternion(_Batch):
     def __mul__(self, other: DualQuaternion) -> DualQuaternion:
         if not isinstance(other, DualQuaternion):
             return NotImplemented
-        return DualQuaternion._wrap(_dq().dualquat_mul(self._a, other._a))
+        return DualQuaternion._wrap(_dualquat.dualquat_mul(self._a, other._a))
 
     def __pow__(self, t: ArrayLike) -> DualQuaternion:
         if isinstance(t, _Batch):
             return NotImplemented
-        return DualQuaternion._wrap(_dq().dualquat_pow(self._a, t))
+        return DualQuaternion._wrap(_dualquat.dualquat_pow(self._a, t))
 
     def apply(self, points: ArrayLike) -> np.ndarray:
         """Transform points (..., 3): ``R p + t``."""
-        return _dq().dualquat_transform(self._a, points)
+        return _dualquat.dualquat_transform(self._a, points)
 
     def inv(self) -> DualQuaternion:
         """Multiplicative inverse (any nonzero real part); for unit input the inverse transform ``p -> Rᵀ(p − t)``."""
-        return DualQuaternion._wrap(_dq().dualquat_inv(self._a))
+        return DualQuaternion._wrap(_dualquat.dualquat_inv(self._a))
 
     def conj(self) -> DualQuaternion:
         """Quaternion conjugate of both parts, ``[r*, s*]`` (the inverse of a unit dual quaternion)."""
-        return DualQuaternion._wrap(_dq().dualquat_conj(self._a))
+        return DualQuaternion._wrap(_dualquat.dualquat_conj(self._a))
 
     def norm(self) -> np.ndarray:
         """Dual-number norms ``[|r|, r·d/|r|]``, shape ``self.shape + (2,)``; ``[1, 0]`` for unit input."""
-        return _dq().dualquat_norm(self._a)
+        return _dualquat.dualquat_norm(self._a)
 
     def normalize(self) -> DualQuaternion:
         """``S / |S|`` (dual-number division): unit real part, dual part ⊥ real part, same rotation and translation."""
-        return DualQuaternion._wrap(_dq().dualquat_normalize(self._a))
+        return DualQuaternion._wrap(_dualquat.dualquat_normalize(self._a))
 
     def canonical(self) -> DualQuaternion:
         """The sign representative whose real part has ``w > 0``."""
-        return DualQuaternion._wrap(_dq().dualquat_canonical(self._a))
+        return DualQuaternion._wrap(_dualquat.dualquat_canonical(self._a))
 
     def sclerp(self, other: DualQuaternion | ArrayLike, t: ArrayLike) -> DualQuaternion:
         """Screw linear interpolation from ``self`` (t = 0) to ``other`` (t = 1)."""
-        return DualQuaternion._wrap(_dq().dualquat_sclerp(self._a, _arr(other), t))
+        return DualQuaternion._wrap(_dualquat.dualquat_sclerp(self._a, _arr(other), t))
 
     def integrate(self, twist: ArrayLike, dt: ArrayLike, frame: Literal["space", "body"] = "space") -> DualQuaternion:
         """Exact constant-twist step: ``exp(Ω dt/2) (x) s`` ("space") or ``s (x) exp(Ω dt/2)`` ("body").
 
         See :func:`~dualpose.algebra.dualquat.dualquat_integrate` for the meaning of ``twist = [ω, v]`` per frame.
         """
-        return DualQuaternion._wrap(_dq().dualquat_integrate(self._a, twist, dt, frame))
+        return DualQuaternion._wrap(_dualquat.dualquat_integrate(self._a, twist, dt, frame))
 
     def angle_to(self, other: DualQuaternion | ArrayLike) -> np.ndarray:
         """Rotation angle in [0, π] between the orientations (real parts) of ``self`` and ``other``."""

@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from dualpose._validation import as_array, check_finite
+from dualpose.algebra import dualquat as _dualquat
 
 __all__ = [
     "quat_from_scipy",
@@ -33,11 +34,6 @@ __all__ = [
 _WXYZ = [3, 0, 1, 2]
 _XYZW = [1, 2, 3, 0]
 
-
-def _dq() -> Any:
-    from dualpose.algebra import dualquat
-
-    return dualquat
 
 
 def _raise_if_zero(q: np.ndarray, name: str) -> None:
@@ -102,7 +98,7 @@ def scipy_from_dualquat(dq: ArrayLike) -> Any:
     dq = as_array(dq, "dq", 8)
     check_finite(dq, "dq")
     _raise_if_zero(dq[..., :4], "the real part of dq")
-    q, t = _dq().qt_from_dualquat(dq)
+    q, t = _dualquat.qt_from_dualquat(dq)
     return RigidTransform.from_components(t, Rotation.from_quat(q))
 
 
@@ -112,7 +108,7 @@ def pq_from_dualquat(dq: ArrayLike) -> np.ndarray:
     The translation is :func:`~dualpose.algebra.dualquat.qt_from_dualquat`'s; the quaternion is the real part
     reordered to scalar-first, sign kept.  pytransform3d is not imported.
     """
-    q, t = _dq().qt_from_dualquat(dq)
+    q, t = _dualquat.qt_from_dualquat(dq)
     return np.concatenate([t, q[..., _WXYZ]], axis=-1)
 
 
@@ -122,4 +118,4 @@ def dualquat_from_pq(pq: ArrayLike) -> np.ndarray:
     Equivalent to ``dualquat_from_qt(pq[..., [4, 5, 6, 3]], pq[..., :3])``; pytransform3d is not imported.
     """
     pq = as_array(pq, "pq", 7)
-    return _dq().dualquat_from_qt(pq[..., 3:][..., _XYZW], pq[..., :3])
+    return _dualquat.dualquat_from_qt(pq[..., 3:][..., _XYZW], pq[..., :3])

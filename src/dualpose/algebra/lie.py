@@ -41,6 +41,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from dualpose._validation import as_array, call_kernel, check_finite, lazy_kernels, raise_if_zero_norm
+from dualpose.algebra.hat import so3_hat, so3_vee
 from dualpose.algebra.quat import matrix_from_quat, quat_from_matrix, rotvec_from_quat
 
 __all__ = [
@@ -74,45 +75,6 @@ _D66 = np.empty((6, 6))
 # ---------------------------------------------------------------------------------------------------------------
 # hat / vee
 # ---------------------------------------------------------------------------------------------------------------
-
-
-def so3_hat(v: ArrayLike) -> np.ndarray:
-    """Skew-symmetric matrix ``[v]×`` with ``[v]× u = v × u``.
-
-    Parameters
-    ----------
-    v : array_like, shape (..., 3)
-
-    Returns
-    -------
-    ndarray, shape (..., 3, 3)
-        ``[[0, −z, y], [z, 0, −x], [−y, x, 0]]``.
-    """
-    v = as_array(v, "v", 3)
-    x, y, z = v[..., 0], v[..., 1], v[..., 2]
-    o = np.zeros(v.shape[:-1] + (3, 3))
-    o[..., 0, 1], o[..., 0, 2] = -z, y
-    o[..., 1, 0], o[..., 1, 2] = z, -x
-    o[..., 2, 0], o[..., 2, 1] = -y, x
-    return o
-
-
-def so3_vee(matrix: ArrayLike) -> np.ndarray:
-    """Inverse of :func:`so3_hat`: the vector of the skew-symmetric part ``½ (M − Mᵀ)``.
-
-    Parameters
-    ----------
-    matrix : array_like, shape (..., 3, 3)
-
-    Returns
-    -------
-    ndarray, shape (..., 3)
-        ``½ [M₂₁ − M₁₂, M₀₂ − M₂₀, M₁₀ − M₀₁]`` (exactly ``v`` for ``M = so3_hat(v)``).
-    """
-    m = as_array(matrix, "matrix", (3, 3))
-    return 0.5 * np.stack(
-        [m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], m[..., 1, 0] - m[..., 0, 1]], axis=-1
-    )
 
 
 def se3_hat(xi: ArrayLike) -> np.ndarray:

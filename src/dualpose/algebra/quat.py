@@ -27,6 +27,7 @@ from dualpose._validation import (
     raise_if_zero_norm,
     try_flat_kernel,
 )
+from dualpose.algebra.hat import so3_hat
 
 __all__ = [
     "quat_mul",
@@ -370,8 +371,6 @@ def quat_integrate(
 
 
 def _qw_matrix(q: np.ndarray, sign: float) -> np.ndarray:
-    from dualpose.algebra.lie import so3_hat  # lie builds on quat; imported here to avoid a cycle
-
     v, w = q[..., :3], q[..., 3]
     out = np.empty(q.shape[:-1] + (4, 4))
     out[..., :3, :3] = w[..., None, None] * np.eye(3) + sign * so3_hat(v)

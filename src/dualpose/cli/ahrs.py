@@ -3,7 +3,7 @@ metric (total / heading / inclination RMSE over the movement samples) when the f
 
 9D (``--mag``, default) is scored as BROAD publishes it, in the magnetic ENU frame without alignment; 6D
 (``--no-mag``) has no absolute heading, so one constant heading offset is removed first (see
-:mod:`dualpose.fusion.orientation_errors`).
+:mod:`dualpose.evaluation.orientation_errors`).
 """
 
 from __future__ import annotations
@@ -34,8 +34,8 @@ def run(args: argparse.Namespace) -> int:
     """Entry point of ``dualpose ahrs``."""
     import numpy as np
 
-    from dualpose.fusion.ahrs import estimate_orientation
-    from dualpose.fusion.orientation_errors import orientation_rmse
+    from dualpose.estimation.ahrs import estimate_orientation
+    from dualpose.evaluation.orientation_errors import orientation_rmse
     from dualpose.io import load_broad
 
     try:

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 
 
@@ -36,64 +35,6 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     return p
 
 
-def run_calibrate(
-    seed: int = 0,
-    poses: int = 6,
-    extrinsic: str = "default",
-    gravity_misalignment_deg: float = 1.0,
-    time_offset_ms: float = 15.0,
-) -> dict:
-    """Run the simulated session; returns the metrics dictionary printed by the command."""
-    import numpy as np
-
-    import dualpose as dp
-    from dualpose.fusion import calibration as cal
-    from dualpose.fusion import sim
-    from dualpose.fusion.calibration.scenarios import calibrate_run_time_offset, random_extrinsic, simulate_static_poses
-
-    if poses < 2:
-        raise ValueError(f"--poses must be >= 2; got {poses}")
-    ext = sim.default_extrinsic() if extrinsic == "default" else random_extrinsic(seed)
-    static = simulate_static_poses(poses, seed, extrinsic=ext, duration=0.5)
-    stacked = cal.stack_static_periods([cal.static_period_from_run(r) for r in static])
-    bias_cov = np.eye(3) * sim.ImuNoise().accelerometer_initial_bias_sigma ** 2
-    rot = cal.camera_imu_rotation(**stacked, accel_bias_covariance=bias_cov)
-    rot_err = math.degrees(dp.quat_angle(rot.q_bc, ext[0]))
-
-    run = sim.simulate(
-        sim.eight_trajectory(extrinsic=ext), seed=seed, extrinsic=ext,
-        gravity_misalignment_deg=gravity_misalignment_deg, time_offset=time_offset_ms * 1e-3,
-    )  # fmt: skip
-    rest = cal.static_period_from_run(run, 0.0, 0.9)
-    grav = cal.scene_gravity(
-        rest.specific_force, rest.q_wc, rot.q_bc, rest.specific_force_covariance, rest.attitude_covariance,
-        extrinsic_covariance=rot.covariance, accel_bias_covariance=bias_cov, magnitude=9.81,
-    )  # fmt: skip
-    true_dir = run.gravity / np.linalg.norm(run.gravity)
-    g_err = math.degrees(math.atan2(np.linalg.norm(np.cross(grav.direction, true_dir)), grav.direction @ true_dir))
-
-    run.q_bc = rot.q_bc  # the rest of the chain uses the estimated rotation, not the truth
-    first, second = calibrate_run_time_offset(run, rot.q_bc, gravity=grav.gravity)
-    return {
-        "seed": seed,
-        "poses": poses,
-        "extrinsic_error_deg": rot_err,
-        "extrinsic_sigma_deg": math.degrees(math.sqrt(np.trace(rot.covariance))),
-        "extrinsic_spread_deg": rot.spread_deg,
-        "q_bc": rot.q_bc.tolist(),
-        "gravity_direction": grav.direction.tolist(),
-        "gravity_tilt_deg": grav.tilt_deg,
-        "gravity_misalignment_deg": gravity_misalignment_deg,
-        "gravity_error_deg": g_err,
-        "gravity_sigma_deg": grav.sigma_deg,
-        "time_offset_injected_ms": time_offset_ms,
-        "time_offset_stage1_ms": 1e3 * first.offset,
-        "time_offset_stage1_sigma_ms": 1e3 * first.sigma,
-        "time_offset_ms": 1e3 * second.offset,
-        "time_offset_error_ms": 1e3 * second.offset - time_offset_ms,
-    }
-
-
 def _table(m: dict) -> str:
     rows = [
         (
@@ -114,8 +55,10 @@ def _table(m: dict) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    from dualpose.pipelines.calibrate import calibrate_simulated_session
+
     try:
-        m = run_calibrate(args.seed, args.poses, args.extrinsic, args.gravity_misalignment, args.time_offset)
+        m = calibrate_simulated_session(args.seed, args.poses, args.extrinsic, args.gravity_misalignment, args.time_offset)
     except ValueError as exc:
         print(f"dualpose calibrate: error: {exc}", file=sys.stderr)
         return 2

@@ -65,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
     """Entry point of ``dualpose eval``."""
     from pathlib import Path
 
-    from dualpose.fusion.metrics import evaluate
+    from dualpose.evaluation.metrics import evaluate
     from dualpose.io import detect_format, read_trajectory
 
     if args.plot and Path(args.plot).exists() and not args.force:
@@ -94,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
     result["settings"]["reference_format"] = fmt_ref
     result["settings"]["estimate_format"] = fmt_est
     if args.plot:
-        from dualpose.fusion.evalplot import plot_evaluation
+        from dualpose.evaluation.plot import plot_evaluation
 
         try:
             plot_evaluation(ev, args.plot, overwrite=args.force)

@@ -180,8 +180,8 @@ def _figures(result, out, paths: dict) -> None:  # noqa: ANN001
 
 def _run_job(args: argparse.Namespace):  # noqa: ANN202 -- FuseResult or None
     """``run_fuse`` on ``--data``; a bad input file is reported on stderr (file and line) and gives None."""
-    from dualpose.fusion.job import run_fuse
     from dualpose.io.recording import RecordingError
+    from dualpose.pipelines.fuse import run_fuse
 
     try:
         return run_fuse(data=args.data, filter=args.filter, seed=args.seed, progress=_progress, smooth=args.smooth)

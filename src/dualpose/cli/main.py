@@ -2,33 +2,26 @@
 
 Each subcommand lives in its own module under :mod:`dualpose.cli` and exposes two functions:
 ``add_parser(subparsers) -> argparse.ArgumentParser`` and ``run(args) -> int``.  Registering a new subcommand is one
-line in :data:`SUBCOMMANDS`; modules are imported only when the parser is built, and their heavy imports belong in
-``run``.
+line in :data:`SUBCOMMANDS`; the modules import nothing heavy at module level: their computations are imported in
+``run`` from :mod:`dualpose.pipelines` and the layers below.
 """
 
 from __future__ import annotations
 
 import argparse
-import importlib
 import sys
+from types import ModuleType
+
+from dualpose.cli import ahrs, calibrate, demo, eval, fuse, register, reproduce
 
 #: subcommand modules, in the order ``dualpose --help`` lists them
-SUBCOMMANDS: tuple[str, ...] = (
-    "dualpose.cli.demo",
-    "dualpose.cli.register",
-    "dualpose.cli.reproduce",
-    "dualpose.cli.eval",
-    "dualpose.cli.fuse",
-    "dualpose.cli.ahrs",
-    "dualpose.cli.calibrate",
-)
+SUBCOMMANDS: tuple[ModuleType, ...] = (demo, register, reproduce, eval, fuse, ahrs, calibrate)
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="dualpose", description="Rigid-body pose with (dual) quaternions.")
     sub = parser.add_subparsers(dest="command", required=True)
-    for name in SUBCOMMANDS:
-        module = importlib.import_module(name)
+    for module in SUBCOMMANDS:
         module.add_parser(sub).set_defaults(_run=module.run)
     return parser
 

@@ -12,8 +12,8 @@ from dualpose.io.broad import load_broad
 from dualpose.io.detect import detect_format, read_trajectory
 from dualpose.io.euroc import ImuData, read_euroc_groundtruth, read_euroc_imu, write_euroc_groundtruth, write_euroc_imu
 from dualpose.io.recording import RecordingError, read_recording, write_recording
-from dualpose.io.trajectory import Trajectory, seconds_from_ns
 from dualpose.io.tum import read_tum, write_tum
+from dualpose.types.trajectory import Trajectory, seconds_from_ns
 
 __all__ = [
     "Trajectory",

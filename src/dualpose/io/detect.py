@@ -7,8 +7,8 @@ from itertools import islice
 from typing import Literal
 
 from dualpose.io.euroc import read_euroc_groundtruth
-from dualpose.io.trajectory import Trajectory
 from dualpose.io.tum import read_tum
+from dualpose.types.trajectory import Trajectory
 
 __all__ = ["detect_format", "read_trajectory"]
 

@@ -28,7 +28,8 @@ import numpy as np
 from dualpose.io._text import open_for_writing, parse_float_columns, parse_int_column, read_table
 from dualpose.io.detect import read_trajectory
 from dualpose.io.euroc import ImuData, read_euroc_imu, write_euroc_groundtruth, write_euroc_imu
-from dualpose.io.trajectory import Trajectory, seconds_from_ns
+from dualpose.types import CameraIntrinsics, FrameCorrespondences, ImuNoise, Recording, Trajectory
+from dualpose.types.trajectory import seconds_from_ns
 
 __all__ = [
     "RecordingError",
@@ -346,7 +347,7 @@ def read_correspondences(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarra
 
 
 def read_recording(path: str | os.PathLike):  # noqa: ANN201 -- Recording (imported lazily)
-    """Read a recording (directory or sensor file) into a :class:`~dualpose.fusion.recording.Recording`.
+    """Read a recording (directory or sensor file) into a :class:`~dualpose.types.recording.Recording`.
 
     Times are float seconds on the IMU clock's epoch (``seconds_from_ns`` of the files' nanoseconds); the exact
     IMU nanoseconds are kept in ``stamps_ns``.  A ground-truth file, when named, is read with
@@ -357,9 +358,6 @@ def read_recording(path: str | os.PathLike):  # noqa: ANN201 -- Recording (impor
     RecordingError
         Anything missing or malformed, with the file (and line).
     """
-    from dualpose.fusion.recording import Recording
-    from dualpose.fusion.sim import CameraIntrinsics, FrameCorrespondences, ImuNoise
-
     sf = _SensorFile(_sensor_path(path))
     top = sf.section(sf.data, "", _TOP_KEYS)
     if top.get("format", FORMAT_NAME) != FORMAT_NAME:
@@ -412,15 +410,13 @@ def _ns(seconds: np.ndarray) -> np.ndarray:
     return np.round(np.asarray(seconds, dtype=np.float64) * 1e9).astype(np.int64)
 
 
-def write_recording(directory: str | os.PathLike, recording, *, overwrite: bool = False) -> Path:  # noqa: ANN001
-    """Write a :class:`~dualpose.fusion.recording.Recording` or a :class:`~dualpose.fusion.sim.SimulatedRun` as
-    a recording directory that :func:`read_recording` (and ``dualpose fuse --data DIR``) reads back.
+def write_recording(directory: str | os.PathLike, recording: Recording, *, overwrite: bool = False) -> Path:
+    """Write a :class:`~dualpose.types.recording.Recording` as a recording directory that :func:`read_recording` (and ``dualpose fuse --data DIR``) reads back.
 
     Files: ``sensors.json``, ``imu.csv`` (EuRoC), ``correspondences.csv`` and, when there is ground truth,
-    ``groundtruth.csv`` (EuRoC; for a simulated run with velocity and biases).  Float seconds are written as
-    nanoseconds rounded to the nearest integer; all values with 17 significant digits (exact round trip).  A
-    simulated run is converted with :func:`~dualpose.fusion.recording.recording_from_simulation` (rest period 0.9 s,
-    the nominal gravity).  Frames without correspondences are not written (nothing to update with).
+    ``groundtruth.csv`` (EuRoC; with velocity and biases when the ground truth carries them as ``extra`` columns, as
+    :func:`dualpose.sim.recording_from_simulation` makes it).  Float seconds are written as
+    nanoseconds rounded to the nearest integer; all values with 17 significant digits (exact round trip).  Frames without correspondences are not written (nothing to update with).
 
     Parameters
     ----------
@@ -434,16 +430,11 @@ def write_recording(directory: str | os.PathLike, recording, *, overwrite: bool 
     Path
         The sensor file.
     """
-    from dualpose.fusion.recording import Recording, recording_from_simulation
-    from dualpose.fusion.sim import SimulatedRun
-
-    extra = {}
-    if isinstance(recording, SimulatedRun):
-        run = recording
-        extra = {k: run.truth[k] for k in ("velocity", "gyro_bias", "accel_bias")}
-        recording = recording_from_simulation(run)
     if not isinstance(recording, Recording):
-        raise TypeError(f"recording must be a Recording or a SimulatedRun; got {type(recording).__name__}")
+        raise TypeError(
+            f"recording must be a dualpose.types.Recording (dualpose.sim.recording_from_simulation converts a "
+            f"simulated run); got {type(recording).__name__}"
+        )
     rec = recording
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
@@ -471,7 +462,7 @@ def write_recording(directory: str | os.PathLike, recording, *, overwrite: bool 
     if rec.ground_truth is not None:
         gt = rec.ground_truth
         gt_ns = gt.stamps_ns if gt.stamps_ns is not None else _ns(gt.stamps)
-        gt = Trajectory(gt.stamps, gt.positions, gt.quats, gt_ns, gt.name, extra or gt.extra)
+        gt = Trajectory(gt.stamps, gt.positions, gt.quats, gt_ns, gt.name, gt.extra)
         write_euroc_groundtruth(out / "groundtruth.csv", gt, overwrite=overwrite)
         names["groundtruth"] = "groundtruth.csv"
 

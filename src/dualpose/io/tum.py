@@ -13,7 +13,7 @@ import os
 import numpy as np
 
 from dualpose.io._text import open_for_writing, parse_float_columns, read_table
-from dualpose.io.trajectory import Trajectory
+from dualpose.types.trajectory import Trajectory
 
 __all__ = ["read_tum", "write_tum"]
 

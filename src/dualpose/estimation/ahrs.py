@@ -1,0 +1,561 @@
+"""Orientation-only error-state filter (AHRS): gyroscope + accelerometer (+ magnetometer), compiled kernel.
+
+The error-state filter of :mod:`dualpose.estimation.eskf` reduced to orientation and gyroscope bias:
+
+* nominal state ``q`` (4,) xyzw rotating IMU (body) vectors into the earth frame (ENU, x = magnetic east,
+  y = magnetic north, z = up), and the gyroscope bias ``b`` (3,) rad/s;
+* error state ``δx = [δθ, δb]`` (6,) with a **global** 3-parameter attitude error ``q = Exp(δθ) ⊗ q̂``: ``δθ_z``
+  is the heading error and ``(δθ_x, δθ_y)`` the inclination error, so the two are separated by construction;
+* predict with the gyroscope as input (Solà 2017 §5 with the global error: ``δθ̇ = −R δb + R n_g``);
+* measurements are sliding-window means: the specific force ``a`` and the field ``m`` of every sample are rotated
+  into the estimated earth frame with that sample's estimate and averaged over the last ``window`` seconds
+  (default 3 s); an update is made every ``update_interval`` (0.1 s).  The mean linear acceleration of a body whose
+  velocity stays bounded is Δv / T over a window T, so averaging in the earth frame removes most of it (the idea
+  behind VQF's inertial-frame low-pass filter, Laidig & Seel 2023); it also averages sensor noise and fast
+  tilt-coupled heading errors.  The window's vectors are stored in the *uncorrected* frame (``C⁻¹ R̂ v`` with ``C``
+  the product of all corrections applied so far), so every correction rotates the whole window at once
+  (current-frame mean ``= C · mean``).  Overlapping windows share samples: each update's noise is multiplied by
+  the overlap ``window / update_interval``;
+* accelerometer update: the horizontal components of the mean earth-frame specific force must vanish (2-D
+  measurement ``y = [mean R̂ a]_{x,y}``, ``H = [[0, −g, 0, 0₃], [g, 0, 0, 0₃]]``).  It carries no heading
+  information and its gain row for ``δθ_z`` is zeroed;
+* magnetometer update (9D), **heading only**: ``y = atan2(m̄_x, m̄_y)`` of the mean earth-frame field (the heading of
+  its horizontal projection, 0 = magnetic north), ``H = [0, 0, 1, 0₃]``, gain rows for ``δθ_x, δθ_y`` zeroed.  A
+  magnetic disturbance therefore cannot tilt the estimate: it can only rotate it about the vertical, which is the
+  one thing the magnetometer is needed for (the full 3-D field model would let a disturbed field pull
+  inclination, which the accelerometer measures better).  The price is that the field's own tilt information is
+  unused, which costs little because the accelerometer dominates inclination;
+* adaptive rejection (innovation-based): each update's noise is inflated by a lower bound of the disturbance
+  present -- ``(|ā| − g)²`` for the accelerometer (the mean linear acceleration has at least that magnitude), the
+  window mean of ``(|m| − m₀)² + (m₀ Δdip)²`` for the magnetometer (change of the field's magnitude and dip from the
+  reference measured at rest) -- and the accelerometer noise additionally gets an innovation-based (Sage-Husa /
+  Mehra) estimate of the unmodelled acceleration variance (time constant ``adapt_time``).  Every innovation is
+  χ²-gated (NIS above the ``gate_probability`` quantile is rejected; after ``gate_release`` seconds of
+  uninterrupted rejection the gate re-opens and stays open until an innovation fits again, so that the filter
+  re-acquires instead of locking itself out);
+* covariance updates in Joseph form (valid for the zeroed, sub-optimal gains) followed by the reset Jacobian.
+* magnetometer–gyroscope time offset: by default the lag of the magnetometer behind the gyroscope is estimated
+  from the recording's own gyroscope and magnetometer (kinematic residual ``dm/dt + ω(t − τ) × m = 0`` of a static
+  field, :mod:`dualpose.calibration.sensor_time_offset`) and compensated by re-sampling the magnetometer before filtering.
+  In fast rotation a lag τ turns the measured field by ``ω τ`` (at 5 rad/s and 11 ms: 3°).
+* optional magnetometer self-calibration (``mag_calibration="auto"``; hard iron / per-axis scale / symmetric soft
+  iron) from the recording's own field samples, applied only when objective criteria say the data support it
+  (orientation coverage, well-determined parameters, the field-magnitude spread in excess of the noise at least halved;
+  :mod:`dualpose.calibration.magnetometer`); otherwise the raw field is used.  It runs before the time-offset
+  estimate and the rest statistics.
+
+Noise is set on principle, never per trial: white-noise levels of the three sensors are estimated from the rest
+period at the start of the recording (robustly: median absolute deviation); the bias random walk and the relative
+gyroscope scale-factor / misalignment uncertainty (0.5 %, calibrated-MEMS class; rate-proportional process noise)
+are fixed sensor-class values; the window (3 s) and adaptation time (2 windows) are motion-class choices for
+hand-held motion.  The same values are used for every recording.  Initialisation: the gyroscope bias is the median
+rate over the rest period, the orientation comes from the rest period's median specific force (inclination) and
+magnetic field (heading; 6D: the body x axis projected on the horizontal is east), and the field's magnitude and
+dip at rest are the magnetometer's reference.  In 6D the earth frame's heading is defined by that initial
+orientation, so the initial heading uncertainty is small by definition (a huge value would only feed spurious
+cross-covariances into the linearisation).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.stats import chi2
+
+from dualpose._validation import lazy_kernels
+from dualpose.calibration.magnetometer import MagCalibration, estimate_mag_calibration
+from dualpose.calibration.sensor_time_offset import (
+    SensorTimeOffset,
+    check_samples,
+    estimate_sensor_time_offset,
+    shift_samples,
+)
+
+__all__ = [
+    "AhrsNoise",
+    "AhrsResult",
+    "RestStatistics",
+    "initial_orientation",
+    "rest_statistics",
+    "estimate_orientation",
+    "accelerometer_jacobian",
+    "heading_jacobian",
+]
+
+_k = lazy_kernels("dualpose.estimation._ahrs_kernels")
+
+#: MEMS-class gyroscope bias random walk, rad/s²/√Hz (bias wanders ~0.1 °/s over 10 min); not estimable from a
+#: short rest period, so it is a fixed sensor-class value.
+MEMS_GYRO_BIAS_RANDOM_WALK = 1.0e-4
+#: initial bias uncertainty (rad/s) when no rest period is given: MEMS turn-on bias, ~0.5 °/s
+MEMS_GYRO_TURN_ON_BIAS = math.radians(0.5)
+
+
+@dataclass(frozen=True)
+class AhrsNoise:
+    """Sensor noise of the AHRS (continuous-time densities, Kalibr-style).
+
+    Attributes
+    ----------
+    gyroscope_noise_density : float
+        rad/s/√Hz.
+    gyroscope_random_walk : float
+        rad/s²/√Hz (bias random walk).
+    accelerometer_noise_density : float
+        m/s²/√Hz.
+    magnetometer_noise_density : float
+        µT/√Hz.
+    """
+
+    gyroscope_noise_density: float = 1.2e-4
+    gyroscope_random_walk: float = MEMS_GYRO_BIAS_RANDOM_WALK
+    accelerometer_noise_density: float = 3.5e-3
+    magnetometer_noise_density: float = 4.0e-2
+
+
+@dataclass(frozen=True)
+class RestStatistics:
+    """What a rest period tells about the sensors (all in IMU axes).
+
+    Attributes
+    ----------
+    samples : int
+        Number of rest samples used.
+    gyroscope_bias : ndarray, shape (3,)
+        Median angular rate at rest, rad/s.
+    specific_force : ndarray, shape (3,)
+        Median specific force at rest, m/s² (points up: ``−g`` in the body frame).
+    magnetic_field : ndarray, shape (3,)
+        Median magnetic field at rest, µT.
+    noise : AhrsNoise
+        White-noise densities estimated from the per-axis median absolute deviation (× 1.4826, × 1/√rate); the
+        bias random walk is :data:`MEMS_GYRO_BIAS_RANDOM_WALK`.
+    """
+
+    samples: int
+    gyroscope_bias: np.ndarray
+    specific_force: np.ndarray
+    magnetic_field: np.ndarray
+    noise: AhrsNoise
+
+    @property
+    def gravity(self) -> float:
+        """Magnitude of the specific force at rest, m/s² (local gravity as this accelerometer sees it)."""
+        return float(np.linalg.norm(self.specific_force))
+
+    @property
+    def field_norm(self) -> float:
+        """Magnitude of the magnetic field at rest, µT."""
+        return float(np.linalg.norm(self.magnetic_field))
+
+    @property
+    def field_dip(self) -> float:
+        """Dip (inclination) of the field at rest: angle below the horizon, rad (atan2 of the components along and
+        across the specific force)."""
+        up = self.specific_force / np.linalg.norm(self.specific_force)
+        m = self.magnetic_field
+        down_part = -float(m @ up)
+        return math.atan2(down_part, float(np.linalg.norm(m - (m @ up) * up)))
+
+
+@dataclass
+class AhrsResult:
+    """Output of :func:`estimate_orientation`.
+
+    Attributes
+    ----------
+    quat : ndarray, shape (n, 4)
+        Estimated orientation per sample, xyzw, IMU → earth (ENU; 6D: heading arbitrary but constant-offset).
+    gyroscope_bias : ndarray, shape (n, 3)
+        Estimated gyroscope bias per sample, rad/s.
+    covariance : ndarray, shape (6, 6)
+        Final error covariance of ``[δθ (earth frame), δb]``.
+    use_mag : bool
+        9D (True) or 6D (False).
+    rest : RestStatistics or None
+        Statistics of the rest period used for initialisation.
+    acc_rejected, mag_rejected : int
+        Updates rejected by the χ² gates.
+    acc_nis_mean, mag_nis_mean : float
+        Mean NIS of the accepted updates (2 and 1 degrees of freedom).
+    acc_fraction_inside, mag_fraction_inside : float
+        Fraction of accepted updates whose NIS lies in the two-sided 95 % χ² band.
+    seconds : float
+        Wall time of the filter kernel (excluding compilation and set-up).
+    mag_time_offset : float
+        Lag of the magnetometer behind the gyroscope that was compensated, s (0.0 in 6D or when not estimable).
+    mag_time_offset_estimate : SensorTimeOffset or None
+        The estimator's full result when ``mag_time_offset="estimate"`` (None otherwise).
+    mag_calibration : MagCalibration or None
+        The magnetometer self-calibration decision and parameters when ``mag_calibration="auto"`` in 9D (None
+        otherwise); see :attr:`mag_calibration_applied`.
+    """
+
+    quat: np.ndarray
+    gyroscope_bias: np.ndarray
+    covariance: np.ndarray
+    use_mag: bool
+    rest: RestStatistics | None
+    acc_rejected: int = 0
+    mag_rejected: int = 0
+    acc_nis_mean: float = math.nan
+    mag_nis_mean: float = math.nan
+    acc_fraction_inside: float = math.nan
+    mag_fraction_inside: float = math.nan
+    seconds: float = 0.0
+    mag_time_offset: float = 0.0
+    mag_time_offset_estimate: SensorTimeOffset | None = None
+    mag_calibration: MagCalibration | None = None
+
+    @property
+    def mag_calibration_applied(self) -> bool:
+        """Whether a magnetometer self-calibration was applied before filtering."""
+        return self.mag_calibration is not None and self.mag_calibration.applied
+
+    @property
+    def mag_time_offset_ms(self) -> float:
+        """Compensated magnetometer lag, ms."""
+        return 1e3 * self.mag_time_offset
+
+    @property
+    def us_per_sample(self) -> float:
+        """Kernel wall time per sample, µs."""
+        return 1e6 * self.seconds / max(self.quat.shape[0], 1)
+
+
+def accelerometer_jacobian(gravity: float) -> np.ndarray:
+    """Jacobian (2, 6) of the accelerometer measurement w.r.t. the error state ``[δθ, δb]``.
+
+    Measurement: ``y = [R̂ a]_{x,y}``, the horizontal components of the specific force rotated into the estimated
+    earth frame.  With ``R = Exp(δθ) R̂`` and a noise-free specific force ``a = Rᵀ g_e``, ``g_e = (0, 0, g)``:
+    ``y = [Exp(−δθ) g_e]_{x,y} ≈ [g_e × δθ]_{x,y} = (−g δθ_y, g δθ_x)``.
+    """
+    H = np.zeros((2, 6))
+    H[0, 1] = -gravity
+    H[1, 0] = gravity
+    return H
+
+
+def heading_jacobian() -> np.ndarray:
+    """Jacobian (1, 6) of the heading measurement as used: ``∂ψ/∂δθ_z = 1``, nothing else.
+
+    Measurement: ``ψ = atan2(m̂_x, m̂_y)`` of the field in the estimated earth frame, ``m̂ = Exp(−δθ) m_e``.  A
+    rotation of the estimate by ``−δθ_z`` about the vertical turns the field's horizontal projection by ``+δθ_z``
+    (clockwise, from north towards east), so ``∂ψ/∂δθ_z = 1``.  The exact derivative also has tilt terms
+    (``∂ψ/∂δθ_{x,y}`` ∝ ``m_z / |m_h|``): they are deliberately dropped, and the gain rows of ``δθ_{x,y}`` are zeroed,
+    so that the magnetometer observes heading only (a magnetic disturbance cannot tilt the estimate).
+    """
+    H = np.zeros((1, 6))
+    H[0, 2] = 1.0
+    return H
+
+
+def _robust_sigma(x: np.ndarray) -> float:
+    """Per-sample white-noise sigma pooled over the axes: 1.4826 × median absolute deviation (robust to a few
+    disturbed samples in the rest period)."""
+    med = np.median(x, axis=0)
+    return float(np.sqrt(np.mean((1.4826 * np.median(np.abs(x - med), axis=0)) ** 2)))
+
+
+def rest_statistics(
+    gyr: np.ndarray, acc: np.ndarray, mag: np.ndarray | None, rate: float, n_rest: int
+) -> RestStatistics:
+    """Estimate bias, gravity, field reference and white-noise densities from the first ``n_rest`` samples.
+
+    Parameters
+    ----------
+    gyr, acc, mag : ndarray, shape (n, 3)
+        rad/s, m/s², µT (``mag`` may be None: its statistics are then NaN).
+    rate : float
+        Sampling rate, Hz.
+    n_rest : int
+        Number of leading samples during which the IMU is at rest (at least 10).
+
+    Returns
+    -------
+    RestStatistics
+    """
+    if n_rest < 10:
+        raise ValueError(f"n_rest must be at least 10 samples; got {n_rest}")
+    g, a = gyr[:n_rest], acc[:n_rest]
+    m = mag[:n_rest] if mag is not None else np.full((n_rest, 3), np.nan)
+    sq = math.sqrt(rate)
+    noise = AhrsNoise(
+        gyroscope_noise_density=_robust_sigma(g) / sq,
+        accelerometer_noise_density=_robust_sigma(a) / sq,
+        magnetometer_noise_density=_robust_sigma(m) / sq if mag is not None else math.nan,
+    )
+    return RestStatistics(
+        samples=int(n_rest),
+        gyroscope_bias=np.median(g, axis=0),
+        specific_force=np.median(a, axis=0),
+        magnetic_field=np.median(m, axis=0),
+        noise=noise,
+    )
+
+
+def initial_orientation(specific_force: np.ndarray, magnetic_field: np.ndarray | None = None) -> np.ndarray:
+    """Orientation (xyzw, IMU → ENU) from one specific-force direction and, optionally, one field direction.
+
+    ``z`` (up) is along the specific force, ``x`` (east) along ``m × a``, ``y`` (north) completes the frame.  Without
+    a field (6D) the body x axis projected on the horizontal plane is taken as east (the heading is unobservable).
+
+    Parameters
+    ----------
+    specific_force : array_like, shape (3,)
+        m/s² in IMU axes (any scale).
+    magnetic_field : array_like, shape (3,), optional
+        µT in IMU axes.
+
+    Returns
+    -------
+    ndarray, shape (4,)
+    """
+    import dualpose as dp
+
+    a = np.asarray(specific_force, dtype=np.float64)
+    if a.shape != (3,) or not np.linalg.norm(a) > 0:
+        raise ValueError(f"specific_force must be a non-zero (3,) vector; got {a}")
+    up = a / np.linalg.norm(a)
+    ref = np.asarray(magnetic_field, dtype=np.float64) if magnetic_field is not None else None
+    east = np.cross(ref, up) if ref is not None else np.array([1.0, 0.0, 0.0]) - up[0] * up
+    if not np.linalg.norm(east) > 1e-9 * max(1.0, np.linalg.norm(ref) if ref is not None else 1.0):
+        east = np.cross(np.array([0.0, 1.0, 0.0]), up)  # degenerate: field (or x axis) parallel to gravity
+    east /= np.linalg.norm(east)
+    north = np.cross(up, east)
+    return dp.quat_from_matrix(np.stack([east, north, up]))  # rows: earth axes in body coordinates
+
+
+def estimate_orientation(
+    gyr: np.ndarray,
+    acc: np.ndarray,
+    mag: np.ndarray | None,
+    rate: float,
+    *,
+    use_mag: bool = True,
+    n_rest: int | None = None,
+    noise: AhrsNoise | None = None,
+    gate_probability: float = 0.999,
+    gate_release: float = 2.0,
+    adapt_time: float = 6.0,
+    window: float = 3.0,
+    mag_adapt: bool = False,
+    gyro_scale_sigma: float = 0.005,
+    update_interval: float = 0.1,
+    mag_time_offset: str | float = "estimate",
+    mag_calibration: str | MagCalibration | None = None,
+) -> AhrsResult:
+    """Estimate the orientation of an IMU from gyroscope, accelerometer and (9D) magnetometer samples.
+
+    Parameters
+    ----------
+    gyr : array_like, shape (n, 3)
+        Angular rate, rad/s, IMU axes.
+    acc : array_like, shape (n, 3)
+        Specific force, m/s², IMU axes.
+    mag : array_like, shape (n, 3) or None
+        Magnetic field (µT or any unit), IMU axes; required when ``use_mag``.
+    rate : float
+        Sampling rate, Hz (uniform sampling).
+    use_mag : bool
+        9D (True) or 6D (False, the magnetometer is ignored).
+    n_rest : int, optional
+        Leading samples at rest, used for initialisation and noise estimation (default: the first second).  With
+        ``n_rest=0`` nothing is estimated: ``noise`` (or :class:`AhrsNoise` defaults), zero initial bias with the
+        MEMS turn-on uncertainty and the first sample's directions are used.
+    noise : AhrsNoise, optional
+        Overrides the densities estimated from the rest period.
+    gate_probability : float
+        χ² gate of both updates (default 0.999).
+    gate_release : float
+        Seconds of uninterrupted rejection after which a gate re-opens (default 2 s).
+    adapt_time : float
+        Time constant (s) of the innovation-based (Sage-Husa) estimate of the unmodelled acceleration variance that
+        is added to the accelerometer noise (default 6 s; 0 switches it off).
+    window : float
+        Seconds of samples averaged in the estimated earth frame per accelerometer / magnetometer update (default
+        3 s; the mean linear acceleration over T is Δv / T, so bounded-velocity motion averages out).  Rounded to
+        whole samples; the outputs are still per sample.
+    update_interval : float
+        Seconds between updates (default 0.1 s, capped at ``window``).  Consecutive windows then overlap by
+        ``window / update_interval`` and share their samples, so each update's noise is multiplied by that overlap
+        factor (an update carries only its share of a window's information).  The result is insensitive to the
+        interval once it is well below the window (BROAD means change < 0.01° between 0.25 s and 0.03 s).
+    mag_adapt : bool
+        Also adapt the heading noise from the innovations (default False: a drifting heading would be absorbed into
+        the estimated noise instead of being corrected).
+    gyro_scale_sigma : float
+        Relative gyroscope scale-factor + axis-misalignment uncertainty ε (calibrated MEMS class, default 0.5 %);
+        adds ``ε² |ω|² · 1 s`` to the attitude process-noise density (rad²/s).
+    mag_time_offset : "estimate" or float
+        Lag of the magnetometer samples behind the gyroscope's, s, compensated by re-sampling the magnetometer at
+        ``t + offset`` (:func:`~dualpose.calibration.sensor_time_offset.shift_samples`) before filtering.  ``"estimate"``
+        (default) estimates it from this recording's gyroscope and magnetometer alone, with the kinematic residual
+        ``dm/dt + ω(t − τ) × m = 0`` of a static field (:func:`~dualpose.calibration.sensor_time_offset.
+        estimate_sensor_time_offset`, ±30 ms, gyroscope bias from the rest period); when that is not possible (too
+        little rotation) nothing is shifted.  A number is used as given; 0 switches the compensation off.  In fast
+        rotation a lag τ makes the magnetometer read a heading rotated by ``ω τ`` (BROAD: τ ≈ 11 ms in every trial,
+        docs/broad.md).  Ignored in 6D.
+    mag_calibration : "auto", MagCalibration or None
+        None (default): raw magnetometer.  ``"auto"``: fit hard iron / per-axis scale / symmetric soft iron to this
+        recording's field samples and apply the smallest model that passes the decision rule of
+        :func:`~dualpose.calibration.magnetometer.estimate_mag_calibration` (noise level of ``|m|`` from the rest
+        period when there is one); raw data otherwise.  A :class:`MagCalibration` is applied as given (if its
+        ``applied`` flag is set).  Off by default: on BROAD the rule fires on one trial of seven
+        (24, 1.149° → 1.210°) and costs ≈ 1.1 µs/sample, 7x the filter (docs/broad.md).  Runs before the
+        time-offset estimate.  Ignored in 6D.
+
+    Returns
+    -------
+    AhrsResult
+    """
+    gyr = check_samples(gyr, "gyr")
+    n = gyr.shape[0]
+    if n < 1:
+        raise ValueError("gyr must contain at least one sample")
+    acc = check_samples(acc, "acc", n)
+    if use_mag and mag is None:
+        raise ValueError("use_mag=True needs mag samples (n, 3); pass use_mag=False for 6D")
+    mag_arr = check_samples(mag, "mag", n) if mag is not None else None
+    if not (np.isfinite(rate) and rate > 0):
+        raise ValueError(f"rate must be a positive number of Hz; got {rate}")
+    if n_rest is None:
+        n_rest = min(n, int(round(rate)))
+        n_rest = n_rest if n_rest >= 10 else 0
+    if not 0 <= n_rest <= n:
+        raise ValueError(f"n_rest must be in [0, {n}]; got {n_rest}")
+    if 0 < n_rest < 10:
+        raise ValueError(f"n_rest must be 0 (no rest period) or at least 10 samples; got {n_rest}")
+
+    if isinstance(mag_time_offset, str):
+        if mag_time_offset != "estimate":
+            raise ValueError(f'mag_time_offset must be "estimate" or a number of seconds; got {mag_time_offset!r}')
+    elif not np.isfinite(float(mag_time_offset)):
+        raise ValueError(f"mag_time_offset must be a finite number of seconds; got {mag_time_offset}")
+
+    if isinstance(mag_calibration, str) and mag_calibration != "auto":
+        raise ValueError(f'mag_calibration must be "auto", a MagCalibration or None; got {mag_calibration!r}')
+    if not (mag_calibration is None or isinstance(mag_calibration, (str, MagCalibration))):
+        raise TypeError(f'mag_calibration must be "auto", a MagCalibration or None; got {type(mag_calibration)}')
+    mag_cal = None
+    if use_mag and mag_calibration is not None:
+        if mag_calibration == "auto":
+            noise_spread = None
+            if n_rest:
+                rn = np.linalg.norm(mag_arr[:n_rest], axis=1)
+                noise_spread = float(1.4826 * np.median(np.abs(rn - np.median(rn))) / np.median(rn))
+            mag_cal = estimate_mag_calibration(mag_arr, noise_spread=noise_spread)
+        else:
+            mag_cal = mag_calibration
+        mag_arr = np.ascontiguousarray(mag_cal.apply(mag_arr))
+    rest = rest_statistics(gyr, acc, mag_arr, rate, n_rest) if n_rest else None
+    mag_offset, mag_offset_est = 0.0, None
+    if use_mag:
+        if mag_time_offset == "estimate":
+            mag_offset_est = estimate_sensor_time_offset(
+                gyr, mag_arr, rate, gyroscope_bias=rest.gyroscope_bias if rest is not None else None
+            )
+            mag_offset = mag_offset_est.offset if mag_offset_est.valid else 0.0
+        else:
+            mag_offset = float(mag_time_offset)
+        if mag_offset != 0.0:
+            mag_arr = shift_samples(mag_arr, rate, mag_offset)
+    if rest is not None:
+        est = rest.noise
+        noise = noise or AhrsNoise(
+            gyroscope_noise_density=est.gyroscope_noise_density,
+            accelerometer_noise_density=est.accelerometer_noise_density,
+            magnetometer_noise_density=est.magnetometer_noise_density,
+        )
+        b0 = rest.gyroscope_bias.copy()
+        # bias uncertainty after averaging n_rest samples, floored at one bias-random-walk second
+        bias_sigma = max(noise.gyroscope_noise_density * math.sqrt(rate / n_rest), noise.gyroscope_random_walk)
+        a_ref, m_ref = rest.specific_force, (rest.magnetic_field if mag_arr is not None else None)
+        gravity = rest.gravity
+    else:
+        noise = noise or AhrsNoise()
+        b0 = np.zeros(3)
+        bias_sigma = MEMS_GYRO_TURN_ON_BIAS
+        a_ref, m_ref = acc[0], (mag_arr[0] if mag_arr is not None else None)
+        gravity = float(np.linalg.norm(acc[0]))
+    q0 = initial_orientation(a_ref, m_ref if use_mag else None)
+    if use_mag:
+        up = a_ref / np.linalg.norm(a_ref)
+        field_norm = float(np.linalg.norm(m_ref))
+        field_dip = math.atan2(-float(m_ref @ up), float(np.linalg.norm(m_ref - (m_ref @ up) * up)))
+    else:
+        field_norm, field_dip = 1.0, 0.0
+
+    kern = _k("run_ahrs")
+    mod = _ahrs_module()
+    params = np.zeros(mod.N_PARAMS)
+    params[mod.P_GYR_VAR] = noise.gyroscope_noise_density**2
+    params[mod.P_BIAS_VAR] = noise.gyroscope_random_walk**2
+    params[mod.P_ACC_VAR] = noise.accelerometer_noise_density**2 * rate
+    params[mod.P_GRAVITY] = gravity
+    params[mod.P_MAG_VAR] = noise.magnetometer_noise_density**2 * rate if use_mag else 1.0
+    params[mod.P_MAG_NORM] = field_norm
+    params[mod.P_MAG_DIP] = field_dip
+    params[mod.P_USE_MAG] = 1.0 if use_mag else 0.0
+    params[mod.P_ACC_GATE] = float(chi2.ppf(gate_probability, 2))
+    params[mod.P_MAG_GATE] = float(chi2.ppf(gate_probability, 1))
+    params[mod.P_GATE_RELEASE] = max(1.0, gate_release * rate)
+    params[mod.P_ACC_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 else 0.0
+    if not window > 0:
+        raise ValueError(f"window must be a positive number of seconds; got {window}")
+    n_win = max(1, int(round(window * rate)))
+    params[mod.P_WINDOW] = n_win
+    if not update_interval > 0:
+        raise ValueError(f"update_interval must be a positive number of seconds; got {update_interval}")
+    stride = min(n_win, max(1, int(round(update_interval * rate))))
+    params[mod.P_STRIDE] = stride
+    params[mod.P_GYR_SCALE_VAR] = gyro_scale_sigma**2 * 1.0
+    params[mod.P_ACC_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 else 0.0
+    params[mod.P_MAG_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 and mag_adapt else 0.0
+    # initial attitude uncertainty: the direction of a mean of N noisy specific forces (inclination) and fields
+    # (heading); heading is unknown in 6D (π is only a nominal value: no update ever uses it)
+    n_avg = max(n_rest, 1)
+    incl_sigma = noise.accelerometer_noise_density * math.sqrt(rate / n_avg) / gravity + math.radians(0.1)
+    head_sigma = math.radians(5.0) if use_mag else math.radians(5.0)
+    P = np.diag([incl_sigma**2, incl_sigma**2, head_sigma**2, bias_sigma**2, bias_sigma**2, bias_sigma**2])
+    q = np.ascontiguousarray(q0, dtype=np.float64)
+    b = np.ascontiguousarray(b0, dtype=np.float64)
+    out_q = np.empty((n, 4))
+    out_b = np.empty((n, 3))
+    stats = np.zeros(mod.N_STATS)
+    mag_in = mag_arr if mag_arr is not None else np.zeros((n, 3))
+    t0 = time.perf_counter()
+    Ha, Hm = accelerometer_jacobian(gravity), heading_jacobian()
+    kern(gyr, acc, mag_in, 1.0 / rate, q, b, P, params, Ha, Hm, out_q, out_b, stats)
+    seconds = time.perf_counter() - t0
+
+    n_updates = max(0, (n - n_win) // stride + 1)
+    acc_acc = n_updates - stats[mod.S_ACC_REJECTED]
+    mag_acc = (n_updates - stats[mod.S_MAG_REJECTED] - stats[mod.S_MAG_SKIPPED]) if use_mag else 0
+    return AhrsResult(
+        quat=out_q,
+        gyroscope_bias=out_b,
+        covariance=P,
+        use_mag=use_mag,
+        rest=rest,
+        acc_rejected=int(stats[mod.S_ACC_REJECTED]),
+        mag_rejected=int(stats[mod.S_MAG_REJECTED]),
+        acc_nis_mean=float(stats[mod.S_ACC_NIS_SUM] / acc_acc) if acc_acc else math.nan,
+        mag_nis_mean=float(stats[mod.S_MAG_NIS_SUM] / mag_acc) if mag_acc else math.nan,
+        acc_fraction_inside=float(stats[mod.S_ACC_INSIDE] / acc_acc) if acc_acc else math.nan,
+        mag_fraction_inside=float(stats[mod.S_MAG_INSIDE] / mag_acc) if mag_acc else math.nan,
+        seconds=seconds,
+        mag_time_offset=mag_offset,
+        mag_time_offset_estimate=mag_offset_est,
+        mag_calibration=mag_cal,
+    )
+
+
+def _ahrs_module():  # noqa: ANN202
+    import importlib
+
+    _k("run_ahrs")  # imports (compiles or loads) the kernel module through the cache-freshness guard
+    return importlib.import_module("dualpose.estimation._ahrs_kernels")

@@ -1,0 +1,418 @@
+"""Error-state extended Kalman filter for camera-IMU pose tracking (Solà 2017, "Quaternion kinematics for the
+error-state Kalman filter", §5-7) — the recommended default filter of :mod:`dualpose.fusion`.
+
+Nominal state (16,) = ``[p_wb (3) m, v_w (3) m/s, q_wb (4) xyzw, b_g (3) rad/s, b_a (3) m/s²]`` driven by the IMU
+as input; error state (15,) = ``[δp, δv, δθ, δb_g, δb_a]`` with a 3-parameter local attitude error
+``q = q̂ ⊗ Exp(δθ)``.  Updates use the Joseph form and are followed by injection and the reset Jacobian
+``G = diag(I, I, I − [½δθ]×, I, I)``.  Camera updates use the reprojection model of :mod:`dualpose.estimation.models`,
+one χ²-gated 2-D update per correspondence.  Predict/update kernels are compiled with numba.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.stats import chi2
+
+from dualpose._validation import lazy_kernels
+from dualpose.estimation import models
+from dualpose.types import ImuNoise, PinholeCamera, SensorRun
+
+__all__ = ["ErrorStateEKF", "FilterNodes", "FilterResult", "InnovationReport", "initial_covariance"]
+
+_k = lazy_kernels("dualpose.estimation._eskf_kernels")
+
+STATE_DIM = 15
+
+
+def initial_covariance(
+    position_sigma: float = 0.01,
+    velocity_sigma: float = 0.01,
+    attitude_sigma: float = math.radians(0.5),
+    imu_noise: ImuNoise | None = None,
+) -> np.ndarray:
+    """Diagonal initial error covariance (15, 15); bias sigmas are the IMU's turn-on bias sigmas."""
+    imu_noise = ImuNoise() if imu_noise is None else imu_noise
+    sig = np.repeat(
+        [
+            position_sigma,
+            velocity_sigma,
+            attitude_sigma,
+            max(imu_noise.gyroscope_initial_bias_sigma, 1e-6),
+            max(imu_noise.accelerometer_initial_bias_sigma, 1e-6),
+        ],
+        3,
+    )
+    return np.diag(sig**2)
+
+
+@dataclass
+class InnovationReport:
+    """Per-correspondence innovation statistics of a run (Hol §innovation monitoring).
+
+    ``nis`` (M,) NIS of every correspondence at its turn (2 dof), ``accepted`` (M,) bool, ``bounds`` the two-sided
+    95% χ²(2) interval, ``gate`` the rejection threshold.  ``fraction_inside`` is over accepted correspondences.
+    """
+
+    nis: np.ndarray
+    accepted: np.ndarray
+    dof: int
+    bounds: tuple[float, float]
+    gate: float
+
+    @property
+    def fraction_inside(self) -> float:
+        v = self.nis[self.accepted]
+        return float(np.mean((v >= self.bounds[0]) & (v <= self.bounds[1]))) if len(v) else float("nan")
+
+    @property
+    def mean_nis(self) -> float:
+        v = self.nis[self.accepted]
+        return float(v.mean()) if len(v) else float("nan")
+
+    @property
+    def n_rejected(self) -> int:
+        return int(np.sum(~self.accepted))
+
+    def summary(self) -> dict[str, float]:
+        return {
+            "n_correspondences": int(len(self.nis)),
+            "n_rejected": self.n_rejected,
+            "mean_nis": self.mean_nis,
+            "nis_dof": self.dof,
+            "nis_fraction_inside": self.fraction_inside,
+            "nis_bounds_low": self.bounds[0],
+            "nis_bounds_high": self.bounds[1],
+        }
+
+
+@dataclass
+class FilterNodes:
+    """What the filter stores for the offline smoother (:func:`dualpose.estimation.smoother.rts_smooth`).
+
+    A node is the start ``t[0]`` and every time the filter predicts to: each IMU time and each camera time strictly
+    between IMU times (K ≤ N + F nodes).  ``t`` (K,) s; ``prior_states`` / ``posterior_states`` (K, 16) nominal
+    ``[p, v, q_wb xyzw, b_g, b_a]`` before / after the camera update at the node (equal at nodes without one);
+    ``prior_covariance`` / ``posterior_covariance`` (K, 15, 15) error covariance in the chart of the matching
+    nominal state (the posterior one after the reset Jacobian G); ``transition`` (K, 15, 15) the error-state
+    transition ``F`` from node i to i + 1 (Solà eq. 269; identity for the last node); ``imu_node`` (N,) and
+    ``frame_node`` (F,) the node index of each IMU sample and camera frame (−1: frame outside the IMU span).
+    """
+
+    t: np.ndarray
+    prior_states: np.ndarray
+    prior_covariance: np.ndarray
+    posterior_states: np.ndarray
+    posterior_covariance: np.ndarray
+    transition: np.ndarray
+    imu_node: np.ndarray
+    frame_node: np.ndarray
+
+
+@dataclass
+class FilterResult:
+    """Output of :meth:`ErrorStateEKF.run`: states at the IMU times.
+
+    ``t`` (N,), ``position`` (N, 3), ``velocity`` (N, 3), ``quat`` (N, 4) ``q_wb`` xyzw, ``gyro_bias`` (N, 3),
+    ``accel_bias`` (N, 3), ``covariance`` (N, 15, 15) error-state covariance; ``frame_states`` (F, 16) and
+    ``frame_covariance`` (F, 15, 15) right after each camera update; ``innovation`` the NIS report; ``nodes`` the
+    per-node record for the smoother (:class:`FilterNodes`, only with ``run(..., record_nodes=True)``).
+    """
+
+    t: np.ndarray
+    position: np.ndarray
+    velocity: np.ndarray
+    quat: np.ndarray
+    gyro_bias: np.ndarray
+    accel_bias: np.ndarray
+    covariance: np.ndarray
+    frame_states: np.ndarray
+    frame_covariance: np.ndarray
+    innovation: InnovationReport
+    wall_time: float = float("nan")
+    nodes: FilterNodes | None = None
+
+
+class ErrorStateEKF:
+    """Camera-IMU error-state EKF (Solà 2017).
+
+    Parameters
+    ----------
+    position, velocity : (3,) initial p_wb (m), v_w (m/s), world frame.
+    quat : (4,) initial q_wb, xyzw.
+    covariance : (15, 15) initial error covariance (see :func:`initial_covariance`).
+    imu_noise : ImuNoise
+        Kalibr densities used for the process noise (``Q`` blocks ``σ² Δt``, Solà eq. 262).
+    gravity : (3,) world gravity the filter assumes, m/s² (default ``[0, 0, −9.81]``).
+    camera : PinholeCamera.  q_bc, p_bc : camera→body rotation (xyzw) and camera centre in the body frame.
+    pixel_sigma : float, px.  gate_probability : float, χ²(2) gate (default 0.999 → 13.8).
+    camera_time_offset : float
+        Known ``t_imu = t_cam + offset`` (s); camera stamps are shifted by it before use.
+    gyro_bias, accel_bias : (3,) initial bias estimates.
+    """
+
+    def __init__(
+        self,
+        position: np.ndarray,
+        velocity: np.ndarray,
+        quat: np.ndarray,
+        covariance: np.ndarray,
+        imu_noise: ImuNoise | None = None,
+        gravity: np.ndarray = (0.0, 0.0, -9.81),
+        camera: PinholeCamera | None = None,
+        q_bc: np.ndarray = (0.0, 0.0, 0.0, 1.0),
+        p_bc: np.ndarray = (0.0, 0.0, 0.0),
+        pixel_sigma: float = 1.0,
+        gate_probability: float = 0.999,
+        camera_time_offset: float = 0.0,
+        gyro_bias: np.ndarray = (0.0, 0.0, 0.0),
+        accel_bias: np.ndarray = (0.0, 0.0, 0.0),
+    ) -> None:
+        self.x = np.zeros(16)
+        for name, val, sl, n in (
+            ("position", position, slice(0, 3), 3),
+            ("velocity", velocity, slice(3, 6), 3),
+            ("quat", quat, slice(6, 10), 4),
+            ("gyro_bias", gyro_bias, slice(10, 13), 3),
+            ("accel_bias", accel_bias, slice(13, 16), 3),
+        ):
+            v = np.asarray(val, dtype=np.float64)
+            if v.shape != (n,):
+                raise ValueError(f"{name} must have shape ({n},); got {v.shape}")
+            self.x[sl] = v
+        nq = np.linalg.norm(self.x[6:10])
+        if not np.isfinite(nq) or nq == 0.0:
+            raise ValueError("quat must be a finite nonzero quaternion")
+        self.x[6:10] /= nq
+        P = np.array(covariance, dtype=np.float64)
+        if P.shape != (15, 15):
+            raise ValueError(f"covariance must have shape (15, 15); got {P.shape}")
+        self.P = 0.5 * (P + P.T)
+        self.imu_noise = ImuNoise() if imu_noise is None else imu_noise
+        n = self.imu_noise
+        self.noise = np.array(
+            [
+                n.gyroscope_noise_density**2,
+                n.accelerometer_noise_density**2,
+                n.gyroscope_random_walk**2,
+                n.accelerometer_random_walk**2,
+            ]
+        )
+        self.gravity = np.asarray(gravity, dtype=np.float64)
+        self.camera = PinholeCamera() if camera is None else camera
+        c = self.camera
+        self.intrinsics = np.array([c.fx, c.fy, c.cx, c.cy])
+        self.q_bc = np.asarray(q_bc, dtype=np.float64)
+        self.p_bc = np.asarray(p_bc, dtype=np.float64)
+        self.pixel_sigma = float(pixel_sigma)
+        self.gate = float(chi2.ppf(gate_probability, 2))
+        self.camera_time_offset = float(camera_time_offset)
+        self.time: float | None = None
+        self._u = np.zeros(6)  # IMU measurement held at the current filter time [gyro, accel]
+        self._nis: list[np.ndarray] = []
+        self._acc: list[np.ndarray] = []
+
+    # ------------------------------------------------------------------ construction helpers
+    @classmethod
+    def for_run(
+        cls,
+        run: SensorRun,
+        position: np.ndarray,
+        velocity: np.ndarray,
+        quat: np.ndarray,
+        covariance: np.ndarray | None = None,
+        **kwargs,  # noqa: ANN003
+    ) -> ErrorStateEKF:
+        """A filter configured with a simulated run's sensor set-up (noise, camera, extrinsic, pixel sigma, offset).
+
+        The gravity the filter assumes stays the nominal ``[0, 0, −9.81]`` unless given in ``kwargs``.
+        """
+        cov = initial_covariance(imu_noise=run.imu_noise) if covariance is None else covariance
+        opts = run.sensor_options()
+        opts.update(kwargs)
+        return cls(position, velocity, quat, cov, **opts)
+
+    # ------------------------------------------------------------------ accessors
+    @property
+    def position(self) -> np.ndarray:
+        return self.x[0:3].copy()
+
+    @property
+    def velocity(self) -> np.ndarray:
+        return self.x[3:6].copy()
+
+    @property
+    def quat(self) -> np.ndarray:
+        return self.x[6:10].copy()
+
+    @property
+    def gyro_bias(self) -> np.ndarray:
+        return self.x[10:13].copy()
+
+    @property
+    def accel_bias(self) -> np.ndarray:
+        return self.x[13:16].copy()
+
+    # ------------------------------------------------------------------ online API
+    def predict(self, gyro: np.ndarray, accel: np.ndarray, dt: float) -> None:
+        """Propagate by ``dt`` seconds with the IMU measurement held constant (gyro rad/s, accel m/s², body)."""
+        if dt < 0:
+            raise ValueError(f"dt must be >= 0; got {dt}")
+        _k("predict")(self.x, self.P, np.asarray(gyro, float), np.asarray(accel, float), float(dt), self.gravity,
+                      self.noise)  # fmt: skip
+
+    def propagate(self, t: float, gyro: np.ndarray, accel: np.ndarray) -> None:
+        """Feed the IMU sample taken at time ``t``: integrates from the filter time to ``t`` with the mean of the
+        held and the new measurement (exact for a linear signal up to second order), then holds the new one."""
+        u = np.concatenate([np.asarray(gyro, float), np.asarray(accel, float)])
+        if self.time is not None:
+            dt = t - self.time
+            if dt < 0:
+                raise ValueError(f"IMU sample at t={t} is older than the filter time {self.time}")
+            if dt > 0:
+                mid = 0.5 * (self._u + u)
+                _k("predict")(self.x, self.P, mid[:3].copy(), mid[3:].copy(), dt, self.gravity, self.noise)
+        self.time = float(t)
+        self._u = u
+
+    def update_camera(self, t_cam: float, pixels: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """Update with the point correspondences of a frame stamped ``t_cam`` (camera clock).
+
+        The state is first propagated exactly to ``t_cam + camera_time_offset`` with the last IMU sample held
+        (the batch :meth:`run` interpolates between the bracketing samples instead).  Returns a bool (M,) array of
+        the accepted correspondences.
+        """
+        t = t_cam + self.camera_time_offset
+        if self.time is None:
+            self.time = t
+        if t < self.time:
+            raise ValueError(f"frame at IMU time {t} is older than the filter time {self.time} (no out-of-order)")
+        if t > self.time:
+            _k("predict")(self.x, self.P, self._u[:3].copy(), self._u[3:].copy(), t - self.time, self.gravity,
+                          self.noise)  # fmt: skip
+            self.time = t
+        pixels = np.ascontiguousarray(pixels, dtype=np.float64).reshape(-1, 2)
+        points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+        if len(pixels) != len(points):
+            raise ValueError(f"pixels (M, 2) and points (M, 3) differ in M: {len(pixels)} vs {len(points)}")
+        nis = np.empty(len(pixels))
+        acc = np.zeros(len(pixels), np.int64)
+        _k("update_points")(self.x, self.P, self.intrinsics, self.q_bc, self.p_bc, pixels, points, self.pixel_sigma,
+                            self.gate, nis, acc)  # fmt: skip
+        self._nis.append(nis)
+        self._acc.append(acc.astype(bool))
+        return acc.astype(bool)
+
+    def _update(self, r: np.ndarray, H: np.ndarray, cov: np.ndarray) -> float:
+        cov = np.asarray(cov, dtype=np.float64)
+        if cov.ndim == 0:
+            cov = np.eye(len(r)) * cov
+        if cov.shape != (len(r), len(r)):
+            raise ValueError(f"covariance must have shape ({len(r)}, {len(r)}) or be a scalar; got {cov.shape}")
+        return float(_k("update_dense")(self.x, self.P, np.ascontiguousarray(r), np.ascontiguousarray(H), cov))
+
+    def update_position(self, position: np.ndarray, covariance: np.ndarray | float) -> float:
+        """Position fix (3,) m with covariance (3, 3) or a scalar variance; returns the NIS (3 dof)."""
+        return self._update(*models.position_model(self.x, position), covariance)
+
+    def update_pose(self, position: np.ndarray, quat: np.ndarray, covariance: np.ndarray | float) -> float:
+        """Full pose fix ``(p_wb, q_wb)`` with covariance (6, 6) over ``[δp, δθ]``; returns the NIS (6 dof)."""
+        return self._update(*models.pose_model(self.x, position, quat), covariance)
+
+    def update_magnetometer(
+        self, measurement: np.ndarray, field_w: np.ndarray, covariance: np.ndarray | float
+    ) -> float:
+        """Magnetometer (3,) body frame, known world field ``field_w`` (3,); returns the NIS (3 dof)."""
+        return self._update(*models.magnetometer_model(self.x, measurement, field_w), covariance)
+
+    def innovation_report(self) -> InnovationReport:
+        """NIS report of the camera updates made through :meth:`update_camera`."""
+        nis = np.concatenate(self._nis) if self._nis else np.zeros(0)
+        acc = np.concatenate(self._acc) if self._acc else np.zeros(0, bool)
+        return _report(nis, acc, self.gate)
+
+    # ------------------------------------------------------------------ batch
+    def run(
+        self,
+        t: np.ndarray,
+        gyro: np.ndarray,
+        accel: np.ndarray,
+        frame_t: np.ndarray,
+        offsets: np.ndarray,
+        pixels: np.ndarray,
+        points: np.ndarray,
+        record_nodes: bool = False,
+    ) -> FilterResult:
+        """Filter a whole recording from the current state (taken to be at ``t[0]``).
+
+        Parameters
+        ----------
+        t : (N,) IMU times, s.  gyro, accel : (N, 3).  frame_t : (F,) camera stamps (camera clock).
+        offsets : (F + 1,) int, frame k owns rows ``offsets[k]:offsets[k+1]`` of ``pixels`` (M, 2) and ``points``
+        (M, 3).  The IMU signal is taken as linear between samples and each step is split exactly at the camera
+        times ``frame_t + camera_time_offset``.
+        record_nodes : bool
+            Also store the prior/posterior states and covariances and the transition matrices of every filter node
+            (``FilterResult.nodes``, about 3 × 1.8 kB per node) for :func:`dualpose.estimation.smoother.rts_smooth`.
+        """
+        import time as _time
+
+        from dualpose.estimation._stream import check_streams
+
+        t, gyro, accel, cam_t, offsets, pixels, points = check_streams(
+            t, gyro, accel, frame_t, offsets, pixels, points, self.camera_time_offset, strictly_increasing=True
+        )
+        n = len(t)
+        nf = len(cam_t)
+        X = np.empty((n, 16))
+        Ps = np.empty((n, 15, 15))
+        XF = np.full((nf, 16), np.nan)
+        PF = np.full((nf, 15, 15), np.nan)
+        nis = np.full(len(pixels), np.nan)
+        acc = np.zeros(len(pixels), np.int64)
+        t0 = _time.perf_counter()
+        cam = (self.intrinsics, self.q_bc, self.p_bc, self.pixel_sigma, self.gate)
+        args = (t, gyro, accel, cam_t, offsets, pixels, points, self.x, self.P, self.gravity, self.noise, *cam,
+                X, Ps, XF, PF, nis, acc)  # fmt: skip
+        nodes = None
+        if record_nodes:
+            nodes = _record_run(args, n, nf)
+        else:
+            _k("run")(*args)
+        wall = _time.perf_counter() - t0
+        self.time = float(t[-1])
+        self._u = np.concatenate([gyro[-1], accel[-1]])
+        used = np.isfinite(nis)
+        rep = _report(nis[used], acc[used].astype(bool), self.gate)
+        return FilterResult(
+            t=t, position=X[:, 0:3], velocity=X[:, 3:6], quat=X[:, 6:10], gyro_bias=X[:, 10:13],
+            accel_bias=X[:, 13:16], covariance=Ps, frame_states=XF, frame_covariance=PF, innovation=rep,
+            wall_time=wall, nodes=nodes,
+        )  # fmt: skip
+
+    def run_recording(self, run: SensorRun, record_nodes: bool = False) -> FilterResult:
+        """:meth:`run` on a recording or simulated run (anything with the :class:`~dualpose.types.SensorRun` fields)."""
+        f = run.frames
+        return self.run(run.t, run.gyro, run.accel, f.t, f.offsets, f.pixels, f.points, record_nodes=record_nodes)
+
+
+def _record_run(args: tuple, n: int, nf: int) -> FilterNodes:
+    """Run the ``run_recorded`` kernel with ``args`` (those of ``run``) and return the trimmed node record."""
+    cap = n + nf
+    XA, XB = np.empty((cap, 16)), np.empty((cap, 16))
+    PA, PB, FS = np.empty((cap, 15, 15)), np.empty((cap, 15, 15)), np.empty((cap, 15, 15))
+    TN = np.empty(cap)
+    imu_node, frame_node = np.empty(n, np.int64), np.empty(nf, np.int64)
+    k = _k("run_recorded")(*args, XA, PA, XB, PB, FS, TN, imu_node, frame_node)
+    return FilterNodes(
+        t=TN[:k], prior_states=XA[:k], prior_covariance=PA[:k], posterior_states=XB[:k], posterior_covariance=PB[:k],
+        transition=FS[:k], imu_node=imu_node, frame_node=frame_node,
+    )  # fmt: skip
+
+
+def _report(nis: np.ndarray, accepted: np.ndarray, gate: float) -> InnovationReport:
+    return InnovationReport(
+        nis=nis, accepted=accepted, dof=2, bounds=(float(chi2.ppf(0.025, 2)), float(chi2.ppf(0.975, 2))), gate=gate
+    )

@@ -1,0 +1,195 @@
+"""Measurement models with analytic Jacobians for the error-state filter (Solà 2017) and Hol's 22-state filter.
+
+Error-state models (nominal ``x`` (16,) = ``[p_wb, v_w, q_wb xyzw, b_g, b_a]``; error ``δx`` (15,) =
+``[δp, δv, δθ, δb_g, δb_a]``, ``q = q̂ ⊗ Exp(δθ)``, see :func:`boxplus`): each returns the residual
+``r = y − h(x̂)`` (in the measurement's tangent space for orientations) and ``H = ∂h(x̂ ⊞ δx)/∂δx`` at δx = 0.
+
+Camera: we use the **reprojection form** ``y = π(R_bcᵀ(R_wbᵀ(z_w − p) − p_bc)) + e`` with ``π(X, Y, Z) =
+(fx X/Z + cx, fy Y/Z + cy)`` and pixel noise ``e``.  Hol's eq. 11c is the algebraically equivalent implicit form
+``0 = [−f I₂, zⁱ] z^c + e`` (no division, the measured pixel enters the model): it is exact for the projective
+constraint, but its noise is the pixel noise scaled by the unknown depth Z and multiplied into the measurement,
+so the Gaussian noise assumption is only approximate and the NIS of a point depends on its depth.  The reprojection
+form has homoscedastic pixel noise (the χ² gate and NIS report are then meaningful per correspondence) at the cost
+of a 1/Z, which is harmless for points in front of the camera.  The 22-state Hol filter uses eq. 11c as written
+(:func:`hol_camera_implicit`); the error-state filter uses the reprojection form.
+
+Hol 22-state layout (eq. 8): ``[b (3), ḃ (3), b̈ (3), q^{be} xyzw (4), ω^b_{eb} (3), δ_ω (3), δ_a (3)]``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+import dualpose as dp
+from dualpose._validation import lazy_kernels
+
+__all__ = [
+    "boxplus",
+    "camera_reprojection",
+    "position_model",
+    "pose_model",
+    "magnetometer_model",
+    "hol_accelerometer",
+    "hol_gyroscope",
+    "hol_camera_implicit",
+]
+
+_k = lazy_kernels("dualpose.estimation._eskf_kernels")
+
+
+def _state(x: np.ndarray) -> np.ndarray:
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    if x.shape != (16,):
+        raise ValueError(f"x must be an error-state nominal vector of shape (16,); got {x.shape}")
+    return x
+
+
+def boxplus(x: np.ndarray, dx: np.ndarray) -> np.ndarray:
+    """``x ⊞ δx``: add ``δx`` (15,) to the nominal state ``x`` (16,) with ``q ← q ⊗ Exp(δθ)``."""
+    x = _state(x)
+    out = x.copy()
+    out[0:6] += dx[0:6]
+    out[10:16] += dx[9:15]
+    out[6:10] = dp.quat_mul(x[6:10], dp.quat_from_rotvec(dx[6:9]))
+    return out
+
+
+def camera_reprojection(
+    x: np.ndarray,
+    pixels: np.ndarray,
+    points: np.ndarray,
+    intrinsics: tuple[float, float, float, float],
+    q_bc: np.ndarray,
+    p_bc: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Reprojection residuals and Jacobians of point correspondences.
+
+    Parameters
+    ----------
+    x : (16,) nominal state.  pixels : (M, 2) measured pixels.  points : (M, 3) landmarks, world frame, metres.
+    intrinsics : (fx, fy, cx, cy) pixels.  q_bc : (4,) camera→body rotation xyzw.  p_bc : (3,) camera centre in b.
+
+    Returns
+    -------
+    r : (M, 2) pixel residuals ``y − h(x̂)``.  H : (M, 2, 15) ``∂h/∂δx``.  depth : (M,) camera-frame Z, metres.
+    """
+    x = _state(x)
+    pixels = np.ascontiguousarray(pixels, dtype=np.float64).reshape(-1, 2)
+    points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    if len(pixels) != len(points):
+        raise ValueError(f"pixels (M, 2) and points (M, 3) must have the same M; got {len(pixels)} and {len(points)}")
+    m = len(pixels)
+    r, H, depth = np.empty((m, 2)), np.empty((m, 2, 15)), np.empty(m)
+    _k("camera_batch")(
+        x, np.asarray(intrinsics, float), np.asarray(q_bc, float), np.asarray(p_bc, float), pixels, points, r, H, depth
+    )
+    return r, H, depth
+
+
+def position_model(x: np.ndarray, position: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Position fix ``y = p + e``: residual (3,) and H (3, 15)."""
+    x = _state(x)
+    H = np.zeros((3, 15))
+    H[:, 0:3] = np.eye(3)
+    return np.asarray(position, float) - x[0:3], H
+
+
+def pose_model(x: np.ndarray, position: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Full pose ``(p, q_wb)`` measurement: residual ``[p_m − p̂, Log(q̂* ⊗ q_m)]`` (6,) and H (6, 15).
+
+    With the right attitude error, ``Log(Exp(−δθ) ⊗ Exp(r_θ)) ≈ r_θ − J_l⁻¹(r_θ) δθ``, so
+    ``H = [[I, 0, 0, 0, 0], [0, 0, J_l⁻¹(r_θ), 0, 0]]`` (the identity when the residual is small).
+    """
+    x = _state(x)
+    r_theta = dp.rotvec_from_quat(dp.quat_mul(dp.quat_conj(x[6:10]), quat))
+    r = np.concatenate([np.asarray(position, float) - x[0:3], r_theta])
+    H = np.zeros((6, 15))
+    H[0:3, 0:3] = np.eye(3)
+    H[3:6, 6:9] = dp.so3_left_jacobian_inv(r_theta)
+    return r, H
+
+
+def magnetometer_model(x: np.ndarray, measurement: np.ndarray, field_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Magnetometer ``y = R_wbᵀ m_w + e``: residual (3,) and H (3, 15) with ``∂/∂δθ = [R̂ᵀ m_w]×``."""
+    x = _state(x)
+    m_b = dp.quat_rotate(dp.quat_conj(x[6:10]), field_w)
+    H = np.zeros((3, 15))
+    H[:, 6:9] = dp.so3_hat(m_b)
+    return np.asarray(measurement, float) - m_b, H
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Hol's 22-state model (eq. 8, 11a-c).  Jacobians with respect to the full 22-vector (quaternion as 4 numbers).
+# ----------------------------------------------------------------------------------------------------------------
+
+
+def _rot_be_and_derivs(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``R^{be}(q^{be})`` (xyzw) as the quadratic form (a rotation for unit q) and ``∂R/∂q_i`` (4, 3, 3)."""
+    x, y, z, w = q
+    R = np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+    dR = 2.0 * np.array(
+        [
+            [[0, y, z], [y, -2 * x, -w], [z, w, -2 * x]],
+            [[-2 * y, x, w], [x, 0, z], [-w, z, -2 * y]],
+            [[-2 * z, -w, x], [w, -2 * z, y], [x, y, 0]],
+            [[0, -z, y], [z, 0, -x], [-y, x, 0]],
+        ]
+    )
+    return R, dR
+
+
+def hol_accelerometer(x: np.ndarray, gravity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Hol eq. 11a: ``h = R^{be}(b̈ − g^e) + δ_a``; returns h (3,) and ∂h/∂x (3, 22)."""
+    R, dR = _rot_be_and_derivs(x[9:13])
+    d = x[6:9] - gravity
+    H = np.zeros((3, 22))
+    H[:, 6:9] = R
+    H[:, 9:13] = np.einsum("kij,j->ik", dR, d)
+    H[:, 19:22] = np.eye(3)
+    return R @ d + x[19:22], H
+
+
+def hol_gyroscope(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Hol eq. 11b: ``h = ω^b_{eb} + δ_ω``; returns h (3,) and ∂h/∂x (3, 22)."""
+    H = np.zeros((3, 22))
+    H[:, 13:16] = np.eye(3)
+    H[:, 16:19] = np.eye(3)
+    return x[13:16] + x[16:19], H
+
+
+def hol_camera_implicit(
+    x: np.ndarray,
+    pixels: np.ndarray,
+    points: np.ndarray,
+    intrinsics: tuple[float, float, float, float],
+    q_bc: np.ndarray,
+    p_bc: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Hol eq. 11c: ``h = [−f I₂, zⁱ] R^{cb}(R^{be}(z^e − b^e) − c^b)`` per correspondence (measured value 0).
+
+    ``zⁱ`` is the measured pixel relative to the principal point, ``f`` in pixels (fx, fy separately).  Returns
+    h (M, 2), ∂h/∂x (M, 2, 22) and the camera-frame depth (M,) (the noise of h is the pixel noise times the depth).
+    """
+    fx, fy, cx, cy = intrinsics
+    R, dR = _rot_be_and_derivs(x[9:13])
+    Rcb = dp.matrix_from_quat(dp.quat_conj(q_bc))
+    d = np.asarray(points, float) - x[0:3]  # (M, 3)
+    zb = d @ R.T - p_bc
+    zc = zb @ Rcb.T
+    zi = np.asarray(pixels, float) - [cx, cy]
+    A = np.zeros((len(d), 2, 3))
+    A[:, 0, 0] = -fx
+    A[:, 1, 1] = -fy
+    A[:, :, 2] = zi
+    h = np.einsum("mij,mj->mi", A, zc)
+    AR = np.einsum("mij,jk->mik", A, Rcb)  # ∂h/∂z^b
+    H = np.zeros((len(d), 2, 22))
+    H[:, :, 0:3] = -np.einsum("mik,kl->mil", AR, R)
+    H[:, :, 9:13] = np.einsum("mik,qkl,ml->miq", AR, dR, d)
+    return h, H, zc[:, 2]

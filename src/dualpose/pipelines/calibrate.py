@@ -1,0 +1,122 @@
+"""Camera–IMU calibration on a simulated session (the job behind ``dualpose calibrate``), checked against truth.
+
+The session: ``poses`` static poses in front of the level two-plane scene (camera→body rotation, Hol 2008 §5),
+then Hol's eight-shaped run with the scene's vertical misaligned by ``gravity_misalignment_deg`` degrees and the
+camera clock shifted by ``time_offset_ms``.  The chain uses its own estimates: the estimated rotation feeds the
+gravity alignment (from the eight's first 0.9 s at rest) and the time-offset search (rate matching, then the
+error-state filter's NIS, with the estimated gravity).  Method and results: docs/fusion.md, "Calibration".
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+import dualpose as dp
+from dualpose import calibration as cal
+from dualpose import sim
+from dualpose.calibration.time_offset import estimate_time_offset, frame_poses, refine_time_offset_in_filter
+from dualpose.estimation.eskf import ErrorStateEKF
+from dualpose.estimation.initialization import initial_state_from_run
+from dualpose.sim.calibration_scenarios import random_extrinsic, simulate_static_poses
+from dualpose.types import ImuNoise
+
+__all__ = ["calibrate_run_time_offset", "calibrate_simulated_session"]
+
+
+def calibrate_run_time_offset(
+    run: sim.SimulatedRun,
+    q_bc: np.ndarray | None = None,
+    refine: bool = True,
+    weighted: bool = False,
+    **filter_kwargs,  # noqa: ANN003
+):  # noqa: ANN201
+    """Both time-offset stages on a simulated run that starts at rest (e.g. ``sim.simulate_eight``).
+
+    Per-frame robust PnP → :func:`~dualpose.calibration.time_offset.estimate_time_offset` (with ``q_bc``; ``None`` estimates the rotation
+    too; the PnP attitude covariances and the gyro noise density give its σ, ``weighted`` also weights with them)
+    → if ``refine``,
+    :func:`~dualpose.calibration.time_offset.refine_time_offset_in_filter` over ``±max(4σ, 5 ms)`` with the
+    error-state filter started from the rest period + first-frame PnP
+    (:func:`dualpose.estimation.initialization.initial_state_from_run`; ``filter_kwargs`` go to
+    ``ErrorStateEKF.for_run``, e.g. the estimated ``gravity`` — the filter's NIS only locates the offset well when
+    the rest of its model is right).  Returns ``(TimeOffsetEstimate,
+    FilterTimeOffsetEstimate or None)``.
+    """
+    f = run.frames
+    q_wc, cov = frame_poses(f.t, f.offsets, f.pixels, f.points, run.camera.matrix, max(run.pixel_sigma, 1e-3))
+    first = estimate_time_offset(
+        run.t, run.gyro, f.t, q_wc, q_bc, attitude_covariance=cov,
+        gyroscope_noise_density=run.imu_noise.gyroscope_noise_density, weighted=weighted,
+    )  # fmt: skip
+    if not refine:
+        return first, None
+    x, P = initial_state_from_run(run)
+
+    def make_filter() -> ErrorStateEKF:  # the run's true offset is NOT passed on: the search sets the attribute
+        return ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P, gyro_bias=x[10:13], accel_bias=x[13:16],
+                                     camera_time_offset=0.0, **filter_kwargs)  # fmt: skip
+
+    second = refine_time_offset_in_filter(
+        make_filter, run.t, run.gyro, run.accel, f.t, f.offsets, f.pixels, f.points, first.offset,
+        half_width=max(4 * first.sigma, 0.005),
+    )  # fmt: skip
+    return first, second
+
+
+def calibrate_simulated_session(
+    seed: int = 0,
+    poses: int = 6,
+    extrinsic: str = "default",
+    gravity_misalignment_deg: float = 1.0,
+    time_offset_ms: float = 15.0,
+) -> dict:
+    """The session of ``dualpose calibrate`` (module docstring); returns the metrics dictionary the command prints.
+
+    Raises
+    ------
+    ValueError
+        ``poses < 2``.
+    """
+    if poses < 2:
+        raise ValueError(f"--poses must be >= 2; got {poses}")
+    ext = sim.default_extrinsic() if extrinsic == "default" else random_extrinsic(seed)
+    static = simulate_static_poses(poses, seed, extrinsic=ext, duration=0.5)
+    stacked = cal.stack_static_periods([cal.static_period_from_run(r) for r in static])
+    bias_cov = np.eye(3) * ImuNoise().accelerometer_initial_bias_sigma ** 2
+    rot = cal.camera_imu_rotation(**stacked, accel_bias_covariance=bias_cov)
+    rot_err = math.degrees(dp.quat_angle(rot.q_bc, ext[0]))
+
+    run = sim.simulate(
+        sim.eight_motion(extrinsic=ext), seed=seed, extrinsic=ext,
+        gravity_misalignment_deg=gravity_misalignment_deg, time_offset=time_offset_ms * 1e-3,
+    )  # fmt: skip
+    rest = cal.static_period_from_run(run, 0.0, 0.9)
+    grav = cal.scene_gravity(
+        rest.specific_force, rest.q_wc, rot.q_bc, rest.specific_force_covariance, rest.attitude_covariance,
+        extrinsic_covariance=rot.covariance, accel_bias_covariance=bias_cov, magnitude=9.81,
+    )  # fmt: skip
+    true_dir = run.gravity / np.linalg.norm(run.gravity)
+    g_err = math.degrees(math.atan2(np.linalg.norm(np.cross(grav.direction, true_dir)), grav.direction @ true_dir))
+
+    run.q_bc = rot.q_bc  # the rest of the chain uses the estimated rotation, not the truth
+    first, second = calibrate_run_time_offset(run, rot.q_bc, gravity=grav.gravity)
+    return {
+        "seed": seed,
+        "poses": poses,
+        "extrinsic_error_deg": rot_err,
+        "extrinsic_sigma_deg": math.degrees(math.sqrt(np.trace(rot.covariance))),
+        "extrinsic_spread_deg": rot.spread_deg,
+        "q_bc": rot.q_bc.tolist(),
+        "gravity_direction": grav.direction.tolist(),
+        "gravity_tilt_deg": grav.tilt_deg,
+        "gravity_misalignment_deg": gravity_misalignment_deg,
+        "gravity_error_deg": g_err,
+        "gravity_sigma_deg": grav.sigma_deg,
+        "time_offset_injected_ms": time_offset_ms,
+        "time_offset_stage1_ms": 1e3 * first.offset,
+        "time_offset_stage1_sigma_ms": 1e3 * first.sigma,
+        "time_offset_ms": 1e3 * second.offset,
+        "time_offset_error_ms": 1e3 * second.offset - time_offset_ms,
+    }

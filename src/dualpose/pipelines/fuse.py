@@ -1,0 +1,296 @@
+"""The main job behind ``dualpose fuse``: run a camera-IMU filter on a recording and evaluate it.
+
+Inputs (:func:`load_recording`): the built-in simulated eight-shaped run (Hol 2008,
+:func:`dualpose.sim.simulate_eight`), a recording on disk in the format of ``docs/fusion.md``
+(:func:`dualpose.io.recording.read_recording`), or a BROAD trial ``.mat`` fused with pseudo-vision
+(:func:`dualpose.sim.broad_vision.recording_from_broad`).  The filter starts without the truth: static
+accelerometer alignment over the leading rest period (gyro bias; 0.9 s for the simulated run, given or detected
+for files) + PnP of the first frame during the rest (pose), zero velocity -- the same start as
+``benchmarks/fusion_accuracy.py``.  When the recording has ground truth, the estimate at every IMU time is compared
+with it by :func:`dualpose.evaluation.metrics.evaluate` (timestamp association within 10 ms, ATE after SE(3) Umeyama
+alignment, orientation RMSE, RPE over 0.5 m of path); without it those metrics are None.  With ``smooth=True`` the
+error-state filter's run is also smoothed offline (RTS, :func:`dualpose.estimation.smoother.rts_smooth`) and the same
+metrics are reported for the smoothed trajectory under ``metrics["smoothed"]``.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+import dualpose as dp
+from dualpose import sim
+from dualpose.estimation import eskf, hol22, initialization
+from dualpose.estimation.smoother import rts_smooth
+from dualpose.evaluation.metrics import evaluate
+from dualpose.io import load_broad
+from dualpose.io.recording import RecordingError, read_recording
+from dualpose.sim.broad_vision import recording_from_broad
+from dualpose.types import Recording, Trajectory
+
+__all__ = ["FILTERS", "FuseResult", "load_recording", "run_fuse"]
+
+#: filters ``run_fuse`` accepts
+FILTERS: tuple[str, ...] = ("eskf", "hol22")
+
+#: seconds of rest at the start of the simulated run used for the static alignment
+_REST_S = 0.9
+
+#: metrics that need ground truth (None without it)
+TRUTH_METRICS: tuple[str, ...] = (
+    "ate_rmse_m",
+    "orientation_rmse_deg",
+    "rpe_rmse_m",
+    "rpe_rotation_rmse_deg",
+    "position_rmse_unaligned_m",
+    "orientation_rmse_unaligned_deg",
+)
+
+#: RPE step, metres of travelled path
+_RPE_DELTA_M = 0.5
+
+_STAGES = ("simulate", "initialise", "filter", "evaluate")
+
+
+@dataclass
+class FuseResult:
+    """Output of :func:`run_fuse`.
+
+    Attributes
+    ----------
+    estimate : Trajectory
+        Estimated body poses (position in the world frame, m; ``q_wb`` xyzw body -> world) at the IMU times (N,).
+    truth : Trajectory or None
+        The ground-truth poses matched to the estimate (K,) (all N for the simulated run); None without truth.
+    metrics : dict
+        JSON-ready: ``ate_rmse_m``, ``orientation_rmse_deg``, ``rpe_rmse_m``, ``rpe_rotation_rmse_deg``,
+        ``nis_fraction_inside``, ``realtime_factor``, ``filter``, ``data``, ``seed``, ``duration_s``,
+        ``position_rmse_unaligned_m`` and ``orientation_rmse_unaligned_deg`` (in the recording's world frame, no
+        alignment -- the SE(3) alignment fitted to the positions adds attitude error), the innovation
+        summary and the full evaluation statistics under ``evaluation``.  Without ground truth the metrics in
+        :data:`TRUTH_METRICS` and ``evaluation`` are None.
+    position_error : ndarray, shape (K, 3), or None
+        Estimate minus truth at the matched poses, world frame, m (no alignment).
+    orientation_error_deg : ndarray, shape (K,), or None
+        Angle between estimated and true attitude at the matched poses, degrees (no alignment).
+    position_sigma : ndarray, shape (N, 3)
+        1σ of the position from the filter's covariance, m.
+    orientation_sigma_deg : ndarray, shape (N,) or None
+        1σ of the attitude-error angle (square root of the trace of the 3 x 3 attitude-error covariance), degrees;
+        None for ``hol22`` whose quaternion covariance is not an angle covariance.
+    nis : ndarray, shape (M,)
+        NIS of every camera correspondence update (2 dof), in processing order.
+    nis_accepted : ndarray of bool, shape (M,)
+        False for the correspondences the χ² gate rejected.
+    nis_bounds : tuple of float
+        Two-sided 95 % χ²(2) interval.
+    smoothed : Trajectory or None
+        The RTS-smoothed poses at the IMU times (``smooth=True`` only).
+    smoothed_position_error, smoothed_orientation_error_deg : ndarray or None
+        As ``position_error`` (K, 3) and ``orientation_error_deg`` (K,) for the smoothed trajectory.
+    error_index : ndarray of int, shape (K,), or None
+        Rows of ``estimate`` (and of the sigma arrays) that ``truth`` and the error arrays belong to.
+    """
+
+    estimate: Trajectory
+    truth: Trajectory | None
+    metrics: dict
+    position_error: np.ndarray | None
+    orientation_error_deg: np.ndarray | None
+    position_sigma: np.ndarray
+    orientation_sigma_deg: np.ndarray | None
+    nis: np.ndarray
+    nis_accepted: np.ndarray
+    nis_bounds: tuple[float, float]
+    smoothed: Trajectory | None = None
+    smoothed_position_error: np.ndarray | None = None
+    smoothed_orientation_error_deg: np.ndarray | None = None
+    error_index: np.ndarray | None = None
+
+
+def load_recording(data: str | os.PathLike | Recording = "sim", seed: int = 0) -> Recording:
+    """The :class:`~dualpose.types.recording.Recording` ``dualpose fuse --data`` names.
+
+    Parameters
+    ----------
+    data : str, path-like or Recording
+        "sim": the simulated eight-shaped run (seeded by ``seed``, 0.9 s rest used for the alignment); a path
+        ending in ``.mat``: a BROAD trial with pseudo-vision (:func:`dualpose.sim.broad_vision.recording_from_broad`,
+        ``seed`` seeds the pixel noise); any other path: a recording directory or its sensor file
+        (:func:`dualpose.io.recording.read_recording`).  A Recording is returned as is.
+
+    Raises
+    ------
+    dualpose.io.recording.RecordingError
+        (a ValueError) for a missing or malformed input, naming the file and line.
+    """
+    if isinstance(data, Recording):
+        return data
+    if isinstance(data, str) and data == "sim":
+        return sim.recording_from_simulation(sim.simulate_eight(int(seed)), rest_seconds=_REST_S)
+    if not isinstance(data, (str, os.PathLike)):
+        raise TypeError(f"data must be 'sim', a path or a Recording; got {type(data).__name__}")
+    if str(data).lower().endswith(".mat"):
+        try:
+            trial = load_broad(data)
+        except (FileNotFoundError, ValueError) as exc:
+            raise RecordingError(f"{data}: {exc}") from None
+        return recording_from_broad(trial, seed=int(seed), name=str(data))
+    return read_recording(data)
+
+
+def _truth_metrics(truth: Trajectory | None, estimate: Trajectory) -> tuple[dict, dict | None, tuple | None]:
+    """Metrics against the ground truth (``TRUTH_METRICS``, None without truth), the evaluation dict and the
+    per-pose arrays ``(error_index, truth matched, position_error, orientation_error_deg)``."""
+    if truth is None:
+        return dict.fromkeys(TRUTH_METRICS), None, None
+    ev = evaluate(truth, estimate, align="se3", rpe_delta=_RPE_DELTA_M, rpe_unit="m")
+    ed = ev.as_dict()
+    out = {key: ed[key] for key in TRUTH_METRICS[:4]}
+    matched = truth.take(ev.idx_ref)
+    pos_err = estimate.positions[ev.idx_est] - matched.positions
+    ori_err = np.degrees(dp.quat_angle(estimate.quats[ev.idx_est], matched.quats))
+    out["position_rmse_unaligned_m"] = float(np.sqrt(np.mean(np.sum(pos_err**2, axis=1))))
+    out["orientation_rmse_unaligned_deg"] = float(np.sqrt(np.mean(ori_err**2)))
+    return out, ed, (ev.idx_est, matched, pos_err, ori_err)
+
+
+def run_fuse(
+    data: str | os.PathLike | Recording = "sim",
+    filter: str = "eskf",  # noqa: A002 -- the CLI option's name
+    seed: int = 0,
+    progress: Callable[[int, int, str], None] | None = None,
+    smooth: bool = False,
+) -> FuseResult:
+    """Run ``filter`` on ``data`` and evaluate it against the ground truth when there is one.
+
+    Parameters
+    ----------
+    data : str, path-like or Recording
+        "sim" (the simulated eight-shaped run with default sensors), a recording directory / sensor file, a BROAD
+        ``.mat`` trial, or a :class:`~dualpose.types.recording.Recording` (see :func:`load_recording`).
+    filter : {"eskf", "hol22"}
+        :class:`~dualpose.estimation.eskf.ErrorStateEKF` (recommended) or :class:`~dualpose.estimation.hol22.Hol22EKF`.
+    seed : int
+        Seed of the simulation's noise (of the pseudo-vision for a BROAD trial).
+    progress : callable, optional
+        Called as ``progress(done, total, stage)`` after each stage (simulate or load, initialise, filter,
+        evaluate).
+    smooth : bool
+        Also run the RTS smoother over the filtered run (``filter="eskf"`` only) and report its metrics under
+        ``metrics["smoothed"]`` (see :func:`_smoothed_metrics`).
+
+    Returns
+    -------
+    FuseResult
+
+    Raises
+    ------
+    ValueError
+        Unknown ``filter``, or ``smooth`` with a filter other than "eskf".
+    dualpose.io.recording.RecordingError
+        (a ValueError) for an unreadable or malformed recording, or one the filter cannot be started on (no
+        frame with >= 6 correspondences during the rest period).
+    """
+    if filter not in FILTERS:
+        raise ValueError(f"filter must be one of {FILTERS}; got {filter!r}")
+    _check_smooth(filter, smooth)
+    stages = _STAGES if isinstance(data, str) and data == "sim" else ("load",) + _STAGES[1:]
+
+    def step(k: int) -> None:
+        if progress is not None:
+            progress(k + 1, len(stages), stages[k])
+
+    run = load_recording(data, seed)
+    step(0)
+    try:
+        x, P0 = initialization.initial_state_from_run(run, run.rest_seconds)
+    except ValueError as exc:
+        raise RecordingError(f"{run.name}: cannot start the filter: {exc}") from None
+    step(1)
+    if filter == "eskf":
+
+        def make() -> eskf.ErrorStateEKF:
+            return eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P0, gyro_bias=x[10:13])
+
+        # load the compiled kernel on a throw-away two-sample run, so that ``realtime_factor`` times the filtering
+        no_frames = (np.zeros(0), np.zeros(1, np.int64), np.zeros((0, 2)), np.zeros((0, 3)))
+        make().run(run.t[:2], run.gyro[:2], run.accel[:2], *no_frames)
+        res = make().run_recording(run, record_nodes=smooth)
+        pos_var = np.diagonal(res.covariance[:, 0:3, 0:3], axis1=1, axis2=2)
+        att_var = np.trace(res.covariance[:, 6:9, 6:9], axis1=1, axis2=2)
+        ori_sigma = np.degrees(np.sqrt(att_var))
+    else:
+        res = hol22.Hol22EKF.from_eskf_state(x, P0, run).run_recording(run)
+        pos_var = np.diagonal(res.covariance[:, 0:3, 0:3], axis1=1, axis2=2)
+        ori_sigma = None
+    step(2)
+    estimate = Trajectory(res.t, res.position, res.quat, run.stamps_ns, name=f"dualpose fuse --filter {filter}")
+    truth_metrics, ed, per_pose = _truth_metrics(run.ground_truth, estimate)
+    duration = run.duration
+    rep = res.innovation
+    metrics = {
+        "data": run.name if not isinstance(data, (str, os.PathLike)) else str(data),
+        "filter": filter,
+        "seed": int(seed),
+        "duration_s": duration,
+        "imu_samples": int(len(run.t)),
+        "camera_frames": int(len(run.frames)),
+        "filter_wall_time_s": float(res.wall_time),
+        "realtime_factor": duration / float(res.wall_time),
+    }
+    for key in TRUTH_METRICS[:4]:
+        metrics[key] = truth_metrics[key]
+    metrics.update(rep.summary())
+    for key in TRUTH_METRICS[4:]:
+        metrics[key] = truth_metrics[key]
+    metrics["evaluation"] = ed
+    smoothed = _smoothed_metrics(res, run.ground_truth, estimate) if smooth else {}
+    if smooth:
+        metrics["smoothed"] = smoothed.pop("metrics")
+    step(3)
+    idx, truth, pos_err, ori_err = per_pose if per_pose is not None else (None, None, None, None)
+    return FuseResult(
+        estimate=estimate,
+        truth=truth,
+        metrics=metrics,
+        position_error=pos_err,
+        orientation_error_deg=ori_err,
+        position_sigma=np.sqrt(np.maximum(pos_var, 0.0)),
+        orientation_sigma_deg=ori_sigma,
+        nis=np.asarray(rep.nis),
+        nis_accepted=np.asarray(rep.accepted, dtype=bool),
+        nis_bounds=(float(rep.bounds[0]), float(rep.bounds[1])),
+        error_index=idx,
+        **smoothed,
+    )
+
+
+def _check_smooth(filter: str, smooth: bool) -> None:  # noqa: A002
+    if smooth and filter != "eskf":
+        raise ValueError(
+            f"smooth=True (--smooth) needs filter 'eskf': the RTS smoother runs over the error-state filter's "
+            f"stored nodes; got filter {filter!r}"
+        )
+
+
+def _smoothed_metrics(res, truth: Trajectory | None, estimate: Trajectory) -> dict:  # noqa: ANN001
+    """RTS-smooth the filter result ``res`` (recorded nodes) and evaluate it like the filter.
+
+    Returns the extra :class:`FuseResult` fields plus ``"metrics"``: the :data:`TRUTH_METRICS` of the smoothed
+    trajectory (as the filter's; None without ground truth) and ``smoother_wall_time_s`` (backward pass only).
+    """
+    sm = rts_smooth(res)
+    traj = Trajectory(sm.t, sm.position, sm.quat, estimate.stamps_ns, name=f"{estimate.name} --smooth")
+    metrics, _, per_pose = _truth_metrics(truth, traj)
+    metrics["smoother_wall_time_s"] = float(sm.wall_time)
+    _, _, pos_err, ori_err = per_pose if per_pose is not None else (None, None, None, None)
+    return {
+        "metrics": metrics,
+        "smoothed": traj,
+        "smoothed_position_error": pos_err,
+        "smoothed_orientation_error_deg": ori_err,
+    }

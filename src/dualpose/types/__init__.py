@@ -1,0 +1,27 @@
+"""Sensor types and data containers shared by every layer above the algebra.
+
+* :class:`Trajectory` (:mod:`~dualpose.types.trajectory`): timestamped poses, what readers return and metrics take.
+* :class:`ImuNoise` (:mod:`~dualpose.types.imu`): IMU noise densities and random walks (Kalibr conventions).
+* :class:`PinholeCamera`, :class:`CameraIntrinsics`, :class:`FrameCorrespondences` (:mod:`~dualpose.types.camera`).
+* :class:`Recording` (:mod:`~dualpose.types.recording`): one camera-IMU run, whatever its source.
+
+Layouts: positions ``(N, 3)`` metres, quaternions ``(N, 4)`` xyzw Hamilton body -> world, times in seconds.
+"""
+
+from dualpose.types.camera import CameraIntrinsics, FrameCorrespondences, PinholeCamera, PinholeModel
+from dualpose.types.imu import STANDARD_GRAVITY, ImuNoise
+from dualpose.types.recording import Recording, SensorRun
+from dualpose.types.trajectory import Trajectory, seconds_from_ns
+
+__all__ = [
+    "STANDARD_GRAVITY",
+    "CameraIntrinsics",
+    "FrameCorrespondences",
+    "ImuNoise",
+    "PinholeCamera",
+    "PinholeModel",
+    "Recording",
+    "SensorRun",
+    "Trajectory",
+    "seconds_from_ns",
+]

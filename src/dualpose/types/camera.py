@@ -1,0 +1,122 @@
+"""Camera models and 2-D–3-D point correspondences (what the vision front end hands the estimators).
+
+Camera frame ``c``: z along the optical axis, x right, y down, metres; pixels ``(u, v)`` with the origin at the
+top-left corner of the image.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["PinholeModel", "PinholeCamera", "CameraIntrinsics", "FrameCorrespondences"]
+
+
+class PinholeModel:
+    """Projection shared by the pinhole cameras; a subclass provides ``fx``, ``fy``, ``cx``, ``cy`` (pixels) and
+    ``width``, ``height``.  Pixel ``u = fx X/Z + cx``, ``v = fy Y/Z + cy`` (camera frame, metres)."""
+
+    @property
+    def matrix(self) -> np.ndarray:
+        """Intrinsic matrix ``K``, shape (3, 3), pixels."""
+        return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
+
+    def project(self, points_c: np.ndarray) -> np.ndarray:
+        """Pixels ``(..., 2)`` of camera-frame points ``(..., 3)`` (metres; Z must be > 0)."""
+        p = np.asarray(points_c, dtype=np.float64)
+        if p.shape[-1:] != (3,):
+            raise ValueError(f"points_c must have shape (..., 3); got {p.shape}")
+        z = p[..., 2]
+        return np.stack([self.fx * p[..., 0] / z + self.cx, self.fy * p[..., 1] / z + self.cy], axis=-1)
+
+
+@dataclass(frozen=True)
+class PinholeCamera(PinholeModel):
+    """Pinhole camera without distortion.  Pixel ``u = fx X/Z + cx``, ``v = fy Y/Z + cy`` (camera frame, metres).
+
+    Defaults: Hol's 320 × 240 camera with f = 3.2 mm and an assumed 15 µm pixel pitch (fx = fy = 213.3 px).
+    """
+
+    width: int = 320
+    height: int = 240
+    focal_length_m: float = 3.2e-3
+    pixel_pitch_m: float = 15e-6
+
+    @property
+    def fx(self) -> float:
+        return self.focal_length_m / self.pixel_pitch_m
+
+    @property
+    def fy(self) -> float:
+        return self.focal_length_m / self.pixel_pitch_m
+
+    @property
+    def cx(self) -> float:
+        return 0.5 * self.width
+
+    @property
+    def cy(self) -> float:
+        return 0.5 * self.height
+
+
+@dataclass(frozen=True)
+class CameraIntrinsics(PinholeModel):
+    """Pinhole camera given by its intrinsics in pixels (what a calibration file states), no distortion.
+
+    Attributes
+    ----------
+    fx, fy : float
+        Focal lengths, pixels (> 0).
+    cx, cy : float
+        Principal point, pixels.
+    width, height : int
+        Image size, pixels (> 0).
+    """
+
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    width: int
+    height: int
+
+    def __post_init__(self) -> None:
+        for name in ("fx", "fy", "cx", "cy"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v)):
+                raise ValueError(f"{name} must be a finite number of pixels; got {v!r}")
+        if not (self.fx > 0 and self.fy > 0):
+            raise ValueError(f"fx and fy must be > 0 pixels; got {self.fx}, {self.fy}")
+        for name in ("width", "height"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v <= 0:
+                raise ValueError(f"{name} must be a positive whole number of pixels; got {v!r}")
+
+
+@dataclass
+class FrameCorrespondences:
+    """2-D–3-D point correspondences of all camera frames, flattened (what the filters consume).
+
+    Frame ``k`` (camera-clock stamp ``t[k]``, s; ``t`` (F,)) owns rows ``offsets[k]:offsets[k+1]`` of ``pixels``
+    (M, 2) and ``points`` (M, 3) world-frame landmark positions (metres); ``offsets`` (F + 1,) int64.
+    """
+
+    t: np.ndarray
+    offsets: np.ndarray
+    pixels: np.ndarray
+    points: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    def frame(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(pixels (m, 2), points (m, 3))`` of frame ``k``."""
+        a, b = self.offsets[k], self.offsets[k + 1]
+        return self.pixels[a:b], self.points[a:b]
+
+    @property
+    def counts(self) -> np.ndarray:
+        """Number of correspondences per frame, shape (F,)."""
+        return np.diff(self.offsets)

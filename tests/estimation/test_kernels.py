@@ -1,0 +1,28 @@
+"""The ESKF kernels' Joseph updates against the textbook dense formula."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dualpose.estimation import _eskf_kernels as K
+
+
+def test_joseph_2d_equals_dense_joseph(rng) -> None:  # noqa: ANN001
+    A = rng.normal(size=(15, 15))
+    P = A @ A.T + np.eye(15)
+    H = np.zeros((2, 15))
+    H[:, 0:3] = rng.normal(size=(2, 3))
+    H[:, 6:9] = rng.normal(size=(2, 3))
+    s2 = 0.7
+    S = H @ P @ H.T + s2 * np.eye(2)
+    Kg = P @ H.T @ np.linalg.inv(S)
+    I_KH = np.eye(15) - Kg @ H
+    expected = I_KH @ P @ I_KH.T + s2 * Kg @ Kg.T
+    got = P.copy()
+    K.joseph_2d(got, Kg, H, s2)
+    np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12)
+    dense = P.copy()
+    K.joseph(dense, Kg, H, s2 * np.eye(2))
+    np.testing.assert_allclose(dense, expected, rtol=1e-12, atol=1e-12)
+    # with the optimal gain Joseph equals the short form (I − KH) P
+    np.testing.assert_allclose(got, I_KH @ P, rtol=1e-9, atol=1e-9)
