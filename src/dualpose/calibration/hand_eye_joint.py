@@ -19,7 +19,7 @@ from scipy.optimize import least_squares
 
 import dualpose as dp
 from dualpose.calibration.hand_eye_residual import pair_motions, pair_residuals, select_pairs
-from dualpose.calibration.hand_eye_streams import CleaningReport, PoseStream, shift_stamps
+from dualpose.calibration.hand_eye_streams import CleaningReport, PoseStream, interpolate_stream, shift_stamps
 from dualpose.calibration.hand_eye_time import coarse_time_offset
 from dualpose.registration import HandEyeWarning, calibrate_hand_eye
 
@@ -27,6 +27,30 @@ __all__ = ["HandEyeStreamResult", "calibrate_hand_eye_streams"]
 
 _CHI2_3_MEDIAN = 2.365974  # median of χ²(3): robust scale of a 3-vector residual
 _CHI2_6_999 = 22.457744  # 0.999 quantile of χ²(6): inlier gate of the normalised 6-vector residual
+_CHI2_6_9999 = 27.855876  # 0.9999 quantile of χ²(6): gate of the per-pose target consistency
+
+
+def _consistent_poses(camera: PoseStream, body: PoseStream, qx, tx, tau: float, max_gap) -> np.ndarray:  # noqa: ANN001
+    """Camera samples whose target pose ``Y_k = B(t_k + τ) X A_k⁻¹`` agrees with the others (the target is fixed).
+
+    An outlier detection spoils every pair it is part of, and, being a jump, is often chosen as the partner of the
+    samples before it; removing such samples before forming pairs keeps the good pairs.  Samples without a valid body
+    pose are kept (the pair stage drops them).
+    """
+    pb, qb, ok = interpolate_stream(body, camera.stamps + tau, max_gap)
+    qy, ty = dp.qt_mul(*dp.qt_mul(qb, pb, qx, tx), *dp.qt_conj(camera.quats, camera.positions))
+    keep = np.ones(len(camera), bool)
+    if ok.sum() < 10:
+        return keep
+    use = ok.copy()
+    for _ in range(2):
+        q0, t0 = dp.quat_mean(qy[use]), np.median(ty[use], axis=0)
+        th2 = dp.quat_angle(qy, q0) ** 2
+        d2 = np.einsum("ij,ij->i", ty - t0, ty - t0)
+        s2r, s2t = _robust_scales(th2[ok], d2[ok])
+        use = ok & (th2 / s2r + d2 / s2t <= _CHI2_6_9999)
+    keep[ok] = use[ok]
+    return keep
 
 
 @dataclass(frozen=True)
@@ -128,7 +152,7 @@ def _robust_scales(th2: np.ndarray, t2: np.ndarray) -> tuple[float, float]:
 def calibrate_hand_eye_streams(
     camera: PoseStream, body: PoseStream, *, time_offset: float | None = None, fix_time_offset: bool = False,
     min_pair_angle: float = np.deg2rad(10.0), max_pair_dt: float = 2.0, max_gap: float | None = None,
-    margin: float = 0.05, iterations: int = 300, seed: int = 0, max_rounds: int = 6,
+    margin: float = 0.05, iterations: int = 300, seed: int = 0, max_rounds: int = 6, gate: float = _CHI2_6_999,
 ) -> HandEyeStreamResult:  # fmt: skip
     """Estimate ``X`` (camera pose in the body frame) and the time offset ``τ`` from two pose streams.
 
@@ -192,6 +216,10 @@ def calibrate_hand_eye_streams(
                          " need at least 3 (too little overlap, or too little rotation)")  # fmt: skip
     qa, ta, qb, tb, _ = pair_motions(camera, body, i_all[ok], j_all[ok], tau0, max_gap)
     qx, tx = _lmeds_daniilidis(qa, ta, qb, tb, np.random.default_rng(seed), iterations)
+    # drop inconsistent camera samples, then form the pairs again from the rest (indices kept in the input's terms)
+    kept = np.flatnonzero(_consistent_poses(camera, body, qx, tx, tau0, max_gap))
+    camera = PoseStream(camera.stamps[kept], camera.positions[kept], camera.quats[kept], camera.name)
+    i_all, j_all = select_pairs(camera, min_angle=min_pair_angle, max_dt=max_pair_dt)
     tau = tau0
     inliers = None
     for _ in range(max_rounds):
@@ -200,7 +228,7 @@ def calibrate_hand_eye_streams(
         rv, te = pair_residuals(qa, ta, qb, tb, qx, tx)
         th2, t2 = np.einsum("ij,ij->i", rv, rv), np.einsum("ij,ij->i", te, te)
         s2r, s2t = _robust_scales(th2, t2)
-        new = np.flatnonzero(ok)[th2 / s2r + t2 / s2t <= _CHI2_6_999]
+        new = np.flatnonzero(ok)[th2 / s2r + t2 / s2t <= gate]
         if inliers is not None and np.array_equal(new, inliers):
             break
         inliers = new
@@ -222,7 +250,7 @@ def calibrate_hand_eye_streams(
         quat=qx, translation=tx, dualquat=x, matrix=dp.matrix_from_dualquat(x), time_offset=float(tau),
         coarse_time_offset=float(tau0), coarse_correlation=coarse_corr,
         rotation_rmse_deg=float(np.degrees(np.sqrt(th2.mean()))), translation_rmse_m=float(np.sqrt(t2.mean())),
-        pairs=np.column_stack([i, j]), pairs_total=pairs_total, sigma_rotation=float(np.sqrt(s2r)),
+        pairs=np.column_stack([kept[i], kept[j]]), pairs_total=pairs_total, sigma_rotation=float(np.sqrt(s2r)),
         sigma_translation=float(np.sqrt(s2t)), covariance=cov, rotation_sigma_deg=np.degrees(sd[:3]),
         translation_sigma_m=sd[3:6], time_offset_sigma=float(sd[6]),
     )  # fmt: skip
