@@ -244,7 +244,7 @@ def calibrate_hand_eye_streams(
     sd = np.sqrt(np.diag(cov))
     x = dp.dualquat_canonical(_dq(qx, tx))
     pairs_total = int(usable(tau).sum())
-    tau += shift
+    tau = float(time_offset) if fix_time_offset else tau + shift
     tau0 += shift
     return HandEyeStreamResult(
         quat=qx, translation=tx, dualquat=x, matrix=dp.matrix_from_dualquat(x), time_offset=float(tau),

@@ -180,8 +180,8 @@ def interpolate_stream(
     positions : ndarray, shape (M, 3)
     quats : ndarray, shape (M, 4)
     valid : ndarray of bool, shape (M,)
-        False outside ``[stamps[0], stamps[-1]]`` or inside a gap longer than ``max_gap``.  Invalid entries are
-        extrapolated from the nearest sample interval (finite, but not to be trusted).
+        False outside ``[stamps[0], stamps[-1]]`` or inside (not at the ends of) a gap longer than ``max_gap``.
+        Invalid entries are extrapolated from the nearest sample interval (finite, but not to be trusted).
     """
     if max_gap is None:
         max_gap = default_max_gap(stream)
@@ -190,7 +190,7 @@ def interpolate_stream(
     i = np.clip(np.searchsorted(s, x, side="right") - 1, 0, len(s) - 2)
     span = s[i + 1] - s[i]
     u = (x - s[i]) / span
-    valid = (x >= s[0]) & (x <= s[-1]) & (span <= max_gap)
+    valid = (x >= s[0]) & (x <= s[-1]) & ((span <= max_gap) | (x == s[i]) | (x == s[i + 1]))
     pos = stream.positions[i] + u[:, None] * (stream.positions[i + 1] - stream.positions[i])
     quat = dp.quat_slerp(stream.quats[i], stream.quats[i + 1], u)
     return pos, quat, valid
