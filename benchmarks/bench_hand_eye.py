@@ -79,7 +79,7 @@ def eth_style_offset(cam, body):  # noqa: ANN001, ANN201
     return dt * lag + tb[0] - ta[0]
 
 
-def eth_style_x(cam, body, pairs, tau, seed=0, iters=300, pos_thr=0.02, ang_thr=np.deg2rad(1.0)):  # noqa: ANN001, ANN201
+def eth_style_x(cam, body, pairs, tau, seed=0, iters=300, pos_thr=0.02, ang_thr=0.017453292519943295):  # noqa: ANN001, ANN201
     """Daniilidis in RANSAC (3-pair samples, inliers by loop residual < 2 cm and < 1°), refit on the largest set."""
     qa, ta, qb, tb, ok = pair_motions(cam, body, pairs[:, 0], pairs[:, 1], tau)
     qa, ta, qb, tb = qa[ok], ta[ok], qb[ok], tb[ok]
@@ -130,15 +130,16 @@ def run_dataset(data: Path, name: str) -> tuple[list[str], dict]:
     costs = [loop_residual(cam, body, i, j, t, r.quat, r.translation, r.sigma_rotation, r.sigma_translation).cost
              for t in taus]  # fmt: skip
     tau_min = float(taus[int(np.argmin(costs))])
-    lines = [f"### {name}", "", "| method | τ used [s] | rotation RMSE [deg] | translation RMSE [mm] | pairs | seconds |",
-             "|---|---|---|---|---|---|"]  # fmt: skip
+    head = "| method | τ used [s] | rotation RMSE [deg] | translation RMSE [mm] | pairs | seconds |"
+    lines = [f"### {name}", "", head, "|---|---|---|---|---|---|"]
     lines += [f"| {m} | {tau:+.4f} | {rot:.3f} | {tr:.2f} | {n} | {sec:.2f} |" for m, tau, rot, tr, n, sec in rows]
     summary = {
         "tau": r.time_offset, "tau_min": tau_min, "rot": rows[0][2], "trans": rows[0][3], "wall": wall,
         "rot_ratio": rows[0][2] / best_eth_tau["rot"], "trans_ratio": rows[0][3] / best_eth_tau["trans"],
         "x": (r.quat, r.translation), "sig": (r.rotation_sigma_deg, 1e3 * r.translation_sigma_m, r.time_offset_sigma),
     }  # fmt: skip
-    lines += ["", f"X: rotation xyzw {np.round(r.quat, 5).tolist()} (σ {np.round(r.rotation_sigma_deg, 3).tolist()} deg), "
+    lines += ["", f"X: rotation xyzw {np.round(r.quat, 5).tolist()} "
+              f"(σ {np.round(r.rotation_sigma_deg, 3).tolist()} deg), "
               f"translation {np.round(1e3 * r.translation, 2).tolist()} mm (σ "
               f"{np.round(1e3 * r.translation_sigma_m, 2).tolist()} mm), τ = {r.time_offset:.5f} ± "
               f"{r.time_offset_sigma:.5f} s; {r.pairs_used} of {r.pairs_total} pairs.",
