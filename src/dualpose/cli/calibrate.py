@@ -5,7 +5,10 @@ then Hol's eight-shaped run with the scene's vertical misaligned by ``--gravity-
 camera clock shifted by ``--time-offset`` ms.  The chain uses its own estimates: the estimated rotation feeds the
 gravity alignment (from the eight's first 0.9 s at rest) and the time-offset search (rate matching, then the
 error-state filter's NIS, with the estimated gravity).  Prints a table (or one JSON object with ``--json``).
-Nothing is written to disk.  File input is not implemented.
+Nothing is written to disk.
+
+``dualpose calibrate hand-eye CAMERA.csv BODY.csv`` (:mod:`dualpose.cli.calibrate_hand_eye`) calibrates a camera
+against a motion-capture marker or a robot hand from two recorded pose files.
 """
 
 from __future__ import annotations
@@ -13,6 +16,8 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+
+from dualpose.cli import calibrate_hand_eye
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -32,6 +37,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument("--gravity-misalignment", type=float, default=1.0, metavar="DEG", help="scene tilt, deg (1)")
     p.add_argument("--time-offset", type=float, default=15.0, metavar="MS", help="t_imu - t_cam, ms (15)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
+    sub = p.add_subparsers(dest="calibrate_command", required=False, metavar="{hand-eye}",
+                           help="calibrate from recorded files (without it: the simulated session)")  # fmt: skip
+    calibrate_hand_eye.add_subparser(sub)
     return p
 
 
@@ -55,6 +63,8 @@ def _table(m: dict) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    if getattr(args, "calibrate_command", None) == "hand-eye":
+        return calibrate_hand_eye.run(args)
     from dualpose.pipelines.calibrate import calibrate_simulated_session
 
     try:

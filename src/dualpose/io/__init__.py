@@ -1,7 +1,8 @@
 """File formats: TUM trajectories, EuRoC IMU and ground-truth CSV, format detection, BROAD IMU trials.
 
 Camera-IMU recordings for ``dualpose fuse --data`` (:mod:`dualpose.io.recording`): :func:`read_recording`,
-:func:`write_recording`.  Point CSV files for ``dualpose register``: :mod:`dualpose.io.csv_points`.  Import
+:func:`write_recording`.  Point CSV files for ``dualpose register``: :mod:`dualpose.io.csv_points`.
+Pose streams ``t, x, y, z, qx, qy, qz, qw`` for ``dualpose calibrate hand-eye``: :func:`read_pose_csv`.  Import
 explicitly; ``import dualpose`` does not load this.
 
 Quaternions are returned xyzw (scalar last) whatever the file stores; EuRoC nanosecond timestamps are kept exact as
@@ -11,6 +12,7 @@ int64.  Writers never replace an existing file unless ``overwrite=True``.
 from dualpose.io.broad import load_broad
 from dualpose.io.detect import detect_format, read_trajectory
 from dualpose.io.euroc import ImuData, read_euroc_groundtruth, read_euroc_imu, write_euroc_groundtruth, write_euroc_imu
+from dualpose.io.pose_csv import read_pose_csv
 from dualpose.io.recording import RecordingError, read_recording, write_recording
 from dualpose.io.tum import read_tum, write_tum
 from dualpose.types.trajectory import Trajectory, seconds_from_ns
@@ -27,6 +29,7 @@ __all__ = [
     "write_euroc_groundtruth",
     "detect_format",
     "read_trajectory",
+    "read_pose_csv",
     "load_broad",
     "RecordingError",
     "read_recording",

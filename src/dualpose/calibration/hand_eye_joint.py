@@ -1,0 +1,289 @@
+"""Hand–eye calibration with time offset from two unsynchronised pose streams.
+
+Pipeline (:func:`calibrate_hand_eye_streams`): (1) coarse ``τ`` from the angular-rate correlation
+(:mod:`~dualpose.calibration.hand_eye_time`); (2) motion pairs of camera samples
+(:func:`~dualpose.calibration.hand_eye_residual.select_pairs`) with the body interpolated at ``t + τ``; (3) ``X``
+from Daniilidis' dual-quaternion solution (Daniilidis, IJRR 1999) inside a least-median-of-squares sampler
+(outlier-robust, as ETH's RANSAC stage: Furrer et al., FSR 2017); (4) joint nonlinear least squares of ``X`` and
+``τ`` on the rotation and translation loop residuals, each scaled by a robust estimate of its noise, alternated with
+χ² outlier rejection until the inlier set settles.  Uncertainties are first order, ``s² (JᵀJ)⁻¹`` at the solution.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+
+import dualpose as dp
+from dualpose.calibration.hand_eye_residual import pair_motions, pair_residuals, select_pairs
+from dualpose.calibration.hand_eye_streams import CleaningReport, PoseStream, interpolate_stream, shift_stamps
+from dualpose.calibration.hand_eye_time import coarse_time_offset
+from dualpose.registration import HandEyeWarning, calibrate_hand_eye
+
+__all__ = ["HandEyeStreamResult", "calibrate_hand_eye_streams"]
+
+_CHI2_3_MEDIAN = 2.365974  # median of χ²(3): robust scale of a 3-vector residual
+_CHI2_6_999 = 22.457744  # 0.999 quantile of χ²(6): inlier gate of the normalised 6-vector residual
+_CHI2_6_9999 = 27.855876  # 0.9999 quantile of χ²(6): gate of the per-pose target consistency
+
+
+def _consistent_poses(camera: PoseStream, body: PoseStream, qx, tx, tau: float, max_gap) -> np.ndarray:  # noqa: ANN001
+    """Camera samples whose target pose ``Y_k = B(t_k + τ) X A_k⁻¹`` agrees with the others (the target is fixed).
+
+    An outlier detection spoils every pair it is part of, and, being a jump, is often chosen as the partner of the
+    samples before it; removing such samples before forming pairs keeps the good pairs.  Samples without a valid body
+    pose are kept (the pair stage drops them).
+    """
+    pb, qb, ok = interpolate_stream(body, camera.stamps + tau, max_gap)
+    qy, ty = dp.qt_mul(*dp.qt_mul(qb, pb, qx, tx), *dp.qt_conj(camera.quats, camera.positions))
+    keep = np.ones(len(camera), bool)
+    if ok.sum() < 10:
+        return keep
+    use = ok.copy()
+    for _ in range(2):
+        q0, t0 = dp.quat_mean(qy[use]), np.median(ty[use], axis=0)
+        th2 = dp.quat_angle(qy, q0) ** 2
+        d2 = np.einsum("ij,ij->i", ty - t0, ty - t0)
+        s2r, s2t = _robust_scales(th2[ok], d2[ok])
+        use = ok & (th2 / s2r + d2 / s2t <= _CHI2_6_9999)
+    keep[ok] = use[ok]
+    return keep
+
+
+@dataclass(frozen=True)
+class HandEyeStreamResult:
+    """Result of :func:`calibrate_hand_eye_streams`.
+
+    Attributes
+    ----------
+    quat : ndarray (4,)
+        Rotation of ``X`` (camera frame -> body frame), xyzw, ``w >= 0``.
+    translation : ndarray (3,)
+        Camera origin in the body frame (m).
+    dualquat : ndarray (8,), matrix : ndarray (4, 4)
+        ``X`` as unit dual quaternion and homogeneous matrix.
+    time_offset : float
+        ``τ`` (s): camera time ``t`` ↔ body time ``t + τ``.
+    coarse_time_offset, coarse_correlation : float
+        ``τ`` of the rate correlation and its normalised correlation peak.
+    rotation_rmse_deg, translation_rmse_m : float
+        RMS loop residuals over the inlier pairs (rotation angle in deg, translation norm in m).
+    pairs : ndarray of int, shape (m, 2)
+        Camera-sample indices of the inlier pairs (used in the final fit).
+    pairs_total : int
+        Pairs with valid body poses at ``τ`` before outlier rejection.
+    sigma_rotation, sigma_translation : float
+        Noise scales of the residual components (rad, m), the weights of the cost.
+    covariance : ndarray (7, 7)
+        First-order covariance of ``[δθ (rad, left perturbation of the rotation), t (m), τ (s)]``.
+    rotation_sigma_deg : ndarray (3,), translation_sigma_m : ndarray (3,), time_offset_sigma : float
+        Square roots of its diagonal (deg, m, s).
+    camera_report, body_report : CleaningReport or None
+        Filled in by callers that cleaned the streams (the CLI).
+    """
+
+    quat: np.ndarray
+    translation: np.ndarray
+    dualquat: np.ndarray
+    matrix: np.ndarray
+    time_offset: float
+    coarse_time_offset: float
+    coarse_correlation: float
+    rotation_rmse_deg: float
+    translation_rmse_m: float
+    pairs: np.ndarray
+    pairs_total: int
+    sigma_rotation: float
+    sigma_translation: float
+    covariance: np.ndarray
+    rotation_sigma_deg: np.ndarray
+    translation_sigma_m: np.ndarray
+    time_offset_sigma: float
+    camera_report: CleaningReport | None = field(default=None)
+    body_report: CleaningReport | None = field(default=None)
+
+    @property
+    def pairs_used(self) -> int:
+        return len(self.pairs)
+
+
+def _dq(q: np.ndarray, t: np.ndarray) -> np.ndarray:
+    return dp.dualquat_from_qt(q, t)
+
+
+def _lmeds_daniilidis(qa, ta, qb, tb, rng: np.random.Generator, iterations: int):  # noqa: ANN001, ANN202
+    """Least-median-of-squares over Daniilidis solutions of random 3-pair samples, then a fit on the inliers."""
+    a_dq, b_dq = _dq(qb, tb), _dq(qa, ta)  # calibrate_hand_eye solves A X = X B with A the body motions
+    m = len(qa)
+    cands = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HandEyeWarning)
+        for _ in range(iterations):
+            s = rng.choice(m, 3, replace=False)
+            try:
+                r = calibrate_hand_eye(a_dq[s], b_dq[s])
+            except ValueError:
+                continue
+            if r.parallel_axes:
+                continue
+            rv, te = pair_residuals(qa, ta, qb, tb, r.quat, r.translation)
+            cands.append((r.quat, r.translation, np.einsum("ij,ij->i", rv, rv), np.einsum("ij,ij->i", te, te)))
+    if not cands:
+        raise ValueError("no sample of motion pairs gave a hand-eye solution (rotation axes all parallel?)")
+    best = min(cands, key=lambda c: np.median(c[2]))  # rotation first: the translation depends on it
+    s2r, s2t = _robust_scales(best[2], best[3])
+    best = min(cands, key=lambda c: np.median(c[2] / s2r + c[3] / s2t))
+    s2r, s2t = _robust_scales(best[2], best[3])
+    inl = best[2] / s2r + best[3] / s2t <= _CHI2_6_999
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HandEyeWarning)
+        r = calibrate_hand_eye(a_dq[inl], b_dq[inl])
+    return r.quat, r.translation
+
+
+def _robust_scales(th2: np.ndarray, t2: np.ndarray) -> tuple[float, float]:
+    """Per-component variances of the rotation and translation residuals from their median squared norms."""
+    return max(float(np.median(th2)) / _CHI2_3_MEDIAN, 1e-20), max(float(np.median(t2)) / _CHI2_3_MEDIAN, 1e-20)
+
+
+def calibrate_hand_eye_streams(
+    camera: PoseStream, body: PoseStream, *, time_offset: float | None = None, fix_time_offset: bool = False,
+    min_pair_angle: float = np.deg2rad(10.0), max_pair_dt: float = 2.0, max_gap: float | None = None,
+    margin: float = 0.05, iterations: int = 300, seed: int = 0, max_rounds: int = 6, gate: float = _CHI2_6_999,
+) -> HandEyeStreamResult:  # fmt: skip
+    """Estimate ``X`` (camera pose in the body frame) and the time offset ``τ`` from two pose streams.
+
+    Parameters
+    ----------
+    camera : PoseStream
+        Camera poses in the target frame (cleaned, see :func:`~dualpose.calibration.clean_pose_stream`).
+    body : PoseStream
+        Body (marker or hand) poses in its reference frame, in its own clock.
+    time_offset : float, optional
+        Start value of ``τ`` (s); default: the angular-rate correlation.
+    fix_time_offset : bool
+        Keep ``τ = time_offset`` (requires ``time_offset``).
+    min_pair_angle, max_pair_dt : float
+        Pair selection (rad, s), see :func:`~dualpose.calibration.hand_eye_residual.select_pairs`.
+    max_gap : float, optional
+        Longest body-stream gap bridged by interpolation (s); default 5 median sampling intervals.
+    margin : float
+        A pair is used only if its body poses stay valid for ``τ ± margin`` (s), so that the pair set does not
+        change during the refinement.
+    iterations : int
+        Random 3-pair samples of the robust initial solution.
+    seed : int
+        Seed of the sampler.
+    max_rounds : int
+        Most refinement / outlier-rejection rounds.
+
+    Raises
+    ------
+    ValueError
+        No overlap of the streams after ``τ``, fewer than 3 usable pairs, or degenerate motion.
+    """
+    if fix_time_offset and time_offset is None:
+        raise ValueError("fix_time_offset needs a time_offset")
+    coarse_corr = float("nan")
+    if time_offset is None:
+        coarse = coarse_time_offset(camera, body, max_gap_body=max_gap)
+        tau0, coarse_corr = coarse.offset, coarse.correlation
+    else:
+        tau0 = float(time_offset)
+    lo, hi = max(camera.stamps[0] + tau0, body.stamps[0]), min(camera.stamps[-1] + tau0, body.stamps[-1])
+    if lo >= hi:
+        raise ValueError(f"no overlap in time after the time offset τ = {tau0:.6f} s: camera spans "
+                         f"[{camera.stamps[0]:.3f}, {camera.stamps[-1]:.3f}] s + τ, body spans "
+                         f"[{body.stamps[0]:.3f}, {body.stamps[-1]:.3f}] s")  # fmt: skip
+    i_all, j_all = select_pairs(camera, min_angle=min_pair_angle, max_dt=max_pair_dt)
+    # work with stamps near zero: τ = τ' + shift with camera' = camera − c0, body' = body − b0
+    shift = float(body.stamps[0] - camera.stamps[0])
+    camera, body = shift_stamps(camera, camera.stamps[0]), shift_stamps(body, body.stamps[0])
+    tau0 -= shift
+
+    def usable(tau: float) -> np.ndarray:
+        ok = pair_motions(camera, body, i_all, j_all, tau, max_gap)[4]
+        for d in (-margin, margin):
+            ok &= pair_motions(camera, body, i_all, j_all, tau + d, max_gap)[4]
+        return ok
+
+    ok = usable(tau0)
+    if ok.sum() < 3:
+        raise ValueError(f"only {int(ok.sum())} motion pair(s) with body poses at camera time + τ (τ = {tau0:.6f} s);"
+                         " need at least 3 (too little overlap, or too little rotation)")  # fmt: skip
+    qa, ta, qb, tb, _ = pair_motions(camera, body, i_all[ok], j_all[ok], tau0, max_gap)
+    qx, tx = _lmeds_daniilidis(qa, ta, qb, tb, np.random.default_rng(seed), iterations)
+    # drop inconsistent camera samples, then form the pairs again from the rest (indices kept in the input's terms)
+    kept = np.flatnonzero(_consistent_poses(camera, body, qx, tx, tau0, max_gap))
+    camera = PoseStream(camera.stamps[kept], camera.positions[kept], camera.quats[kept], camera.name)
+    i_all, j_all = select_pairs(camera, min_angle=min_pair_angle, max_dt=max_pair_dt)
+    tau = tau0
+    inliers = None
+    for _ in range(max_rounds):
+        ok = usable(tau)
+        qa, ta, qb, tb, _ = pair_motions(camera, body, i_all[ok], j_all[ok], tau, max_gap)
+        rv, te = pair_residuals(qa, ta, qb, tb, qx, tx)
+        th2, t2 = np.einsum("ij,ij->i", rv, rv), np.einsum("ij,ij->i", te, te)
+        s2r, s2t = _robust_scales(th2, t2)
+        new = np.flatnonzero(ok)[th2 / s2r + t2 / s2t <= gate]
+        if inliers is not None and np.array_equal(new, inliers):
+            break
+        inliers = new
+        if len(inliers) < 3:
+            raise ValueError(f"only {len(inliers)} consistent motion pair(s); need at least 3")
+        qx, tx, tau, sol = _joint_fit(camera, body, i_all[inliers], j_all[inliers], qx, tx, tau, np.sqrt(s2r),
+                                      np.sqrt(s2t), fix_time_offset, max_gap)  # fmt: skip
+    i, j = i_all[inliers], j_all[inliers]
+    qa, ta, qb, tb, _ = pair_motions(camera, body, i, j, tau, max_gap)
+    rv, te = pair_residuals(qa, ta, qb, tb, qx, tx)
+    th2, t2 = np.einsum("ij,ij->i", rv, rv), np.einsum("ij,ij->i", te, te)
+    cov = _covariance(sol, fix_time_offset)
+    sd = np.sqrt(np.diag(cov))
+    x = dp.dualquat_canonical(_dq(qx, tx))
+    pairs_total = int(usable(tau).sum())
+    tau = float(time_offset) if fix_time_offset else tau + shift
+    tau0 += shift
+    return HandEyeStreamResult(
+        quat=qx, translation=tx, dualquat=x, matrix=dp.matrix_from_dualquat(x), time_offset=float(tau),
+        coarse_time_offset=float(tau0), coarse_correlation=coarse_corr,
+        rotation_rmse_deg=float(np.degrees(np.sqrt(th2.mean()))), translation_rmse_m=float(np.sqrt(t2.mean())),
+        pairs=np.column_stack([kept[i], kept[j]]), pairs_total=pairs_total, sigma_rotation=float(np.sqrt(s2r)),
+        sigma_translation=float(np.sqrt(s2t)), covariance=cov, rotation_sigma_deg=np.degrees(sd[:3]),
+        translation_sigma_m=sd[3:6], time_offset_sigma=float(sd[6]),
+    )  # fmt: skip
+
+
+def _joint_fit(camera, body, i, j, qx0, tx0, tau0, sr, st, fix_tau, max_gap):  # noqa: ANN001, ANN202
+    """Least squares of ``[δθ, t, dτ]`` on the normalised residuals ``[θ_ij/σ_r, t_ij/σ_t]`` of the pairs."""
+    qa, ta, _, _, _ = pair_motions(camera, body, i, j, tau0, max_gap)
+
+    def fun(z: np.ndarray) -> np.ndarray:
+        q = dp.quat_mul(dp.quat_from_rotvec(z[:3]), qx0)
+        tau = tau0 + (0.0 if fix_tau else z[6])
+        _, _, qb, tb, _ = pair_motions(camera, body, i, j, tau, max_gap)
+        rv, te = pair_residuals(qa, ta, qb, tb, q, z[3:6])
+        return np.hstack([rv / sr, te / st]).ravel()
+
+    sol = least_squares(fun, np.r_[0.0, 0.0, 0.0, tx0, 0.0], method="trf", x_scale=np.r_[[1e-2] * 6, 1e-3],
+                        diff_step=1e-6, xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=100)  # fmt: skip
+    q = dp.quat_canonical(dp.quat_mul(dp.quat_from_rotvec(sol.x[:3]), qx0))
+    tau = tau0 + (0.0 if fix_tau else float(sol.x[6]))
+    # re-express the solution about the new rotation so that the covariance's δθ is a left perturbation of it
+    sol.x[:3] = 0.0
+    return q, sol.x[3:6].copy(), tau, sol
+
+
+def _covariance(sol, fix_tau: bool) -> np.ndarray:  # noqa: ANN001
+    """``s² (JᵀJ)⁻¹`` with ``s² = ‖r‖² / (n − p)`` over the normalised residuals; τ row/column 0 when fixed."""
+    jac = np.asarray(sol.jac)
+    if fix_tau:
+        jac = jac[:, :6]
+    dof = max(jac.shape[0] - jac.shape[1], 1)
+    s2 = float(sol.fun @ sol.fun) / dof
+    cov = s2 * np.linalg.pinv(jac.T @ jac)
+    if fix_tau:
+        cov = np.pad(cov, ((0, 1), (0, 1)))
+    return cov
