@@ -39,8 +39,8 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
-import dualpose as dp  # noqa: E402
-import peers as pz  # noqa: E402
+import dualpose as dp
+import peers as pz
 
 TOL = 1e-10
 PEER_MAX_SECONDS = 20.0
@@ -309,7 +309,7 @@ def dq_module_status() -> tuple[Any, str]:
         import importlib
 
         mod = importlib.import_module(_DQ)
-    except Exception as exc:  # noqa: BLE001 - report any import failure and carry on with the quaternion rows
+    except Exception as exc:
         return None, f"{type(exc).__name__}: {exc}"
     missing = [c.fn_name for c in DQ_CASES if not hasattr(mod, c.fn_name)]
     return mod, (f"missing {', '.join(missing)}" if missing else "")
@@ -341,7 +341,7 @@ def time_peer(peer: pz.Peer, inputs: dict[str, np.ndarray], ref: np.ndarray, our
                                       budget)
         ours_ns = t_ours / n * 1e9
         r = PeerResult(peer.name, t_peer / n * 1e9, n, err, ok, n != n_full, peer.note, t_peer / t_ours)
-    except Exception as exc:  # noqa: BLE001 - a failing peer is reported, not fatal
+    except Exception as exc:
         r = PeerResult(peer.name, None, 0, float("nan"), False, False, f"failed: {type(exc).__name__}: {exc}")
     log(f"    {r.name:<58} {fmt_ns(r.ns):>10}  err {r.err:.1e}{'' if r.ok else '  (NOT RANKED)'}"
         f"{f'  scaled from N={r.n}' if r.scaled else ''}  (dualpose alongside: {fmt_ns(ours_ns)})")
@@ -605,7 +605,7 @@ def main(argv: list[str] | None = None) -> int:
             continue
         try:
             rows.append(run_case(case, fn, n, budget, log))
-        except Exception as exc:  # noqa: BLE001 - a broken dualpose function is reported; the other rows still run
+        except Exception as exc:
             log(f"    FAILED: {type(exc).__name__}: {exc}")
             notes.append(f"{case.op}: dualpose call failed ({type(exc).__name__}: {exc}).")
             rows.append(Row(case.op, None, None, case.target, note="failed"))

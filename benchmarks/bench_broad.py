@@ -10,14 +10,16 @@ Run ``.venv/bin/python benchmarks/bench_broad.py [--markdown docs/broad.md]`` (n
   (``mag_calibration="auto"``, :mod:`dualpose.calibration.magnetometer`: applied only when reference-free
   criteria hold; off by default).
 * Magnetometer self-calibration: the decision per trial, its reason and numbers, and the estimation µs/sample.
-* Time offsets: :func:`dualpose.calibration.sensor_time_offset.estimate_sensor_time_offset` per trial on the magnetometer
+* Time offsets: :func:`dualpose.calibration.sensor_time_offset.estimate_sensor_time_offset` per trial on the
+  magnetometer
   (as used by the 9D filter) and, as a check, on the accelerometer (samples with ``|a|`` within 5 % of its median;
   the static-field model only holds without linear acceleration).
 * VQF 9D / 6D: ``vqf.VQF(Ts).updateBatch(gyr, acc, mag)`` with its default parameters (Laidig & Seel 2023), both
   outputs of one run.
 * Madgwick: BROAD's published total RMSE at β = 0.12 (Laidig et al. 2021, ``results_madgwick``), not re-run.
 
-Scoring: BROAD's metric (:mod:`dualpose.evaluation.orientation_errors`), movement samples, NaN reference samples skipped;
+Scoring: BROAD's metric (:mod:`dualpose.evaluation.orientation_errors`), movement samples, NaN reference samples
+skipped;
 9D as is (the optical frame is magnetic ENU), 6D after removing the one constant heading offset that minimises the
 total RMSE (same rule for both filters).  µs/sample: wall time of one batch call over the whole trial divided by its
 samples (dualpose: the compiled kernel after compilation; VQF: its C++ ``updateBatch``), best of 3.
@@ -44,7 +46,7 @@ DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "broad"
 MADGWICK_012 = {"01": 2.310, "06": 2.307, "10": 3.569, "15": 12.304, "21": 7.158, "24": 1.768, "28": 8.329}
 
 
-def _run_vqf(trial) -> tuple[np.ndarray, np.ndarray, float]:  # noqa: ANN001
+def _run_vqf(trial) -> tuple[np.ndarray, np.ndarray, float]:
     import vqf
 
     gyr, acc, mag = (np.ascontiguousarray(a) for a in (trial.gyr, trial.acc, trial.mag))
@@ -58,7 +60,7 @@ def _run_vqf(trial) -> tuple[np.ndarray, np.ndarray, float]:  # noqa: ANN001
     return out["quat9D"][:, wxyz], out["quat6D"][:, wxyz], 1e6 * best / gyr.shape[0]
 
 
-def _run_dualpose(trial, use_mag: bool, **kw):  # noqa: ANN001, ANN003, ANN202
+def _run_dualpose(trial, use_mag: bool, **kw):
     best = None
     for _ in range(3):
         r = estimate_orientation(trial.gyr, trial.acc, trial.mag, trial.rate, use_mag=use_mag,

@@ -31,7 +31,7 @@ from dualpose import sim
 from dualpose.estimation import eskf, hol22
 
 
-def best_us(fn, number: int) -> float:  # noqa: ANN001
+def best_us(fn, number: int) -> float:
     fn()
     return min(timeit.repeat(fn, number=number, repeat=7)) / number * 1e6
 

@@ -39,7 +39,7 @@ OPENCV = {"TSAI": cv2.CALIB_HAND_EYE_TSAI, "PARK": cv2.CALIB_HAND_EYE_PARK, "HOR
           "ANDREFF": cv2.CALIB_HAND_EYE_ANDREFF, "DANIILIDIS": cv2.CALIB_HAND_EYE_DANIILIDIS}  # fmt: skip
 
 
-def opencv_x(cam, body, pairs, tau, method, max_poses=200):  # noqa: ANN001, ANN201
+def opencv_x(cam, body, pairs, tau, method, max_poses=200):
     """OpenCV's X from the camera samples of ``pairs`` (evenly thinned to ``max_poses``; OpenCV uses all pairs of its
     input poses) with the body interpolated at ``t + τ``."""
     idx = np.unique(pairs)
@@ -52,19 +52,19 @@ def opencv_x(cam, body, pairs, tau, method, max_poses=200):  # noqa: ANN001, ANN
     return dp.quat_canonical(dp.quat_from_matrix(r)), t.ravel()
 
 
-def score(cam, body, pairs, tau, q, t):  # noqa: ANN001, ANN201
+def score(cam, body, pairs, tau, q, t):
     qa, ta, qb, tb, ok = pair_motions(cam, body, pairs[:, 0], pairs[:, 1], tau)
     rv, te = pair_residuals(qa[ok], ta[ok], qb[ok], tb[ok], q, t)
     return np.degrees(np.sqrt(np.mean(np.sum(rv**2, 1)))), 1e3 * np.sqrt(np.mean(np.sum(te**2, 1))), int(ok.sum())
 
 
-def eth_style_offset(cam, body):  # noqa: ANN001, ANN201
+def eth_style_offset(cam, body):
     """ETH's time alignment as published in their repository: both streams SLERP-resampled at the larger mean
     sampling interval, per-step angular-velocity norms clipped at the 99.5th / 99th percentile, smoothed by a
     25-sample box filter, unnormalised cross-correlation, offset at the peak (sign: camera t ↔ body t + τ)."""
     dt = max(np.mean(np.diff(cam.stamps)), np.mean(np.diff(body.stamps)))
 
-    def norms(s, pct):  # noqa: ANN001, ANN202
+    def norms(s, pct):
         grid = np.linspace(s.stamps[0], s.stamps[-1], int((s.stamps[-1] - s.stamps[0]) / dt) + 1)
         _, q, _ = interpolate_stream(s, grid, max_gap=np.inf)
         w = dp.rotvec_from_quat(dp.quat_mul(dp.quat_conj(q[:-1]), q[1:])) / np.diff(grid)[:, None]
@@ -79,7 +79,7 @@ def eth_style_offset(cam, body):  # noqa: ANN001, ANN201
     return dt * lag + tb[0] - ta[0]
 
 
-def eth_style_x(cam, body, pairs, tau, seed=0, iters=300, pos_thr=0.02, ang_thr=0.017453292519943295):  # noqa: ANN001, ANN201
+def eth_style_x(cam, body, pairs, tau, seed=0, iters=300, pos_thr=0.02, ang_thr=0.017453292519943295):
     """Daniilidis in RANSAC (3-pair samples, inliers by loop residual < 2 cm and < 1°), refit on the largest set."""
     qa, ta, qb, tb, ok = pair_motions(cam, body, pairs[:, 0], pairs[:, 1], tau)
     qa, ta, qb, tb = qa[ok], ta[ok], qb[ok], tb[ok]

@@ -19,7 +19,7 @@ import dualpose as dp
 import dualpose.inertial as di
 
 
-def best(f, reps: int = 5) -> float:  # noqa: ANN001
+def best(f, reps: int = 5) -> float:
     f()
     out = np.inf
     for _ in range(reps):
@@ -29,7 +29,7 @@ def best(f, reps: int = 5) -> float:  # noqa: ANN001
     return out
 
 
-def python_loop(steps: np.ndarray, mul, x0: np.ndarray) -> np.ndarray:  # noqa: ANN001
+def python_loop(steps: np.ndarray, mul, x0: np.ndarray) -> np.ndarray:
     out = [x0]
     for s in steps:
         out.append(mul(out[-1], s))

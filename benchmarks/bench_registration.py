@@ -41,12 +41,12 @@ from dualpose.registration import register_pose, register_pose_batch
 
 # ------------------------------------------------------------------------------------------ the reference loop
 @nb.njit(cache=True)
-def _det3(a, b, c, d, e, f, g, h, i):  # noqa: ANN001, ANN202
+def _det3(a, b, c, d, e, f, g, h, i):
     return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
 
 
 @nb.njit(cache=True)
-def reference_loop(p0, p1, out):  # noqa: ANN001, ANN201
+def reference_loop(p0, p1, out):
     """Closed-form rigid registration of each problem ``p0[b] -> p1[b]``; writes [q xyzw, t] to ``out[b]``."""
     n = p0.shape[1]
     for b in range(p0.shape[0]):
@@ -217,7 +217,7 @@ def main(argv: list[str] | None = None) -> int:
         rot, _ = Rotation.align_vectors(b - c1, a - c0)
         _ = c1 - rot.apply(c0)
 
-    def best_timeit(fn, number: int = 2000) -> float:  # noqa: ANN001
+    def best_timeit(fn, number: int = 2000) -> float:
         return min(timeit.repeat(fn, number=number, repeat=7)) / number
 
     t_sc = best_timeit(scipy_single)

@@ -4,7 +4,8 @@ Run ``.venv/bin/python benchmarks/diag_broad_field.py [--markdown FILE]`` (FILE 
 only: it uses the optical reference, which the filter never does.
 
 * Field in the reference earth frame: each magnetometer sample (re-sampled by the lag that
-  :func:`dualpose.calibration.sensor_time_offset.estimate_sensor_time_offset` finds from the IMU alone) rotated into ENU with
+  :func:`dualpose.calibration.sensor_time_offset.estimate_sensor_time_offset` finds from the IMU alone) rotated into
+  ENU with
   the optical orientation ``opt_quat``.  For a homogeneous field and an ideal sensor this is one constant vector; its
   heading ``atan2(east, north)`` is 0 if BROAD's optical frame is aligned with magnetic north *at that place*.
   Reported at rest (before the first movement sample) and during the movement, and during the movement binned by the
@@ -29,13 +30,13 @@ from dualpose.evaluation.orientation_errors import earth_error_quat, orientation
 from dualpose.io import load_broad
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import emit  # noqa: E402
+from _common import emit
 
 DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "broad"
 HEIGHTS = [(0.0, 1.3), (1.3, 1.45), (1.45, 1.6), (1.6, 1.75), (1.75, 3.0)]
 
 
-def field_in_reference_frame(trial, lag: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # noqa: ANN001
+def field_in_reference_frame(trial, lag: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Heading (deg, 0 = north of the optical ENU frame, positive towards east), magnitude (µT) and dip (deg, below
     the horizon) of every magnetometer sample, shifted by ``lag`` s and rotated with the optical reference."""
     from dualpose.calibration.sensor_time_offset import shift_samples

@@ -30,14 +30,14 @@ from dualpose.registration import pnp
 MOVING = (1.0, 6.4)
 
 
-def errors(t: np.ndarray, pos: np.ndarray, quat: np.ndarray, truth_pos: np.ndarray, truth_q: np.ndarray):  # noqa: ANN201
+def errors(t: np.ndarray, pos: np.ndarray, quat: np.ndarray, truth_pos: np.ndarray, truth_q: np.ndarray):
     m = (t >= MOVING[0]) & (t <= MOVING[1])
     e = np.linalg.norm(pos - truth_pos, axis=1)[m]
     a = np.degrees(dp.quat_angle(quat, truth_q))[m]
     return float(np.sqrt(np.mean(e**2))), float(np.sqrt(np.mean(a**2))), float(e.max())
 
 
-def eskf_errors(run: sim.SimulatedRun, frames: bool = True):  # noqa: ANN201
+def eskf_errors(run: sim.SimulatedRun, frames: bool = True):
     x, P0 = initialization.initial_state_from_run(run)
     f = eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P0, gyro_bias=x[10:13])
     if frames:
@@ -47,13 +47,13 @@ def eskf_errors(run: sim.SimulatedRun, frames: bool = True):  # noqa: ANN201
     return errors(run.t, res.position, res.quat, run.truth["position"], run.truth["quat"]), res
 
 
-def hol_errors(run: sim.SimulatedRun):  # noqa: ANN201
+def hol_errors(run: sim.SimulatedRun):
     x, P0 = initialization.initial_state_from_run(run)
     res = hol22.Hol22EKF.from_eskf_state(x, P0, run).run_recording(run)
     return errors(run.t, res.position, res.quat, run.truth["position"], run.truth["quat"])
 
 
-def pnp_errors(run: sim.SimulatedRun):  # noqa: ANN201
+def pnp_errors(run: sim.SimulatedRun):
     f = run.frames
     P, Q = [], []
     for k in range(len(f)):

@@ -85,31 +85,31 @@ def dq_ours(dq: np.ndarray) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------------------------------- library shims
-def _nq():  # noqa: ANN202
+def _nq():
     import quaternion
 
     return quaternion
 
 
-def _qn():  # noqa: ANN202
+def _qn():
     import quaternionic
 
     return quaternionic
 
 
-def _R():  # noqa: ANN202, N802
+def _R():
     from scipy.spatial.transform import Rotation
 
     return Rotation
 
 
-def _RT():  # noqa: ANN202, N802
+def _RT():
     from scipy.spatial.transform import RigidTransform
 
     return RigidTransform
 
 
-def _nq_arr(q: np.ndarray):  # noqa: ANN202
+def _nq_arr(q: np.ndarray):
     return _nq().as_quat_array(wxyz(q))
 
 
@@ -117,7 +117,7 @@ def _nq_back(r: Any) -> np.ndarray:
     return xyzw(_nq().as_float_array(r))
 
 
-def _qn_arr(q: np.ndarray):  # noqa: ANN202
+def _qn_arr(q: np.ndarray):
     return _qn().array(wxyz(q))
 
 
@@ -125,13 +125,13 @@ def _qn_back(r: Any) -> np.ndarray:
     return xyzw(np.asarray(r))
 
 
-def _pt3d_br():  # noqa: ANN202
+def _pt3d_br():
     import pytransform3d.batch_rotations as br
 
     return br
 
 
-def _pt3d_tr():  # noqa: ANN202
+def _pt3d_tr():
     import pytransform3d.trajectories as tr
 
     return tr
@@ -195,10 +195,10 @@ def _rt_dq(q: np.ndarray) -> np.ndarray:
 
 # ------------------------------------------------------------------------------------------------ adapter table
 def _peers() -> dict[str, list[Peer]]:
-    R, RT = _R, _RT  # noqa: N806
+    R, RT = _R, _RT
     nq, qn = _nq, _qn
     br, tr = _pt3d_br, _pt3d_tr
-    P = Peer  # noqa: N806
+    P = Peer
     return {
         "quat_mul": [
             P("numpy-quaternion", "numpy-quaternion p*q", lambda d: (_nq_arr(d["p"]), _nq_arr(d["q"])),

@@ -23,7 +23,7 @@ BROAD_DIR = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "br
 
 
 @pytest.fixture(scope="session")
-def trial():  # noqa: ANN201 -- dualpose.io.BroadTrial
+def trial():
     """BROAD trial 06 (fast rotation), loaded once; skipped when the data directory is missing."""
     if not BROAD_DIR.is_dir():
         pytest.skip("BROAD data directory missing")

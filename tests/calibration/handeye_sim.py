@@ -83,7 +83,7 @@ def _faulty_rows(rows: np.ndarray, rng: np.random.Generator, duplicate_fraction:
     return out[rng.permutation(len(out))]
 
 
-def write_rows(path, rows: np.ndarray, sep: str = ", ") -> None:  # noqa: ANN001
+def write_rows(path, rows: np.ndarray, sep: str = ", ") -> None:
     with open(path, "w") as f:
         f.write("# t, x, y, z, qx, qy, qz, qw\n")
         for r in rows:

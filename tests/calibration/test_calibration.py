@@ -20,7 +20,7 @@ from dualpose.types import ImuNoise
 BIAS_FREE_ACCEL = ImuNoise(accelerometer_initial_bias_sigma=0.0, accelerometer_random_walk=0.0)
 
 
-def _calibrate(seed: int, extrinsic, pose_seed: int | None = None, imu_noise=BIAS_FREE_ACCEL, **kwargs):  # noqa: ANN001, ANN003
+def _calibrate(seed: int, extrinsic, pose_seed: int | None = None, imu_noise=BIAS_FREE_ACCEL, **kwargs):
     runs = simulate_static_poses(6, seed, extrinsic=extrinsic, duration=0.5, pose_seed=pose_seed, imu_noise=imu_noise)
     periods = [cal.static_period_from_run(r) for r in runs]
     return cal.camera_imu_rotation(**cal.stack_static_periods(periods), **kwargs)

@@ -10,7 +10,7 @@ import dualpose as dp
 from dualpose.calibration import calibrate_hand_eye_streams, clean_pose_stream, loop_residual
 
 
-def _streams(rec):  # noqa: ANN001, ANN202
+def _streams(rec):
     cam, rc = clean_pose_stream(rec.camera[:, 0], rec.camera[:, 1:4], rec.camera[:, 4:], "camera")
     body, rb = clean_pose_stream(rec.body[:, 0], rec.body[:, 1:4], rec.body[:, 4:], "body")
     return cam, body, rc, rb

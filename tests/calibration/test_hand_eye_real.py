@@ -29,13 +29,13 @@ SETS = {
 METHODS = ("TSAI", "PARK", "HORAUD", "ANDREFF", "DANIILIDIS")
 
 
-def _rmse(cam, body, pairs, tau, q, t):  # noqa: ANN001, ANN202
+def _rmse(cam, body, pairs, tau, q, t):
     qa, ta, qb, tb, ok = pair_motions(cam, body, pairs[:, 0], pairs[:, 1], tau)
     rv, te = pair_residuals(qa[ok], ta[ok], qb[ok], tb[ok], q, t)
     return np.degrees(np.sqrt(np.mean(np.sum(rv**2, 1)))), np.sqrt(np.mean(np.sum(te**2, 1)))
 
 
-def _opencv(cam, body, pairs, tau, method, max_poses=150):  # noqa: ANN001, ANN202
+def _opencv(cam, body, pairs, tau, method, max_poses=150):
     idx = np.unique(pairs)
     idx = idx[np.linspace(0, len(idx) - 1, min(max_poses, len(idx))).round().astype(int)]
     pb, qb, ok = interpolate_stream(body, cam.stamps[idx] + tau)

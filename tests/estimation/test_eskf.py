@@ -23,14 +23,14 @@ def _start(run: sim.SimulatedRun, seed: int) -> tuple[np.ndarray, np.ndarray, np
     return x, P0
 
 
-def _errors(run: sim.SimulatedRun, res: eskf.FilterResult, window=MOVING) -> tuple[float, float]:  # noqa: ANN001
+def _errors(run: sim.SimulatedRun, res: eskf.FilterResult, window=MOVING) -> tuple[float, float]:
     m = (run.t >= window[0]) & (run.t <= window[1])
     e = np.linalg.norm(res.position - run.truth["position"], axis=1)[m]
     a = np.degrees(dp.quat_angle(res.quat, run.truth["quat"]))[m]
     return float(np.sqrt(np.mean(e**2))), float(np.sqrt(np.mean(a**2)))
 
 
-def _filter(run: sim.SimulatedRun, seed: int, **kw) -> eskf.ErrorStateEKF:  # noqa: ANN003
+def _filter(run: sim.SimulatedRun, seed: int, **kw) -> eskf.ErrorStateEKF:
     x, P0 = _start(run, seed)
     return eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P0, **kw)
 
@@ -120,7 +120,7 @@ def test_bad_input() -> None:
         f.propagate(0.5, np.zeros(3), [0, 0, 9.81])
 
 
-def _realistic_filter(run: sim.SimulatedRun, **kw) -> eskf.ErrorStateEKF:  # noqa: ANN003
+def _realistic_filter(run: sim.SimulatedRun, **kw) -> eskf.ErrorStateEKF:
     from dualpose.estimation import initialization
     from dualpose.registration import pnp
 

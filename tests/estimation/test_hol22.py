@@ -21,7 +21,7 @@ def _start(run: sim.SimulatedRun, seed: int) -> hol22.Hol22EKF:
 
 
 @pytest.mark.parametrize("omega", [[0.3, -0.7, 0.5], [1e-9, 0.0, 2e-9]])
-def test_process_model_jacobian(omega, rng) -> None:  # noqa: ANN001
+def test_process_model_jacobian(omega, rng) -> None:
     x = np.concatenate([rng.normal(size=9), dp.quat_normalize(rng.normal(size=4)), omega, rng.normal(size=6)])
     T = 0.013
     _, F = hol22.process_model(x, T)

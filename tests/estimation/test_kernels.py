@@ -7,7 +7,7 @@ import numpy as np
 from dualpose.estimation import _eskf_kernels as K
 
 
-def test_joseph_2d_equals_dense_joseph(rng) -> None:  # noqa: ANN001
+def test_joseph_2d_equals_dense_joseph(rng) -> None:
     A = rng.normal(size=(15, 15))
     P = A @ A.T + np.eye(15)
     H = np.zeros((2, 15))

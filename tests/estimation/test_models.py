@@ -21,7 +21,7 @@ def setup() -> tuple[sim.SimulatedRun, np.ndarray]:
     return run, x
 
 
-def _fd_error_state(fun, x: np.ndarray) -> np.ndarray:  # noqa: ANN001
+def _fd_error_state(fun, x: np.ndarray) -> np.ndarray:
     """Central differences of ``fun(x ⊞ δx)`` (flattened) over the 15 error-state directions."""
     cols = []
     for i in range(15):
@@ -31,7 +31,7 @@ def _fd_error_state(fun, x: np.ndarray) -> np.ndarray:  # noqa: ANN001
     return np.stack(cols, axis=-1)
 
 
-def test_camera_reprojection_jacobian_and_truth(setup) -> None:  # noqa: ANN001
+def test_camera_reprojection_jacobian_and_truth(setup) -> None:
     run, x = setup
     pix, pts = run.frames.frame(40)
     cam = run.camera
@@ -43,7 +43,7 @@ def test_camera_reprojection_jacobian_and_truth(setup) -> None:  # noqa: ANN001
     np.testing.assert_allclose(H.reshape(-1, 15), num, atol=1e-6 * np.abs(num).max())
 
 
-def test_position_pose_magnetometer_jacobians(setup, rng) -> None:  # noqa: ANN001
+def test_position_pose_magnetometer_jacobians(setup, rng) -> None:
     _, x = setup
     p_m = x[0:3] + rng.normal(0, 0.1, 3)
     q_m = dp.quat_mul(x[6:10], dp.quat_from_rotvec([0.3, -0.2, 0.4]))  # large residual: H is J_l^-1, not I
@@ -69,7 +69,7 @@ def _hol_state(x: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     )
 
 
-def _fd_full(fun, x: np.ndarray) -> np.ndarray:  # noqa: ANN001
+def _fd_full(fun, x: np.ndarray) -> np.ndarray:
     cols = []
     for i in range(len(x)):
         d = np.zeros(len(x))
@@ -78,7 +78,7 @@ def _fd_full(fun, x: np.ndarray) -> np.ndarray:  # noqa: ANN001
     return np.stack(cols, axis=-1)
 
 
-def test_hol_models_jacobians_and_values(setup, rng) -> None:  # noqa: ANN001
+def test_hol_models_jacobians_and_values(setup, rng) -> None:
     run, x = setup
     xh = _hol_state(x, rng)
     g = np.array([0.0, 0.0, -9.81])
@@ -101,7 +101,7 @@ def test_hol_models_jacobians_and_values(setup, rng) -> None:  # noqa: ANN001
     np.testing.assert_allclose(h2, np.repeat(depth[:, None], 2, axis=1), rtol=1e-9)
 
 
-def test_bad_shapes(setup) -> None:  # noqa: ANN001
+def test_bad_shapes(setup) -> None:
     _, x = setup
     with pytest.raises(ValueError, match="x must"):
         models.position_model(x[:10], np.zeros(3))

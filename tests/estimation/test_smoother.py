@@ -18,7 +18,7 @@ MOVING = (1.0, 6.4)
 
 
 # ---------------------------------------------------------------------------------------------- linear-Gaussian
-def _random_linear_problem(rng: np.random.Generator, n: int = 4, m: int = 2, steps: int = 25):  # noqa: ANN202
+def _random_linear_problem(rng: np.random.Generator, n: int = 4, m: int = 2, steps: int = 25):
     """A time-varying linear-Gaussian chain with a few steps without a measurement."""
     F = np.eye(n) + 0.2 * rng.standard_normal((steps, n, n))
     Q = []
@@ -39,7 +39,7 @@ def _random_linear_problem(rng: np.random.Generator, n: int = 4, m: int = 2, ste
     return F, np.array(Q), H, R, has_y, m0, P0, np.array(ys)
 
 
-def _kalman_filter(F, Q, H, R, has_y, m0, P0, ys):  # noqa: ANN001, ANN202
+def _kalman_filter(F, Q, H, R, has_y, m0, P0, ys):
     steps, n = len(ys), len(m0)
     xa, Pa, xb, Pb = np.zeros((steps, n)), np.zeros((steps, n, n)), np.zeros((steps, n)), np.zeros((steps, n, n))
     x, P = m0.copy(), P0.copy()
@@ -55,7 +55,7 @@ def _kalman_filter(F, Q, H, R, has_y, m0, P0, ys):  # noqa: ANN001, ANN202
     return xa, Pa, xb, Pb
 
 
-def _batch_least_squares(F, Q, H, R, has_y, m0, P0, ys):  # noqa: ANN001, ANN202
+def _batch_least_squares(F, Q, H, R, has_y, m0, P0, ys):
     """Posterior of the whole chain in information form: Λ X = η over all states stacked (independent of RTS)."""
     steps, n = len(ys), len(m0)
     Lam = np.zeros((steps * n, steps * n))
@@ -110,7 +110,7 @@ def test_linear_rts_bad_input() -> None:
 
 
 # ---------------------------------------------------------------------------------------------- error-state
-def _filtered(run: sim.SimulatedRun, **kw) -> eskf.FilterResult:  # noqa: ANN003
+def _filtered(run: sim.SimulatedRun, **kw) -> eskf.FilterResult:
     """Filter from static alignment + first-frame PnP (no truth), recording the nodes."""
     x, P0 = initialization.initial_state_from_run(run)
     f = eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P0, gyro_bias=x[10:13], **kw)
@@ -155,7 +155,7 @@ def _dense_error_state_rts(nodes: eskf.FilterNodes) -> tuple[np.ndarray, np.ndar
     return xs, Ps
 
 
-def test_error_state_rts_equals_dense_reference(eight) -> None:  # noqa: ANN001
+def test_error_state_rts_equals_dense_reference(eight) -> None:
     run, res, sm = eight
     ref_x, ref_P = _dense_error_state_rts(res.nodes)
     np.testing.assert_allclose(sm.node_states[:, 0:6], ref_x[:, 0:6], atol=1e-10)
@@ -164,7 +164,7 @@ def test_error_state_rts_equals_dense_reference(eight) -> None:  # noqa: ANN001
     np.testing.assert_allclose(sm.node_covariance, ref_P, atol=1e-14, rtol=1e-7)
 
 
-def test_node_record(eight) -> None:  # noqa: ANN001
+def test_node_record(eight) -> None:
     run, res, sm = eight
     nodes = res.nodes
     # the recording run is the plain run
@@ -228,7 +228,7 @@ def test_stored_transition_is_the_jacobian_of_the_prediction() -> None:
     assert 3.0 < errs[0] / errs[1] < 5.0  # second order
 
 
-def test_chart_jacobians_against_finite_differences(rng) -> None:  # noqa: ANN001
+def test_chart_jacobians_against_finite_differences(rng) -> None:
     """``right_jacobian``: Exp(φ + δ) = Exp(φ) Exp(J_r δ) and its inverse, by central differences; ``boxminus``
     inverts ``boxplus``."""
     big = rng.standard_normal(3)
@@ -258,7 +258,7 @@ def test_chart_jacobians_against_finite_differences(rng) -> None:  # noqa: ANN00
     np.testing.assert_allclose(back, d, atol=1e-12)
 
 
-def test_smoother_ends_at_the_filter_and_never_increases_the_covariance(eight) -> None:  # noqa: ANN001
+def test_smoother_ends_at_the_filter_and_never_increases_the_covariance(eight) -> None:
     run, res, sm = eight
     assert sm.covariance.shape == (len(run.t), 15, 15)
     for name in ("position", "velocity", "quat", "gyro_bias", "accel_bias"):

@@ -11,7 +11,7 @@ import dualpose.inertial as di
 from dualpose.inertial import motions as m
 
 
-def drift(n: int, family: str, a: float, omega: float, omega_t: float, k: int, frame: str, d: float = 1.0):  # noqa: ANN201
+def drift(n: int, family: str, a: float, omega: float, omega_t: float, k: int, frame: str, d: float = 1.0):
     T = omega_t / omega
     c = m.Coning(a, omega, d)
     inc = c.dual_increments(0.0, T / n, k * n, frame)

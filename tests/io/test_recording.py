@@ -116,7 +116,7 @@ def test_yaml_sensor_file(written, copy):
     assert a.imu_noise == b.imu_noise
 
 
-def _edit_json(path: Path, fn) -> None:  # noqa: ANN001
+def _edit_json(path: Path, fn) -> None:
     cfg = json.loads(path.read_text())
     fn(cfg)
     path.write_text(json.dumps(cfg, indent=2))

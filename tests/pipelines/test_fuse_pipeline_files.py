@@ -34,7 +34,7 @@ def copy(recording, tmp_path):
     return dst
 
 
-def _edit(path, fn) -> None:  # noqa: ANN001
+def _edit(path, fn) -> None:
     cfg = json.loads(path.read_text())
     fn(cfg)
     path.write_text(json.dumps(cfg))

@@ -33,7 +33,7 @@ def test_eight_matches_hol_description(eight: sim.SmoothMotion) -> None:
 
 
 @pytest.mark.parametrize("make", [sim.eight_motion, lambda: sim.random_motion(3, duration=6.0)])
-def test_truth_derivatives_match_finite_differences(make) -> None:  # noqa: ANN001
+def test_truth_derivatives_match_finite_differences(make) -> None:
     traj = make()
     t = np.linspace(0.3, traj.duration - 0.3, 57)
     h = 1e-5

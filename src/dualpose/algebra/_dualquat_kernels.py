@@ -33,7 +33,7 @@ _M = "float64[:, :]"
 _NAN = math.nan
 
 
-def gu(types: str, layout: str):  # noqa: ANN201
+def gu(types: str, layout: str):
     return nb.guvectorize([f"void({types})"], layout, nopython=True, cache=True)
 
 
@@ -43,26 +43,26 @@ def gu(types: str, layout: str):  # noqa: ANN201
 
 
 @jit
-def flip_sign(x, y, z, w):  # noqa: ANN001, ANN201
+def flip_sign(x, y, z, w):
     """True when the quaternion is not the canonical representative (w > 0, ties as quat_canonical)."""
     return w < 0.0 or (w == 0.0 and (x < 0.0 or (x == 0.0 and (y < 0.0 or (y == 0.0 and z < 0.0)))))
 
 
 @jit
-def is_zero4(x, y, z, w):  # noqa: ANN001, ANN201
+def is_zero4(x, y, z, w):
     """A zero real part: kernels that need a nonzero one write NaN and return before any arithmetic, so no
     floating-point flag (numpy RuntimeWarning) is raised on the way to the wrapper's ValueError."""
     return x == 0.0 and y == 0.0 and z == 0.0 and w == 0.0
 
 
 @jit
-def fill_nan(o, k):  # noqa: ANN001, ANN201
+def fill_nan(o, k):
     for i in range(k):
         o[i] = _NAN
 
 
 @jit
-def dq_normalize(rx, ry, rz, rw, dx, dy, dz, dw):  # noqa: ANN001, ANN201
+def dq_normalize(rx, ry, rz, rw, dx, dy, dz, dw):
     """S/|S| with the dual-number norm |S| = |r| + ε r·d/|r|: r' = r/|r|, d' = d/|r| - r'(r'·d)/|r|.
 
     A zero real part gives NaN everywhere.
@@ -77,7 +77,7 @@ def dq_normalize(rx, ry, rz, rw, dx, dy, dz, dw):  # noqa: ANN001, ANN201
 
 
 @jit
-def dq_exp(rx, ry, rz, rw, dx, dy, dz, dw):  # noqa: ANN001, ANN201
+def dq_exp(rx, ry, rz, rw, dx, dy, dz, dw):
     """General dual-quaternion exponential, Dantam 2014 eq. (84) with the e**(r_w + ε d_w) factor.
 
     phi = |r_v|, k = r_v·d_v; sin(phi)/phi is ``sinc`` (23) and (cos phi - sin(phi)/phi)/phi**2 is ``dsinc`` (85).
@@ -86,7 +86,7 @@ def dq_exp(rx, ry, rz, rw, dx, dy, dz, dw):  # noqa: ANN001, ANN201
 
 
 @jit
-def dq_exp_angle(phi, rx, ry, rz, rw, dx, dy, dz, dw):  # noqa: ANN001, ANN201
+def dq_exp_angle(phi, rx, ry, rz, rw, dx, dy, dz, dw):
     """dq_exp with phi = |r_v| supplied by the caller (dualquat_pow passes |t| atan2(|r_v|, r_w): one rounding)."""
     k = rx * dx + ry * dy + rz * dz
     sc = sinc(phi)
@@ -107,7 +107,7 @@ def dq_exp_angle(phi, rx, ry, rz, rw, dx, dy, dz, dw):  # noqa: ANN001, ANN201
 
 
 @jit
-def dq_log(rx, ry, rz, rw, dx, dy, dz, dw):  # noqa: ANN001, ANN201
+def dq_log(rx, ry, rz, rw, dx, dy, dz, dw):
     """Principal dual-quaternion logarithm, Dantam 2014 eqs. (86)-(92).
 
     The input is first scaled by 1/|r| (S = |r| (r/|r| + ε d/|r|), and ln of the real scalar |r| adds ln|r| to the
@@ -164,7 +164,7 @@ def dq_log(rx, ry, rz, rw, dx, dy, dz, dw):  # noqa: ANN001, ANN201
 
 
 @jit
-def dq_exp_twist(wx, wy, wz, vx, vy, vz):  # noqa: ANN001, ANN201
+def dq_exp_twist(wx, wy, wz, vx, vy, vz):
     """exp(½(ω + ε v)) for the pure dual quaternion of a twist [ω, v] (Dantam (84) with zero scalar parts)."""
     hx, hy, hz = 0.5 * wx, 0.5 * wy, 0.5 * wz
     phi = norm3(hx, hy, hz)
@@ -190,7 +190,7 @@ def dq_exp_twist(wx, wy, wz, vx, vy, vz):  # noqa: ANN001, ANN201
 
 
 @gu(f"{_V},{_V},{_V}", "(n),(n)->(n)")
-def dualquat_mul(a, b, o):  # noqa: ANN001
+def dualquat_mul(a, b, o):
     # Dantam 2014 eq. (79); the flat kernel (C-contiguous batches) uses the same helper
     o[0], o[1], o[2], o[3], o[4], o[5], o[6], o[7] = dq_mul(
         a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]
@@ -198,7 +198,7 @@ def dualquat_mul(a, b, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V}", "(n)->(n)")
-def dualquat_inv(s, o):  # noqa: ANN001
+def dualquat_inv(s, o):
     # (r + ε d)^-1 = r^-1 - ε r^-1 d r^-1, with r^-1 = u*/n (u = r/n) so no square of n is formed.
     n = norm4(s[0], s[1], s[2], s[3])
     if n == 0.0:
@@ -212,7 +212,7 @@ def dualquat_inv(s, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_V}", "(n),(m)->(m)")
-def dualquat_norm(s, d2, o):  # noqa: ANN001
+def dualquat_norm(s, d2, o):
     # |S| = sqrt(S S*) = |r| + ε (r·d)/|r|
     n = norm4(s[0], s[1], s[2], s[3])
     if n == 0.0:
@@ -222,12 +222,12 @@ def dualquat_norm(s, d2, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V}", "(n)->(n)")
-def dualquat_normalize(s, o):  # noqa: ANN001
+def dualquat_normalize(s, o):
     o[0], o[1], o[2], o[3], o[4], o[5], o[6], o[7] = dq_normalize(s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7])
 
 
 @gu(f"{_V},{_V}", "(n)->(n)")
-def dualquat_canonical(s, o):  # noqa: ANN001
+def dualquat_canonical(s, o):
     # flip BOTH parts with the real part (the dual part is ½ t (x) r: flipping r alone negates t)
     if flip_sign(s[0], s[1], s[2], s[3]):
         for i in range(8):
@@ -238,7 +238,7 @@ def dualquat_canonical(s, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_V},{_V}", "(k),(m),(n)->(n)")
-def dualquat_from_qt(q, t, d8, o):  # noqa: ANN001
+def dualquat_from_qt(q, t, d8, o):
     # Dantam 2014 eqs. (76)-(77): r = q/|q|, d = ½ t (x) r
     n = norm4(q[0], q[1], q[2], q[3])
     if n == 0.0:
@@ -250,7 +250,7 @@ def dualquat_from_qt(q, t, d8, o):  # noqa: ANN001
 
 
 @jit
-def _translation(rx, ry, rz, rw, dx, dy, dz, dw, s2):  # noqa: ANN001, ANN201
+def _translation(rx, ry, rz, rw, dx, dy, dz, dw, s2):
     # t = 2 vec(d (x) r*)/|r|**2 = s2 * (r_w d_v - d_w r_v + r_v x d_v)  (Dantam (78), Walker (19)/(67))
     cx, cy, cz = cross(rx, ry, rz, dx, dy, dz)
     return (
@@ -261,7 +261,7 @@ def _translation(rx, ry, rz, rw, dx, dy, dz, dw, s2):  # noqa: ANN001, ANN201
 
 
 @gu(f"{_V},{_V},{_V},{_V},{_V}", "(n),(k),(m)->(k),(m)")
-def qt_from_dualquat(s, d4, d3, q, t):  # noqa: ANN001
+def qt_from_dualquat(s, d4, d3, q, t):
     n = norm4(s[0], s[1], s[2], s[3])
     if n == 0.0:
         n = _NAN
@@ -271,7 +271,7 @@ def qt_from_dualquat(s, d4, d3, q, t):  # noqa: ANN001
 
 
 @gu(f"{_V},{_M},{_M}", "(n),(p,p)->(p,p)")
-def matrix_from_dualquat(s, d44, o):  # noqa: ANN001
+def matrix_from_dualquat(s, d44, o):
     # Walker 1991 eqs. (17)-(19) / Dantam 2014 eqs. (108)-(109), scaled by 2/|r|**2 (non-unit r normalised)
     x, y, z, w = s[0], s[1], s[2], s[3]
     dx, dy, dz, dw = s[4], s[5], s[6], s[7]
@@ -288,7 +288,7 @@ def matrix_from_dualquat(s, d44, o):  # noqa: ANN001
 
 
 @gu(f"{_M},{_V},{_V},{_V}", "(p,p),(k),(n)->(n)")
-def dualquat_from_rt(m, r, d8, o):  # noqa: ANN001
+def dualquat_from_rt(m, r, d8, o):
     # Walker 1991 eq. (25): s = W(r) t with t = ½ [t; 0], i.e. s = ½ t (x) r; r is already a unit quaternion
     x, y, z, w = r[0], r[1], r[2], r[3]
     o[0], o[1], o[2], o[3] = x, y, z, w
@@ -297,7 +297,7 @@ def dualquat_from_rt(m, r, d8, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_V}", "(n),(m)->(m)")
-def dualquat_transform(s, p, o):  # noqa: ANN001
+def dualquat_transform(s, p, o):
     # p' = R p + t (Dantam 2014 eq. (95) in the implicit form (106)), see _kutil.transform_point; s2 = 2/|r|**2
     # normalises a non-unit real part (extreme norms rescaled first).  The flat kernel uses the same helper.
     x, y, z, w = s[0], s[1], s[2], s[3]
@@ -309,17 +309,17 @@ def dualquat_transform(s, p, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V}", "(n)->(n)")
-def dualquat_exp(s, o):  # noqa: ANN001
+def dualquat_exp(s, o):
     o[0], o[1], o[2], o[3], o[4], o[5], o[6], o[7] = dq_exp(s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7])
 
 
 @gu(f"{_V},{_V}", "(n)->(n)")
-def dualquat_log(s, o):  # noqa: ANN001
+def dualquat_log(s, o):
     o[0], o[1], o[2], o[3], o[4], o[5], o[6], o[7] = dq_log(s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7])
 
 
 @gu(f"{_V},{_S},{_V}", "(n),()->(n)")
-def dualquat_pow(s, t, o):  # noqa: ANN001
+def dualquat_pow(s, t, o):
     # S**t = exp(t ln S), principal logarithm, no canonicalisation
     if is_zero4(s[0], s[1], s[2], s[3]):
         fill_nan(o, 8)
@@ -334,12 +334,12 @@ def dualquat_pow(s, t, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_V}", "(m),(n)->(n)")
-def dualquat_from_twist(xi, d8, o):  # noqa: ANN001
+def dualquat_from_twist(xi, d8, o):
     o[0], o[1], o[2], o[3], o[4], o[5], o[6], o[7] = dq_exp_twist(xi[0], xi[1], xi[2], xi[3], xi[4], xi[5])
 
 
 @gu(f"{_V},{_V},{_V}", "(n),(m)->(m)")
-def twist_from_dualquat(s, d6, o):  # noqa: ANN001
+def twist_from_dualquat(s, d6, o):
     # normalise, canonicalise (r_w >= 0 so |ω| <= pi), then 2 ln S; the scalar parts are 0 for a unit S
     if is_zero4(s[0], s[1], s[2], s[3]):
         fill_nan(o, 6)
@@ -353,7 +353,7 @@ def twist_from_dualquat(s, d6, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_S},{_V}", "(n),(n),()->(n)")
-def dualquat_sclerp(s0, s1, t, o):  # noqa: ANN001
+def dualquat_sclerp(s0, s1, t, o):
     # s0 (x) (canonical(s0* (x) s1))**t: the shortest screw from s0 to s1; inputs normalised
     if is_zero4(s0[0], s0[1], s0[2], s0[3]) or is_zero4(s1[0], s1[1], s1[2], s1[3]):
         fill_nan(o, 8)
@@ -371,7 +371,7 @@ def dualquat_sclerp(s0, s1, t, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_S},{_S},{_V},{_V}", "(m),(m),(),(),(n)->(n)")
-def dualquat_from_screw(axis, p, dist, theta, d8, o):  # noqa: ANN001
+def dualquat_from_screw(axis, p, dist, theta, d8, o):
     # Walker 1991 eqs. (11)-(12): r = [sin(θ/2) n, cos(θ/2)], s = [(d/2) cos(θ/2) n + sin(θ/2) p x n, -(d/2) sin(θ/2)]
     if axis[0] == 0.0 and axis[1] == 0.0 and axis[2] == 0.0:
         fill_nan(o, 8)
@@ -388,7 +388,7 @@ def dualquat_from_screw(axis, p, dist, theta, d8, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_V},{_V},{_V},{_V}", "(n),(m)->(m),(m),(),()")
-def screw_from_dualquat(s, d3, axis, point, dist, theta):  # noqa: ANN001
+def screw_from_dualquat(s, d3, axis, point, dist, theta):
     # Walker 1991 Appendix 3 in stable form, on the normalised, canonical (r_w >= 0) dual quaternion:
     # θ = 2 atan2(|r_v|, r_w), n = r_v/|r_v|, d/2 = r_w (n·s_v) - s_w |r_v|, p = (r_v x s_v)/|r_v|**2 (the foot ⊥ n)
     if is_zero4(s[0], s[1], s[2], s[3]):
@@ -423,7 +423,7 @@ def screw_from_dualquat(s, d3, axis, point, dist, theta):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_S},{_V}", "(n),(m),()->(n)")
-def dualquat_integrate_space(s, xi, dt, o):  # noqa: ANN001
+def dualquat_integrate_space(s, xi, dt, o):
     # Dantam 2014 eq. (102): exp(Ω dt/2) (x) s, Ω = [ω, v_s] a spatial twist
     e0, e1, e2, e3, e4, e5, e6, e7 = dq_exp_twist(
         xi[0] * dt, xi[1] * dt, xi[2] * dt, xi[3] * dt, xi[4] * dt, xi[5] * dt
@@ -434,7 +434,7 @@ def dualquat_integrate_space(s, xi, dt, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_S},{_V}", "(n),(m),()->(n)")
-def dualquat_integrate_body(s, xi, dt, o):  # noqa: ANN001
+def dualquat_integrate_body(s, xi, dt, o):
     # s (x) exp(Ω_b dt/2), Ω_b = [ω_b, v_b] a body twist
     e0, e1, e2, e3, e4, e5, e6, e7 = dq_exp_twist(
         xi[0] * dt, xi[1] * dt, xi[2] * dt, xi[3] * dt, xi[4] * dt, xi[5] * dt

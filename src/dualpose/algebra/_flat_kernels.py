@@ -33,12 +33,12 @@ from dualpose.algebra.series import atan2c_given
 _V = "float64[::1]"
 
 
-def _flat(sig: str):  # noqa: ANN202
+def _flat(sig: str):
     return nb.njit(sig, cache=True, error_model="numpy", boundscheck=False, nogil=True)
 
 
 @_flat(f"int64({_V}, {_V}, {_V})")
-def quat_rotate(q, v, o):  # noqa: ANN001, ANN201
+def quat_rotate(q, v, o):
     """``o[i] = R(q[i]) v[i]`` over flat (N*4,), (N*3,), (N*3,) buffers; returns 0 when every |q|² was ordinary."""
     bad = 0
     for i in range(v.shape[0] // 3):
@@ -50,7 +50,7 @@ def quat_rotate(q, v, o):  # noqa: ANN001, ANN201
 
 
 @_flat(f"void({_V}, {_V}, {_V})")
-def quat_log_prepare(q, s, w):  # noqa: ANN001
+def quat_log_prepare(q, s, w):
     """First pass of the flat quaternion log: ``s[i] = |q_v[i]|`` (guarded norm) and ``w[i] = q_w[i]``."""
     for i in range(s.shape[0]):
         s[i] = norm3(q[4 * i], q[4 * i + 1], q[4 * i + 2])
@@ -58,7 +58,7 @@ def quat_log_prepare(q, s, w):  # noqa: ANN001
 
 
 @_flat(f"int64({_V}, {_V}, {_V}, {_V})")
-def quat_log_finish(q, s, phi, o):  # noqa: ANN001, ANN201
+def quat_log_finish(q, s, phi, o):
     """Last pass: ``o[i] = ln q[i]`` from ``s`` and ``phi = atan2(s, w)``; returns 1 if some q[i] is zero."""
     zero = 0
     for i in range(s.shape[0]):
@@ -69,7 +69,7 @@ def quat_log_finish(q, s, phi, o):  # noqa: ANN001, ANN201
 
 
 @_flat(f"int64({_V}, {_V}, {_V})")
-def dualquat_transform(s, p, o):  # noqa: ANN001, ANN201
+def dualquat_transform(s, p, o):
     """``o[i] = R p[i] + t`` of the dual quaternion ``s[i]`` over flat (N*8,), (N*3,), (N*3,) buffers, eight rows at
     a time; returns 0 when every |r|² was ordinary.  ``o`` may be ``p``."""
     n = p.shape[0] // 3
@@ -89,7 +89,7 @@ def dualquat_transform(s, p, o):  # noqa: ANN001, ANN201
 
 
 @_flat(f"int64({_V}, {_V}, {_V})")
-def dualquat_mul(a, b, o):  # noqa: ANN001, ANN201
+def dualquat_mul(a, b, o):
     """``o[i] = a[i] (x) b[i]`` over flat (N*8,) buffers, eight rows at a time; returns 0 (the product needs no norm
     check).  ``o`` may be ``a`` or ``b``."""
     n = o.shape[0] // 8

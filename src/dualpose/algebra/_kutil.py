@@ -47,7 +47,7 @@ def norm4(x: float, y: float, z: float, w: float) -> float:
 
 
 @jit
-def qmul(ax, ay, az, aw, bx, by, bz, bw):  # noqa: ANN001, ANN201
+def qmul(ax, ay, az, aw, bx, by, bz, bw):
     """Hamilton product a (x) b of two xyzw quaternions given as scalars."""
     return (
         aw * bx + ax * bw + ay * bz - az * by,
@@ -58,7 +58,7 @@ def qmul(ax, ay, az, aw, bx, by, bz, bw):  # noqa: ANN001, ANN201
 
 
 @jit
-def dq_mul(ax, ay, az, aw, bx, by, bz, bw, cx, cy, cz, cw, dx, dy, dz, dw):  # noqa: ANN001, ANN201
+def dq_mul(ax, ay, az, aw, bx, by, bz, bw, cx, cy, cz, cw, dx, dy, dz, dw):
     """(a + ε b)(c + ε d) = a c + ε (a d + b c): Dantam 2014 eq. (79), dual quaternions as 2 x 4 xyzw scalars.
 
     The one formula of the product: the gufunc, the flat kernel's tail and its SIMD blocks (which evaluate it on
@@ -72,12 +72,12 @@ def dq_mul(ax, ay, az, aw, bx, by, bz, bw, cx, cy, cz, cw, dx, dy, dz, dw):  # n
 
 
 @jit
-def cross(ax, ay, az, bx, by, bz):  # noqa: ANN001, ANN201
+def cross(ax, ay, az, bx, by, bz):
     return (ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx)
 
 
 @jit
-def rotate(x, y, z, w, vx, vy, vz, s2):  # noqa: ANN001, ANN201
+def rotate(x, y, z, w, vx, vy, vz, s2):
     """v + s2 * q_v x (q_v x v + w v): Dantam 2014 eq. (45); s2 = 2/|q|**2 (2 for a unit quaternion)."""
     ax, ay, az = cross(x, y, z, vx, vy, vz)
     ax += w * vx
@@ -88,7 +88,7 @@ def rotate(x, y, z, w, vx, vy, vz, s2):  # noqa: ANN001, ANN201
 
 
 @jit
-def transform_point(x, y, z, w, dx, dy, dz, dw, px, py, pz, s2):  # noqa: ANN001, ANN201
+def transform_point(x, y, z, w, dx, dy, dz, dw, px, py, pz, s2):
     """``R p + t`` for the dual quaternion ``[x, y, z, w, dx, dy, dz, dw]``; ``s2 = 2/|r|**2``.
 
     R p = p + s2 r_v x (r_v x p + w p) (Dantam 2014 eq. (45)) and t = s2 (w d_v - d_w r_v + r_v x d_v) (eq. (78)),
@@ -103,7 +103,7 @@ def transform_point(x, y, z, w, dx, dy, dz, dw, px, py, pz, s2):  # noqa: ANN001
 
 
 @jit
-def unit_scale(x, y, z, w):  # noqa: ANN001, ANN201
+def unit_scale(x, y, z, w):
     """(c, s2) with s2 = 2/|c q|**2, for formulas that need 2/|q|**2 (rotation, matrices, transforms).
 
     For ordinary magnitudes c = 1 and s2 = 2/|q|**2; for |q| near 1e-200 or 1e200 c = 1/|q| and s2 = 2, and the
@@ -122,7 +122,7 @@ def unit_scale(x, y, z, w):  # noqa: ANN001, ANN201
 
 
 @jit
-def inv_norm2_scale(x, y, z, w):  # noqa: ANN001, ANN201
+def inv_norm2_scale(x, y, z, w):
     """2/|q|**2 (quiet NaN for a zero quaternion); prefer :func:`unit_scale`, which also survives |q| ~ 1e-200."""
     n2 = x * x + y * y + z * z + w * w
     if n2 != n2:
@@ -136,7 +136,7 @@ def inv_norm2_scale(x, y, z, w):  # noqa: ANN001, ANN201
 
 
 @jit
-def log_norm(x, y, z, w):  # noqa: ANN001, ANN201
+def log_norm(x, y, z, w):
     """ln|q|, one branch on |q|**2 (no square root on the common paths).
 
     For |q|**2 in [1/2, 2] it is ln(1 + d)/2 with d = (w - 1)(w + 1) + x² + y² + z² (w - 1 is exact for w in
@@ -161,7 +161,7 @@ def log_norm(x, y, z, w):  # noqa: ANN001, ANN201
 
 
 @jit
-def quat_log_parts(x, y, z, w, f):  # noqa: ANN001, ANN201
+def quat_log_parts(x, y, z, w, f):
     """Dantam 2014 eqs. (25)-(28) given ``f = atan2c(|q_v|, w)``: ``(f q_v, ln|q|)``; f = inf (v = 0, w < 0) gives
     the x axis, ``[π, 0, 0, ln|w|]``.  A zero q gives NaN (f = NaN)."""
     if f == math.inf:
@@ -170,7 +170,7 @@ def quat_log_parts(x, y, z, w, f):  # noqa: ANN001, ANN201
 
 
 @jit
-def rotmat(x, y, z, w):  # noqa: ANN001, ANN201
+def rotmat(x, y, z, w):
     """Row-major entries of the rotation matrix of q/|q| (Dantam 2014 eq. (108)); NaN for a zero quaternion."""
     c, s = unit_scale(x, y, z, w)
     x, y, z, w = c * x, c * y, c * z, c * w
@@ -185,14 +185,14 @@ def rotmat(x, y, z, w):  # noqa: ANN001, ANN201
 
 
 @jit
-def rotate_any(x, y, z, w, vx, vy, vz):  # noqa: ANN001, ANN201
+def rotate_any(x, y, z, w, vx, vy, vz):
     """R(q/|q|) v for any nonzero q (NaN for zero), without under/overflow for |q| ~ 1e-200 or 1e200."""
     c, s2 = unit_scale(x, y, z, w)
     return rotate(c * x, c * y, c * z, c * w, vx, vy, vz, s2)
 
 
 @jit
-def quat_of_rotmat(r):  # noqa: ANN001, ANN201
+def quat_of_rotmat(r):
     """Unit quaternion (x, y, z, w), ``w >= 0``, of a 3x3 rotation matrix ``r`` (Shepperd's method)."""
     # branch on the largest of (trace, R00, R11, R22); result normalised, w >= 0
     r00, r11, r22 = r[0, 0], r[1, 1], r[2, 2]

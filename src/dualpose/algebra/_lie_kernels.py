@@ -24,7 +24,7 @@ _S = "float64"
 _M = "float64[:, :]"
 
 
-def gu(types: str, layout: str):  # noqa: ANN201
+def gu(types: str, layout: str):
     return nb.guvectorize([f"void({types})"], layout, nopython=True, cache=True)
 
 
@@ -34,7 +34,7 @@ def gu(types: str, layout: str):  # noqa: ANN201
 
 
 @jit
-def so3_coeffs(th, inv):  # noqa: ANN001, ANN201
+def so3_coeffs(th, inv):
     """(a, b, c) with J = a I + b Φ + c φφᵀ: the left Jacobian (inv == 0) or its inverse (inv != 0) at |φ| = th.
 
     J_l = I + cosc2 Φ + sinc3 Φ² and Φ² = φφᵀ − θ² I give a = 1 − θ² sinc3 = sinc(θ);
@@ -47,7 +47,7 @@ def so3_coeffs(th, inv):  # noqa: ANN001, ANN201
 
 
 @jit
-def so3_fill(x, y, z, a, b, c, o, r0, c0):  # noqa: ANN001
+def so3_fill(x, y, z, a, b, c, o, r0, c0):
     """o[r0:r0+3, c0:c0+3] = a I + b [φ]× + c φφᵀ."""
     o[r0 + 0, c0 + 0] = a + c * x * x
     o[r0 + 0, c0 + 1] = -b * z + c * x * y
@@ -61,7 +61,7 @@ def so3_fill(x, y, z, a, b, c, o, r0, c0):  # noqa: ANN001
 
 
 @jit
-def so3_apply(x, y, z, a, b, c, ux, uy, uz):  # noqa: ANN001, ANN201
+def so3_apply(x, y, z, a, b, c, ux, uy, uz):
     """(a I + b [φ]× + c φφᵀ) u."""
     cx, cy, cz = cross(x, y, z, ux, uy, uz)
     d = c * (x * ux + y * uy + z * uz)
@@ -69,7 +69,7 @@ def so3_apply(x, y, z, a, b, c, ux, uy, uz):  # noqa: ANN001, ANN201
 
 
 @jit
-def barfoot_q_apply(wx, wy, wz, vx, vy, vz, c1, c2, c3, x0, x1, x2):  # noqa: ANN001, ANN201
+def barfoot_q_apply(wx, wy, wz, vx, vy, vz, c1, c2, c3, x0, x1, x2):
     """Q(ω, v) x by cross products (no temporaries), with Barfoot's Q (Barfoot 2017, eq. (7.86), in [ω, v] order):
 
     Q = ½V + c1 (ΦV + VΦ + ΦVΦ) + c2 (ΦΦV + VΦΦ − 3ΦVΦ) + c3 (ΦVΦΦ + ΦΦVΦ),
@@ -93,7 +93,7 @@ def barfoot_q_apply(wx, wy, wz, vx, vy, vz, c1, c2, c3, x0, x1, x2):  # noqa: AN
 
 
 @jit
-def qvec_sandwich(ax, ay, az, aw, tx, ty, tz, bx, by, bz, bw):  # noqa: ANN001, ANN201
+def qvec_sandwich(ax, ay, az, aw, tx, ty, tz, bx, by, bz, bw):
     """Vector part of a (x) [t, 0] (x) b*."""
     px, py, pz, pw = qmul(ax, ay, az, aw, tx, ty, tz, 0.0)
     rx, ry, rz, _ = qmul(px, py, pz, pw, -bx, -by, -bz, bw)
@@ -106,21 +106,21 @@ def qvec_sandwich(ax, ay, az, aw, tx, ty, tz, bx, by, bz, bw):  # noqa: ANN001, 
 
 
 @gu(f"{_V},{_S},{_S},{_M}", "(n),(),()->(n,n)")
-def so3_jacobian(phi, sgn, inv, o):  # noqa: ANN001
+def so3_jacobian(phi, sgn, inv, o):
     x, y, z = sgn * phi[0], sgn * phi[1], sgn * phi[2]
     a, b, c = so3_coeffs(norm3(x, y, z), inv)
     so3_fill(x, y, z, a, b, c, o, 0, 0)
 
 
 @gu(f"{_V},{_V},{_S},{_S},{_V}", "(n),(n),(),()->(n)")
-def so3_jacobian_apply(phi, u, sgn, inv, o):  # noqa: ANN001
+def so3_jacobian_apply(phi, u, sgn, inv, o):
     x, y, z = sgn * phi[0], sgn * phi[1], sgn * phi[2]
     a, b, c = so3_coeffs(norm3(x, y, z), inv)
     o[0], o[1], o[2] = so3_apply(x, y, z, a, b, c, u[0], u[1], u[2])
 
 
 @gu(f"{_V},{_M}", "(n)->(n,n)")
-def so3_exp(phi, o):  # noqa: ANN001
+def so3_exp(phi, o):
     # Rodrigues: R = cos θ I + sinc θ Φ + cosc2 θ φφᵀ
     x, y, z = phi[0], phi[1], phi[2]
     th = norm3(x, y, z)
@@ -128,7 +128,7 @@ def so3_exp(phi, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_M},{_M},{_V}", "(k),(n,n)->(n,n),(n)")
-def se3_exp(xi, d33, r, t):  # noqa: ANN001
+def se3_exp(xi, d33, r, t):
     wx, wy, wz = xi[0], xi[1], xi[2]
     th = norm3(wx, wy, wz)
     so3_fill(wx, wy, wz, math.cos(th), sinc(th), cosc2(th), r, 0, 0)
@@ -137,7 +137,7 @@ def se3_exp(xi, d33, r, t):  # noqa: ANN001
 
 
 @gu(f"{_V},{_S},{_S},{_M}", "(n),(),()->(n,n)")
-def se3_jacobian(xi, sgn, inv, o):  # noqa: ANN001
+def se3_jacobian(xi, sgn, inv, o):
     # [[J, 0], [Q, J]] or [[J⁻¹, 0], [−J⁻¹ Q J⁻¹, J⁻¹]], J = J_l(ω), at sgn * xi
     wx, wy, wz = sgn * xi[0], sgn * xi[1], sgn * xi[2]
     vx, vy, vz = sgn * xi[3], sgn * xi[4], sgn * xi[5]
@@ -165,7 +165,7 @@ def se3_jacobian(xi, sgn, inv, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_M},{_M}", "(n),(m),(k,k)->(k,k)")
-def se3_adjoint(q, t, d66, o):  # noqa: ANN001
+def se3_adjoint(q, t, d66, o):
     # [[R, 0], [t× R, R]] for [ω, v] twists; R normalises q (2/|q|² scale)
     m = rotmat(q[0], q[1], q[2], q[3])
     for i in range(3):
@@ -184,7 +184,7 @@ def se3_adjoint(q, t, d66, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_V},{_V},{_V},{_V}", "(n),(m),(n),(m)->(n),(m)")
-def qt_mul(q1, t1, q2, t2, qo, to):  # noqa: ANN001
+def qt_mul(q1, t1, q2, t2, qo, to):
     # Dantam 2014 eqs. (104)-(105)
     qo[0], qo[1], qo[2], qo[3] = qmul(q1[0], q1[1], q1[2], q1[3], q2[0], q2[1], q2[2], q2[3])
     rx, ry, rz = rotate_any(q1[0], q1[1], q1[2], q1[3], t2[0], t2[1], t2[2])
@@ -192,14 +192,14 @@ def qt_mul(q1, t1, q2, t2, qo, to):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_V},{_V}", "(n),(m),(m)->(m)")
-def qt_transform(q, t, p, o):  # noqa: ANN001
+def qt_transform(q, t, p, o):
     # Dantam 2014 eq. (106)
     rx, ry, rz = rotate_any(q[0], q[1], q[2], q[3], p[0], p[1], p[2])
     o[0], o[1], o[2] = rx + t[0], ry + t[1], rz + t[2]
 
 
 @gu(f"{_V},{_V},{_V},{_V}", "(n),(m)->(n),(m)")
-def qt_conj(q, t, qo, to):  # noqa: ANN001
+def qt_conj(q, t, qo, to):
     # Dantam 2014 §V-C: (q*, -rot(q*, t))
     x, y, z, w = -q[0], -q[1], -q[2], q[3]
     rx, ry, rz = rotate_any(x, y, z, w, t[0], t[1], t[2])
@@ -208,7 +208,7 @@ def qt_conj(q, t, qo, to):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_V},{_V},{_V}", "(k),(n),(m)->(n),(m)")
-def qt_from_twist(xi, d4, d3, qo, to):  # noqa: ANN001
+def qt_from_twist(xi, d4, d3, qo, to):
     # q = exp(ω/2) (Dantam 2014 eq. (50)), t = J_l(ω) v
     wx, wy, wz = xi[0], xi[1], xi[2]
     th = norm3(wx, wy, wz)
@@ -220,7 +220,7 @@ def qt_from_twist(xi, d4, d3, qo, to):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_V},{_V}", "(n),(m),(k)->(k)")
-def twist_from_qt(q, t, d6, o):  # noqa: ANN001
+def twist_from_qt(q, t, d6, o):
     # ω = 2 ln(±q) with |ω| <= π (Dantam 2014 eqs. (51)-(53)), v = J_l(ω)⁻¹ t
     x, y, z, w = q[0], q[1], q[2], q[3]
     if w < 0.0:
@@ -241,7 +241,7 @@ def twist_from_qt(q, t, d6, o):  # noqa: ANN001
     f"{_V},{_V},{_V},{_V},{_V},{_V},{_V},{_V},{_V},{_V}",
     "(n),(m),(n),(m),(n),(m),(n),(m)->(n),(m)",
 )
-def qt_mul_derivative(q1, t1, q1d, t1d, q2, t2, q2d, t2d, qo, to):  # noqa: ANN001
+def qt_mul_derivative(q1, t1, q1d, t1d, q2, t2, q2d, t2d, qo, to):
     # Dantam 2014 eq. (107) applied to the normalised rotation u = q1/|q1| (the map qt_mul uses)
     ax, ay, az, aw = qmul(q1d[0], q1d[1], q1d[2], q1d[3], q2[0], q2[1], q2[2], q2[3])
     bx, by, bz, bw = qmul(q1[0], q1[1], q1[2], q1[3], q2d[0], q2d[1], q2d[2], q2d[3])
@@ -266,7 +266,7 @@ def qt_mul_derivative(q1, t1, q1d, t1d, q2, t2, q2d, t2d, qo, to):  # noqa: ANN0
 
 
 @gu(f"{_V},{_V},{_S},{_V}", "(n),(m),()->(n)")
-def quat_derivative(q, w, body, o):  # noqa: ANN001
+def quat_derivative(q, w, body, o):
     # Dantam 2014 eq. (46): ½ ω (x) q (space) or ½ q (x) ω (body)
     if body == 0.0:
         r = qmul(w[0], w[1], w[2], 0.0, q[0], q[1], q[2], q[3])
@@ -276,7 +276,7 @@ def quat_derivative(q, w, body, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_S},{_V},{_V}", "(n),(n),(),(m)->(m)")
-def omega_from_quat_derivative(q, qd, body, d3, o):  # noqa: ANN001
+def omega_from_quat_derivative(q, qd, body, d3, o):
     # Dantam 2014 eq. (47): 2 vec(q̇ (x) q*) / |q|² (space) or 2 vec(q* (x) q̇) / |q|² (body)
     s2 = inv_norm2_scale(q[0], q[1], q[2], q[3])
     if body == 0.0:
@@ -287,7 +287,7 @@ def omega_from_quat_derivative(q, qd, body, d3, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_V},{_S},{_V}", "(n),(m),(m),()->(n)")
-def quat_second_derivative(q, w, wd, body, o):  # noqa: ANN001
+def quat_second_derivative(q, w, wd, body, o):
     # Dantam 2014 eq. (48): ½ (ω̇ (x) q + ω (x) q̇) with q̇ = ½ ω (x) q (space); mirrored for the body frame
     if body == 0.0:
         a = qmul(wd[0], wd[1], wd[2], 0.0, q[0], q[1], q[2], q[3])
@@ -302,7 +302,7 @@ def quat_second_derivative(q, w, wd, body, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_V},{_S},{_V},{_V}", "(n),(n),(n),(),(m)->(m)")
-def angular_acceleration_from_quat(q, qd, qdd, body, d3, o):  # noqa: ANN001
+def angular_acceleration_from_quat(q, qd, qdd, body, d3, o):
     # d/dt of 2 vec(q̇ (x) q*)/|q|²; for |q| = 1 this is Dantam 2014 eq. (49): ω̇ = 2 vec(q̈ (x) q*)
     s2 = inv_norm2_scale(q[0], q[1], q[2], q[3])
     if body == 0.0:
@@ -316,7 +316,7 @@ def angular_acceleration_from_quat(q, qd, qdd, body, d3, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_V}", "(n),(n)->(n)")
-def quat_exp_derivative(q, qd, o):  # noqa: ANN001
+def quat_exp_derivative(q, qd, o):
     # Dantam 2014 eqs. (32)-(37) times e^w, plus ẇ e^q
     x, y, z, w = q[0], q[1], q[2], q[3]
     ph = norm3(x, y, z)
@@ -333,7 +333,7 @@ def quat_exp_derivative(q, qd, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_M}", "(n)->(n,n)")
-def quat_exp_jacobian(q, o):  # noqa: ANN001
+def quat_exp_jacobian(q, o):
     x, y, z, w = q[0], q[1], q[2], q[3]
     ph = norm3(x, y, z)
     e = math.exp(w)
@@ -346,7 +346,7 @@ def quat_exp_jacobian(q, o):  # noqa: ANN001
 
 
 @jit
-def log_jac_terms(x, y, z, w):  # noqa: ANN001, ANN201
+def log_jac_terms(x, y, z, w):
     """(n, u, ŵ, g, A) for the principal-log Jacobian: u = v/n, ŵ = w/n, g = φ/|v|, A = dqalpha(φ).
 
     For w > 0 (φ < π/2), A comes from the guarded series; for w <= 0 the closed form (ŵ ŝ − φ)/ŝ³ with
@@ -369,7 +369,7 @@ def log_jac_terms(x, y, z, w):  # noqa: ANN001, ANN201
 
 
 @gu(f"{_V},{_M}", "(n)->(n,n)")
-def quat_log_jacobian(q, o):  # noqa: ANN001
+def quat_log_jacobian(q, o):
     n, ux, uy, uz, wh, g, a = log_jac_terms(q[0], q[1], q[2], q[3])
     so3_fill(ux, uy, uz, g, 0.0, a / n, o, 0, 0)
     o[0, 3], o[1, 3], o[2, 3] = -ux / n, -uy / n, -uz / n
@@ -378,7 +378,7 @@ def quat_log_jacobian(q, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_V}", "(n),(n)->(n)")
-def quat_log_derivative(q, qd, o):  # noqa: ANN001
+def quat_log_derivative(q, qd, o):
     n, ux, uy, uz, wh, g, a = log_jac_terms(q[0], q[1], q[2], q[3])
     uv = ux * qd[0] + uy * qd[1] + uz * qd[2]
     f = (a * uv - qd[3]) / n
@@ -389,7 +389,7 @@ def quat_log_derivative(q, qd, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_V},{_V}", "(m),(m),(n)->(n)")
-def quat_derivative_from_rotvec_rate(v, vd, d4, o):  # noqa: ANN001
+def quat_derivative_from_rotvec_rate(v, vd, d4, o):
     # Dantam 2014 eqs. (54)-(57) with y = v/2, ẏ = v̇/2, φ = |y|
     yx, yy, yz = 0.5 * v[0], 0.5 * v[1], 0.5 * v[2]
     dx, dy, dz = 0.5 * vd[0], 0.5 * vd[1], 0.5 * vd[2]

@@ -20,22 +20,22 @@ _LO = 2.0**-300
 _HI = 2.0**300
 
 
-def gu(types: str, layout: str):  # noqa: ANN201
+def gu(types: str, layout: str):
     return nb.guvectorize([f"void({types})"], layout, nopython=True, cache=True)
 
 
 @gu(f"{_V},{_V},{_V}", "(n),(n)->(n)")
-def quat_mul(p, q, o):  # noqa: ANN001
+def quat_mul(p, q, o):
     o[0], o[1], o[2], o[3] = qmul(p[0], p[1], p[2], p[3], q[0], q[1], q[2], q[3])
 
 
 @gu(f"{_V},{_V}", "(n)->()")
-def quat_norm(q, o):  # noqa: ANN001
+def quat_norm(q, o):
     o[0] = norm4(q[0], q[1], q[2], q[3])
 
 
 @gu(f"{_V},{_V}", "(n)->(n)")
-def quat_normalize(q, o):  # noqa: ANN001
+def quat_normalize(q, o):
     n = norm4(q[0], q[1], q[2], q[3])
     if n == 0.0:
         n = math.nan
@@ -43,7 +43,7 @@ def quat_normalize(q, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V}", "(n)->(n)")
-def quat_inv(q, o):  # noqa: ANN001
+def quat_inv(q, o):
     n = norm4(q[0], q[1], q[2], q[3])
     if n == 0.0:
         n = math.nan
@@ -52,7 +52,7 @@ def quat_inv(q, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V}", "(n)->(n)")
-def quat_canonical(q, o):  # noqa: ANN001
+def quat_canonical(q, o):
     x, y, z, w = q[0], q[1], q[2], q[3]
     flip = w < 0.0 or (w == 0.0 and (x < 0.0 or (x == 0.0 and (y < 0.0 or (y == 0.0 and z < 0.0)))))
     if flip:
@@ -62,7 +62,7 @@ def quat_canonical(q, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V}", "(n)->(n)")
-def quat_exp(q, o):  # noqa: ANN001
+def quat_exp(q, o):
     # Dantam 2014 eq. (22)-(23)
     x, y, z, w = q[0], q[1], q[2], q[3]
     th = norm3(x, y, z)
@@ -72,7 +72,7 @@ def quat_exp(q, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V}", "(n)->(n)")
-def quat_log(q, o):  # noqa: ANN001
+def quat_log(q, o):
     # Dantam 2014 eq. (25)-(28); at q_v = 0, q_w < 0 the axis x is chosen (any axis is a logarithm).
     # A zero q gives atan2c(0, 0) = NaN in the vector part (the wrapper raises).
     x, y, z, w = q[0], q[1], q[2], q[3]
@@ -80,7 +80,7 @@ def quat_log(q, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_S},{_V}", "(n),()->(n)")
-def quat_pow(q, t, o):  # noqa: ANN001
+def quat_pow(q, t, o):
     # Dantam 2014 eq. (30): q**t = exp(t ln q), principal logarithm.
     x, y, z, w = q[0], q[1], q[2], q[3]
     n = norm4(x, y, z, w)
@@ -99,12 +99,12 @@ def quat_pow(q, t, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_V}", "(n),(m)->(m)")
-def quat_rotate(q, v, o):  # noqa: ANN001
+def quat_rotate(q, v, o):
     o[0], o[1], o[2] = rotate_any(q[0], q[1], q[2], q[3], v[0], v[1], v[2])
 
 
 @gu(f"{_V},{_V},{_V}", "(m),(n)->(n)")
-def quat_from_rotvec(v, d4, o):  # noqa: ANN001
+def quat_from_rotvec(v, d4, o):
     # Dantam 2014 eq. (50): q = (sin(|v|/2) v/|v|, cos(|v|/2))
     th = norm3(v[0], v[1], v[2])
     h = 0.5 * th
@@ -113,7 +113,7 @@ def quat_from_rotvec(v, d4, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_V}", "(n),(m)->(m)")
-def rotvec_from_quat(q, d3, o):  # noqa: ANN001
+def rotvec_from_quat(q, d3, o):
     # Dantam 2014 eq. (51)-(53) with the atan2 angle; the sign is chosen so the angle is in [0, pi].
     x, y, z, w = q[0], q[1], q[2], q[3]
     if w < 0.0:
@@ -124,7 +124,7 @@ def rotvec_from_quat(q, d3, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_S},{_V},{_V}", "(m),(),(n)->(n)")
-def quat_from_axis_angle(axis, angle, d4, o):  # noqa: ANN001
+def quat_from_axis_angle(axis, angle, d4, o):
     n = norm3(axis[0], axis[1], axis[2])
     if n == 0.0:
         n = math.nan
@@ -134,7 +134,7 @@ def quat_from_axis_angle(axis, angle, d4, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_V},{_V}", "(n),(m)->(m),()")
-def axis_angle_from_quat(q, d3, axis, angle):  # noqa: ANN001
+def axis_angle_from_quat(q, d3, axis, angle):
     x, y, z, w = q[0], q[1], q[2], q[3]
     if w < 0.0:
         x, y, z, w = -x, -y, -z, -w
@@ -151,7 +151,7 @@ def axis_angle_from_quat(q, d3, axis, angle):  # noqa: ANN001
 
 
 @gu(f"{_V},{_M},{_M}", "(n),(m,m)->(m,m)")
-def matrix_from_quat(q, d33, o):  # noqa: ANN001
+def matrix_from_quat(q, d33, o):
     # Dantam 2014 eq. (108) / Walker 1991 eq. (4), scaled by 2/|q|**2 so non-unit input is normalised.
     m = rotmat(q[0], q[1], q[2], q[3])
     for i in range(3):
@@ -160,12 +160,12 @@ def matrix_from_quat(q, d33, o):  # noqa: ANN001
 
 
 @gu(f"{_M},{_V},{_V}", "(m,m),(n)->(n)")
-def quat_from_matrix(r, d4, o):  # noqa: ANN001
+def quat_from_matrix(r, d4, o):
     o[0], o[1], o[2], o[3] = quat_of_rotmat(r)
 
 
 @gu(f"{_V},{_V},{_S},{_V}", "(n),(n),()->(n)")
-def quat_slerp(p, q, t, o):  # noqa: ANN001
+def quat_slerp(p, q, t, o):
     # Dantam 2014 eq. (58): p (x) (p* (x) q)**t along the shorter arc; inputs normalised.
     np_ = norm4(p[0], p[1], p[2], p[3])
     nq = norm4(q[0], q[1], q[2], q[3])
@@ -184,7 +184,7 @@ def quat_slerp(p, q, t, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_V}", "(n),(n)->()")
-def quat_angle(p, q, o):  # noqa: ANN001
+def quat_angle(p, q, o):
     # Rotation angle between two orientations, 4 atan2(min(|p-q|,|p+q|), max(...)) in [0, pi]
     # (Dantam 2014 eq. (42) gives the angle between the 4-vectors; the rotation angle is twice it).
     np_ = norm4(p[0], p[1], p[2], p[3])
@@ -216,7 +216,7 @@ def quat_angle(p, q, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_S},{_V}", "(n),(m),()->(n)")
-def quat_integrate_space(q, w, dt, o):  # noqa: ANN001
+def quat_integrate_space(q, w, dt, o):
     # Dantam 2014 eq. (62): q1 = exp(omega dt / 2) (x) q0, omega in the space (world) frame
     vx, vy, vz = w[0] * dt, w[1] * dt, w[2] * dt
     h = 0.5 * norm3(vx, vy, vz)
@@ -225,7 +225,7 @@ def quat_integrate_space(q, w, dt, o):  # noqa: ANN001
 
 
 @gu(f"{_V},{_V},{_S},{_V}", "(n),(m),()->(n)")
-def quat_integrate_body(q, w, dt, o):  # noqa: ANN001
+def quat_integrate_body(q, w, dt, o):
     # q1 = q0 (x) exp(omega dt / 2), omega in the body frame
     vx, vy, vz = w[0] * dt, w[1] * dt, w[2] * dt
     h = 0.5 * norm3(vx, vy, vz)

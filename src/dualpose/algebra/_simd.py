@@ -173,7 +173,7 @@ def prefetch_rows(b: ir.IRBuilder, data: ir.Value, row: ir.Value, width: int) ->
 
 
 def row_block(name: str, widths: tuple[int, int, int], body: Callable[..., tuple[Sequence[_Lanes], ir.Value | None]],
-              prefetch: int = 0):  # noqa: ANN201
+              prefetch: int = 0):
     """An intrinsic ``f(a, b, o, i) -> int64`` over rows ``i .. i+7`` of C-contiguous buffers of row widths
     ``widths = (a, b, o)``: load both inputs (whole-row vectors, transposed in registers), ``body(builder, a_cols,
     b_cols) -> (o_cols, flags)`` with ``flags`` an ``<8 x i1>`` (or None), store ``o``, return ``flags`` as a bit
@@ -181,8 +181,8 @@ def row_block(name: str, widths: tuple[int, int, int], body: Callable[..., tuple
     input rows that many rows ahead into the caches (see :func:`prefetch_rows`).
     """
 
-    def typer(typingctx, a, b, o, i):  # noqa: ANN001, ANN202, ARG001
-        def codegen(context, builder, signature, args):  # noqa: ANN001, ANN202
+    def typer(typingctx, a, b, o, i):
+        def codegen(context, builder, signature, args):
             data = [context.make_array(t)(context, builder, v).data for t, v in zip(signature.args[:3], args[:3],
                                                                                     strict=True)]
             row = args[3]

@@ -30,7 +30,7 @@ _CHI2_6_999 = 22.457744  # 0.999 quantile of χ²(6): inlier gate of the normali
 _CHI2_6_9999 = 27.855876  # 0.9999 quantile of χ²(6): gate of the per-pose target consistency
 
 
-def _consistent_poses(camera: PoseStream, body: PoseStream, qx, tx, tau: float, max_gap) -> np.ndarray:  # noqa: ANN001
+def _consistent_poses(camera: PoseStream, body: PoseStream, qx, tx, tau: float, max_gap) -> np.ndarray:
     """Camera samples whose target pose ``Y_k = B(t_k + τ) X A_k⁻¹`` agrees with the others (the target is fixed).
 
     An outlier detection spoils every pair it is part of, and, being a jump, is often chosen as the partner of the
@@ -114,7 +114,7 @@ def _dq(q: np.ndarray, t: np.ndarray) -> np.ndarray:
     return dp.dualquat_from_qt(q, t)
 
 
-def _lmeds_daniilidis(qa, ta, qb, tb, rng: np.random.Generator, iterations: int):  # noqa: ANN001, ANN202
+def _lmeds_daniilidis(qa, ta, qb, tb, rng: np.random.Generator, iterations: int):
     """Least-median-of-squares over Daniilidis solutions of random 3-pair samples, then a fit on the inliers."""
     a_dq, b_dq = _dq(qb, tb), _dq(qa, ta)  # calibrate_hand_eye solves A X = X B with A the body motions
     m = len(qa)
@@ -256,7 +256,7 @@ def calibrate_hand_eye_streams(
     )  # fmt: skip
 
 
-def _joint_fit(camera, body, i, j, qx0, tx0, tau0, sr, st, fix_tau, max_gap):  # noqa: ANN001, ANN202
+def _joint_fit(camera, body, i, j, qx0, tx0, tau0, sr, st, fix_tau, max_gap):
     """Least squares of ``[δθ, t, dτ]`` on the normalised residuals ``[θ_ij/σ_r, t_ij/σ_t]`` of the pairs."""
     qa, ta, _, _, _ = pair_motions(camera, body, i, j, tau0, max_gap)
 
@@ -276,7 +276,7 @@ def _joint_fit(camera, body, i, j, qx0, tx0, tau0, sr, st, fix_tau, max_gap):  #
     return q, sol.x[3:6].copy(), tau, sol
 
 
-def _covariance(sol, fix_tau: bool) -> np.ndarray:  # noqa: ANN001
+def _covariance(sol, fix_tau: bool) -> np.ndarray:
     """``s² (JᵀJ)⁻¹`` with ``s² = ‖r‖² / (n − p)`` over the normalised residuals; τ row/column 0 when fixed."""
     jac = np.asarray(sol.jac)
     if fix_tau:

@@ -282,7 +282,7 @@ def estimate_mag_calibration(
     norm = np.linalg.norm(m, axis=1)
     med = float(np.median(norm)) if norm.size else 0.0
 
-    def refuse(reason: str, n: int = 0, cov=None, noise=math.nan, before=math.nan, cand=None):  # noqa: ANN001, ANN202
+    def refuse(reason: str, n: int = 0, cov=None, noise=math.nan, before=math.nan, cand=None):
         cov = np.zeros(3) if cov is None else cov
         return MagCalibration(False, "none", np.zeros(3), np.eye(3), reason, n, cov, noise, before, cand or {})
 

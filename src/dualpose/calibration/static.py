@@ -88,7 +88,7 @@ def static_period(
     )
 
 
-def static_period_from_run(run, t_start: float | None = None, t_end: float | None = None) -> StaticPeriod:  # noqa: ANN001
+def static_period_from_run(run, t_start: float | None = None, t_end: float | None = None) -> StaticPeriod:
     """:func:`static_period` over ``[t_start, t_end]`` (s; default the whole run) of a
     :class:`~dualpose.sim.SimulatedRun` (or any object with its fields): the IMU samples and the camera
     frames stamped in the window.  The two clocks differ by the (unknown) time offset, so keep the window a few

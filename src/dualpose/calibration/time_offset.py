@@ -245,7 +245,7 @@ def gyro_mean_rates(t: np.ndarray, gyro: np.ndarray, a: np.ndarray, b: np.ndarra
 class _RateCost:
     """``C(d)`` of the module docstring for fixed data (given rotation, or registered per candidate)."""
 
-    def __init__(self, t, gyro, t0, t1, omega_c, R_cb, W):  # noqa: ANN001
+    def __init__(self, t, gyro, t0, t1, omega_c, R_cb, W):
         self.t, self.gyro = t, gyro
         self.cum, self.slope = _gyro_integral(t, gyro)
         self.t0, self.t1, self.omega_c, self.R_cb, self.W = t0, t1, omega_c, R_cb, W

@@ -68,7 +68,9 @@ def run(args: argparse.Namespace) -> int:
     from dualpose.pipelines.calibrate import calibrate_simulated_session
 
     try:
-        m = calibrate_simulated_session(args.seed, args.poses, args.extrinsic, args.gravity_misalignment, args.time_offset)
+        m = calibrate_simulated_session(
+            args.seed, args.poses, args.extrinsic, args.gravity_misalignment, args.time_offset
+        )
     except ValueError as exc:
         print(f"dualpose calibrate: error: {exc}", file=sys.stderr)
         return 2

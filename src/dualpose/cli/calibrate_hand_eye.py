@@ -78,7 +78,7 @@ def run_hand_eye(args: argparse.Namespace) -> dict:
     }  # fmt: skip
 
 
-def _rows(rep) -> dict:  # noqa: ANN001 -- dualpose.calibration.CleaningReport
+def _rows(rep) -> dict:
     return {"read": rep.rows_in, "kept": rep.rows_out, "exact_duplicates": rep.exact_duplicates,
             "merged_stamps": rep.merged_stamps, "was_sorted": rep.was_sorted}  # fmt: skip
 

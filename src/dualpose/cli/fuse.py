@@ -90,7 +90,7 @@ _SMOOTHED_ROWS = (
 )
 
 
-def _table_smoothed(m: dict, num) -> str:  # noqa: ANN001 -- num(key, spec) formats a filter metric or "n/a"
+def _table_smoothed(m: dict, num) -> str:
     """The summary table with a filter and a smoother column (``--smooth``)."""
     s = m["smoothed"]
     rows = [("data", m["data"], ""), ("method", "filter", "RTS smoother")]
@@ -114,7 +114,7 @@ def _output_files(smooth: bool) -> tuple[str, ...]:
     return OUTPUT_FILES + (("trajectory_smoothed.tum",) if smooth else ())
 
 
-def _figures(result, out, paths: dict) -> None:  # noqa: ANN001
+def _figures(result, out, paths: dict) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -178,7 +178,7 @@ def _figures(result, out, paths: dict) -> None:  # noqa: ANN001
     plt.close(fig)
 
 
-def _run_job(args: argparse.Namespace):  # noqa: ANN202 -- FuseResult or None
+def _run_job(args: argparse.Namespace):
     """``run_fuse`` on ``--data``; a bad input file is reported on stderr (file and line) and gives None."""
     from dualpose.io.recording import RecordingError
     from dualpose.pipelines.fuse import run_fuse

@@ -58,12 +58,12 @@ _CHI2_2_LO, _CHI2_2_HI = 0.0506356, 7.3777589  # two-sided 95% band of χ²(2)
 _CHI2_1_LO, _CHI2_1_HI = 0.000982069, 5.0238862  # two-sided 95% band of χ²(1)
 
 
-def _jit(sig: str):  # noqa: ANN202
+def _jit(sig: str):
     return nb.njit(sig, cache=True, nogil=True)
 
 
 @_jit("void(f8[::1], f8, f8, f8)")
-def exp_mul_quat_inplace(q, rx, ry, rz):  # noqa: ANN001, ANN201
+def exp_mul_quat_inplace(q, rx, ry, rz):
     """``q ← normalize(Exp(r) ⊗ q)`` (global error injection); ``q`` (4,) xyzw, ``r`` a rotation vector (rad).
 
     Evaluated as ``q ⊗ Exp(R(q)ᵀ r)`` (the same rotation, applied in the body frame) with the error-state
@@ -75,7 +75,7 @@ def exp_mul_quat_inplace(q, rx, ry, rz):  # noqa: ANN001, ANN201
 
 
 @_jit("void(f8[:,::1], f8[:,::1], f8[:,::1], f8)")
-def joseph_update(P, K, H, r):  # noqa: ANN001, ANN201
+def joseph_update(P, K, H, r):
     """``P ← (I − K H) P (I − K H)ᵀ + r K Kᵀ`` for a measurement of dimension m with isotropic noise ``r``.
 
     ``P`` (6, 6), ``K`` (6, m), ``H`` (m, 6).  Valid for any gain ``K`` (here: optimal gains with rows zeroed).
@@ -102,7 +102,7 @@ def joseph_update(P, K, H, r):  # noqa: ANN001, ANN201
 
 
 @_jit("void(f8[::1], f8[::1], f8[:,::1], f8[::1])")
-def inject_and_reset(q, b, P, dx):  # noqa: ANN001, ANN201
+def inject_and_reset(q, b, P, dx):
     """Inject ``δx`` (6,) into ``q`` and ``b`` and apply the reset Jacobian ``G = diag(I + [½δθ]×, I)`` to ``P``.
 
     For the global error ``q = Exp(δθ) ⊗ q̂`` the reset Jacobian is ``I + [½δθ]×`` (Solà 2017, eq. 287 with the
@@ -123,7 +123,7 @@ def inject_and_reset(q, b, P, dx):  # noqa: ANN001, ANN201
 
 
 @_jit("void(f8[:,::1], f8[::1])")
-def left_rotate_inplace(C, dx):  # noqa: ANN001, ANN201
+def left_rotate_inplace(C, dx):
     """``C ← Exp(δθ) C`` for a rotation matrix ``C`` (3, 3) and ``δθ = dx[:3]`` (Rodrigues, guarded near 0)."""
     x, y, z = dx[0], dx[1], dx[2]
     a2 = x * x + y * y + z * z
@@ -146,7 +146,7 @@ def left_rotate_inplace(C, dx):  # noqa: ANN001, ANN201
 
 
 @_jit("f8(f8[::1], f8[::1], f8)")
-def heading_of_field(m_e, out_h, eps):  # noqa: ANN001, ANN201
+def heading_of_field(m_e, out_h, eps):
     """Heading of an earth-frame field vector ``m_e`` (3,): ``atan2(m_x, m_y)`` (rad, 0 = north, positive towards
     east); ``out_h[0]`` receives the horizontal magnitude.  Returns NaN when the horizontal part is below ``eps``."""
     h = math.sqrt(m_e[0] * m_e[0] + m_e[1] * m_e[1])
@@ -160,13 +160,14 @@ def heading_of_field(m_e, out_h, eps):  # noqa: ANN001, ANN201
     "void(f8[:,::1], f8[:,::1], f8[:,::1], f8, f8[::1], f8[::1], f8[:,::1], f8[::1], f8[:,::1], f8[:,::1],"
     " f8[:,::1], f8[:,::1], f8[::1])"
 )
-def run_ahrs(gyr, acc, mag, dt, q, b, P, params, Ha, Hm, out_q, out_b, stats):  # noqa: ANN001, ANN201
+def run_ahrs(gyr, acc, mag, dt, q, b, P, params, Ha, Hm, out_q, out_b, stats):
     """Run the filter over all samples; ``q`` (4,), ``b`` (3,), ``P`` (6, 6) are the initial state, updated in place.
 
     Per sample k: predict ``q ← q ⊗ Exp((ω_k − b) dt)``, ``P ← F P Fᵀ + Q`` with ``F = [[I, −R dt], [0, I]]``,
     ``Q = diag((σ_g² + ε²|ω|²) dt I, σ_b² dt I)``; accumulate ``R̂ a_k`` and ``R̂ m_k`` in the sliding window; every
     stride samples the accelerometer update of inclination and (9D) the magnetometer heading update.
-    ``Ha`` (2, 6) and ``Hm`` (1, 6) are the measurement Jacobians of :func:`dualpose.estimation.ahrs.accelerometer_jacobian`
+    ``Ha`` (2, 6) and ``Hm`` (1, 6) are the measurement Jacobians of
+    :func:`dualpose.estimation.ahrs.accelerometer_jacobian`
     and :func:`dualpose.estimation.ahrs.heading_jacobian`.  Writes ``out_q[k]`` (xyzw) and ``out_b[k]`` after the
     updates of sample k.
     """

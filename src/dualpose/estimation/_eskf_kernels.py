@@ -24,14 +24,14 @@ V, M, T = "f8[::1]", "f8[:,::1]", "f8[:,:,::1]"  # C-contiguous (the Python wrap
 VA, MA = "f8[:]", "f8[:,:]"  # any layout: slices written element by element
 
 
-def _jit(sig: str):  # noqa: ANN202
+def _jit(sig: str):
     """Eager compilation (explicit signature) so that importing this module compiles or loads every kernel, as
     the cache-freshness stamps of :mod:`dualpose._kernel_cache` expect."""
     return nb.njit(sig, cache=True, nogil=True)
 
 
 @_jit(f"void(f8, f8, f8, f8, {MA})")
-def _rotmat_xyzw(qx, qy, qz, qw, out):  # noqa: ANN001, ANN201
+def _rotmat_xyzw(qx, qy, qz, qw, out):
     """Rotation matrix of a unit quaternion (xyzw), written to ``out`` (3, 3)."""
     out[0, 0] = 1.0 - 2.0 * (qy * qy + qz * qz)
     out[0, 1] = 2.0 * (qx * qy - qz * qw)
@@ -45,7 +45,7 @@ def _rotmat_xyzw(qx, qy, qz, qw, out):  # noqa: ANN001, ANN201
 
 
 @_jit(f"void({VA}, f8, f8, f8)")
-def quat_mul_exp_inplace(q, rx, ry, rz):  # noqa: ANN001, ANN201
+def quat_mul_exp_inplace(q, rx, ry, rz):
     """``q ← normalize(q ⊗ Exp(r))`` for a rotation vector ``r`` (radians); ``q`` is a (4,) slice, xyzw."""
     a2 = rx * rx + ry * ry + rz * rz
     a = math.sqrt(a2)
@@ -66,7 +66,7 @@ def quat_mul_exp_inplace(q, rx, ry, rz):  # noqa: ANN001, ANN201
 
 
 @_jit(f"void({V}, {M}, {V}, {V}, f8, {V}, {V}, {M})")
-def predict_transition(x, P, gyro, accel, dt, gravity, noise, F):  # noqa: ANN001, ANN201
+def predict_transition(x, P, gyro, accel, dt, gravity, noise, F):
     """:func:`predict` that also writes the error-state transition matrix of the step (Solà eq. 269) to ``F``
     (15, 15), ``δx⁻_{k+1} ≈ F δx⁺_k`` (the offline smoother needs it)."""
     R = np.empty((3, 3))
@@ -118,7 +118,7 @@ def predict_transition(x, P, gyro, accel, dt, gravity, noise, F):  # noqa: ANN00
 
 
 @_jit(f"void({V}, {M}, {V}, {V}, f8, {V}, {V})")
-def predict(x, P, gyro, accel, dt, gravity, noise):  # noqa: ANN001, ANN201
+def predict(x, P, gyro, accel, dt, gravity, noise):
     """Propagate nominal state and covariance over ``dt`` with constant IMU input (Solà eq. 260, 269-270).
 
     ``gyro`` (3,) rad/s and ``accel`` (3,) m/s² are the (held or averaged) measurements over the step.
@@ -127,7 +127,7 @@ def predict(x, P, gyro, accel, dt, gravity, noise):  # noqa: ANN001, ANN201
 
 
 @_jit(f"f8({V}, {V}, {V}, {V}, {VA}, {VA}, {VA}, {MA})")
-def camera_residual_jacobian(x, intr, q_bc, p_bc, pixel, point, r, H):  # noqa: ANN001, ANN201
+def camera_residual_jacobian(x, intr, q_bc, p_bc, pixel, point, r, H):
     """Reprojection residual ``r = pixel − π(R_bcᵀ(R_wbᵀ(z − p) − p_bc))`` (2,) and ``H = ∂π/∂δx`` (2, 15).
 
     Returns the depth Z of the point in the camera frame (the model is valid only for Z > 0).
@@ -166,14 +166,14 @@ def camera_residual_jacobian(x, intr, q_bc, p_bc, pixel, point, r, H):  # noqa: 
 
 
 @_jit(f"void({V}, {V}, {V}, {V}, {M}, {M}, {M}, {T}, {V})")
-def camera_batch(x, intr, q_bc, p_bc, pixels, points, r, H, depth):  # noqa: ANN001, ANN201
+def camera_batch(x, intr, q_bc, p_bc, pixels, points, r, H, depth):
     """:func:`camera_residual_jacobian` for every row: ``r`` (M, 2), ``H`` (M, 2, 15), ``depth`` (M,)."""
     for m in range(pixels.shape[0]):
         depth[m] = camera_residual_jacobian(x, intr, q_bc, p_bc, pixels[m], points[m], r[m], H[m])
 
 
 @_jit(f"void({V}, {M}, {V})")
-def inject_reset(x, P, dx):  # noqa: ANN001, ANN201
+def inject_reset(x, P, dx):
     """Inject ``δx`` into the nominal state and apply the reset Jacobian ``G`` (Solà eq. 285-287): P ← G P Gᵀ."""
     for i in range(6):
         x[i] += dx[i]
@@ -190,7 +190,7 @@ def inject_reset(x, P, dx):  # noqa: ANN001, ANN201
 
 
 @_jit(f"void({M}, {M}, {M}, {M})")
-def joseph(P, K, H, R):  # noqa: ANN001, ANN201
+def joseph(P, K, H, R):
     """Joseph-form covariance update ``P ← (I − K H) P (I − K H)ᵀ + K R Kᵀ`` in place."""
     A = np.eye(P.shape[0]) - K @ H
     AP = A @ P
@@ -204,7 +204,7 @@ def joseph(P, K, H, R):  # noqa: ANN001, ANN201
 
 
 @_jit(f"void({M}, {MA}, {MA}, f8)")
-def joseph_2d(P, K, H, s2):  # noqa: ANN001, ANN201
+def joseph_2d(P, K, H, s2):
     """Joseph update for a 2-row measurement with noise ``s2 I₂``, without forming ``I − K H``:
     ``B = P − K (H P)``, ``P ← B − (B Hᵀ) Kᵀ + s2 K Kᵀ`` (= (I − KH) P (I − KH)ᵀ + K R Kᵀ), symmetrised."""
     n = P.shape[0]
@@ -233,7 +233,7 @@ def joseph_2d(P, K, H, s2):  # noqa: ANN001, ANN201
 
 
 @_jit(f"i8({M}, {M}, {T}, {V}, {V}, f8, {V}, {V}, i8[:])")
-def sequential_gated_update(P, r, H, s2, depth, gate, dx, nis_out, accepted_out):  # noqa: ANN001, ANN201
+def sequential_gated_update(P, r, H, s2, depth, gate, dx, nis_out, accepted_out):
     """χ²-gated sequential update with M two-row measurements linearised at one state, in place on ``P``.
 
     ``r`` (M, 2) residuals and ``H`` (M, 2, n) Jacobians at the linearisation point, ``s2`` (M,) noise variances
@@ -286,7 +286,7 @@ def sequential_gated_update(P, r, H, s2, depth, gate, dx, nis_out, accepted_out)
 
 
 @_jit(f"i8({V}, {M}, {V}, {V}, {V}, {M}, {M}, f8, f8, {V}, i8[:])")
-def update_points(x, P, intr, q_bc, p_bc, pixels, points, sigma_px, gate, nis_out, accepted_out):  # noqa: ANN001, ANN201
+def update_points(x, P, intr, q_bc, p_bc, pixels, points, sigma_px, gate, nis_out, accepted_out):
     """Sequential χ²-gated update with the point correspondences of one frame.
 
     Every correspondence is linearised at the predicted nominal state (so the sequence equals one batch update
@@ -307,7 +307,7 @@ def update_points(x, P, intr, q_bc, p_bc, pixels, points, sigma_px, gate, nis_ou
 
 
 @_jit(f"f8({V}, {M}, {V}, {M}, {M})")
-def update_dense(x, P, r, H, R):  # noqa: ANN001, ANN201
+def update_dense(x, P, r, H, R):
     """Batch update with residual ``r`` (m,), Jacobian ``H`` (m, 15), noise ``R`` (m, m); returns the NIS."""
     S = H @ P @ H.T + R
     Si = np.linalg.inv(S)
@@ -326,7 +326,7 @@ _NODE_ARGS = f"b1, {M}, {T}, {M}, {T}, {T}, {V}, i8[:], i8[:]"
 
 
 @_jit(f"i8(i8, f8, {V}, {M}, {M}, {M}, {T}, {M}, {T}, {T}, {V})")
-def _record_prediction(m, tn, x, P, F, XA, PA, XB, PB, FS, TN):  # noqa: ANN001, ANN201
+def _record_prediction(m, tn, x, P, F, XA, PA, XB, PB, FS, TN):
     """Store the transition out of node ``m`` and open node ``m + 1`` (prior = posterior = the predicted state)."""
     FS[m] = F
     m += 1
@@ -341,7 +341,7 @@ def _record_prediction(m, tn, x, P, F, XA, PA, XB, PB, FS, TN):  # noqa: ANN001,
 @_jit(f"i8({_RUN_ARGS}, {_NODE_ARGS})")
 def _run_impl(t, gyro, accel, cam_t, offsets, pixels, points, x, P, gravity, noise, intr, q_bc, p_bc, sigma_px, gate,
               X, Ps, XF, PF, nis_out, accepted_out,
-              record, XA, PA, XB, PB, FS, TN, imu_node, frame_node):  # noqa: ANN001, ANN201  # fmt: skip
+              record, XA, PA, XB, PB, FS, TN, imu_node, frame_node):  # fmt: skip
     """The loop of :func:`run`; with ``record`` it also stores every filter node (see :func:`run_recorded`).
 
     A node is created at ``t[0]`` and after every prediction (to an IMU time or a camera time); a camera update
@@ -431,7 +431,7 @@ def _run_impl(t, gyro, accel, cam_t, offsets, pixels, points, x, P, gravity, noi
 
 @_jit(f"void({_RUN_ARGS})")
 def run(t, gyro, accel, cam_t, offsets, pixels, points, x, P, gravity, noise, intr, q_bc, p_bc, sigma_px, gate,
-        X, Ps, XF, PF, nis_out, accepted_out):  # noqa: ANN001, ANN201  # fmt: skip
+        X, Ps, XF, PF, nis_out, accepted_out):  # fmt: skip
     """Filter a whole stream.  IMU samples ``t`` (N,), camera times ``cam_t`` (F,) already on the IMU clock.
 
     The IMU input is taken as linear between samples: each step uses the mean of the (interpolated) measurements at
@@ -448,7 +448,7 @@ def run(t, gyro, accel, cam_t, offsets, pixels, points, x, P, gravity, noise, in
 @_jit(f"i8({_RUN_ARGS}, {M}, {T}, {M}, {T}, {T}, {V}, i8[:], i8[:])")
 def run_recorded(t, gyro, accel, cam_t, offsets, pixels, points, x, P, gravity, noise, intr, q_bc, p_bc, sigma_px,
                  gate, X, Ps, XF, PF, nis_out, accepted_out,
-                 XA, PA, XB, PB, FS, TN, imu_node, frame_node):  # noqa: ANN001, ANN201  # fmt: skip
+                 XA, PA, XB, PB, FS, TN, imu_node, frame_node):  # fmt: skip
     """:func:`run` that also stores what the RTS smoother needs, for every filter node ``i`` (K ≤ N + F of them:
     ``t[0]``, each IMU time and each camera time strictly between IMU times):
 

@@ -26,12 +26,12 @@ V, M, T = "f8[::1]", "f8[:,::1]", "f8[:,:,::1]"
 VA = "f8[:]"  # any layout (slices and rows)
 
 
-def _jit(sig: str):  # noqa: ANN202
+def _jit(sig: str):
     return nb.njit(sig, cache=True, nogil=True)
 
 
 @_jit(f"void({VA}, {M}, {T})")
-def rot_be_and_derivs(q, R, dR):  # noqa: ANN001, ANN201
+def rot_be_and_derivs(q, R, dR):
     """``R^{be}(q)`` (the quadratic form, a rotation for unit q, xyzw) into ``R`` (3, 3), ``∂R/∂q_i`` into ``dR``
     (4, 3, 3)."""
     x, y, z, w = q[0], q[1], q[2], q[3]
@@ -54,7 +54,7 @@ def rot_be_and_derivs(q, R, dR):  # noqa: ANN001, ANN201
 
 
 @_jit(f"void({V}, {M}, f8, {V})")
-def time_update(x, P, dt, qdiag):  # noqa: ANN001, ANN201
+def time_update(x, P, dt, qdiag):
     """Eq. 9 over ``dt`` seconds in place: constant acceleration / angular velocity, ``q ← exp(−dt/2 ω) ⊙ q``."""
     if dt <= 0.0:
         return
@@ -101,7 +101,7 @@ def time_update(x, P, dt, qdiag):  # noqa: ANN001, ANN201
 
 
 @_jit(f"void({V}, {M})")
-def normalise(x, P):  # noqa: ANN001, ANN201
+def normalise(x, P):
     """``q ← q/|q|`` and ``P ← J P Jᵀ`` with ``J = I`` except the quaternion block ``(I − u uᵀ)/|q|``."""
     nq = math.sqrt(x[9] * x[9] + x[10] * x[10] + x[11] * x[11] + x[12] * x[12])
     u = np.empty(4)
@@ -126,7 +126,7 @@ def normalise(x, P):  # noqa: ANN001, ANN201
 
 
 @_jit(f"f8({V}, {M}, {VA}, {VA}, {V}, {M}, {M}, {T})")
-def imu_update(x, P, accel, gyro, gravity, R_imu, R, dR):  # noqa: ANN001, ANN201
+def imu_update(x, P, accel, gyro, gravity, R_imu, R, dR):
     """Accelerometer + gyroscope update (eq. 11a, 11b) in place; returns the NIS (6 dof).  ``R``, ``dR``: work."""
     rot_be_and_derivs(x[9:13], R, dR)
     H = np.zeros((6, 22))
@@ -159,7 +159,7 @@ def imu_update(x, P, accel, gyro, gravity, R_imu, R, dR):  # noqa: ANN001, ANN20
 
 
 @_jit(f"void({V}, {M}, {M}, {M}, {V}, {V}, {M}, {V}, f8, f8, {V}, i8[:], {M}, {T})")
-def camera_update(x, P, pixels, points, intr, p_bc, Rcb, depth_floor_sigma, sigma_px, gate, nis_out, acc_out, R, dR):  # noqa: ANN001, ANN201, E501
+def camera_update(x, P, pixels, points, intr, p_bc, Rcb, depth_floor_sigma, sigma_px, gate, nis_out, acc_out, R, dR):
     """Eq. 11c for one frame in place: ``h = [−f I₂, zⁱ] R^{cb}(R^{be}(z^e − b^e) − c^b)`` (measured 0), noise
     ``(max(Z, depth_floor) σ_px)² I₂``, linearised at the predicted state, χ²-gated in order of prior NIS.
     ``depth_floor_sigma`` (1,) holds the depth floor (1e-3 m).  ``nis_out`` (M,), ``acc_out`` (M,) receive the
@@ -212,7 +212,7 @@ def camera_update(x, P, pixels, points, intr, p_bc, Rcb, depth_floor_sigma, sigm
     f"{M}, {T}, {V}, i8[:])"
 )
 def run(t, gyro, accel, cam_t, offsets, pixels, points, x, P, qdiag, gravity, R_imu, intr, p_bc, Rcb, sigma_px,
-        gate, X, Ps, nis_out, acc_out):  # noqa: ANN001, ANN201  # fmt: skip
+        gate, X, Ps, nis_out, acc_out):  # fmt: skip
     """Hol's Algorithm 1 over a recording: for each IMU time, first every camera frame up to it (time update to
     the frame time, camera update), then the time update to the IMU time and the IMU update.  ``cam_t`` (F,) is
     already on the IMU clock; frames before ``t[0]`` are skipped (their NIS stays NaN).  Writes the state and

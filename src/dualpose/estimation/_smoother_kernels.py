@@ -20,13 +20,13 @@ V, M, T = "f8[::1]", "f8[:,::1]", "f8[:,:,::1]"
 VA = "f8[:]"
 
 
-def _jit(sig: str):  # noqa: ANN202
+def _jit(sig: str):
     """Eager compilation, as in :mod:`dualpose.estimation._eskf_kernels`."""
     return nb.njit(sig, cache=True, nogil=True)
 
 
 @_jit(f"void({VA}, {VA}, {VA})")
-def boxminus(x, y, out):  # noqa: ANN001, ANN201
+def boxminus(x, y, out):
     """``out`` (15,) = ``x ⊟ y``, the error state that takes the nominal ``y`` (16,) to ``x`` (16,):
     ``x = y ⊞ out`` with ``δθ = Log(q_y* ⊗ q_x)`` (rotation vector, angle in [0, π])."""
     for i in range(6):
@@ -42,7 +42,7 @@ def boxminus(x, y, out):  # noqa: ANN001, ANN201
 
 
 @_jit(f"void({VA}, {VA}, {VA})")
-def boxplus(x, dx, out):  # noqa: ANN001, ANN201
+def boxplus(x, dx, out):
     """``out`` (16,) = ``x ⊞ δx``: ``p + δp``, ``v + δv``, ``q ⊗ Exp(δθ)``, ``b_g + δb_g``, ``b_a + δb_a``."""
     for i in range(6):
         out[i] = x[i] + dx[i]
@@ -54,7 +54,7 @@ def boxplus(x, dx, out):  # noqa: ANN001, ANN201
 
 
 @_jit(f"void({VA}, f8, {M})")
-def right_jacobian(phi, inverse, out):  # noqa: ANN001, ANN201
+def right_jacobian(phi, inverse, out):
     """``out`` (3, 3) = the SO(3) right Jacobian ``J_r(φ)`` (``inverse`` = 0) or ``J_r⁻¹(φ)`` (``inverse`` = 1).
 
     ``J_r(φ) = J_l(−φ)`` (Solà 2017 eq. 183, 186): ``Exp(φ + δφ) ≈ Exp(φ) Exp(J_r(φ) δφ)``.
@@ -65,7 +65,7 @@ def right_jacobian(phi, inverse, out):  # noqa: ANN001, ANN201
 
 
 @_jit(f"void({M}, {M})")
-def congruence_attitude(S, A):  # noqa: ANN001, ANN201
+def congruence_attitude(S, A):
     """``S ← J S Jᵀ`` in place for ``J = diag(I₆, A, I₆)`` (15, 15): a change of attitude chart (``A`` (3, 3));
     the changed rows/columns are symmetrised."""
     n = S.shape[0]
@@ -92,7 +92,7 @@ def congruence_attitude(S, A):  # noqa: ANN001, ANN201
 
 
 @_jit(f"void({M}, {M}, {M}, {V}, {M}, {V}, {M})")
-def rts_step(P_post, P_prior_next, F, mu_next, S_next, d_out, S_out):  # noqa: ANN001, ANN201
+def rts_step(P_post, P_prior_next, F, mu_next, S_next, d_out, S_out):
     """One backward RTS step in error coordinates (Särkkä 2013 Thm 8.2; Solà 2017 §7 charts).
 
     ``P_post`` (n, n) filtered covariance at node i, ``P_prior_next`` (n, n) predicted covariance at i + 1,
@@ -115,7 +115,7 @@ def rts_step(P_post, P_prior_next, F, mu_next, S_next, d_out, S_out):  # noqa: A
 
 
 @_jit(f"void({M}, {T}, {M}, {T}, {T}, {M}, {T})")
-def rts_linear(x_post, P_post, x_prior, P_prior, F, x_smooth, P_smooth):  # noqa: ANN001, ANN201
+def rts_linear(x_post, P_post, x_prior, P_prior, F, x_smooth, P_smooth):
     """Linear RTS over K steps: ``x_post``/``x_prior`` (K, n), ``P_post``/``P_prior`` (K, n, n), ``F`` (K, n, n)
     with ``F[i]`` the transition i → i + 1 (``F[K−1]`` unused); writes ``x_smooth`` (K, n), ``P_smooth``
     (K, n, n)."""
@@ -133,7 +133,7 @@ def rts_linear(x_post, P_post, x_prior, P_prior, F, x_smooth, P_smooth):  # noqa
 
 
 @_jit(f"void({M}, {T}, {M}, {T}, {T}, {M}, {T})")
-def rts_error_state(x_post, P_post, x_prior, P_prior, F, x_smooth, P_smooth):  # noqa: ANN001, ANN201
+def rts_error_state(x_post, P_post, x_prior, P_prior, F, x_smooth, P_smooth):
     """Error-state RTS over the K nodes of the error-state filter (layouts in the module docstring).
 
     Inputs as :func:`rts_linear` with nominal states (K, 16) and error covariances (K, 15, 15), each covariance in

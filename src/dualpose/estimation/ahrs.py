@@ -36,7 +36,8 @@ The error-state filter of :mod:`dualpose.estimation.eskf` reduced to orientation
 * covariance updates in Joseph form (valid for the zeroed, sub-optimal gains) followed by the reset Jacobian.
 * magnetometer–gyroscope time offset: by default the lag of the magnetometer behind the gyroscope is estimated
   from the recording's own gyroscope and magnetometer (kinematic residual ``dm/dt + ω(t − τ) × m = 0`` of a static
-  field, :mod:`dualpose.calibration.sensor_time_offset`) and compensated by re-sampling the magnetometer before filtering.
+  field, :mod:`dualpose.calibration.sensor_time_offset`) and compensated by re-sampling the magnetometer before
+  filtering.
   In fast rotation a lag τ turns the measured field by ``ω τ`` (at 5 rad/s and 11 ms: 3°).
 * optional magnetometer self-calibration (``mag_calibration="auto"``; hard iron / per-axis scale / symmetric soft
   iron) from the recording's own field samples, applied only when objective criteria say the data support it
@@ -392,7 +393,8 @@ def estimate_orientation(
         adds ``ε² |ω|² · 1 s`` to the attitude process-noise density (rad²/s).
     mag_time_offset : "estimate" or float
         Lag of the magnetometer samples behind the gyroscope's, s, compensated by re-sampling the magnetometer at
-        ``t + offset`` (:func:`~dualpose.calibration.sensor_time_offset.shift_samples`) before filtering.  ``"estimate"``
+        ``t + offset`` (:func:`~dualpose.calibration.sensor_time_offset.shift_samples`) before filtering.
+        ``"estimate"``
         (default) estimates it from this recording's gyroscope and magnetometer alone, with the kinematic residual
         ``dm/dt + ω(t − τ) × m = 0`` of a static field (:func:`~dualpose.calibration.sensor_time_offset.
         estimate_sensor_time_offset`, ±30 ms, gyroscope bias from the rest period); when that is not possible (too
@@ -554,7 +556,7 @@ def estimate_orientation(
     )
 
 
-def _ahrs_module():  # noqa: ANN202
+def _ahrs_module():
     import importlib
 
     _k("run_ahrs")  # imports (compiles or loads) the kernel module through the cache-freshness guard

@@ -45,7 +45,7 @@ def nees_band(dim: int, runs: int, probability: float = 0.95) -> tuple[float, fl
     return float(lo), float(hi)
 
 
-def nees_against_truth(truth: dict[str, np.ndarray], estimate) -> np.ndarray:  # noqa: ANN001
+def nees_against_truth(truth: dict[str, np.ndarray], estimate) -> np.ndarray:
     """NEES (N,) of a filter or smoother result (``position``, ``velocity``, ``quat``, ``gyro_bias``, ``accel_bias``,
     ``covariance`` (N, 15, 15)) against a simulation's ``truth`` at the same times."""
     e = error_state(truth, estimate.position, estimate.velocity, estimate.quat, estimate.gyro_bias,
@@ -53,7 +53,7 @@ def nees_against_truth(truth: dict[str, np.ndarray], estimate) -> np.ndarray:  #
     return nees(e, estimate.covariance)
 
 
-def filter_from_prior(run, rng: np.random.Generator):  # noqa: ANN001, ANN201 -- SimulatedRun -> ErrorStateEKF
+def filter_from_prior(run, rng: np.random.Generator):
     """An :class:`~dualpose.estimation.eskf.ErrorStateEKF` for a simulated ``run`` started from a draw of its own prior.
 
     The initial error ``δx ~ N(0, P0)`` (``P0 = initial_covariance(run.imu_noise)``) is applied with ⊞ to the true

@@ -223,7 +223,7 @@ class ErrorStateEKF:
         velocity: np.ndarray,
         quat: np.ndarray,
         covariance: np.ndarray | None = None,
-        **kwargs,  # noqa: ANN003
+        **kwargs,
     ) -> ErrorStateEKF:
         """A filter configured with a simulated run's sensor set-up (noise, camera, extrinsic, pixel sigma, offset).
 

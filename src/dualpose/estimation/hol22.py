@@ -151,7 +151,7 @@ class Hol22EKF:
     @classmethod
     def from_eskf_state(
         cls, x16: np.ndarray, P15: np.ndarray, run: SensorRun, omega: np.ndarray | None = None, **kwargs
-    ) -> Hol22EKF:  # noqa: ANN003
+    ) -> Hol22EKF:
         """Start from an error-state filter's state/covariance (position, velocity, q_wb, biases) for ``run``'s
         sensors: b̈ = 0 and ω = 0 (or ``omega``) with wide priors, q^{be} = conj(q_wb)."""
         x = np.zeros(22)

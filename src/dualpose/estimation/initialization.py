@@ -177,7 +177,7 @@ def detect_rest(
     return float(t[out * m - 1] - t[0]) if out * m - 1 < len(t) else float(t[-1] - t[0])
 
 
-def initial_state_from_run(run, rest_seconds: float | None = 0.9) -> tuple[np.ndarray, np.ndarray]:  # noqa: ANN001
+def initial_state_from_run(run, rest_seconds: float | None = 0.9) -> tuple[np.ndarray, np.ndarray]:
     """:func:`initial_state_from_rest_and_frame` for a :class:`~dualpose.sim.SimulatedRun` or a
     :class:`~dualpose.types.recording.Recording` (any object with their fields ``t``, ``gyro``, ``accel``,
     ``frames``, ``camera``, ``pixel_sigma``, ``q_bc``, ``p_bc``, ``imu_noise`` and ``time_offset``).

@@ -21,7 +21,7 @@ njit = nb.njit(cache=True, fastmath=False, error_model="numpy", nogil=True)
 
 
 @nb.njit(cache=True, inline="always")
-def half_exp(px, py, pz):  # noqa: ANN001, ANN201
+def half_exp(px, py, pz):
     """exp(Φ/2) = (sinc(|Φ|/2) Φ/2, cos(|Φ|/2)): the quaternion of rotation vector Φ (Dantam 2014 eq. (50))."""
     h = 0.5 * norm3(px, py, pz)
     f = 0.5 * sinc(h)
@@ -29,7 +29,7 @@ def half_exp(px, py, pz):  # noqa: ANN001, ANN201
 
 
 @nb.njit(cache=True, inline="always")
-def screw_half_exp(sx, sy, sz, tx, ty, tz):  # noqa: ANN001, ANN201
+def screw_half_exp(sx, sy, sz, tx, ty, tz):
     """exp(Φ̂/2) for the screw vector Φ̂ = σ + εσ′: r = exp(σ/2), dual = ½ Δt (x) r with Δt = J_l(σ) σ′."""
     rx, ry, rz, rw = half_exp(sx, sy, sz)
     a, b, c = so3_coeffs(norm3(sx, sy, sz), 0.0)
@@ -39,7 +39,7 @@ def screw_half_exp(sx, sy, sz, tx, ty, tz):  # noqa: ANN001, ANN201
 
 
 @nb.njit(cache=True, inline="always")
-def update_vector(x, k, n, kmat, cprev, sgn):  # noqa: ANN001, ANN201
+def update_vector(x, k, n, kmat, cprev, sgn):
     """Rotation / screw vector of update k from rows x[k n : k n + n] (width 3: [θ]; width 6: [θ, u]).
 
     ``Σ x_i + sgn Σ_{i<j} kmat[i, j] x_i × x_j`` (dual cross product for width 6), plus
@@ -84,7 +84,7 @@ def update_vector(x, k, n, kmat, cprev, sgn):  # noqa: ANN001, ANN201
 
 
 @njit
-def update_vectors(x, n, kmat, cprev, sgn, out):  # noqa: ANN001
+def update_vectors(x, n, kmat, cprev, sgn, out):
     """out[b, k] = update_vector(x[b], k, ...) (first 3 or 6 components)."""
     w = out.shape[2]
     for b in range(x.shape[0]):
@@ -96,7 +96,7 @@ def update_vectors(x, n, kmat, cprev, sgn, out):  # noqa: ANN001
 
 
 @njit
-def fold_quat(q0, x, n, kmat, cprev, sgn, out):  # noqa: ANN001
+def fold_quat(q0, x, n, kmat, cprev, sgn, out):
     """out[b, 0] = q0[b]/|q0[b]|; out[b, k+1] = normalise(out[b, k] (x) exp(Φ_k/2)), or exp(Φ_k/2) (x) out[b, k]
     when sgn < 0 (inertial frame), with Φ_k = update_vector(x[b], k, ...)."""
     left = sgn < 0.0
@@ -119,7 +119,7 @@ def fold_quat(q0, x, n, kmat, cprev, sgn, out):  # noqa: ANN001
 
 
 @njit
-def fold_dualquat(s0, x, n, kmat, cprev, sgn, out):  # noqa: ANN001
+def fold_dualquat(s0, x, n, kmat, cprev, sgn, out):
     """As :func:`fold_quat` for dual quaternions and screw vectors; renormalised (dual-number norm) each update."""
     left = sgn < 0.0
     for b in range(x.shape[0]):

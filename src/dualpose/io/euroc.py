@@ -1,7 +1,8 @@
 """EuRoC MAV dataset CSV files (Burri et al. 2016): IMU samples and ground-truth states.
 
 Both files start with a ``#`` header line and have integer nanosecond timestamps in the first column, which are
-kept exactly as int64 (``stamps_ns``); float seconds are derived with :func:`~dualpose.types.trajectory.seconds_from_ns`.
+kept exactly as int64 (``stamps_ns``); float seconds are derived with
+:func:`~dualpose.types.trajectory.seconds_from_ns`.
 
 - IMU (``mav0/imu0/data.csv``): ``timestamp [ns], w_RS_S_x, w_RS_S_y, w_RS_S_z [rad/s], a_RS_S_x, a_RS_S_y,
   a_RS_S_z [m/s^2]`` -- angular rate and specific force in the sensor frame S.

@@ -239,7 +239,7 @@ def _check_increasing(path: str | os.PathLike, ns: np.ndarray, strict: bool, wha
         )
 
 
-def _ns_from_decimal_seconds(table, column: int) -> np.ndarray:  # noqa: ANN001
+def _ns_from_decimal_seconds(table, column: int) -> np.ndarray:
     """Exact int64 nanoseconds from decimal-second strings (``"1403636579.763555584"``); exponent notation is
     converted through float64."""
     out = np.empty(len(table.rows), np.int64)
@@ -346,7 +346,7 @@ def read_correspondences(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarra
 # ------------------------------------------------------------------------------------------------ recording
 
 
-def read_recording(path: str | os.PathLike):  # noqa: ANN201 -- Recording (imported lazily)
+def read_recording(path: str | os.PathLike):
     """Read a recording (directory or sensor file) into a :class:`~dualpose.types.recording.Recording`.
 
     Times are float seconds on the IMU clock's epoch (``seconds_from_ns`` of the files' nanoseconds); the exact
@@ -411,12 +411,14 @@ def _ns(seconds: np.ndarray) -> np.ndarray:
 
 
 def write_recording(directory: str | os.PathLike, recording: Recording, *, overwrite: bool = False) -> Path:
-    """Write a :class:`~dualpose.types.recording.Recording` as a recording directory that :func:`read_recording` (and ``dualpose fuse --data DIR``) reads back.
+    """Write a :class:`~dualpose.types.recording.Recording` as a recording directory that :func:`read_recording`
+    (and ``dualpose fuse --data DIR``) reads back.
 
     Files: ``sensors.json``, ``imu.csv`` (EuRoC), ``correspondences.csv`` and, when there is ground truth,
     ``groundtruth.csv`` (EuRoC; with velocity and biases when the ground truth carries them as ``extra`` columns, as
     :func:`dualpose.sim.recording_from_simulation` makes it).  Float seconds are written as
-    nanoseconds rounded to the nearest integer; all values with 17 significant digits (exact round trip).  Frames without correspondences are not written (nothing to update with).
+    nanoseconds rounded to the nearest integer; all values with 17 significant digits (exact round trip).  Frames
+    without correspondences are not written (nothing to update with).
 
     Parameters
     ----------

@@ -40,7 +40,7 @@ def run_broad_pose(
     trial: BroadTrial | str | os.PathLike,
     dropout: tuple[float, float] | None = None,
     seed: int = 0,
-    **options,  # noqa: ANN003
+    **options,
 ) -> BroadPoseResult:
     """Fuse a BROAD trial's real IMU with pseudo-vision (error-state filter) and score it against the optical
     reference: :func:`recording_from_broad` + :func:`dualpose.pipelines.fuse.run_fuse`.

@@ -30,11 +30,12 @@ def calibrate_run_time_offset(
     q_bc: np.ndarray | None = None,
     refine: bool = True,
     weighted: bool = False,
-    **filter_kwargs,  # noqa: ANN003
-):  # noqa: ANN201
+    **filter_kwargs,
+):
     """Both time-offset stages on a simulated run that starts at rest (e.g. ``sim.simulate_eight``).
 
-    Per-frame robust PnP → :func:`~dualpose.calibration.time_offset.estimate_time_offset` (with ``q_bc``; ``None`` estimates the rotation
+    Per-frame robust PnP → :func:`~dualpose.calibration.time_offset.estimate_time_offset` (with ``q_bc``; ``None``
+    estimates the rotation
     too; the PnP attitude covariances and the gyro noise density give its σ, ``weighted`` also weights with them)
     → if ``refine``,
     :func:`~dualpose.calibration.time_offset.refine_time_offset_in_filter` over ``±max(4σ, 5 ms)`` with the

@@ -160,7 +160,7 @@ def _truth_metrics(truth: Trajectory | None, estimate: Trajectory) -> tuple[dict
 
 def run_fuse(
     data: str | os.PathLike | Recording = "sim",
-    filter: str = "eskf",  # noqa: A002 -- the CLI option's name
+    filter: str = "eskf",
     seed: int = 0,
     progress: Callable[[int, int, str], None] | None = None,
     smooth: bool = False,
@@ -269,7 +269,7 @@ def run_fuse(
     )
 
 
-def _check_smooth(filter: str, smooth: bool) -> None:  # noqa: A002
+def _check_smooth(filter: str, smooth: bool) -> None:
     if smooth and filter != "eskf":
         raise ValueError(
             f"smooth=True (--smooth) needs filter 'eskf': the RTS smoother runs over the error-state filter's "
@@ -277,7 +277,7 @@ def _check_smooth(filter: str, smooth: bool) -> None:  # noqa: A002
         )
 
 
-def _smoothed_metrics(res, truth: Trajectory | None, estimate: Trajectory) -> dict:  # noqa: ANN001
+def _smoothed_metrics(res, truth: Trajectory | None, estimate: Trajectory) -> dict:
     """RTS-smooth the filter result ``res`` (recorded nodes) and evaluate it like the filter.
 
     Returns the extra :class:`FuseResult` fields plus ``"metrics"``: the :data:`TRUTH_METRICS` of the smoothed

@@ -47,7 +47,7 @@ _inline = nb.njit(cache=True, error_model="numpy", inline="always")
 
 
 @_njit
-def jacobi_eigh(a, v, n):  # noqa: ANN001, ANN201
+def jacobi_eigh(a, v, n):
     """Cyclic Jacobi: diagonalise the symmetric ``a[:n, :n]`` in place, eigenvectors in the columns of ``v``."""
     for i in range(n):
         for j in range(n):
@@ -96,7 +96,7 @@ def jacobi_eigh(a, v, n):  # noqa: ANN001, ANN201
 
 
 @_njit
-def _sorted_desc(a, order, n):  # noqa: ANN001, ANN201
+def _sorted_desc(a, order, n):
     """Indices of the diagonal of ``a[:n, :n]`` sorted by decreasing value (insertion sort, n <= 4)."""
     for i in range(n):
         order[i] = i
@@ -108,7 +108,7 @@ def _sorted_desc(a, order, n):  # noqa: ANN001, ANN201
 
 
 @_njit
-def _pick_top(a, v, order, tol, q):  # noqa: ANN001, ANN201
+def _pick_top(a, v, order, tol, q):
     """Eigenvector of the largest eigenvalue; within a degenerate top eigenspace, the smallest rotation.
 
     The tie-break projects the identity ``[0, 0, 0, 1]`` onto the span of the eigenvectors whose eigenvalues are
@@ -143,7 +143,7 @@ def _pick_top(a, v, order, tol, q):  # noqa: ANN001, ANN201
 
 
 @_inline
-def _det3(a, b, c, d, e, f, g, h, i):  # noqa: ANN001, ANN202
+def _det3(a, b, c, d, e, f, g, h, i):
     return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
 
 
@@ -171,7 +171,7 @@ NBLK = 35
 
 
 @_inline
-def _char_poly(a00, a01, a02, a03, a11, a12, a13, a22, a23, a33, bound):  # noqa: ANN001, ANN201
+def _char_poly(a00, a01, a02, a03, a11, a12, a13, a22, a23, a33, bound):
     """``(c3, c2, c1, c0, start, scale)``: the characteristic polynomial of the symmetric 4x4 ``A`` (upper
     triangle given), the Newton start for its largest root and the spectrum's scale; all zero when the scale is 0
     or not finite (the closed form is then skipped).
@@ -214,7 +214,7 @@ def _char_poly(a00, a01, a02, a03, a11, a12, a13, a22, a23, a33, bound):  # noqa
 
 
 @_njit
-def _largest_roots(eig, m):  # noqa: ANN001, ANN201
+def _largest_roots(eig, m):
     """λ1 and λ2 (rows ``_L1``, ``_L2``) of the staged problems ``eig[:, :m]``, in place.
 
     Newton's iteration from an upper bound decreases monotonically to the largest root (every derivative of the
@@ -264,7 +264,7 @@ def _largest_roots(eig, m):  # noqa: ANN001, ANN201
 
 
 @_inline
-def _closed_form_vector(a00, a01, a02, a03, a11, a12, a13, a22, a23, a33, c3, c2, l1, l2, scale):  # noqa: ANN001, ANN201
+def _closed_form_vector(a00, a01, a02, a03, a11, a12, a13, a22, a23, a33, c3, c2, l1, l2, scale):
     """Unit eigenvector of the largest root ``l1`` of the symmetric 4x4 ``A`` (upper triangle; ``c3, c2`` from
     :func:`_char_poly`, ``l2`` the second root, ``scale`` the spectrum's scale).
 
@@ -324,7 +324,7 @@ def _closed_form_vector(a00, a01, a02, a03, a11, a12, a13, a22, a23, a33, c3, c2
 
 
 @_njit
-def _jacobi_top(blk, j, tol, a, v, order, vec):  # noqa: ANN001, ANN201
+def _jacobi_top(blk, j, tol, a, v, order, vec):
     """The fallback: cyclic Jacobi on ``A`` (slot ``j`` of ``blk``) with the smallest-rotation tie-break
     (:func:`_pick_top`); ``vec[0:4]`` the eigenvector, ``vec[4:8]`` the eigenvalues (descending).  Returns
     ``unique``."""
@@ -342,7 +342,7 @@ def _jacobi_top(blk, j, tol, a, v, order, vec):  # noqa: ANN001, ANN201
 
 
 @_njit
-def _first_bad_input(p0, p1, n0, n1, b):  # noqa: ANN001, ANN201
+def _first_bad_input(p0, p1, n0, n1, b):
     """``1 + index`` into ``BAD_INPUT`` of the first of problem ``b``'s inputs holding NaN or infinity, else
     ``len(BAD_INPUT) + 1`` (all finite: the moments overflowed)."""
     for k in range(p0.shape[1]):
@@ -361,7 +361,7 @@ def _first_bad_input(p0, p1, n0, n1, b):  # noqa: ANN001, ANN201
 
 
 @_inline
-def _add_outer(s00, s01, s02, s10, s11, s12, s20, s21, s22, x1, y1, z1, x0, y0, z0):  # noqa: ANN001, ANN201
+def _add_outer(s00, s01, s02, s10, s11, s12, s20, s21, s22, x1, y1, z1, x0, y0, z0):
     """``s + x1 x0ᵀ`` for the 3x3 ``s`` given row-major as scalars."""
     return (
         s00 + x1 * x0, s01 + x1 * y0, s02 + x1 * z0,
@@ -371,7 +371,7 @@ def _add_outer(s00, s01, s02, s10, s11, s12, s20, s21, s22, x1, y1, z1, x0, y0, 
 
 
 @_inline
-def _horn_matrix(s00, s01, s02, s10, s11, s12, s20, s21, s22):  # noqa: ANN001, ANN201
+def _horn_matrix(s00, s01, s02, s10, s11, s12, s20, s21, s22):
     """Upper triangle (a00 a01 a02 a03 a11 a12 a13 a22 a23 a33) of Horn's (1987) ``N`` in xyzw order.
 
     ``N = [[H + Hᵀ - tr(H) I, Δ], [Δᵀ, tr H]]`` with ``H = sᵀ = Σ model' measured'ᵀ`` and
@@ -388,7 +388,7 @@ def _horn_matrix(s00, s01, s02, s10, s11, s12, s20, s21, s22):  # noqa: ANN001, 
 
 
 @_inline
-def _walker_matrix(a00, a01, a02, a03, a11, a12, a13, a22, a23, a33, hx, hy, hz, dx, dy, dz, bw):  # noqa: ANN001, ANN201
+def _walker_matrix(a00, a01, a02, a03, a11, a12, a13, a22, a23, a33, hx, hy, hz, dx, dy, dz, bw):
     """Walker's ``A`` (eq. (47)) from Horn's ``N`` (upper triangle) and ``C3``; returns its upper triangle and
     ``tr(C3ᵀ C3) / (4 bw)`` (the trace of the PSD ``C3`` term, 0 without points).
 
@@ -416,7 +416,7 @@ def _walker_matrix(a00, a01, a02, a03, a11, a12, a13, a22, a23, a33, hx, hy, hz,
 
 
 @_inline
-def _walker_translation(x, y, z, w, hx, hy, hz, dx, dy, dz, bw):  # noqa: ANN001, ANN201
+def _walker_translation(x, y, z, w, hx, hy, hz, dx, dy, dz, bw):
     """Walker's centred translation (~0): ``s = -(C2 + C2ᵀ)⁻¹ C3 r`` (eq. (45)), ``t = 2 vec(W(r)ᵀ s)`` (eq. (19))."""
     k2 = -1.0 / (2.0 * bw)
     sx = k2 * (hz * y - hy * z + dx * w)
@@ -433,7 +433,7 @@ def _walker_translation(x, y, z, w, hx, hy, hz, dx, dy, dz, bw):  # noqa: ANN001
 
 
 @_njit
-def _svd_rotation(s00, s01, s02, s10, s11, s12, s20, s21, s22):  # noqa: ANN001, ANN201
+def _svd_rotation(s00, s01, s02, s10, s11, s12, s20, s21, s22):
     """Arun / Kabsch with Umeyama's reflection guard: ``H = U S Vᵀ`` (``H = sᵀ``), ``R = V diag(1, 1, d) Uᵀ``,
     ``d = sign det(V Uᵀ)``.  Returns ``(x, y, z, w, σ1, σ2, σ3, d)`` (the quaternion of R, xyzw)."""
     h = np.empty((3, 3))
@@ -455,7 +455,7 @@ _V1 = "float64[::1]"
 
 
 @nb.njit(f"void({_M3}, {_M3}, {_M2}, {_M3}, {_M3}, {_M2}, int64, boolean, {_M2})", cache=True, error_model="numpy")
-def solve_batch(p0, p1, beta, n0, n1, alpha, method, want_scale, out):  # noqa: ANN001, ANN201, C901
+def solve_batch(p0, p1, beta, n0, n1, alpha, method, want_scale, out):
     """Solve ``B`` independent problems: ``p0, p1`` (B, n, 3), ``beta`` (B, n), ``n0, n1`` (B, m, 3), ``alpha``
     (B, m); ``out`` (B, OUT_SIZE).
 
@@ -644,7 +644,7 @@ def solve_batch(p0, p1, beta, n0, n1, alpha, method, want_scale, out):  # noqa: 
 
 
 @nb.njit(f"void({_M2}, {_M2}, {_V1}, {_M2}, {_M2}, {_V1}, int64, boolean, {_V1})", cache=True)
-def solve_one(p0, p1, beta, n0, n1, alpha, method, want_scale, out):  # noqa: ANN001, ANN201
+def solve_one(p0, p1, beta, n0, n1, alpha, method, want_scale, out):
     """One problem: ``p0, p1`` (n, 3), ``beta`` (n,), ``n0, n1`` (m, 3), ``alpha`` (m,); ``out`` (OUT_SIZE,)."""
     n, m = p0.shape[0], n0.shape[0]
     solve_batch(

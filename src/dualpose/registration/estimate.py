@@ -102,7 +102,7 @@ class PoseEstimate:
     n_points, n_directions : int
     """
 
-    __slots__ = ("_row", "_data", "method", "n_points", "n_directions", "_degeneracy")  # noqa: RUF023
+    __slots__ = ("_row", "_data", "method", "n_points", "n_directions", "_degeneracy")
 
     def __init__(self, row: np.ndarray, method: str, data: tuple[np.ndarray, ...]) -> None:
         self._row = row

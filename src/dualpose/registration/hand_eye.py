@@ -109,8 +109,8 @@ def _residual_twists(a: np.ndarray, b: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 
 def calibrate_hand_eye(
-    A_motions: ArrayLike,  # noqa: N803
-    B_motions: ArrayLike,  # noqa: N803
+    A_motions: ArrayLike,
+    B_motions: ArrayLike,
     *,
     angle_tol: float = np.deg2rad(1.0),
     distance_tol: float | None = None,

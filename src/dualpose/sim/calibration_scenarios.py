@@ -64,7 +64,7 @@ def simulate_static_poses(
     duration: float = 1.0,
     max_roll_deg: float = 40.0,
     pose_seed: int | None = None,
-    **simulate_kwargs,  # noqa: ANN003
+    **simulate_kwargs,
 ) -> list[camera_imu.SimulatedRun]:
     """One :class:`~dualpose.camera_imu.SimulatedRun` at rest per pose of :func:`calibration_camera_poses`.
 

@@ -223,7 +223,7 @@ def camera_points(q_wb: np.ndarray, p_wb: np.ndarray, q_bc: np.ndarray, p_bc: np
 
 def _make_frames(
     traj, landmarks, camera, q_bc, p_bc, rng, rate, phase, sigma, per_frame, outlier_fraction, dropouts, offset
-) -> CameraFrames:  # noqa: ANN001
+) -> CameraFrames:
     t_true = np.arange(phase, traj.duration + 1e-12, 1.0 / rate)
     keep = np.ones(len(t_true), bool)
     for a, b in dropouts:
@@ -294,7 +294,7 @@ def observe_landmarks(
     }
 
 
-def simulate_eight(seed: int = 0, **kwargs) -> SimulatedRun:  # noqa: ANN003
+def simulate_eight(seed: int = 0, **kwargs) -> SimulatedRun:
     """Hol's eight-shaped run (:func:`eight_motion`) with the default sensors; ``kwargs`` go to :func:`simulate`."""
     return simulate(eight_motion(), seed=seed, **kwargs)
 
