@@ -1,4 +1,4 @@
-"""Throughput of dualpose.inertial.integrate_attitude / integrate_pose (issue 4 target: >= 1e6 updates/s).
+"""Throughput of dualpose.inertial.integrate_attitude / integrate_pose (target: >= 1e6 updates/s, docs/inertial.md §5).
 
 Run: ``NUMBA_CACHE_DIR=... .venv/bin/python benchmarks/bench_inertial.py [--updates 1000000]``
 

@@ -1,4 +1,4 @@
-"""Accuracy of the camera–IMU calibrations (issue 6 §3) on the simulator, against its known truth.
+"""Accuracy of the camera–IMU calibrations (docs/fusion.md, "Calibration") on the simulator, against its known truth.
 
 Run ``.venv/bin/python benchmarks/calibration_accuracy.py [--runs 200] [--markdown PATH]``.
 

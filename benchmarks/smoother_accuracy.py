@@ -1,4 +1,6 @@
-"""Error-state filter vs the offline RTS smoother on the simulated eight-shaped run (issue 6 §4).
+"""Error-state filter vs the offline RTS smoother on the simulated eight-shaped run.
+
+Method and results: docs/fusion.md, "Offline smoothing (RTS)".
 
 Run ``.venv/bin/python benchmarks/smoother_accuracy.py [--seeds 10] [--nees-runs 25] [--markdown PATH]``.
 

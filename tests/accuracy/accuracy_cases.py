@@ -71,7 +71,7 @@ class Case:
     reference: Callable = field(compare=False, repr=False)
     tnorm: str | None = None
     parts: tuple[tuple[str, slice], ...] = ()
-    in_bar: bool = True  # False: measured and reported in docs/accuracy.md, but not part of the 4ε bar
+    in_bar: bool = True  # False: measured and reported in docs/accuracy.md, but not part of the 4ε accuracy bar
 
     def computed(self) -> np.ndarray:
         return np.asarray(self.call(*self.args), dtype=np.float64)
@@ -234,7 +234,7 @@ def _dq_cases() -> list[Case]:
             elif name == "screw_from_dualquat":
                 add(name, angle, i, tn, (s,), call=_screw_call, parts=SCREW_PARTS)
             else:
-                # the bar names quat pow, not DQ pow; DQ pow is held to it at e = 0.5 (test_traps (6))
+                # the accuracy bar names quat pow, not DQ pow; DQ pow is held to it at e = 0.5 (test_traps (6))
                 # and reported for the other exponents
                 for e in POW_EXPONENTS:
                     add(name, angle, i, tn, (s, e), f"e={e}", in_bar=e == 0.5)

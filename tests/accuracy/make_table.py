@@ -151,7 +151,7 @@ def render(records: list[dict]) -> str:
         "",
         *_summary_table(records),
         "",
-        "† measured and reported, but not part of the issue's 4ε bar (`dualquat_pow` is held to the bar at "
+        "† measured and reported, but not part of the 4ε accuracy bar (`dualquat_pow` is held to the bar at "
         "exponent 0.5 only, where it is a regression test for float32 powers; its other exponents are listed "
         "here).",
         "",

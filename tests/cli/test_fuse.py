@@ -12,7 +12,7 @@ from dualpose.cli.main import main
 KEYS = ("ate_rmse_m", "orientation_rmse_deg", "rpe_rmse_m", "nis_fraction_inside", "realtime_factor", "filter", "data")
 
 
-def test_json_has_the_issue_keys_and_meets_the_bars(capsys):
+def test_json_has_the_documented_keys_and_meets_the_bars(capsys):
     assert main(["fuse", "--json"]) == 0
     cap = capsys.readouterr()
     out = json.loads(cap.out)

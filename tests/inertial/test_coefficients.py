@@ -78,7 +78,7 @@ def test_polynomial_family_is_the_polynomial_fit(n):
         assert k[i, j] == v, (i, j)
 
 
-def test_issue_formulas_n2_n3():
+def test_restored_formulas_n2_n3():
     assert coning_coefficients(2, "coning-optimal", exact=True)[0, 1] == F(2, 3)
     poly = coning_coefficients(3, "polynomial", exact=True)
     assert (poly[0, 2], poly[0, 1], poly[1, 2]) == (F(33, 80), F(57, 80), F(57, 80))

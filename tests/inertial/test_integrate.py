@@ -1,4 +1,4 @@
-"""Rotation-vector / screw-vector algorithms and the fused integrators (issue 4 §2-§5)."""
+"""Rotation-vector / screw-vector algorithms and the fused integrators (docs/inertial.md §2–§3)."""
 
 import numpy as np
 import pytest
@@ -18,12 +18,12 @@ def _x(a, b):
 
 
 # --------------------------------------------------------------------------------------------------------------
-# the per-update formulas, written out as in the issue
+# the per-update formulas, written out as in docs/inertial.md §2
 # --------------------------------------------------------------------------------------------------------------
 
 
 @pytest.mark.parametrize("frame", FRAMES)
-def test_rotation_vector_issue_formulas(frame):
+def test_rotation_vector_restored_formulas(frame):
     s = 1.0 if frame == "body" else -1.0
     th = RNG.normal(size=(12, 3)) * 0.1
     t = th.reshape(4, 3, 3)

@@ -24,7 +24,7 @@ def test_twist_satisfies_kinematics(motion, frame):
     np.testing.assert_allclose(rhs, qdot, atol=1e-8)
 
 
-def test_classical_coning_formulas_of_the_issue():
+def test_classical_coning_formulas_of_docs_inertial():
     a, om = 0.4, 1.7
     c = m.Coning(a, om)
     t = np.array([0.0, 0.3, 1.9])

@@ -1,5 +1,5 @@
-"""``dualpose.pipelines.fuse.run_fuse``: the issue-5 bars on the default simulated run, metrics consistent with the
-arrays they summarise, and bad arguments."""
+"""``dualpose.pipelines.fuse.run_fuse``: the accuracy bars of docs/fusion.md on the default simulated run, metrics
+consistent with the arrays they summarise, and bad arguments."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ def eskf_result():
     return res, calls
 
 
-def test_eskf_meets_the_issue_bars(eskf_result):
+def test_eskf_meets_the_documented_bars(eskf_result):
     m = eskf_result[0].metrics
     assert m["ate_rmse_m"] <= 0.01
     assert m["orientation_rmse_deg"] <= 0.5

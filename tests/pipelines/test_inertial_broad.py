@@ -1,4 +1,4 @@
-"""Real gyro data (issue 4 §7): noise and bias dominate the algorithm choice."""
+"""Real gyro data (docs/inertial.md §7): noise and bias dominate the algorithm choice."""
 
 from pathlib import Path
 

@@ -7,15 +7,11 @@ Python wrappers pass flat 1-D views to these loops instead.  LLVM vectorises the
 and they compute bit for bit the same values as the gufuncs (no fast-math, no contraction).
 
 ``dualquat_transform`` and ``dualquat_mul`` are the exceptions: a plain stride-8 row loop makes LLVM emit AVX-512
-gathers (3-6x slower than the gufunc on AMD Zen), so their loops hand blocks of eight rows to explicit-SIMD
+gathers (slower than the gufunc on AMD Zen), so their loops hand blocks of eight rows to explicit-SIMD
 intrinsics (:mod:`~dualpose.algebra._simd`: whole-row vector loads, in-register transposes) and do only the last
 ``N mod 8`` rows in scalar code.  They use the gufuncs' own formulas (:func:`~dualpose.algebra._kutil.dq_mul`,
-:func:`~dualpose.algebra._kutil.transform_point`), also bit for bit.  Measured at N = 1e6 against the fused-loop
-floor: the product 1.15x (gufunc 1.45x; 1.2x without prefetching the inputs 32 rows ahead), the transform 1.3x
-(gufunc 2.1-2.3x).  What else was tried for the transform: a row loop without gathers (global
-``+prefer-no-gather``: LLVM's factor-8 interleaved loads, 2.1-3.1x); a row loop the loop vectoriser cannot take
-(early exit) so that only SLP packs the row body (1.7x, multiply-bound scalar code); copying blocks of 16-48 rows
-into SoA buffers (about 1.55x, but 4x slower at blocks >= 256).
+:func:`~dualpose.algebra._kutil.transform_point`), also bit for bit.  Their speed against the fused-loop floor
+is in docs/benchmarks.md.
 
 Kernels that need ``2/|q|**2`` only handle ordinary norms in ``[1e-280, 1e280]``: they return a nonzero flag when
 any element is outside that range (or zero), and the wrapper then recomputes with the gufunc, which rescales

@@ -4,8 +4,8 @@ Targets (one line each in :data:`TARGETS`):
 
 ``screw-vector``
     Leader–follower relative pose with the 1-, 2- and 3-sample screw-vector algorithms (Adv. Mech. Eng. 2019;
-    issue 4 §6): summary table (or ``--json``), PNG figures of attitude and position error vs time per algorithm
-    and of a long run (default 1e5 s) of the 3-sample position-error norm in ``--out DIR`` (needs matplotlib:
+    docs/inertial.md §6): summary table (or ``--json``), PNG figures of attitude and position error vs time per
+    algorithm and of a long run (default 1e5 s) of the 3-sample position-error norm in ``--out DIR`` (needs matplotlib:
     ``pip install dualpose[plot]``).  The motion is documented in :mod:`dualpose.inertial.leader_follower`.
 """
 
@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 TARGETS: dict[str, str] = {
-    "screw-vector": "leader-follower relative pose with 1-, 2-, 3-sample screw-vector algorithms (issue 4)",
+    "screw-vector": "leader-follower relative pose with 1-, 2-, 3-sample screw-vector algorithms",
 }
 
 

@@ -384,7 +384,7 @@ def estimate_orientation(
         Seconds between updates (default 0.1 s, capped at ``window``).  Consecutive windows then overlap by
         ``window / update_interval`` and share their samples, so each update's noise is multiplied by that overlap
         factor (an update carries only its share of a window's information).  The result is insensitive to the
-        interval once it is well below the window (BROAD means change < 0.01° between 0.25 s and 0.03 s).
+        interval once it is well below the window (docs/broad.md, "Design in brief").
     mag_adapt : bool
         Also adapt the heading noise from the innovations (default False: a drifting heading would be absorbed into
         the estimated noise instead of being corrected).
@@ -394,21 +394,20 @@ def estimate_orientation(
     mag_time_offset : "estimate" or float
         Lag of the magnetometer samples behind the gyroscope's, s, compensated by re-sampling the magnetometer at
         ``t + offset`` (:func:`~dualpose.calibration.sensor_time_offset.shift_samples`) before filtering.
-        ``"estimate"``
-        (default) estimates it from this recording's gyroscope and magnetometer alone, with the kinematic residual
+        ``"estimate"`` (default) estimates it from this recording's gyroscope and magnetometer alone, with the
+        kinematic residual
         ``dm/dt + ω(t − τ) × m = 0`` of a static field (:func:`~dualpose.calibration.sensor_time_offset.
         estimate_sensor_time_offset`, ±30 ms, gyroscope bias from the rest period); when that is not possible (too
         little rotation) nothing is shifted.  A number is used as given; 0 switches the compensation off.  In fast
-        rotation a lag τ makes the magnetometer read a heading rotated by ``ω τ`` (BROAD: τ ≈ 11 ms in every trial,
-        docs/broad.md).  Ignored in 6D.
+        rotation a lag τ makes the magnetometer read a heading rotated by ``ω τ`` (docs/broad.md,
+        "Magnetometer–gyroscope time offset").  Ignored in 6D.
     mag_calibration : "auto", MagCalibration or None
         None (default): raw magnetometer.  ``"auto"``: fit hard iron / per-axis scale / symmetric soft iron to this
         recording's field samples and apply the smallest model that passes the decision rule of
         :func:`~dualpose.calibration.magnetometer.estimate_mag_calibration` (noise level of ``|m|`` from the rest
         period when there is one); raw data otherwise.  A :class:`MagCalibration` is applied as given (if its
-        ``applied`` flag is set).  Off by default: on BROAD the rule fires on one trial of seven
-        (24, 1.149° → 1.210°) and costs ≈ 1.1 µs/sample, 7x the filter (docs/broad.md).  Runs before the
-        time-offset estimate.  Ignored in 6D.
+        ``applied`` flag is set).  Off by default; its effect and cost on BROAD are in docs/broad.md
+        ("Magnetometer self-calibration").  Runs before the time-offset estimate.  Ignored in 6D.
 
     Returns
     -------

@@ -1,4 +1,4 @@
-"""Screw-vector inertial integration (issue 4): rotation-vector and screw-vector update algorithms.
+"""Screw-vector inertial integration: rotation-vector and screw-vector update algorithms.
 
 Import explicitly (``import dualpose.inertial``); ``import dualpose`` does not load it.
 

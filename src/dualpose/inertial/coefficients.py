@@ -3,7 +3,7 @@
 An N-sample algorithm computes the rotation vector of one update (length ``T = N h``) from the body-frame angle
 increments ``θ_1 … θ_N`` of its sub-intervals as::
 
-    Φ = Σ_i θ_i + s Σ_{i<j} k_ij θ_i × θ_j                                  (issue 4 §2; paper eqs. (17)-(21))
+    Φ = Σ_i θ_i + s Σ_{i<j} k_ij θ_i × θ_j                                  (docs/inertial.md §2; paper eqs. (17)-(21))
 
 with ``s = +1`` for body-frame increments (right multiplication) and ``s = −1`` for inertial-frame increments
 (left multiplication).  Two families are tabulated (exact rationals):

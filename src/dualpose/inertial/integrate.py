@@ -1,6 +1,6 @@
 """Rotation-vector and screw-vector (dual) update algorithms; attitude and pose integration; relative pose.
 
-Conventions (issue 4 §1; docs/inertial.md)
+Conventions (docs/inertial.md §1; docs/inertial.md)
 ------------------------------------------
 * Attitude ``q = q_b^i`` (body to inertial), ``(..., 4)`` xyzw.  Body frame: ``q̇ = ½ q (x) ω^b`` and the update is
   ``q_{k+1} = q_k (x) exp(Φ_k/2)``.  Inertial frame: ``q̇ = ½ ω^i (x) q`` and ``q_{k+1} = exp(Φ_k/2) (x) q_k``;
@@ -89,7 +89,7 @@ def _update_vectors(x: np.ndarray, samples: int, coefficients: str, frame: objec
 def rotation_vector(
     dtheta: ArrayLike, samples: int = 1, coefficients: Family = "coning-optimal", frame: Frame = "body"
 ) -> np.ndarray:
-    """Rotation vector of each update from N angle increments (paper eqs. (17)-(21); issue 4 §2).
+    """Rotation vector of each update from N angle increments (paper eqs. (17)-(21); docs/inertial.md §2).
 
     ``Φ_k = Σ_i θ_i + s Σ_{i<j} k_ij θ_i × θ_j`` with ``s = +1`` (body) or ``−1`` (inertial).  For
     ``"one-plus-previous"`` (N = 1) ``Φ_k = θ_k + s/12 θ_{k−1} × θ_k`` and ``θ_0 = 0`` (the first update has no
@@ -118,7 +118,7 @@ def rotation_vector(
 def screw_vector(
     dual_increments: ArrayLike, samples: int = 1, coefficients: Family = "coning-optimal", frame: Frame = "body"
 ) -> np.ndarray:
-    """Screw vector ``Φ̂ = σ + εσ′`` of each update from N dual increments (paper eqs. (25)-(31); issue 4 §3).
+    """Screw vector ``Φ̂ = σ + εσ′`` of each update from N dual increments (paper eqs. (25)-(31); docs/inertial.md §2).
 
     The rotation-vector formula over dual numbers: ``σ`` is :func:`rotation_vector` of the ``Δθ`` and
     ``σ′ = Σ Δu_i + s Σ_{i<j} k_ij (Δθ_i × Δu_j + Δu_i × Δθ_j)``.
@@ -141,7 +141,7 @@ def screw_vector(
 
 
 def screw_exp(screw: ArrayLike) -> np.ndarray:
-    """Unit dual quaternion ``exp(Φ̂/2)`` of screw vectors ``Φ̂ = σ + εσ′`` (issue 4 §3; paper eq. (23)).
+    """Unit dual quaternion ``exp(Φ̂/2)`` of screw vectors ``Φ̂ = σ + εσ′`` (docs/inertial.md §2; paper eq. (23)).
 
     ``r = exp(σ/2)`` (:func:`dualpose.quat_from_rotvec`), ``Δt = J_l(σ) σ′`` (:func:`dualpose.so3_left_jacobian`)
     and the result is ``r + ε ½ Δt (x) r``: the rigid motion rotating by ``σ`` and translating by ``Δt``.  Equal to

@@ -1,4 +1,4 @@
-"""Leader–follower relative pose from gyro and dual increments (paper §"Simulation results"; issue 4 §6).
+"""Leader–follower relative pose from gyro and dual increments (paper §"Simulation results"; docs/inertial.md §6).
 
 The leader sits at the inertial origin and only rotates (attitude from its gyro increments with the N-sample
 rotation-vector algorithm); the follower moves with a general screw motion (pose from its dual increments with the

@@ -1,4 +1,4 @@
-"""Exact rigid motions for validating the inertial update algorithms (issue 4 §5).
+"""Exact rigid motions for validating the inertial update algorithms (docs/inertial.md §3).
 
 Every motion gives the pose ``q̂(t) = q(t) + ε ½ t^i(t) (x) q(t)`` (``(..., 8)``, ``q = q_b^i`` xyzw), the twist
 (``(..., 6)`` = ``[ω, v]``) and the increments ``∫ [ω, v] dt`` over consecutive sub-intervals:
@@ -24,7 +24,7 @@ import dualpose as dp
 
 __all__ = ["Motion", "Coning", "ConstantTwist", "SmoothTrajectory", "sample_times", "coning_drift"]
 
-#: ρ_N of the coning drift ``ρ_N a² Ω (ΩT)^{2N}`` of the N-sample coning-optimal algorithm (issue 4 §5)
+#: ρ_N of the coning drift ``ρ_N a² Ω (ΩT)^{2N}`` of the N-sample coning-optimal algorithm (docs/inertial.md §3)
 CONING_RHO = {1: 1 / 12, 2: 1 / 960, 3: 1 / 204120, 4: 1 / 82575360}
 
 Frame = Literal["body", "inertial"]
@@ -42,7 +42,7 @@ def sample_times(t0: float, h: float, n: int) -> np.ndarray:
 def coning_drift(a: float, Omega: float, T: float, samples: int) -> float:
     """Predicted drift rate (rad/s, about the cone axis) of the N-sample coning-optimal algorithm.
 
-    ``ε_N = ρ_N a² Ω (ΩT)^{2N}`` (issue 4 §5; Ignagni 1990), the leading term for small ``a`` and ``ΩT``; the
+    ``ε_N = ρ_N a² Ω (ΩT)^{2N}`` (docs/inertial.md §3; Ignagni 1990), the leading term for small ``a`` and ``ΩT``; the
     dual-part drift of dual coning is its ``d ∂/∂a``, ``2 a d ρ_N Ω (ΩT)^{2N}`` (m/s).
     """
     return CONING_RHO[samples] * a * a * Omega * (Omega * T) ** (2 * samples)
@@ -96,7 +96,7 @@ class Coning(Motion):
     """Classical (``d = 0``) or dual coning about x: half-angle ``a`` (rad), rate ``Omega`` (rad/s), radius ``d`` (m).
 
     ``q(t) = (0, sin(a/2) cos Ωt, sin(a/2) sin Ωt, cos(a/2))`` (xyzw) and, with the dual angle ``a + εd``,
-    ``q̂(t) = q(a) + ε d ∂q/∂a``: the origin moves on the circle ``t^i = d (0, cos Ωt, sin Ωt)`` (issue 4 §5).
+    ``q̂(t) = q(a) + ε d ∂q/∂a``: the origin moves on the circle ``t^i = d (0, cos Ωt, sin Ωt)`` (docs/inertial.md §3).
     Body rate ``ω^b = Ω (−2 sin²(a/2), −sin a sin Ωt, sin a cos Ωt)``; inertial rate
     ``ω^i = Ω (2 sin²(a/2), −sin a sin Ωt, sin a cos Ωt)``; the velocities are the dual parts,
     ``v = d ∂ω/∂a`` (principle of transference).  Increments are in closed form.

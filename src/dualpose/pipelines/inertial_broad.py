@@ -1,4 +1,4 @@
-"""Gyro-only attitude integration on real data (BROAD) with every algorithm (issue 4 §7).
+"""Gyro-only attitude integration on real data (BROAD) with every algorithm (docs/inertial.md §7).
 
 ``python -m dualpose.pipelines.inertial_broad [DIR]`` prints the markdown table of ``docs/inertial.md`` (DIR defaults to
 ``<repo>/../shared/data/broad``).
