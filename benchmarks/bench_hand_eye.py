@@ -61,7 +61,7 @@ def score(cam, body, pairs, tau, q, t):
 def eth_style_offset(cam, body):
     """ETH's time alignment as published in their repository: both streams SLERP-resampled at the larger mean
     sampling interval, per-step angular-velocity norms clipped at the 99.5th / 99th percentile, smoothed by a
-    25-sample box filter, unnormalised cross-correlation, offset at the peak (sign: camera t ↔ body t + τ)."""
+    25-sample box filter, unnormalized cross-correlation, offset at the peak (sign: camera t ↔ body t + τ)."""
     dt = max(np.mean(np.diff(cam.stamps)), np.mean(np.diff(body.stamps)))
 
     def norms(s, pct):

@@ -57,7 +57,7 @@ def main() -> None:
             ("integrate_attitude", dp.quat_identity(), inc[:, :3]),
             ("integrate_pose", dp.dualquat_identity(), inc),
         ]:
-            for frame in ("body", "inertial"):
+            for frame in ("body", "space"):
                 f = getattr(di, name)
                 t = best(lambda f=f, x0=x0, x=x, n=n, fam=fam, frame=frame: f(x0, x, n, fam, frame))
                 print(f"| {name} | {n} | {fam} | {frame} | {1e3 * t:.1f} | {k / t:,.0f} |")

@@ -114,7 +114,7 @@ def theta(angle: tuple[str, str, str, str]) -> mpf:
 
 
 def random_unit(rng: np.random.Generator) -> list:
-    """A random unit 3-vector, exact in mpmath (float64 normal draws normalised in mpmath)."""
+    """A random unit 3-vector, exact in mpmath (float64 normal draws normalized in mpmath)."""
     with mp.workdps(ref.DPS):
         return ref.normalize(ref.exact(rng.normal(size=3)))
 

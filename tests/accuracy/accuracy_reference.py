@@ -9,7 +9,7 @@ the input (the two arcs of a slerp between orientations exactly π apart, the si
 rotation), and the error is then measured to the nearest candidate.
 
 Maps whose documented input is a unit quaternion / rotation (rotation vectors, matrices, slerp) are evaluated at
-the normalised exact input, as the documentation says; general quaternion maps (exp, log, pow) are evaluated at
+the normalized exact input, as the documentation says; general quaternion maps (exp, log, pow) are evaluated at
 the exact input itself (``log`` keeps ``ln|q|``, ``pow`` keeps ``|q|**t``).
 """
 
@@ -176,7 +176,7 @@ def quat_from_rotvec(rotvec: np.ndarray) -> list[Vec]:
 
 @_hp
 def rotvec_from_quat(q: np.ndarray) -> list[Vec]:
-    """2 ln q with angle in [0, π] (scale invariant, so the normalisation is implicit)."""
+    """2 ln q with angle in [0, π] (scale invariant, so the normalization is implicit)."""
     x = exact(q)
     if x[3] < 0:
         x = [-c for c in x]
@@ -393,14 +393,14 @@ def dualquat_from_twist(xi: np.ndarray) -> list[Vec]:
 
 @_hp
 def twist_from_dualquat(s: np.ndarray) -> list[Vec]:
-    """2 ln of the normalised, canonical (r_w >= 0) input; its scalar parts are exactly 0 (documented)."""
+    """2 ln of the normalized, canonical (r_w >= 0) input; its scalar parts are exactly 0 (documented)."""
     lg = mp_dqlog(_canonical(dq_normalize(exact(s))))
     return [[2 * c for c in lg[0:3] + lg[4:7]]]
 
 
 @_hp
 def dualquat_from_screw(axis: np.ndarray, point: np.ndarray, dist: float, angle: float) -> list[Vec]:
-    """Walker 1991 eqs. (11)-(12) with the axis normalised (documented); only p's component ⊥ n enters (p × n)."""
+    """Walker 1991 eqs. (11)-(12) with the axis normalized (documented); only p's component ⊥ n enters (p × n)."""
     n = normalize(exact(axis))
     p = exact(point)
     d = mpf(float(dist))
@@ -412,7 +412,7 @@ def dualquat_from_screw(axis: np.ndarray, point: np.ndarray, dist: float, angle:
 
 @_hp
 def screw_from_dualquat(s: np.ndarray) -> list[Vec]:
-    """(n, p, d, θ) of the normalised, canonical input, concatenated (8 values), from the translation t:
+    """(n, p, d, θ) of the normalized, canonical input, concatenated (8 values), from the translation t:
     θ = 2 atan2(|r_v|, r_w), n = r_v/|r_v|, d = t·n and p = ½(t_⊥ + cot(θ/2) n × t), the point of the axis
     nearest the origin (it solves (I − R) p = t_⊥, Walker Appendix eq. (61)).  A pure translation gives
     (t/|t|, 0, |t|, 0), the identity ([1, 0, 0], 0, 0, 0) (documented)."""
@@ -438,7 +438,7 @@ def screw_from_dualquat(s: np.ndarray) -> list[Vec]:
 
 @_hp
 def dualquat_sclerp(s0: np.ndarray, s1: np.ndarray, t: float) -> list[Vec]:
-    """a (x) (canonical(a* (x) b))**t with a, b the normalised inputs; both screws are candidates when the
+    """a (x) (canonical(a* (x) b))**t with a, b the normalized inputs; both screws are candidates when the
     relative rotation is within 16 ε of π (the canonical sign jumps there)."""
     a = dq_normalize(exact(s0))
     b = dq_normalize(exact(s1))

@@ -113,7 +113,7 @@ def render(records: list[dict]) -> str:
         f"* **Truth.** The exact value of the function *at the float64 input*: inputs are converted to mpmath "
         f"exactly (`mpmath.mpf(float)`) and the function is evaluated at {ref.DPS} significant digits with "
         "cancellation-free formulas (`tests/accuracy/accuracy_reference.py`).  Where an input is documented as a "
-        "rotation but its float64 value is not exactly unit, the documented behaviour (normalisation) is "
+        "rotation but its float64 value is not exactly unit, the documented behaviour (normalization) is "
         "evaluated exactly.  For `quat_from_matrix` the truth is the unit quaternion (w ≥ 0) of the rotation "
         "nearest to the float64 matrix (Bar-Itzhack 2000: eigenvector of the largest eigenvalue of the "
         "symmetric 4×4 matrix of `tr(Mᵀ R(q))`, `mpmath.eigsy`).",
@@ -133,9 +133,9 @@ def render(records: list[dict]) -> str:
         "norm ‖t‖ to that pose composed with (rotation θ, translation t).",
         "* **Documented behaviour.** `dualquat_exp`, `dualquat_log` and `dualquat_pow` are evaluated at the exact "
         "input as general dual quaternions (the log keeps ln|r| and r·d/|r|²); `twist_from_dualquat`, "
-        "`screw_from_dualquat` and `dualquat_sclerp` at the exact dual-number normalisation "
+        "`screw_from_dualquat` and `dualquat_sclerp` at the exact dual-number normalization "
         "(r/|r|, d/|r| − r (r·d)/|r|³) of the input, canonicalised to r_w ≥ 0 as documented; "
-        "`dualquat_from_screw` with the axis normalised.  The screw reference computes p = ½(t⊥ + cot(θ/2) n × t) "
+        "`dualquat_from_screw` with the axis normalized.  The screw reference computes p = ½(t⊥ + cot(θ/2) n × t) "
         "and d = t·n from the translation, independently of the kernel's formulas; the twist reference is checked "
         "against `mpmath.expm` of the se(3) matrix.",
         "* **Error.** Normwise relative error ‖computed − truth‖₂ / ‖truth‖₂ (absolute where the truth is 0), "

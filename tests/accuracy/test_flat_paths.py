@@ -37,7 +37,7 @@ def strided(a: np.ndarray) -> np.ndarray:
 
 
 def random_quats(rng: np.random.Generator, n: int) -> np.ndarray:
-    """Non-unit quaternions with norms spread over 1e-3 .. 1e3 and some exactly unit-normalised rows."""
+    """Non-unit quaternions with norms spread over 1e-3 .. 1e3 and some exactly unit-normalized rows."""
     q = rng.normal(size=(n, 4)) * 10.0 ** rng.uniform(-3, 3, size=(n, 1))
     q[::3] /= np.linalg.norm(q[::3], axis=1, keepdims=True)
     return q

@@ -172,7 +172,7 @@ class TestQuaternion:
         assert same_up_to_sign(Quaternion.from_matrix(ref.as_matrix()).array, ref.as_quat(), TOL)
         assert (Quaternion.from_matrix(ref.as_matrix()).array[:, 3] >= 0).all()
         ang = np.linalg.norm(rv, axis=-1)
-        q = Quaternion.from_axis_angle(rv * 5.0, ang)  # axis is normalised
+        q = Quaternion.from_axis_angle(rv * 5.0, ang)  # axis is normalized
         assert same_up_to_sign(q.array, ref.as_quat(), TOL)
 
     def test_conversions_against_scipy(self, qs):

@@ -45,7 +45,7 @@ vec3 = arrays(np.float64, 3, elements=finite)
 
 
 def unit_dq(s):
-    """Reference normalisation (numpy): r/|r|, and the dual part made orthogonal to it."""
+    """Reference normalization (numpy): r/|r|, and the dual part made orthogonal to it."""
     s = np.asarray(s, float)
     n = np.linalg.norm(s[..., :4], axis=-1, keepdims=True)
     r, d = s[..., :4] / n, s[..., 4:] / n
@@ -169,7 +169,7 @@ class TestAgainstScipy:
         s = rng.normal(size=(500, 8))
         ref = RigidTransform.from_dual_quat(s).as_dual_quat()
         assert same_dq(dualquat_normalize(s), ref, 1e-14)
-        q, t = qt_from_dualquat(s)  # scale invariant, reads the same translation as scipy's normalisation
+        q, t = qt_from_dualquat(s)  # scale invariant, reads the same translation as scipy's normalization
         np.testing.assert_allclose(t, RigidTransform.from_dual_quat(s).translation, atol=1e-14)
         q3, t3 = qt_from_dualquat(s * 1e-200)
         np.testing.assert_allclose(t3, t, atol=1e-14)

@@ -25,7 +25,7 @@ WXYZ = [3, 0, 1, 2]
 XYZW = [1, 2, 3, 0]
 
 # Golden values produced by pytransform3d 3.17.0 (not a test dependency):
-#   pq = [1, -2, 0.5, q] with q = normalise([0.5, 0.1, -0.7, 0.3]) (wxyz)
+#   pq = [1, -2, 0.5, q] with q = normalize([0.5, 0.1, -0.7, 0.3]) (wxyz)
 #   pytransform3d.transformations.dual_quaternion_from_pq(pq)
 #   pytransform3d.transformations.screw_parameters_from_dual_quaternion(dq) -> (point, axis, pitch h, θ)
 PT3D_PQ = np.array([1.0, -2.0, 0.5, 0.5455447255899809, 0.1091089451179962, -0.7637626158259733, 0.32732683535398854])
@@ -68,7 +68,7 @@ class TestScipyQuaternion:
         assert q.shape == (500, 4) and q.dtype == np.float64
         np.testing.assert_array_equal(q, rots.as_quat())
         neg = -q
-        back = quat_from_scipy(scipy_from_quat(neg))  # scipy renormalises (last-bit changes) but keeps the sign
+        back = quat_from_scipy(scipy_from_quat(neg))  # scipy renormalizes (last-bit changes) but keeps the sign
         np.testing.assert_allclose(back, neg, rtol=0, atol=4e-16)
 
     def test_apply_and_matrix_agree(self, rots, rng):
@@ -79,7 +79,7 @@ class TestScipyQuaternion:
         r = scipy_from_quat(q)
         np.testing.assert_allclose(r.as_matrix(), fq.matrix_from_quat(q), atol=TOL)
 
-    def test_normalises_like_scipy(self):
+    def test_normalizes_like_scipy(self):
         r = scipy_from_quat([0.0, 0.0, 0.0, 2.0])
         np.testing.assert_array_equal(r.as_quat(), [0, 0, 0, 1])
 
@@ -96,10 +96,10 @@ class TestScipyQuaternion:
         assert type(x) is Quaternion and x.shape == (500,)
         v = rng.normal(size=3)
         np.testing.assert_allclose(x.apply(v), rots.apply(v), atol=TOL)
-        back = x.to_scipy()
+        back = x.as_scipy()
         assert isinstance(back, Rotation)
         np.testing.assert_allclose(back.as_quat(), rots.as_quat(), rtol=0, atol=4e-16)
-        assert Quaternion.identity().to_scipy().single
+        assert Quaternion.identity().as_scipy().single
 
     def test_bad_input(self):
         with pytest.raises(TypeError, match="rotation must be a scipy.spatial.transform.Rotation"):
@@ -147,14 +147,14 @@ class TestScipyDualQuaternion:
         assert dualquat_from_scipy(RigidTransform.identity()).shape == (8,)
         assert scipy_from_dualquat([0, 0, 0, 1.0, 0, 0, 0, 0]).single
         x = DualQuaternion.random((2, 5), rng)
-        tf = x.to_scipy()
+        tf = x.as_scipy()
         assert tf.shape == (2, 5)
         np.testing.assert_allclose(tf.as_matrix(), x.as_matrix(), atol=TOL)
 
     def test_class_methods(self, tfs, rng):
         x = DualQuaternion.from_scipy(tfs)
         assert type(x) is DualQuaternion and x.shape == (500,)
-        y = x.to_scipy()
+        y = x.as_scipy()
         np.testing.assert_allclose(y.as_matrix(), tfs.as_matrix(), atol=TOL)
         np.testing.assert_allclose((x * x[0]).as_matrix(), (tfs * tfs[0]).as_matrix(), atol=TOL)
 
@@ -185,7 +185,7 @@ class TestPytransform3d:
         pq = np.concatenate([t, q[..., WXYZ]], axis=-1)
         dq = dualquat_from_pq(pq)
         assert dq.shape == (4, 5, 8)
-        np.testing.assert_allclose(dq[..., :4], q, rtol=0, atol=4e-16)  # renormalised, sign kept
+        np.testing.assert_allclose(dq[..., :4], q, rtol=0, atol=4e-16)  # renormalized, sign kept
         np.testing.assert_allclose(pq_from_dualquat(dq), pq, atol=TOL)
         np.testing.assert_allclose(pq_from_dualquat(-dq)[..., 3:], -pq[..., 3:], atol=0)
 

@@ -20,7 +20,7 @@ from dualpose.algebra.quat import matrix_from_quat, quat_from_rotvec
 EPS = np.finfo(float).eps
 DPS = 50
 ANGLES = [0.0, 1e-300, 1e-12, 1e-6, 1e-3, 0.1, 1.0, 3.0, math.pi - 1e-6]
-AXIS = np.array([0.36, -0.48, 0.8])  # unit (exactly representable ratios; normalised below anyway)
+AXIS = np.array([0.36, -0.48, 0.8])  # unit (exactly representable ratios; normalized below anyway)
 AXIS = AXIS / np.linalg.norm(AXIS)
 V = np.array([0.7, -1.3, 2.1])
 

@@ -41,7 +41,7 @@ def main() -> None:
         (1, "one-plus-previous", 0.01, 0.3, 1 / 60, 4),
     ]
     for n, fam, a, wt, rho, p in cases:
-        for frame in ("body", "inertial"):
+        for frame in ("body", "space"):
             e = drift(n, fam, a, 1.0, wt, 2000 if fam != "one-plus-previous" else 5000, frame)
             pred = rho * a * a * wt**p
             print(

@@ -10,7 +10,7 @@ import dualpose.inertial as di
 from dualpose.inertial import motions as m
 
 RNG = np.random.default_rng(20261130)
-FRAMES = ["body", "inertial"]
+FRAMES = ["body", "space"]
 
 
 def _x(a, b):
@@ -123,10 +123,10 @@ def test_batch_axes_broadcast():
     out = di.integrate_pose(dq0, inc, 3)
     assert out.shape == (2, 3, 5, 8)
     np.testing.assert_array_equal(out[1, 2], di.integrate_pose(dq0[2], inc[1, 2], 3))
-    att = di.integrate_attitude([0, 0, 0, 2.0], inc[..., :3], 2, frame="inertial")  # q0 normalised
+    att = di.integrate_attitude([0, 0, 0, 2.0], inc[..., :3], 2, frame="space")  # q0 normalized
     assert att.shape == (2, 3, 7, 4)
     np.testing.assert_array_equal(
-        att[0, 1], di.integrate_attitude([0, 0, 0, 1.0], inc[0, 1, :, :3], 2, frame="inertial")
+        att[0, 1], di.integrate_attitude([0, 0, 0, 1.0], inc[0, 1, :, :3], 2, frame="space")
     )
 
 

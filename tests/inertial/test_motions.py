@@ -9,7 +9,7 @@ from dualpose.inertial import motions as m
 MOTIONS = [m.Coning(0.3, 2.0), m.Coning(0.3, 2.0, 0.7), m.SmoothTrajectory()]
 
 
-@pytest.mark.parametrize("frame", ["body", "inertial"])
+@pytest.mark.parametrize("frame", ["body", "space"])
 @pytest.mark.parametrize("motion", MOTIONS, ids=["coning", "dual-coning", "smooth"])
 def test_twist_satisfies_kinematics(motion, frame):
     """q̂̇ = ½ q̂ (x) [ω^b, v^b] (body) or ½ [ω^i, v_s] (x) q̂ (inertial), q̂̇ by central differences."""
@@ -47,7 +47,7 @@ def test_dual_coning_origin_moves_on_circle():
     np.testing.assert_allclose(dp.dualquat_norm(c.pose(t))[..., 1], 0.0, atol=1e-15)  # unit dual quaternion
 
 
-@pytest.mark.parametrize("frame", ["body", "inertial"])
+@pytest.mark.parametrize("frame", ["body", "space"])
 @pytest.mark.parametrize("d", [0.0, 0.9])
 def test_coning_exact_increments_match_quadrature(frame, d):
     c = m.Coning(0.5, 3.0, d)
@@ -71,7 +71,7 @@ def test_constant_twist_increments_and_pose():
     np.testing.assert_allclose(c.dual_increments(0.0, 0.01, 3), 0.01 * np.tile(tw, (3, 1)), atol=0)
     np.testing.assert_allclose(c.pose(2.0), dp.dualquat_from_twist(2.0 * np.asarray(tw)), atol=1e-15)
     with pytest.raises(ValueError, match="frame"):
-        c.twist(0.0, "inertial")
+        c.twist(0.0, "space")
 
 
 def test_bad_arguments():

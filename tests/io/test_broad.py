@@ -40,7 +40,7 @@ def test_gyro_is_body_frame_rate_of_quat(trial):
     n = int(10 * trial.rate)
     inc = (trial.gyr[s : s + n] - trial.gyr[:s].mean(axis=0)) / trial.rate
     body = di.integrate_attitude(trial.quat[s], inc, 1, frame="body")[-1]
-    wrong = di.integrate_attitude(trial.quat[s], inc, 1, frame="inertial")[-1]
+    wrong = di.integrate_attitude(trial.quat[s], inc, 1, frame="space")[-1]
     assert np.degrees(dp.quat_angle(body, trial.quat[s + n])) < 2.0
     assert np.degrees(dp.quat_angle(wrong, trial.quat[s + n])) > 10.0
 

@@ -56,7 +56,7 @@ def test_noisy_pnp_matches_opencv_and_truth(run: sim.SimulatedRun) -> None:
         errs.append(np.concatenate([d_theta, c_w - res.c_w]))
         covs.append(res.covariance)
     errs, covs = np.array(errs), np.array(covs)
-    # normalised error squared (6 dof) averages near 6: the reported covariance is honest
+    # normalized error squared (6 dof) averages near 6: the reported covariance is honest
     nees = np.einsum("ni,nij,nj->n", errs, np.linalg.inv(covs), errs)
     assert 3.0 < nees.mean() < 10.0
     assert np.sqrt(np.mean(np.sum(errs[:, 3:] ** 2, axis=1))) < 0.02

@@ -27,7 +27,7 @@ def test_influence_matches_finite_differences(rng: np.random.Generator) -> None:
             e[j, i] = 1e-7
             moved = register_pose(None, None, model_directions=n0, measured_directions=n1 + e, direction_weights=w)
             eps = dp.rotvec_from_quat(dp.quat_mul(moved.quat, dp.quat_conj(base.quat)))
-            # only the tangential part of e acts (directions are renormalised): g annihilates the radial part
+            # only the tangential part of e acts (directions are renormalized): g annihilates the radial part
             np.testing.assert_allclose(eps / 1e-7, g[j] @ np.eye(3)[i], atol=2e-6)
 
 

@@ -3,7 +3,7 @@
 Layout: ``[r_x, r_y, r_z, r_w, d_x, d_y, d_z, d_w]`` (real part then dual part, each xyzw, Hamilton), with
 ``d = ½ t (x) r`` for a rigid transform.  Kernels write NaN where a real part that must be nonzero is zero; the
 Python wrappers turn that into a ValueError.  Each kernel is one pass over the data; the inline helpers below
-(exp, log, normalise, canonical flip) are shared so that fused kernels (pow, sclerp, twist) use exactly the same
+(exp, log, normalize, canonical flip) are shared so that fused kernels (pow, sclerp, twist) use exactly the same
 arithmetic as the stand-alone ones.
 """
 
@@ -272,7 +272,7 @@ def qt_from_dualquat(s, d4, d3, q, t):
 
 @gu(f"{_V},{_M},{_M}", "(n),(p,p)->(p,p)")
 def matrix_from_dualquat(s, d44, o):
-    # Walker 1991 eqs. (17)-(19) / Dantam 2014 eqs. (108)-(109), scaled by 2/|r|**2 (non-unit r normalised)
+    # Walker 1991 eqs. (17)-(19) / Dantam 2014 eqs. (108)-(109), scaled by 2/|r|**2 (non-unit r normalized)
     x, y, z, w = s[0], s[1], s[2], s[3]
     dx, dy, dz, dw = s[4], s[5], s[6], s[7]
     c, sc = unit_scale(x, y, z, w)
@@ -299,7 +299,7 @@ def dualquat_from_rt(m, r, d8, o):
 @gu(f"{_V},{_V},{_V}", "(n),(m)->(m)")
 def dualquat_transform(s, p, o):
     # p' = R p + t (Dantam 2014 eq. (95) in the implicit form (106)), see _kutil.transform_point; s2 = 2/|r|**2
-    # normalises a non-unit real part (extreme norms rescaled first).  The flat kernel uses the same helper.
+    # normalizes a non-unit real part (extreme norms rescaled first).  The flat kernel uses the same helper.
     x, y, z, w = s[0], s[1], s[2], s[3]
     dx, dy, dz, dw = s[4], s[5], s[6], s[7]
     c, s2 = unit_scale(x, y, z, w)
@@ -340,7 +340,7 @@ def dualquat_from_twist(xi, d8, o):
 
 @gu(f"{_V},{_V},{_V}", "(n),(m)->(m)")
 def twist_from_dualquat(s, d6, o):
-    # normalise, canonicalise (r_w >= 0 so |ω| <= pi), then 2 ln S; the scalar parts are 0 for a unit S
+    # normalize, canonicalise (r_w >= 0 so |ω| <= pi), then 2 ln S; the scalar parts are 0 for a unit S
     if is_zero4(s[0], s[1], s[2], s[3]):
         fill_nan(o, 6)
         return
@@ -354,7 +354,7 @@ def twist_from_dualquat(s, d6, o):
 
 @gu(f"{_V},{_V},{_S},{_V}", "(n),(n),()->(n)")
 def dualquat_sclerp(s0, s1, t, o):
-    # s0 (x) (canonical(s0* (x) s1))**t: the shortest screw from s0 to s1; inputs normalised
+    # s0 (x) (canonical(s0* (x) s1))**t: the shortest screw from s0 to s1; inputs normalized
     if is_zero4(s0[0], s0[1], s0[2], s0[3]) or is_zero4(s1[0], s1[1], s1[2], s1[3]):
         fill_nan(o, 8)
         return
@@ -389,7 +389,7 @@ def dualquat_from_screw(axis, p, dist, theta, d8, o):
 
 @gu(f"{_V},{_V},{_V},{_V},{_V},{_V}", "(n),(m)->(m),(m),(),()")
 def screw_from_dualquat(s, d3, axis, point, dist, theta):
-    # Walker 1991 Appendix 3 in stable form, on the normalised, canonical (r_w >= 0) dual quaternion:
+    # Walker 1991 Appendix 3 in stable form, on the normalized, canonical (r_w >= 0) dual quaternion:
     # θ = 2 atan2(|r_v|, r_w), n = r_v/|r_v|, d/2 = r_w (n·s_v) - s_w |r_v|, p = (r_v x s_v)/|r_v|**2 (the foot ⊥ n)
     if is_zero4(s[0], s[1], s[2], s[3]):
         fill_nan(axis, 3)

@@ -194,7 +194,7 @@ def rotate_any(x, y, z, w, vx, vy, vz):
 @jit
 def quat_of_rotmat(r):
     """Unit quaternion (x, y, z, w), ``w >= 0``, of a 3x3 rotation matrix ``r`` (Shepperd's method)."""
-    # branch on the largest of (trace, R00, R11, R22); result normalised, w >= 0
+    # branch on the largest of (trace, R00, R11, R22); result normalized, w >= 0
     r00, r11, r22 = r[0, 0], r[1, 1], r[2, 2]
     tr = r00 + r11 + r22
     if tr >= r00 and tr >= r11 and tr >= r22:

@@ -166,7 +166,7 @@ def se3_jacobian(xi, sgn, inv, o):
 
 @gu(f"{_V},{_V},{_M},{_M}", "(n),(m),(k,k)->(k,k)")
 def se3_adjoint(q, t, d66, o):
-    # [[R, 0], [t× R, R]] for [ω, v] twists; R normalises q (2/|q|² scale)
+    # [[R, 0], [t× R, R]] for [ω, v] twists; R normalizes q (2/|q|² scale)
     m = rotmat(q[0], q[1], q[2], q[3])
     for i in range(3):
         for j in range(3):
@@ -242,7 +242,7 @@ def twist_from_qt(q, t, d6, o):
     "(n),(m),(n),(m),(n),(m),(n),(m)->(n),(m)",
 )
 def qt_mul_derivative(q1, t1, q1d, t1d, q2, t2, q2d, t2d, qo, to):
-    # Dantam 2014 eq. (107) applied to the normalised rotation u = q1/|q1| (the map qt_mul uses)
+    # Dantam 2014 eq. (107) applied to the normalized rotation u = q1/|q1| (the map qt_mul uses)
     ax, ay, az, aw = qmul(q1d[0], q1d[1], q1d[2], q1d[3], q2[0], q2[1], q2[2], q2[3])
     bx, by, bz, bw = qmul(q1[0], q1[1], q1[2], q1[3], q2d[0], q2d[1], q2d[2], q2d[3])
     qo[0], qo[1], qo[2], qo[3] = ax + bx, ay + by, az + bz, aw + bw

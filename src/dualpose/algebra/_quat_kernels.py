@@ -152,7 +152,7 @@ def axis_angle_from_quat(q, d3, axis, angle):
 
 @gu(f"{_V},{_M},{_M}", "(n),(m,m)->(m,m)")
 def matrix_from_quat(q, d33, o):
-    # Dantam 2014 eq. (108) / Walker 1991 eq. (4), scaled by 2/|q|**2 so non-unit input is normalised.
+    # Dantam 2014 eq. (108) / Walker 1991 eq. (4), scaled by 2/|q|**2 so non-unit input is normalized.
     m = rotmat(q[0], q[1], q[2], q[3])
     for i in range(3):
         for j in range(3):
@@ -166,7 +166,7 @@ def quat_from_matrix(r, d4, o):
 
 @gu(f"{_V},{_V},{_S},{_V}", "(n),(n),()->(n)")
 def quat_slerp(p, q, t, o):
-    # Dantam 2014 eq. (58): p (x) (p* (x) q)**t along the shorter arc; inputs normalised.
+    # Dantam 2014 eq. (58): p (x) (p* (x) q)**t along the shorter arc; inputs normalized.
     np_ = norm4(p[0], p[1], p[2], p[3])
     nq = norm4(q[0], q[1], q[2], q[3])
     if np_ == 0.0 or nq == 0.0:

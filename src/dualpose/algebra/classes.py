@@ -161,7 +161,7 @@ class Quaternion(_Batch):
     """A batch of quaternions, ``(..., 4)`` ordered ``[x, y, z, w]`` (scalar last), Hamilton product.
 
     ``Quaternion(array, copy=True)`` wraps any ``(..., 4)`` array-like (copied unless ``copy=False``); no
-    normalisation is applied (use :meth:`normalize`).  Unit quaternions rotate vectors actively,
+    normalization is applied (use :meth:`normalize`).  Unit quaternions rotate vectors actively,
     ``v' = q (x) v (x) q*``; a pose's orientation maps body (child) coordinates to world (parent) coordinates.
     ``p * q`` is the Hamilton product (rotate by ``q``, then by ``p``); ``q ** t`` the principal power.
     """
@@ -184,7 +184,7 @@ class Quaternion(_Batch):
 
     @classmethod
     def from_axis_angle(cls, axis: ArrayLike, angle: ArrayLike) -> Quaternion:
-        """From axes (..., 3; normalised inside) and angles (...), radians."""
+        """From axes (..., 3; normalized inside) and angles (...), radians."""
         return cls._wrap(_q.quat_from_axis_angle(axis, angle))
 
     @classmethod
@@ -196,7 +196,7 @@ class Quaternion(_Batch):
     def random(
         cls, shape: int | tuple[int, ...] | None = None, rng: np.random.Generator | int | None = None
     ) -> Quaternion:
-        """Uniformly distributed (Haar) rotations: normalised standard-normal 4-vectors (either sign).
+        """Uniformly distributed (Haar) rotations: normalized standard-normal 4-vectors (either sign).
 
         ``rng`` is a :class:`numpy.random.Generator` or a seed.
         """
@@ -221,7 +221,7 @@ class Quaternion(_Batch):
         """Unit axes (..., 3) and angles (...) in [0, π]; the identity gets axis ``[1, 0, 0]``."""
         return _q.axis_angle_from_quat(self._a)
 
-    def to_scipy(self) -> Any:
+    def as_scipy(self) -> Any:
         """A :class:`scipy.spatial.transform.Rotation` of the same batch shape.  Imports scipy."""
         return _interop.scipy_from_quat(self._a)
 
@@ -237,7 +237,7 @@ class Quaternion(_Batch):
         return Quaternion._wrap(_q.quat_pow(self._a, t))
 
     def apply(self, vectors: ArrayLike) -> np.ndarray:
-        """Rotate vectors (..., 3) actively: ``q (x) v (x) q*`` (non-unit ``q`` is normalised)."""
+        """Rotate vectors (..., 3) actively: ``q (x) v (x) q*`` (non-unit ``q`` is normalized)."""
         return _q.quat_rotate(self._a, vectors)
 
     def inv(self) -> Quaternion:
@@ -280,7 +280,7 @@ class Quaternion(_Batch):
 class DualQuaternion(_Batch):
     """A batch of dual quaternions, ``(..., 8)`` = ``[real xyzw, dual xyzw]`` with ``dual = ½ t (x) real``.
 
-    ``DualQuaternion(array, copy=True)`` wraps any ``(..., 8)`` array-like without normalising it.  A unit dual
+    ``DualQuaternion(array, copy=True)`` wraps any ``(..., 8)`` array-like without normalizing it.  A unit dual
     quaternion is the rigid transform ``p -> R p + t`` mapping body (child) coordinates to world (parent)
     coordinates; ``a * b`` composes (apply ``b``, then ``a``), ``a ** t`` is the screw power.
     """
@@ -370,7 +370,7 @@ class DualQuaternion(_Batch):
         """Translations (..., 3), ``t = 2 vec(dual (x) real*)`` for unit input."""
         return _dualquat.qt_from_dualquat(self._a)[1]
 
-    def to_scipy(self) -> Any:
+    def as_scipy(self) -> Any:
         """A :class:`scipy.spatial.transform.RigidTransform` of the same batch shape.  Imports scipy."""
         return _interop.scipy_from_dualquat(self._a)
 

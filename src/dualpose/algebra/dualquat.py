@@ -163,7 +163,7 @@ def dualquat_from_qt(q: ArrayLike, t: ArrayLike) -> np.ndarray:
     Parameters
     ----------
     q : array_like, shape (..., 4)
-        Rotations (body to world), xyzw; normalised here, sign kept.  A zero quaternion raises ``ValueError``.
+        Rotations (body to world), xyzw; normalized here, sign kept.  A zero quaternion raises ``ValueError``.
     t : array_like, shape (..., 3)
         Translations: the body origin in world coordinates.
 
@@ -232,7 +232,7 @@ def dualquat_from_matrix(matrix: ArrayLike) -> np.ndarray:
 def matrix_from_dualquat(s: ArrayLike) -> np.ndarray:
     """Homogeneous transforms ``[[R, t], [0, 1]]`` of dual quaternions (Walker 1991 eqs. (17)-(19); Dantam (109)).
 
-    ``s`` has shape (..., 8); a non-unit real part is normalised (``R`` uses ``2/|r|²``, ``t`` as in
+    ``s`` has shape (..., 8); a non-unit real part is normalized (``R`` uses ``2/|r|²``, ``t`` as in
     :func:`qt_from_dualquat`), zero raises ``ValueError``.  Returns (..., 4, 4) with ``T @ [p, 1] ==
     [dualquat_transform(s, p), 1]``.
     """
@@ -248,7 +248,7 @@ def dualquat_transform(s: ArrayLike, points: ArrayLike, out: np.ndarray | None =
     Parameters
     ----------
     s : array_like, shape (..., 8)
-        Rigid transforms (body to world).  A non-unit real part is normalised (``2/|r|²`` scaling) and ``t`` is
+        Rigid transforms (body to world).  A non-unit real part is normalized (``2/|r|²`` scaling) and ``t`` is
         read as in :func:`qt_from_dualquat`; a zero real part raises ``ValueError``.
     points : array_like, shape (..., 3)
         Points in body coordinates.  Leading axes broadcast with those of ``s``.
@@ -362,7 +362,7 @@ def dualquat_from_twist(xi: ArrayLike) -> np.ndarray:
 def twist_from_dualquat(s: ArrayLike) -> np.ndarray:
     """Exponential coordinates ``[ω, v]`` (..., 6) of rigid transforms ``s`` (..., 8).
 
-    ``s`` is normalised (:func:`dualquat_normalize`) and canonicalised (``r_w >= 0``), then ``2 ln s`` is taken
+    ``s`` is normalized (:func:`dualquat_normalize`) and canonicalised (``r_w >= 0``), then ``2 ln s`` is taken
     (Dantam 2014 eqs. (86)-(92)), so ``|ω| <= π`` and ``s`` and ``−s`` give the same twist.  Inverse of
     :func:`dualquat_from_twist` on ``|ω| < π``; equals scipy's ``RigidTransform.as_exp_coords``.
     A zero real part raises ``ValueError``.
@@ -379,7 +379,7 @@ def dualquat_sclerp(s0: ArrayLike, s1: ArrayLike, t: ArrayLike) -> np.ndarray:
     Parameters
     ----------
     s0, s1 : array_like, shape (..., 8)
-        End poses; normalised inside (zero real part raises ``ValueError``).  The path does not depend on the
+        End poses; normalized inside (zero real part raises ``ValueError``).  The path does not depend on the
         sign of ``s1``; the overall sign follows ``s0``.
     t : array_like, shape (...)
         Interpolation parameter; 0 gives ``s0``, 1 gives ``±s1``; values outside [0, 1] extrapolate.
@@ -410,7 +410,7 @@ def dualquat_from_screw(axis: ArrayLike, point: ArrayLike, pitch_distance: Array
     Parameters
     ----------
     axis : array_like, shape (..., 3)
-        Axis direction ``n``; normalised here (a zero axis raises ``ValueError``).
+        Axis direction ``n``; normalized here (a zero axis raises ``ValueError``).
     point : array_like, shape (..., 3)
         Any point ``p`` on the axis (only its component ⊥ ``n`` matters).
     pitch_distance : array_like, shape (...)
@@ -437,7 +437,7 @@ def dualquat_from_screw(axis: ArrayLike, point: ArrayLike, pitch_distance: Array
 def screw_from_dualquat(s: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Walker screw parameters ``(n, p, d, θ)`` of rigid transforms (Walker 1991 Appendix 3, stable form).
 
-    ``s`` (..., 8) is normalised and canonicalised (``r_w >= 0``), then ``θ = 2 atan2(|r_v|, r_w)`` ∈ [0, π],
+    ``s`` (..., 8) is normalized and canonicalised (``r_w >= 0``), then ``θ = 2 atan2(|r_v|, r_w)`` ∈ [0, π],
     ``n = r_v/|r_v|``, ``d = 2 (r_w (n·s_v) − s_w |r_v|)`` and ``p = (r_v × s_v)/|r_v|²``, which is the point of
     the axis closest to the origin (``p ⊥ n``; Walker's eqs. (70)-(75) leave ``p + α n`` free).  These forms avoid
     Walker's division by ``sin(θ/2)``.  A pure translation gives ``θ = 0``, ``n = t/|t|``, ``d = |t|``, ``p = 0``;
@@ -454,7 +454,7 @@ def screw_from_dualquat(s: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarra
     angle : ndarray, shape (...)
         θ ∈ [0, π], radians.
 
-    ``dualquat_from_screw(*screw_from_dualquat(s))`` is the canonical normalised ``s``.  A zero real part raises
+    ``dualquat_from_screw(*screw_from_dualquat(s))`` is the canonical normalized ``s``.  A zero real part raises
     ``ValueError``.
     """
     s = as_array(s, "s", 8)

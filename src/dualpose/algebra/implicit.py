@@ -70,7 +70,7 @@ def qt_transform(q: ArrayLike, t: ArrayLike, points: ArrayLike) -> np.ndarray:
     Parameters
     ----------
     q : array_like, shape (..., 4)
-        Rotation, xyzw (normalised inside; zero raises ``ValueError``).
+        Rotation, xyzw (normalized inside; zero raises ``ValueError``).
     t : array_like, shape (..., 3)
         Translation.
     points : array_like, shape (..., 3)
@@ -175,7 +175,7 @@ def qt_mul_derivative(
     ``d/dt (q1 (x) q2) = q̇1 (x) q2 + q1 (x) q̇2`` and
     ``d/dt (rot(q1, t2) + t1) = ṫ1 + q̇1 (x) t2 (x) q1* + q1 (x) ṫ2 (x) q1* + q1 (x) t2 (x) q̇1*``.
 
-    The translation part is evaluated on the normalised rotation ``u = q1/|q1|`` with
+    The translation part is evaluated on the normalized rotation ``u = q1/|q1|`` with
     ``u̇ = (q̇1 − (u·q̇1) u)/|q1|``, so it is the exact derivative of what :func:`qt_mul` computes for any nonzero
     ``q1``; for a unit ``q1`` with a tangent ``q̇1`` (``q1·q̇1 = 0``, as for ``q̇1 = ½ ω (x) q1``) it is eq. (107)
     literally.

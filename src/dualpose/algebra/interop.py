@@ -60,7 +60,7 @@ def quat_from_scipy(rotation: Any) -> np.ndarray:
 def scipy_from_quat(q: ArrayLike) -> Any:
     """A :class:`scipy.spatial.transform.Rotation` from quaternions ``q`` (..., 4), xyzw.
 
-    scipy normalises ``q``; the sign is kept.  ``q`` must be finite and nonzero (``ValueError`` naming ``q``
+    scipy normalizes ``q``; the sign is kept.  ``q`` must be finite and nonzero (``ValueError`` naming ``q``
     otherwise).  Batches with more than one leading axis need scipy >= 1.17 (N-D ``Rotation``).
     """
     from scipy.spatial.transform import Rotation
@@ -90,7 +90,7 @@ def scipy_from_dualquat(dq: ArrayLike) -> Any:
 
     Built as ``RigidTransform.from_components(t, Rotation.from_quat(q))`` with ``(q, t) = qt_from_dualquat(dq)``,
     so the rotation and translation are exactly dualpose's reading of ``dq`` (``from_dual_quat`` would apply
-    scipy's own normalisation, and it silently maps a zero real part to the identity rotation).  ``dq`` must be
+    scipy's own normalization, and it silently maps a zero real part to the identity rotation).  ``dq`` must be
     finite with a nonzero real part (``ValueError`` naming ``dq`` otherwise).
     """
     from scipy.spatial.transform import RigidTransform, Rotation

@@ -257,7 +257,7 @@ def se3_right_jacobian_inv(xi: ArrayLike) -> np.ndarray:
 def so3_adjoint(q: ArrayLike) -> np.ndarray:
     """Adjoint of SO(3): ``Ad_R = R``, so ``exp((R φ)×) = R exp(φ×) Rᵀ``.
 
-    ``q`` is (..., 4) xyzw (normalised inside; zero raises); returns (..., 3, 3) = :func:`matrix_from_quat`.
+    ``q`` is (..., 4) xyzw (normalized inside; zero raises); returns (..., 3, 3) = :func:`matrix_from_quat`.
     """
     return matrix_from_quat(q)
 
@@ -270,7 +270,7 @@ def se3_adjoint(q: ArrayLike, t: ArrayLike) -> np.ndarray:
     Parameters
     ----------
     q : array_like, shape (..., 4)
-        Rotation, xyzw (normalised inside; zero raises ``ValueError``).
+        Rotation, xyzw (normalized inside; zero raises ``ValueError``).
     t : array_like, shape (..., 3)
         Translation.
 

@@ -197,7 +197,7 @@ def quat_rotate(q: ArrayLike, v: ArrayLike, out: np.ndarray | None = None) -> np
     Parameters
     ----------
     q : array_like, shape (..., 4)
-        Rotations, xyzw.  Non-unit input is normalised (the kernel uses ``2/|q|**2``); zero raises.
+        Rotations, xyzw.  Non-unit input is normalized (the kernel uses ``2/|q|**2``); zero raises.
     v : array_like, shape (..., 3)
         Vectors in the frame being rotated from.
     out : ndarray, shape (..., 3), optional
@@ -238,7 +238,7 @@ def quat_from_rotvec(rotvec: ArrayLike) -> np.ndarray:
 def rotvec_from_quat(q: ArrayLike) -> np.ndarray:
     """Rotation vector ``2 ln q`` with angle in [0, π] (Dantam 2014 eqs. (51)-(53), atan2 form).
 
-    ``q`` and ``-q`` give the same result; non-unit input is treated as its normalisation (the map is scale
+    ``q`` and ``-q`` give the same result; non-unit input is treated as its normalization (the map is scale
     invariant).  Shape (..., 4) -> (..., 3), radians.  Raises ``ValueError`` for a zero quaternion.
     """
     q = as_array(q, "q", 4)
@@ -248,7 +248,7 @@ def rotvec_from_quat(q: ArrayLike) -> np.ndarray:
 
 
 def quat_from_axis_angle(axis: ArrayLike, angle: ArrayLike) -> np.ndarray:
-    """Quaternion ``[sin(θ/2) u, cos(θ/2)]`` of an axis (normalised here) and angle θ in radians.
+    """Quaternion ``[sin(θ/2) u, cos(θ/2)]`` of an axis (normalized here) and angle θ in radians.
 
     ``axis`` has shape (..., 3), ``angle`` shape (...); they broadcast.  Returns (..., 4), xyzw.  A zero axis
     raises ``ValueError``.
@@ -276,7 +276,7 @@ def axis_angle_from_quat(q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
 def matrix_from_quat(q: ArrayLike) -> np.ndarray:
     """Rotation matrix of quaternions (Dantam 2014 eq. (108); Walker 1991 eq. (4)).
 
-    ``q`` has shape (..., 4), xyzw; non-unit input is normalised, zero raises.  Returns (..., 3, 3) with
+    ``q`` has shape (..., 4), xyzw; non-unit input is normalized, zero raises.  Returns (..., 3, 3) with
     ``R @ v == quat_rotate(q, v)``; column i is the child frame's axis i in parent coordinates.
     """
     q = as_array(q, "q", 4)
@@ -289,7 +289,7 @@ def quat_from_matrix(matrix: ArrayLike) -> np.ndarray:
     """Unit quaternion (xyzw, ``w >= 0``) of rotation matrices, shape (..., 3, 3) -> (..., 4).
 
     Shepperd's method (Walker 1991 eqs. (21)-(24) made stable by branching on the largest of the trace and the
-    diagonal), then normalised.  Exact for 180° rotations.  Input must be finite (``ValueError`` otherwise);
+    diagonal), then normalized.  Exact for 180° rotations.  Input must be finite (``ValueError`` otherwise);
     a nearly orthogonal matrix maps to a quaternion within O(|RᵀR − I|) of its nearest rotation.
     """
     m = as_array(matrix, "matrix", (3, 3))
@@ -303,7 +303,7 @@ def quat_slerp(q0: ArrayLike, q1: ArrayLike, t: ArrayLike) -> np.ndarray:
     Parameters
     ----------
     q0, q1 : array_like, shape (..., 4)
-        End orientations, xyzw (normalised inside; zero raises).  The result does not depend on their signs
+        End orientations, xyzw (normalized inside; zero raises).  The result does not depend on their signs
         except for the overall sign, which follows ``q0``.
     t : array_like, shape (...)
         Interpolation parameter; 0 gives ``q0``, 1 gives ``±q1``; values outside [0, 1] extrapolate.
@@ -325,7 +325,7 @@ def quat_slerp(q0: ArrayLike, q1: ArrayLike, t: ArrayLike) -> np.ndarray:
 def quat_angle(p: ArrayLike, q: ArrayLike) -> np.ndarray:
     """Rotation angle between orientations ``p`` and ``q``, in [0, π] radians.
 
-    Computed as ``4 atan2(min(|p−q|, |p+q|), max(|p−q|, |p+q|))`` on the normalised inputs: Kahan's atan2 form
+    Computed as ``4 atan2(min(|p−q|, |p+q|), max(|p−q|, |p+q|))`` on the normalized inputs: Kahan's atan2 form
     of the angle between the 4-vectors (Dantam 2014 eq. (42)), doubled, and invariant under ``q -> -q``
     (double cover).  Accurate for tiny and for near-π angles, unlike ``2 acos|p·q|``.
     Shapes (..., 4) and (..., 4) broadcast; returns (...).
@@ -406,7 +406,7 @@ def quat_mean(quats: ArrayLike, weights: ArrayLike | None = None) -> np.ndarray:
     Parameters
     ----------
     quats : array_like, shape (..., n, 4)
-        Orientations, xyzw (normalised inside; zero raises).  The mean is over axis -2.
+        Orientations, xyzw (normalized inside; zero raises).  The mean is over axis -2.
     weights : array_like, shape (..., n), optional
         Non-negative weights (not all zero); uniform when omitted.
 

@@ -123,7 +123,7 @@ def scene_gravity(
     w = w / w.sum()
     m = w @ u_w
     up = m / np.linalg.norm(m)
-    # the normalised weighted mean: δup = P_up Σ w_k δu_k / ‖m‖
+    # the normalized weighted mean: δup = P_up Σ w_k δu_k / ‖m‖
     p_up = (np.eye(3) - np.outer(up, up)) / np.linalg.norm(m)
     cov = p_up @ np.einsum("k,kij->ij", w**2, c_ind) @ p_up.T
     if extrinsic_covariance is not None:

@@ -26,7 +26,7 @@ from dualpose.registration import HandEyeWarning, calibrate_hand_eye
 __all__ = ["HandEyeStreamResult", "calibrate_hand_eye_streams"]
 
 _CHI2_3_MEDIAN = 2.365974  # median of χ²(3): robust scale of a 3-vector residual
-_CHI2_6_999 = 22.457744  # 0.999 quantile of χ²(6): inlier gate of the normalised 6-vector residual
+_CHI2_6_999 = 22.457744  # 0.999 quantile of χ²(6): inlier gate of the normalized 6-vector residual
 _CHI2_6_9999 = 27.855876  # 0.9999 quantile of χ²(6): gate of the per-pose target consistency
 
 
@@ -68,7 +68,7 @@ class HandEyeStreamResult:
     time_offset : float
         ``τ`` (s): camera time ``t`` ↔ body time ``t + τ``.
     coarse_time_offset, coarse_correlation : float
-        ``τ`` of the rate correlation and its normalised correlation peak.
+        ``τ`` of the rate correlation and its normalized correlation peak.
     rotation_rmse_deg, translation_rmse_m : float
         RMS loop residuals over the inlier pairs (rotation angle in deg, translation norm in m).
     pairs : ndarray of int, shape (m, 2)
@@ -257,7 +257,7 @@ def calibrate_hand_eye_streams(
 
 
 def _joint_fit(camera, body, i, j, qx0, tx0, tau0, sr, st, fix_tau, max_gap):
-    """Least squares of ``[δθ, t, dτ]`` on the normalised residuals ``[θ_ij/σ_r, t_ij/σ_t]`` of the pairs."""
+    """Least squares of ``[δθ, t, dτ]`` on the normalized residuals ``[θ_ij/σ_r, t_ij/σ_t]`` of the pairs."""
     qa, ta, _, _, _ = pair_motions(camera, body, i, j, tau0, max_gap)
 
     def fun(z: np.ndarray) -> np.ndarray:
@@ -277,7 +277,7 @@ def _joint_fit(camera, body, i, j, qx0, tx0, tau0, sr, st, fix_tau, max_gap):
 
 
 def _covariance(sol, fix_tau: bool) -> np.ndarray:
-    """``s² (JᵀJ)⁻¹`` with ``s² = ‖r‖² / (n − p)`` over the normalised residuals; τ row/column 0 when fixed."""
+    """``s² (JᵀJ)⁻¹`` with ``s² = ‖r‖² / (n − p)`` over the normalized residuals; τ row/column 0 when fixed."""
     jac = np.asarray(sol.jac)
     if fix_tau:
         jac = jac[:, :6]

@@ -72,7 +72,7 @@ def clean_pose_stream(
 ) -> tuple[PoseStream, CleaningReport]:
     """Sort a pose stream, drop repeated rows and merge time stamps that carry different poses.
 
-    Rules, in order: (1) quaternions are normalised (zero raises); (2) rows are sorted by stamp (stable: rows with
+    Rules, in order: (1) quaternions are normalized (zero raises); (2) rows are sorted by stamp (stable: rows with
     equal stamps keep their file order); (3) rows equal to an earlier row with the same stamp (position and
     orientation, ``q ≡ -q``) are dropped; (4) the different poses that remain at one stamp are averaged — the
     mean position and the Markley mean orientation (:func:`dualpose.quat_mean`) — so that the result does not

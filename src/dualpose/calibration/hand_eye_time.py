@@ -1,7 +1,7 @@
 """Coarse time offset between two pose streams from the cross-correlation of their angular-rate magnitudes.
 
 The rate magnitude ``|ω(t)|`` of a rigid rig is the same for every sensor on it (the hand–eye rotation does not change
-it), so the offset ``τ`` (camera time ``t`` ↔ body time ``t + τ``) maximises the normalised cross-correlation of the
+it), so the offset ``τ`` (camera time ``t`` ↔ body time ``t + τ``) maximises the normalized cross-correlation of the
 two rate signals (as in Furrer et al., FSR 2017: filtered angular-velocity norms, cross-correlated).  Each stream is
 resampled on its own grid starting at its own first stamp, so an offset of hours between unrelated clocks costs
 nothing more than one of milliseconds.
@@ -29,7 +29,7 @@ class CoarseOffset:
     offset : float
         ``τ`` (s): camera time ``t`` corresponds to body time ``t + τ``.
     correlation : float
-        Normalised cross-correlation at the peak, in [-1, 1].
+        Normalized cross-correlation at the peak, in [-1, 1].
     overlap : float
         Length of the overlap of the two valid rate signals at the peak (s).
     """
@@ -87,7 +87,7 @@ def coarse_time_offset(
     camera: PoseStream, body: PoseStream, *, dt: float = 0.01, max_gap_camera: float | None = None,
     max_gap_body: float | None = None, min_overlap_fraction: float = 0.3, max_offset: float | None = None,
 ) -> CoarseOffset:  # fmt: skip
-    """Time offset maximising the normalised cross-correlation of the angular-rate magnitudes.
+    """Time offset maximising the normalized cross-correlation of the angular-rate magnitudes.
 
     For lag ``L`` (camera grid sample ``k`` ↔ body grid sample ``k + L``) the score is
     ``Σ a_k b_(k+L) / sqrt(Σ a_k² m^b_(k+L) · Σ m^a_k b_(k+L)²)`` over the samples valid in both (``a``, ``b`` the

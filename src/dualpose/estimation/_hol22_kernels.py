@@ -7,7 +7,7 @@ readable reference and are checked against these kernels in the tests):
 * time update (eq. 9): ``x ← f(x, T)``, ``P ← F P Fᵀ + diag(qdiag) T``, ``qdiag`` (22,) the process spectral
   densities (zero outside b̈, ω and the biases);
 * IMU update (eq. 11a, 11b) with ``R_imu`` (6, 6), camera update (eq. 11c) per correspondence, χ²-gated in order of
-  prior NIS, noise ``(Z σ_px)² I₂``; the quaternion is renormalised after each update and its covariance block
+  prior NIS, noise ``(Z σ_px)² I₂``; the quaternion is renormalized after each update and its covariance block
   projected (``J = (I − u uᵀ)/|q|``).
 
 Imported lazily; every kernel has an explicit signature (compiled or loaded from the cache on import).
@@ -101,7 +101,7 @@ def time_update(x, P, dt, qdiag):
 
 
 @_jit(f"void({V}, {M})")
-def normalise(x, P):
+def normalize(x, P):
     """``q ← q/|q|`` and ``P ← J P Jᵀ`` with ``J = I`` except the quaternion block ``(I − u uᵀ)/|q|``."""
     nq = math.sqrt(x[9] * x[9] + x[10] * x[10] + x[11] * x[11] + x[12] * x[12])
     u = np.empty(4)
@@ -154,7 +154,7 @@ def imu_update(x, P, accel, gyro, gravity, R_imu, R, dR):
     K = np.linalg.solve(S, HP).T
     x += K @ nu
     joseph(P, K, H, R_imu)
-    normalise(x, P)
+    normalize(x, P)
     return nu @ np.linalg.solve(S, nu)
 
 
@@ -204,7 +204,7 @@ def camera_update(x, P, pixels, points, intr, p_bc, Rcb, depth_floor_sigma, sigm
     dx = np.zeros(22)
     sequential_gated_update(P, h, H, s2, depth, gate, dx, nis_out, acc_out)
     x += dx
-    normalise(x, P)
+    normalize(x, P)
 
 
 @_jit(

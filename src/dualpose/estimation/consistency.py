@@ -33,7 +33,7 @@ def error_state(
 
 
 def nees(error: np.ndarray, covariance: np.ndarray) -> np.ndarray:
-    """Normalised estimation error squared ``eᵀ P⁻¹ e`` for errors (N, n) and covariances (N, n, n)."""
+    """Normalized estimation error squared ``eᵀ P⁻¹ e`` for errors (N, n) and covariances (N, n, n)."""
     return np.einsum("ni,ni->n", error, np.linalg.solve(covariance, error[..., None])[..., 0])
 
 

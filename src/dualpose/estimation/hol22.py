@@ -6,7 +6,7 @@ constant acceleration and angular velocity driven by white noise, biases random 
 ``q_{t+1} = exp(−T/2 ω) ⊙ q_t``.  Accelerometer (eq. 11a) and gyroscope (eq. 11b) are *measurements* processed at
 every IMU sample; camera frames (eq. 11c, the implicit ``[−f I₂, zⁱ] z^c = 0`` form, noise covariance
 ``(Z σ_px)² I₂`` with the predicted depth Z) whenever a frame arrives, after a time update to the frame time.  The
-quaternion is renormalised after each update and its covariance block projected accordingly.  The step methods
+quaternion is renormalized after each update and its covariance block projected accordingly.  The step methods
 are plain numpy (the readable reference); :meth:`Hol22EKF.run` is the same algorithm compiled
 (:mod:`dualpose.estimation._hol22_kernels`).  The error-state filter (:mod:`dualpose.estimation.eskf`) is the faster,
 recommended default.
@@ -193,7 +193,7 @@ class Hol22EKF:
         q[19:22] = n.accelerometer_random_walk**2
         return q
 
-    def _normalise(self) -> None:
+    def _normalize(self) -> None:
         q = self.x[9:13]
         nq = np.linalg.norm(q)
         u = q / nq
@@ -218,7 +218,7 @@ class Hol22EKF:
         K = np.linalg.solve(S, H @ self.P).T
         self.x = self.x + K @ nu
         self._joseph(K, H, self.R_imu)
-        self._normalise()
+        self._normalize()
         return float(nu @ np.linalg.solve(S, nu))
 
     # ------------------------------------------------------------------ eq. 11c
@@ -256,7 +256,7 @@ class Hol22EKF:
             self._joseph(K, Hi, R)
             acc[i] = True
         self.x = self.x + dx
-        self._normalise()
+        self._normalize()
         self._nis.append(nis)
         self._acc.append(acc)
         return acc

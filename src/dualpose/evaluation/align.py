@@ -149,7 +149,7 @@ def origin_alignment(
     position_ref, position_est : array_like, shape (3,)
         Metres.
     quat_ref, quat_est : array_like, shape (4,)
-        xyzw, normalised here.
+        xyzw, normalized here.
 
     Returns
     -------

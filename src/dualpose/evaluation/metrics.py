@@ -14,7 +14,7 @@ Definitions follow Sturm et al. 2012 (TUM RGB-D benchmark, ATE eq. 3 and RPE eq.
   ``E = (Q_i^-1 Q_j)^-1 (P_i^-1 P_j)``: its translation norm (metres) and rotation angle (degrees).
 
 Layouts: stamps ``(N,)`` seconds, positions ``(N, 3)`` metres, quaternions ``(N, 4)`` xyzw body -> world (need not be
-unit: they are normalised here).  Every function is vectorised over the poses.
+unit: they are normalized here).  Every function is vectorised over the poses.
 """
 
 from __future__ import annotations
@@ -175,7 +175,7 @@ def ate_errors(positions_ref: ArrayLike, positions_est: ArrayLike) -> np.ndarray
 def orientation_errors_deg(quats_ref: ArrayLike, quats_est: ArrayLike) -> np.ndarray:
     """Rotation angle between matched orientations, ``angle(q_ref_i^-1 (x) q_est_i)``, degrees in [0, 180].
 
-    ``quats_ref``, ``quats_est``: (N, 4) xyzw (normalised here; sign-invariant).  Uses :func:`dualpose.quat_angle`
+    ``quats_ref``, ``quats_est``: (N, 4) xyzw (normalized here; sign-invariant).  Uses :func:`dualpose.quat_angle`
     (atan2 form, accurate for tiny angles).  Returns (N,).
     """
     a, b = as_quats(quats_ref, "quats_ref"), as_quats(quats_est, "quats_est")
@@ -312,7 +312,7 @@ class Evaluation:
     stamps : ndarray, shape (K,)
         The matched times in the reference's clock, seconds.
     positions_ref, quats_ref : ndarray, shapes (K, 3), (K, 4)
-        Matched (or interpolated) reference poses (quaternions normalised).
+        Matched (or interpolated) reference poses (quaternions normalized).
     positions_est, quats_est : ndarray, shapes (K, 3), (K, 4)
         Matched estimate poses after the alignment.
     alignment : Alignment

@@ -38,7 +38,7 @@ def _unit_rows(q: np.ndarray, name: str) -> np.ndarray:
 
 
 def earth_error_quat(q_est: np.ndarray, q_ref: np.ndarray) -> np.ndarray:
-    """Earth-frame error ``e = q_est ⊗ q_ref*`` of IMU → earth orientations, (n, 4) xyzw (rows normalised first)."""
+    """Earth-frame error ``e = q_est ⊗ q_ref*`` of IMU → earth orientations, (n, 4) xyzw (rows normalized first)."""
     import dualpose as dp
 
     a = _unit_rows(q_est, "q_est")

@@ -5,7 +5,8 @@ Import explicitly (``import dualpose.inertial``); ``import dualpose`` does not l
 * :func:`integrate_attitude` / :func:`integrate_pose`: fold gyro angle increments ``(..., K*N, 3)`` or dual
   increments ``(..., K*N, 6)`` into ``(..., K+1, 4)`` quaternions / ``(..., K+1, 8)`` dual quaternions with an
   N-sample algorithm (N = 1..4, ``"coning-optimal"`` or ``"polynomial"`` coefficients, ``"one-plus-previous"``),
-  body frame (right multiplication) or inertial frame (left multiplication).
+  body frame (right multiplication, ``frame="body"``) or space (inertial) frame (left multiplication,
+  ``frame="space"``).
 * :func:`rotation_vector`, :func:`screw_vector`, :func:`screw_exp`: the per-update pieces.
 * :func:`relative_pose`: leader–follower relative pose ``q̂_L* (x) q̂_F``.
 * :mod:`dualpose.inertial.motions`: exact motions (classical / dual coning, constant twist, smooth trajectory).

@@ -1,7 +1,7 @@
 """numba kernels that fold a sequence of rotation / screw vectors into (dual) quaternions (not public API).
 
 Imported lazily by :mod:`dualpose.inertial.integrate`.  One pass over the updates per batch element: the state
-lives in registers, each update is one exponential, one product and one renormalisation.  Quaternions are xyzw
+lives in registers, each update is one exponential, one product and one renormalization.  Quaternions are xyzw
 (Hamilton); dual quaternions ``[real xyzw, dual xyzw]`` with ``dual = ½ t (x) real``; screw vectors ``[σ, σ′]``.
 The inline helpers are those of the algebra kernels, so the arithmetic is the algebra's.
 """
@@ -97,7 +97,7 @@ def update_vectors(x, n, kmat, cprev, sgn, out):
 
 @njit
 def fold_quat(q0, x, n, kmat, cprev, sgn, out):
-    """out[b, 0] = q0[b]/|q0[b]|; out[b, k+1] = normalise(out[b, k] (x) exp(Φ_k/2)), or exp(Φ_k/2) (x) out[b, k]
+    """out[b, 0] = q0[b]/|q0[b]|; out[b, k+1] = normalize(out[b, k] (x) exp(Φ_k/2)), or exp(Φ_k/2) (x) out[b, k]
     when sgn < 0 (inertial frame), with Φ_k = update_vector(x[b], k, ...)."""
     left = sgn < 0.0
     for b in range(x.shape[0]):
@@ -120,7 +120,7 @@ def fold_quat(q0, x, n, kmat, cprev, sgn, out):
 
 @njit
 def fold_dualquat(s0, x, n, kmat, cprev, sgn, out):
-    """As :func:`fold_quat` for dual quaternions and screw vectors; renormalised (dual-number norm) each update."""
+    """As :func:`fold_quat` for dual quaternions and screw vectors; renormalized (dual-number norm) each update."""
     left = sgn < 0.0
     for b in range(x.shape[0]):
         xb = x[b]

@@ -64,7 +64,7 @@ _TABLES: dict[tuple[str, int], dict[tuple[int, int], Fr]] = {
 
 
 def check_algorithm(samples: object, coefficients: object) -> tuple[int, str]:
-    """Validate ``samples`` (int 1..4) and ``coefficients`` (a family name); returns them normalised."""
+    """Validate ``samples`` (int 1..4) and ``coefficients`` (a family name); returns them normalized."""
     if isinstance(samples, bool) or not isinstance(samples, int | np.integer):
         raise TypeError(f"samples must be an integer in 1..{MAX_SAMPLES}; got {samples!r}")
     samples = int(samples)

@@ -38,7 +38,7 @@ __all__ = [
     "relative_pose",
 ]
 
-Frame = Literal["body", "inertial"]
+Frame = Literal["body", "space"]
 Family = Literal["coning-optimal", "polynomial", "one-plus-previous"]
 _k = lazy_kernels("dualpose.inertial._fold_kernels")
 
@@ -46,9 +46,9 @@ _k = lazy_kernels("dualpose.inertial._fold_kernels")
 def _frame_sign(frame: object) -> float:
     if frame == "body":
         return 1.0
-    if frame in ("inertial", "space"):
+    if frame == "space":
         return -1.0
-    raise ValueError(f"frame must be 'body' or 'inertial' ('space' is accepted as an alias); got {frame!r}")
+    raise ValueError(f"frame must be 'body' or 'space' (as in dualpose.quat_integrate); got {frame!r}")
 
 
 def _split_updates(x: np.ndarray, name: str, samples: int) -> np.ndarray:
@@ -99,12 +99,12 @@ def rotation_vector(
     ----------
     dtheta : array_like, shape (..., K*N, 3)
         Angle increments ``∫ ω dt`` over consecutive sub-intervals, radians; body axes (``frame="body"``) or
-        inertial axes (``frame="inertial"``).
+        inertial axes (``frame="space"``).
     samples : int
         N, increments per update (1..4).
     coefficients : {"coning-optimal", "polynomial", "one-plus-previous"}
         Coefficient family (:func:`dualpose.inertial.coning_coefficients`).
-    frame : {"body", "inertial"}
+    frame : {"body", "space"}
 
     Returns
     -------
@@ -187,15 +187,15 @@ def integrate_attitude(
 ) -> np.ndarray:
     """Attitude quaternions from gyro angle increments with an N-sample rotation-vector algorithm.
 
-    ``q_{k+1} = q_k (x) exp(Φ_k/2)`` (body) or ``exp(Φ_k/2) (x) q_k`` (inertial), renormalised each update, with
+    ``q_{k+1} = q_k (x) exp(Φ_k/2)`` (body) or ``exp(Φ_k/2) (x) q_k`` (inertial), renormalized each update, with
     ``Φ_k`` from :func:`rotation_vector` (paper eqs. (14)-(21)).  One compiled pass, no Python loop over updates.
 
     Parameters
     ----------
     q0 : array_like, shape (..., 4)
-        Initial attitude ``q_b^i`` (xyzw); normalised before use.  Broadcasts with the leading axes of ``dtheta``.
+        Initial attitude ``q_b^i`` (xyzw); normalized before use.  Broadcasts with the leading axes of ``dtheta``.
     dtheta : array_like, shape (..., K*N, 3)
-        Angle increments, radians (body axes for ``frame="body"``, inertial axes for ``"inertial"``).
+        Angle increments, radians (body axes for ``frame="body"``, inertial axes for ``"space"``).
     samples, coefficients, frame
         See :func:`rotation_vector`.
 
@@ -217,14 +217,14 @@ def integrate_pose(
 ) -> np.ndarray:
     """Pose dual quaternions from dual increments ``[Δθ, Δu]`` with an N-sample screw-vector algorithm.
 
-    ``q̂_{k+1} = q̂_k (x) exp(Φ̂_k/2)`` (body) or ``exp(Φ̂_k/2) (x) q̂_k`` (inertial), renormalised each update
+    ``q̂_{k+1} = q̂_k (x) exp(Φ̂_k/2)`` (body) or ``exp(Φ̂_k/2) (x) q̂_k`` (inertial), renormalized each update
     (dual-number norm), with ``Φ̂_k`` from :func:`screw_vector` and the exponential of :func:`screw_exp` (paper
     eqs. (22)-(31)).  One compiled pass.
 
     Parameters
     ----------
     dq0 : array_like, shape (..., 8)
-        Initial pose ``q + ε ½ t^i (x) q``; normalised before use.  Broadcasts with the leading axes of
+        Initial pose ``q + ε ½ t^i (x) q``; normalized before use.  Broadcasts with the leading axes of
         ``dual_increments``.
     dual_increments : array_like, shape (..., K*N, 6)
         Rows ``[Δθ, Δu]``, radians and metres (see :func:`screw_vector` for the frames).

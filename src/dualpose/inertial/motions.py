@@ -4,7 +4,7 @@ Every motion gives the pose ``q̂(t) = q(t) + ε ½ t^i(t) (x) q(t)`` (``(..., 8
 (``(..., 6)`` = ``[ω, v]``) and the increments ``∫ [ω, v] dt`` over consecutive sub-intervals:
 
 * ``frame="body"``: ``ω^b`` and ``v^b = q* ṫ^i q`` (``q̂̇ = ½ q̂ (x) [ω^b, v^b]``);
-* ``frame="inertial"``: ``ω^i = q ω^b q*`` and ``v_s = ṫ^i − ω^i × t^i`` (``q̂̇ = ½ [ω^i, v_s] (x) q̂``).
+* ``frame="space"``: ``ω^i = q ω^b q*`` and ``v_s = ṫ^i − ω^i × t^i`` (``q̂̇ = ½ [ω^i, v_s] (x) q̂``).
 
 :class:`Coning` has closed-form increments; :class:`Trajectory` integrates any smooth twist by Gauss–Legendre
 quadrature (``nodes`` points per sub-interval, exact for polynomials of degree ``2·nodes − 1``).
@@ -27,7 +27,7 @@ __all__ = ["Motion", "Coning", "ConstantTwist", "SmoothTrajectory", "sample_time
 #: ρ_N of the coning drift ``ρ_N a² Ω (ΩT)^{2N}`` of the N-sample coning-optimal algorithm (docs/inertial.md §3)
 CONING_RHO = {1: 1 / 12, 2: 1 / 960, 3: 1 / 204120, 4: 1 / 82575360}
 
-Frame = Literal["body", "inertial"]
+Frame = Literal["body", "space"]
 
 
 def sample_times(t0: float, h: float, n: int) -> np.ndarray:
@@ -49,8 +49,8 @@ def coning_drift(a: float, Omega: float, T: float, samples: int) -> float:
 
 
 def _check_frame(frame: str) -> bool:
-    if frame not in ("body", "inertial"):
-        raise ValueError(f"frame must be 'body' or 'inertial'; got {frame!r}")
+    if frame not in ("body", "space"):
+        raise ValueError(f"frame must be 'body' or 'space'; got {frame!r}")
     return frame == "body"
 
 

@@ -43,7 +43,7 @@ def read_pose_csv(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.n
     positions : ndarray, shape (N, 3)
         Metres.
     quats : ndarray, shape (N, 4)
-        xyzw as written (not normalised).
+        xyzw as written (not normalized).
 
     Raises
     ------

@@ -26,7 +26,7 @@ def read_tum(path: str | os.PathLike) -> Trajectory:
     Returns
     -------
     Trajectory
-        ``stamps`` (N,) s, ``positions`` (N, 3) m, ``quats`` (N, 4) xyzw as written in the file (not normalised),
+        ``stamps`` (N,) s, ``positions`` (N, 3) m, ``quats`` (N, 4) xyzw as written in the file (not normalized),
         ``name`` = the path.
 
     Raises

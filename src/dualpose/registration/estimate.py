@@ -8,7 +8,7 @@ Cost (the one every method minimises, for weights ``β_i`` on points and ``α_j`
 
     E = Σ β_i ‖s R p⁰_i + t − p̃_i‖² + Σ α_j ‖R n⁰_j − ñ_j‖²
 
-Directions are normalised to unit length on input.
+Directions are normalized to unit length on input.
 """
 
 from __future__ import annotations
@@ -386,7 +386,7 @@ def register_pose(
         Corresponding points ``p⁰_i`` (model frame) and ``p̃_i`` (measured frame).  ``None`` for directions only
         (Wahba's problem): the rotation is returned and ``translation_observable`` is False.
     model_directions, measured_directions : array_like, shape (m, 3), optional
-        Corresponding directions ``n⁰_j``, ``ñ_j`` (e.g. surface normals, edge directions); normalised here.
+        Corresponding directions ``n⁰_j``, ``ñ_j`` (e.g. surface normals, edge directions); normalized here.
     point_weights, direction_weights : array_like, shape (n,) / (m,), optional
         ``β_i``, ``α_j`` >= 0 (default 1).  With inverse variances (``β = 1/σ_p²``, ``α = 1/σ_d²``) the estimate
         is maximum likelihood for isotropic Gaussian noise.

@@ -1,11 +1,11 @@
-"""Camera pose from 2-D–3-D point correspondences (PnP): normalised DLT + Gauss–Newton reprojection refinement.
+"""Camera pose from 2-D–3-D point correspondences (PnP): normalized DLT + Gauss–Newton reprojection refinement.
 
 Conventions: the result is the camera pose in the world, ``q_wc`` (4,) xyzw (camera→world, active) and the camera
 centre ``c_w`` (3,) metres; internally the world→camera map ``X_c = R_cw X_w + t`` is estimated.  Pixels ``(M, 2)``,
 points ``(M, 3)`` world frame, intrinsic matrix ``K`` (3, 3) without distortion.
 
-The linear stage is the classic 12-unknown DLT on normalised image coordinates (Hartley & Zisserman §7.1) with
-Hartley normalisation of the 3-D points; it needs ≥ 6 non-coplanar points (the two-plane scene is fine).  The
+The linear stage is the classic 12-unknown DLT on normalized image coordinates (Hartley & Zisserman §7.1) with
+Hartley normalization of the 3-D points; it needs ≥ 6 non-coplanar points (the two-plane scene is fine).  The
 rotation block is projected onto SO(3) (SVD) and the scale fixed from it; Gauss–Newton then minimises the pixel
 reprojection error over ``(δφ, δt)`` with the left perturbation ``R ← Exp(δφ) R``.
 """
@@ -74,7 +74,7 @@ def pnp_dlt(pixels: np.ndarray, points: np.ndarray, K: np.ndarray) -> tuple[np.n
 
 
 def _dlt_design(xn: np.ndarray, X: np.ndarray) -> np.ndarray:
-    """DLT design matrix (2m, 3k) of ``x ~ M X`` for normalised image points ``xn`` (m, 2) and homogeneous ``X``
+    """DLT design matrix (2m, 3k) of ``x ~ M X`` for normalized image points ``xn`` (m, 2) and homogeneous ``X``
     (m, k): rows ``[Xᵀ, 0, −u Xᵀ]`` and ``[0, Xᵀ, −v Xᵀ]`` (k = 4: the 3x4 projection, k = 3: a homography)."""
     m, k = X.shape
     A = np.zeros((2 * m, 3 * k))
@@ -92,7 +92,7 @@ def _general_dlt(xn: np.ndarray, points: np.ndarray, mu: np.ndarray) -> tuple[np
     Pm = vt[-1].reshape(3, 4)
     if np.mean(Xh @ Pm[2]) < 0:  # P is defined up to sign: put the points in front of the camera
         Pm = -Pm
-    # undo the point normalisation: X' = s (X − mu)
+    # undo the point normalization: X' = s (X − mu)
     M = Pm[:, :3] * s
     t = Pm[:, 3] - M @ mu
     u, sv, vt2 = np.linalg.svd(M)

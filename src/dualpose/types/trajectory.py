@@ -44,7 +44,7 @@ class Trajectory:
         Positions of the body in the world frame, metres.
     quats : ndarray, shape (N, 4)
         Orientations body -> world, xyzw, Hamilton.  Stored as given (files often round them to a few digits, so
-        they need not be exactly unit); the metrics normalise them.  Never zero.
+        they need not be exactly unit); the metrics normalize them.  Never zero.
     stamps_ns : ndarray of int64, shape (N,), optional
         Exact integer nanoseconds when the source had them; ``stamps`` then equals ``seconds_from_ns(stamps_ns)``.
     name : str
@@ -122,7 +122,7 @@ def as_positions(x: ArrayLike, name: str) -> np.ndarray:
 
 
 def as_quats(x: ArrayLike, name: str) -> np.ndarray:
-    """``x`` as finite quaternions (N, 4) xyzw, normalised to unit length; errors name ``name``."""
+    """``x`` as finite quaternions (N, 4) xyzw, normalized to unit length; errors name ``name``."""
     a = np.asarray(x, dtype=np.float64)
     if a.ndim != 2 or a.shape[1] != 4:
         raise ValueError(f"{name} must have shape (N, 4) (xyzw); got shape {a.shape}")
