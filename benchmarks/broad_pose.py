@@ -108,7 +108,7 @@ def render(main_rows: list[str], drop_rows: list[str], sweep_rows: list[str], tr
         "`dualpose fuse --data ../shared/data/broad/01_undisturbed_slow_rotation_A.mat` (the job's summary; its "
         "orientation RMSE is after the SE(3) alignment, see below).",
         "",
-        "Set-up, the same for every trial (`dualpose/fusion/broad_pose.py`):",
+        "Set-up, the same for every trial (`dualpose/sim/broad_vision.py`, run by `dualpose/pipelines/broad_pose.py`):",
         "",
         "* World ENU, gravity [0, 0, −9.8128] m/s² (normal gravity at Berlin).",
         "* Start: the IMU stream begins at the last sample before the first pseudo-vision frame; static alignment "

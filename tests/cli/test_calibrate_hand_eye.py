@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +16,7 @@ _spec = importlib.util.spec_from_file_location(
     "handeye_sim", Path(__file__).parents[1] / "calibration" / "handeye_sim.py"
 )
 sim = importlib.util.module_from_spec(_spec)
+sys.modules.setdefault(_spec.name, sim)  # dataclasses look their module up in sys.modules
 _spec.loader.exec_module(sim)
 
 KEYS = {"rotation_xyzw", "translation_m", "time_offset_s", "rotation_residual_deg", "translation_residual_m",

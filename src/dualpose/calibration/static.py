@@ -1,7 +1,7 @@
 """Static periods: the mean specific force and the camera pose (PnP over all frames of the period) with their
 uncertainties — the raw material of the static calibrations (:mod:`.extrinsic`, :mod:`.gravity`).
 
-Frames as in :mod:`dualpose.fusion`: world/scene ``w`` (the calibration pattern's or scene model's frame), body
+Frames as in :mod:`dualpose.estimation`: world/scene ``w`` (the calibration pattern's or scene model's frame), body
 ``b`` (IMU), camera ``c``.  ``q_wc`` (4,) xyzw is the camera→world rotation; its error is the camera-frame
 ``δθ_c`` of :class:`dualpose.registration.pnp.PnPResult` (``R_wc,true = R̂_wc Exp(δθ_c)``).
 """

@@ -1,6 +1,14 @@
-"""Camera-IMU pose tracking (Hol 2008; Solà 2017).
+"""State estimation for camera-IMU and IMU-only pose tracking (Hol 2008; Solà 2017), behind one interface.
 
-Submodules are imported explicitly (``from dualpose.fusion import sim, eskf``); nothing heavy loads here.
+* :mod:`~dualpose.estimation.interface`: :class:`Estimator` (``propagate``, ``update``, ``state``, ``covariance``,
+  named blocks) and the measurements it takes; :mod:`~dualpose.estimation.state`: every state layout, by name.
+* :mod:`~dualpose.estimation.eskf` (error-state EKF, the recommended camera-IMU filter),
+  :mod:`~dualpose.estimation.hol22` (Hol's 22-state EKF), :mod:`~dualpose.estimation.ahrs_filter` (the orientation
+  filter one sample at a time) and :mod:`~dualpose.estimation.ahrs` (its whole-recording estimator on real IMU data).
+* :mod:`~dualpose.estimation.smoother` (RTS), :mod:`~dualpose.estimation.initialization` (static alignment + PnP
+  start), :mod:`~dualpose.estimation.consistency` (NEES), :mod:`~dualpose.estimation.models` (measurement models).
+
+Submodules are imported explicitly (``from dualpose.estimation import eskf``); nothing heavy loads here.
 Conventions: the earth (world) frame ``w``/``e``, the IMU body frame ``b``, the camera frame ``c`` (z along the
 optical axis, x right, y down).  Orientations ``q_wb`` are ``(..., 4)`` xyzw quaternions rotating body vectors into
 the world frame (active, ``v_w = q v_b q*``); Hol's ``q^{be}`` is its conjugate.

@@ -24,6 +24,9 @@ import numba as nb
 import numpy as np
 
 from dualpose.estimation._eskf_kernels import _rotmat_xyzw, quat_mul_exp_inplace
+from dualpose.estimation.state import AHRS_D_ATTITUDE as _DTH
+from dualpose.estimation.state import AHRS_D_GYRO_BIAS as _DB
+from dualpose.estimation.state import AHRS_ERROR_DIM as _NE
 
 # params indices
 P_GYR_VAR = 0  # gyroscope white-noise density², rad²/s
@@ -81,23 +84,23 @@ def joseph_update(P, K, H, r):
     ``P`` (6, 6), ``K`` (6, m), ``H`` (m, 6).  Valid for any gain ``K`` (here: optimal gains with rows zeroed).
     """
     m = H.shape[0]
-    A = np.eye(6)
-    for i in range(6):
-        for j in range(6):
+    A = np.eye(_NE)
+    for i in range(_NE):
+        for j in range(_NE):
             s = 0.0
             for k in range(m):
                 s += K[i, k] * H[k, j]
             A[i, j] -= s
     AP = A @ P
     Pn = AP @ A.T
-    for i in range(6):
-        for j in range(6):
+    for i in range(_NE):
+        for j in range(_NE):
             s = 0.0
             for k in range(m):
                 s += K[i, k] * K[j, k]
             Pn[i, j] += r * s
-    for i in range(6):
-        for j in range(6):
+    for i in range(_NE):
+        for j in range(_NE):
             P[i, j] = 0.5 * (Pn[i, j] + Pn[j, i])
 
 
@@ -108,17 +111,18 @@ def inject_and_reset(q, b, P, dx):
     For the global error ``q = Exp(δθ) ⊗ q̂`` the reset Jacobian is ``I + [½δθ]×`` (Solà 2017, eq. 287 with the
     sign of the global error).
     """
-    exp_mul_quat_inplace(q, dx[0], dx[1], dx[2])
+    a, c, e = _DTH, _DTH + 1, _DTH + 2
+    exp_mul_quat_inplace(q, dx[a], dx[c], dx[e])
     for i in range(3):
-        b[i] += dx[3 + i]
-    hx, hy, hz = 0.5 * dx[0], 0.5 * dx[1], 0.5 * dx[2]
-    G = np.eye(6)
-    G[0, 1], G[0, 2] = -hz, hy
-    G[1, 0], G[1, 2] = hz, -hx
-    G[2, 0], G[2, 1] = -hy, hx
+        b[i] += dx[_DB + i]
+    hx, hy, hz = 0.5 * dx[a], 0.5 * dx[c], 0.5 * dx[e]
+    G = np.eye(_NE)
+    G[a, c], G[a, e] = -hz, hy
+    G[c, a], G[c, e] = hz, -hx
+    G[e, a], G[e, c] = -hy, hx
     Pn = G @ P @ G.T
-    for i in range(6):
-        for j in range(6):
+    for i in range(_NE):
+        for j in range(_NE):
             P[i, j] = Pn[i, j]
 
 
@@ -156,6 +160,41 @@ def heading_of_field(m_e, out_h, eps):
     return math.atan2(m_e[0], m_e[1])
 
 
+@_jit("void(f8[::1], f8[::1], f8[:,::1], f8, f8, f8, f8, f8, f8, f8, f8[:,::1], f8[:,::1])")
+def predict(q, b, P, gx, gy, gz, dt, gyr_var, bias_var, scale_var, R, RP):
+    """One predict in place with the gyroscope sample ``(gx, gy, gz)`` (rad/s) over ``dt`` (s): ``q ← q ⊗ Exp((ω −
+    b) dt)``, ``P ← F P Fᵀ + Q`` with ``F = [[I, −R dt], [0, I]]`` (global attitude error) and ``Q = diag((σ_g² +
+    ε²|ω − b|²) dt I, σ_b² dt I)`` (``gyr_var`` = σ_g², ``bias_var`` = σ_b², ``scale_var`` = ε² · 1 s).  ``R``,
+    ``RP`` (3, 3) are work arrays."""
+    wx, wy, wz = gx - b[0], gy - b[1], gz - b[2]
+    _rotmat_xyzw(q[0], q[1], q[2], q[3], R)
+    quat_mul_exp_inplace(q, wx * dt, wy * dt, wz * dt)
+    # P ← F P Fᵀ, F = [[I, -R dt], [0, I]], written blockwise: P = [[A, B], [Bᵀ, C]]
+    # A' = A − dt (R Bᵀ + B Rᵀ) + dt² R C Rᵀ, B' = B − dt R C, C' = C
+    for i in range(3):
+        for j in range(3):
+            s = 0.0
+            for m in range(3):
+                s += R[i, m] * P[_DB + m, _DB + j]
+            RP[i, j] = s  # R C
+    for i in range(3):
+        for j in range(3):
+            s = 0.0
+            for m in range(3):
+                # (R Bᵀ)[i, j] + (B Rᵀ)[i, j] with B[i, m] = P[_DTH + i, _DB + m]
+                s += R[i, m] * P[_DTH + j, _DB + m] + P[_DTH + i, _DB + m] * R[j, m] - dt * RP[i, m] * R[j, m]
+            P[_DTH + i, _DTH + j] -= dt * s
+    for i in range(3):
+        for j in range(3):
+            P[_DTH + i, _DB + j] -= dt * RP[i, j]
+            P[_DB + j, _DTH + i] = P[_DTH + i, _DB + j]
+    # white rate noise plus the rate-proportional error of scale factor and axis misalignment
+    q_theta = (gyr_var + scale_var * (wx * wx + wy * wy + wz * wz)) * dt
+    for i in range(3):
+        P[_DTH + i, _DTH + i] += q_theta
+        P[_DB + i, _DB + i] += bias_var * dt
+
+
 @_jit(
     "void(f8[:,::1], f8[:,::1], f8[:,::1], f8, f8[::1], f8[::1], f8[:,::1], f8[::1], f8[:,::1], f8[:,::1],"
     " f8[:,::1], f8[:,::1], f8[::1])"
@@ -180,10 +219,10 @@ def run_ahrs(gyr, acc, mag, dt, q, b, P, params, Ha, Hm, out_q, out_b, stats):
     RP = np.empty((3, 3))
     v = np.empty(3)
     hh = np.empty(1)
-    dx = np.empty(6)
-    Ka = np.zeros((6, 2))
-    PH = np.zeros((6, 2))
-    Km = np.zeros((6, 1))
+    dx = np.empty(_NE)
+    Ka = np.zeros((_NE, 2))
+    PH = np.zeros((_NE, 2))
+    Km = np.zeros((_NE, 1))
     acc_closed = 0
     mag_closed = 0
     acc_alpha, mag_alpha = params[P_ACC_ADAPT], params[P_MAG_ADAPT]
@@ -210,33 +249,7 @@ def run_ahrs(gyr, acc, mag, dt, q, b, P, params, Ha, Hm, out_q, out_b, stats):
     mag_extra = 0.0
     for k in range(n):
         # ---- predict: gyroscope as input (global error: δθ̇ = −R δb + R n_g)
-        wx, wy, wz = gyr[k, 0] - b[0], gyr[k, 1] - b[1], gyr[k, 2] - b[2]
-        _rotmat_xyzw(q[0], q[1], q[2], q[3], R)
-        quat_mul_exp_inplace(q, wx * dt, wy * dt, wz * dt)
-        # P ← F P Fᵀ, F = [[I, -R dt], [0, I]], written blockwise: P = [[A, B], [Bᵀ, C]]
-        # A' = A − dt (R Bᵀ + B Rᵀ) + dt² R C Rᵀ, B' = B − dt R C, C' = C
-        for i in range(3):
-            for j in range(3):
-                s = 0.0
-                for m in range(3):
-                    s += R[i, m] * P[m + 3, j + 3]
-                RP[i, j] = s  # R C
-        for i in range(3):
-            for j in range(3):
-                s = 0.0
-                for m in range(3):
-                    # (R Bᵀ)[i, j] + (B Rᵀ)[i, j] with B[i, m] = P[i, m + 3]
-                    s += R[i, m] * P[j, m + 3] + P[i, m + 3] * R[j, m] - dt * RP[i, m] * R[j, m]
-                P[i, j] -= dt * s
-        for i in range(3):
-            for j in range(3):
-                P[i, j + 3] -= dt * RP[i, j]
-                P[j + 3, i] = P[i, j + 3]
-        # white rate noise plus the rate-proportional error of scale factor and axis misalignment
-        q_theta = (gyr_var + scale_var * (wx * wx + wy * wy + wz * wz)) * dt
-        for i in range(3):
-            P[i, i] += q_theta
-            P[i + 3, i + 3] += bias_var * dt
+        predict(q, b, P, gyr[k, 0], gyr[k, 1], gyr[k, 2], dt, gyr_var, bias_var, scale_var, R, RP)
         _rotmat_xyzw(q[0], q[1], q[2], q[3], R)
 
         # ---- accumulate the window: specific force and field rotated into the estimated earth frame.  They are
@@ -280,8 +293,8 @@ def run_ahrs(gyr, acc, mag, dt, q, b, P, params, Ha, Hm, out_q, out_b, stats):
             if acc_alpha > 0.0:
                 hph = 0.0  # tr(H P Hᵀ) / 2
                 for i in range(2):
-                    for j in range(6):
-                        for m in range(6):
+                    for j in range(_NE):
+                        for m in range(_NE):
                             hph += 0.5 * Ha[i, j] * P[j, m] * Ha[i, m]
                 acc_extra = (1.0 - acc_alpha) * acc_extra + acc_alpha * max(
                     0.5 * (v[0] * v[0] + v[1] * v[1]) - hph - acc_var / n_win, 0.0
@@ -289,14 +302,14 @@ def run_ahrs(gyr, acc, mag, dt, q, b, P, params, Ha, Hm, out_q, out_b, stats):
             # overlapping windows share samples: each update carries 1/overlap of a window's information
             r = (acc_var / n_win + dev * dev + acc_extra) * overlap
             # S = H P Hᵀ + r I
-            for i in range(6):
+            for i in range(_NE):
                 for c in range(2):
                     t = 0.0
-                    for m in range(6):
+                    for m in range(_NE):
                         t += P[i, m] * Ha[c, m]
                     PH[i, c] = t
             s00, s01, s11 = r, 0.0, r
-            for m in range(6):
+            for m in range(_NE):
                 s00 += Ha[0, m] * PH[m, 0]
                 s01 += Ha[0, m] * PH[m, 1]
                 s11 += Ha[1, m] * PH[m, 1]
@@ -312,13 +325,13 @@ def run_ahrs(gyr, acc, mag, dt, q, b, P, params, Ha, Hm, out_q, out_b, stats):
                 stats[S_ACC_NIS_SUM] += nis
                 if _CHI2_2_LO <= nis <= _CHI2_2_HI:
                     stats[S_ACC_INSIDE] += 1.0
-                for i in range(6):
+                for i in range(_NE):
                     ph0, ph1 = PH[i, 0], PH[i, 1]
                     Ka[i, 0] = ph0 * i00 + ph1 * i01
                     Ka[i, 1] = ph0 * i01 + ph1 * i11
-                Ka[2, 0] = 0.0  # the accelerometer never corrects heading
-                Ka[2, 1] = 0.0
-                for i in range(6):
+                Ka[_DTH + 2, 0] = 0.0  # the accelerometer never corrects heading
+                Ka[_DTH + 2, 1] = 0.0
+                for i in range(_NE):
                     dx[i] = Ka[i, 0] * v[0] + Ka[i, 1] * v[1]
                 joseph_update(P, Ka, Ha, r)
                 inject_and_reset(q, b, P, dx)
@@ -335,13 +348,13 @@ def run_ahrs(gyr, acc, mag, dt, q, b, P, params, Ha, Hm, out_q, out_b, stats):
                 stats[S_MAG_SKIPPED] += 1.0
             else:
                 r0 = (mag_var / n_win + mag_dist) / (h * h) * overlap
-                for i in range(6):
+                for i in range(_NE):
                     t = 0.0
-                    for m in range(6):
+                    for m in range(_NE):
                         t += P[i, m] * Hm[0, m]
                     Km[i, 0] = t  # P Hᵀ for now
                 hph = 0.0
-                for m in range(6):
+                for m in range(_NE):
                     hph += Hm[0, m] * Km[m, 0]
                 if mag_alpha > 0.0:
                     mag_extra = (1.0 - mag_alpha) * mag_extra + mag_alpha * max(psi * psi - hph - r0, 0.0)
@@ -357,11 +370,11 @@ def run_ahrs(gyr, acc, mag, dt, q, b, P, params, Ha, Hm, out_q, out_b, stats):
                     stats[S_MAG_NIS_SUM] += nis
                     if _CHI2_1_LO <= nis <= _CHI2_1_HI:
                         stats[S_MAG_INSIDE] += 1.0
-                    for i in range(6):
+                    for i in range(_NE):
                         Km[i, 0] /= s
-                    Km[0, 0] = 0.0  # the magnetometer never corrects inclination
-                    Km[1, 0] = 0.0
-                    for i in range(6):
+                    Km[_DTH, 0] = 0.0  # the magnetometer never corrects inclination
+                    Km[_DTH + 1, 0] = 0.0
+                    for i in range(_NE):
                         dx[i] = Km[i, 0] * psi
                     joseph_update(P, Km, Hm, r)
                     inject_and_reset(q, b, P, dx)

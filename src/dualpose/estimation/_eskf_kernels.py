@@ -1,9 +1,10 @@
 """numba kernels of the error-state EKF (Solà 2017 §5-7) and of the camera measurement model.
 
-Imported lazily by :mod:`dualpose.estimation.eskf` and :mod:`dualpose.estimation.models`.  Layouts:
+Imported lazily by :mod:`dualpose.estimation.eskf` and :mod:`dualpose.estimation.models`.  Layouts (block offsets
+from :mod:`dualpose.estimation.state`):
 
-* nominal state ``x`` (16,) = ``[p_wb (3), v_w (3), q_wb xyzw (4), b_g (3), b_a (3)]``;
-* error state ``δx`` (15,) = ``[δp, δv, δθ, δb_g, δb_a]`` with the attitude error local (right):
+* nominal state ``x`` (16,) = :data:`~dualpose.estimation.state.ESKF_STATE`;
+* error state ``δx`` (15,) = :data:`~dualpose.estimation.state.ESKF_ERROR` with the attitude error local (right):
   ``q = q̂ ⊗ Exp(δθ)``;
 * covariance ``P`` (15, 15); ``noise`` (4,) = continuous-time variances ``[σ_g², σ_a², σ_bg², σ_ba²]``;
 * camera ``cam`` (10,) = ``[fx, fy, cx, cy, q_bc (4, xyzw), ...]`` is split as ``intr`` (4,), ``q_bc`` (4,),
@@ -19,6 +20,19 @@ import math
 
 import numba as nb
 import numpy as np
+
+from dualpose.estimation.state import ESKF_ACCEL_BIAS as _BA
+from dualpose.estimation.state import ESKF_D_ACCEL_BIAS as _DBA
+from dualpose.estimation.state import ESKF_D_ATTITUDE as _DTH
+from dualpose.estimation.state import ESKF_D_GYRO_BIAS as _DBG
+from dualpose.estimation.state import ESKF_D_POSITION as _DP
+from dualpose.estimation.state import ESKF_D_VELOCITY as _DV
+from dualpose.estimation.state import ESKF_DIM as _NX
+from dualpose.estimation.state import ESKF_ERROR_DIM as _NE
+from dualpose.estimation.state import ESKF_GYRO_BIAS as _BG
+from dualpose.estimation.state import ESKF_POSITION as _P
+from dualpose.estimation.state import ESKF_QUAT as _Q
+from dualpose.estimation.state import ESKF_VELOCITY as _V
 
 V, M, T = "f8[::1]", "f8[:,::1]", "f8[:,:,::1]"  # C-contiguous (the Python wrappers ensure it)
 VA, MA = "f8[:]", "f8[:,:]"  # any layout: slices written element by element
@@ -70,24 +84,24 @@ def predict_transition(x, P, gyro, accel, dt, gravity, noise, F):
     """:func:`predict` that also writes the error-state transition matrix of the step (Solà eq. 269) to ``F``
     (15, 15), ``δx⁻_{k+1} ≈ F δx⁺_k`` (the offline smoother needs it)."""
     R = np.empty((3, 3))
-    _rotmat_xyzw(x[6], x[7], x[8], x[9], R)
-    wx, wy, wz = gyro[0] - x[10], gyro[1] - x[11], gyro[2] - x[12]
+    _rotmat_xyzw(x[_Q], x[_Q + 1], x[_Q + 2], x[_Q + 3], R)
+    wx, wy, wz = gyro[0] - x[_BG], gyro[1] - x[_BG + 1], gyro[2] - x[_BG + 2]
     ab = np.empty(3)
     for i in range(3):
-        ab[i] = accel[i] - x[13 + i]
+        ab[i] = accel[i] - x[_BA + i]
     # --- error-state transition F (Solà eq. 269), written sparsely
     F[:, :] = 0.0
-    for i in range(15):
+    for i in range(_NE):
         F[i, i] = 1.0
     for i in range(3):
-        F[i, 3 + i] = dt
+        F[_DP + i, _DV + i] = dt
     # -R [a]x dt
     Ax = np.array([[0.0, -ab[2], ab[1]], [ab[2], 0.0, -ab[0]], [-ab[1], ab[0], 0.0]])
     RA = R @ Ax
     for i in range(3):
         for j in range(3):
-            F[3 + i, 6 + j] = -RA[i, j] * dt
-            F[3 + i, 12 + j] = -R[i, j] * dt
+            F[_DV + i, _DTH + j] = -RA[i, j] * dt
+            F[_DV + i, _DBA + j] = -R[i, j] * dt
     # R{ω dt}ᵀ
     dq = np.array([0.0, 0.0, 0.0, 1.0])
     quat_mul_exp_inplace(dq, wx * dt, wy * dt, wz * dt)
@@ -95,26 +109,26 @@ def predict_transition(x, P, gyro, accel, dt, gravity, noise, F):
     _rotmat_xyzw(dq[0], dq[1], dq[2], dq[3], Rw)
     for i in range(3):
         for j in range(3):
-            F[6 + i, 6 + j] = Rw[j, i]
-        F[6 + i, 9 + i] = -dt
+            F[_DTH + i, _DTH + j] = Rw[j, i]
+        F[_DTH + i, _DBG + i] = -dt
     # --- nominal state; the specific force is rotated with the mean of the start and end attitudes (trapezoid),
     # which removes the first-order error ½ ω × a dt² per step of using the start attitude alone
-    quat_mul_exp_inplace(x[6:10], wx * dt, wy * dt, wz * dt)
+    quat_mul_exp_inplace(x[_Q : _Q + 4], wx * dt, wy * dt, wz * dt)
     R1 = np.empty((3, 3))
-    _rotmat_xyzw(x[6], x[7], x[8], x[9], R1)
+    _rotmat_xyzw(x[_Q], x[_Q + 1], x[_Q + 2], x[_Q + 3], R1)
     aw = 0.5 * ((R + R1) @ ab)
     for i in range(3):
         aw[i] += gravity[i]
-        x[i] += x[3 + i] * dt + 0.5 * aw[i] * dt * dt
-        x[3 + i] += aw[i] * dt
+        x[_P + i] += x[_V + i] * dt + 0.5 * aw[i] * dt * dt
+        x[_V + i] += aw[i] * dt
     # --- covariance: P = F P Fᵀ + Q
     FP = F @ P
     P[:, :] = FP @ F.T
     for i in range(3):
-        P[3 + i, 3 + i] += noise[1] * dt
-        P[6 + i, 6 + i] += noise[0] * dt
-        P[9 + i, 9 + i] += noise[2] * dt
-        P[12 + i, 12 + i] += noise[3] * dt
+        P[_DV + i, _DV + i] += noise[1] * dt
+        P[_DTH + i, _DTH + i] += noise[0] * dt
+        P[_DBG + i, _DBG + i] += noise[2] * dt
+        P[_DBA + i, _DBA + i] += noise[3] * dt
 
 
 @_jit(f"void({V}, {M}, {V}, {V}, f8, {V}, {V})")
@@ -123,7 +137,7 @@ def predict(x, P, gyro, accel, dt, gravity, noise):
 
     ``gyro`` (3,) rad/s and ``accel`` (3,) m/s² are the (held or averaged) measurements over the step.
     """
-    predict_transition(x, P, gyro, accel, dt, gravity, noise, np.empty((15, 15)))
+    predict_transition(x, P, gyro, accel, dt, gravity, noise, np.empty((_NE, _NE)))
 
 
 @_jit(f"f8({V}, {V}, {V}, {V}, {VA}, {VA}, {VA}, {MA})")
@@ -133,12 +147,12 @@ def camera_residual_jacobian(x, intr, q_bc, p_bc, pixel, point, r, H):
     Returns the depth Z of the point in the camera frame (the model is valid only for Z > 0).
     """
     R = np.empty((3, 3))
-    _rotmat_xyzw(x[6], x[7], x[8], x[9], R)
+    _rotmat_xyzw(x[_Q], x[_Q + 1], x[_Q + 2], x[_Q + 3], R)
     Rbc = np.empty((3, 3))
     _rotmat_xyzw(q_bc[0], q_bc[1], q_bc[2], q_bc[3], Rbc)
     d = np.empty(3)
     for i in range(3):
-        d[i] = point[i] - x[i]
+        d[i] = point[i] - x[_P + i]
     pb = R.T @ d
     for i in range(3):
         pb[i] -= p_bc[i]
@@ -154,14 +168,14 @@ def camera_residual_jacobian(x, intr, q_bc, p_bc, pixel, point, r, H):
     JB = J @ Rbc.T  # (2, 3): ∂π/∂p_b
     JR = JB @ R.T  # ∂π/∂(z − p) in world
     for i in range(2):
-        for j in range(15):
+        for j in range(_NE):
             H[i, j] = 0.0
         for j in range(3):
-            H[i, j] = -JR[i, j]
+            H[i, _DP + j] = -JR[i, j]
         # ∂p_b/∂δθ = [p_b]x
-        H[i, 6] = JB[i, 1] * pb[2] - JB[i, 2] * pb[1]
-        H[i, 7] = JB[i, 2] * pb[0] - JB[i, 0] * pb[2]
-        H[i, 8] = JB[i, 0] * pb[1] - JB[i, 1] * pb[0]
+        H[i, _DTH] = JB[i, 1] * pb[2] - JB[i, 2] * pb[1]
+        H[i, _DTH + 1] = JB[i, 2] * pb[0] - JB[i, 0] * pb[2]
+        H[i, _DTH + 2] = JB[i, 0] * pb[1] - JB[i, 1] * pb[0]
     return Z
 
 
@@ -175,16 +189,18 @@ def camera_batch(x, intr, q_bc, p_bc, pixels, points, r, H, depth):
 @_jit(f"void({V}, {M}, {V})")
 def inject_reset(x, P, dx):
     """Inject ``δx`` into the nominal state and apply the reset Jacobian ``G`` (Solà eq. 285-287): P ← G P Gᵀ."""
-    for i in range(6):
-        x[i] += dx[i]
-    for i in range(6):
-        x[10 + i] += dx[9 + i]
-    quat_mul_exp_inplace(x[6:10], dx[6], dx[7], dx[8])
-    G = np.eye(15)
-    hx, hy, hz = 0.5 * dx[6], 0.5 * dx[7], 0.5 * dx[8]
-    G[6, 7], G[6, 8] = hz, -hy
-    G[7, 6], G[7, 8] = -hz, hx
-    G[8, 6], G[8, 7] = hy, -hx
+    for i in range(3):
+        x[_P + i] += dx[_DP + i]
+        x[_V + i] += dx[_DV + i]
+        x[_BG + i] += dx[_DBG + i]
+        x[_BA + i] += dx[_DBA + i]
+    quat_mul_exp_inplace(x[_Q : _Q + 4], dx[_DTH], dx[_DTH + 1], dx[_DTH + 2])
+    G = np.eye(_NE)
+    hx, hy, hz = 0.5 * dx[_DTH], 0.5 * dx[_DTH + 1], 0.5 * dx[_DTH + 2]
+    a, b, c = _DTH, _DTH + 1, _DTH + 2
+    G[a, b], G[a, c] = hz, -hy
+    G[b, a], G[b, c] = -hz, hx
+    G[c, a], G[c, b] = hy, -hx
     GP = G @ P
     P[:, :] = GP @ G.T
 
@@ -297,10 +313,10 @@ def update_points(x, P, intr, q_bc, p_bc, pixels, points, sigma_px, gate, nis_ou
     """
     m = pixels.shape[0]
     r = np.empty((m, 2))
-    H = np.empty((m, 2, 15))
+    H = np.empty((m, 2, _NE))
     depth = np.empty(m)
     camera_batch(x, intr, q_bc, p_bc, pixels, points, r, H, depth)
-    dx = np.zeros(15)
+    dx = np.zeros(_NE)
     n_acc = sequential_gated_update(P, r, H, np.full(m, sigma_px * sigma_px), depth, gate, dx, nis_out, accepted_out)
     inject_reset(x, P, dx)
     return n_acc
@@ -349,7 +365,7 @@ def _run_impl(t, gyro, accel, cam_t, offsets, pixels, points, x, P, gravity, noi
     """
     n = t.shape[0]
     nf = cam_t.shape[0]
-    F = np.empty((15, 15))
+    F = np.empty((_NE, _NE))
     m = 0
     if record:
         XA[0] = x
@@ -425,7 +441,7 @@ def _run_impl(t, gyro, accel, cam_t, offsets, pixels, points, x, P, gravity, noi
         XF[j] = np.nan
         j += 1
     if record:
-        FS[m] = np.eye(15)  # no transition out of the last node
+        FS[m] = np.eye(_NE)  # no transition out of the last node
     return m + 1
 
 
@@ -439,7 +455,7 @@ def run(t, gyro, accel, cam_t, offsets, pixels, points, x, P, gravity, noise, in
     to ``X`` (N, 16), ``Ps`` (N, 15, 15) and after each camera update to ``XF`` (F, 16), ``PF`` (F, 15, 15).
     Frames before ``t[0]`` or after ``t[-1]`` are skipped (their ``XF`` row is NaN).
     """
-    e2, e3 = np.empty((0, 16)), np.empty((0, 15, 15))
+    e2, e3 = np.empty((0, _NX)), np.empty((0, _NE, _NE))
     _run_impl(t, gyro, accel, cam_t, offsets, pixels, points, x, P, gravity, noise, intr, q_bc, p_bc, sigma_px, gate,
               X, Ps, XF, PF, nis_out, accepted_out,
               False, e2, e3, e2, e3, e3, np.empty(0), np.empty(0, np.int64), np.empty(0, np.int64))  # fmt: skip

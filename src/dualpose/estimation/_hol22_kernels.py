@@ -21,6 +21,14 @@ import numba as nb
 import numpy as np
 
 from dualpose.estimation._eskf_kernels import joseph, sequential_gated_update
+from dualpose.estimation.state import HOL22_ACCEL_BIAS as _BA
+from dualpose.estimation.state import HOL22_ACCELERATION as _A
+from dualpose.estimation.state import HOL22_ANGULAR_VELOCITY as _W
+from dualpose.estimation.state import HOL22_DIM as _N
+from dualpose.estimation.state import HOL22_GYRO_BIAS as _BG
+from dualpose.estimation.state import HOL22_POSITION as _P
+from dualpose.estimation.state import HOL22_QUAT_BE as _Q
+from dualpose.estimation.state import HOL22_VELOCITY as _V
 
 V, M, T = "f8[::1]", "f8[:,::1]", "f8[:,:,::1]"
 VA = "f8[:]"  # any layout (slices and rows)
@@ -58,25 +66,25 @@ def time_update(x, P, dt, qdiag):
     """Eq. 9 over ``dt`` seconds in place: constant acceleration / angular velocity, ``q ← exp(−dt/2 ω) ⊙ q``."""
     if dt <= 0.0:
         return
-    wx, wy, wz = x[13], x[14], x[15]
+    wx, wy, wz = x[_W], x[_W + 1], x[_W + 2]
     r = math.sqrt(wx * wx + wy * wy + wz * wz)
     th = 0.5 * dt * r
     s = 0.5 * dt * (math.sin(th) / th if th > 1e-8 else 1.0 - th * th / 6.0)  # sin(θ)/|ω|
     c2 = -((0.5 * dt) ** 3) / 3.0 if th < 1e-4 else (0.5 * dt * math.cos(th) - s) / (r * r)
     ax, ay, az, aw = -s * wx, -s * wy, -s * wz, math.cos(th)  # dq = exp(−dt/2 ω), xyzw
-    F = np.eye(22)
+    F = np.eye(_N)
     for i in range(3):
-        F[i, 3 + i] = dt
-        F[i, 6 + i] = 0.5 * dt * dt
-        F[3 + i, 6 + i] = dt
+        F[_P + i, _V + i] = dt
+        F[_P + i, _A + i] = 0.5 * dt * dt
+        F[_V + i, _A + i] = dt
     # ∂(dq ⊙ q)/∂q = Q(dq) (left-multiplication matrix, xyzw)
-    L = F[9:13, 9:13]
+    L = F[_Q : _Q + 4, _Q : _Q + 4]
     L[0, 0], L[0, 1], L[0, 2], L[0, 3] = aw, -az, ay, ax
     L[1, 0], L[1, 1], L[1, 2], L[1, 3] = az, aw, -ax, ay
     L[2, 0], L[2, 1], L[2, 2], L[2, 3] = -ay, ax, aw, az
     L[3, 0], L[3, 1], L[3, 2], L[3, 3] = -ax, -ay, -az, aw
     # ∂(dq ⊙ q)/∂ω = W(q) ∂dq/∂ω, W the right-multiplication matrix of q
-    qx, qy, qz, qw = x[9], x[10], x[11], x[12]
+    qx, qy, qz, qw = x[_Q], x[_Q + 1], x[_Q + 2], x[_Q + 3]
     W = np.array([[qw, qz, -qy, qx], [-qz, qw, qx, qy], [qy, -qx, qw, qz], [-qx, -qy, -qz, qw]])
     J = np.empty((4, 3))
     om = (wx, wy, wz)
@@ -84,71 +92,72 @@ def time_update(x, P, dt, qdiag):
         for j in range(3):
             J[i, j] = -((s if i == j else 0.0) + c2 * om[i] * om[j])
         J[3, i] = -0.5 * dt * s * om[i]
-    F[9:13, 13:16] = W @ J
+    F[_Q : _Q + 4, _W : _W + 3] = W @ J
     # state
     for i in range(3):
-        x[i] += dt * x[3 + i] + 0.5 * dt * dt * x[6 + i]
-        x[3 + i] += dt * x[6 + i]
-    x[9], x[10], x[11], x[12] = (
+        x[_P + i] += dt * x[_V + i] + 0.5 * dt * dt * x[_A + i]
+        x[_V + i] += dt * x[_A + i]
+    x[_Q], x[_Q + 1], x[_Q + 2], x[_Q + 3] = (
         aw * qx + qw * ax + ay * qz - az * qy,
         aw * qy + qw * ay + az * qx - ax * qz,
         aw * qz + qw * az + ax * qy - ay * qx,
         aw * qw - ax * qx - ay * qy - az * qz,
     )
     P[:, :] = F @ P @ F.T
-    for i in range(22):
+    for i in range(_N):
         P[i, i] += qdiag[i] * dt
 
 
 @_jit(f"void({V}, {M})")
 def normalize(x, P):
     """``q ← q/|q|`` and ``P ← J P Jᵀ`` with ``J = I`` except the quaternion block ``(I − u uᵀ)/|q|``."""
-    nq = math.sqrt(x[9] * x[9] + x[10] * x[10] + x[11] * x[11] + x[12] * x[12])
+    q = _Q
+    nq = math.sqrt(x[q] * x[q] + x[q + 1] * x[q + 1] + x[q + 2] * x[q + 2] + x[q + 3] * x[q + 3])
     u = np.empty(4)
     for i in range(4):
-        u[i] = x[9 + i] / nq
-        x[9 + i] = u[i]
+        u[i] = x[q + i] / nq
+        x[q + i] = u[i]
     Jq = np.empty((4, 4))
     for i in range(4):
         for j in range(4):
             Jq[i, j] = ((1.0 if i == j else 0.0) - u[i] * u[j]) / nq
     tmp = np.empty(4)
-    for c in range(22):  # rows 9:13 ← Jq P[9:13, :]
+    for c in range(_N):  # quaternion rows ← Jq P[q, :]
         for i in range(4):
-            tmp[i] = Jq[i, 0] * P[9, c] + Jq[i, 1] * P[10, c] + Jq[i, 2] * P[11, c] + Jq[i, 3] * P[12, c]
+            tmp[i] = Jq[i, 0] * P[q, c] + Jq[i, 1] * P[q + 1, c] + Jq[i, 2] * P[q + 2, c] + Jq[i, 3] * P[q + 3, c]
         for i in range(4):
-            P[9 + i, c] = tmp[i]
-    for r in range(22):  # columns 9:13 ← P[:, 9:13] Jqᵀ
+            P[q + i, c] = tmp[i]
+    for r in range(_N):  # quaternion columns ← P[:, q] Jqᵀ
         for i in range(4):
-            tmp[i] = Jq[i, 0] * P[r, 9] + Jq[i, 1] * P[r, 10] + Jq[i, 2] * P[r, 11] + Jq[i, 3] * P[r, 12]
+            tmp[i] = Jq[i, 0] * P[r, q] + Jq[i, 1] * P[r, q + 1] + Jq[i, 2] * P[r, q + 2] + Jq[i, 3] * P[r, q + 3]
         for i in range(4):
-            P[r, 9 + i] = tmp[i]
+            P[r, q + i] = tmp[i]
 
 
 @_jit(f"f8({V}, {M}, {VA}, {VA}, {V}, {M}, {M}, {T})")
 def imu_update(x, P, accel, gyro, gravity, R_imu, R, dR):
     """Accelerometer + gyroscope update (eq. 11a, 11b) in place; returns the NIS (6 dof).  ``R``, ``dR``: work."""
-    rot_be_and_derivs(x[9:13], R, dR)
-    H = np.zeros((6, 22))
+    rot_be_and_derivs(x[_Q : _Q + 4], R, dR)
+    H = np.zeros((6, _N))
     nu = np.empty(6)
     d = np.empty(3)
     for i in range(3):
-        d[i] = x[6 + i] - gravity[i]
+        d[i] = x[_A + i] - gravity[i]
     for i in range(3):
-        h = x[19 + i]
+        h = x[_BA + i]
         for j in range(3):
             h += R[i, j] * d[j]
-            H[i, 6 + j] = R[i, j]
+            H[i, _A + j] = R[i, j]
         for k in range(4):
             acc = 0.0
             for j in range(3):
                 acc += dR[k, i, j] * d[j]
-            H[i, 9 + k] = acc
-        H[i, 19 + i] = 1.0
+            H[i, _Q + k] = acc
+        H[i, _BA + i] = 1.0
         nu[i] = accel[i] - h
-        H[3 + i, 13 + i] = 1.0
-        H[3 + i, 16 + i] = 1.0
-        nu[3 + i] = gyro[i] - (x[13 + i] + x[16 + i])
+        H[3 + i, _W + i] = 1.0
+        H[3 + i, _BG + i] = 1.0
+        nu[3 + i] = gyro[i] - (x[_W + i] + x[_BG + i])
     HP = H @ P
     S = HP @ H.T + R_imu
     K = np.linalg.solve(S, HP).T
@@ -166,9 +175,9 @@ def camera_update(x, P, pixels, points, intr, p_bc, Rcb, depth_floor_sigma, sigm
     NIS and 1/0; ``R``, ``dR``: work."""
     fx, fy, cx, cy = intr[0], intr[1], intr[2], intr[3]
     m = pixels.shape[0]
-    rot_be_and_derivs(x[9:13], R, dR)
+    rot_be_and_derivs(x[_Q : _Q + 4], R, dR)
     h = np.empty((m, 2))
-    H = np.zeros((m, 2, 22))
+    H = np.zeros((m, 2, _N))
     depth = np.empty(m)
     AR = np.empty((2, 3))
     d = np.empty(3)
@@ -176,7 +185,7 @@ def camera_update(x, P, pixels, points, intr, p_bc, Rcb, depth_floor_sigma, sigm
     zc = np.empty(3)
     for k in range(m):
         for i in range(3):
-            d[i] = points[k, i] - x[i]
+            d[i] = points[k, i] - x[_P + i]
         for i in range(3):
             zb[i] = R[i, 0] * d[0] + R[i, 1] * d[1] + R[i, 2] * d[2] - p_bc[i]
         for i in range(3):
@@ -190,18 +199,18 @@ def camera_update(x, P, pixels, points, intr, p_bc, Rcb, depth_floor_sigma, sigm
             AR[1, j] = -fy * Rcb[1, j] + v * Rcb[2, j]
         for i in range(2):
             for j in range(3):
-                H[k, i, j] = -(AR[i, 0] * R[0, j] + AR[i, 1] * R[1, j] + AR[i, 2] * R[2, j])
+                H[k, i, _P + j] = -(AR[i, 0] * R[0, j] + AR[i, 1] * R[1, j] + AR[i, 2] * R[2, j])
             for q in range(4):
                 acc = 0.0
                 for a in range(3):
                     acc += AR[i, a] * (dR[q, a, 0] * d[0] + dR[q, a, 1] * d[1] + dR[q, a, 2] * d[2])
-                H[k, i, 9 + q] = acc
+                H[k, i, _Q + q] = acc
     floor = depth_floor_sigma[0]
     s2 = np.empty(m)
     for k in range(m):
         s2[k] = (max(depth[k], floor) * sigma_px) ** 2
         h[k, 0], h[k, 1] = -h[k, 0], -h[k, 1]  # residual: measured 0 minus predicted h
-    dx = np.zeros(22)
+    dx = np.zeros(_N)
     sequential_gated_update(P, h, H, s2, depth, gate, dx, nis_out, acc_out)
     x += dx
     normalize(x, P)

@@ -1,7 +1,7 @@
 """numba kernels of the Rauch–Tung–Striebel smoother (linear, and over the error-state filter's nodes).
 
-Imported lazily by :mod:`dualpose.estimation.smoother`.  Layouts as in :mod:`dualpose.estimation._eskf_kernels`: nominal
-state (16,) = ``[p, v, q_wb xyzw, b_g, b_a]``, error state (15,) = ``[δp, δv, δθ, δb_g, δb_a]`` with the local
+Imported lazily by :mod:`dualpose.estimation.smoother`.  Layouts (:mod:`dualpose.estimation.state`): nominal
+state (16,) = ``ESKF_STATE``, error state (15,) = ``ESKF_ERROR`` with the local
 (right) attitude error ``q = q̂ ⊗ Exp(δθ)``; covariances of an error state are expressed in the tangent space of
 the nominal state they belong to.  The derivation is in ``docs/fusion.md`` ("Offline smoothing (RTS)").
 """
@@ -15,6 +15,17 @@ from dualpose.algebra._kutil import norm3, qmul
 from dualpose.algebra._lie_kernels import so3_coeffs, so3_fill
 from dualpose.algebra.series import atan2c
 from dualpose.estimation._eskf_kernels import quat_mul_exp_inplace
+from dualpose.estimation.state import ESKF_ACCEL_BIAS as _BA
+from dualpose.estimation.state import ESKF_D_ACCEL_BIAS as _DBA
+from dualpose.estimation.state import ESKF_D_ATTITUDE as _DTH
+from dualpose.estimation.state import ESKF_D_GYRO_BIAS as _DBG
+from dualpose.estimation.state import ESKF_D_POSITION as _DP
+from dualpose.estimation.state import ESKF_D_VELOCITY as _DV
+from dualpose.estimation.state import ESKF_ERROR_DIM as _NE
+from dualpose.estimation.state import ESKF_GYRO_BIAS as _BG
+from dualpose.estimation.state import ESKF_POSITION as _P
+from dualpose.estimation.state import ESKF_QUAT as _Q
+from dualpose.estimation.state import ESKF_VELOCITY as _V
 
 V, M, T = "f8[::1]", "f8[:,::1]", "f8[:,:,::1]"
 VA = "f8[:]"
@@ -29,28 +40,31 @@ def _jit(sig: str):
 def boxminus(x, y, out):
     """``out`` (15,) = ``x ⊟ y``, the error state that takes the nominal ``y`` (16,) to ``x`` (16,):
     ``x = y ⊞ out`` with ``δθ = Log(q_y* ⊗ q_x)`` (rotation vector, angle in [0, π])."""
-    for i in range(6):
-        out[i] = x[i] - y[i]
-    for i in range(6):
-        out[9 + i] = x[10 + i] - y[10 + i]
+    for i in range(3):
+        out[_DP + i] = x[_P + i] - y[_P + i]
+        out[_DV + i] = x[_V + i] - y[_V + i]
+        out[_DBG + i] = x[_BG + i] - y[_BG + i]
+        out[_DBA + i] = x[_BA + i] - y[_BA + i]
     # q_y* ⊗ q_x
-    rx, ry, rz, rw = qmul(-y[6], -y[7], -y[8], y[9], x[6], x[7], x[8], x[9])
+    q, a = _Q, _DTH
+    rx, ry, rz, rw = qmul(-y[q], -y[q + 1], -y[q + 2], y[q + 3], x[q], x[q + 1], x[q + 2], x[q + 3])
     if rw < 0.0:
         rx, ry, rz, rw = -rx, -ry, -rz, -rw
     f = 2.0 * atan2c(norm3(rx, ry, rz), rw)
-    out[6], out[7], out[8] = f * rx, f * ry, f * rz
+    out[a], out[a + 1], out[a + 2] = f * rx, f * ry, f * rz
 
 
 @_jit(f"void({VA}, {VA}, {VA})")
 def boxplus(x, dx, out):
     """``out`` (16,) = ``x ⊞ δx``: ``p + δp``, ``v + δv``, ``q ⊗ Exp(δθ)``, ``b_g + δb_g``, ``b_a + δb_a``."""
-    for i in range(6):
-        out[i] = x[i] + dx[i]
-    for i in range(6):
-        out[10 + i] = x[10 + i] + dx[9 + i]
+    for i in range(3):
+        out[_P + i] = x[_P + i] + dx[_DP + i]
+        out[_V + i] = x[_V + i] + dx[_DV + i]
+        out[_BG + i] = x[_BG + i] + dx[_DBG + i]
+        out[_BA + i] = x[_BA + i] + dx[_DBA + i]
     for i in range(4):
-        out[6 + i] = x[6 + i]
-    quat_mul_exp_inplace(out[6:10], dx[6], dx[7], dx[8])
+        out[_Q + i] = x[_Q + i]
+    quat_mul_exp_inplace(out[_Q : _Q + 4], dx[_DTH], dx[_DTH + 1], dx[_DTH + 2])
 
 
 @_jit(f"void({VA}, f8, {M})")
@@ -74,17 +88,18 @@ def congruence_attitude(S, A):
         for j in range(n):
             s = 0.0
             for k in range(3):
-                s += A[i, k] * S[6 + k, j]
+                s += A[i, k] * S[_DTH + k, j]
             rows[i, j] = s
     for i in range(3):
         for j in range(n):
-            S[6 + i, j] = rows[i, j]
+            S[_DTH + i, j] = rows[i, j]
     for j in range(n):
-        c0 = S[j, 6] * A[0, 0] + S[j, 7] * A[0, 1] + S[j, 8] * A[0, 2]
-        c1 = S[j, 6] * A[1, 0] + S[j, 7] * A[1, 1] + S[j, 8] * A[1, 2]
-        c2 = S[j, 6] * A[2, 0] + S[j, 7] * A[2, 1] + S[j, 8] * A[2, 2]
-        S[j, 6], S[j, 7], S[j, 8] = c0, c1, c2
-    for i in range(6, 9):
+        a, b, c = _DTH, _DTH + 1, _DTH + 2
+        c0 = S[j, a] * A[0, 0] + S[j, b] * A[0, 1] + S[j, c] * A[0, 2]
+        c1 = S[j, a] * A[1, 0] + S[j, b] * A[1, 1] + S[j, c] * A[1, 2]
+        c2 = S[j, a] * A[2, 0] + S[j, b] * A[2, 1] + S[j, c] * A[2, 2]
+        S[j, a], S[j, b], S[j, c] = c0, c1, c2
+    for i in range(_DTH, _DTH + 3):
         for j in range(n):
             s = 0.5 * (S[i, j] + S[j, i])
             S[i, j] = s
@@ -146,16 +161,16 @@ def rts_error_state(x_post, P_post, x_prior, P_prior, F, x_smooth, P_smooth):
     K = x_post.shape[0]
     x_smooth[K - 1] = x_post[K - 1]
     P_smooth[K - 1] = P_post[K - 1]
-    mu = np.empty(15)
-    d = np.empty(15)
-    S = np.empty((15, 15))
+    mu = np.empty(_NE)
+    d = np.empty(_NE)
+    S = np.empty((_NE, _NE))
     A = np.empty((3, 3))
     for i in range(K - 2, -1, -1):
         boxminus(x_smooth[i + 1], x_prior[i + 1], mu)
         S[:, :] = P_smooth[i + 1]
-        right_jacobian(mu[6:9], 1.0, A)
+        right_jacobian(mu[_DTH : _DTH + 3], 1.0, A)
         congruence_attitude(S, A)
         rts_step(P_post[i], P_prior[i + 1], F[i], mu, S, d, P_smooth[i])
         boxplus(x_post[i], d, x_smooth[i])
-        right_jacobian(d[6:9], 0.0, A)
+        right_jacobian(d[_DTH : _DTH + 3], 0.0, A)
         congruence_attitude(P_smooth[i], A)

@@ -1,7 +1,7 @@
 """Filter consistency helpers: error-state NEES against a simulation's truth and its χ² band.
 
-Error layout (15,) = ``[δp, δv, δθ, δb_g, δb_a]`` with ``δθ = Log(q̂* ⊗ q_true)`` (body frame), matching the
-error-state filter's covariance.
+Error layout (15,) = :data:`~dualpose.estimation.state.ESKF_ERROR` with ``δθ = Log(q̂* ⊗ q_true)`` (body frame),
+matching the error-state filter's covariance.
 """
 
 from __future__ import annotations
@@ -10,6 +10,8 @@ import numpy as np
 from scipy.stats import chi2
 
 import dualpose as dp
+from dualpose.estimation import eskf, models
+from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
 
 __all__ = ["error_state", "filter_from_prior", "nees", "nees_against_truth", "nees_band"]
 
@@ -20,16 +22,13 @@ def error_state(
 ) -> np.ndarray:  # fmt: skip
     """``x_true ⊟ x̂`` (N, 15) from a simulation ``truth`` dict and estimates (N, ·) at the same times."""
     dtheta = dp.rotvec_from_quat(dp.quat_mul(dp.quat_conj(quat), truth["quat"]))
-    return np.concatenate(
-        [
-            truth["position"] - position,
-            truth["velocity"] - velocity,
-            dtheta,
-            truth["gyro_bias"] - gyro_bias,
-            truth["accel_bias"] - accel_bias,
-        ],
-        axis=1,
-    )
+    n = len(dtheta)
+    e = np.empty((n, ESKF_ERROR.dim))
+    for block, est in (("position", position), ("velocity", velocity), ("gyro_bias", gyro_bias),
+                       ("accel_bias", accel_bias)):  # fmt: skip
+        e[:, ESKF_ERROR.slice(block)] = truth[block] - est
+    e[:, ESKF_ERROR.slice("attitude")] = dtheta
+    return e
 
 
 def nees(error: np.ndarray, covariance: np.ndarray) -> np.ndarray:
@@ -60,10 +59,12 @@ def filter_from_prior(run, rng: np.random.Generator):
     position, velocity and attitude at ``t[0]`` and to zero biases (the prior covers the turn-on biases), so that
     the filter's initial covariance is honest -- the set-up of a Monte-Carlo NEES test.
     """
-    from dualpose.estimation import eskf, models
-
     P0 = eskf.initial_covariance(imu_noise=run.imu_noise)
-    d = rng.multivariate_normal(np.zeros(15), P0)
+    d = rng.multivariate_normal(np.zeros(ESKF_ERROR.dim), P0)
     tr = run.truth
-    x = models.boxplus(np.concatenate([tr["position"][0], tr["velocity"][0], tr["quat"][0], np.zeros(6)]), d)
-    return eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P0)
+    z = np.zeros(3)
+    x = models.boxplus(ESKF_STATE.assemble(position=tr["position"][0], velocity=tr["velocity"][0], quat=tr["quat"][0],
+                                           gyro_bias=z, accel_bias=z), d)  # fmt: skip
+    # the drawn bias errors are not applied: the filter starts from zero biases, which its prior covers
+    S = ESKF_STATE
+    return eskf.ErrorStateEKF.for_run(run, S.get(x, "position"), S.get(x, "velocity"), S.get(x, "quat"), P0)

@@ -1,5 +1,5 @@
 """Error-state extended Kalman filter for camera-IMU pose tracking (Solà 2017, "Quaternion kinematics for the
-error-state Kalman filter", §5-7) — the recommended default filter of :mod:`dualpose.fusion`.
+error-state Kalman filter", §5-7) — the recommended default filter of :mod:`dualpose.estimation`.
 
 Nominal state (16,) = ``[p_wb (3) m, v_w (3) m/s, q_wb (4) xyzw, b_g (3) rad/s, b_a (3) m/s²]`` driven by the IMU
 as input; error state (15,) = ``[δp, δv, δθ, δb_g, δb_a]`` with a 3-parameter local attitude error
@@ -11,20 +11,24 @@ one χ²-gated 2-D update per correspondence.  Predict/update kernels are compil
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.stats import chi2
 
+import dualpose as dp
 from dualpose._validation import lazy_kernels
 from dualpose.estimation import models
-from dualpose.types import ImuNoise, PinholeCamera, SensorRun
+from dualpose.estimation._stream import check_streams
+from dualpose.estimation.interface import Estimator, UpdateResult
+from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
+from dualpose.types import CameraFrame, ImuNoise, PinholeCamera, SensorRun
 
 __all__ = ["ErrorStateEKF", "FilterNodes", "FilterResult", "InnovationReport", "initial_covariance"]
 
 _k = lazy_kernels("dualpose.estimation._eskf_kernels")
 
-STATE_DIM = 15
 
 
 def initial_covariance(
@@ -35,15 +39,12 @@ def initial_covariance(
 ) -> np.ndarray:
     """Diagonal initial error covariance (15, 15); bias sigmas are the IMU's turn-on bias sigmas."""
     imu_noise = ImuNoise() if imu_noise is None else imu_noise
-    sig = np.repeat(
-        [
-            position_sigma,
-            velocity_sigma,
-            attitude_sigma,
-            max(imu_noise.gyroscope_initial_bias_sigma, 1e-6),
-            max(imu_noise.accelerometer_initial_bias_sigma, 1e-6),
-        ],
-        3,
+    sig = ESKF_ERROR.assemble(
+        position=np.full(3, position_sigma),
+        velocity=np.full(3, velocity_sigma),
+        attitude=np.full(3, attitude_sigma),
+        gyro_bias=np.full(3, max(imu_noise.gyroscope_initial_bias_sigma, 1e-6)),
+        accel_bias=np.full(3, max(imu_noise.accelerometer_initial_bias_sigma, 1e-6)),
     )
     return np.diag(sig**2)
 
@@ -135,8 +136,11 @@ class FilterResult:
     nodes: FilterNodes | None = None
 
 
-class ErrorStateEKF:
-    """Camera-IMU error-state EKF (Solà 2017).
+class ErrorStateEKF(Estimator):
+    """Camera-IMU error-state EKF (Solà 2017); an :class:`~dualpose.estimation.interface.Estimator`.
+
+    State :data:`~dualpose.estimation.state.ESKF_STATE` (16,), covariance over
+    :data:`~dualpose.estimation.state.ESKF_ERROR` (15,) with the local attitude error ``q = q̂ ⊗ Exp(δθ)``.
 
     Parameters
     ----------
@@ -170,25 +174,17 @@ class ErrorStateEKF:
         gyro_bias: np.ndarray = (0.0, 0.0, 0.0),
         accel_bias: np.ndarray = (0.0, 0.0, 0.0),
     ) -> None:
-        self.x = np.zeros(16)
-        for name, val, sl, n in (
-            ("position", position, slice(0, 3), 3),
-            ("velocity", velocity, slice(3, 6), 3),
-            ("quat", quat, slice(6, 10), 4),
-            ("gyro_bias", gyro_bias, slice(10, 13), 3),
-            ("accel_bias", accel_bias, slice(13, 16), 3),
-        ):
-            v = np.asarray(val, dtype=np.float64)
-            if v.shape != (n,):
-                raise ValueError(f"{name} must have shape ({n},); got {v.shape}")
-            self.x[sl] = v
-        nq = np.linalg.norm(self.x[6:10])
+        self.x = ESKF_STATE.assemble(position=position, velocity=velocity, quat=quat, gyro_bias=gyro_bias,
+                                     accel_bias=accel_bias)  # fmt: skip
+        q = ESKF_STATE.get(self.x, "quat")
+        nq = np.linalg.norm(q)
         if not np.isfinite(nq) or nq == 0.0:
             raise ValueError("quat must be a finite nonzero quaternion")
-        self.x[6:10] /= nq
+        q /= nq
         P = np.array(covariance, dtype=np.float64)
-        if P.shape != (15, 15):
-            raise ValueError(f"covariance must have shape (15, 15); got {P.shape}")
+        n = ESKF_ERROR.dim
+        if P.shape != (n, n):
+            raise ValueError(f"covariance must have shape ({n}, {n}); got {P.shape}")
         self.P = 0.5 * (P + P.T)
         self.imu_noise = ImuNoise() if imu_noise is None else imu_noise
         n = self.imu_noise
@@ -234,26 +230,71 @@ class ErrorStateEKF:
         opts.update(kwargs)
         return cls(position, velocity, quat, cov, **opts)
 
-    # ------------------------------------------------------------------ accessors
+    @classmethod
+    def from_state(cls, run: SensorRun, x: np.ndarray, covariance: np.ndarray, **kwargs) -> ErrorStateEKF:
+        """:meth:`for_run` from a whole nominal state ``x`` (16,) (:data:`~dualpose.estimation.state.ESKF_STATE`)."""
+        blocks = {name: ESKF_STATE.get(x, name) for name in ESKF_STATE.names}
+        position, velocity, quat = blocks.pop("position"), blocks.pop("velocity"), blocks.pop("quat")
+        return cls.for_run(run, position, velocity, quat, covariance, **{**blocks, **kwargs})
+
+    # ------------------------------------------------------------------ the estimator interface
+    state_layout = ESKF_STATE
+    covariance_layout = ESKF_ERROR
+
+    @property
+    def state(self) -> np.ndarray:
+        """Nominal state (16,) (:data:`~dualpose.estimation.state.ESKF_STATE`), a copy."""
+        return self.x.copy()
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """Error-state covariance (15, 15) (:data:`~dualpose.estimation.state.ESKF_ERROR`), a copy."""
+        return self.P.copy()
+
     @property
     def position(self) -> np.ndarray:
-        return self.x[0:3].copy()
+        """Body position in the world frame (3,), m."""
+        return self.block("position")
 
     @property
     def velocity(self) -> np.ndarray:
-        return self.x[3:6].copy()
+        """Velocity in the world frame (3,), m/s."""
+        return self.block("velocity")
 
     @property
     def quat(self) -> np.ndarray:
-        return self.x[6:10].copy()
+        """Orientation ``q_wb`` (4,) xyzw."""
+        return self.block("quat")
 
     @property
     def gyro_bias(self) -> np.ndarray:
-        return self.x[10:13].copy()
+        """Gyroscope bias (3,), rad/s."""
+        return self.block("gyro_bias")
 
     @property
     def accel_bias(self) -> np.ndarray:
-        return self.x[13:16].copy()
+        """Accelerometer bias (3,), m/s²."""
+        return self.block("accel_bias")
+
+    def attitude_covariance(self) -> np.ndarray:
+        """World-frame attitude error covariance (3, 3): ``R̂ P_θθ R̂ᵀ`` (the local error rotated to the world)."""
+        R = dp.matrix_from_quat(self.quat)
+        return R @ ESKF_ERROR.cov(self.P, "attitude") @ R.T
+
+    def _update_linear(self, residual: np.ndarray, jacobian: np.ndarray, covariance: np.ndarray) -> UpdateResult:
+        self._check_linear(residual, jacobian, covariance)
+        return UpdateResult(self._update(residual, jacobian, covariance), len(residual), True)
+
+    def _attitude_model(self, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        # ρ(δθ) = Log(q_m ⊗ (q̂ Exp(δθ))*) ≈ r − J_r⁻¹(r) R̂ δθ with r = Log(q_m ⊗ q̂*)
+        r = dp.rotvec_from_quat(dp.quat_mul(quat, dp.quat_conj(self.quat)))
+        H = np.zeros((3, ESKF_ERROR.dim))
+        H[:, ESKF_ERROR.slice("attitude")] = dp.so3_right_jacobian_inv(r) @ dp.matrix_from_quat(self.quat)
+        return r, H
+
+    def _update_camera(self, frame: CameraFrame) -> UpdateResult:
+        accepted = self.update_camera(frame.t, frame.pixels, frame.points)
+        return UpdateResult(self._nis[-1], 2, accepted)
 
     # ------------------------------------------------------------------ online API
     def predict(self, gyro: np.ndarray, accel: np.ndarray, dt: float) -> None:
@@ -263,9 +304,10 @@ class ErrorStateEKF:
         _k("predict")(self.x, self.P, np.asarray(gyro, float), np.asarray(accel, float), float(dt), self.gravity,
                       self.noise)  # fmt: skip
 
-    def propagate(self, t: float, gyro: np.ndarray, accel: np.ndarray) -> None:
+    def propagate(self, t: float, gyro: np.ndarray, accel: np.ndarray, mag: np.ndarray | None = None) -> None:
         """Feed the IMU sample taken at time ``t``: integrates from the filter time to ``t`` with the mean of the
-        held and the new measurement (exact for a linear signal up to second order), then holds the new one."""
+        held and the new measurement (exact for a linear signal up to second order), then holds the new one.
+        ``mag`` is not used by this filter (magnetometer updates go through :meth:`update_magnetometer`)."""
         u = np.concatenate([np.asarray(gyro, float), np.asarray(accel, float)])
         if self.time is not None:
             dt = t - self.time
@@ -357,22 +399,19 @@ class ErrorStateEKF:
             Also store the prior/posterior states and covariances and the transition matrices of every filter node
             (``FilterResult.nodes``, about 3 × 1.8 kB per node) for :func:`dualpose.estimation.smoother.rts_smooth`.
         """
-        import time as _time
-
-        from dualpose.estimation._stream import check_streams
-
         t, gyro, accel, cam_t, offsets, pixels, points = check_streams(
             t, gyro, accel, frame_t, offsets, pixels, points, self.camera_time_offset, strictly_increasing=True
         )
         n = len(t)
         nf = len(cam_t)
-        X = np.empty((n, 16))
-        Ps = np.empty((n, 15, 15))
-        XF = np.full((nf, 16), np.nan)
-        PF = np.full((nf, 15, 15), np.nan)
+        nx, ne = ESKF_STATE.dim, ESKF_ERROR.dim
+        X = np.empty((n, nx))
+        Ps = np.empty((n, ne, ne))
+        XF = np.full((nf, nx), np.nan)
+        PF = np.full((nf, ne, ne), np.nan)
         nis = np.full(len(pixels), np.nan)
         acc = np.zeros(len(pixels), np.int64)
-        t0 = _time.perf_counter()
+        t0 = time.perf_counter()
         cam = (self.intrinsics, self.q_bc, self.p_bc, self.pixel_sigma, self.gate)
         args = (t, gyro, accel, cam_t, offsets, pixels, points, self.x, self.P, self.gravity, self.noise, *cam,
                 X, Ps, XF, PF, nis, acc)  # fmt: skip
@@ -381,15 +420,15 @@ class ErrorStateEKF:
             nodes = _record_run(args, n, nf)
         else:
             _k("run")(*args)
-        wall = _time.perf_counter() - t0
+        wall = time.perf_counter() - t0
         self.time = float(t[-1])
         self._u = np.concatenate([gyro[-1], accel[-1]])
         used = np.isfinite(nis)
         rep = _report(nis[used], acc[used].astype(bool), self.gate)
+        blocks = {name: ESKF_STATE.get(X, name) for name in ESKF_STATE.names}
         return FilterResult(
-            t=t, position=X[:, 0:3], velocity=X[:, 3:6], quat=X[:, 6:10], gyro_bias=X[:, 10:13],
-            accel_bias=X[:, 13:16], covariance=Ps, frame_states=XF, frame_covariance=PF, innovation=rep,
-            wall_time=wall, nodes=nodes,
+            t=t, **blocks, covariance=Ps, frame_states=XF, frame_covariance=PF, innovation=rep, wall_time=wall,
+            nodes=nodes,
         )  # fmt: skip
 
     def run_recording(self, run: SensorRun, record_nodes: bool = False) -> FilterResult:
@@ -401,8 +440,9 @@ class ErrorStateEKF:
 def _record_run(args: tuple, n: int, nf: int) -> FilterNodes:
     """Run the ``run_recorded`` kernel with ``args`` (those of ``run``) and return the trimmed node record."""
     cap = n + nf
-    XA, XB = np.empty((cap, 16)), np.empty((cap, 16))
-    PA, PB, FS = np.empty((cap, 15, 15)), np.empty((cap, 15, 15)), np.empty((cap, 15, 15))
+    nx, ne = ESKF_STATE.dim, ESKF_ERROR.dim
+    XA, XB = np.empty((cap, nx)), np.empty((cap, nx))
+    PA, PB, FS = np.empty((cap, ne, ne)), np.empty((cap, ne, ne)), np.empty((cap, ne, ne))
     TN = np.empty(cap)
     imu_node, frame_node = np.empty(n, np.int64), np.empty(nf, np.int64)
     k = _k("run_recorded")(*args, XA, PA, XB, PB, FS, TN, imu_node, frame_node)

@@ -22,11 +22,17 @@ import numpy as np
 from scipy.stats import chi2
 
 import dualpose as dp
+from dualpose._validation import lazy_kernels
 from dualpose.estimation import models
+from dualpose.estimation._stream import check_streams
 from dualpose.estimation.eskf import InnovationReport
-from dualpose.types import ImuNoise, PinholeCamera, SensorRun
+from dualpose.estimation.interface import Estimator, UpdateResult
+from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE, HOL22_STATE
+from dualpose.types import CameraFrame, ImuNoise, PinholeCamera, SensorRun
 
 __all__ = ["Hol22EKF", "Hol22Result", "HolProcessNoise", "process_model"]
+
+_k = lazy_kernels("dualpose.estimation._hol22_kernels")
 
 
 @dataclass(frozen=True)
@@ -57,21 +63,24 @@ def _exp_half(omega: np.ndarray, T: float) -> tuple[np.ndarray, np.ndarray]:
 def process_model(x: np.ndarray, T: float) -> tuple[np.ndarray, np.ndarray]:
     """Hol eq. 9 without noise: the next 22-state (22,) and its Jacobian ``F = ∂f/∂x`` (22, 22)."""
     x = np.asarray(x, dtype=np.float64)
-    if x.shape != (22,):
-        raise ValueError(f"x must have shape (22,); got {x.shape}")
-    F = np.eye(22)
+    n = HOL22_STATE.dim
+    if x.shape != (n,):
+        raise ValueError(f"x must have shape ({n},); got {x.shape}")
+    p, v, a = (HOL22_STATE.slice(k) for k in ("position", "velocity", "acceleration"))
+    qs, ws = HOL22_STATE.slice("quat_be"), HOL22_STATE.slice("angular_velocity")
+    F = np.eye(n)
     I3 = np.eye(3)
-    F[0:3, 3:6] = T * I3
-    F[0:3, 6:9] = 0.5 * T * T * I3
-    F[3:6, 6:9] = T * I3
-    dq, Jw = _exp_half(x[13:16], T)
-    q = x[9:13]
-    F[9:13, 9:13] = dp.quat_left_matrix(dq)  # ∂(dq ⊙ q)/∂q
-    F[9:13, 13:16] = dp.quat_right_matrix(q) @ Jw  # ∂(dq ⊙ q)/∂ω
+    F[p, v] = T * I3
+    F[p, a] = 0.5 * T * T * I3
+    F[v, a] = T * I3
+    dq, Jw = _exp_half(x[ws], T)
+    q = x[qs]
+    F[qs, qs] = dp.quat_left_matrix(dq)  # ∂(dq ⊙ q)/∂q
+    F[qs, ws] = dp.quat_right_matrix(q) @ Jw  # ∂(dq ⊙ q)/∂ω
     out = x.copy()
-    out[0:3] += T * x[3:6] + 0.5 * T * T * x[6:9]
-    out[3:6] += T * x[6:9]
-    out[9:13] = dp.quat_mul(dq, q)
+    out[p] += T * x[v] + 0.5 * T * T * x[a]
+    out[v] += T * x[a]
+    out[qs] = dp.quat_mul(dq, q)
     return out, F
 
 
@@ -94,8 +103,9 @@ class Hol22Result:
     wall_time: float
 
 
-class Hol22EKF:
-    """Hol's 22-state EKF.
+class Hol22EKF(Estimator):
+    """Hol's 22-state EKF; an :class:`~dualpose.estimation.interface.Estimator` whose state and covariance both
+    follow :data:`~dualpose.estimation.state.HOL22_STATE` (the quaternion ``q^{be}`` as four numbers).
 
     Parameters
     ----------
@@ -120,14 +130,17 @@ class Hol22EKF:
         gate_probability: float = 0.999,
         camera_time_offset: float = 0.0,
     ) -> None:
+        n = HOL22_STATE.dim
         x0 = np.array(x0, dtype=np.float64)
-        if x0.shape != (22,):
-            raise ValueError(f"x0 must have shape (22,); got {x0.shape}")
+        if x0.shape != (n,):
+            raise ValueError(f"x0 must have shape ({n},); got {x0.shape}")
         P0 = np.array(P0, dtype=np.float64)
-        if P0.shape != (22, 22):
-            raise ValueError(f"P0 must have shape (22, 22); got {P0.shape}")
+        if P0.shape != (n, n):
+            raise ValueError(f"P0 must have shape ({n}, {n}); got {P0.shape}")
         self.x = x0
-        self.x[9:13] /= np.linalg.norm(self.x[9:13])
+        q = HOL22_STATE.get(self.x, "quat_be")
+        q /= np.linalg.norm(q)
+        self.time: float | None = None
         self.P = 0.5 * (P0 + P0.T)
         self.imu_noise = ImuNoise() if imu_noise is None else imu_noise
         self.process_noise = HolProcessNoise() if process_noise is None else process_noise
@@ -154,25 +167,104 @@ class Hol22EKF:
     ) -> Hol22EKF:
         """Start from an error-state filter's state/covariance (position, velocity, q_wb, biases) for ``run``'s
         sensors: b̈ = 0 and ω = 0 (or ``omega``) with wide priors, q^{be} = conj(q_wb)."""
-        x = np.zeros(22)
-        x[0:6] = x16[0:6]
-        q_be = dp.quat_conj(x16[6:10])
-        x[9:13] = q_be
-        x[13:16] = 0.0 if omega is None else omega
-        x[16:19] = x16[10:13]
-        x[19:22] = x16[13:16]
+        S, E, L = ESKF_STATE, ESKF_ERROR, HOL22_STATE
+        q_be = dp.quat_conj(S.get(x16, "quat"))
+        x = L.assemble(
+            position=S.get(x16, "position"), velocity=S.get(x16, "velocity"), acceleration=np.zeros(3), quat_be=q_be,
+            angular_velocity=np.zeros(3) if omega is None else omega, gyro_bias=S.get(x16, "gyro_bias"),
+            accel_bias=S.get(x16, "accel_bias"),
+        )  # fmt: skip
         # [δp, δv, δθ, δbg, δba] → 22-state: q^{be} = Exp(−δθ) ⊙ q^{be}  ⇒  ∂q/∂δθ = −½ W(q^{be})[:, :3]
-        J = np.zeros((22, 15))
-        J[0:6, 0:6] = np.eye(6)
-        J[9:13, 6:9] = -0.5 * dp.quat_right_matrix(q_be)[:, :3]
-        J[16:22, 9:15] = np.eye(6)
+        J = np.zeros((L.dim, E.dim))
+        for block in ("position", "velocity", "gyro_bias", "accel_bias"):
+            J[L.slice(block), E.slice(block)] = np.eye(3)
+        J[L.slice("quat_be"), E.slice("attitude")] = -0.5 * dp.quat_right_matrix(q_be)[:, :3]
         P = J @ P15 @ J.T
-        P[6:9, 6:9] += np.eye(3) * 0.5**2
-        P[13:16, 13:16] += np.eye(3) * 0.1**2
-        P[9:13, 9:13] += np.eye(4) * 1e-12
+        L.cov(P, "acceleration")[:] += np.eye(3) * 0.5**2
+        L.cov(P, "angular_velocity")[:] += np.eye(3) * 0.1**2
+        L.cov(P, "quat_be")[:] += np.eye(4) * 1e-12
         opts = run.sensor_options()
         opts.update(kwargs)
         return cls(x, P, **opts)
+
+    # ------------------------------------------------------------------ the estimator interface
+    state_layout = HOL22_STATE
+    covariance_layout = HOL22_STATE
+
+    @property
+    def state(self) -> np.ndarray:
+        """State (22,) (:data:`~dualpose.estimation.state.HOL22_STATE`), a copy."""
+        return self.x.copy()
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """Covariance (22, 22) in the state's own layout, a copy."""
+        return self.P.copy()
+
+    @property
+    def quat(self) -> np.ndarray:
+        """Orientation ``q_wb`` (4,) xyzw, the conjugate of Hol's ``q^{be}``."""
+        return dp.quat_conj(HOL22_STATE.get(self.x, "quat_be"))
+
+    def _attitude_jacobian(self) -> np.ndarray:
+        """``∂e/∂q^{be}`` (3, 4) of the world-frame attitude error: ``q^{be}_true = q̂^{be} ⊗ Exp(−e)`` gives
+        ``e ≈ −2 [q̂^{be}* ⊗ δq]_xyz``."""
+        return -2.0 * dp.quat_left_matrix(dp.quat_conj(HOL22_STATE.get(self.x, "quat_be")))[:3, :]
+
+    def attitude_covariance(self) -> np.ndarray:
+        """World-frame attitude error covariance (3, 3), projected from the (4, 4) block of ``q^{be}``."""
+        J = self._attitude_jacobian()
+        return J @ HOL22_STATE.cov(self.P, "quat_be") @ J.T
+
+    def tangent_covariance(self) -> np.ndarray:
+        """Covariance (21, 21) with the quaternion block replaced by the world-frame attitude error (3,): ``T P Tᵀ``
+        with ``T`` the identity on every other block and :meth:`_attitude_jacobian` on ``q^{be}`` (the 22-state
+        covariance is singular along the unit quaternion after each renormalisation)."""
+        L = HOL22_STATE
+        rows = []
+        for name in L.names:
+            block = np.zeros((3 if name == "quat_be" else L.size(name), L.dim))
+            block[:, L.slice(name)] = self._attitude_jacobian() if name == "quat_be" else np.eye(L.size(name))
+            rows.append(block)
+        T = np.vstack(rows)
+        return T @ self.P @ T.T
+
+    def _attitude_model(self, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        # ρ = Log(q_m ⊗ q^{be}) ≈ r + J_r⁻¹(r) (−∂e/∂q) δq  ⇒  H = J_r⁻¹(r) ∂e/∂q (innovation r − H δq)
+        r = dp.rotvec_from_quat(dp.quat_mul(quat, HOL22_STATE.get(self.x, "quat_be")))
+        H = np.zeros((3, HOL22_STATE.dim))
+        H[:, HOL22_STATE.slice("quat_be")] = dp.so3_right_jacobian_inv(r) @ self._attitude_jacobian()
+        return r, H
+
+    def _update_linear(self, residual: np.ndarray, jacobian: np.ndarray, covariance: np.ndarray) -> UpdateResult:
+        self._check_linear(residual, jacobian, covariance)
+        S = jacobian @ self.P @ jacobian.T + covariance
+        K = np.linalg.solve(S, jacobian @ self.P).T
+        self.x = self.x + K @ residual
+        self._joseph(K, jacobian, covariance)
+        self._normalize()
+        return UpdateResult(float(residual @ np.linalg.solve(S, residual)), len(residual), True)
+
+    def propagate(self, t: float, gyro: np.ndarray, accel: np.ndarray, mag: np.ndarray | None = None) -> None:
+        """Algorithm 1 for one IMU sample taken at ``t``: time update from the filter time (eq. 9), then the
+        accelerometer and gyroscope measurement update (eq. 11a, 11b).  ``mag`` is not used."""
+        if self.time is not None:
+            if t < self.time:
+                raise ValueError(f"IMU sample at t={t} is older than the filter time {self.time}")
+            self.time_update(t - self.time)
+        self.time = float(t)
+        self.imu_update(accel, gyro)
+
+    def _update_camera(self, frame: CameraFrame) -> UpdateResult:
+        t = frame.t + self.camera_time_offset
+        if self.time is None:
+            self.time = t
+        if t < self.time:
+            raise ValueError(f"frame at IMU time {t} is older than the filter time {self.time} (no out-of-order)")
+        self.time_update(t - self.time)
+        self.time = t
+        accepted = self.camera_update(frame.pixels, frame.points)
+        return UpdateResult(self._nis[-1], 2, accepted)
 
     # ------------------------------------------------------------------ eq. 9
     def time_update(self, T: float) -> None:
@@ -186,24 +278,25 @@ class Hol22EKF:
         """Spectral densities (22,) on the diagonal of ``Q = diag(·) T``: b̈ (eq. 9c), ω (eq. 9e) and the bias
         random walks (eq. 9f, 9g); zero elsewhere."""
         pn, n = self.process_noise, self.imu_noise
-        q = np.zeros(22)
-        q[6:9] = pn.acceleration
-        q[13:16] = pn.angular_velocity
-        q[16:19] = n.gyroscope_random_walk**2
-        q[19:22] = n.accelerometer_random_walk**2
-        return q
+        z = np.zeros(3)
+        return HOL22_STATE.assemble(
+            position=z, velocity=z, acceleration=np.full(3, pn.acceleration), quat_be=np.zeros(4),
+            angular_velocity=np.full(3, pn.angular_velocity), gyro_bias=np.full(3, n.gyroscope_random_walk**2),
+            accel_bias=np.full(3, n.accelerometer_random_walk**2),
+        )  # fmt: skip
 
     def _normalize(self) -> None:
-        q = self.x[9:13]
+        qs = HOL22_STATE.slice("quat_be")
+        q = self.x[qs]
         nq = np.linalg.norm(q)
         u = q / nq
-        J = np.eye(22)
-        J[9:13, 9:13] = (np.eye(4) - np.outer(u, u)) / nq
-        self.x[9:13] = u
+        J = np.eye(HOL22_STATE.dim)
+        J[qs, qs] = (np.eye(4) - np.outer(u, u)) / nq
+        self.x[qs] = u
         self.P = J @ self.P @ J.T
 
     def _joseph(self, K: np.ndarray, H: np.ndarray, R: np.ndarray) -> None:
-        A = np.eye(22) - K @ H
+        A = np.eye(HOL22_STATE.dim) - K @ H
         P = A @ self.P @ A.T + K @ R @ K.T
         self.P = 0.5 * (P + P.T)
 
@@ -237,7 +330,7 @@ class Hol22EKF:
             if depth[i] > 1e-6:
                 S = H[i] @ P @ H[i].T + Rs[i] * np.eye(2)
                 prior[i] = h[i] @ np.linalg.solve(S, h[i])
-        dx = np.zeros(22)
+        dx = np.zeros(HOL22_STATE.dim)
         nis = np.full(m, np.inf)
         acc = np.zeros(m, bool)
         for i in np.argsort(prior):
@@ -278,17 +371,13 @@ class Hol22EKF:
         Runs as one compiled loop (:mod:`dualpose.estimation._hol22_kernels`) with the same equations as
         :meth:`time_update`, :meth:`camera_update` and :meth:`imu_update` called in that order.
         """
-        from dualpose._validation import lazy_kernels
-
-        kernel = lazy_kernels("dualpose.estimation._hol22_kernels")("run")
-        from dualpose.estimation._stream import check_streams
-
+        kernel = _k("run")
         t, gyro, accel, cam_t, offsets, pixels, points = check_streams(
             t, gyro, accel, frame_t, offsets, pixels, points, self.camera_time_offset, strictly_increasing=False
         )
-        n = len(t)
-        X = np.empty((n, 22))
-        Ps = np.empty((n, 22, 22))
+        n, nx = len(t), HOL22_STATE.dim
+        X = np.empty((n, nx))
+        Ps = np.empty((n, nx, nx))
         nis = np.full(len(pixels), np.nan)
         acc = np.zeros(len(pixels), np.int64)
         Rcb = dp.matrix_from_quat(dp.quat_conj(self.q_bc))
@@ -305,10 +394,12 @@ class Hol22EKF:
         rep = InnovationReport(
             nis[used], acc[used].astype(bool), 2, (float(chi2.ppf(0.025, 2)), float(chi2.ppf(0.975, 2))), self.gate
         )
+        self.time = float(t[-1])
+        L = HOL22_STATE
         return Hol22Result(
-            t=t, position=X[:, 0:3], velocity=X[:, 3:6], acceleration=X[:, 6:9], quat=dp.quat_conj(X[:, 9:13]),
-            omega=X[:, 13:16], gyro_bias=X[:, 16:19], accel_bias=X[:, 19:22], covariance=Ps, innovation=rep,
-            wall_time=wall,
+            t=t, position=L.get(X, "position"), velocity=L.get(X, "velocity"), acceleration=L.get(X, "acceleration"),
+            quat=dp.quat_conj(L.get(X, "quat_be")), omega=L.get(X, "angular_velocity"), gyro_bias=L.get(X, "gyro_bias"),
+            accel_bias=L.get(X, "accel_bias"), covariance=Ps, innovation=rep, wall_time=wall,
         )  # fmt: skip
 
     def run_recording(self, run: SensorRun) -> Hol22Result:

@@ -11,7 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 
 import dualpose as dp
-from dualpose.registration.pnp import PnPResult
+from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
+from dualpose.registration.pnp import PnPResult, solve_pnp_ransac
 
 __all__ = [
     "StaticAlignment",
@@ -117,16 +118,18 @@ def initial_state_from_rest_and_frame(
     """
     al = static_alignment(accel_rest, gyro_rest)
     p_wb, q_wb, cov = body_pose_from_camera(pnp, q_bc, p_bc)
-    x = np.concatenate([p_wb, np.zeros(3), q_wb, al.gyro_bias, np.zeros(3)])
-    P = np.zeros((15, 15))
-    P[0:3, 0:3] = cov[0:3, 0:3]
-    P[0:3, 6:9] = cov[0:3, 3:6]
-    P[6:9, 0:3] = cov[3:6, 0:3]
-    P[6:9, 6:9] = cov[3:6, 3:6]
-    P[3:6, 3:6] = np.eye(3) * 1e-3**2
+    x = ESKF_STATE.assemble(position=p_wb, velocity=np.zeros(3), quat=q_wb, gyro_bias=al.gyro_bias,
+                            accel_bias=np.zeros(3))  # fmt: skip
+    E = ESKF_ERROR
+    P = np.zeros((E.dim, E.dim))
+    pose = [E.slice("position"), E.slice("attitude")]  # the order of cov's [δp, δθ_b]
+    for i, a in enumerate(pose):
+        for j, b in enumerate(pose):
+            P[a, b] = cov[3 * i : 3 * i + 3, 3 * j : 3 * j + 3]
+    E.cov(P, "velocity")[:] = np.eye(3) * 1e-3**2
     t_rest = al.n_samples / rate
-    P[9:12, 9:12] = np.eye(3) * (gyroscope_noise_density**2 / t_rest + 1e-4**2)
-    P[12:15, 12:15] = np.eye(3) * accelerometer_initial_bias_sigma**2
+    E.cov(P, "gyro_bias")[:] = np.eye(3) * (gyroscope_noise_density**2 / t_rest + 1e-4**2)
+    E.cov(P, "accel_bias")[:] = np.eye(3) * accelerometer_initial_bias_sigma**2
     return x, P
 
 
@@ -192,8 +195,6 @@ def initial_state_from_run(run, rest_seconds: float | None = 0.9) -> tuple[np.nd
     ValueError
         No camera frame with >= 6 correspondences during the rest period.
     """
-    from dualpose.registration.pnp import solve_pnp_ransac
-
     n = run.imu_noise
     if rest_seconds is None:
         rest_seconds = detect_rest(run.t, run.gyro, run.accel, n.gyroscope_noise_density, n.accelerometer_noise_density)

@@ -1,7 +1,7 @@
 """Measurement models with analytic Jacobians for the error-state filter (Solà 2017) and Hol's 22-state filter.
 
-Error-state models (nominal ``x`` (16,) = ``[p_wb, v_w, q_wb xyzw, b_g, b_a]``; error ``δx`` (15,) =
-``[δp, δv, δθ, δb_g, δb_a]``, ``q = q̂ ⊗ Exp(δθ)``, see :func:`boxplus`): each returns the residual
+Error-state models (nominal ``x`` (16,) = :data:`~dualpose.estimation.state.ESKF_STATE`; error ``δx`` (15,) =
+:data:`~dualpose.estimation.state.ESKF_ERROR`, ``q = q̂ ⊗ Exp(δθ)``, see :func:`boxplus`): each returns the residual
 ``r = y − h(x̂)`` (in the measurement's tangent space for orientations) and ``H = ∂h(x̂ ⊞ δx)/∂δx`` at δx = 0.
 
 Camera: we use the **reprojection form** ``y = π(R_bcᵀ(R_wbᵀ(z_w − p) − p_bc)) + e`` with ``π(X, Y, Z) =
@@ -13,7 +13,7 @@ form has homoscedastic pixel noise (the χ² gate and NIS report are then meanin
 of a 1/Z, which is harmless for points in front of the camera.  The 22-state Hol filter uses eq. 11c as written
 (:func:`hol_camera_implicit`); the error-state filter uses the reprojection form.
 
-Hol 22-state layout (eq. 8): ``[b (3), ḃ (3), b̈ (3), q^{be} xyzw (4), ω^b_{eb} (3), δ_ω (3), δ_a (3)]``.
+Hol 22-state layout (eq. 8): :data:`~dualpose.estimation.state.HOL22_STATE`.
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ import numpy as np
 
 import dualpose as dp
 from dualpose._validation import lazy_kernels
+from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE, HOL22_STATE
 
 __all__ = [
     "boxplus",
@@ -39,8 +40,8 @@ _k = lazy_kernels("dualpose.estimation._eskf_kernels")
 
 def _state(x: np.ndarray) -> np.ndarray:
     x = np.ascontiguousarray(x, dtype=np.float64)
-    if x.shape != (16,):
-        raise ValueError(f"x must be an error-state nominal vector of shape (16,); got {x.shape}")
+    if x.shape != (ESKF_STATE.dim,):
+        raise ValueError(f"x must be an error-state nominal vector of shape ({ESKF_STATE.dim},); got {x.shape}")
     return x
 
 
@@ -48,9 +49,10 @@ def boxplus(x: np.ndarray, dx: np.ndarray) -> np.ndarray:
     """``x ⊞ δx``: add ``δx`` (15,) to the nominal state ``x`` (16,) with ``q ← q ⊗ Exp(δθ)``."""
     x = _state(x)
     out = x.copy()
-    out[0:6] += dx[0:6]
-    out[10:16] += dx[9:15]
-    out[6:10] = dp.quat_mul(x[6:10], dp.quat_from_rotvec(dx[6:9]))
+    for block in ("position", "velocity", "gyro_bias", "accel_bias"):
+        ESKF_STATE.get(out, block)[:] += ESKF_ERROR.get(dx, block)
+    dq = dp.quat_from_rotvec(ESKF_ERROR.get(dx, "attitude"))
+    ESKF_STATE.get(out, "quat")[:] = dp.quat_mul(ESKF_STATE.get(x, "quat"), dq)
     return out
 
 
@@ -79,7 +81,7 @@ def camera_reprojection(
     if len(pixels) != len(points):
         raise ValueError(f"pixels (M, 2) and points (M, 3) must have the same M; got {len(pixels)} and {len(points)}")
     m = len(pixels)
-    r, H, depth = np.empty((m, 2)), np.empty((m, 2, 15)), np.empty(m)
+    r, H, depth = np.empty((m, 2)), np.empty((m, 2, ESKF_ERROR.dim)), np.empty(m)
     _k("camera_batch")(
         x, np.asarray(intrinsics, float), np.asarray(q_bc, float), np.asarray(p_bc, float), pixels, points, r, H, depth
     )
@@ -89,9 +91,9 @@ def camera_reprojection(
 def position_model(x: np.ndarray, position: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Position fix ``y = p + e``: residual (3,) and H (3, 15)."""
     x = _state(x)
-    H = np.zeros((3, 15))
-    H[:, 0:3] = np.eye(3)
-    return np.asarray(position, float) - x[0:3], H
+    H = np.zeros((3, ESKF_ERROR.dim))
+    H[:, ESKF_ERROR.slice("position")] = np.eye(3)
+    return np.asarray(position, float) - ESKF_STATE.get(x, "position"), H
 
 
 def pose_model(x: np.ndarray, position: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -101,20 +103,20 @@ def pose_model(x: np.ndarray, position: np.ndarray, quat: np.ndarray) -> tuple[n
     ``H = [[I, 0, 0, 0, 0], [0, 0, J_l⁻¹(r_θ), 0, 0]]`` (the identity when the residual is small).
     """
     x = _state(x)
-    r_theta = dp.rotvec_from_quat(dp.quat_mul(dp.quat_conj(x[6:10]), quat))
-    r = np.concatenate([np.asarray(position, float) - x[0:3], r_theta])
-    H = np.zeros((6, 15))
-    H[0:3, 0:3] = np.eye(3)
-    H[3:6, 6:9] = dp.so3_left_jacobian_inv(r_theta)
+    r_theta = dp.rotvec_from_quat(dp.quat_mul(dp.quat_conj(ESKF_STATE.get(x, "quat")), quat))
+    r = np.concatenate([np.asarray(position, float) - ESKF_STATE.get(x, "position"), r_theta])
+    H = np.zeros((6, ESKF_ERROR.dim))
+    H[0:3, ESKF_ERROR.slice("position")] = np.eye(3)
+    H[3:6, ESKF_ERROR.slice("attitude")] = dp.so3_left_jacobian_inv(r_theta)
     return r, H
 
 
 def magnetometer_model(x: np.ndarray, measurement: np.ndarray, field_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Magnetometer ``y = R_wbᵀ m_w + e``: residual (3,) and H (3, 15) with ``∂/∂δθ = [R̂ᵀ m_w]×``."""
     x = _state(x)
-    m_b = dp.quat_rotate(dp.quat_conj(x[6:10]), field_w)
-    H = np.zeros((3, 15))
-    H[:, 6:9] = dp.so3_hat(m_b)
+    m_b = dp.quat_rotate(dp.quat_conj(ESKF_STATE.get(x, "quat")), field_w)
+    H = np.zeros((3, ESKF_ERROR.dim))
+    H[:, ESKF_ERROR.slice("attitude")] = dp.so3_hat(m_b)
     return np.asarray(measurement, float) - m_b, H
 
 
@@ -146,21 +148,23 @@ def _rot_be_and_derivs(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def hol_accelerometer(x: np.ndarray, gravity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Hol eq. 11a: ``h = R^{be}(b̈ − g^e) + δ_a``; returns h (3,) and ∂h/∂x (3, 22)."""
-    R, dR = _rot_be_and_derivs(x[9:13])
-    d = x[6:9] - gravity
-    H = np.zeros((3, 22))
-    H[:, 6:9] = R
-    H[:, 9:13] = np.einsum("kij,j->ik", dR, d)
-    H[:, 19:22] = np.eye(3)
-    return R @ d + x[19:22], H
+    L = HOL22_STATE
+    R, dR = _rot_be_and_derivs(L.get(x, "quat_be"))
+    d = L.get(x, "acceleration") - gravity
+    H = np.zeros((3, L.dim))
+    H[:, L.slice("acceleration")] = R
+    H[:, L.slice("quat_be")] = np.einsum("kij,j->ik", dR, d)
+    H[:, L.slice("accel_bias")] = np.eye(3)
+    return R @ d + L.get(x, "accel_bias"), H
 
 
 def hol_gyroscope(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Hol eq. 11b: ``h = ω^b_{eb} + δ_ω``; returns h (3,) and ∂h/∂x (3, 22)."""
-    H = np.zeros((3, 22))
-    H[:, 13:16] = np.eye(3)
-    H[:, 16:19] = np.eye(3)
-    return x[13:16] + x[16:19], H
+    L = HOL22_STATE
+    H = np.zeros((3, L.dim))
+    H[:, L.slice("angular_velocity")] = np.eye(3)
+    H[:, L.slice("gyro_bias")] = np.eye(3)
+    return L.get(x, "angular_velocity") + L.get(x, "gyro_bias"), H
 
 
 def hol_camera_implicit(
@@ -177,9 +181,9 @@ def hol_camera_implicit(
     h (M, 2), ∂h/∂x (M, 2, 22) and the camera-frame depth (M,) (the noise of h is the pixel noise times the depth).
     """
     fx, fy, cx, cy = intrinsics
-    R, dR = _rot_be_and_derivs(x[9:13])
+    R, dR = _rot_be_and_derivs(HOL22_STATE.get(x, "quat_be"))
     Rcb = dp.matrix_from_quat(dp.quat_conj(q_bc))
-    d = np.asarray(points, float) - x[0:3]  # (M, 3)
+    d = np.asarray(points, float) - HOL22_STATE.get(x, "position")  # (M, 3)
     zb = d @ R.T - p_bc
     zc = zb @ Rcb.T
     zi = np.asarray(pixels, float) - [cx, cy]
@@ -189,7 +193,7 @@ def hol_camera_implicit(
     A[:, :, 2] = zi
     h = np.einsum("mij,mj->mi", A, zc)
     AR = np.einsum("mij,jk->mik", A, Rcb)  # ∂h/∂z^b
-    H = np.zeros((len(d), 2, 22))
-    H[:, :, 0:3] = -np.einsum("mik,kl->mil", AR, R)
-    H[:, :, 9:13] = np.einsum("mik,qkl,ml->miq", AR, dR, d)
+    H = np.zeros((len(d), 2, HOL22_STATE.dim))
+    H[:, :, HOL22_STATE.slice("position")] = -np.einsum("mik,kl->mil", AR, R)
+    H[:, :, HOL22_STATE.slice("quat_be")] = np.einsum("mik,qkl,ml->miq", AR, dR, d)
     return h, H, zc[:, 2]

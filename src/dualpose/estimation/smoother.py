@@ -10,7 +10,8 @@ taking the filter's stored priors instead of ``Q``).  Both backward passes are n
 
 Example
 -------
->>> from dualpose.fusion import eskf, sim, smoother
+>>> from dualpose import sim
+>>> from dualpose.estimation import eskf, smoother
 >>> run = sim.simulate_eight(0)
 >>> f = eskf.ErrorStateEKF.for_run(run, run.truth["position"][0], run.truth["velocity"][0], run.truth["quat"][0])
 >>> smoothed = smoother.rts_smooth(f.run_recording(run, record_nodes=True))
@@ -25,6 +26,7 @@ import numpy as np
 
 from dualpose._validation import lazy_kernels
 from dualpose.estimation.eskf import FilterResult
+from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
 
 __all__ = ["SmoothedResult", "rts_smooth", "rts_smooth_linear"]
 
@@ -96,8 +98,8 @@ def rts_smooth(filter_result: FilterResult) -> SmoothedResult:
     if nodes is None:
         raise ValueError("filter_result has no node record: filter with ErrorStateEKF.run(..., record_nodes=True)")
     k = len(nodes.t)
-    xs = np.empty((k, 16))
-    Ps = np.empty((k, 15, 15))
+    xs = np.empty((k, ESKF_STATE.dim))
+    Ps = np.empty((k, ESKF_ERROR.dim, ESKF_ERROR.dim))
     backward = _k("rts_error_state")  # loaded before the clock starts
     t0 = time.perf_counter()
     try:
@@ -113,10 +115,10 @@ def rts_smooth(filter_result: FilterResult) -> SmoothedResult:
     wall = time.perf_counter() - t0
     at = nodes.imu_node
     x = xs[at]
+    blocks = {name: ESKF_STATE.get(x, name) for name in ESKF_STATE.names}
     return SmoothedResult(
-        t=filter_result.t.copy(), position=x[:, 0:3], velocity=x[:, 3:6], quat=x[:, 6:10], gyro_bias=x[:, 10:13],
-        accel_bias=x[:, 13:16], covariance=Ps[at], node_t=nodes.t.copy(), node_states=xs, node_covariance=Ps,
-        wall_time=wall,
+        t=filter_result.t.copy(), **blocks, covariance=Ps[at], node_t=nodes.t.copy(), node_states=xs,
+        node_covariance=Ps, wall_time=wall,
     )  # fmt: skip
 
 

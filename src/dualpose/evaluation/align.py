@@ -2,7 +2,9 @@
 
 Umeyama, "Least-squares estimation of transformation parameters between two point patterns", IEEE PAMI 13(4),
 1991: the (s, R, t) minimising ``sum_i |y_i - (s R x_i + t)|^2`` (eq. 1) in closed form from the SVD of the
-cross-covariance (eqs. 38-43), with the reflection correction ``S`` that keeps ``det R = +1``.
+cross-covariance (eqs. 38-43), with the reflection correction ``S`` that keeps ``det R = +1``.  That solve is
+:func:`dualpose.registration.register_pose` with ``method="svd"`` (and ``scale=True`` for Sim(3)); this module adds
+the trajectory-specific checks and the other alignments evo offers.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import dualpose as dp
+from dualpose.registration import register_pose
 
 __all__ = ["Alignment", "umeyama_alignment", "align_positions", "origin_alignment", "AlignMethod"]
 
@@ -85,7 +88,7 @@ def umeyama_alignment(source: ArrayLike, target: ArrayLike, with_scale: bool = F
     -------
     Alignment
         Minimiser of ``sum |target_i - (s R source_i + t)|^2``: ``R = U S V^T`` (eq. 40), ``s = tr(D S) / sigma_x^2``
-        (eq. 42), ``t = mu_y - s R mu_x`` (eq. 41).
+        (eq. 42), ``t = mu_y - s R mu_x`` (eq. 41), as solved by ``register_pose(source, target, method="svd")``.
 
     Raises
     ------
@@ -104,22 +107,14 @@ def umeyama_alignment(source: ArrayLike, target: ArrayLike, with_scale: bool = F
         raise ValueError(f"alignment needs at least 3 corresponding points; got {n}")
     if not (np.isfinite(x).all() and np.isfinite(y).all()):
         raise ValueError("source and target must be finite")
-    mu_x, mu_y = x.mean(axis=0), y.mean(axis=0)
-    xc, yc = x - mu_x, y - mu_y
-    sigma2_x = float(np.einsum("ij,ij->", xc, xc)) / n  # eq. 36
-    cov = yc.T @ xc / n  # eq. 38, Sigma_xy
-    u, d, vt = np.linalg.svd(cov)
+    fit = register_pose(x, y, method="svd", scale=with_scale)
+    d = fit.singular_values
     if d[1] <= max(d[0], 1e-300) * 1e-12:
         raise ValueError(
-            f"alignment is degenerate: the cross-covariance has rank < 2 (singular values {d.tolist()}); "
+            f"alignment is degenerate: the cross-covariance has rank < 2 (singular values {(d / n).tolist()}); "
             "the points are (nearly) collinear or coincident"
         )
-    s_diag = np.ones(3)
-    if np.linalg.det(u) * np.linalg.det(vt) < 0.0:  # eq. 43: reflection -> proper rotation
-        s_diag[2] = -1.0
-    rotation = (u * s_diag) @ vt
-    scale = float(np.dot(d, s_diag) / sigma2_x) if with_scale else 1.0
-    translation = mu_y - scale * (rotation @ mu_x)
+    rotation, translation, scale = dp.matrix_from_quat(fit.quat), fit.translation.copy(), fit.scale
     return Alignment(rotation, translation, scale, "sim3" if with_scale else "se3")
 
 

@@ -56,8 +56,7 @@ def calibrate_run_time_offset(
     x, P = initial_state_from_run(run)
 
     def make_filter() -> ErrorStateEKF:  # the run's true offset is NOT passed on: the search sets the attribute
-        return ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P, gyro_bias=x[10:13], accel_bias=x[13:16],
-                                     camera_time_offset=0.0, **filter_kwargs)  # fmt: skip
+        return ErrorStateEKF.from_state(run, x, P, camera_time_offset=0.0, **filter_kwargs)
 
     second = refine_time_offset_in_filter(
         make_filter, run.t, run.gyro, run.accel, f.t, f.offsets, f.pixels, f.points, first.offset,

@@ -16,14 +16,18 @@ metrics are reported for the smoothed trajectory under ``metrics["smoothed"]``.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
 
 import numpy as np
 
 import dualpose as dp
 from dualpose import sim
-from dualpose.estimation import eskf, hol22, initialization
+from dualpose.estimation import initialization
+from dualpose.estimation.eskf import ErrorStateEKF
+from dualpose.estimation.hol22 import Hol22EKF
+from dualpose.estimation.interface import Estimator
 from dualpose.estimation.smoother import rts_smooth
 from dualpose.evaluation.metrics import evaluate
 from dualpose.io import load_broad
@@ -31,10 +35,25 @@ from dualpose.io.recording import RecordingError, read_recording
 from dualpose.sim.broad_vision import recording_from_broad
 from dualpose.types import Recording, Trajectory
 
-__all__ = ["FILTERS", "FuseResult", "load_recording", "run_fuse"]
+__all__ = ["FILTERS", "EstimatorFactory", "FuseResult", "load_recording", "run_fuse"]
 
-#: filters ``run_fuse`` accepts
-FILTERS: tuple[str, ...] = ("eskf", "hol22")
+#: ``factory(recording, x, P) -> Estimator``: a filter for the recording's sensors, started from the error-state
+#: start ``x`` (:data:`~dualpose.estimation.state.ESKF_STATE`) and ``P`` (over
+#: :data:`~dualpose.estimation.state.ESKF_ERROR`) of the static alignment and first-frame PnP
+EstimatorFactory = Callable[[Recording, np.ndarray, np.ndarray], Estimator]
+
+
+def _eskf_for(rec: Recording, x: np.ndarray, P: np.ndarray) -> Estimator:
+    return ErrorStateEKF.from_state(rec, x, P)
+
+
+def _hol22_for(rec: Recording, x: np.ndarray, P: np.ndarray) -> Estimator:
+    return Hol22EKF.from_eskf_state(x, P, rec)
+
+
+#: the camera-IMU filters ``run_fuse`` knows by name (``dualpose fuse --filter``); any other
+#: :data:`EstimatorFactory` can be passed to :func:`run_fuse` directly
+FILTERS: Mapping[str, EstimatorFactory] = MappingProxyType({"eskf": _eskf_for, "hol22": _hol22_for})
 
 #: seconds of rest at the start of the simulated run used for the static alignment
 _REST_S = 0.9
@@ -160,7 +179,7 @@ def _truth_metrics(truth: Trajectory | None, estimate: Trajectory) -> tuple[dict
 
 def run_fuse(
     data: str | os.PathLike | Recording = "sim",
-    filter: str = "eskf",
+    filter: str | EstimatorFactory = "eskf",
     seed: int = 0,
     progress: Callable[[int, int, str], None] | None = None,
     smooth: bool = False,
@@ -172,8 +191,10 @@ def run_fuse(
     data : str, path-like or Recording
         "sim" (the simulated eight-shaped run with default sensors), a recording directory / sensor file, a BROAD
         ``.mat`` trial, or a :class:`~dualpose.types.recording.Recording` (see :func:`load_recording`).
-    filter : {"eskf", "hol22"}
-        :class:`~dualpose.estimation.eskf.ErrorStateEKF` (recommended) or :class:`~dualpose.estimation.hol22.Hol22EKF`.
+    filter : {"eskf", "hol22"} or EstimatorFactory
+        :class:`~dualpose.estimation.eskf.ErrorStateEKF` (recommended), :class:`~dualpose.estimation.hol22.Hol22EKF`,
+        or a factory of any :class:`~dualpose.estimation.interface.Estimator` with a ``position`` state block and a
+        batch ``run`` / ``run_recording`` (:data:`FILTERS`).
     seed : int
         Seed of the simulation's noise (of the pseudo-vision for a BROAD trial).
     progress : callable, optional
@@ -195,9 +216,15 @@ def run_fuse(
         (a ValueError) for an unreadable or malformed recording, or one the filter cannot be started on (no
         frame with >= 6 correspondences during the rest period).
     """
-    if filter not in FILTERS:
-        raise ValueError(f"filter must be one of {FILTERS}; got {filter!r}")
-    _check_smooth(filter, smooth)
+    if isinstance(filter, str):
+        if filter not in FILTERS:
+            raise ValueError(f"filter must be one of {tuple(FILTERS)} or an estimator factory; got {filter!r}")
+        name, factory = filter, FILTERS[filter]
+        _check_smooth(factory, smooth, filter)
+    elif callable(filter):
+        name, factory = getattr(filter, "__name__", type(filter).__name__), filter
+    else:
+        raise TypeError(f"filter must be a name in {tuple(FILTERS)} or a callable factory; got {type(filter)}")
     stages = _STAGES if isinstance(data, str) and data == "sim" else ("load",) + _STAGES[1:]
 
     def step(k: int) -> None:
@@ -211,30 +238,27 @@ def run_fuse(
     except ValueError as exc:
         raise RecordingError(f"{run.name}: cannot start the filter: {exc}") from None
     step(1)
-    if filter == "eskf":
-
-        def make() -> eskf.ErrorStateEKF:
-            return eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P0, gyro_bias=x[10:13])
-
-        # load the compiled kernel on a throw-away two-sample run, so that ``realtime_factor`` times the filtering
-        no_frames = (np.zeros(0), np.zeros(1, np.int64), np.zeros((0, 2)), np.zeros((0, 3)))
-        make().run(run.t[:2], run.gyro[:2], run.accel[:2], *no_frames)
-        res = make().run_recording(run, record_nodes=smooth)
-        pos_var = np.diagonal(res.covariance[:, 0:3, 0:3], axis1=1, axis2=2)
-        att_var = np.trace(res.covariance[:, 6:9, 6:9], axis1=1, axis2=2)
-        ori_sigma = np.degrees(np.sqrt(att_var))
-    else:
-        res = hol22.Hol22EKF.from_eskf_state(x, P0, run).run_recording(run)
-        pos_var = np.diagonal(res.covariance[:, 0:3, 0:3], axis1=1, axis2=2)
-        ori_sigma = None
+    est = factory(run, x, P0)
+    if "position" not in est.state_layout.names:
+        raise ValueError(f"filter {name!r}: run_fuse needs an estimator with a position state; got {type(est)}")
+    _check_smooth(type(est), smooth, name)
+    # load the compiled kernel on a throw-away two-sample run, so that ``realtime_factor`` times the filtering
+    no_frames = (np.zeros(0), np.zeros(1, np.int64), np.zeros((0, 2)), np.zeros((0, 3)))
+    factory(run, x, P0).run(run.t[:2], run.gyro[:2], run.accel[:2], *no_frames)
+    res = est.run_recording(run, record_nodes=True) if smooth else est.run_recording(run)
+    cov = est.covariance_layout
+    pos_var = np.diagonal(cov.cov(res.covariance, "position"), axis1=1, axis2=2)
+    ori_sigma = None
+    if "attitude" in cov.names:
+        ori_sigma = np.degrees(np.sqrt(np.trace(cov.cov(res.covariance, "attitude"), axis1=1, axis2=2)))
     step(2)
-    estimate = Trajectory(res.t, res.position, res.quat, run.stamps_ns, name=f"dualpose fuse --filter {filter}")
+    estimate = Trajectory(res.t, res.position, res.quat, run.stamps_ns, name=f"dualpose fuse --filter {name}")
     truth_metrics, ed, per_pose = _truth_metrics(run.ground_truth, estimate)
     duration = run.duration
     rep = res.innovation
     metrics = {
         "data": run.name if not isinstance(data, (str, os.PathLike)) else str(data),
-        "filter": filter,
+        "filter": name,
         "seed": int(seed),
         "duration_s": duration,
         "imu_samples": int(len(run.t)),
@@ -269,11 +293,12 @@ def run_fuse(
     )
 
 
-def _check_smooth(filter: str, smooth: bool) -> None:
-    if smooth and filter != "eskf":
+def _check_smooth(kind: object, smooth: bool, name: str) -> None:
+    """``smooth`` needs the error-state filter (its node record): ``kind`` is its factory or its class."""
+    if smooth and kind not in (_eskf_for, ErrorStateEKF):
         raise ValueError(
             f"smooth=True (--smooth) needs filter 'eskf': the RTS smoother runs over the error-state filter's "
-            f"stored nodes; got filter {filter!r}"
+            f"stored nodes; got filter {name!r}"
         )
 
 

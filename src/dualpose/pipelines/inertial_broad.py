@@ -1,7 +1,7 @@
 """Gyro-only attitude integration on real data (BROAD) with every algorithm (docs/inertial.md §7).
 
-``python -m dualpose.pipelines.inertial_broad [DIR]`` prints the markdown table of ``docs/inertial.md`` (DIR defaults to
-``<repo>/../shared/data/broad``).
+:func:`broad_table` makes the markdown table of ``docs/inertial.md`` from a directory of BROAD trials
+(``benchmarks/inertial_broad.py`` runs it on the shared data).
 
 Per trial: the gyro bias is the mean rate over the static start (samples before the first ``movement`` sample);
 the movement phase is cut into consecutive windows of ``window`` seconds (rounded down to a multiple of 12 samples
@@ -13,7 +13,6 @@ whose reference is missing (NaN) at either end are skipped.
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -81,13 +80,3 @@ def broad_table(directory: str | Path, window: float = 10.0) -> str:
             lines.append(f"| {trial.name} | {k} | {'yes' if remove else 'no'} | {cells} | {e['spread'].max():.2e} |")
     return "\n".join(lines)
 
-
-def main(argv: list[str] | None = None) -> int:
-    argv = sys.argv[1:] if argv is None else argv
-    default = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "broad"
-    print(broad_table(argv[0] if argv else default))
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,26 +1,7 @@
 """numba kernels of the pose-from-correspondences solvers.  Imported lazily by :mod:`dualpose.registration`.
 
-One problem is solved by :func:`solve_one` without allocating: the caller passes a work buffer.  Layout of the
-result row ``out`` (``OUT_SIZE`` floats), shared with the Python wrappers:
-
-=========  ==========================================================================================
-``0:4``    rotation quaternion xyzw (``w >= 0``)
-``4:7``    translation
-``7``      scale (1 unless ``want_scale``)
-``8``      cost ``E`` (the documented weighted sum of squares)
-``9:13``   eigenvalues (descending) of the 4x4 matrix that decided the rotation: Walker's ``A`` (eq. (47))
-           for ``dq``, Horn's ``N`` for ``horn`` and ``svd``
-``13``     the gap that decided uniqueness: ``λ1 - λ2`` (``dq``, ``horn``) or ``2 (s2 + d s3)`` (``svd``)
-``14:17``  singular values of the cross-covariance ``H`` (``svd`` only, else 0)
-``17``     ``d = sign det(Vᵀ... )`` of the reflection guard (``svd`` only, else 0)
-``18``     1 if the optimal rotation is unique (gap above tolerance), else 0
-``19``     1 if the closed-form eigen-solve was accepted, 0 if the Jacobi iteration decided (diagnostic)
-``20:22``  unused (0)
-``22``     the gap tolerance used
-``23``     the point part of the cost, ``Σβ‖r_i‖²``
-``24``     0, or ``1 + index`` into ``BAD_INPUT`` of the first input holding NaN or infinity, or
-           ``len(BAD_INPUT) + 1`` when finite inputs overflow the moments (nothing else is set)
-=========  ==========================================================================================
+One problem is solved by :func:`solve_one` without allocating: the caller passes a work buffer.  The result row
+``out`` (``ROW_SIZE`` floats) has the layout of :mod:`dualpose.registration._row`, shared with the Python wrappers.
 
 Methods: 0 = ``dq`` (Walker 1991 §3.2 on centred data), 1 = ``horn`` (Horn 1987), 2 = ``svd`` (Arun 1987 /
 Umeyama 1991).
@@ -34,10 +15,10 @@ import numba as nb
 import numpy as np
 
 from dualpose.algebra._kutil import quat_of_rotmat
+from dualpose.registration import _row as R
 
-OUT_SIZE = 25
-#: names of the arrays a non-zero ``out[24]`` points at (1-based code of the first non-finite input)
-BAD_INPUT = ("model_points", "measured_points", "model_directions", "measured_directions")
+OUT_SIZE = R.ROW_SIZE
+BAD_INPUT = R.BAD_INPUT_NAMES
 #: relative tolerance on the eigen gap below which the optimal rotation is reported as not unique
 GAP_RTOL = 1e-9
 
@@ -528,7 +509,7 @@ def solve_batch(p0, p1, beta, n0, n1, alpha, method, want_scale, out):
             # only then look for the culprit; finite inputs whose moments overflow get their own code
             chk = ax + ay + az + bx + by + bz + ss0 + ss1 + s00 + s01 + s02 + s10 + s11 + s12 + s20 + s21 + s22
             if not math.isfinite(chk):
-                out[b, 24] = _first_bad_input(p0, p1, n0, n1, b)
+                out[b, R.BAD_INPUT] = _first_bad_input(p0, p1, n0, n1, b)
                 blk[j, _SKIP] = 1.0
                 for r in range(NEIG):
                     eig[r, j] = 0.0
@@ -594,17 +575,20 @@ def solve_batch(p0, p1, beta, n0, n1, alpha, method, want_scale, out):
                     blk[j, _S], blk[j, _S + 1], blk[j, _S + 2], blk[j, _S + 3], blk[j, _S + 4], blk[j, _S + 5],
                     blk[j, _S + 6], blk[j, _S + 7], blk[j, _S + 8],
                 )  # fmt: skip
-                out[b, 14], out[b, 15], out[b, 16], out[b, 17] = sig0, sig1, sig2, d
+                out[b, R.SINGULAR_AT], out[b, R.SINGULAR_AT + 1], out[b, R.SINGULAR_AT + 2] = sig0, sig1, sig2
+                out[b, R.REFLECTION] = d
                 gap = 2.0 * (sig1 + d * sig2)
                 unique = 1 if gap > tol else 0
                 if unique == 1:
                     x, y, z, w = sx, sy, sz, sw
-            out[b, 13] = gap
-            out[b, 18] = unique
-            out[b, 9], out[b, 10], out[b, 11], out[b, 12] = l1, l2, l3, l4
-            out[b, 19] = 1.0 if fast else 0.0
-            out[b, 22] = tol
-            out[b, 0], out[b, 1], out[b, 2], out[b, 3] = x, y, z, w
+            out[b, R.EIGEN_GAP] = gap
+            out[b, R.UNIQUE] = unique
+            e = R.EIGENVALUES_AT
+            out[b, e], out[b, e + 1], out[b, e + 2], out[b, e + 3] = l1, l2, l3, l4
+            out[b, R.CLOSED_FORM] = 1.0 if fast else 0.0
+            out[b, R.GAP_TOLERANCE] = tol
+            qa = R.QUAT_AT
+            out[b, qa], out[b, qa + 1], out[b, qa + 2], out[b, qa + 3] = x, y, z, w
             # every path above returns a unit quaternion: R = I + 2w[v]x + 2[v]x² (Dantam 2014 eq. (108))
             m0, m1, m2 = 1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)
             m3, m4, m5 = 2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)
@@ -620,11 +604,11 @@ def solve_batch(p0, p1, beta, n0, n1, alpha, method, want_scale, out):
                     + blk[j, _S + 3] * m3 + blk[j, _S + 4] * m4 + blk[j, _S + 5] * m5
                     + blk[j, _S + 6] * m6 + blk[j, _S + 7] * m7 + blk[j, _S + 8] * m8
                 ) / ss0  # fmt: skip
-            out[b, 7] = scale
+            out[b, R.SCALE] = scale
             # translation: t = c1 - s R c0 (+ Walker's centred t, ~0)
-            out[b, 4] = bx - scale * (m0 * ax + m1 * ay + m2 * az) + tdq_x
-            out[b, 5] = by - scale * (m3 * ax + m4 * ay + m5 * az) + tdq_y
-            out[b, 6] = bz - scale * (m6 * ax + m7 * ay + m8 * az) + tdq_z
+            out[b, R.TRANSLATION_AT] = bx - scale * (m0 * ax + m1 * ay + m2 * az) + tdq_x
+            out[b, R.TRANSLATION_AT + 1] = by - scale * (m3 * ax + m4 * ay + m5 * az) + tdq_y
+            out[b, R.TRANSLATION_AT + 2] = bz - scale * (m6 * ax + m7 * ay + m8 * az) + tdq_z
             # cost from residuals of the centred data (no cancellation at large offsets)
             cost = 0.0
             for k in range(npt):
@@ -633,14 +617,14 @@ def solve_batch(p0, p1, beta, n0, n1, alpha, method, want_scale, out):
                 ry = scale * (m3 * x0 + m4 * y0 + m5 * z0) + tdq_y - (p1[b, k, 1] - by)
                 rz = scale * (m6 * x0 + m7 * y0 + m8 * z0) + tdq_z - (p1[b, k, 2] - bz)
                 cost += beta[b, k] * (rx * rx + ry * ry + rz * rz)
-            out[b, 23] = cost
+            out[b, R.POINT_COST] = cost
             for k in range(ndir):
                 x0, y0, z0 = n0[b, k, 0], n0[b, k, 1], n0[b, k, 2]
                 rx = m0 * x0 + m1 * y0 + m2 * z0 - n1[b, k, 0]
                 ry = m3 * x0 + m4 * y0 + m5 * z0 - n1[b, k, 1]
                 rz = m6 * x0 + m7 * y0 + m8 * z0 - n1[b, k, 2]
                 cost += alpha[b, k] * (rx * rx + ry * ry + rz * rz)
-            out[b, 8] = cost
+            out[b, R.COST] = cost
 
 
 @nb.njit(f"void({_M2}, {_M2}, {_V1}, {_M2}, {_M2}, {_V1}, int64, boolean, {_V1})", cache=True)

@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from dualpose._validation import lazy_kernels
+from dualpose.registration import _row as R
 from dualpose.registration._inputs import method_code, prepare_batch
 from dualpose.registration.estimate import PoseEstimate, bad_input_message
 
@@ -49,20 +50,21 @@ class PoseBatch:
         i = range(len(self))[i]  # bounds and negative indices
         return PoseEstimate(self._rows[i], self.method, tuple(d[i] for d in self._data))
 
-    quat = property(lambda self: np.ascontiguousarray(self._rows[:, 0:4]), doc="Rotations (B, 4) xyzw.")
-    translation = property(lambda self: np.ascontiguousarray(self._rows[:, 4:7]), doc="Translations (B, 3).")
-    scale = property(lambda self: self._rows[:, 7].copy(), doc="Scales (B,).")
-    cost = property(lambda self: self._rows[:, 8].copy(), doc="Minimised costs E (B,).")
-    eigen_gap = property(lambda self: self._rows[:, 13].copy(), doc="Gaps that decided uniqueness (B,).")
-    rotation_unique = property(lambda self: self._rows[:, 18] != 0.0, doc="Unique optimum (B,) bool.")
+    quat = property(lambda self: np.ascontiguousarray(self._rows[:, R.QUAT]), doc="Rotations (B, 4) xyzw.")
+    translation = property(lambda self: np.ascontiguousarray(self._rows[:, R.TRANSLATION]), doc="Translations (B, 3).")
+    scale = property(lambda self: self._rows[:, R.SCALE].copy(), doc="Scales (B,).")
+    cost = property(lambda self: self._rows[:, R.COST].copy(), doc="Minimised costs E (B,).")
+    eigen_gap = property(lambda self: self._rows[:, R.EIGEN_GAP].copy(), doc="Gaps that decided uniqueness (B,).")
+    rotation_unique = property(lambda self: self._rows[:, R.UNIQUE] != 0.0, doc="Unique optimum (B,) bool.")
 
     @property
     def rmsd(self) -> np.ndarray:
         """Weighted RMS point residuals (B,) (over directions for problems without points)."""
         bsum = self._data[2].sum(axis=-1)
         asum = self._data[5].sum(axis=-1)
-        pts = np.sqrt(np.maximum(self._rows[:, 23], 0.0) / np.where(bsum > 0, bsum, 1.0))
-        dirs = np.sqrt(np.maximum(self._rows[:, 8] - self._rows[:, 23], 0.0) / np.where(asum > 0, asum, 1.0))
+        pts = np.sqrt(np.maximum(self._rows[:, R.POINT_COST], 0.0) / np.where(bsum > 0, bsum, 1.0))
+        dir_cost = np.maximum(self._rows[:, R.COST] - self._rows[:, R.POINT_COST], 0.0)
+        dirs = np.sqrt(dir_cost / np.where(asum > 0, asum, 1.0))
         return np.where(bsum > 0, pts, dirs)
 
     @property
@@ -123,10 +125,10 @@ def register_pose_batch(
     )
     if scale and data[3].shape[1] > 0:
         raise ValueError("scale=True is supported for points only (the direction term does not scale)")
-    rows = np.empty((data[0].shape[0], 25))
+    rows = np.empty((data[0].shape[0], R.ROW_SIZE))
     _k("solve_batch")(*data, code, bool(scale), rows)
-    bad = rows[:, 24] != 0.0
+    bad = rows[:, R.BAD_INPUT] != 0.0
     if bad.any():
         i = int(np.argmax(bad))
-        raise ValueError(f"problem {i}: {bad_input_message(rows[i, 24])}")
+        raise ValueError(f"problem {i}: {bad_input_message(rows[i, R.BAD_INPUT])}")
     return PoseBatch(rows, method, data)

@@ -17,12 +17,13 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from dualpose._validation import lazy_kernels
+from dualpose.registration import _row as R
 from dualpose.registration._inputs import _EMPTY, _EMPTY3, method_code, prepare_single
 
 __all__ = ["PoseEstimate", "register_pose", "classify_degeneracy"]
 
 _k = lazy_kernels("dualpose.registration._kernels")
-_BAD_INPUT = ("model_points", "measured_points", "model_directions", "measured_directions")  # = _kernels.BAD_INPUT
+_BAD_INPUT = R.BAD_INPUT_NAMES
 
 
 def bad_input_message(code: float) -> str:
@@ -113,16 +114,16 @@ class PoseEstimate:
         self._degeneracy: str | None = None
 
     # ---- solver output (views of the kernel's result row) ----------------------------------------------------
-    quat = property(lambda self: self._row[0:4], doc="Rotation, unit quaternion xyzw, w >= 0, shape (4,).")
-    translation = property(lambda self: self._row[4:7], doc="Translation t, shape (3,).")
-    scale = property(lambda self: float(self._row[7]), doc="Scale s (1 unless scale=True).")
-    cost = property(lambda self: float(self._row[8]), doc="The minimised cost E.")
-    eigenvalues = property(lambda self: self._row[9:13], doc="Eigenvalues (descending) of A (dq) or N.")
-    eigen_gap = property(lambda self: float(self._row[13]), doc="The gap that decided uniqueness.")
-    gap_tolerance = property(lambda self: float(self._row[22]), doc="Threshold the gap was compared with.")
-    rotation_unique = property(lambda self: bool(self._row[18]), doc="Whether the optimal rotation is unique.")
+    quat = property(lambda self: self._row[R.QUAT], doc="Rotation, unit quaternion xyzw, w >= 0, shape (4,).")
+    translation = property(lambda self: self._row[R.TRANSLATION], doc="Translation t, shape (3,).")
+    scale = property(lambda self: float(self._row[R.SCALE]), doc="Scale s (1 unless scale=True).")
+    cost = property(lambda self: float(self._row[R.COST]), doc="The minimised cost E.")
+    eigenvalues = property(lambda self: self._row[R.EIGENVALUES], doc="Eigenvalues (descending) of A (dq) or N.")
+    eigen_gap = property(lambda self: float(self._row[R.EIGEN_GAP]), doc="The gap that decided uniqueness.")
+    gap_tolerance = property(lambda self: float(self._row[R.GAP_TOLERANCE]), doc="Threshold the gap was compared with.")
+    rotation_unique = property(lambda self: bool(self._row[R.UNIQUE]), doc="Whether the optimal rotation is unique.")
     closed_form = property(
-        lambda self: bool(self._row[19]), doc="Whether the closed-form eigen-solve decided (else Jacobi)."
+        lambda self: bool(self._row[R.CLOSED_FORM]), doc="Whether the closed-form eigen-solve decided (else Jacobi)."
     )
 
     @property
@@ -137,12 +138,12 @@ class PoseEstimate:
     @property
     def singular_values(self) -> np.ndarray | None:
         """Singular values of ``H`` (``"svd"`` only)."""
-        return self._row[14:17] if self.method == "svd" else None
+        return self._row[R.SINGULAR] if self.method == "svd" else None
 
     @property
     def reflection_sign(self) -> float | None:
         """Umeyama's ``d`` (``"svd"`` only)."""
-        return float(self._row[17]) if self.method == "svd" else None
+        return float(self._row[R.REFLECTION]) if self.method == "svd" else None
 
     @property
     def translation_observable(self) -> bool:
@@ -154,8 +155,8 @@ class PoseEstimate:
         """Weighted RMS point residual ``sqrt(Σβ‖r_i‖² / Σβ)`` (directions only: the same over directions)."""
         bsum = float(self._data[2].sum())
         if bsum > 0:
-            return float(np.sqrt(max(self._row[23], 0.0) / bsum))
-        return float(np.sqrt(max(self._row[8] - self._row[23], 0.0) / float(self._data[5].sum())))
+            return float(np.sqrt(max(self._row[R.POINT_COST], 0.0) / bsum))
+        return float(np.sqrt(max(self._row[R.COST] - self._row[R.POINT_COST], 0.0) / float(self._data[5].sum())))
 
     @property
     def degeneracy(self) -> str:
@@ -429,9 +430,9 @@ def register_pose(
         )
     if scale and data[3].shape[0] > 0:
         raise ValueError("scale=True is supported for points only (the direction term does not scale)")
-    row = np.empty(25)
+    row = np.empty(R.ROW_SIZE)
     _k("solve_one")(*data, code, bool(scale), row)
-    if row[24]:
-        raise ValueError(bad_input_message(row[24]))
+    if row[R.BAD_INPUT]:
+        raise ValueError(bad_input_message(row[R.BAD_INPUT]))
     return PoseEstimate(row, method, data)
 

@@ -8,13 +8,14 @@
 Layouts: positions ``(N, 3)`` metres, quaternions ``(N, 4)`` xyzw Hamilton body -> world, times in seconds.
 """
 
-from dualpose.types.camera import CameraIntrinsics, FrameCorrespondences, PinholeCamera, PinholeModel
+from dualpose.types.camera import CameraFrame, CameraIntrinsics, FrameCorrespondences, PinholeCamera, PinholeModel
 from dualpose.types.imu import STANDARD_GRAVITY, ImuNoise
 from dualpose.types.recording import Recording, SensorRun
 from dualpose.types.trajectory import Trajectory, seconds_from_ns
 
 __all__ = [
     "STANDARD_GRAVITY",
+    "CameraFrame",
     "CameraIntrinsics",
     "FrameCorrespondences",
     "ImuNoise",

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["PinholeModel", "PinholeCamera", "CameraIntrinsics", "FrameCorrespondences"]
+__all__ = ["PinholeModel", "PinholeCamera", "CameraIntrinsics", "CameraFrame", "FrameCorrespondences"]
 
 
 class PinholeModel:
@@ -95,6 +95,30 @@ class CameraIntrinsics(PinholeModel):
                 raise ValueError(f"{name} must be a positive whole number of pixels; got {v!r}")
 
 
+@dataclass(frozen=True)
+class CameraFrame:
+    """The 2-D–3-D point correspondences of one camera frame.
+
+    ``t`` the camera-clock stamp (s); ``pixels`` (M, 2) measured pixels; ``points`` (M, 3) the matching landmark
+    positions in the world frame, metres.
+    """
+
+    t: float
+    pixels: np.ndarray
+    points: np.ndarray
+
+    def __post_init__(self) -> None:
+        pixels = np.ascontiguousarray(self.pixels, dtype=np.float64).reshape(-1, 2)
+        points = np.ascontiguousarray(self.points, dtype=np.float64).reshape(-1, 3)
+        if len(pixels) != len(points):
+            raise ValueError(f"pixels (M, 2) and points (M, 3) differ in M: {len(pixels)} vs {len(points)}")
+        if not math.isfinite(self.t):
+            raise ValueError(f"t must be a finite time in seconds; got {self.t!r}")
+        object.__setattr__(self, "t", float(self.t))
+        object.__setattr__(self, "pixels", pixels)
+        object.__setattr__(self, "points", points)
+
+
 @dataclass
 class FrameCorrespondences:
     """2-D–3-D point correspondences of all camera frames, flattened (what the filters consume).
@@ -115,6 +139,10 @@ class FrameCorrespondences:
         """``(pixels (m, 2), points (m, 3))`` of frame ``k``."""
         a, b = self.offsets[k], self.offsets[k + 1]
         return self.pixels[a:b], self.points[a:b]
+
+    def camera_frame(self, k: int) -> CameraFrame:
+        """Frame ``k`` as a :class:`CameraFrame` (the measurement the estimators' ``update`` takes)."""
+        return CameraFrame(float(self.t[k]), *self.frame(k))
 
     @property
     def counts(self) -> np.ndarray:

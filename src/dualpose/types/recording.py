@@ -5,7 +5,7 @@ needs and, optionally, ground truth.  It is built from the simulator (:func:`rec
 from files (:func:`dualpose.io.recording.read_recording`, the format documented in ``docs/fusion.md``) or made from
 a BROAD trial with pseudo-vision (:func:`dualpose.pipelines.broad_pose.recording_from_broad`).
 
-Frames and layouts as in :mod:`dualpose.fusion`: world ``w``, IMU body ``b``, camera ``c``; ``q_wb`` (4,) xyzw
+Frames and layouts as in :mod:`dualpose.estimation`: world ``w``, IMU body ``b``, camera ``c``; ``q_wb`` (4,) xyzw
 body→world; the extrinsic ``(q_bc, p_bc)`` gives the camera axes and centre in the body frame; the clocks are
 related by ``t_imu = t_cam + time_offset`` (Kalibr ``timeshift_cam_imu``).
 """
