@@ -16,6 +16,7 @@ from dualpose.calibration.static import (
     stack_static_periods,
     static_period,
     static_period_from_run,
+    static_periods,
 )
 from dualpose.calibration.time_offset import (
     FilterTimeOffsetEstimate,
@@ -42,6 +43,7 @@ __all__ = [
     "stack_static_periods",
     "static_period",
     "static_period_from_run",
+    "static_periods",
     "unobservability_check",
     "vision_rotation_rates",
 ]
