@@ -39,8 +39,8 @@ def calibrate_run_time_offset(
     """Both time-offset stages on a simulated run that starts at rest (e.g. ``sim.simulate_eight``).
 
     Per-frame robust PnP → :func:`~dualpose.calibration.time_offset.estimate_time_offset` (with ``q_bc``; ``None``
-    estimates the rotation too; the PnP attitude covariances and the gyro noise density give its σ, ``weighted`` also weights with them)
-    → if ``refine``,
+    estimates the rotation too; the PnP attitude covariances and the gyro noise density give its σ, ``weighted``
+    also weights with them) → if ``refine``,
     :func:`~dualpose.calibration.time_offset.refine_time_offset_in_filter` over ``±max(4σ, 5 ms)`` with the
     error-state filter started from the rest period + first-frame PnP
     (:func:`dualpose.estimation.initialization.initial_state_from_run`; ``filter_kwargs`` go to
