@@ -28,6 +28,7 @@ from dualpose.estimation.smoother import rts_smooth
 from dualpose.evaluation.metrics import evaluate
 from dualpose.io import load_broad
 from dualpose.io.recording import RecordingError, read_recording
+from dualpose.pipelines.checks import check_before_fuse, check_gravity_after_alignment
 from dualpose.sim.broad_vision import recording_from_broad
 from dualpose.types import Recording, Trajectory
 
@@ -205,11 +206,13 @@ def run_fuse(
             progress(k + 1, len(stages), stages[k])
 
     run = load_recording(data, seed)
+    check_before_fuse(run)  # too short: RecordingError; IMU gaps: RecordingWarning
     step(0)
     try:
         x, P0 = initialization.initial_state_from_run(run, run.rest_seconds)
     except ValueError as exc:
         raise RecordingError(f"{run.name}: cannot start the filter: {exc}") from None
+    check_gravity_after_alignment(run, x)  # gravity pointing up: RecordingError; doubtful: RecordingWarning
     step(1)
     if filter == "eskf":
 
