@@ -85,8 +85,9 @@ def fuse_figures(result, top_view: str | os.PathLike, errors: str | os.PathLike,
     lo, hi = result.nis_bounds
     ax.axhline(lo, color="k", ls="--", label="95% χ²(2) bounds")
     ax.axhline(hi, color="k", ls="--")
+    inside = result.metrics["nis_fraction_inside"]
     ax.set(xlabel="correspondence update [count]", ylabel="NIS [dimensionless]",
-           title=f"normalised innovation squared ({name}), {result.metrics['nis_fraction_inside']:.1%} inside")  # fmt: skip
+           title=f"normalised innovation squared ({name}), {inside:.1%} inside")  # fmt: skip
     ax.legend(**_OUTSIDE)
     fig.savefig(nis, dpi=100, bbox_inches="tight")
     plt.close(fig)

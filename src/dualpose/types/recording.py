@@ -146,7 +146,9 @@ class Recording:
             raise ValueError(f"gravity must have shape (3,); got {self.gravity.shape}")
         g = float(np.linalg.norm(self.gravity)) if np.isfinite(self.gravity).all() else math.nan
         if not 1.0 <= g <= 100.0:
-            raise ValueError(f"gravity: magnitude must be in [1, 100] m/s² (9.81 on Earth); got {self.gravity.tolist()}")
+            raise ValueError(
+                f"gravity: magnitude must be in [1, 100] m/s² (9.81 on Earth); got {self.gravity.tolist()}"
+            )
         for name, limit in IMU_LIMITS.items():
             a = getattr(self, name)
             big = np.flatnonzero(np.abs(a).max(axis=1) > limit)
