@@ -139,7 +139,10 @@ def load_recording(data: str | os.PathLike | Recording = "sim", seed: int = 0) -
             trial = load_broad(data)
         except (FileNotFoundError, ValueError) as exc:
             raise RecordingError(f"{data}: {exc}") from None
-        return recording_from_broad(trial, seed=int(seed), name=str(data))
+        try:
+            return recording_from_broad(trial, seed=int(seed), name=str(data))
+        except ValueError as exc:
+            raise RecordingError(f"{data}: {exc}") from None
     return read_recording(data)
 
 

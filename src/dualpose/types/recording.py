@@ -132,8 +132,13 @@ class Recording:
             raise ValueError("t must hold at least two finite, strictly increasing IMU times (N,)")
         for name in ("gyro", "accel"):
             a = np.ascontiguousarray(getattr(self, name), dtype=np.float64)
-            if a.shape != (n, 3) or not np.isfinite(a).all():
-                raise ValueError(f"{name} must be finite with shape ({n}, 3); got {a.shape}")
+            if a.shape != (n, 3):
+                raise ValueError(f"{name} must have shape ({n}, 3); got {a.shape}")
+            bad = np.flatnonzero(~np.isfinite(a).all(axis=1))
+            if bad.size:
+                k = int(bad[0])
+                raise ValueError(f"{name}: sample {k} (t = {self.t[k]:.6f} s) is not finite ({bad.size} such); drop "
+                                 "or interpolate the missing samples")  # fmt: skip
             setattr(self, name, a)
         self.q_bc = np.asarray(self.q_bc, dtype=np.float64)
         self.p_bc = np.asarray(self.p_bc, dtype=np.float64)
