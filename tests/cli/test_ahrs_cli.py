@@ -58,10 +58,10 @@ def test_table(capsys):
 
 def test_missing_and_bad_files_name_the_file(tmp_path, capsys):
     missing = tmp_path / "nope.mat"
-    assert main(["ahrs", str(missing), "--json"]) == 2
+    assert main(["ahrs", str(missing), "--json"]) == 1  # data errors exit 1
     assert str(missing) in capsys.readouterr().err
     bad = tmp_path / "bad.mat"
     bad.write_text("not a MATLAB file\n")
-    assert main(["ahrs", str(bad)]) == 2
+    assert main(["ahrs", str(bad)]) == 1
     err = capsys.readouterr().err
     assert str(bad) in err and "error" in err

@@ -49,6 +49,6 @@ def test_out_writes_files_refuses_overwrite_and_force_replaces(tmp_path, capsys)
 
 @pytest.mark.parametrize("data", ["recording.csv", "euroc/"])
 def test_missing_input_is_rejected_clearly(data, capsys):
-    assert main(["fuse", "--data", data]) == 2
+    assert main(["fuse", "--data", data]) == 1
     err = capsys.readouterr().err
     assert "no such file or directory" in err and data in err

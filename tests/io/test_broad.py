@@ -53,3 +53,61 @@ def test_bad_files(tmp_path):
     savemat(tmp_path / "x.mat", {"imu_gyr": np.zeros((3, 3))})
     with pytest.raises(ValueError, match="missing fields"):
         load_broad(tmp_path / "x.mat")
+
+
+def write_synthetic_trial(path: Path, n: int = 600, **changes) -> Path:
+    """A small BROAD-like trial at rest (level, facing north) written with scipy.io.savemat; ``changes`` replace
+    fields (None removes one)."""
+    from scipy.io import savemat
+
+    rng = np.random.default_rng(5)
+    fields = {
+        "imu_gyr": rng.normal(0.0, 1e-3, (n, 3)),
+        "imu_acc": np.array([0.0, 0.0, 9.81]) + rng.normal(0.0, 1e-2, (n, 3)),
+        "imu_mag": np.array([0.0, 20.0, -40.0]) + rng.normal(0.0, 0.1, (n, 3)),
+        "opt_quat": np.tile([1.0, 0.0, 0.0, 0.0], (n, 1)),
+        "opt_pos": np.zeros((n, 3)),
+        "movement": (np.arange(n) >= n // 2).astype(np.uint8),
+        "sampling_rate": 2000.0 / 7.0,
+    }
+    for key, value in changes.items():
+        if value is None:
+            fields.pop(key)
+        else:
+            fields[key] = value
+    savemat(path, fields)
+    return path
+
+
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [
+        ({"opt_quat": np.zeros((600, 4))}, r"field opt_quat: 600 of 600 reference quaternions are not unit"),
+        ({"sampling_rate": 0.0}, r"field sampling_rate must be one finite number > 0"),
+        ({"sampling_rate": np.nan}, r"field sampling_rate"),
+        ({"imu_acc": np.where(np.arange(600)[:, None] == 9, 1e300, 9.81 * np.ones((600, 3)))},
+         r"field imu_acc: sample 9 has \|value\| 1e\+300"),
+        ({"imu_gyr": np.zeros((0, 3))}, r"field imu_gyr: no samples"),
+    ],
+)
+def test_invalid_values_name_file_and_field(tmp_path, changes, message):
+    path = write_synthetic_trial(tmp_path / "t.mat", **changes)
+    with pytest.raises(ValueError, match=message) as exc:
+        load_broad(path)
+    assert "t.mat" in str(exc.value)
+
+
+def test_empty_mat_and_missing_magnetometer(tmp_path):
+    from scipy.io import savemat
+
+    savemat(tmp_path / "empty.mat", {})
+    with pytest.raises(ValueError, match=r"empty.mat is not a BROAD trial: missing fields"):
+        load_broad(tmp_path / "empty.mat")
+    (tmp_path / "zero.mat").write_bytes(b"")
+    with pytest.raises(ValueError, match=r"zero.mat: not a readable MATLAB .mat file"):
+        load_broad(tmp_path / "zero.mat")
+    t = load_broad(write_synthetic_trial(tmp_path / "nomag.mat", imu_mag=None))
+    assert not t.has_mag and np.isnan(t.mag).all()
+    nan_gyro = np.zeros((600, 3))
+    nan_gyro[100, 0] = np.nan  # a dropout: kept (refused later, naming the sample, by the AHRS and by fuse)
+    assert np.isnan(load_broad(write_synthetic_trial(tmp_path / "nan.mat", imu_gyr=nan_gyro)).gyr[100, 0])

@@ -119,6 +119,6 @@ def test_cli_on_files(copy, tmp_path, capsys):
     lines = (copy / "imu.csv").read_text().splitlines()
     lines[9] = "90000000,0,0,0,0,zero,9.8"
     (copy / "imu.csv").write_text("\n".join(lines) + "\n")
-    assert main(["fuse", "--data", str(copy)]) == 2
+    assert main(["fuse", "--data", str(copy)]) == 1  # data error
     err = capsys.readouterr().err
     assert f"{copy / 'imu.csv'}:10:" in err and "'zero' is not a number" in err

@@ -36,6 +36,7 @@ from dualpose.calibration.static import (
     stack_static_periods,
     static_period,
     static_period_from_run,
+    static_periods,
 )
 from dualpose.calibration.time_offset import (
     FilterTimeOffsetEstimate,
@@ -78,6 +79,7 @@ __all__ = [
     "stack_static_periods",
     "static_period",
     "static_period_from_run",
+    "static_periods",
     "unobservability_check",
     "vision_rotation_rates",
 ]

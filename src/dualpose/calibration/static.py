@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["StaticPeriod", "static_period", "static_period_from_run", "stack_static_periods"]
+__all__ = ["StaticPeriod", "static_period", "static_period_from_run", "static_periods", "stack_static_periods"]
 
 
 @dataclass
@@ -107,6 +107,50 @@ def static_period_from_run(run, t_start: float | None = None, t_end: float | Non
         run.accel[sel], f.pixels[rows], f.points[rows], run.camera.matrix, n.accelerometer_noise_density,
         n.update_rate, pixel_sigma=max(run.pixel_sigma, 1e-3), n_frames=len(ks),
     )  # fmt: skip
+
+
+def static_periods(
+    accel: np.ndarray,
+    pixels: np.ndarray,
+    points: np.ndarray,
+    valid: np.ndarray,
+    K: np.ndarray,
+    accelerometer_noise_density: float,
+    rate: float,
+    pixel_sigma: float = 1.0,
+) -> dict[str, np.ndarray]:
+    """:func:`static_period` for ``P`` periods at once, straight into the arrays of :func:`stack_static_periods`.
+
+    Parameters
+    ----------
+    accel : (P, N, 3) accelerometer samples at rest of each period, body frame, m/s².
+    pixels : (P, M, 2), points : (P, M, 3), valid : (P, M) bool
+        The correspondences of each period (padding rows have ``valid`` False); solved together per period by
+        :func:`dualpose.registration.pnp.solve_pnp_batch` (one robust pass, no RANSAC).
+    K, accelerometer_noise_density, rate, pixel_sigma : as :func:`static_period`.
+
+    Returns
+    -------
+    dict
+        ``specific_force`` (P, 3), ``q_wc`` (P, 4), ``specific_force_covariance`` (P, 3, 3),
+        ``attitude_covariance`` (P, 3, 3).
+    """
+    from dualpose.registration.pnp import solve_pnp_batch
+
+    accel = np.asarray(accel, dtype=np.float64)
+    if accel.ndim != 3 or accel.shape[2] != 3 or accel.shape[1] < 1:
+        raise ValueError(f"accel must have shape (P, N, 3) with N >= 1; got {accel.shape}")
+    if not (accelerometer_noise_density >= 0 and rate > 0):
+        raise ValueError("accelerometer_noise_density must be >= 0 and rate > 0")
+    pnp = solve_pnp_batch(pixels, points, valid, K, pixel_sigma=pixel_sigma)
+    p, n = accel.shape[:2]
+    return {
+        "specific_force": accel.mean(axis=1),
+        "q_wc": pnp.q_wc,
+        "specific_force_covariance": np.broadcast_to(np.eye(3) * accelerometer_noise_density**2 * rate / n,
+                                                     (p, 3, 3)).copy(),  # fmt: skip
+        "attitude_covariance": np.ascontiguousarray(pnp.covariance[:, :3, :3]),
+    }
 
 
 def stack_static_periods(periods: list[StaticPeriod]) -> dict[str, np.ndarray]:

@@ -3,7 +3,8 @@ metric (total / heading / inclination RMSE over the movement samples) when the f
 
 9D (``--mag``, default) is scored as BROAD publishes it, in the magnetic ENU frame without alignment; 6D
 (``--no-mag``) has no absolute heading, so one constant heading offset is removed first (see
-:mod:`dualpose.evaluation.orientation_errors`).
+:mod:`dualpose.evaluation.orientation_errors`); it does not need the file's ``imu_mag`` field.  Exit status: 0, 2 on
+bad arguments, 1 on an unreadable or invalid file (the message names the file and the field; docs/broad.md).
 """
 
 from __future__ import annotations
@@ -45,18 +46,19 @@ def run(args: argparse.Namespace) -> int:
         if args.file not in msg:
             msg = f"{args.file}: {msg}"
         print(f"dualpose ahrs: error: {msg}", file=sys.stderr)
-        return 2
-    except Exception as exc:  # scipy.io raises assorted errors on files that are not MATLAB files
-        print(f"dualpose ahrs: error: {args.file}: not a readable BROAD .mat file ({exc})", file=sys.stderr)
-        return 2
+        return 1
+    if args.mag and not trial.has_mag:
+        print(f"dualpose ahrs: error: {args.file}: no field imu_mag (magnetometer): use --no-mag for 6D",
+              file=sys.stderr)  # fmt: skip
+        return 1
     try:
         result = estimate_orientation(
-            trial.gyr, trial.acc, trial.mag, trial.rate, use_mag=args.mag, n_rest=max(trial.static_start, 10),
-            mag_calibration="auto" if args.mag_calibration else None,
-        )
+            trial.gyr, trial.acc, trial.mag if args.mag else None, trial.rate, use_mag=args.mag,
+            n_rest=max(trial.static_start, 10), mag_calibration="auto" if args.mag_calibration else None,
+        )  # fmt: skip
     except ValueError as exc:
         print(f"dualpose ahrs: error: {args.file}: {exc}", file=sys.stderr)
-        return 2
+        return 1
     out: dict[str, object] = {
         "file": str(args.file),
         "mode": "9D" if args.mag else "6D",

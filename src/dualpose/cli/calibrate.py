@@ -18,6 +18,12 @@ import json
 import sys
 
 from dualpose.cli import calibrate_hand_eye
+from dualpose.cli._args import float_in, int_in, seed
+
+#: bounds of the numeric options: the session's poses, the scene tilt (deg) and the injected offset (ms)
+MAX_POSES = 1_000_000
+MAX_TILT_DEG = 45.0
+MAX_OFFSET_MS = 100.0
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -31,11 +37,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
             "with its predicted standard deviation and its error against the simulator's truth."
         ),
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of the simulation (0)")
-    p.add_argument("--poses", type=int, default=6, help="number of static poses for the rotation (6, >= 2)")
+    p.add_argument("--seed", type=seed, default=0, help="seed of the simulation (0; >= 0)")
+    p.add_argument("--poses", type=int_in(2, MAX_POSES), default=6,
+                   help=f"number of static poses for the rotation (6; 2 to {MAX_POSES})")
     p.add_argument("--extrinsic", choices=("default", "random"), default="default", help="true camera-IMU mount")
-    p.add_argument("--gravity-misalignment", type=float, default=1.0, metavar="DEG", help="scene tilt, deg (1)")
-    p.add_argument("--time-offset", type=float, default=15.0, metavar="MS", help="t_imu - t_cam, ms (15)")
+    p.add_argument("--gravity-misalignment", type=float_in(-MAX_TILT_DEG, MAX_TILT_DEG), default=1.0, metavar="DEG",
+                   help=f"scene tilt, deg (1; |DEG| <= {MAX_TILT_DEG:g})")
+    p.add_argument("--time-offset", type=float_in(-MAX_OFFSET_MS, MAX_OFFSET_MS), default=15.0, metavar="MS",
+                   help=f"t_imu - t_cam, ms (15; |MS| <= {MAX_OFFSET_MS:g}: the rate matching searches +-100 ms)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     sub = p.add_subparsers(dest="calibrate_command", required=False, metavar="{hand-eye}",
                            help="calibrate from recorded files (without it: the simulated session)")  # fmt: skip
@@ -65,12 +74,18 @@ def _table(m: dict) -> str:
 def run(args: argparse.Namespace) -> int:
     if getattr(args, "calibrate_command", None) == "hand-eye":
         return calibrate_hand_eye.run(args)
-    from dualpose.pipelines.calibrate import calibrate_simulated_session
+    from dualpose.cli._progress import progress_bar
+    from dualpose.pipelines.calibrate import calibrate_simulated_session, session_steps
 
     try:
-        m = calibrate_simulated_session(
-            args.seed, args.poses, args.extrinsic, args.gravity_misalignment, args.time_offset
-        )
+        with progress_bar(session_steps(args.poses), "dualpose calibrate") as bar:
+
+            def progress(n: int, stage: str) -> None:
+                bar.set_postfix_str(stage)
+                bar.update(n)
+
+            m = calibrate_simulated_session(args.seed, args.poses, args.extrinsic, args.gravity_misalignment,
+                                            args.time_offset, progress=progress)  # fmt: skip
     except ValueError as exc:
         print(f"dualpose calibrate: error: {exc}", file=sys.stderr)
         return 2

@@ -13,6 +13,7 @@ import argparse
 import numpy as np
 
 import dualpose as dp
+from dualpose.cli._args import seed
 
 
 def _table(rows: list[tuple[str, str]]) -> None:
@@ -113,7 +114,7 @@ def _same(a: np.ndarray, b: np.ndarray) -> float:
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     """Register ``dualpose demo``."""
     demo = subparsers.add_parser("demo", help="self-checking walk-through of the algebra on built-in data")
-    demo.add_argument("--seed", type=int, default=7, help="seed of the random transforms (default 7)")
+    demo.add_argument("--seed", type=seed, default=7, help="seed of the random transforms (default 7; >= 0)")
     return demo
 
 

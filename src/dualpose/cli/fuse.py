@@ -6,8 +6,11 @@ trial ``.mat`` (pseudo-vision, ``docs/broad-pose.md``). Prints a summary table (
 with ``--out DIR`` writes ``trajectory.tum`` (the estimate, TUM format), ``metrics.json`` and PNG figures (top view,
 errors with 3σ bounds, NIS vs χ² bounds). An existing output file is never replaced unless ``--force``. ``--smooth``
 (ESKF only) also runs the offline RTS smoother: the table and JSON (``"smoothed"``) report filter and smoother side
-by side and ``--out`` adds ``trajectory_smoothed.tum``. Exit status: 0 on success, 2 on bad arguments, a missing or
-malformed input file (the message names the file and line) or an output file that exists.
+by side and ``--out`` adds ``trajectory_smoothed.tum``.  The output directory is checked (a directory or creatable,
+writable) before anything is computed.  Warnings about the input (IMU gaps, a doubtful gravity vector; docs/fusion.md
+"Checks on the input") are printed on stderr, one line each.  Exit status: 0 on success, 2 on bad arguments, an
+unusable output location or an output file that exists, 1 on a missing, malformed or unusable input (the message
+names the file and line).
 """
 
 from __future__ import annotations
@@ -15,6 +18,8 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+
+from dualpose.cli._args import seed
 
 #: files ``--out`` writes
 OUTPUT_FILES: tuple[str, ...] = ("trajectory.tum", "metrics.json", "top_view.png", "errors.png", "nis.png")
@@ -37,7 +42,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         help="input: 'sim' (default), a recording directory or its sensors.json (docs/fusion.md), or a BROAD .mat",
     )
     p.add_argument("--filter", choices=("eskf", "hol22"), default="eskf", help="filter (default eskf)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the simulation or of BROAD's pseudo-vision (0)")
+    p.add_argument("--seed", type=seed, default=0, help="seed of the simulation or of BROAD's pseudo-vision (0; >= 0)")
     p.add_argument("--out", metavar="DIR", help="write trajectory.tum, metrics.json and PNG figures into DIR")
     p.add_argument("--force", action="store_true", help="replace existing output files")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
@@ -48,14 +53,6 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         "writes trajectory_smoothed.tum",
     )
     return p
-
-
-def _progress(done: int, total: int, stage: str) -> None:
-    width = 24
-    filled = width * done // total
-    end = "\n" if done == total else ""
-    print(f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} {stage:<10s}", end=end, file=sys.stderr)
-    sys.stderr.flush()
 
 
 def _table(m: dict) -> str:
@@ -114,85 +111,41 @@ def _output_files(smooth: bool) -> tuple[str, ...]:
     return OUTPUT_FILES + (("trajectory_smoothed.tum",) if smooth else ())
 
 
-def _figures(result, out, paths: dict) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    has_truth = result.truth is not None
-    # errors exist at the estimate rows matched to the truth; without truth only the filter's 3σ bounds are drawn
-    idx = result.error_index if has_truth else np.arange(len(result.estimate))
-    t = result.truth.stamps if has_truth else result.estimate.stamps
-    fig, ax = plt.subplots(figsize=(6, 5))
-    if has_truth:
-        ax.plot(result.truth.positions[:, 0], result.truth.positions[:, 1], "k-", label="truth")
-    ax.plot(result.estimate.positions[:, 0], result.estimate.positions[:, 1], "r--", label="estimate")
-    if result.smoothed is not None:
-        ax.plot(result.smoothed.positions[:, 0], result.smoothed.positions[:, 1], "g:", label="smoothed")
-    ax.set(xlabel="x [m]", ylabel="y [m]", title=f"top view ({result.metrics['filter']})", aspect="equal")
-    ax.legend()
-    fig.savefig(paths["top_view.png"], dpi=100)
-    plt.close(fig)
-
-    fig, axs = plt.subplots(4, 1, figsize=(8, 9), sharex=True)
-    for i, name in enumerate("xyz"):
-        s3 = 3e3 * result.position_sigma[idx, i]
-        if has_truth:
-            axs[i].plot(t, 1e3 * result.position_error[:, i], "b-", label="error")
-            if result.smoothed_position_error is not None:
-                axs[i].plot(t, 1e3 * result.smoothed_position_error[:, i], "g-", lw=0.8, label="smoothed")
-        axs[i].fill_between(t, -s3, s3, color="0.8", label="±3σ")
-        axs[i].set_ylabel(f"{name} error [mm]")
-    axs[0].legend(loc="upper right")
-    if not has_truth:
-        axs[0].set_title("no ground truth: the filter's 3σ bounds only")
-    if has_truth:
-        axs[3].plot(t, result.orientation_error_deg, "b-", label="attitude error")
-        if result.smoothed_orientation_error_deg is not None:
-            axs[3].plot(t, result.smoothed_orientation_error_deg, "g-", lw=0.8, label="smoothed")
-    if result.orientation_sigma_deg is not None:
-        axs[3].plot(t, 3 * result.orientation_sigma_deg[idx], "k--", label="3σ")
-    axs[3].set(ylabel="attitude error [deg]", xlabel="t [s]")
-    axs[3].legend(loc="upper right")
-    fig.tight_layout()
-    fig.savefig(paths["errors.png"], dpi=100)
-    plt.close(fig)
-
-    fig, ax = plt.subplots(figsize=(8, 4))
-    k = np.arange(len(result.nis))
-    acc = result.nis_accepted
-    ax.semilogy(k[acc], result.nis[acc], ".", ms=2, label="NIS (accepted)")
-    if np.any(~acc):
-        ax.semilogy(k[~acc], result.nis[~acc], "rx", label="rejected")
-    lo, hi = result.nis_bounds
-    ax.axhline(lo, color="k", ls="--", label="95% χ²(2) bounds")
-    ax.axhline(hi, color="k", ls="--")
-    ax.set(
-        xlabel="correspondence update", ylabel="NIS", title=f"NIS, {result.metrics['nis_fraction_inside']:.1%} inside"
-    )
-    ax.legend(loc="upper right")
-    fig.tight_layout()
-    fig.savefig(paths["nis.png"], dpi=100)
-    plt.close(fig)
-
-
 def _run_job(args: argparse.Namespace):
-    """``run_fuse`` on ``--data``; a bad input file is reported on stderr (file and line) and gives None."""
+    """``run_fuse`` on ``--data`` with a progress bar; warnings about the input are printed one line each, a bad
+    input is reported on stderr (file and line) and gives None."""
+    import warnings
+
+    from dualpose.cli._progress import progress_bar
     from dualpose.io.recording import RecordingError
     from dualpose.pipelines.fuse import run_fuse
 
-    try:
-        return run_fuse(data=args.data, filter=args.filter, seed=args.seed, progress=_progress, smooth=args.smooth)
-    except RecordingError as exc:
-        print(f"\ndualpose fuse: error: {exc}", file=sys.stderr)
+    with warnings.catch_warnings(record=True) as caught, progress_bar(4, "dualpose fuse") as bar:
+        warnings.simplefilter("always", UserWarning)
+
+        def progress(done: int, total: int, stage: str) -> None:
+            bar.set_postfix_str(stage)
+            bar.update(1)
+
+        try:
+            result = run_fuse(data=args.data, filter=args.filter, seed=args.seed, progress=progress,
+                              smooth=args.smooth)  # fmt: skip
+        except (RecordingError, ValueError) as exc:
+            result = exc
+    for w in caught:
+        text = " ".join(str(w.message).split())
+        print(f"dualpose fuse: warning: {text}", file=sys.stderr)
+    if isinstance(result, Exception):
+        print(f"dualpose fuse: error: {' '.join(str(result).split())}", file=sys.stderr)
         return None
+    return result
 
 
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``dualpose fuse``."""
     from pathlib import Path
+
+    from dualpose.cli._output import output_dir_problem
 
     if args.smooth and args.filter != "eskf":
         print(f"dualpose fuse: error: --smooth needs --filter eskf (got {args.filter!r}): the RTS smoother runs "
@@ -201,8 +154,9 @@ def run(args: argparse.Namespace) -> int:
     paths: dict[str, Path] = {}
     if args.out:
         out = Path(args.out)
-        if out.exists() and not out.is_dir():
-            print(f"dualpose fuse: error: {out}: not a directory", file=sys.stderr)
+        problem = output_dir_problem(out)
+        if problem is not None:
+            print(f"dualpose fuse: error: --out {problem}", file=sys.stderr)
             return 2
         paths = {name: out / name for name in _output_files(args.smooth)}
         if not args.force:
@@ -212,9 +166,10 @@ def run(args: argparse.Namespace) -> int:
                     return 2
     result = _run_job(args)
     if result is None:
-        return 2
+        return 1
     metrics = result.metrics
     if paths:
+        from dualpose.evaluation.fuse_figures import fuse_figures
         from dualpose.io import write_tum
 
         out.mkdir(parents=True, exist_ok=True)
@@ -222,7 +177,7 @@ def run(args: argparse.Namespace) -> int:
         if result.smoothed is not None:
             write_tum(paths["trajectory_smoothed.tum"], result.smoothed, overwrite=args.force)
         paths["metrics.json"].write_text(json.dumps(metrics, indent=2) + "\n")
-        _figures(result, out, paths)
+        fuse_figures(result, paths["top_view.png"], paths["errors.png"], paths["nis.png"])
     if args.json:
         summary = {k: v for k, v in metrics.items() if k != "evaluation"}
         if paths:

@@ -11,6 +11,8 @@ import argparse
 import json
 import sys
 
+from dualpose.cli._args import float_in, seed
+
 _EPILOG = """\
 CSV format: comma-separated numbers, one correspondence per line; an optional header line; blank lines and
 lines starting with '#' are skipped.  Points/directions: 3 columns x,y,z.  Weights: 1 column.
@@ -39,9 +41,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument("--method", choices=("dq", "horn", "svd"), default="dq", help="solver (default dq, Walker 1991)")
     p.add_argument("--scale", action="store_true", help="also estimate a scale (Umeyama similarity; points only)")
     p.add_argument("--ransac", action="store_true", help="robust fit: RANSAC on point triples, refit on inliers")
-    p.add_argument("--threshold", type=float, help="RANSAC inlier distance (required with --ransac)")
-    p.add_argument("--confidence", type=float, default=0.999, help="RANSAC confidence (default 0.999)")
-    p.add_argument("--seed", type=int, default=0, help="RANSAC random seed (default 0)")
+    p.add_argument("--threshold", type=float_in(0.0, 1e12, lo_open=True),
+                   help="RANSAC inlier distance, > 0 (required with --ransac; refused without it)")
+    p.add_argument("--confidence", type=float_in(0.0, 1.0, lo_open=True), default=0.999,
+                   help="RANSAC confidence in (0, 1] (default 0.999; refused without --ransac)")
+    p.add_argument("--seed", type=seed, default=0, help="RANSAC random seed, >= 0 (default 0)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     return p
 
@@ -79,6 +83,8 @@ def run(args: argparse.Namespace) -> int:
     from dualpose.io.csv_points import CsvFormatError
     from dualpose.registration import register_pose, register_pose_ransac
 
+    if not args.ransac and args.threshold is not None:
+        return _fail("--threshold is the RANSAC inlier distance: it needs --ransac")
     try:
         model, measured = _read_pair(args.model, args.measured, "points", "point(s)")
         kw: dict = {"method": args.method}

@@ -1,12 +1,8 @@
-"""``dualpose reproduce TARGET``: re-run a paper's experiment and compare with its claims.
+"""``dualpose reproduce screw-vector``: leader-follower relative pose with the 1-, 2- and 3-sample screw-vector
+algorithms (Adv. Mech. Eng. 2019; docs/inertial.md).
 
-Targets (one line each in :data:`TARGETS`):
-
-``screw-vector``
-    Leader–follower relative pose with the 1-, 2- and 3-sample screw-vector algorithms (Adv. Mech. Eng. 2019;
-    docs/inertial.md §6): summary table (or ``--json``), PNG figures of attitude and position error vs time per
-    algorithm and of a long run (default 1e5 s) of the 3-sample position-error norm in ``--out DIR`` (needs matplotlib:
-    ``pip install dualpose[plot]``).  The motion is documented in :mod:`dualpose.inertial.leader_follower`.
+Prints a summary table (or ``--json``); ``--out DIR`` writes PNG figures of attitude and position error vs time per
+algorithm and of a long run of the 3-sample position-error norm (needs matplotlib).
 """
 
 from __future__ import annotations
@@ -17,6 +13,20 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from dualpose.cli._args import float_in
+
+#: longest simulated run, s (1e7 s of the 3-sample algorithm take minutes)
+MAX_DURATION_S = 1e7
+_PROG = "dualpose reproduce screw-vector"
+
+_DESCRIPTION = """\
+Leader-follower relative pose with the 1-, 2- and 3-sample screw-vector algorithms (Adv. Mech. Eng. 2019; see
+docs/inertial.md for the method and the motion). Prints a summary table (or JSON with --json). With --out DIR it
+also writes summary.json and PNG figures: attitude and position error vs time for each algorithm, a comparison,
+and the 3-sample position-error norm over a long run (--long-duration, default 1e5 s; 0 skips it). The figures
+need matplotlib (pip install 'dualpose[plot]').
+"""
+
 TARGETS: dict[str, str] = {
     "screw-vector": "leader-follower relative pose with 1-, 2-, 3-sample screw-vector algorithms",
 }
@@ -24,34 +34,41 @@ TARGETS: dict[str, str] = {
 
 def add_target(targets: Any) -> argparse.ArgumentParser:
     """Register ``dualpose reproduce screw-vector``."""
-    p = targets.add_parser("screw-vector", help=TARGETS["screw-vector"], description=__doc__)
+    p = targets.add_parser("screw-vector", help=TARGETS["screw-vector"], description=_DESCRIPTION,
+                           formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
     p.add_argument("--out", type=Path, help="directory for PNG figures and summary.json")
     p.add_argument("--json", action="store_true", help="print the summary as JSON instead of a table")
     p.add_argument("--force", action="store_true", help="overwrite existing files in --out")
-    p.add_argument("--duration", type=float, default=200.0, help="seconds simulated per algorithm (default 200)")
-    p.add_argument("--long-duration", type=float, default=1e5, help="seconds of the 3-sample long run (default 1e5)")
+    p.add_argument("--duration", type=float_in(0.0, MAX_DURATION_S, lo_open=True), default=200.0,
+                   help=f"seconds simulated per algorithm (default 200; > 0, <= {MAX_DURATION_S:g})")
+    p.add_argument("--long-duration", type=float_in(0.0, MAX_DURATION_S), default=1e5,
+                   help=f"seconds of the 3-sample long run (default 1e5; 0 skips it; <= {MAX_DURATION_S:g})")
     p.add_argument("--samples", type=int, nargs="+", default=[1, 2, 3], choices=[1, 2, 3, 4], help="N values")
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     return p
 
 
 class _Bar:
-    """Minimal text progress bar on stderr (no dependency)."""
+    """Progress of one simulated run on the shared helper, in 10 % steps (``progress(frac)``)."""
 
-    def __init__(self, label: str, enabled: bool) -> None:
-        self.label, self.enabled, self.last = label, enabled, -1
+    def __init__(self, bar: Any) -> None:
+        self.bar, self.done = bar, 0
 
     def __call__(self, frac: float) -> None:
-        if not self.enabled:
-            return
-        pct = int(100 * frac)
-        if pct != self.last:
-            self.last = pct
-            n = pct // 4
-            sys.stderr.write(f"\r{self.label:<28} [{'#' * n}{'.' * (25 - n)}] {pct:3d}%")
-            if frac >= 1.0:
-                sys.stderr.write("\n")
-            sys.stderr.flush()
+        k = min(int(10 * frac + 1e-9), 10)
+        if self.bar is not None and k > self.done:
+            self.bar.update(k - self.done)
+            self.done = k
+
+
+def _simulate(sc: Any, n: int, duration: float, label: str, show: bool) -> dict:
+    from contextlib import nullcontext
+
+    from dualpose.cli._progress import progress_bar
+    from dualpose.inertial.leader_follower import simulate
+
+    with progress_bar(10, f"{_PROG}: {label}") if show else nullcontext() as bar:
+        return simulate(sc, n, duration, progress=_Bar(bar))
 
 
 def _summary(res: dict[str, Any]) -> dict[str, float]:
@@ -82,14 +99,13 @@ def _figures(out: Path, runs: dict[int, dict], long_run: dict | None) -> list[Pa
         ax[0].plot(r["t"], r["attitude_error"], label="screw vector (real part)")
         ax[0].plot(r["t"], r["attitude_error_rotvec"], "--", label="rotation vector")
         ax[0].set_ylabel("relative attitude error [rad]")
-        ax[0].legend()
+        ax[0].legend(loc="upper left", bbox_to_anchor=(1.02, 1.0))
         ax[1].plot(r["t"], r["position_error"])
         ax[1].set_ylabel("relative position error [m]")
         ax[1].set_xlabel("time [s]")
         fig.suptitle(f"{n}-sample screw-vector algorithm (leader-follower)")
-        fig.tight_layout()
         files.append(out / f"screw_vector_{n}_sample.png")
-        fig.savefig(files[-1], dpi=100)
+        fig.savefig(files[-1], dpi=100, bbox_inches="tight")
         plt.close(fig)
     fig, ax = plt.subplots(1, 2, figsize=(11, 4))
     for n, r in runs.items():
@@ -99,10 +115,10 @@ def _figures(out: Path, runs: dict[int, dict], long_run: dict | None) -> list[Pa
     ax[1].set_ylabel("relative position error [m]")
     for a in ax:
         a.set_xlabel("time [s]")
-        a.legend()
-    fig.tight_layout()
+    ax[1].legend(loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    fig.suptitle("screw-vector algorithms compared: relative attitude and position error")
     files.append(out / "screw_vector_comparison.png")
-    fig.savefig(files[-1], dpi=100)
+    fig.savefig(files[-1], dpi=100, bbox_inches="tight")
     plt.close(fig)
     if long_run is not None:
         fig, ax = plt.subplots(figsize=(7, 4))
@@ -110,9 +126,8 @@ def _figures(out: Path, runs: dict[int, dict], long_run: dict | None) -> list[Pa
         ax.set_xlabel("time [s]")
         ax.set_ylabel("position error norm [m]")
         ax.set_title("3-sample screw-vector algorithm, long run")
-        fig.tight_layout()
         files.append(out / "screw_vector_long_run.png")
-        fig.savefig(files[-1], dpi=100)
+        fig.savefig(files[-1], dpi=100, bbox_inches="tight")
         plt.close(fig)
     return files
 
@@ -135,7 +150,8 @@ def _table(summary: dict[str, Any]) -> str:
 def run_screw_vector(args: argparse.Namespace) -> int:
     from dataclasses import asdict
 
-    from dualpose.inertial.leader_follower import Scenario, simulate
+    from dualpose.cli._output import output_dir_problem
+    from dualpose.inertial.leader_follower import Scenario
 
     out: Path | None = args.out
     names = [f"screw_vector_{n}_sample.png" for n in args.samples]
@@ -146,26 +162,24 @@ def run_screw_vector(args: argparse.Namespace) -> int:
         try:
             import matplotlib  # noqa: F401
         except ImportError:
-            print(
-                "error: --out writes PNG figures, which need matplotlib: pip install 'dualpose[plot]'", file=sys.stderr
-            )
+            print(f"{_PROG}: error: --out writes PNG figures, which need matplotlib: pip install 'dualpose[plot]'",
+                  file=sys.stderr)  # fmt: skip
+            return 2
+        problem = output_dir_problem(out)
+        if problem is not None:
+            print(f"{_PROG}: error: --out {problem}", file=sys.stderr)
             return 2
         clash = [n for n in names if (out / n).exists()]
         if clash and not args.force:
-            print(f"error: {out} already has {', '.join(clash)}; use --force to overwrite", file=sys.stderr)
+            print(f"{_PROG}: error: {out} already has {', '.join(clash)}; use --force to overwrite", file=sys.stderr)
             return 2
         out.mkdir(parents=True, exist_ok=True)
-    if args.duration <= 0:
-        print("error: --duration must be positive", file=sys.stderr)
-        return 2
     sc = Scenario()
     show = not args.no_progress
-    runs = {
-        n: simulate(sc, n, args.duration, progress=_Bar(f"{n}-sample, {args.duration:g} s", show)) for n in args.samples
-    }
+    runs = {n: _simulate(sc, n, args.duration, f"{n}-sample, {args.duration:g} s", show) for n in args.samples}
     long_run = None
     if args.long_duration > 0:
-        long_run = simulate(sc, 3, args.long_duration, progress=_Bar(f"3-sample, {args.long_duration:g} s", show))
+        long_run = _simulate(sc, 3, args.long_duration, f"3-sample, {args.long_duration:g} s", show)
     summary: dict[str, Any] = {
         "scenario": {
             "leader": asdict(sc.leader),

@@ -8,15 +8,21 @@ file field     unit       meaning
 =============  =========  ==========================================================================================
 ``imu_gyr``    rad/s      angular rate, IMU (body) axes
 ``imu_acc``    m/s²       specific force, IMU axes
-``imu_mag``    µT         magnetic field, IMU axes
+``imu_mag``    µT         magnetic field, IMU axes (optional: a 6D trial without it loads with NaN ``mag``)
 ``opt_quat``   --         optical reference orientation of the IMU w.r.t. ENU, **wxyz (scalar first)**; NaN when
                           the markers were not tracked
-``opt_pos``    m          optical reference position, ENU
+``opt_pos``    m          optical reference position, ENU (optional: NaN when absent)
 ``movement``   bool       samples of the movement phase (errors are evaluated there; BROAD's protocol)
 =============  =========  ==========================================================================================
 
 :func:`load_broad` converts the quaternion to dualpose's **xyzw** layout: ``quat`` is ``q_b^i`` (IMU to ENU), so
 ``v_ENU = quat_rotate(quat, v_IMU)`` and ``q̇ = ½ q (x) ω`` with ``ω = gyr`` (body frame).  Nothing else is changed.
+
+Refused (ValueError naming the file and the field, docs/broad.md): a file that is not a readable MATLAB file, a
+missing required field, no samples, a ``sampling_rate`` that is not a finite positive number, IMU values above any
+sensor's range (|gyr| > 1000 rad/s, |acc| > 10⁴ m/s², |mag| > 10⁴ µT: corrupt samples), and a reference quaternion
+that is neither unit nor NaN (e.g. an all-zero ``opt_quat``).  NaN IMU samples are kept as they are (the AHRS
+and :func:`dualpose.sim.broad_vision.recording_from_broad` refuse them, naming the field).
 """
 
 from __future__ import annotations
@@ -30,6 +36,10 @@ import numpy as np
 __all__ = ["BroadTrial", "load_broad"]
 
 _FIELDS = ("imu_gyr", "imu_acc", "imu_mag", "opt_quat", "opt_pos", "movement", "sampling_rate")
+#: fields a trial may lack (filled with NaN)
+_OPTIONAL = ("imu_mag", "opt_pos")
+#: largest plausible |value| of the IMU fields (rad/s, m/s², µT)
+_IMU_LIMITS = {"imu_gyr": 1.0e3, "imu_acc": 1.0e4, "imu_mag": 1.0e4}
 
 
 @dataclass(frozen=True)
@@ -56,6 +66,8 @@ class BroadTrial:
         From ``trials.json`` next to the file, if present.
     groups : tuple of str
         From ``trials.json`` (e.g. ``"rotation"``, ``"fast"``, ``"disturbed"``).
+    has_mag : bool
+        False when the file has no ``imu_mag`` field (``mag`` is then all NaN).
     """
 
     name: str
@@ -69,6 +81,7 @@ class BroadTrial:
     info: str = ""
     description: str = ""
     groups: tuple[str, ...] = field(default_factory=tuple)
+    has_mag: bool = True
 
     @property
     def time(self) -> np.ndarray:
@@ -129,19 +142,52 @@ def load_broad(path: str | Path) -> BroadTrial:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no BROAD trial file at {path}")
-    raw = _read_mat(path)
-    missing = [k for k in _FIELDS if k not in raw]
+    try:
+        raw = _read_mat(path)
+    except ImportError:
+        raise
+    except Exception as exc:  # scipy.io / h5py raise assorted errors on files that are not MATLAB files
+        raise ValueError(f"{path.name}: not a readable MATLAB .mat file ({exc})") from None
+    missing = [k for k in _FIELDS if k not in raw and k not in _OPTIONAL]
     if missing:
         raise ValueError(f"{path.name} is not a BROAD trial: missing fields {missing}")
-    n = np.asarray(raw["imu_gyr"]).shape[0]
+    n = np.asarray(raw["imu_gyr"]).shape[0] if np.ndim(raw["imu_gyr"]) else 0
+    if n < 2:
+        raise ValueError(f"{path.name}: field imu_gyr: no samples (got shape {np.shape(raw['imu_gyr'])})")
+    rate = np.asarray(raw["sampling_rate"], dtype=np.float64).ravel()
+    if rate.size != 1 or not (np.isfinite(rate[0]) and rate[0] > 0):
+        raise ValueError(f"{path.name}: field sampling_rate must be one finite number > 0 (Hz); got {rate.tolist()}")
 
     def vec(key: str, width: int) -> np.ndarray:
-        a = np.asarray(raw[key], dtype=np.float64)
+        if key not in raw:
+            return np.full((n, width), np.nan)
+        try:
+            a = np.asarray(raw[key], dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"{path.name}: field {key} must be numeric") from None
         if a.shape != (n, width):
             raise ValueError(f"{path.name}: field {key} must have shape ({n}, {width}); got {a.shape}")
+        limit = _IMU_LIMITS.get(key)
+        if limit is not None:
+            big = np.flatnonzero(np.nanmax(np.abs(np.where(np.isfinite(a), a, 0.0)), axis=1) > limit)
+            inf = np.flatnonzero(np.isinf(a).any(axis=1))
+            bad = np.union1d(big, inf)
+            if bad.size:
+                k = int(bad[0])
+                raise ValueError(f"{path.name}: field {key}: sample {k} has |value| {np.abs(a[k]).max():.3g} > "
+                                 f"{limit:g}: a corrupt sample ({bad.size} such)")  # fmt: skip
         return a
 
     wxyz = vec("opt_quat", 4)
+    tracked = np.isfinite(wxyz).all(axis=1)
+    norm = np.linalg.norm(wxyz[tracked], axis=1)
+    off = np.flatnonzero(np.abs(norm - 1.0) > 0.01)
+    if off.size:
+        k = int(np.flatnonzero(tracked)[off[0]])
+        raise ValueError(
+            f"{path.name}: field opt_quat: {off.size} of {int(tracked.sum())} reference quaternions are not unit "
+            f"(sample {k} has norm {np.linalg.norm(wxyz[k]):.3g}); untracked samples must be NaN"
+        )
     info = raw.get("info", "")
     info = str(np.asarray(info).ravel()[0]) if np.size(info) else ""
     description, groups = "", ()
@@ -154,7 +200,7 @@ def load_broad(path: str | Path) -> BroadTrial:
         raise ValueError(f"{path.name}: field movement must have {n} samples; got {movement.shape}")
     return BroadTrial(
         name=path.stem,
-        rate=float(np.asarray(raw["sampling_rate"]).ravel()[0]),
+        rate=float(rate[0]),
         gyr=vec("imu_gyr", 3),
         acc=vec("imu_acc", 3),
         mag=vec("imu_mag", 3),
@@ -164,4 +210,5 @@ def load_broad(path: str | Path) -> BroadTrial:
         info=info,
         description=description,
         groups=groups,
+        has_mag="imu_mag" in raw,
     )

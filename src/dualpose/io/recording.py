@@ -398,12 +398,16 @@ def read_recording(path: str | os.PathLike):
     )
     camera = CameraIntrinsics(cam["fx"], cam["fy"], cam["cx"], cam["cy"], cam["width"], cam["height"])
     frames = FrameCorrespondences(seconds_from_ns(frame_ns), offsets, pixels, points)
-    return Recording(
-        t=imu.stamps, gyro=imu.gyro, accel=imu.accel, frames=frames, camera=camera, q_bc=cam["q_bc"],
-        p_bc=cam["p_bc"], pixel_sigma=cam["pixel_sigma"], imu_noise=noise,
-        time_offset=cam.get("timeshift_cam_imu", 0.0), gravity=top.get("gravity", np.array([0.0, 0.0, -9.81])),
-        rest_seconds=top.get("rest_duration_s"), ground_truth=truth, stamps_ns=imu.stamps_ns, name=str(path),
-    )  # fmt: skip
+    try:  # Recording checks the values (IMU ranges, noise parameters, gravity): name the file they came from
+        return Recording(
+            t=imu.stamps, gyro=imu.gyro, accel=imu.accel, frames=frames, camera=camera, q_bc=cam["q_bc"],
+            p_bc=cam["p_bc"], pixel_sigma=cam["pixel_sigma"], imu_noise=noise,
+            time_offset=cam.get("timeshift_cam_imu", 0.0), gravity=top.get("gravity", np.array([0.0, 0.0, -9.81])),
+            rest_seconds=top.get("rest_duration_s"), ground_truth=truth, stamps_ns=imu.stamps_ns, name=str(path),
+        )  # fmt: skip
+    except ValueError as exc:
+        src = base / files["imu"] if str(exc).startswith(("gyro", "accel", "t ")) else sf.path
+        raise RecordingError(f"{src}: {exc}") from None
 
 
 def _ns(seconds: np.ndarray) -> np.ndarray:

@@ -10,6 +10,7 @@ error-state filter's NIS, with the estimated gravity).  Method and results: docs
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -19,10 +20,13 @@ from dualpose import sim
 from dualpose.calibration.time_offset import estimate_time_offset, frame_poses, refine_time_offset_in_filter
 from dualpose.estimation.eskf import ErrorStateEKF
 from dualpose.estimation.initialization import initial_state_from_run
-from dualpose.sim.calibration_scenarios import random_extrinsic, simulate_static_poses
+from dualpose.sim.calibration_scenarios import random_extrinsic, simulate_static_pose_set
 from dualpose.types import ImuNoise
 
-__all__ = ["calibrate_run_time_offset", "calibrate_simulated_session"]
+__all__ = ["calibrate_run_time_offset", "calibrate_simulated_session", "static_session"]
+
+#: static poses simulated and solved together (bounds the memory: ~60 MB of arrays per chunk)
+_CHUNK = 2000
 
 
 def calibrate_run_time_offset(
@@ -35,9 +39,8 @@ def calibrate_run_time_offset(
     """Both time-offset stages on a simulated run that starts at rest (e.g. ``sim.simulate_eight``).
 
     Per-frame robust PnP → :func:`~dualpose.calibration.time_offset.estimate_time_offset` (with ``q_bc``; ``None``
-    estimates the rotation
-    too; the PnP attitude covariances and the gyro noise density give its σ, ``weighted`` also weights with them)
-    → if ``refine``,
+    estimates the rotation too; the PnP attitude covariances and the gyro noise density give its σ, ``weighted``
+    also weights with them) → if ``refine``,
     :func:`~dualpose.calibration.time_offset.refine_time_offset_in_filter` over ``±max(4σ, 5 ms)`` with the
     error-state filter started from the rest period + first-frame PnP
     (:func:`dualpose.estimation.initialization.initial_state_from_run`; ``filter_kwargs`` go to
@@ -65,14 +68,46 @@ def calibrate_run_time_offset(
     return first, second
 
 
+def session_steps(poses: int) -> int:
+    """Total of the ``n`` that :func:`calibrate_simulated_session` reports to ``progress``."""
+    return poses + 2
+
+
+def static_session(
+    poses: int,
+    seed: int,
+    extrinsic: tuple[np.ndarray, np.ndarray],
+    duration: float = 0.5,
+    progress: Callable[[int], None] | None = None,
+) -> dict[str, np.ndarray]:
+    """``poses`` simulated static poses (:func:`dualpose.sim.calibration_scenarios.simulate_static_pose_set`) summarised
+    by :func:`dualpose.calibration.static_periods`, in chunks of :data:`_CHUNK` poses; ``progress(n)`` is called
+    with the number of poses done after each chunk.  Returns the stacked arrays of
+    :func:`dualpose.calibration.stack_static_periods`."""
+    parts = []
+    for first in range(0, poses, _CHUNK):
+        s = simulate_static_pose_set(min(_CHUNK, poses - first), seed, extrinsic=extrinsic, duration=duration,
+                                     first_pose=first)  # fmt: skip
+        parts.append(cal.static_periods(s.accel, s.pixels, s.points, s.valid, s.camera.matrix,
+                                        s.imu_noise.accelerometer_noise_density, s.imu_noise.update_rate,
+                                        pixel_sigma=s.pixel_sigma))  # fmt: skip
+        if progress is not None:
+            progress(len(s.accel))
+    return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
+
+
 def calibrate_simulated_session(
     seed: int = 0,
     poses: int = 6,
     extrinsic: str = "default",
     gravity_misalignment_deg: float = 1.0,
     time_offset_ms: float = 15.0,
+    progress: Callable[[int, str], None] | None = None,
 ) -> dict:
     """The session of ``dualpose calibrate`` (module docstring); returns the metrics dictionary the command prints.
+
+    ``progress(n, stage)``, if given, is called as work is done: ``n`` static poses solved (stage "static poses"),
+    then one step each for "gravity" and "time offset" (:func:`session_steps` counts them).
 
     Raises
     ------
@@ -81,9 +116,13 @@ def calibrate_simulated_session(
     """
     if poses < 2:
         raise ValueError(f"--poses must be >= 2; got {poses}")
+
+    def report(n: int, stage: str) -> None:
+        if progress is not None:
+            progress(n, stage)
+
     ext = sim.default_extrinsic() if extrinsic == "default" else random_extrinsic(seed)
-    static = simulate_static_poses(poses, seed, extrinsic=ext, duration=0.5)
-    stacked = cal.stack_static_periods([cal.static_period_from_run(r) for r in static])
+    stacked = static_session(poses, seed, ext, duration=0.5, progress=lambda n: report(n, "static poses"))
     bias_cov = np.eye(3) * ImuNoise().accelerometer_initial_bias_sigma ** 2
     rot = cal.camera_imu_rotation(**stacked, accel_bias_covariance=bias_cov)
     rot_err = math.degrees(dp.quat_angle(rot.q_bc, ext[0]))
@@ -97,11 +136,13 @@ def calibrate_simulated_session(
         rest.specific_force, rest.q_wc, rot.q_bc, rest.specific_force_covariance, rest.attitude_covariance,
         extrinsic_covariance=rot.covariance, accel_bias_covariance=bias_cov, magnitude=9.81,
     )  # fmt: skip
+    report(1, "gravity")
     true_dir = run.gravity / np.linalg.norm(run.gravity)
     g_err = math.degrees(math.atan2(np.linalg.norm(np.cross(grav.direction, true_dir)), grav.direction @ true_dir))
 
     run.q_bc = rot.q_bc  # the rest of the chain uses the estimated rotation, not the truth
     first, second = calibrate_run_time_offset(run, rot.q_bc, gravity=grav.gravity)
+    report(1, "time offset")
     return {
         "seed": seed,
         "poses": poses,

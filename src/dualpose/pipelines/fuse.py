@@ -32,6 +32,7 @@ from dualpose.estimation.smoother import rts_smooth
 from dualpose.evaluation.metrics import evaluate
 from dualpose.io import load_broad
 from dualpose.io.recording import RecordingError, read_recording
+from dualpose.pipelines.checks import check_before_fuse, check_gravity_after_alignment
 from dualpose.sim.broad_vision import recording_from_broad
 from dualpose.types import Recording, Trajectory
 
@@ -157,7 +158,10 @@ def load_recording(data: str | os.PathLike | Recording = "sim", seed: int = 0) -
             trial = load_broad(data)
         except (FileNotFoundError, ValueError) as exc:
             raise RecordingError(f"{data}: {exc}") from None
-        return recording_from_broad(trial, seed=int(seed), name=str(data))
+        try:
+            return recording_from_broad(trial, seed=int(seed), name=str(data))
+        except ValueError as exc:
+            raise RecordingError(f"{data}: {exc}") from None
     return read_recording(data)
 
 
@@ -232,11 +236,13 @@ def run_fuse(
             progress(k + 1, len(stages), stages[k])
 
     run = load_recording(data, seed)
+    check_before_fuse(run)  # too short: RecordingError; IMU gaps: RecordingWarning
     step(0)
     try:
         x, P0 = initialization.initial_state_from_run(run, run.rest_seconds)
     except ValueError as exc:
         raise RecordingError(f"{run.name}: cannot start the filter: {exc}") from None
+    check_gravity_after_alignment(run, x)  # gravity pointing up: RecordingError; doubtful: RecordingWarning
     step(1)
     est = factory(run, x, P0)
     if "position" not in est.state_layout.names:

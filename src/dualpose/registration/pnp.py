@@ -18,7 +18,7 @@ import numpy as np
 
 import dualpose as dp
 
-__all__ = ["PnPResult", "pnp_dlt", "pnp_refine", "solve_pnp", "solve_pnp_ransac"]
+__all__ = ["PnPBatch", "PnPResult", "pnp_dlt", "pnp_refine", "solve_pnp", "solve_pnp_batch", "solve_pnp_ransac"]
 
 
 @dataclass
@@ -230,3 +230,129 @@ def solve_pnp_ransac(
     if inliers.sum() > best.sum():
         res = solve_pnp(pixels[inliers], points[inliers], K, pixel_sigma=pixel_sigma)
     return res, inliers
+
+
+@dataclass
+class PnPBatch:
+    """Result of :func:`solve_pnp_batch`: ``B`` camera poses as in :class:`PnPResult`, stacked.
+
+    ``q_wc`` (B, 4), ``c_w`` (B, 3), ``covariance`` (B, 6, 6), ``rms_px`` (B,) over the inliers, ``inliers``
+    (B, M) bool."""
+
+    q_wc: np.ndarray
+    c_w: np.ndarray
+    covariance: np.ndarray
+    rms_px: np.ndarray
+    inliers: np.ndarray
+
+
+def _gauss_newton_batch(R, t, pixels, points, w, K, iterations, tol):
+    """Batched :func:`pnp_refine` over rows weighted by ``w`` (B, M) (0 / 1); returns ``(R, t, JᵀJ, r, Z)``."""
+    points = np.ascontiguousarray(points)
+    fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
+    for it in range(1, iterations + 1):
+        rx = points @ np.swapaxes(R, 1, 2)
+        pc = rx + t[:, None, :]
+        Z = np.where(np.abs(pc[..., 2]) > 1e-12, pc[..., 2], 1e-12)
+        r = pixels - np.stack([fx * pc[..., 0] / Z + cx, fy * pc[..., 1] / Z + cy], axis=-1)
+        # ∂π/∂X_c rows (A, 0, C) and (0, D, E); ∂π/∂δφ = −Jp [R X]×, row a = (R X) × Jp_a; ∂π/∂δt = Jp
+        A, C = fx / Z, -fx * pc[..., 0] / Z**2
+        D, E = fy / Z, -fy * pc[..., 1] / Z**2
+        p, q, s = rx[..., 0], rx[..., 1], rx[..., 2]
+        J = np.zeros(pc.shape[:2] + (2, 6))
+        J[..., 0, 0], J[..., 0, 1], J[..., 0, 2] = q * C, s * A - p * C, -q * A
+        J[..., 1, 0], J[..., 1, 1], J[..., 1, 2] = q * E - s * D, -p * E, p * D
+        J[..., 0, 3], J[..., 0, 5], J[..., 1, 4], J[..., 1, 5] = A, C, D, E
+        J = J.reshape(len(R), -1, 6)  # (B, 2M, 6)
+        Jw = J * np.repeat(w, 2, axis=1)[:, :, None]
+        JtJ = np.swapaxes(Jw, 1, 2) @ J
+        step = np.linalg.solve(JtJ, np.swapaxes(Jw, 1, 2) @ r.reshape(len(R), -1, 1))[..., 0]
+        R = dp.matrix_from_quat(dp.quat_from_rotvec(step[:, :3])) @ R
+        t = t + step[:, 3:]
+        if it >= iterations or np.abs(step).max() < tol:  # JᵀJ and r of the last iterate: changes of O(tol)
+            break
+    return R, t, JtJ, r, Z
+
+
+def solve_pnp_batch(
+    pixels: np.ndarray,
+    points: np.ndarray,
+    valid: np.ndarray,
+    K: np.ndarray,
+    pixel_sigma: float = 1.0,
+    threshold_px: float = 6.0,
+    iterations: int = 10,
+) -> PnPBatch:
+    """``B`` independent PnP problems at once: :func:`solve_pnp` vectorised over the batch axis.
+
+    Parameters
+    ----------
+    pixels : (B, M, 2), points : (B, M, 3)
+        Correspondences of each problem (pixels, world points in metres); ``valid`` (B, M) bool marks the rows
+        that are real (the rest is padding).  At least 6 valid rows per problem.
+    K : (3, 3) intrinsics shared by all problems, px.
+
+    The linear start is the 12-unknown DLT of :func:`pnp_dlt` (normal equations, batched eigen-solve); problems
+    whose points are close to a plane fall back to :func:`pnp_dlt` one by one.  Gauss–Newton then refines all
+    problems together; correspondences with a reprojection error above ``threshold_px`` are dropped and the
+    problems that lost any are refined again (one robust pass; for heavy outlier rates use
+    :func:`solve_pnp_ransac`).  Gauss–Newton stops when no problem's step exceeds 1e-8 (rad, m); covariances as
+    :func:`solve_pnp`.
+    """
+    pixels = np.asarray(pixels, dtype=np.float64)
+    points = np.asarray(points, dtype=np.float64)
+    valid = np.asarray(valid, dtype=bool)
+    K = np.asarray(K, dtype=np.float64)
+    if pixels.ndim != 3 or pixels.shape[2] != 2:
+        raise ValueError(f"pixels must have shape (B, M, 2); got {pixels.shape}")
+    b, m = pixels.shape[:2]
+    if points.shape != (b, m, 3) or valid.shape != (b, m) or K.shape != (3, 3):
+        raise ValueError(f"points, valid and K must have shapes ({b}, {m}, 3), ({b}, {m}), (3, 3); got "
+                         f"{points.shape}, {valid.shape}, {K.shape}")  # fmt: skip
+    w = valid.astype(np.float64)
+    n = w.sum(axis=1)
+    if np.any(n < 6):
+        raise ValueError(f"PnP (DLT) needs at least 6 correspondences; problem {int(np.argmin(n))} has {int(n.min())}")
+    xn = np.linalg.solve(K, np.concatenate([pixels, np.ones((b, m, 1))], axis=2).reshape(-1, 3).T).T
+    xn = xn.reshape(b, m, 3)[..., :2]
+    mu = np.einsum("bm,bmi->bi", w, points) / n[:, None]
+    d = (points - mu[:, None, :]) * w[..., None]
+    lam = np.linalg.eigvalsh(np.swapaxes(d, 1, 2) @ d)
+    flat = np.sqrt(np.maximum(lam[:, 0], 0.0) / np.maximum(lam[:, 2], 1e-300))
+    s = np.sqrt(3.0) * n / np.maximum(np.linalg.norm(d, axis=2).sum(axis=1), 1e-300)
+    Xh = np.concatenate([d * s[:, None, None], np.ones((b, m, 1))], axis=2)
+    z4 = np.zeros_like(Xh)
+    a1 = np.concatenate([Xh, z4, -xn[..., :1] * Xh], axis=2)
+    a2 = np.concatenate([z4, Xh, -xn[..., 1:] * Xh], axis=2)
+    N = np.swapaxes(a1 * w[..., None], 1, 2) @ a1 + np.swapaxes(a2 * w[..., None], 1, 2) @ a2
+    Pm = np.linalg.eigh(N)[1][:, :, 0].reshape(b, 3, 4)
+    flip = np.einsum("bm,bmi,bi->b", w, Xh, Pm[:, 2]) < 0  # put the points in front of the camera
+    Pm[flip] *= -1
+    Mx = Pm[:, :, :3] * s[:, None, None]
+    t = Pm[:, :, 3] - np.einsum("bij,bj->bi", Mx, mu)
+    u, sv, vt = np.linalg.svd(Mx)
+    R = u @ vt
+    t = t / sv.mean(axis=1, keepdims=True)
+    for k in np.flatnonzero((np.linalg.det(R) < 0) | (flat < 0.2)):  # near-planar: the one-by-one DLT
+        R[k], t[k] = pnp_dlt(pixels[k, valid[k]], points[k, valid[k]], K)
+    R, t, JtJ, r, Z = _gauss_newton_batch(R, t, pixels, points, w, K, iterations, 1e-8)
+    inl = valid & (np.linalg.norm(r, axis=2) < threshold_px) & (Z > 0)
+    redo = np.flatnonzero(np.any(inl != valid, axis=1))
+    if len(redo):
+        if np.any(inl[redo].sum(axis=1) < 6):
+            raise ValueError("PnP: fewer than 6 correspondences within threshold_px of the fit in some problem")
+        out = _gauss_newton_batch(R[redo], t[redo], pixels[redo], points[redo], inl[redo].astype(float), K,
+                                  iterations, 1e-8)  # fmt: skip
+        R[redo], t[redo], JtJ[redo], r[redo] = out[:4]
+    cov_lt = np.linalg.inv(JtJ) * pixel_sigma**2
+    Jc = np.zeros((b, 6, 6))
+    Jc[:, 0:3, 0:3] = -np.eye(3)
+    Rt = np.swapaxes(R, 1, 2)
+    Jc[:, 3:6, 0:3] = -Rt @ dp.so3_hat(t)
+    Jc[:, 3:6, 3:6] = -Rt
+    cov = Jc @ cov_lt @ np.swapaxes(Jc, 1, 2)
+    rms = np.sqrt(np.einsum("bm,bma->b", inl.astype(float), r**2) / (2 * inl.sum(axis=1)))
+    return PnPBatch(
+        q_wc=dp.quat_from_matrix(Rt), c_w=-np.einsum("bij,bj->bi", Rt, t),
+        covariance=0.5 * (cov + np.swapaxes(cov, 1, 2)), rms_px=rms, inliers=inl,
+    )  # fmt: skip

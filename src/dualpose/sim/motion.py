@@ -110,13 +110,14 @@ class SmoothMotion:
 
 
 def look_at_quat(eye: np.ndarray, target: np.ndarray, up: np.ndarray = (0.0, 0.0, 1.0)) -> np.ndarray:
-    """``q_wc`` (xyzw) of a camera at ``eye`` looking at ``target`` (z forward, x right, y down, world ``up``)."""
+    """``q_wc`` (xyzw) of a camera at ``eye`` looking at ``target`` (z forward, x right, y down, world ``up``);
+    ``eye`` and ``target`` may be batches ``(..., 3)`` (then the result is ``(..., 4)``)."""
     z = np.asarray(target, float) - np.asarray(eye, float)
-    z /= np.linalg.norm(z)
+    z = z / np.linalg.norm(z, axis=-1, keepdims=True)
     x = np.cross(z, np.asarray(up, float))
-    x /= np.linalg.norm(x)
+    x = x / np.linalg.norm(x, axis=-1, keepdims=True)
     y = np.cross(z, x)
-    return dp.quat_from_matrix(np.stack([x, y, z], axis=1))
+    return dp.quat_from_matrix(np.stack([x, y, z], axis=-1))
 
 
 def default_extrinsic() -> tuple[np.ndarray, np.ndarray]:

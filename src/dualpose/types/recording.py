@@ -13,7 +13,8 @@ related by ``t_imu = t_cam + time_offset`` (Kalibr ``timeshift_cam_imu``).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+import warnings
+from dataclasses import dataclass, field, fields
 from typing import Protocol
 
 import numpy as np
@@ -22,7 +23,28 @@ from dualpose.types.camera import FrameCorrespondences, PinholeModel
 from dualpose.types.imu import ImuNoise
 from dualpose.types.trajectory import Trajectory
 
-__all__ = ["Recording", "SensorRun"]
+__all__ = ["IMU_LIMITS", "NOISE_LIMITS", "Recording", "RecordingWarning", "SensorRun"]
+
+#: largest plausible IMU reading per stream (rad/s, m/s²): far above any MEMS or tactical IMU's range (±35 rad/s,
+#: ±160 m/s² are typical full scales); a larger value is a corrupt sample, not a measurement
+IMU_LIMITS = {"gyro": 1.0e3, "accel": 1.0e4}
+
+#: largest plausible IMU noise parameter (Kalibr units): above these the filter's covariances overflow or mean nothing
+NOISE_LIMITS = {
+    "gyroscope_noise_density": 1.0,
+    "gyroscope_random_walk": 1.0,
+    "accelerometer_noise_density": 10.0,
+    "accelerometer_random_walk": 10.0,
+    "gyroscope_initial_bias_sigma": 10.0,
+    "accelerometer_initial_bias_sigma": 100.0,
+}
+
+#: an IMU gap longer than this many nominal sample periods is reported by :meth:`Recording.check_imu_gaps`
+GAP_PERIODS = 5.0
+
+
+class RecordingWarning(UserWarning):
+    """A recording that can be processed but probably not as intended (IMU gaps, a doubtful gravity vector)."""
 
 
 class SensorRun(Protocol):
@@ -110,8 +132,13 @@ class Recording:
             raise ValueError("t must hold at least two finite, strictly increasing IMU times (N,)")
         for name in ("gyro", "accel"):
             a = np.ascontiguousarray(getattr(self, name), dtype=np.float64)
-            if a.shape != (n, 3) or not np.isfinite(a).all():
-                raise ValueError(f"{name} must be finite with shape ({n}, 3); got {a.shape}")
+            if a.shape != (n, 3):
+                raise ValueError(f"{name} must have shape ({n}, 3); got {a.shape}")
+            bad = np.flatnonzero(~np.isfinite(a).all(axis=1))
+            if bad.size:
+                k = int(bad[0])
+                raise ValueError(f"{name}: sample {k} (t = {self.t[k]:.6f} s) is not finite ({bad.size} such); drop "
+                                 "or interpolate the missing samples")  # fmt: skip
             setattr(self, name, a)
         self.q_bc = np.asarray(self.q_bc, dtype=np.float64)
         self.p_bc = np.asarray(self.p_bc, dtype=np.float64)
@@ -122,6 +149,27 @@ class Recording:
         self.gravity = np.asarray(self.gravity, dtype=np.float64)
         if self.gravity.shape != (3,):
             raise ValueError(f"gravity must have shape (3,); got {self.gravity.shape}")
+        g = float(np.linalg.norm(self.gravity)) if np.isfinite(self.gravity).all() else math.nan
+        if not 1.0 <= g <= 100.0:
+            raise ValueError(
+                f"gravity: magnitude must be in [1, 100] m/s² (9.81 on Earth); got {self.gravity.tolist()}"
+            )
+        for name, limit in IMU_LIMITS.items():
+            a = getattr(self, name)
+            big = np.flatnonzero(np.abs(a).max(axis=1) > limit)
+            if big.size:
+                k = int(big[0])
+                raise ValueError(
+                    f"{name}: sample {k} (t = {self.t[k]:.6f} s) has |value| {np.abs(a[k]).max():.3g} > {limit:g} "
+                    f"({'rad/s' if name == 'gyro' else 'm/s²'}): a corrupt sample ({big.size} such)"
+                )
+        for f in fields(self.imu_noise):
+            v = getattr(self.imu_noise, f.name)
+            hi = NOISE_LIMITS.get(f.name, 1e6)  # update_rate: Hz
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and 0 <= v <= hi):
+                raise ValueError(f"imu_noise.{f.name} must be finite and in [0, {hi:g}]; got {v!r}")
+        if not self.imu_noise.update_rate > 0:
+            raise ValueError(f"imu_noise.update_rate must be > 0 Hz; got {self.imu_noise.update_rate!r}")
 
     @property
     def duration(self) -> float:
@@ -141,3 +189,73 @@ class Recording:
             "pixel_sigma": self.pixel_sigma,
             "camera_time_offset": self.time_offset,
         }
+
+    def nominal_period(self) -> float:
+        """The median IMU sample spacing, seconds."""
+        return float(np.median(np.diff(self.t)))
+
+    def imu_gaps(self, periods: float = GAP_PERIODS) -> list[tuple[float, float]]:
+        """``(t_before, t_after)`` (s) of every IMU gap longer than ``periods`` nominal sample periods."""
+        dt = np.diff(self.t)
+        k = np.flatnonzero(dt > periods * self.nominal_period())
+        return [(float(self.t[i]), float(self.t[i + 1])) for i in k]
+
+    def check_imu_gaps(self, periods: float = GAP_PERIODS) -> list[tuple[float, float]]:
+        """Warn (:class:`RecordingWarning`, one message) about the IMU gaps of :meth:`imu_gaps`; returns them.
+
+        A filter predicts across a gap with no IMU data: its state drifts and the estimate after it can be metres
+        off (docs/fusion.md, "Checks on the input")."""
+        gaps = self.imu_gaps(periods)
+        if gaps:
+            shown = ", ".join(f"{a - self.t[0]:.3f}-{b - self.t[0]:.3f} s ({b - a:.3f} s)" for a, b in gaps[:5])
+            more = f" and {len(gaps) - 5} more" if len(gaps) > 5 else ""
+            warnings.warn(
+                f"{self.name or 'recording'}: {len(gaps)} IMU gap(s) longer than {periods:g} sample periods "
+                f"({periods * self.nominal_period() * 1e3:.1f} ms) at {shown}{more} (times from the first sample); "
+                "the estimate drifts across them",
+                RecordingWarning,
+                stacklevel=2,
+            )
+        return gaps
+
+    def check_gravity(self, q_wb: np.ndarray, rest_seconds: float | None = None, max_angle_deg: float = 10.0) -> float:
+        """Check ``gravity`` against the accelerometer at rest, given the body attitude ``q_wb`` (4,) xyzw at rest.
+
+        At rest the specific force is ``f_b = −R_wbᵀ g_w`` (docs/fusion.md): its mean over the rest period
+        (``rest_seconds``, default the recording's or 0.2 s), rotated to the world, must point opposite to
+        ``gravity``.  Returns the angle between ``R_wb f_b`` and ``−g`` (deg).
+
+        Raises
+        ------
+        ValueError
+            The angle exceeds 90°: ``gravity`` points up, against the documented convention (z up, gravity
+            ``[0, 0, −9.81]``); the filter would double gravity instead of cancelling it.
+
+        Warns
+        -----
+        RecordingWarning
+            The angle exceeds ``max_angle_deg``, or ``|f_b|`` and ``|gravity|`` differ by more than 5 %.
+        """
+        from dualpose.algebra.quat import quat_rotate
+
+        rest = self.rest_seconds if rest_seconds is None else rest_seconds
+        sel = self.t <= self.t[0] + (0.2 if rest is None else rest)
+        f_w = quat_rotate(np.asarray(q_wb, dtype=np.float64), self.accel[sel].mean(axis=0))
+        g = self.gravity
+        cos = float(-(f_w @ g) / (np.linalg.norm(f_w) * np.linalg.norm(g) + 1e-300))
+        angle = math.degrees(math.acos(min(max(cos, -1.0), 1.0)))
+        where = self.name or "recording"
+        if angle > 90.0:
+            raise ValueError(
+                f"{where}: gravity {g.tolist()} points up: at rest the specific force (accelerometer) rotated to the "
+                f"world is {np.round(f_w, 3).tolist()} m/s², {angle:.0f} deg from -gravity; the world z axis points up "
+                "and gravity is [0, 0, -9.81] (docs/fusion.md)"
+            )
+        if angle > max_angle_deg:
+            warnings.warn(f"{where}: the specific force at rest is {angle:.1f} deg from -gravity {g.tolist()}: check "
+                          "the gravity vector and the scene's vertical", RecordingWarning, stacklevel=2)  # fmt: skip
+        nf, ng = float(np.linalg.norm(f_w)), float(np.linalg.norm(g))
+        if abs(nf - ng) > 0.05 * ng:
+            warnings.warn(f"{where}: the specific force at rest is {nf:.3f} m/s² but |gravity| is {ng:.3f} m/s²: "
+                          "check the accelerometer's unit (m/s², not g)", RecordingWarning, stacklevel=2)  # fmt: skip
+        return angle

@@ -1,0 +1,47 @@
+"""Output locations checked before a command computes anything: ``--out DIR`` must be a directory, or creatable,
+and writable.
+
+Permission bits do not tell the whole story (root writes to a mode 0o555 directory; ``/proc`` and read-only mounts
+refuse everyone), so besides :func:`os.access` a temporary file is created and deleted in the directory (or in its
+nearest existing parent when the directory does not exist yet).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+__all__ = ["output_dir_problem"]
+
+
+def _trial_write(directory: Path) -> str | None:
+    if not os.access(directory, os.W_OK | os.X_OK):
+        return "not writable"
+    try:
+        fd, name = tempfile.mkstemp(prefix=".dualpose-write-test-", dir=directory)
+    except OSError as exc:
+        return f"not writable ({exc.strerror or exc})"
+    os.close(fd)
+    try:
+        os.unlink(name)
+    except OSError:
+        pass
+    return None
+
+
+def output_dir_problem(path: str | os.PathLike) -> str | None:
+    """None when ``path`` is a writable directory or can be created as one; otherwise a one-line message naming it."""
+    out = Path(path)
+    if out.exists():
+        if not out.is_dir():
+            return f"{out}: not a directory"
+        problem = _trial_write(out)
+        return None if problem is None else f"{out}: {problem}"
+    parent = out.absolute().parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir():
+        return f"{out}: cannot create the directory: {parent} is not a directory"
+    problem = _trial_write(parent)
+    return None if problem is None else f"{out}: cannot create the directory: {parent} is {problem}"
