@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from dualpose.cli.main import main
-from dualpose.inertial.leader_follower import Scenario, simulate
 from dualpose.inertial.motions import coning_drift
+from dualpose.pipelines.reproduce_screw_vector import Scenario, simulate
 
 ARGS = ["reproduce", "screw-vector", "--duration", "20", "--long-duration", "60", "--no-progress"]
 

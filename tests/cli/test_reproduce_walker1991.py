@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from dualpose.cli.main import main
+from dualpose.pipelines.reproduce_walker1991 import feeder_vertices
 from dualpose.registration import register_pose
-from dualpose.registration.walker1991 import feeder_vertices
 
 
 def test_feeder_geometry():

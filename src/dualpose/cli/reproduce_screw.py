@@ -65,7 +65,7 @@ def _simulate(sc: Any, n: int, duration: float, label: str, show: bool) -> dict:
     from contextlib import nullcontext
 
     from dualpose.cli._progress import progress_bar
-    from dualpose.inertial.leader_follower import simulate
+    from dualpose.pipelines.reproduce_screw_vector import simulate
 
     with progress_bar(10, f"{_PROG}: {label}") if show else nullcontext() as bar:
         return simulate(sc, n, duration, progress=_Bar(bar))
@@ -151,7 +151,7 @@ def run_screw_vector(args: argparse.Namespace) -> int:
     from dataclasses import asdict
 
     from dualpose.cli._output import output_dir_problem
-    from dualpose.inertial.leader_follower import Scenario
+    from dualpose.pipelines.reproduce_screw_vector import Scenario
 
     out: Path | None = args.out
     names = [f"screw_vector_{n}_sample.png" for n in args.samples]

@@ -26,7 +26,8 @@ def add_target(targets: argparse._SubParsersAction) -> argparse.ArgumentParser:
 
 
 class _Bar:
-    """``progress(frac, stage)`` of :func:`dualpose.registration.walker1991.run` on the shared helper, in 5 % steps."""
+    """``progress(frac, stage)`` of :func:`dualpose.pipelines.reproduce_walker1991.run` on the shared helper, in
+    5 % steps."""
 
     def __init__(self, bar) -> None:
         self.bar, self.done = bar, 0
@@ -128,7 +129,7 @@ def run(args: argparse.Namespace) -> int:
     """Entry point of ``dualpose reproduce walker1991``."""
     from dualpose.cli._output import output_dir_problem
     from dualpose.cli._progress import progress_bar
-    from dualpose.registration import walker1991
+    from dualpose.pipelines import reproduce_walker1991 as walker1991
 
     out_dir = Path(args.out) if args.out else None
     names = ("walker1991.md", "walker1991.json", "walker1991.png")
