@@ -10,9 +10,14 @@ BSTAMP := $(VENV)/.installed-bench
 $(PY):
 	$(PYTHON) -m venv $(VENV)
 
-$(STAMP): $(PY) pyproject.toml
+NATIVE := CMakeLists.txt $(shell find src/native -type f 2>/dev/null)
+
+# the native kernels compile here, at install (scikit-build-core + the machine's cmake/ninja/g++); the build
+# directory is kept, so an edit of src/native recompiles only what changed
+$(STAMP): $(PY) pyproject.toml $(NATIVE)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e '.[test]'
+	$(PY) -m pip install -q "scikit-build-core>=0.10" "numpy>=2.0"
+	$(PY) -m pip install -q --no-build-isolation -e '.[test]'
 	$(PY) -m dualpose.warmup
 	touch $(STAMP)
 

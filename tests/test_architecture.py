@@ -15,8 +15,11 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "dualpose"
 
 #: what each layer may import besides itself (docs/architecture.md, "The layers"); ``dualpose`` (the package root)
 #: re-exports the algebra and counts as ``algebra``
-BASE = {"_validation", "_kernel_cache"}
+BASE = {"_validation", "_kernel_cache", "_native"}
+#: compiled modules (no .py source): the native kernels sit at the bottom with the argument checks
+EXTENSIONS = ("dualpose._native",)
 ALLOWED: dict[str, set[str]] = {
+    "_native": set(),
     "_kernel_cache": set(),
     "_validation": {"_kernel_cache"},
     "algebra": BASE,
@@ -46,6 +49,10 @@ def _modules() -> dict[str, Path]:
     return {_module_name(p): p for p in sorted(SRC.rglob("*.py"))}
 
 
+def _known(modules: dict[str, Path]) -> set[str]:
+    return set(modules) | set(EXTENSIONS)
+
+
 def _imports(path: Path, modules: dict[str, Path]) -> set[str]:
     """The dualpose modules ``path`` imports (``from pkg import sub`` counts as importing ``pkg.sub``)."""
     me = _module_name(path)
@@ -64,7 +71,7 @@ def _imports(path: Path, modules: dict[str, Path]) -> set[str]:
                 continue
             for alias in node.names:
                 sub = f"{target}.{alias.name}"
-                found.add(sub if sub in modules else target)
+                found.add(sub if sub in _known(modules) else target)
     return found - {me}
 
 

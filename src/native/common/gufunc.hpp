@@ -1,0 +1,155 @@
+// Real NumPy generalized ufuncs from scalar kernels with fixed core shapes.
+//
+// A kernel is a plain function  void f(const double* in0, ..., double* out0, ...)  on contiguous core buffers
+// (row-major for matrices).  Gufunc<F, Ops...> builds the NumPy inner loop for it: each operand's core elements are
+// gathered from NumPy's strides into small local buffers, the kernel runs, and the outputs are scattered back, so
+// broadcasting, out=, non-contiguous inputs and in-place calls behave as for any ufunc (NumPy handles overlapping
+// operands before the loop).  Shapes: S (a scalar, core "()"), V<n> (core "(n)"), M<r, c> (core "(r,c)").
+#pragma once
+
+#include "numpy_api.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cstddef>
+#include <string>
+#include <tuple>
+#include <utility>
+
+namespace dualpose {
+
+template <int R, int C = -1>
+struct Shape {
+    static constexpr int ndim = C >= 0 ? 2 : (R > 0 ? 1 : 0);
+    static constexpr int size = C >= 0 ? R * C : (R > 0 ? R : 1);
+    static constexpr int rows = R;
+    static constexpr int cols = C;
+    static std::string core() {
+        if constexpr (ndim == 0) return "()";
+        else if constexpr (ndim == 1) return "(" + std::to_string(R) + ")";
+        else return "(" + std::to_string(R) + "," + std::to_string(C) + ")";
+    }
+};
+using S = Shape<0>;
+template <int N>
+using V = Shape<N>;
+template <int R, int C>
+using M = Shape<R, C>;
+
+template <class Op>
+inline void gather(const char* p, const npy_intp* cs, double* buf) {
+    if constexpr (Op::ndim == 0) {
+        buf[0] = *reinterpret_cast<const double*>(p);
+    } else if constexpr (Op::ndim == 1) {
+        for (int k = 0; k < Op::rows; ++k) buf[k] = *reinterpret_cast<const double*>(p + k * cs[0]);
+    } else {
+        for (int r = 0; r < Op::rows; ++r)
+            for (int c = 0; c < Op::cols; ++c)
+                buf[r * Op::cols + c] = *reinterpret_cast<const double*>(p + r * cs[0] + c * cs[1]);
+    }
+}
+
+template <class Op>
+inline void scatter(char* p, const npy_intp* cs, const double* buf) {
+    if constexpr (Op::ndim == 0) {
+        *reinterpret_cast<double*>(p) = buf[0];
+    } else if constexpr (Op::ndim == 1) {
+        for (int k = 0; k < Op::rows; ++k) *reinterpret_cast<double*>(p + k * cs[0]) = buf[k];
+    } else {
+        for (int r = 0; r < Op::rows; ++r)
+            for (int c = 0; c < Op::cols; ++c)
+                *reinterpret_cast<double*>(p + r * cs[0] + c * cs[1]) = buf[r * Op::cols + c];
+    }
+}
+
+template <class... Ops>
+struct In {
+    static constexpr int n = sizeof...(Ops);
+};
+template <class... Ops>
+struct Out {
+    static constexpr int n = sizeof...(Ops);
+};
+
+template <auto F, class Ins, class Outs>
+struct Gufunc;
+
+template <auto F, class... I, class... O>
+struct Gufunc<F, In<I...>, Out<O...>> {
+    static constexpr int nin = sizeof...(I);
+    static constexpr int nout = sizeof...(O);
+    static constexpr int nargs = nin + nout;
+
+    static std::string signature() {
+        std::string s;
+        ((s += (s.empty() ? "" : ",") + I::core()), ...);
+        s += "->";
+        bool first = true;
+        ((s += (first ? "" : ",") + O::core(), first = false), ...);
+        return s;
+    }
+
+    template <std::size_t... Ii, std::size_t... Oi>
+    static void run(char** args, npy_intp n, const npy_intp* steps, std::index_sequence<Ii...>,
+                    std::index_sequence<Oi...>) {
+        constexpr std::array<int, nargs> core_ndim = {I::ndim..., O::ndim...};
+        std::array<const npy_intp*, nargs> cs{};
+        const npy_intp* c = steps + nargs;
+        for (int j = 0; j < nargs; ++j) {
+            cs[j] = c;
+            c += core_ndim[j];
+        }
+        std::tuple<std::array<double, O::size>...> ob;
+        constexpr std::array<int, nargs> sizes = {I::size..., O::size...};
+        bool contiguous = true;  // every operand a C-contiguous stack of 0-d or 1-d cores
+        for (int j = 0; j < nargs; ++j) {
+            contiguous &= core_ndim[j] < 2 && steps[j] == npy_intp(sizeof(double)) * sizes[j];
+            if (core_ndim[j] == 1) contiguous &= cs[j][0] == npy_intp(sizeof(double));
+        }
+        if (contiguous) {
+            // C-contiguous rows: the kernel reads the inputs in place; outputs go through a local buffer so that
+            // an output that is also an input (out=) is only written after the kernel has read it
+            for (npy_intp i = 0; i < n; ++i) {
+                F((reinterpret_cast<const double*>(args[Ii]) + i * I::size)..., std::get<Oi>(ob).data()...);
+                ((std::copy(std::get<Oi>(ob).begin(), std::get<Oi>(ob).end(),
+                            reinterpret_cast<double*>(args[nin + Oi]) + i * O::size)),
+                 ...);
+            }
+            return;
+        }
+        std::tuple<std::array<double, I::size>...> ib;
+        char* p[nargs];
+        for (int j = 0; j < nargs; ++j) p[j] = args[j];
+        for (npy_intp i = 0; i < n; ++i) {
+            (gather<I>(p[Ii], cs[Ii], std::get<Ii>(ib).data()), ...);
+            F(std::get<Ii>(ib).data()..., std::get<Oi>(ob).data()...);
+            (scatter<O>(p[nin + Oi], cs[nin + Oi], std::get<Oi>(ob).data()), ...);
+            for (int j = 0; j < nargs; ++j) p[j] += steps[j];
+        }
+    }
+
+    static void loop(char** args, const npy_intp* dims, const npy_intp* steps, void*) {
+        run(args, dims[0], steps, std::index_sequence_for<I...>{}, std::index_sequence_for<O...>{});
+    }
+
+    // The ufunc object (a new reference), or nullptr with a Python error set.
+    static PyObject* create(const char* name, const char* doc) {
+        static PyUFuncGenericFunction funcs[1] = {&loop};
+        static void* data[1] = {nullptr};
+        static char types[nargs];
+        for (int j = 0; j < nargs; ++j) types[j] = NPY_DOUBLE;
+        static const std::string sig = signature();
+        return PyUFunc_FromFuncAndDataAndSignature(funcs, data, types, 1, nin, nout, PyUFunc_None, name, doc, 0,
+                                                   sig.c_str());
+    }
+};
+
+// Add the gufunc of kernel F as attribute ``name`` of ``module``; returns false with a Python error set.
+template <class G>
+inline bool add_gufunc(PyObject* module, const char* name, const char* doc) {
+    PyObject* u = G::create(name, doc);
+    if (u == nullptr) return false;
+    return PyModule_AddObject(module, name, u) == 0 || (Py_DECREF(u), false);
+}
+
+}  // namespace dualpose
