@@ -1,9 +1,13 @@
 // Scalar quaternion formulas (xyzw, Hamilton product): the one copy every kernel uses.
+// Plain + - * / and libm sqrt/sin/cos only (no fast-math, no FMA contraction: see CMakeLists.txt), in the same
+// order as the numba kernels they replace, so the results agree to the last bit where the tests compare them.
 #pragma once
+
+#include <cmath>
 
 namespace dualpose {
 
-// a (x) b  (Dantam 2014 eq. (17)); out may alias neither a nor b.
+// o = a (x) b  (Dantam 2014 eq. (17)); o may not alias a or b.
 inline void qmul(const double* a, const double* b, double* o) {
     const double ax = a[0], ay = a[1], az = a[2], aw = a[3];
     const double bx = b[0], by = b[1], bz = b[2], bw = b[3];
@@ -11,6 +15,45 @@ inline void qmul(const double* a, const double* b, double* o) {
     o[1] = aw * by - ax * bz + ay * bw + az * bx;
     o[2] = aw * bz + ax * by - ay * bx + az * bw;
     o[3] = aw * bw - ax * bx - ay * by - az * bz;
+}
+
+// Rotation matrix (3x3, row-major) of a unit quaternion (qx, qy, qz, qw) (Dantam 2014 eq. (108)).
+inline void rotmat_xyzw(double qx, double qy, double qz, double qw, double* out) {
+    out[0] = 1.0 - 2.0 * (qy * qy + qz * qz);
+    out[1] = 2.0 * (qx * qy - qz * qw);
+    out[2] = 2.0 * (qx * qz + qy * qw);
+    out[3] = 2.0 * (qx * qy + qz * qw);
+    out[4] = 1.0 - 2.0 * (qx * qx + qz * qz);
+    out[5] = 2.0 * (qy * qz - qx * qw);
+    out[6] = 2.0 * (qx * qz - qy * qw);
+    out[7] = 2.0 * (qy * qz + qx * qw);
+    out[8] = 1.0 - 2.0 * (qx * qx + qy * qy);
+}
+
+// q <- normalize(q (x) Exp(r)) for a rotation vector r (radians); q (4,) xyzw.  The local-error injection of the
+// error-state filters (Solà 2017 eq. 282), with the Taylor series of sin(a/2)/a and cos(a/2) below a = 1e-4.
+inline void quat_mul_exp_inplace(double* q, double rx, double ry, double rz) {
+    const double a2 = rx * rx + ry * ry + rz * rz;
+    const double a = std::sqrt(a2);
+    double s, c;
+    if (a < 1e-4) {
+        s = 0.5 - a2 / 48.0;
+        c = 1.0 - a2 / 8.0;
+    } else {
+        s = std::sin(0.5 * a) / a;
+        c = std::cos(0.5 * a);
+    }
+    const double bx = s * rx, by = s * ry, bz = s * rz, bw = c;
+    const double ax = q[0], ay = q[1], az = q[2], aw = q[3];
+    const double x = aw * bx + bw * ax + ay * bz - az * by;
+    const double y = aw * by + bw * ay + az * bx - ax * bz;
+    const double z = aw * bz + bw * az + ax * by - ay * bx;
+    const double w = aw * bw - ax * bx - ay * by - az * bz;
+    const double n = std::sqrt(x * x + y * y + z * z + w * w);
+    q[0] = x / n;
+    q[1] = y / n;
+    q[2] = z / n;
+    q[3] = w / n;
 }
 
 }  // namespace dualpose
