@@ -72,8 +72,7 @@ def extrinsic_rows(runs: int) -> list[str]:
 
 def _eskf_position_rmse(run: sim.SimulatedRun, gravity: np.ndarray) -> float:
     x, P = initialization.initial_state_from_run(run)
-    f = eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P, gyro_bias=x[10:13], accel_bias=x[13:16],
-                                   gravity=gravity)  # fmt: skip
+    f = eskf.ErrorStateEKF.from_state(run, x, P, gravity=gravity)
     res = f.run_recording(run)
     m = (run.t >= MOVING[0]) & (run.t <= MOVING[1])
     return float(np.sqrt(np.mean(np.sum((res.position - run.truth["position"])[m] ** 2, axis=1))))

@@ -39,7 +39,7 @@ def errors(t: np.ndarray, pos: np.ndarray, quat: np.ndarray, truth_pos: np.ndarr
 
 def eskf_errors(run: sim.SimulatedRun, frames: bool = True):
     x, P0 = initialization.initial_state_from_run(run)
-    f = eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P0, gyro_bias=x[10:13])
+    f = eskf.ErrorStateEKF.from_state(run, x, P0)
     if frames:
         res = f.run_recording(run)
     else:

@@ -52,7 +52,7 @@ def dropout_errors(seed: int) -> np.ndarray:
     eight with a 2 s vision dropout and 10 % outliers."""
     run = sim.simulate_eight(seed, outlier_fraction=0.1, dropouts=((3.0, 5.0),))
     x, P0 = initialization.initial_state_from_run(run)
-    f = eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P0, gyro_bias=x[10:13])
+    f = eskf.ErrorStateEKF.from_state(run, x, P0)
     res = f.run_recording(run, record_nodes=True)
     sm = smoother.rts_smooth(res)
     m = (run.t >= 1.0) & (run.t <= 6.4)

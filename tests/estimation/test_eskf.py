@@ -132,7 +132,7 @@ def _realistic_filter(run: sim.SimulatedRun, **kw) -> eskf.ErrorStateEKF:
         run.accel[rest], run.gyro[rest], first, run.q_bc, run.p_bc, n.gyroscope_noise_density,
         n.accelerometer_initial_bias_sigma, n.update_rate,
     )  # fmt: skip
-    return eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P0, gyro_bias=x[10:13], **kw)
+    return eskf.ErrorStateEKF.from_state(run, x, P0, **kw)
 
 
 @pytest.mark.parametrize("seed", [10, 11])

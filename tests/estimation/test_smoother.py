@@ -113,7 +113,7 @@ def test_linear_rts_bad_input() -> None:
 def _filtered(run: sim.SimulatedRun, **kw) -> eskf.FilterResult:
     """Filter from static alignment + first-frame PnP (no truth), recording the nodes."""
     x, P0 = initialization.initial_state_from_run(run)
-    f = eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P0, gyro_bias=x[10:13], **kw)
+    f = eskf.ErrorStateEKF.from_state(run, x, P0, **kw)
     return f.run_recording(run, record_nodes=True)
 
 
@@ -169,7 +169,7 @@ def test_node_record(eight) -> None:
     nodes = res.nodes
     # the recording run is the plain run
     x, P0 = initialization.initial_state_from_run(run)
-    plain = eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P0, gyro_bias=x[10:13]).run_recording(run)
+    plain = eskf.ErrorStateEKF.from_state(run, x, P0).run_recording(run)
     np.testing.assert_array_equal(plain.position, res.position)
     np.testing.assert_array_equal(plain.covariance, res.covariance)
     # one node per IMU time and per camera time (the camera phase is off the IMU grid)

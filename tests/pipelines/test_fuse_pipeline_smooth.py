@@ -41,7 +41,7 @@ def test_smoothed_arrays_match_the_metrics_and_the_library(smoothed_job):
     # the same start and filter, smoothed through the library directly
     run = sim.simulate_eight(1)
     x, P0 = initialization.initial_state_from_run(run)
-    f = eskf.ErrorStateEKF.for_run(run, x[0:3], x[3:6], x[6:10], P0, gyro_bias=x[10:13])
+    f = eskf.ErrorStateEKF.from_state(run, x, P0)
     sm = smoother.rts_smooth(f.run_recording(run, record_nodes=True))
     np.testing.assert_array_equal(sm.position, res.smoothed.positions)
     # the filter's own metrics do not change with smooth=True
