@@ -13,21 +13,24 @@
 #include "../common/kutil.hpp"
 #include "../common/numpy_api.hpp"
 
+// Row kernels are inlined into their loops (the compiler's size heuristics would otherwise call them per row).
+#define DUALPOSE_ROW inline __attribute__((always_inline))
+
 namespace dualpose {
 
-inline void quat_mul_row(const double* p, const double* q, double* o) { store(o, qmul(load4(p), load4(q))); }
+DUALPOSE_ROW void quat_mul_row(const double* p, const double* q, double* o) { store(o, qmul(load4(p), load4(q))); }
 
 // R(q/|q|) v (Dantam 2014 eq. (45)).
-inline void quat_rotate_row(const double* q, const double* v, double* o) {
+DUALPOSE_ROW void quat_rotate_row(const double* q, const double* v, double* o) {
     store(o, rotate_any(load4(q), load3(v)));
 }
 
 // Dantam 2014 eq. (79).
-inline void dualquat_mul_row(const double* a, const double* b, double* o) { store(o, dq_mul(load8(a), load8(b))); }
+DUALPOSE_ROW void dualquat_mul_row(const double* a, const double* b, double* o) { store(o, dq_mul(load8(a), load8(b))); }
 
 // p' = R p + t (Dantam 2014 eq. (95) in the implicit form (106)); s2 = 2/|r|**2 normalizes a non-unit real part
 // (extreme norms rescaled first).
-inline void dualquat_transform_row(const double* s, const double* p, double* o) {
+DUALPOSE_ROW void dualquat_transform_row(const double* s, const double* p, double* o) {
     DualQuat d = load8(s);
     const Scale u = unit_scale(d.r);
     if (u.c != 1.0) d = scale(u.c, d);
