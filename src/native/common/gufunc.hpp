@@ -107,10 +107,13 @@ struct Gufunc<F, In<I...>, Out<O...>, ROWS> {
         }
         std::tuple<std::array<double, O::size>...> ob;
         constexpr std::array<int, nargs> sizes = {I::size..., O::size...};
-        bool contiguous = true;  // every operand a C-contiguous stack of 0-d or 1-d cores
+        constexpr std::array<int, nargs> cols = {I::cols..., O::cols...};
+        constexpr npy_intp d = sizeof(double);
+        bool contiguous = true;  // every operand a C-contiguous stack of cores (scalars, vectors, row-major matrices)
         for (int j = 0; j < nargs; ++j) {
-            contiguous &= core_ndim[j] < 2 && steps[j] == npy_intp(sizeof(double)) * sizes[j];
-            if (core_ndim[j] == 1) contiguous &= cs[j][0] == npy_intp(sizeof(double));
+            contiguous &= steps[j] == d * sizes[j];
+            if (core_ndim[j] == 1) contiguous &= cs[j][0] == d;
+            if (core_ndim[j] == 2) contiguous &= cs[j][0] == d * cols[j] && cs[j][1] == d;
         }
         if constexpr (!std::is_same_v<decltype(ROWS), std::nullptr_t>) {
             if (contiguous) {
