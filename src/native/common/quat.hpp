@@ -7,14 +7,26 @@
 
 namespace dualpose {
 
-// o = a (x) b  (Dantam 2014 eq. (17)); o may not alias a or b.
+struct Vec3 {
+    double x, y, z;
+};
+struct Quat {
+    double x, y, z, w;
+};
+
+// a (x) b, Hamilton (Dantam 2014 eq. (17)).
+inline Quat qmul(Quat a, Quat b) {
+    return {a.w * b.x + a.x * b.w + a.y * b.z - a.z * b.y, a.w * b.y - a.x * b.z + a.y * b.w + a.z * b.x,
+            a.w * b.z + a.x * b.y - a.y * b.x + a.z * b.w, a.w * b.w - a.x * b.x - a.y * b.y - a.z * b.z};
+}
+
+// o = a (x) b on 4-element buffers; o may not alias a or b.
 inline void qmul(const double* a, const double* b, double* o) {
-    const double ax = a[0], ay = a[1], az = a[2], aw = a[3];
-    const double bx = b[0], by = b[1], bz = b[2], bw = b[3];
-    o[0] = aw * bx + ax * bw + ay * bz - az * by;
-    o[1] = aw * by - ax * bz + ay * bw + az * bx;
-    o[2] = aw * bz + ax * by - ay * bx + az * bw;
-    o[3] = aw * bw - ax * bx - ay * by - az * bz;
+    const Quat r = qmul(Quat{a[0], a[1], a[2], a[3]}, Quat{b[0], b[1], b[2], b[3]});
+    o[0] = r.x;
+    o[1] = r.y;
+    o[2] = r.z;
+    o[3] = r.w;
 }
 
 // Rotation matrix (3x3, row-major) of a unit quaternion (qx, qy, qz, qw) (Dantam 2014 eq. (108)).

@@ -1,0 +1,215 @@
+// Scalar helpers shared by every kernel: guarded norms, the Hamilton and dual-quaternion products, rotation,
+// rigid transform of a point, the unit scale of a non-unit quaternion, ln|q|, the rotation matrix and Shepperd's
+// quaternion of a rotation matrix.  Quaternions are xyzw (scalar last, Hamilton product).
+//
+// Plain + - * / and libm only, in the order of the formulas documented below (no fast-math, no FMA contraction:
+// see CMakeLists.txt), so every caller (gufunc, flat path, whole-recording loop) rounds identically.
+#pragma once
+
+#include "quat.hpp"  // Vec3, Quat, qmul
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace dualpose {
+
+// [real xyzw, dual xyzw]
+struct DualQuat {
+    Quat r, d;
+};
+// (c, s2) of unit_scale
+struct Scale {
+    double c, s2;
+};
+
+inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+inline constexpr double kInf = std::numeric_limits<double>::infinity();
+inline constexpr double kPi = 3.141592653589793;
+inline constexpr double kTiny = 1e-280;
+inline constexpr double kHuge = 1e280;
+
+inline Vec3 load3(const double* p) { return {p[0], p[1], p[2]}; }
+inline Quat load4(const double* p) { return {p[0], p[1], p[2], p[3]}; }
+inline DualQuat load8(const double* p) { return {{p[0], p[1], p[2], p[3]}, {p[4], p[5], p[6], p[7]}}; }
+inline void store(double* o, Vec3 v) {
+    o[0] = v.x;
+    o[1] = v.y;
+    o[2] = v.z;
+}
+inline void store(double* o, Quat q) {
+    o[0] = q.x;
+    o[1] = q.y;
+    o[2] = q.z;
+    o[3] = q.w;
+}
+inline void store(double* o, const DualQuat& s) {
+    store(o, s.r);
+    store(o + 4, s.d);
+}
+inline Quat neg(Quat q) { return {-q.x, -q.y, -q.z, -q.w}; }
+inline Quat conj(Quat q) { return {-q.x, -q.y, -q.z, q.w}; }
+inline DualQuat neg(const DualQuat& s) { return {neg(s.r), neg(s.d)}; }
+inline Quat scale(double f, Quat q) { return {f * q.x, f * q.y, f * q.z, f * q.w}; }
+inline DualQuat scale(double f, const DualQuat& s) { return {scale(f, s.r), scale(f, s.d)}; }
+
+// Euclidean norm of a 3-vector without underflow or overflow of the squares (NaN propagates).
+inline double norm3(double x, double y, double z) {
+    const double s = x * x + y * y + z * z;
+    if (s != s) return s;
+    if (kTiny <= s && s <= kHuge) return std::sqrt(s);
+    const double m = std::max(std::max(std::fabs(x), std::fabs(y)), std::fabs(z));
+    if (m == 0.0 || m == kInf) return m;
+    x /= m;
+    y /= m;
+    z /= m;
+    return m * std::sqrt(x * x + y * y + z * z);
+}
+inline double norm3(Vec3 v) { return norm3(v.x, v.y, v.z); }
+
+// Euclidean norm of a 4-vector without underflow or overflow of the squares (NaN propagates).
+inline double norm4(double x, double y, double z, double w) {
+    const double s = x * x + y * y + z * z + w * w;
+    if (s != s) return s;
+    if (kTiny <= s && s <= kHuge) return std::sqrt(s);
+    const double m = std::max(std::max(std::fabs(x), std::fabs(y)), std::max(std::fabs(z), std::fabs(w)));
+    if (m == 0.0 || m == kInf) return m;
+    x /= m;
+    y /= m;
+    z /= m;
+    w /= m;
+    return m * std::sqrt(x * x + y * y + z * z + w * w);
+}
+inline double norm4(Quat q) { return norm4(q.x, q.y, q.z, q.w); }
+
+// (a + ε b)(c + ε d) = a c + ε (a d + b c): Dantam 2014 eq. (79).
+inline DualQuat dq_mul(const DualQuat& a, const DualQuat& b) {
+    const Quat r = qmul(a.r, b.r), e = qmul(a.r, b.d), f = qmul(a.d, b.r);
+    return {r, {e.x + f.x, e.y + f.y, e.z + f.z, e.w + f.w}};
+}
+
+inline Vec3 cross(Vec3 a, Vec3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+inline double dot(Vec3 a, Vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+
+// v + s2 * q_v x (q_v x v + w v): Dantam 2014 eq. (45); s2 = 2/|q|**2 (2 for a unit quaternion).
+inline Vec3 rotate(Quat q, Vec3 v, double s2) {
+    Vec3 a = cross({q.x, q.y, q.z}, v);
+    a.x += q.w * v.x;
+    a.y += q.w * v.y;
+    a.z += q.w * v.z;
+    const Vec3 b = cross({q.x, q.y, q.z}, a);
+    return {v.x + s2 * b.x, v.y + s2 * b.y, v.z + s2 * b.z};
+}
+
+// R p + t for the dual quaternion s = [r, d]; s2 = 2/|r|**2.  R p = p + s2 r_v x (r_v x p + w p) (Dantam 2014
+// eq. (45)) and t = s2 (w d_v - d_w r_v + r_v x d_v) (eq. (78)), fused into
+// p + s2 [r_v x (r_v x p + w p + d_v) + w d_v - d_w r_v].
+inline Vec3 transform_point(const DualQuat& s, Vec3 p, double s2) {
+    const double x = s.r.x, y = s.r.y, z = s.r.z, w = s.r.w;
+    const double dx = s.d.x, dy = s.d.y, dz = s.d.z, dw = s.d.w;
+    const double cx = y * p.z - z * p.y, cy = z * p.x - x * p.z, cz = x * p.y - y * p.x;
+    const double ax = cx + w * p.x + dx, ay = cy + w * p.y + dy, az = cz + w * p.z + dz;
+    const double bx = y * az - z * ay, by = z * ax - x * az, bz = x * ay - y * ax;
+    return {p.x + s2 * (bx + w * dx - dw * x), p.y + s2 * (by + w * dy - dw * y), p.z + s2 * (bz + w * dz - dw * z)};
+}
+
+// (c, s2) with s2 = 2/|c q|**2, for formulas that need 2/|q|**2 (rotation, matrices, transforms).  For ordinary
+// magnitudes c = 1 and s2 = 2/|q|**2; for |q| near 1e-200 or 1e200 c = 1/|q| and s2 = 2, and the caller scales
+// the quaternion (and a dual part) by c first.  A zero quaternion gives a quiet NaN; a NaN one propagates.
+inline Scale unit_scale(Quat q) {
+    const double n2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
+    if (n2 != n2) return {1.0, n2};
+    if (kTiny <= n2 && n2 <= kHuge) return {1.0, 2.0 / n2};
+    const double n = norm4(q);
+    if (n == 0.0) return {kNaN, kNaN};
+    return {1.0 / n, 2.0};
+}
+
+// 2/|q|**2 (quiet NaN for a zero quaternion); prefer unit_scale, which also survives |q| ~ 1e-200.
+inline double inv_norm2_scale(Quat q) {
+    const double n2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
+    if (n2 != n2) return n2;
+    if (kTiny <= n2 && n2 <= kHuge) return 2.0 / n2;
+    const double n = norm4(q);
+    if (n == 0.0) return kNaN;
+    return (2.0 / n) / n;
+}
+
+// ln|q|, one branch on |q|**2.  For |q|**2 in [1/2, 2] it is ln(1 + d)/2 with d = (w - 1)(w + 1) + |q_v|**2
+// (w - 1 exact), ln(1 + d) by Goldberg's (1991, Thm. 4) ln(u) d/(u - 1), u = 1 + d rounded (d itself when u == 1);
+// elsewhere ln(|q|**2)/2, and outside [1e-280, 1e280] the guarded norm.
+inline double log_norm(Quat q) {
+    const double s2 = q.x * q.x + q.y * q.y + q.z * q.z;
+    const double n2 = s2 + q.w * q.w;
+    if (0.5 <= n2 && n2 <= 2.0) {
+        const double d = (q.w - 1.0) * (q.w + 1.0) + s2;
+        const double u = 1.0 + d;
+        const double den = u - 1.0;
+        const bool nz = den != 0.0;
+        const double f = std::log(u) / (nz ? den : 1.0);
+        return 0.5 * d * (nz ? f : 1.0);
+    }
+    if (kTiny <= n2 && n2 <= kHuge) return 0.5 * std::log(n2);
+    return std::log(norm4(q));
+}
+
+// Dantam 2014 eqs. (25)-(28) given f = atan2c(|q_v|, w): (f q_v, ln|q|); f = inf (v = 0, w < 0) gives the x axis,
+// [π, 0, 0, ln|w|].  A zero q gives NaN (f = NaN).
+inline Quat quat_log_parts(Quat q, double f) {
+    if (f == kInf) return {kPi, 0.0, 0.0, log_norm(q)};
+    return {f * q.x, f * q.y, f * q.z, log_norm(q)};
+}
+
+// Row-major rotation matrix of q/|q| (Dantam 2014 eq. (108)); NaN for a zero quaternion.
+struct Mat3 {
+    double m[9];
+    double operator()(int i, int j) const { return m[3 * i + j]; }
+};
+inline Mat3 rotmat(Quat q) {
+    const Scale u = unit_scale(q);
+    const double c = u.c, s = u.s2;
+    const double x = c * q.x, y = c * q.y, z = c * q.z, w = c * q.w;
+    const double xx = s * x * x, yy = s * y * y, zz = s * z * z;
+    const double xy = s * x * y, xz = s * x * z, yz = s * y * z;
+    const double wx = s * w * x, wy = s * w * y, wz = s * w * z;
+    return {{1.0 - (yy + zz), xy - wz, xz + wy, xy + wz, 1.0 - (xx + zz), yz - wx, xz - wy, yz + wx, 1.0 - (xx + yy)}};
+}
+
+// R(q/|q|) v for any nonzero q (NaN for zero), without under/overflow for |q| ~ 1e-200 or 1e200.
+inline Vec3 rotate_any(Quat q, Vec3 v) {
+    const Scale u = unit_scale(q);
+    return rotate(scale(u.c, q), v, u.s2);
+}
+
+// Unit quaternion (x, y, z, w), w >= 0, of a 3x3 rotation matrix r (row-major, r[3 i + j]): Shepperd's method,
+// branching on the largest of (trace, R00, R11, R22).
+inline Quat quat_of_rotmat(const double* r) {
+    const double r00 = r[0], r11 = r[4], r22 = r[8];
+    const double tr = r00 + r11 + r22;
+    double x, y, z, w;
+    if (tr >= r00 && tr >= r11 && tr >= r22) {
+        const double k = std::sqrt(1.0 + tr), h = 0.5 / k;
+        x = (r[7] - r[5]) * h, y = (r[2] - r[6]) * h, z = (r[3] - r[1]) * h, w = 0.5 * k;
+    } else if (r00 >= r11 && r00 >= r22) {
+        const double k = std::sqrt(1.0 + r00 - r11 - r22), h = 0.5 / k;
+        x = 0.5 * k, y = (r[1] + r[3]) * h, z = (r[2] + r[6]) * h, w = (r[7] - r[5]) * h;
+    } else if (r11 >= r22) {
+        const double k = std::sqrt(1.0 - r00 + r11 - r22), h = 0.5 / k;
+        x = (r[1] + r[3]) * h, y = 0.5 * k, z = (r[5] + r[7]) * h, w = (r[2] - r[6]) * h;
+    } else {
+        const double k = std::sqrt(1.0 - r00 - r11 + r22), h = 0.5 / k;
+        x = (r[2] + r[6]) * h, y = (r[5] + r[7]) * h, z = 0.5 * k, w = (r[3] - r[1]) * h;
+    }
+    double n = norm4(x, y, z, w);
+    if (w < 0.0) n = -n;
+    return {x / n, y / n, z / n, w / n};
+}
+
+// True when q is not the canonical representative of ±q (w > 0; ties broken on x, then y, then z).
+inline bool flip_sign(Quat q) {
+    return q.w < 0.0 || (q.w == 0.0 && (q.x < 0.0 || (q.x == 0.0 && (q.y < 0.0 || (q.y == 0.0 && q.z < 0.0)))));
+}
+
+inline bool is_zero4(Quat q) { return q.x == 0.0 && q.y == 0.0 && q.z == 0.0 && q.w == 0.0; }
+
+}  // namespace dualpose
