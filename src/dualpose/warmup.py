@@ -19,7 +19,6 @@ KERNEL_MODULES = (
     "dualpose.estimation._eskf_kernels",
     "dualpose.estimation._smoother_kernels",
     "dualpose.estimation._hol22_kernels",
-    "dualpose.estimation._ahrs_kernels",
 )
 
 

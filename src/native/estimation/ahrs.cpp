@@ -1,24 +1,12 @@
 // dualpose._native's AHRS part: ahrs_run (the whole recording), ahrs_predict and ahrs_inject_and_reset (one step,
 // for dualpose.estimation.ahrs_filter.AhrsFilter), and the layout constants AHRS_* (ahrs_layout.hpp).
-#include "../common/args.hpp"
+#include "eskf_args.hpp"
 #include "ahrs_filter.hpp"
 #include "ahrs_run.hpp"
-
-#include <initializer_list>
 
 namespace dualpose {
 
 namespace {
-
-// True when a has exactly the given shape; otherwise false with a ValueError naming the argument.
-template <class A>
-bool has_shape(const A& a, std::initializer_list<npy_intp> shape, const char* name) {
-    int k = 0;
-    bool ok = true;
-    for (npy_intp s : shape) ok &= a.shape[k++] == s;
-    if (!ok) PyErr_Format(PyExc_ValueError, "ahrs: %s has the wrong shape", name);
-    return ok;
-}
 
 PyObject* ahrs_run(PyObject*, PyObject* args) {
     Array<double, 2> gyr, acc, mag, Ha, Hm;
@@ -33,11 +21,11 @@ PyObject* ahrs_run(PyObject*, PyObject* args) {
                           convert<double, 1, true>, &stats))
         return nullptr;
     const npy_intp n = gyr.shape[0];
-    if (!has_shape(gyr, {n, 3}, "gyr") || !has_shape(acc, {n, 3}, "acc") || !has_shape(mag, {n, 3}, "mag") ||
-        !has_shape(q, {4}, "q") || !has_shape(b, {3}, "b") || !has_shape(P, {ahrs::NE, ahrs::NE}, "P") ||
-        !has_shape(params, {ahrs::N_PARAMS}, "params") || !has_shape(Ha, {2, ahrs::NE}, "Ha") ||
-        !has_shape(Hm, {1, ahrs::NE}, "Hm") || !has_shape(out_q, {n, 4}, "out_q") ||
-        !has_shape(out_b, {n, 3}, "out_b") || !has_shape(stats, {ahrs::N_STATS}, "stats"))
+    if (!shape_is("gyr", gyr, {n, 3}) || !shape_is("acc", acc, {n, 3}) || !shape_is("mag", mag, {n, 3}) ||
+        !shape_is("q", q, {4}) || !shape_is("b", b, {3}) || !shape_is("P", P, {ahrs::NE, ahrs::NE}) ||
+        !shape_is("params", params, {ahrs::N_PARAMS}) || !shape_is("Ha", Ha, {2, ahrs::NE}) ||
+        !shape_is("Hm", Hm, {1, ahrs::NE}) || !shape_is("out_q", out_q, {n, 4}) ||
+        !shape_is("out_b", out_b, {n, 3}) || !shape_is("stats", stats, {ahrs::N_STATS}))
         return nullptr;
     Py_BEGIN_ALLOW_THREADS;
     ahrs::run(n, gyr.data, acc.data, mag.data, dt, q.data, b.data, P.data, params.data, Ha.data, Hm.data, out_q.data,
@@ -53,7 +41,7 @@ PyObject* ahrs_predict(PyObject*, PyObject* args) {
     if (!PyArg_ParseTuple(args, "O&O&O&ddddddd:ahrs_predict", convert<double, 1, true>, &q, convert<double, 1, true>,
                           &b, convert<double, 2, true>, &P, &gx, &gy, &gz, &dt, &gyr_var, &bias_var, &scale_var))
         return nullptr;
-    if (!has_shape(q, {4}, "q") || !has_shape(b, {3}, "b") || !has_shape(P, {ahrs::NE, ahrs::NE}, "P"))
+    if (!shape_is("q", q, {4}) || !shape_is("b", b, {3}) || !shape_is("P", P, {ahrs::NE, ahrs::NE}))
         return nullptr;
     double R[9];
     ahrs::predict(q.data, b.data, P.data, gx, gy, gz, dt, gyr_var, bias_var, scale_var, R);
@@ -67,8 +55,8 @@ PyObject* ahrs_inject_and_reset(PyObject*, PyObject* args) {
     if (!PyArg_ParseTuple(args, "O&O&O&O&:ahrs_inject_and_reset", convert<double, 1, true>, &q,
                           convert<double, 1, true>, &b, convert<double, 2, true>, &P, convert<double, 1>, &dx))
         return nullptr;
-    if (!has_shape(q, {4}, "q") || !has_shape(b, {3}, "b") || !has_shape(P, {ahrs::NE, ahrs::NE}, "P") ||
-        !has_shape(dx, {ahrs::NE}, "dx"))
+    if (!shape_is("q", q, {4}) || !shape_is("b", b, {3}) || !shape_is("P", P, {ahrs::NE, ahrs::NE}) ||
+        !shape_is("dx", dx, {ahrs::NE}))
         return nullptr;
     ahrs::inject_and_reset(q.data, b.data, P.data, dx.data);
     Py_RETURN_NONE;

@@ -6,6 +6,7 @@
 #pragma once
 
 #include "../common/quat.hpp"
+#include "../common/series.hpp"
 #include "ahrs_layout.hpp"
 #include "updates.hpp"
 
@@ -65,20 +66,12 @@ inline void inject_and_reset(double* q, double* b, double* P, const double* dx) 
         }
 }
 
-// C <- Exp(δθ) C for a rotation matrix C (3, 3) row-major and δθ = dx[0:3] (Rodrigues, Taylor series of
-// sin(a)/a and (1 − cos a)/a² below a² = 1e-8).
+// C <- Exp(δθ) C for a rotation matrix C (3, 3) row-major and δθ = dx[0:3]: Rodrigues' formula
+// Exp(δθ) = I + sinc(a) [δθ]× + cosc2(a) [δθ]×², a = |δθ|, with the guarded series of common/series.hpp.
 inline void left_rotate_inplace(double* C, const double* dx) {
     const double x = dx[0], y = dx[1], z = dx[2];
-    const double a2 = x * x + y * y + z * z;
-    double s, c;
-    if (a2 < 1e-8) {
-        s = 1.0 - a2 / 6.0;
-        c = 0.5 - a2 / 24.0;
-    } else {
-        const double a = std::sqrt(a2);
-        s = std::sin(a) / a;
-        c = (1.0 - std::cos(a)) / a2;
-    }
+    const double a = std::sqrt(x * x + y * y + z * z);
+    const double s = sinc(a), c = cosc2(a);
     double E[9];
     E[0] = 1.0 - c * (y * y + z * z);
     E[4] = 1.0 - c * (x * x + z * z);
