@@ -18,7 +18,6 @@ KERNEL_MODULES = (
     "dualpose.inertial._fold_kernels",
     "dualpose.estimation._eskf_kernels",
     "dualpose.estimation._smoother_kernels",
-    "dualpose.estimation._hol22_kernels",
 )
 
 
