@@ -173,7 +173,7 @@ inline double imu_update(double* x, double* P, const double* accel, const double
         for (int i = 0; i < 6; ++i) s += K[j * 6 + i] * nu[i];
         x[j] += s;
     }
-    joseph<N>(P, K, H, R_imu, 6);
+    joseph_rows<N, 6>(P, K, H, R_imu);
     normalize(x, P);
     return nis;
 }

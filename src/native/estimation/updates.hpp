@@ -95,6 +95,53 @@ inline void joseph_2d(double* P, const double* K, const double* H, double s2) {
         }
 }
 
+// Joseph update for an M-row measurement with noise covariance R (M, M), without forming I − K H (joseph_2d for any
+// M and R): B = P − K (H P),  P <- B + (K R − B Hᵀ) Kᵀ  (= (I − KH) P (I − KH)ᵀ + K R Kᵀ), symmetrised.  P (N, N),
+// K (N, M), H (M, N); the zeros of H are skipped (O(N² M) instead of the O(N³) of joseph).
+template <int N, int M>
+inline void joseph_rows(double* P, const double* K, const double* H, const double* R) {
+    // every inner loop runs over a state index with unit stride (vectorisable; zeros of H skipped)
+    double Kt[M * N], HP[M * N], Dt[M * N], Pn[N * N];
+    for (int i = 0; i < N; ++i)
+        for (int l = 0; l < M; ++l) Kt[l * N + i] = K[i * M + l];
+    for (int j = 0; j < M * N; ++j) HP[j] = 0.0;
+    for (int l = 0; l < M; ++l)
+        for (int k = 0; k < N; ++k) {
+            const double h = H[l * N + k];
+            if (h != 0.0)
+                for (int j = 0; j < N; ++j) HP[l * N + j] += h * P[k * N + j];
+        }
+    for (int i = 0; i < N; ++i)  // B = P − K (H P), in place
+        for (int l = 0; l < M; ++l) {
+            const double k = K[i * M + l];
+            for (int j = 0; j < N; ++j) P[i * N + j] -= k * HP[l * N + j];
+        }
+    for (int l = 0; l < M; ++l) {  // Dᵀ = (K R − B Hᵀ)ᵀ
+        double* d = Dt + l * N;
+        for (int i = 0; i < N; ++i) d[i] = 0.0;
+        for (int c = 0; c < M; ++c) {
+            const double r = R[c * M + l];
+            if (r != 0.0)
+                for (int i = 0; i < N; ++i) d[i] += Kt[c * N + i] * r;
+        }
+        for (int k = 0; k < N; ++k) {
+            const double h = H[l * N + k];
+            if (h != 0.0)
+                for (int i = 0; i < N; ++i) d[i] -= P[i * N + k] * h;
+        }
+    }
+    for (int i = 0; i < N; ++i) {  // B + D Kᵀ
+        double* o = Pn + i * N;
+        for (int j = 0; j < N; ++j) o[j] = P[i * N + j];
+        for (int l = 0; l < M; ++l) {
+            const double d = Dt[l * N + i];
+            for (int j = 0; j < N; ++j) o[j] += d * Kt[l * N + j];
+        }
+    }
+    for (int i = 0; i < N; ++i)
+        for (int j = 0; j < N; ++j) P[i * N + j] = 0.5 * (Pn[i * N + j] + Pn[j * N + i]);
+}
+
 // χ²-gated sequential update with m two-row measurements linearised at one state, in place on P (N, N).
 //
 // r (m, 2) residuals and H (m, 2, N) Jacobians at the linearisation point, s2 (m,) noise variances (s2[k] I₂),
