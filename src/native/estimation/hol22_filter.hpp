@@ -33,9 +33,9 @@ inline void rot_be_and_derivs(const double* q, double* R, double* dR) {
     std::copy(d, d + 36, dR);
 }
 
-// u <- F u for one column (stride 1 over the state index when `step` = 1, a row of P when applied to rows) of the
-// eq. 9 Jacobian F: identity except b^e += T ḃ + T²/2 b̈, ḃ += T b̈ and the quaternion rows
-// q <- L q + WJ ω (L = ∂(dq ⊙ q)/∂q, WJ = ∂(dq ⊙ q)/∂ω).
+// u <- F u for a state vector u stored with the given stride (a column of P: stride N; a row: stride 1), F the
+// eq. 9 Jacobian: identity except b^e += T ḃ + T²/2 b̈, ḃ += T b̈ and the quaternion rows q <- L q + WJ ω
+// (L = ∂(dq ⊙ q)/∂q, WJ = ∂(dq ⊙ q)/∂ω).
 inline void apply_process_jacobian(double* u, std::ptrdiff_t step, double dt, const double* L, const double* WJ) {
     auto at = [&](int i) -> double& { return u[i * step]; };
     const double h = 0.5 * dt * dt;
@@ -53,16 +53,17 @@ inline void apply_process_jacobian(double* u, std::ptrdiff_t step, double dt, co
     for (int i = 0; i < 4; ++i) at(QUAT_BE + i) = t[i];
 }
 
-// Eq. 9 over dt seconds in place: constant acceleration / angular velocity, q <- exp(−dt/2 ω) ⊙ q (eq. 10b),
-// P <- F P Fᵀ + diag(qdiag) dt (F applied through its sparsity: rows, then columns).
+// Eq. 9 over dt seconds in place: constant acceleration / angular velocity, q <- exp(−dt/2 ω) ⊙ q (eq. 10b; the
+// Jacobian ∂dq/∂ω as dualpose.estimation.hol22._exp_half, with the shared guarded sinc / dsinc of
+// common/series.hpp), P <- F P Fᵀ + diag(qdiag) dt (F applied through its sparsity: columns, then rows).
 inline void time_update(double* x, double* P, double dt, const double* qdiag) {
     if (dt <= 0.0) return;
     const double wx = x[ANGULAR_VELOCITY], wy = x[ANGULAR_VELOCITY + 1], wz = x[ANGULAR_VELOCITY + 2];
     const double r = std::sqrt(wx * wx + wy * wy + wz * wz);
     const double th = 0.5 * dt * r;
     const double h = 0.5 * dt;
-    const double s = h * sinc(th);              // sin(θ)/|ω|
-    const double c2 = h * h * h * dsinc(th);    // ∂s/∂|ω| / |ω| = (h cos θ − s)/|ω|²
+    const double s = h * sinc(th);            // sin(θ)/|ω|
+    const double c2 = h * h * h * dsinc(th);  // (h cos θ − s)/|ω|² = h³ (θ cos θ − sin θ)/θ³, no cancellation
     const double dq[4] = {-s * wx, -s * wy, -s * wz, std::cos(th)};  // exp(−dt/2 ω), xyzw
     const double ax = dq[0], ay = dq[1], az = dq[2], aw = dq[3];
     // ∂(dq ⊙ q)/∂q = Q(dq) (left-multiplication matrix, xyzw)
@@ -125,7 +126,7 @@ inline void normalize(double* x, double* P) {
 // measurements, gravity (3,) g^e, R_imu (6, 6) the measurement noise.
 inline double imu_update(double* x, double* P, const double* accel, const double* gyro, const double* gravity,
                          const double* R_imu) {
-    constexpr int NR = N + 1;  // right-hand sides of the solve: (H P)ᵀ columns and ν
+    constexpr int NR = N + 1;  // right-hand sides of the solve: the columns of H P, then ν
     double R[9], dR[36], H[6 * N] = {}, nu[6], d[3];
     rot_be_and_derivs(x + QUAT_BE, R, dR);
     for (int i = 0; i < 3; ++i) d[i] = x[ACCELERATION + i] - gravity[i];
@@ -160,9 +161,9 @@ inline double imu_update(double* x, double* P, const double* accel, const double
         X[i * NR + N] = nu[i];
     }
     int piv[6];
-    lu_factor(S, 6, piv);  // S is positive definite (R_imu is): no zero pivot
+    lu_factor(S, 6, piv);        // S is positive definite (R_imu is): no zero pivot
     lu_solve(S, piv, 6, X, NR);  // X = S⁻¹ [H P, ν]
-    double K[N * 6];                // K = (S⁻¹ H P)ᵀ = P Hᵀ S⁻¹
+    double K[N * 6];             // K = (S⁻¹ H P)ᵀ = P Hᵀ S⁻¹
     double nis = 0.0;
     for (int i = 0; i < 6; ++i) {
         for (int j = 0; j < N; ++j) K[j * 6 + i] = X[i * NR + j];
