@@ -26,13 +26,13 @@ inline void exp_mul_quat_inplace(double* q, double rx, double ry, double rz) {
 }
 
 // P <- (I − K H) P (I − K H)ᵀ + r K Kᵀ (symmetrised) for a measurement of dimension M with isotropic noise r:
-// the shared Joseph form (updates.hpp) with R = r I.  K (6, M), H (M, 6) row-major.  Valid for any gain K (here:
-// optimal gains with rows zeroed).
+// the shared Joseph form joseph_rows (updates.hpp) with R = r I.  K (6, M), H (M, 6) row-major.  Valid for any gain
+// K (here: optimal gains with rows zeroed).
 template <int M>
 inline void joseph_update(double* P, const double* K, const double* H, double r) {
     double R[M * M] = {};
     for (int i = 0; i < M; ++i) R[i * M + i] = r;
-    joseph<NE>(P, K, H, R, M);
+    joseph_rows<NE, M>(P, K, H, R);
 }
 
 // Inject δx (6,) into q and b and apply the reset Jacobian G = diag(I + [½δθ]×, I) to P: P <- G P Gᵀ.  For the
