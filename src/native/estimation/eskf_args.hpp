@@ -14,11 +14,15 @@ template <class A>
 inline bool shape_is(const char* name, const A& a, std::initializer_list<npy_intp> dims) {
     bool ok = static_cast<int>(dims.size()) == PyArray_NDIM(a.obj);
     int k = 0;
-    for (npy_intp d : dims) ok = ok && (d < 0 || d == a.shape[k++]);
+    for (npy_intp d : dims) {
+        ok = ok && (d < 0 || d == a.shape[k]);
+        ++k;
+    }
     if (ok) return true;
     auto show = [](auto first, auto last) {
         std::string s = "(";
-        for (auto it = first; it != last; ++it) s += (it == first ? "" : ", ") + (*it < 0 ? std::string("*") : std::to_string(*it));
+        for (auto it = first; it != last; ++it)
+            s += (it == first ? "" : ", ") + (*it < 0 ? std::string("*") : std::to_string(*it));
         return s + ")";
     };
     const npy_intp* got = PyArray_DIMS(a.obj);
