@@ -102,9 +102,11 @@ struct StepWork {
 // prediction at i + 1.  Writes the smoothed mean relative to the filtered one at i, d_out (n,) = G mu_next, and its
 // covariance S_out = P_post + G (S_next − P_prior_next) Gᵀ with the gain G = P_post Fᵀ P_prior_next⁻¹ obtained by
 // a linear solve (P_prior_next Gᵀ = F P_post, LU with partial pivoting as numpy.linalg.solve), symmetrised.
+// N > 0 fixes n = N at compile time (the error-state filter's 15), N = 0 takes w.n.
+template <int N = 0>
 inline Status rts_step(const double* P_post, const double* P_prior_next, const double* F, const double* mu_next,
                        const double* S_next, double* d_out, double* S_out, StepWork& w) {
-    const int n = w.n;
+    const int n = N > 0 ? N : w.n;
     double* LU = w.LU.data();
     double* Gt = w.Gt.data();
     double* GD = w.GD.data();
@@ -119,19 +121,21 @@ inline Status rts_step(const double* P_post, const double* P_prior_next, const d
     }
     std::copy(P_prior_next, P_prior_next + n * n, LU);
     if (!all_finite(LU, n * n) || !all_finite(Gt, n * n)) return Status::not_finite;
-    if (!lu_factor(LU, n, w.piv.data())) return Status::singular;
-    lu_solve(LU, w.piv.data(), n, Gt, n);
+    if (!lu_factor<N>(LU, n, w.piv.data())) return Status::singular;
+    lu_solve<N, N>(LU, w.piv.data(), n, Gt, n);
     for (int i = 0; i < n; ++i) {  // d = G mu = Gtᵀ mu
         double s = 0.0;
         for (int j = 0; j < n; ++j) s += Gt[j * n + i] * mu_next[j];
         d_out[i] = s;
     }
-    for (int i = 0; i < n; ++i) {  // GD = G (S_next − P_prior_next)
+    double* D = LU;  // the factors are no longer needed: D = S_next − P_prior_next
+    for (int i = 0; i < n * n; ++i) D[i] = S_next[i] - P_prior_next[i];
+    for (int i = 0; i < n; ++i) {  // GD = G D
         double* o = GD + i * n;
         for (int j = 0; j < n; ++j) o[j] = 0.0;
         for (int k = 0; k < n; ++k) {
             const double g = Gt[k * n + i];
-            for (int j = 0; j < n; ++j) o[j] += g * (S_next[k * n + j] - P_prior_next[k * n + j]);
+            for (int j = 0; j < n; ++j) o[j] += g * D[k * n + j];
         }
     }
     for (int i = 0; i < n; ++i) {  // S_out = P_post + GD Gt

@@ -5,7 +5,6 @@
 
 namespace dualpose::smoother {
 
-__attribute__((target_clones("default", "avx2", "arch=x86-64-v4")))
 Status rts_linear(const Stacks& s) {
     const std::int64_t K = s.K;
     const int n = s.n;
@@ -16,15 +15,16 @@ Status rts_linear(const Stacks& s) {
     StepWork w(n);
     for (std::int64_t i = K - 2; i >= 0; --i) {
         for (int j = 0; j < n; ++j) mu[j] = s.x_smooth[(i + 1) * n + j] - s.x_prior[(i + 1) * n + j];
-        const Status st = rts_step(s.P_post + i * nn, s.P_prior + (i + 1) * nn, s.F + i * nn, mu.data(),
-                                   s.P_smooth + (i + 1) * nn, d.data(), s.P_smooth + i * nn, w);
+        const double *Pb = s.P_post + i * nn, *Pa = s.P_prior + (i + 1) * nn, *F = s.F + i * nn;
+        const double* S = s.P_smooth + (i + 1) * nn;
+        const Status st = n == NE ? rts_step<NE>(Pb, Pa, F, mu.data(), S, d.data(), s.P_smooth + i * nn, w)
+                                  : rts_step(Pb, Pa, F, mu.data(), S, d.data(), s.P_smooth + i * nn, w);
         if (st != Status::ok) return st;
         for (int j = 0; j < n; ++j) s.x_smooth[i * n + j] = s.x_post[i * n + j] + d[j];
     }
     return Status::ok;
 }
 
-__attribute__((target_clones("default", "avx2", "arch=x86-64-v4")))
 Status rts_error_state(const Stacks& s) {
     const std::int64_t K = s.K;
     constexpr std::int64_t nn = NE * NE;
@@ -38,7 +38,7 @@ Status rts_error_state(const Stacks& s) {
         right_jacobian(mu + DTH, 1.0, A);
         congruence_attitude(S, A);
         double* Ps = s.P_smooth + i * nn;
-        const Status st = rts_step(s.P_post + i * nn, s.P_prior + (i + 1) * nn, s.F + i * nn, mu, S, d, Ps, w);
+        const Status st = rts_step<NE>(s.P_post + i * nn, s.P_prior + (i + 1) * nn, s.F + i * nn, mu, S, d, Ps, w);
         if (st != Status::ok) return st;
         boxplus(s.x_post + i * NX, d, s.x_smooth + i * NX);
         right_jacobian(d + DTH, 0.0, A);
