@@ -29,7 +29,6 @@ from dualpose.types import CameraFrame, ImuNoise, PinholeCamera, SensorRun
 __all__ = ["ErrorStateEKF", "FilterNodes", "FilterResult", "InnovationReport", "initial_covariance"]
 
 
-
 def initial_covariance(
     position_sigma: float = 0.01,
     velocity_sigma: float = 0.01,

@@ -35,6 +35,7 @@ __all__ = [
     "hol_camera_implicit",
 ]
 
+
 def _state(x: np.ndarray) -> np.ndarray:
     x = np.ascontiguousarray(x, dtype=np.float64)
     if x.shape != (ESKF_STATE.dim,):
@@ -83,9 +84,7 @@ def camera_reprojection(
         raise ValueError(f"pixels (M, 2) and points (M, 3) must have the same M; got {len(pixels)} and {len(points)}")
     m = len(pixels)
     r, H, depth = np.empty((m, 2)), np.empty((m, 2, ESKF_ERROR.dim)), np.empty(m)
-    _native.eskf_camera_batch(
-        x, _vec(intrinsics), _vec(q_bc), _vec(p_bc), pixels, points, r, H, depth
-    )
+    _native.eskf_camera_batch(x, _vec(intrinsics), _vec(q_bc), _vec(p_bc), pixels, points, r, H, depth)
     return r, H, depth
 
 

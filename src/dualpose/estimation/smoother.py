@@ -31,6 +31,7 @@ from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
 
 __all__ = ["SmoothedResult", "rts_smooth", "rts_smooth_linear"]
 
+
 @dataclass
 class SmoothedResult:
     """Output of :func:`rts_smooth`: smoothed states at the IMU times of the filtered run.
