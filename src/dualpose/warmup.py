@@ -17,7 +17,6 @@ KERNEL_MODULES = (
     "dualpose.registration._kernels",
     "dualpose.inertial._fold_kernels",
     "dualpose.estimation._eskf_kernels",
-    "dualpose.estimation._smoother_kernels",
 )
 
 

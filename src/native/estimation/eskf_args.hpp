@@ -9,17 +9,22 @@
 
 namespace dualpose {
 
-// True if a.shape == dims (-1: any extent); otherwise false with ValueError "<name> must have shape (...); got (...)".
+// True if a.shape == dims (-1: any extent); otherwise false with ValueError "<name> must have shape (3,); got (4,)"
+// (numpy's notation, * for any extent).
 template <class A>
 inline bool shape_is(const char* name, const A& a, std::initializer_list<npy_intp> dims) {
     bool ok = static_cast<int>(dims.size()) == PyArray_NDIM(a.obj);
     int k = 0;
-    for (npy_intp d : dims) ok = ok && (d < 0 || d == a.shape[k++]);
+    for (npy_intp d : dims) {
+        ok = ok && (d < 0 || d == a.shape[k]);
+        ++k;
+    }
     if (ok) return true;
     auto show = [](auto first, auto last) {
         std::string s = "(";
-        for (auto it = first; it != last; ++it) s += (it == first ? "" : ", ") + (*it < 0 ? std::string("*") : std::to_string(*it));
-        return s + ")";
+        for (auto it = first; it != last; ++it)
+            s += (it == first ? "" : ", ") + (*it < 0 ? std::string("*") : std::to_string(*it));
+        return s + (last - first == 1 ? ",)" : ")");
     };
     const npy_intp* got = PyArray_DIMS(a.obj);
     PyErr_Format(PyExc_ValueError, "%s must have shape %s; got %s", name, show(dims.begin(), dims.end()).c_str(),

@@ -40,7 +40,10 @@ inline void congruence_sparse(const double* A, double* P) {
 
 // In-place LU factorisation with partial pivoting of A (n, n): P A = L U (unit L below, U on and above the
 // diagonal), piv[k] the row swapped with row k at step k.  Returns false if a pivot is exactly zero (singular).
-inline bool lu_factor(double* A, int n, int* piv) {
+// N > 0 fixes n at compile time (the loops then unroll and vectorise); N = 0 takes n at run time.
+template <int N = 0>
+inline bool lu_factor(double* A, int n_, int* piv) {
+    const int n = N > 0 ? N : n_;
     bool ok = true;
     for (int k = 0; k < n; ++k) {
         int p = k;
@@ -71,8 +74,12 @@ inline bool lu_factor(double* A, int n, int* piv) {
     return ok;
 }
 
-// Solve (P A) X = B in place on B (n, nrhs) with the factors of lu_factor.
-inline void lu_solve(const double* LU, const int* piv, int n, double* B, int nrhs) {
+// Solve (P A) X = B in place on B (n, nrhs) with the factors of lu_factor (N, NRHS > 0: sizes fixed at compile
+// time).
+template <int N = 0, int NRHS = 0>
+inline void lu_solve(const double* LU, const int* piv, int n_, double* B, int nrhs_) {
+    const int n = N > 0 ? N : n_;
+    const int nrhs = NRHS > 0 ? NRHS : nrhs_;
     for (int k = 0; k < n; ++k)
         if (piv[k] != k)
             for (int j = 0; j < nrhs; ++j) std::swap(B[k * nrhs + j], B[piv[k] * nrhs + j]);

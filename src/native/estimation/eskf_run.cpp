@@ -38,7 +38,6 @@ inline void update_frame(const RunArgs& a, std::int64_t j) {
 
 }  // namespace
 
-__attribute__((target_clones("default", "avx2", "arch=x86-64-v4")))
 std::int64_t run(const RunArgs& a, const NodeRecord* rec) {
     const std::int64_t n = a.n, nf = a.nf;
     const double* t = a.t;
