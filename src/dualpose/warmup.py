@@ -16,7 +16,6 @@ KERNEL_MODULES = (
     "dualpose.algebra._flat_kernels",
     "dualpose.registration._kernels",
     "dualpose.inertial._fold_kernels",
-    "dualpose.estimation._eskf_kernels",
 )
 
 
