@@ -22,7 +22,7 @@ Scoring: BROAD's metric (:mod:`dualpose.evaluation.orientation_errors`), movemen
 skipped;
 9D as is (the optical frame is magnetic ENU), 6D after removing the one constant heading offset that minimises the
 total RMSE (same rule for both filters).  µs/sample: wall time of one batch call over the whole trial divided by its
-samples (dualpose: the compiled kernel after compilation; VQF: its C++ ``updateBatch``), best of 3.
+samples (dualpose: the native kernel ``dualpose._native.ahrs_run``; VQF: its C++ ``updateBatch``), best of 3.
 """
 
 from __future__ import annotations

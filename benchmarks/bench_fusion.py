@@ -8,8 +8,9 @@ Method: every callable is called once to warm up, then timed with ``timeit`` as 
 ``number`` calls (``gc`` disabled by timeit), reported per call.  What each call does:
 
 * ``ErrorStateEKF.predict``: nominal-state strapdown (attitude, velocity, position), building the 15 × 15 error
-  transition F and ``P ← F P Fᵀ + Q`` — through the Python method (argument handling included) and the bare numba
-  kernel.  filterpy's ``predict()`` does only the linear ``x ← F x``, ``P ← F P Fᵀ + Q`` with a fixed F.
+  transition F and ``P ← F P Fᵀ + Q`` — through the Python method (argument handling included) and the bare native
+  kernel (``dualpose._native.eskf_predict``).  filterpy's ``predict()`` does only the linear ``x ← F x``,
+  ``P ← F P Fᵀ + Q`` with a fixed F.
 * Update with one 2-D point correspondence: dualpose computes the reprojection residual and its Jacobian, the χ²
   gate, a Joseph-form update, injection and reset; filterpy ``update(z, HJacobian, Hx, R)`` with constant
   Python callables returning H (2 × 15) and h (its standard, non-Joseph form).
@@ -55,7 +56,7 @@ def main() -> int:
         walls.append(new_filter().run_recording(run).wall_time)
     wall = min(walls)
     n_imu, n_frames = len(run.t), len(run.frames)
-    rows.append(("ESKF whole eight run (batch `run`, numba)", wall * 1e6, f"{duration / wall:.0f}x real time"))
+    rows.append(("ESKF whole eight run (batch `run`, native)", wall * 1e6, f"{duration / wall:.0f}x real time"))
     hwall = min(hol22.Hol22EKF.from_eskf_state(new_filter().x, new_filter().P, run).run_recording(run).wall_time
                 for _ in range(15))  # fmt: skip
     rows.append(("Hol22 whole eight run (batch `run`, numba)", hwall * 1e6, f"{duration / hwall:.0f}x real time"))
@@ -81,14 +82,14 @@ def main() -> int:
     )
 
     # --- per call
-    from dualpose.estimation import _eskf_kernels as K
+    from dualpose import _native
 
     g, a = run.gyro[300].copy(), run.accel[300].copy()
     f = new_filter()
     rows.append(("dualpose ESKF.predict (Python method)", best_us(lambda: f.predict(g, a, 0.01), 2000), ""))
     x, P = f.x, f.P
-    rows.append(("dualpose predict kernel (numba, direct)",
-                 best_us(lambda: K.predict(x, P, g, a, 0.01, f.gravity, f.noise), 5000), ""))  # fmt: skip
+    rows.append(("dualpose predict kernel (native, direct)",
+                 best_us(lambda: _native.eskf_predict(x, P, g, a, 0.01, f.gravity, f.noise), 5000), ""))  # fmt: skip
     pix, pts = run.frames.frame(40)
     pix = np.ascontiguousarray(pix)
     pts = np.ascontiguousarray(pts)
@@ -98,22 +99,20 @@ def main() -> int:
     nis1, acc1 = np.empty(1), np.zeros(1, np.int64)
     nis20, acc20 = np.empty(20), np.zeros(20, np.int64)
     p1, q1 = pix[:1].copy(), pts[:1].copy()
+
+    upd, xu, Pu, intr, q_bc, p_bc = _native.eskf_update_points, fu.x, fu.P, fu.intrinsics, fu.q_bc, fu.p_bc
+
     rows.append(
         (
             "dualpose update, 1 correspondence (kernel)",
-            best_us(
-                lambda: K.update_points(fu.x, fu.P, fu.intrinsics, fu.q_bc, fu.p_bc, p1, q1, 1.0, 1e9, nis1, acc1), 2000
-            ),
+            best_us(lambda: upd(xu, Pu, intr, q_bc, p_bc, p1, q1, 1.0, 1e9, nis1, acc1), 2000),
             "",
         )
     )
     rows.append(
         (
             "dualpose update, frame of 20 (kernel)",
-            best_us(
-                lambda: K.update_points(fu.x, fu.P, fu.intrinsics, fu.q_bc, fu.p_bc, pix, pts, 1.0, 1e9, nis20, acc20),
-                500,
-            ),
+            best_us(lambda: upd(xu, Pu, intr, q_bc, p_bc, pix, pts, 1.0, 1e9, nis20, acc20), 500),
             "",
         )
     )

@@ -201,3 +201,17 @@ def test_bad_arguments_raise_naming_them(kwargs, match):
     with pytest.raises(ValueError, match=match):
         estimate_orientation(args["gyr"], args["acc"], args["mag"], args["rate"], n_rest=extra.get("n_rest", 0),
                              **({"window": extra["window"]} if "window" in extra else {}))
+
+
+def test_native_layout_matches_the_python_layouts() -> None:
+    """The compiled AHRS's error-state offsets (src/native/estimation/ahrs_layout.hpp) are those of
+    :data:`dualpose.estimation.state.AHRS_ERROR`, and its params / stats indices each number their vector densely."""
+    from dualpose import _native
+    from dualpose.estimation import state
+
+    assert _native.AHRS_ERROR_DIM == state.AHRS_ERROR_DIM == state.AHRS_ERROR.dim
+    assert _native.AHRS_D_ATTITUDE == state.AHRS_D_ATTITUDE == state.AHRS_ERROR.offset("attitude")
+    assert _native.AHRS_D_GYRO_BIAS == state.AHRS_D_GYRO_BIAS == state.AHRS_ERROR.offset("gyro_bias")
+    for prefix, count in (("AHRS_P_", _native.AHRS_N_PARAMS), ("AHRS_S_", _native.AHRS_N_STATS)):
+        indices = sorted(getattr(_native, k) for k in dir(_native) if k.startswith(prefix))
+        assert indices == list(range(count)), prefix

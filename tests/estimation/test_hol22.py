@@ -108,3 +108,15 @@ def test_compiled_run_equals_the_step_methods() -> None:
     np.testing.assert_allclose(res.covariance, Ps, rtol=1e-6, atol=1e-14)
     np.testing.assert_array_equal(res.innovation.accepted, np.concatenate(accepted))
     assert not res.innovation.accepted.all()  # the outliers were gated
+
+
+def test_native_layout_matches_the_python_layout() -> None:
+    """The compiled filter's state offsets (src/native/estimation/hol22_layout.hpp) are those of
+    :data:`dualpose.estimation.state.HOL22_STATE`."""
+    from dualpose import _native
+    from dualpose.estimation import state
+
+    assert _native.HOL22_DIM == state.HOL22_DIM == state.HOL22_STATE.dim
+    for name in state.HOL22_STATE.names:
+        const = "HOL22_" + name.upper()
+        assert getattr(_native, const) == getattr(state, const) == state.HOL22_STATE.offset(name), name

@@ -66,7 +66,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import chi2
 
-from dualpose._validation import lazy_kernels
+from dualpose import _native
 from dualpose.calibration.magnetometer import MagCalibration, estimate_mag_calibration
 from dualpose.calibration.sensor_time_offset import (
     SensorTimeOffset,
@@ -85,8 +85,6 @@ __all__ = [
     "accelerometer_jacobian",
     "heading_jacobian",
 ]
-
-_k = lazy_kernels("dualpose.estimation._ahrs_kernels")
 
 #: MEMS-class gyroscope bias random walk, rad/s²/√Hz (bias wanders ~0.1 °/s over 10 min); not estimable from a
 #: short rest period, so it is a fixed sensor-class value.
@@ -490,32 +488,30 @@ def estimate_orientation(
     else:
         field_norm, field_dip = 1.0, 0.0
 
-    kern = _k("run_ahrs")
-    mod = _ahrs_module()
-    params = np.zeros(mod.N_PARAMS)
-    params[mod.P_GYR_VAR] = noise.gyroscope_noise_density**2
-    params[mod.P_BIAS_VAR] = noise.gyroscope_random_walk**2
-    params[mod.P_ACC_VAR] = noise.accelerometer_noise_density**2 * rate
-    params[mod.P_GRAVITY] = gravity
-    params[mod.P_MAG_VAR] = noise.magnetometer_noise_density**2 * rate if use_mag else 1.0
-    params[mod.P_MAG_NORM] = field_norm
-    params[mod.P_MAG_DIP] = field_dip
-    params[mod.P_USE_MAG] = 1.0 if use_mag else 0.0
-    params[mod.P_ACC_GATE] = float(chi2.ppf(gate_probability, 2))
-    params[mod.P_MAG_GATE] = float(chi2.ppf(gate_probability, 1))
-    params[mod.P_GATE_RELEASE] = max(1.0, gate_release * rate)
-    params[mod.P_ACC_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 else 0.0
+    params = np.zeros(_native.AHRS_N_PARAMS)
+    params[_native.AHRS_P_GYR_VAR] = noise.gyroscope_noise_density**2
+    params[_native.AHRS_P_BIAS_VAR] = noise.gyroscope_random_walk**2
+    params[_native.AHRS_P_ACC_VAR] = noise.accelerometer_noise_density**2 * rate
+    params[_native.AHRS_P_GRAVITY] = gravity
+    params[_native.AHRS_P_MAG_VAR] = noise.magnetometer_noise_density**2 * rate if use_mag else 1.0
+    params[_native.AHRS_P_MAG_NORM] = field_norm
+    params[_native.AHRS_P_MAG_DIP] = field_dip
+    params[_native.AHRS_P_USE_MAG] = 1.0 if use_mag else 0.0
+    params[_native.AHRS_P_ACC_GATE] = float(chi2.ppf(gate_probability, 2))
+    params[_native.AHRS_P_MAG_GATE] = float(chi2.ppf(gate_probability, 1))
+    params[_native.AHRS_P_GATE_RELEASE] = max(1.0, gate_release * rate)
+    params[_native.AHRS_P_ACC_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 else 0.0
     if not window > 0:
         raise ValueError(f"window must be a positive number of seconds; got {window}")
     n_win = max(1, int(round(window * rate)))
-    params[mod.P_WINDOW] = n_win
+    params[_native.AHRS_P_WINDOW] = n_win
     if not update_interval > 0:
         raise ValueError(f"update_interval must be a positive number of seconds; got {update_interval}")
     stride = min(n_win, max(1, int(round(update_interval * rate))))
-    params[mod.P_STRIDE] = stride
-    params[mod.P_GYR_SCALE_VAR] = gyro_scale_sigma**2 * 1.0
-    params[mod.P_ACC_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 else 0.0
-    params[mod.P_MAG_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 and mag_adapt else 0.0
+    params[_native.AHRS_P_STRIDE] = stride
+    params[_native.AHRS_P_GYR_SCALE_VAR] = gyro_scale_sigma**2 * 1.0
+    params[_native.AHRS_P_ACC_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 else 0.0
+    params[_native.AHRS_P_MAG_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 and mag_adapt else 0.0
     # initial attitude uncertainty: the direction of a mean of N noisy specific forces (inclination) and fields
     # (heading); heading is unknown in 6D (π is only a nominal value: no update ever uses it)
     n_avg = max(n_rest, 1)
@@ -526,37 +522,31 @@ def estimate_orientation(
     b = np.ascontiguousarray(b0, dtype=np.float64)
     out_q = np.empty((n, 4))
     out_b = np.empty((n, 3))
-    stats = np.zeros(mod.N_STATS)
+    stats = np.zeros(_native.AHRS_N_STATS)
     mag_in = mag_arr if mag_arr is not None else np.zeros((n, 3))
     t0 = time.perf_counter()
     Ha, Hm = accelerometer_jacobian(gravity), heading_jacobian()
-    kern(gyr, acc, mag_in, 1.0 / rate, q, b, P, params, Ha, Hm, out_q, out_b, stats)
+    _native.ahrs_run(gyr, acc, mag_in, 1.0 / rate, q, b, P, params, Ha, Hm, out_q, out_b, stats)
     seconds = time.perf_counter() - t0
 
     n_updates = max(0, (n - n_win) // stride + 1)
-    acc_acc = n_updates - stats[mod.S_ACC_REJECTED]
-    mag_acc = (n_updates - stats[mod.S_MAG_REJECTED] - stats[mod.S_MAG_SKIPPED]) if use_mag else 0
+    acc_acc = n_updates - stats[_native.AHRS_S_ACC_REJECTED]
+    mag_acc = (n_updates - stats[_native.AHRS_S_MAG_REJECTED] - stats[_native.AHRS_S_MAG_SKIPPED]) if use_mag else 0
     return AhrsResult(
         quat=out_q,
         gyroscope_bias=out_b,
         covariance=P,
         use_mag=use_mag,
         rest=rest,
-        acc_rejected=int(stats[mod.S_ACC_REJECTED]),
-        mag_rejected=int(stats[mod.S_MAG_REJECTED]),
-        acc_nis_mean=float(stats[mod.S_ACC_NIS_SUM] / acc_acc) if acc_acc else math.nan,
-        mag_nis_mean=float(stats[mod.S_MAG_NIS_SUM] / mag_acc) if mag_acc else math.nan,
-        acc_fraction_inside=float(stats[mod.S_ACC_INSIDE] / acc_acc) if acc_acc else math.nan,
-        mag_fraction_inside=float(stats[mod.S_MAG_INSIDE] / mag_acc) if mag_acc else math.nan,
+        acc_rejected=int(stats[_native.AHRS_S_ACC_REJECTED]),
+        mag_rejected=int(stats[_native.AHRS_S_MAG_REJECTED]),
+        acc_nis_mean=float(stats[_native.AHRS_S_ACC_NIS_SUM] / acc_acc) if acc_acc else math.nan,
+        mag_nis_mean=float(stats[_native.AHRS_S_MAG_NIS_SUM] / mag_acc) if mag_acc else math.nan,
+        acc_fraction_inside=float(stats[_native.AHRS_S_ACC_INSIDE] / acc_acc) if acc_acc else math.nan,
+        mag_fraction_inside=float(stats[_native.AHRS_S_MAG_INSIDE] / mag_acc) if mag_acc else math.nan,
         seconds=seconds,
         mag_time_offset=mag_offset,
         mag_time_offset_estimate=mag_offset_est,
         mag_calibration=mag_cal,
     )
 
-
-def _ahrs_module():
-    import importlib
-
-    _k("run_ahrs")  # imports (compiles or loads) the kernel module through the cache-freshness guard
-    return importlib.import_module("dualpose.estimation._ahrs_kernels")

@@ -5,7 +5,7 @@ State :data:`~dualpose.estimation.state.AHRS_STATE` = ``[q_wb (4) xyzw, b_g (3) 
 ``q = Exp(δθ) ⊗ q̂`` (earth frame), so that :meth:`AhrsFilter.attitude_covariance` is the attitude block itself.
 
 :meth:`AhrsFilter.propagate` is the batch filter's predict (the same compiled function,
-``_ahrs_kernels.predict``): ``q ← q ⊗ Exp((ω − b) Δt)``, ``P ← F P Fᵀ + Q`` with the rate-proportional
+``dualpose._native.ahrs_predict``): ``q ← q ⊗ Exp((ω − b) Δt)``, ``P ← F P Fᵀ + Q`` with the rate-proportional
 scale-factor noise (Solà 2017 §5 with the global error).  Attitude information enters through
 :meth:`~dualpose.estimation.interface.Estimator.update` (an :class:`~dualpose.estimation.interface.AttitudeFix` or a
 :class:`~dualpose.estimation.interface.LinearMeasurement`), applied with the batch filter's Joseph update and
@@ -21,14 +21,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import dualpose as dp
-from dualpose._validation import lazy_kernels
+from dualpose import _native
 from dualpose.estimation.ahrs import MEMS_GYRO_BIAS_RANDOM_WALK, AhrsNoise
 from dualpose.estimation.interface import Estimator, UpdateResult
 from dualpose.estimation.state import AHRS_ERROR, AHRS_STATE
 
 __all__ = ["AhrsFilter"]
-
-_k = lazy_kernels("dualpose.estimation._ahrs_kernels")
 
 
 class AhrsFilter(Estimator):
@@ -75,8 +73,6 @@ class AhrsFilter(Estimator):
             raise ValueError(f"gyro_scale_sigma must be a finite number >= 0; got {gyro_scale_sigma}")
         self.gyro_scale_sigma = float(gyro_scale_sigma)
         self.time: float | None = None
-        self._R = np.empty((3, 3))
-        self._RP = np.empty((3, 3))
 
     # ------------------------------------------------------------------ the estimator interface
     @property
@@ -120,8 +116,8 @@ class AhrsFilter(Estimator):
                 raise ValueError(f"IMU sample at t={t} is older than the filter time {self.time}")
             if dt > 0.0:
                 n = self.noise
-                _k("predict")(self._q, self._b, self._P, g[0], g[1], g[2], dt, n.gyroscope_noise_density**2,
-                              n.gyroscope_random_walk**2, self.gyro_scale_sigma**2, self._R, self._RP)  # fmt: skip
+                _native.ahrs_predict(self._q, self._b, self._P, g[0], g[1], g[2], dt, n.gyroscope_noise_density**2,
+                                     n.gyroscope_random_walk**2, self.gyro_scale_sigma**2)  # fmt: skip
         self.time = float(t)
 
     def _attitude_model(self, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -140,5 +136,5 @@ class AhrsFilter(Estimator):
         A = np.eye(AHRS_ERROR.dim) - K @ jacobian
         P = A @ self._P @ A.T + K @ covariance @ K.T
         self._P[:] = 0.5 * (P + P.T)
-        _k("inject_and_reset")(self._q, self._b, self._P, dx)
+        _native.ahrs_inject_and_reset(self._q, self._b, self._P, dx)
         return UpdateResult(float(residual @ np.linalg.solve(S, residual)), len(residual), True)

@@ -5,7 +5,8 @@ Nominal state (16,) = ``[p_wb (3) m, v_w (3) m/s, q_wb (4) xyzw, b_g (3) rad/s, 
 as input; error state (15,) = ``[δp, δv, δθ, δb_g, δb_a]`` with a 3-parameter local attitude error
 ``q = q̂ ⊗ Exp(δθ)``.  Updates use the Joseph form and are followed by injection and the reset Jacobian
 ``G = diag(I, I, I − [½δθ]×, I, I)``.  Camera updates use the reprojection model of :mod:`dualpose.estimation.models`,
-one χ²-gated 2-D update per correspondence.  Predict/update kernels are compiled with numba.
+one χ²-gated 2-D update per correspondence.  Predict/update kernels and the whole-run loop are the native
+extension's ``eskf_*`` functions (``src/native/estimation``).
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import numpy as np
 from scipy.stats import chi2
 
 import dualpose as dp
-from dualpose._validation import lazy_kernels
+from dualpose import _native
 from dualpose.estimation import models
 from dualpose.estimation._stream import check_streams
 from dualpose.estimation.interface import Estimator, UpdateResult
@@ -26,9 +27,6 @@ from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
 from dualpose.types import CameraFrame, ImuNoise, PinholeCamera, SensorRun
 
 __all__ = ["ErrorStateEKF", "FilterNodes", "FilterResult", "InnovationReport", "initial_covariance"]
-
-_k = lazy_kernels("dualpose.estimation._eskf_kernels")
-
 
 
 def initial_covariance(
@@ -301,8 +299,7 @@ class ErrorStateEKF(Estimator):
         """Propagate by ``dt`` seconds with the IMU measurement held constant (gyro rad/s, accel m/s², body)."""
         if dt < 0:
             raise ValueError(f"dt must be >= 0; got {dt}")
-        _k("predict")(self.x, self.P, np.asarray(gyro, float), np.asarray(accel, float), float(dt), self.gravity,
-                      self.noise)  # fmt: skip
+        _native.eskf_predict(self.x, self.P, _vec3(gyro), _vec3(accel), float(dt), self.gravity, self.noise)
 
     def propagate(self, t: float, gyro: np.ndarray, accel: np.ndarray, mag: np.ndarray | None = None) -> None:
         """Feed the IMU sample taken at time ``t``: integrates from the filter time to ``t`` with the mean of the
@@ -315,7 +312,7 @@ class ErrorStateEKF(Estimator):
                 raise ValueError(f"IMU sample at t={t} is older than the filter time {self.time}")
             if dt > 0:
                 mid = 0.5 * (self._u + u)
-                _k("predict")(self.x, self.P, mid[:3].copy(), mid[3:].copy(), dt, self.gravity, self.noise)
+                _native.eskf_predict(self.x, self.P, mid[:3].copy(), mid[3:].copy(), dt, self.gravity, self.noise)
         self.time = float(t)
         self._u = u
 
@@ -332,8 +329,8 @@ class ErrorStateEKF(Estimator):
         if t < self.time:
             raise ValueError(f"frame at IMU time {t} is older than the filter time {self.time} (no out-of-order)")
         if t > self.time:
-            _k("predict")(self.x, self.P, self._u[:3].copy(), self._u[3:].copy(), t - self.time, self.gravity,
-                          self.noise)  # fmt: skip
+            _native.eskf_predict(self.x, self.P, self._u[:3].copy(), self._u[3:].copy(), t - self.time, self.gravity,
+                                 self.noise)  # fmt: skip
             self.time = t
         pixels = np.ascontiguousarray(pixels, dtype=np.float64).reshape(-1, 2)
         points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
@@ -341,8 +338,8 @@ class ErrorStateEKF(Estimator):
             raise ValueError(f"pixels (M, 2) and points (M, 3) differ in M: {len(pixels)} vs {len(points)}")
         nis = np.empty(len(pixels))
         acc = np.zeros(len(pixels), np.int64)
-        _k("update_points")(self.x, self.P, self.intrinsics, self.q_bc, self.p_bc, pixels, points, self.pixel_sigma,
-                            self.gate, nis, acc)  # fmt: skip
+        _native.eskf_update_points(self.x, self.P, self.intrinsics, self.q_bc, self.p_bc, pixels, points,
+                                   self.pixel_sigma, self.gate, nis, acc)  # fmt: skip
         self._nis.append(nis)
         self._acc.append(acc.astype(bool))
         return acc.astype(bool)
@@ -353,7 +350,8 @@ class ErrorStateEKF(Estimator):
             cov = np.eye(len(r)) * cov
         if cov.shape != (len(r), len(r)):
             raise ValueError(f"covariance must have shape ({len(r)}, {len(r)}) or be a scalar; got {cov.shape}")
-        return float(_k("update_dense")(self.x, self.P, np.ascontiguousarray(r), np.ascontiguousarray(H), cov))
+        return float(_native.eskf_update_dense(self.x, self.P, np.ascontiguousarray(r, dtype=np.float64),
+                                               np.ascontiguousarray(H, dtype=np.float64), np.ascontiguousarray(cov)))
 
     def update_position(self, position: np.ndarray, covariance: np.ndarray | float) -> float:
         """Position fix (3,) m with covariance (3, 3) or a scalar variance; returns the NIS (3 dof)."""
@@ -419,7 +417,7 @@ class ErrorStateEKF(Estimator):
         if record_nodes:
             nodes = _record_run(args, n, nf)
         else:
-            _k("run")(*args)
+            _native.eskf_run(*args)
         wall = time.perf_counter() - t0
         self.time = float(t[-1])
         self._u = np.concatenate([gyro[-1], accel[-1]])
@@ -445,11 +443,15 @@ def _record_run(args: tuple, n: int, nf: int) -> FilterNodes:
     PA, PB, FS = np.empty((cap, ne, ne)), np.empty((cap, ne, ne)), np.empty((cap, ne, ne))
     TN = np.empty(cap)
     imu_node, frame_node = np.empty(n, np.int64), np.empty(nf, np.int64)
-    k = _k("run_recorded")(*args, XA, PA, XB, PB, FS, TN, imu_node, frame_node)
+    k = _native.eskf_run_recorded(*args, XA, PA, XB, PB, FS, TN, imu_node, frame_node)
     return FilterNodes(
         t=TN[:k], prior_states=XA[:k], prior_covariance=PA[:k], posterior_states=XB[:k], posterior_covariance=PB[:k],
         transition=FS[:k], imu_node=imu_node, frame_node=frame_node,
     )  # fmt: skip
+
+
+def _vec3(v: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(v, dtype=np.float64)
 
 
 def _report(nis: np.ndarray, accepted: np.ndarray, gate: float) -> InnovationReport:

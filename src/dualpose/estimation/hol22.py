@@ -8,8 +8,8 @@ every IMU sample; camera frames (eq. 11c, the implicit ``[−f I₂, zⁱ] z^c =
 ``(Z σ_px)² I₂`` with the predicted depth Z) whenever a frame arrives, after a time update to the frame time.  The
 quaternion is renormalized after each update and its covariance block projected accordingly.  The step methods
 are plain numpy (the readable reference); :meth:`Hol22EKF.run` is the same algorithm compiled
-(:mod:`dualpose.estimation._hol22_kernels`).  The error-state filter (:mod:`dualpose.estimation.eskf`) is the faster,
-recommended default.
+(``dualpose._native.hol22_run``, src/native/estimation/hol22_*).  The error-state filter
+(:mod:`dualpose.estimation.eskf`) is the faster, recommended default.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ import numpy as np
 from scipy.stats import chi2
 
 import dualpose as dp
-from dualpose._validation import lazy_kernels
+from dualpose import _native
 from dualpose.estimation import models
 from dualpose.estimation._stream import check_streams
 from dualpose.estimation.eskf import InnovationReport
@@ -31,8 +31,6 @@ from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE, HOL22_STATE
 from dualpose.types import CameraFrame, ImuNoise, PinholeCamera, SensorRun
 
 __all__ = ["Hol22EKF", "Hol22Result", "HolProcessNoise", "process_model"]
-
-_k = lazy_kernels("dualpose.estimation._hol22_kernels")
 
 
 @dataclass(frozen=True)
@@ -368,10 +366,9 @@ class Hol22EKF(Estimator):
         """Hol's Algorithm 1 over a recording (layouts as :meth:`ErrorStateEKF.run`); the current state is at
         ``t[0]``.  Camera frames are processed at their own times (time update to the frame time first).
 
-        Runs as one compiled loop (:mod:`dualpose.estimation._hol22_kernels`) with the same equations as
+        Runs as one compiled loop (``dualpose._native.hol22_run``) with the same equations as
         :meth:`time_update`, :meth:`camera_update` and :meth:`imu_update` called in that order.
         """
-        kernel = _k("run")
         t, gyro, accel, cam_t, offsets, pixels, points = check_streams(
             t, gyro, accel, frame_t, offsets, pixels, points, self.camera_time_offset, strictly_increasing=False
         )
@@ -380,13 +377,16 @@ class Hol22EKF(Estimator):
         Ps = np.empty((n, nx, nx))
         nis = np.full(len(pixels), np.nan)
         acc = np.zeros(len(pixels), np.int64)
-        Rcb = dp.matrix_from_quat(dp.quat_conj(self.q_bc))
+        Rcb = np.ascontiguousarray(dp.matrix_from_quat(dp.quat_conj(self.q_bc)), dtype=np.float64)
+        f64 = np.float64
         self.x = np.ascontiguousarray(self.x)
         self.P = np.ascontiguousarray(self.P)
         t0 = _time.perf_counter()
-        kernel(t, gyro, accel, cam_t, offsets, pixels, points, self.x, self.P, self.process_noise_diagonal(),
-               self.gravity, self.R_imu, np.array(self.intrinsics, dtype=np.float64), self.p_bc, Rcb,
-               self.pixel_sigma, self.gate, X, Ps, nis, acc)  # fmt: skip
+        _native.hol22_run(t, gyro, accel, cam_t, offsets, pixels, points, self.x, self.P,
+                          self.process_noise_diagonal(), np.ascontiguousarray(self.gravity, dtype=f64),
+                          np.ascontiguousarray(self.R_imu, dtype=f64), np.array(self.intrinsics, dtype=f64),
+                          np.ascontiguousarray(self.p_bc, dtype=f64), Rcb, self.pixel_sigma, self.gate, X, Ps, nis,
+                          acc)  # fmt: skip
         wall = _time.perf_counter() - t0
         used = ~np.isnan(nis)
         self._nis.append(nis[used])

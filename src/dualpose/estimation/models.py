@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 import dualpose as dp
-from dualpose._validation import lazy_kernels
+from dualpose import _native
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE, HOL22_STATE
 
 __all__ = [
@@ -35,14 +35,16 @@ __all__ = [
     "hol_camera_implicit",
 ]
 
-_k = lazy_kernels("dualpose.estimation._eskf_kernels")
-
 
 def _state(x: np.ndarray) -> np.ndarray:
     x = np.ascontiguousarray(x, dtype=np.float64)
     if x.shape != (ESKF_STATE.dim,):
         raise ValueError(f"x must be an error-state nominal vector of shape ({ESKF_STATE.dim},); got {x.shape}")
     return x
+
+
+def _vec(v: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(v, dtype=np.float64)
 
 
 def boxplus(x: np.ndarray, dx: np.ndarray) -> np.ndarray:
@@ -82,9 +84,7 @@ def camera_reprojection(
         raise ValueError(f"pixels (M, 2) and points (M, 3) must have the same M; got {len(pixels)} and {len(points)}")
     m = len(pixels)
     r, H, depth = np.empty((m, 2)), np.empty((m, 2, ESKF_ERROR.dim)), np.empty(m)
-    _k("camera_batch")(
-        x, np.asarray(intrinsics, float), np.asarray(q_bc, float), np.asarray(p_bc, float), pixels, points, r, H, depth
-    )
+    _native.eskf_camera_batch(x, _vec(intrinsics), _vec(q_bc), _vec(p_bc), pixels, points, r, H, depth)
     return r, H, depth
 
 

@@ -5,8 +5,9 @@
 <dualpose.estimation.eskf.ErrorStateEKF.run>` stores (every IMU time and camera time, with the prior and posterior of
 each camera update, so the filter's error-state reset is accounted for) and returns smoothed states at the IMU
 times.  :func:`rts_smooth_linear` is the plain linear-Gaussian RTS smoother (as filterpy's ``rts_smoother`` but
-taking the filter's stored priors instead of ``Q``).  Both backward passes are numba kernels
-(:mod:`dualpose.estimation._smoother_kernels`); the derivation is in ``docs/fusion.md``, "Offline smoothing (RTS)".
+taking the filter's stored priors instead of ``Q``).  Both backward passes are native kernels
+(``dualpose._native.smoother_*``, ``src/native/estimation/smoother*``); the derivation is in ``docs/fusion.md``,
+"Offline smoothing (RTS)".
 
 Example
 -------
@@ -24,13 +25,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dualpose._validation import lazy_kernels
+from dualpose import _native
 from dualpose.estimation.eskf import FilterResult
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
 
 __all__ = ["SmoothedResult", "rts_smooth", "rts_smooth_linear"]
-
-_k = lazy_kernels("dualpose.estimation._smoother_kernels")
 
 
 @dataclass
@@ -100,10 +99,9 @@ def rts_smooth(filter_result: FilterResult) -> SmoothedResult:
     k = len(nodes.t)
     xs = np.empty((k, ESKF_STATE.dim))
     Ps = np.empty((k, ESKF_ERROR.dim, ESKF_ERROR.dim))
-    backward = _k("rts_error_state")  # loaded before the clock starts
     t0 = time.perf_counter()
     try:
-        backward(
+        _native.smoother_rts_error_state(
             nodes.posterior_states, nodes.posterior_covariance, nodes.prior_states, nodes.prior_covariance,
             nodes.transition, xs, Ps,
         )  # fmt: skip
@@ -155,7 +153,7 @@ def rts_smooth_linear(
         raise ValueError("posterior_means must hold at least one step")
     xs = np.empty((kk, n))
     Ps = np.empty((kk, n, n))
-    _k("rts_linear")(xb, Pb, xa, Pa, F, xs, Ps)
+    _native.smoother_rts_linear(xb, Pb, xa, Pa, F, xs, Ps)
     return xs, Ps
 
 

@@ -1,0 +1,50 @@
+// Layouts of the orientation-only filter (AHRS, dualpose.estimation.ahrs): the one C++ definition of the error-state
+// offsets (equal to dualpose.estimation.state.AHRS_ERROR, checked by tests/estimation/test_ahrs.py) and of the
+// params / stats indices of ahrs_run (the Python side reads these from dualpose._native).
+#pragma once
+
+namespace dualpose::ahrs {
+
+// error state δx = [δθ (3, global: q = Exp(δθ) ⊗ q̂), δb (3)]
+constexpr int D_ATTITUDE = 0;
+constexpr int D_GYRO_BIAS = 3;
+constexpr int ERROR_DIM = 6;
+
+// params indices
+constexpr int P_GYR_VAR = 0;         // gyroscope white-noise density², rad²/s
+constexpr int P_BIAS_VAR = 1;        // gyroscope bias random-walk density², rad²/s³
+constexpr int P_ACC_VAR = 2;         // accelerometer per-sample noise variance, (m/s²)²
+constexpr int P_GRAVITY = 3;         // local |g| (m/s²)
+constexpr int P_MAG_VAR = 4;         // magnetometer per-sample noise variance, µT²
+constexpr int P_MAG_NORM = 5;        // reference field magnitude, µT
+constexpr int P_MAG_DIP = 6;         // reference dip angle, rad (positive: field points below the horizon)
+constexpr int P_USE_MAG = 7;         // 1.0: 9D, 0.0: 6D
+constexpr int P_ACC_GATE = 8;        // χ²(2) rejection threshold of the accelerometer innovation
+constexpr int P_MAG_GATE = 9;        // χ²(1) rejection threshold of the heading innovation
+constexpr int P_GATE_RELEASE = 10;   // samples of uninterrupted rejection after which a gate opens again
+constexpr int P_ACC_ADAPT = 11;      // forgetting factor α (per sample) of the acceleration-noise estimate
+constexpr int P_MAG_ADAPT = 12;      // same for the heading noise
+constexpr int P_WINDOW = 13;         // samples averaged (in the earth frame) per update
+constexpr int P_GYR_SCALE_VAR = 14;  // gyroscope scale-factor / misalignment variance ε² times 1 s
+constexpr int P_STRIDE = 15;         // samples between updates (≤ window; windows overlap when smaller)
+constexpr int N_PARAMS = 16;
+
+// stats indices
+constexpr int S_ACC_REJECTED = 0;
+constexpr int S_MAG_REJECTED = 1;
+constexpr int S_ACC_NIS_SUM = 2;
+constexpr int S_MAG_NIS_SUM = 3;
+constexpr int S_ACC_INSIDE = 4;  // accepted updates with NIS inside the two-sided 95% χ² band
+constexpr int S_MAG_INSIDE = 5;
+constexpr int S_MAG_SKIPPED = 6;  // updates with a degenerate (vertical) field
+constexpr int N_STATS = 7;
+
+// Every constant above, for the module's integer constants (prefixed AHRS_).
+#define DUALPOSE_AHRS_CONSTANTS(X)                                                                            \
+    X(D_ATTITUDE) X(D_GYRO_BIAS) X(ERROR_DIM) X(P_GYR_VAR) X(P_BIAS_VAR) X(P_ACC_VAR) X(P_GRAVITY) X(P_MAG_VAR) \
+        X(P_MAG_NORM) X(P_MAG_DIP) X(P_USE_MAG) X(P_ACC_GATE) X(P_MAG_GATE) X(P_GATE_RELEASE) X(P_ACC_ADAPT)    \
+            X(P_MAG_ADAPT) X(P_WINDOW) X(P_GYR_SCALE_VAR) X(P_STRIDE) X(N_PARAMS) X(S_ACC_REJECTED)             \
+                X(S_MAG_REJECTED) X(S_ACC_NIS_SUM) X(S_MAG_NIS_SUM) X(S_ACC_INSIDE) X(S_MAG_INSIDE)             \
+                    X(S_MAG_SKIPPED) X(N_STATS)
+
+}  // namespace dualpose::ahrs
