@@ -14,8 +14,6 @@ KERNEL_MODULES = (
     "dualpose.algebra._dualquat_kernels",
     "dualpose.algebra._lie_kernels",
     "dualpose.algebra._flat_kernels",
-    "dualpose.registration._kernels",
-    "dualpose.inertial._fold_kernels",
     "dualpose.estimation._eskf_kernels",
     "dualpose.estimation._smoother_kernels",
     "dualpose.estimation._hol22_kernels",

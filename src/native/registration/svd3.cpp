@@ -71,23 +71,41 @@ void svd3(const double* h, double* u, double* sig, double* v) {
     int order[3] = {0, 1, 2};
     for (int i = 1; i < 3; ++i)
         for (int j = i; j > 0 && s[order[j]] > s[order[j - 1]]; --j) std::swap(order[j], order[j - 1]);
-    double uc[3][3];
+    // U from the columns of H V: u1 = a1/s1, u2 = a2 orthogonalised against u1 and normalised, u3 = ±u1 × u2 with
+    // the sign of a3 (so U is orthonormal to rounding).  A singular value below 1e-150 of the scaled matrix (its
+    // squares underflow, the column is rounding noise) leaves its column to complete the orthonormal basis.
+    constexpr double tiny = 1e-150;
+    double uc[3][3], ac[3][3];
     for (int k = 0; k < 3; ++k) {
         const int c = order[k];
         sig[k] = s[c] * m;
         for (int r = 0; r < 3; ++r) {
             v[r * 3 + k] = vc[c][r];
-            uc[k][r] = s[c] > 0.0 ? a[c][r] / s[c] : 0.0;
+            ac[k][r] = a[c][r];
         }
     }
-    // columns with a vanishing singular value: complete the orthonormal basis
-    if (!(s[order[0]] > 0.0)) uc[0][0] = 1.0, uc[0][1] = 0.0, uc[0][2] = 0.0;
-    if (!(s[order[1]] > 0.0)) orthogonal_unit(uc[0], uc[1]);
-    if (!(s[order[2]] > 0.0)) {
-        uc[2][0] = uc[0][1] * uc[1][2] - uc[0][2] * uc[1][1];
-        uc[2][1] = uc[0][2] * uc[1][0] - uc[0][0] * uc[1][2];
-        uc[2][2] = uc[0][0] * uc[1][1] - uc[0][1] * uc[1][0];
+    const double s1 = s[order[0]], s2 = s[order[1]];
+    if (s1 > tiny) {
+        for (int r = 0; r < 3; ++r) uc[0][r] = ac[0][r] / s1;
+    } else {
+        uc[0][0] = 1.0, uc[0][1] = 0.0, uc[0][2] = 0.0;
     }
+    bool have2 = false;
+    if (s2 > tiny) {
+        const double p = uc[0][0] * ac[1][0] + uc[0][1] * ac[1][1] + uc[0][2] * ac[1][2];
+        for (int r = 0; r < 3; ++r) uc[1][r] = ac[1][r] - p * uc[0][r];
+        const double n = std::sqrt(uc[1][0] * uc[1][0] + uc[1][1] * uc[1][1] + uc[1][2] * uc[1][2]);
+        if (n > tiny) {
+            for (int r = 0; r < 3; ++r) uc[1][r] /= n;
+            have2 = true;
+        }
+    }
+    if (!have2) orthogonal_unit(uc[0], uc[1]);
+    uc[2][0] = uc[0][1] * uc[1][2] - uc[0][2] * uc[1][1];
+    uc[2][1] = uc[0][2] * uc[1][0] - uc[0][0] * uc[1][2];
+    uc[2][2] = uc[0][0] * uc[1][1] - uc[0][1] * uc[1][0];
+    if (uc[2][0] * ac[2][0] + uc[2][1] * ac[2][1] + uc[2][2] * ac[2][2] < 0.0)
+        for (int r = 0; r < 3; ++r) uc[2][r] = -uc[2][r];
     for (int k = 0; k < 3; ++k)
         for (int r = 0; r < 3; ++r) u[r * 3 + k] = uc[k][r];
 }
