@@ -40,7 +40,7 @@ struct CharPoly {
     double c3, c2, c1, c0, start, scale;
 };
 
-inline CharPoly char_poly(const Sym4& m, double bound) {
+__attribute__((always_inline)) inline CharPoly char_poly(const Sym4& m, double bound) {
     const double a00 = m.a00, a01 = m.a01, a02 = m.a02, a03 = m.a03, a11 = m.a11;
     const double a12 = m.a12, a13 = m.a13, a22 = m.a22, a23 = m.a23, a33 = m.a33;
     using std::fabs;
@@ -82,7 +82,9 @@ struct TopVector {
     double x, y, z, w, l3, l4;
 };
 
-inline TopVector closed_form_vector(const Sym4& m, double c3, double c2, double l1, double l2, double scale) {
+// always inlined (as the numba kernel's inline="always"): it runs once per problem in the block loop
+__attribute__((always_inline)) inline TopVector closed_form_vector(const Sym4& m, double c3, double c2, double l1,
+                                                                 double l2, double scale) {
     const double a00 = m.a00, a01 = m.a01, a02 = m.a02, a03 = m.a03, a11 = m.a11;
     const double a12 = m.a12, a13 = m.a13, a22 = m.a22, a23 = m.a23, a33 = m.a33;
     const double gap = l1 - l2;

@@ -1,6 +1,7 @@
 // Layout of the result row the registration kernels write (ROW_SIZE doubles per problem): the one C++ copy of
 // src/dualpose/registration/_row.py (its docstring describes each field).  Exported as module constants
-// (REGISTRATION_ROW_SIZE, REGISTRATION_QUAT_AT, ...) and compared with _row.py by tests/registration/test_native_layout.py.
+// (REGISTRATION_ROW_SIZE, REGISTRATION_QUAT_AT, ...) and compared with _row.py by
+// tests/registration/test_native_layout.py.
 #pragma once
 
 namespace dualpose::row {

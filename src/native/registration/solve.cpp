@@ -19,7 +19,7 @@ namespace dualpose::reg {
 
 namespace {
 
-//: relative tolerance on the eigen gap below which the optimal rotation is reported as not unique
+// relative tolerance on the eigen gap below which the optimal rotation is reported as not unique
 constexpr double GAP_RTOL = 1e-9;
 // problems solved together (the block tables stay in the L1 cache)
 constexpr int BLOCK = 32;
@@ -154,8 +154,7 @@ void stage(const Problems& pr, std::int64_t b, int method, Staged& st, Roots& rt
     if (wsum > 0.0) ax = ax / wsum, ay = ay / wsum, az = az / wsum, bx = bx / wsum, by = by / wsum, bz = bz / wsum;
     // second moments of the centred data: s = Σ β p̃' p⁰'ᵀ + Σ α ñ n⁰ᵀ (a = measured, b = model), and the centred
     // sums g0 = Σβ p⁰', g1 = Σβ p̃' (Walker's C3)
-    double* s = st.s;
-    for (int i = 0; i < 9; ++i) s[i] = 0.0;
+    double s[9] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};  // local: kept in registers (no aliasing with inputs)
     double ss0 = 0.0, ss1 = 0.0;  // Σβ |p0'|², Σβ |p1'|²
     double g0x = 0.0, g0y = 0.0, g0z = 0.0, g1x = 0.0, g1y = 0.0, g1z = 0.0;
     for (std::int64_t k = 0; k < npt; ++k) {
@@ -194,7 +193,7 @@ void stage(const Problems& pr, std::int64_t b, int method, Staged& st, Roots& rt
     // E = const - 2 Σ(measured · R model): the largest possible |λ| of Horn's N is const / 2
     const double cst = ss0 + ss1 + 2.0 * asum;
     Sym4 a = horn_matrix(s);
-    double* hd = st.h;
+    double hd[6];
     hd[0] = 4.0 * (g0x + g1x), hd[1] = 4.0 * (g0y + g1y), hd[2] = 4.0 * (g0z + g1z);
     hd[3] = 4.0 * (g0x - g1x), hd[4] = 4.0 * (g0y - g1y), hd[5] = 4.0 * (g0z - g1z);
     const double bw = 4.0 * wsum;
@@ -213,6 +212,8 @@ void stage(const Problems& pr, std::int64_t b, int method, Staged& st, Roots& rt
     rt.c3[j] = cp.c3, rt.c2[j] = cp.c2, rt.c1[j] = cp.c1, rt.c0[j] = cp.c0;
     rt.l1[j] = cp.start, rt.scale[j] = cp.scale;  // largest_roots sets l2
     st.a = a;
+    for (int i = 0; i < 9; ++i) st.s[i] = s[i];
+    for (int i = 0; i < 6; ++i) st.h[i] = hd[i];
     st.ax = ax, st.ay = ay, st.az = az, st.bx = bx, st.by = by, st.bz = bz;
     st.ss0 = ss0, st.bw = bw, st.tol = tol;
     st.skip = false;

@@ -3,7 +3,8 @@
 // Column pairs of H V are rotated until orthogonal (Demmel & Veselić 1992: relative accuracy of the computed
 // singular values, so a rank-deficient H gets a singular value of ~1e-16 σ1, not ~1e-8 σ1 as through Hᵀ H).  The
 // matrix is scaled by its largest entry first (no overflow of the squared column norms).  Singular values in
-// descending order; U, V orthogonal (U built from u1, u2 and u1 × u2, so it stays orthonormal when H is rank-deficient).
+// descending order; U, V orthogonal (U is built from u1, u2 and u1 × u2, so it stays orthonormal when H is
+// rank-deficient).
 #pragma once
 
 namespace dualpose::reg {
