@@ -2,7 +2,6 @@
 #include "eigen4.hpp"
 
 #include <cmath>
-#include <utility>
 
 namespace dualpose::reg {
 
@@ -66,7 +65,11 @@ int jacobi_top(const Sym4& m, double tol, double* q, double* eigenvalues) {
     // indices of the diagonal sorted by decreasing value (insertion sort)
     int order[4] = {0, 1, 2, 3};
     for (int i = 1; i < 4; ++i)
-        for (int j = i; j > 0 && diag(order[j]) > diag(order[j - 1]); --j) std::swap(order[j], order[j - 1]);
+        for (int j = i; j > 0 && diag(order[j]) > diag(order[j - 1]); --j) {
+            const int o = order[j];
+            order[j] = order[j - 1];
+            order[j - 1] = o;
+        }
     const double top = diag(order[0]);
     const int unique = top - diag(order[1]) > tol ? 1 : 0;
     for (int i = 0; i < 4; ++i) q[i] = v[i * 4 + order[0]];
@@ -93,8 +96,11 @@ int jacobi_top(const Sym4& m, double tol, double* q, double* eigenvalues) {
 }
 
 // Newton sweeps across the block (one step per problem per sweep): the loops vectorise, so wider instruction sets
-// are chosen at run time.
-__attribute__((target_clones("default", "avx2", "arch=x86-64-v4"))) void largest_roots(
+// are chosen at run time (in the baseline build; solve_x86_64_v4.cpp compiles its own copy for x86-64-v4).
+#ifndef DUALPOSE_ISA_VARIANT
+__attribute__((target_clones("default", "avx2", "arch=x86-64-v4")))
+#endif
+void largest_roots(
     const double* c3, const double* c2, const double* c1, const double* c0, const double* scale, double* l1,
     double* l2, int m) {
     for (int it = 0; it < 100; ++it) {

@@ -2,7 +2,6 @@
 #include "svd3.hpp"
 
 #include <cmath>
-#include <utility>
 
 namespace dualpose::reg {
 
@@ -70,7 +69,11 @@ void svd3(const double* h, double* u, double* sig, double* v) {
     for (int c = 0; c < 3; ++c) s[c] = std::sqrt(a[c][0] * a[c][0] + a[c][1] * a[c][1] + a[c][2] * a[c][2]);
     int order[3] = {0, 1, 2};
     for (int i = 1; i < 3; ++i)
-        for (int j = i; j > 0 && s[order[j]] > s[order[j - 1]]; --j) std::swap(order[j], order[j - 1]);
+        for (int j = i; j > 0 && s[order[j]] > s[order[j - 1]]; --j) {
+            const int o = order[j];
+            order[j] = order[j - 1];
+            order[j - 1] = o;
+        }
     // U from the columns of H V: u1 = a1/s1, u2 = a2 orthogonalised against u1 and normalised, u3 = ±u1 × u2 with
     // the sign of a3 (so U is orthonormal to rounding).  A singular value below 1e-150 of the scaled matrix (its
     // squares underflow, the column is rounding noise) leaves its column to complete the orthonormal basis.
