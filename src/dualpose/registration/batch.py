@@ -124,9 +124,7 @@ def register_pose_batch(
     if scale and data[3].shape[1] > 0:
         raise ValueError("scale=True is supported for points only (the direction term does not scale)")
     rows = np.empty((data[0].shape[0], R.ROW_SIZE))
-    _native.registration_solve_batch(*data, code, bool(scale), rows)
-    bad = rows[:, R.BAD_INPUT] != 0.0
-    if bad.any():
-        i = int(np.argmax(bad))
+    i = _native.registration_solve_batch(*data, code, bool(scale), rows)  # the first problem with a BAD_INPUT code
+    if i >= 0:
         raise ValueError(f"problem {i}: {bad_input_message(rows[i, R.BAD_INPUT])}")
     return PoseBatch(rows, method, data)

@@ -43,14 +43,15 @@ PyObject* solve(PyObject* args, const char* name) {
     }
     const reg::Problems pr{p0.data, p1.data, beta.data, n0.data, n1.data, alpha.data,
                            NP == 3 ? p0.shape[0] : 1, p0.shape[NP - 2], n0.shape[NP - 2]};
+    std::int64_t first_bad;
     if (NP == 3 && pr.nprob > 64) {
         PyThreadState* save = PyEval_SaveThread();
-        reg::solve_batch(pr, method, want_scale != 0, out.data);
+        first_bad = reg::solve_batch(pr, method, want_scale != 0, out.data);
         PyEval_RestoreThread(save);
     } else {
-        reg::solve_batch(pr, method, want_scale != 0, out.data);
+        first_bad = reg::solve_batch(pr, method, want_scale != 0, out.data);
     }
-    Py_RETURN_NONE;
+    return PyLong_FromLongLong(first_bad);
 }
 
 PyObject* registration_solve_batch(PyObject*, PyObject* args) { return solve<3>(args, "registration_solve_batch"); }
@@ -61,10 +62,11 @@ PyMethodDef methods[] = {
      "registration_solve_batch(p0, p1, beta, n0, n1, alpha, method, want_scale, out): solve B independent "
      "problems, p0, p1 (B, n, 3), beta (B, n), n0, n1 (B, m, 3), alpha (B, m), method 0 = dq (Walker 1991), "
      "1 = horn (Horn 1987), 2 = svd (Arun 1987 / Umeyama 1991); out (B, REGISTRATION_ROW_SIZE) rows with the layout "
-     "of dualpose.registration._row."},
+     "of dualpose.registration._row.  Returns the index of the first problem whose row holds a BAD_INPUT code, or -1."},
     {"registration_solve_one", registration_solve_one, METH_VARARGS,
      "registration_solve_one(p0, p1, beta, n0, n1, alpha, method, want_scale, out): one problem, p0, p1 (n, 3), "
-     "beta (n,), n0, n1 (m, 3), alpha (m,); out (REGISTRATION_ROW_SIZE,)."},
+     "beta (n,), n0, n1 (m, 3), alpha (m,); out (REGISTRATION_ROW_SIZE,).  Returns 0 if the row holds a BAD_INPUT code, "
+     "else -1."},
     {nullptr, nullptr, 0, nullptr}};
 
 }  // namespace

@@ -300,38 +300,44 @@ void finish(const Problems& pr, std::int64_t b, int method, bool want_scale, con
 
 }  // namespace
 
-// The three phases over blocks of BLOCK problems (this translation unit's instruction set).
-static void solve_blocks(const Problems& pr, int method, bool want_scale, double* out) {
+// The three phases over blocks of BLOCK problems (this translation unit's instruction set); returns the index of
+// the first problem with a non-zero BAD_INPUT code, or -1.
+static std::int64_t solve_blocks(const Problems& pr, int method, bool want_scale, double* out) {
     Staged blk[BLOCK];
     Roots rt;
+    std::int64_t first_bad = -1;
     for (std::int64_t start = 0; start < pr.nprob; start += BLOCK) {
         const int nblk = static_cast<int>(pr.nprob - start < BLOCK ? pr.nprob - start : BLOCK);
         for (int j = 0; j < nblk; ++j)  // phase 1
             stage(pr, start + j, method, blk[j], rt, j, out + (start + j) * row::ROW_SIZE);
         largest_roots(rt.c3, rt.c2, rt.c1, rt.c0, rt.scale, rt.l1, rt.l2, nblk);  // phase 2
-        for (int j = 0; j < nblk; ++j)  // phase 3
+        for (int j = 0; j < nblk; ++j) {  // phase 3
             if (!blk[j].skip)
                 finish(pr, start + j, method, want_scale, blk[j], rt, j, out + (start + j) * row::ROW_SIZE);
+            else if (first_bad < 0)
+                first_bad = start + j;
+        }
     }
+    return first_bad;
 }
 
-void solve_raw(const double* const* in, const std::int64_t* dims, int method, bool want_scale, double* out) {
-    solve_blocks(Problems{in[0], in[1], in[2], in[3], in[4], in[5], dims[0], dims[1], dims[2]}, method, want_scale,
+std::int64_t solve_raw(const double* const* in, const std::int64_t* dims, int method, bool want_scale,
+                       double* out) {
+    return solve_blocks(Problems{in[0], in[1], in[2], in[3], in[4], in[5], dims[0], dims[1], dims[2]}, method, want_scale,
                  out);
 }
 
 #ifndef DUALPOSE_ISA_VARIANT
-void solve_batch(const Problems& pr, int method, bool want_scale, double* out) {
+std::int64_t solve_batch(const Problems& pr, int method, bool want_scale, double* out) {
 #if DUALPOSE_HAVE_X86_64_V4
     static const bool v4 = (__builtin_cpu_init(), __builtin_cpu_supports("x86-64-v4"));
     if (v4) {
         const double* in[6] = {pr.p0, pr.p1, pr.beta, pr.n0, pr.n1, pr.alpha};
         const std::int64_t dims[3] = {pr.nprob, pr.npt, pr.ndir};
-        dualpose_x86_64_v4::reg::solve_raw(in, dims, method, want_scale, out);
-        return;
+        return dualpose_x86_64_v4::reg::solve_raw(in, dims, method, want_scale, out);
     }
 #endif
-    solve_blocks(pr, method, want_scale, out);
+    return solve_blocks(pr, method, want_scale, out);
 }
 #endif
 

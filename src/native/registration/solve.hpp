@@ -17,18 +17,19 @@ struct Problems {
     std::int64_t nprob, npt, ndir;
 };
 
-// out: nprob rows of row::ROW_SIZE doubles.  Runs the x86-64-v4 build of the solver where the CPU has it (see
+// out: nprob rows of row::ROW_SIZE doubles; returns the index of the first problem whose row holds a BAD_INPUT code
+// (a non-finite input or overflowing moments), or -1.  Runs the x86-64-v4 build of the solver where the CPU has it (see
 // solve_x86_64_v4.cpp), else the baseline build; both round identically (no FMA contraction).
-void solve_batch(const Problems& pr, int method, bool want_scale, double* out);
+std::int64_t solve_batch(const Problems& pr, int method, bool want_scale, double* out);
 
 // The solver of one instruction-set build on plain arguments (the builds' Problems types are distinct):
 // in = (p0, p1, beta, n0, n1, alpha), dims = (nprob, npt, ndir).
-void solve_raw(const double* const* in, const std::int64_t* dims, int method, bool want_scale, double* out);
+std::int64_t solve_raw(const double* const* in, const std::int64_t* dims, int method, bool want_scale, double* out);
 
 }  // namespace dualpose::reg
 
 #if DUALPOSE_HAVE_X86_64_V4
 namespace dualpose_x86_64_v4::reg {
-void solve_raw(const double* const* in, const std::int64_t* dims, int method, bool want_scale, double* out);
+std::int64_t solve_raw(const double* const* in, const std::int64_t* dims, int method, bool want_scale, double* out);
 }  // namespace dualpose_x86_64_v4::reg
 #endif
