@@ -107,15 +107,15 @@ FLAT_MIN_ELEMENTS = 64
 
 
 def try_flat_kernel(kernel: Callable[..., int], arrays: tuple[np.ndarray, ...], out: np.ndarray | None,
-                    width: int) -> np.ndarray | None:
-    """Run a flat row-loop kernel (see :mod:`dualpose.algebra._flat_kernels`) when the inputs allow it.
+                    width: int) -> tuple[np.ndarray, int] | None:
+    """Run a flat row loop of :mod:`dualpose._native` (``flat_*``) when the inputs allow it.
 
     Applies when every array is C-contiguous with the same leading shape (no broadcasting), there are at least
     :data:`FLAT_MIN_ELEMENTS` elements, and ``out`` is None or a C-contiguous float64 array of the result's shape
-    that is either one of the input arrays itself (in place: the kernels read each row, or block of rows, before
-    writing it) or shares no memory with them (other overlaps are left to the gufunc, which NumPy runs on copies).
-    Returns the result, or None when the kernel does not apply or flagged an element it leaves to the gufunc
-    (which the caller then runs, over everything).
+    that is either one of the input arrays itself (in place: the loops read each row before writing it) or shares
+    no memory with them (other overlaps are left to the gufunc, which NumPy runs on copies).  The flat loops compute
+    every row exactly as the gufunc does.  Returns ``(result, flag)``, where a nonzero flag means some row had a
+    zero or extreme norm (the caller then looks for zeros), or None when the loop does not apply.
     """
     lead = arrays[0].shape[:-1]
     if arrays[0].size < FLAT_MIN_ELEMENTS * arrays[0].shape[-1]:
@@ -132,9 +132,7 @@ def try_flat_kernel(kernel: Callable[..., int], arrays: tuple[np.ndarray, ...], 
         for a in arrays:
             if a is not out and np.may_share_memory(out, a):
                 return None
-    if kernel(*(a.reshape(-1) for a in arrays), out.reshape(-1)) != 0:
-        return None
-    return out
+    return out, kernel(*(a.reshape(-1) for a in arrays), out.reshape(-1))
 
 
 def raise_if_zero_norm(out: np.ndarray, arg: np.ndarray, name: str, what: str = "a nonzero quaternion") -> None:

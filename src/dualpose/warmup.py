@@ -10,10 +10,8 @@ import time
 
 KERNEL_MODULES = (
     "dualpose.algebra.series",
-    "dualpose.algebra._quat_kernels",
     "dualpose.algebra._dualquat_kernels",
     "dualpose.algebra._lie_kernels",
-    "dualpose.algebra._flat_kernels",
     "dualpose.estimation._eskf_kernels",
     "dualpose.estimation._smoother_kernels",
     "dualpose.estimation._hol22_kernels",

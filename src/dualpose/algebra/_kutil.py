@@ -1,5 +1,7 @@
 """Inline scalar helpers shared by the numba kernels (not public API).
 
+Kept only for the numba kernels of other layers that still import them; the algebra itself uses the C++ copies in
+``src/native/common/kutil.hpp``.
 Quaternions are handled as four scalars ``(x, y, z, w)``: scalar last, Hamilton product.
 """
 
@@ -61,9 +63,7 @@ def qmul(ax, ay, az, aw, bx, by, bz, bw):
 def dq_mul(ax, ay, az, aw, bx, by, bz, bw, cx, cy, cz, cw, dx, dy, dz, dw):
     """(a + ε b)(c + ε d) = a c + ε (a d + b c): Dantam 2014 eq. (79), dual quaternions as 2 x 4 xyzw scalars.
 
-    The one formula of the product: the gufunc, the flat kernel's tail and its SIMD blocks (which evaluate it on
-    eight rows at once, :func:`~dualpose.algebra._simd.lane_formula`) all call it, so they agree bit for bit.
-    Only ``+ - *`` and :func:`qmul` (the same), for that reason.
+    Only ``+ - *`` and :func:`qmul`, as the C++ ``dq_mul`` (common/kutil.hpp), so both round alike.
     """
     rx, ry, rz, rw = qmul(ax, ay, az, aw, cx, cy, cz, cw)
     ex, ey, ez, ew = qmul(ax, ay, az, aw, dx, dy, dz, dw)
@@ -92,9 +92,7 @@ def transform_point(x, y, z, w, dx, dy, dz, dw, px, py, pz, s2):
     """``R p + t`` for the dual quaternion ``[x, y, z, w, dx, dy, dz, dw]``; ``s2 = 2/|r|**2``.
 
     R p = p + s2 r_v x (r_v x p + w p) (Dantam 2014 eq. (45)) and t = s2 (w d_v - d_w r_v + r_v x d_v) (eq. (78)),
-    fused into p + s2 [r_v x (r_v x p + w p + d_v) + w d_v - d_w r_v].  Only ``+ - *`` on the arguments:
-    :mod:`~dualpose.algebra._simd` also evaluates this very function (its Python code) on LLVM vectors of eight
-    rows, so the vectorised flat kernel rounds exactly as the gufunc does.
+    fused into p + s2 [r_v x (r_v x p + w p + d_v) + w d_v - d_w r_v], as the C++ ``transform_point``.
     """
     cx, cy, cz = y * pz - z * py, z * px - x * pz, x * py - y * px
     ax, ay, az = cx + w * px + dx, cy + w * py + dy, cz + w * pz + dz

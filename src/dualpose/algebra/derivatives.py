@@ -24,7 +24,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
-from dualpose._validation import as_array, call_kernel, lazy_kernels, raise_if_zero_norm
+from dualpose import _native
+from dualpose._validation import as_array, call_kernel, raise_if_zero_norm
 
 __all__ = [
     "quat_derivative",
@@ -40,9 +41,6 @@ __all__ = [
     "rotvec_rate_from_omega",
 ]
 
-_k = lazy_kernels("dualpose.algebra._lie_kernels")
-_D3 = np.empty(3)
-_D4 = np.empty(4)
 
 Frame = Literal["space", "body"]
 
@@ -75,7 +73,7 @@ def quat_derivative(q: ArrayLike, omega: ArrayLike, frame: Frame = "space") -> n
     """
     q = as_array(q, "q", 4)
     omega = as_array(omega, "omega", 3)
-    return call_kernel(_k("quat_derivative"), (q, omega, _body_flag(frame)), ("q", "omega"))
+    return call_kernel(_native.quat_derivative, (q, omega, _body_flag(frame)), ("q", "omega"))
 
 
 def omega_from_quat_derivative(q: ArrayLike, qdot: ArrayLike, frame: Frame = "space") -> np.ndarray:
@@ -101,7 +99,7 @@ def omega_from_quat_derivative(q: ArrayLike, qdot: ArrayLike, frame: Frame = "sp
     """
     q = as_array(q, "q", 4)
     qdot = as_array(qdot, "qdot", 4)
-    out = call_kernel(_k("omega_from_quat_derivative"), (q, qdot, _body_flag(frame), _D3), ("q", "qdot"))
+    out = call_kernel(_native.omega_from_quat_derivative, (q, qdot, _body_flag(frame)), ("q", "qdot"))
     raise_if_zero_norm(out, q, "q")
     return out
 
@@ -134,7 +132,7 @@ def quat_second_derivative(
     omega = as_array(omega, "omega", 3)
     omega_dot = as_array(omega_dot, "omega_dot", 3)
     return call_kernel(
-        _k("quat_second_derivative"), (q, omega, omega_dot, _body_flag(frame)), ("q", "omega", "omega_dot")
+        _native.quat_second_derivative, (q, omega, omega_dot, _body_flag(frame)), ("q", "omega", "omega_dot")
     )
 
 
@@ -164,7 +162,7 @@ def angular_acceleration_from_quat(
     qdot = as_array(qdot, "qdot", 4)
     qddot = as_array(qddot, "qddot", 4)
     out = call_kernel(
-        _k("angular_acceleration_from_quat"), (q, qdot, qddot, _body_flag(frame), _D3), ("q", "qdot", "qddot")
+        _native.angular_acceleration_from_quat, (q, qdot, qddot, _body_flag(frame)), ("q", "qdot", "qddot")
     )
     raise_if_zero_norm(out, q, "q")
     return out
@@ -194,7 +192,7 @@ def quat_exp_derivative(q: ArrayLike, qdot: ArrayLike) -> np.ndarray:
     """
     q = as_array(q, "q", 4)
     qdot = as_array(qdot, "qdot", 4)
-    return call_kernel(_k("quat_exp_derivative"), (q, qdot), ("q", "qdot"))
+    return call_kernel(_native.quat_exp_derivative, (q, qdot), ("q", "qdot"))
 
 
 def quat_exp_jacobian(q: ArrayLike) -> np.ndarray:
@@ -214,7 +212,7 @@ def quat_exp_jacobian(q: ArrayLike) -> np.ndarray:
         ``J[..., i, j] = ∂(e^q)_i/∂q_j`` (xyzw rows and columns).
     """
     q = as_array(q, "q", 4)
-    return _k("quat_exp_jacobian")(q)
+    return _native.quat_exp_jacobian(q)
 
 
 def quat_log_jacobian(q: ArrayLike) -> np.ndarray:
@@ -249,7 +247,7 @@ def quat_log_jacobian(q: ArrayLike) -> np.ndarray:
         ``J[..., i, j] = ∂(ln q)_i/∂q_j`` (xyzw rows and columns).
     """
     q = as_array(q, "q", 4)
-    out = _k("quat_log_jacobian")(q)
+    out = _native.quat_log_jacobian(q)
     raise_if_zero_norm(out, q, "q")
     return out
 
@@ -274,7 +272,7 @@ def quat_log_derivative(q: ArrayLike, qdot: ArrayLike) -> np.ndarray:
     """
     q = as_array(q, "q", 4)
     qdot = as_array(qdot, "qdot", 4)
-    out = call_kernel(_k("quat_log_derivative"), (q, qdot), ("q", "qdot"))
+    out = call_kernel(_native.quat_log_derivative, (q, qdot), ("q", "qdot"))
     raise_if_zero_norm(out, q, "q")
     return out
 
@@ -303,7 +301,7 @@ def quat_derivative_from_rotvec_rate(rotvec: ArrayLike, rotvec_dot: ArrayLike) -
     """
     v = as_array(rotvec, "rotvec", 3)
     vd = as_array(rotvec_dot, "rotvec_dot", 3)
-    return call_kernel(_k("quat_derivative_from_rotvec_rate"), (v, vd, _D4), ("rotvec", "rotvec_dot"))
+    return call_kernel(_native.quat_derivative_from_rotvec_rate, (v, vd), ("rotvec", "rotvec_dot"))
 
 
 def omega_from_rotvec_rate(rotvec: ArrayLike, rotvec_dot: ArrayLike, frame: Frame = "space") -> np.ndarray:
@@ -328,7 +326,7 @@ def omega_from_rotvec_rate(rotvec: ArrayLike, rotvec_dot: ArrayLike, frame: Fram
     v = as_array(rotvec, "rotvec", 3)
     vd = as_array(rotvec_dot, "rotvec_dot", 3)
     sgn = 1.0 - 2.0 * _body_flag(frame)
-    return call_kernel(_k("so3_jacobian_apply"), (v, vd, sgn, 0.0), ("rotvec", "rotvec_dot"))
+    return call_kernel(_native.so3_jacobian_apply, (v, vd, sgn, 0.0), ("rotvec", "rotvec_dot"))
 
 
 def rotvec_rate_from_omega(rotvec: ArrayLike, omega: ArrayLike, frame: Frame = "space") -> np.ndarray:
@@ -352,4 +350,4 @@ def rotvec_rate_from_omega(rotvec: ArrayLike, omega: ArrayLike, frame: Frame = "
     v = as_array(rotvec, "rotvec", 3)
     w = as_array(omega, "omega", 3)
     sgn = 1.0 - 2.0 * _body_flag(frame)
-    return call_kernel(_k("so3_jacobian_apply"), (v, w, sgn, 1.0), ("rotvec", "omega"))
+    return call_kernel(_native.so3_jacobian_apply, (v, w, sgn, 1.0), ("rotvec", "omega"))

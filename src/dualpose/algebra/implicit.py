@@ -18,7 +18,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from dualpose._validation import as_array, call_kernel, lazy_kernels, raise_if_zero_norm
+from dualpose import _native
+from dualpose._validation import as_array, call_kernel, raise_if_zero_norm
 
 __all__ = [
     "qt_mul",
@@ -29,10 +30,6 @@ __all__ = [
     "qt_mul_derivative",
 ]
 
-_k = lazy_kernels("dualpose.algebra._lie_kernels")
-_D3 = np.empty(3)
-_D4 = np.empty(4)
-_D6 = np.empty(6)
 
 
 def qt_mul(q1: ArrayLike, t1: ArrayLike, q2: ArrayLike, t2: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
@@ -59,7 +56,7 @@ def qt_mul(q1: ArrayLike, t1: ArrayLike, q2: ArrayLike, t2: ArrayLike) -> tuple[
     t1 = as_array(t1, "t1", 3)
     q2 = as_array(q2, "q2", 4)
     t2 = as_array(t2, "t2", 3)
-    q, t = call_kernel(_k("qt_mul"), (q1, t1, q2, t2), ("q1", "t1", "q2", "t2"))
+    q, t = call_kernel(_native.qt_mul, (q1, t1, q2, t2), ("q1", "t1", "q2", "t2"))
     raise_if_zero_norm(t, q1, "q1")
     return q, t
 
@@ -84,7 +81,7 @@ def qt_transform(q: ArrayLike, t: ArrayLike, points: ArrayLike) -> np.ndarray:
     q = as_array(q, "q", 4)
     t = as_array(t, "t", 3)
     p = as_array(points, "points", 3)
-    out = call_kernel(_k("qt_transform"), (q, t, p), ("q", "t", "points"))
+    out = call_kernel(_native.qt_transform, (q, t, p), ("q", "t", "points"))
     raise_if_zero_norm(out, q, "q")
     return out
 
@@ -108,7 +105,7 @@ def qt_conj(q: ArrayLike, t: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """
     q = as_array(q, "q", 4)
     t = as_array(t, "t", 3)
-    qc, tc = call_kernel(_k("qt_conj"), (q, t), ("q", "t"))
+    qc, tc = call_kernel(_native.qt_conj, (q, t), ("q", "t"))
     raise_if_zero_norm(tc, q, "q")
     return qc, tc
 
@@ -132,7 +129,7 @@ def qt_from_twist(xi: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         Translation, using the guarded left Jacobian (:func:`~dualpose.algebra.lie.so3_left_jacobian`).
     """
     xi = as_array(xi, "xi", 6)
-    return _k("qt_from_twist")(xi, _D4, _D3)
+    return _native.qt_from_twist(xi)
 
 
 def twist_from_qt(q: ArrayLike, t: ArrayLike) -> np.ndarray:
@@ -155,7 +152,7 @@ def twist_from_qt(q: ArrayLike, t: ArrayLike) -> np.ndarray:
     """
     q = as_array(q, "q", 4)
     t = as_array(t, "t", 3)
-    out = call_kernel(_k("twist_from_qt"), (q, t, _D6), ("q", "t"))
+    out = call_kernel(_native.twist_from_qt, (q, t), ("q", "t"))
     raise_if_zero_norm(out, q, "q")
     return out
 
@@ -199,6 +196,6 @@ def qt_mul_derivative(
         as_array(a, n, s)
         for a, n, s in zip((q1, t1, q1dot, t1dot, q2, t2, q2dot, t2dot), names, (4, 3) * 4, strict=True)
     )
-    qd, td = call_kernel(_k("qt_mul_derivative"), args, names)
+    qd, td = call_kernel(_native.qt_mul_derivative, args, names)
     raise_if_zero_norm(td, args[0], "q1")
     return qd, td

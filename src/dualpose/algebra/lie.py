@@ -40,7 +40,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from dualpose._validation import as_array, call_kernel, check_finite, lazy_kernels, raise_if_zero_norm
+from dualpose import _native
+from dualpose._validation import as_array, call_kernel, check_finite, raise_if_zero_norm
 from dualpose.algebra.hat import so3_hat, so3_vee
 from dualpose.algebra.quat import matrix_from_quat, quat_from_matrix, rotvec_from_quat
 
@@ -67,9 +68,6 @@ __all__ = [
     "se3_ad",
 ]
 
-_k = lazy_kernels("dualpose.algebra._lie_kernels")
-_D33 = np.empty((3, 3))
-_D66 = np.empty((6, 6))
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -111,7 +109,7 @@ def so3_exp(phi: ArrayLike) -> np.ndarray:
         Equal to ``matrix_from_quat(quat_from_rotvec(phi))`` (Dantam 2014 eqs. (50), (108)).
     """
     phi = as_array(phi, "phi", 3)
-    return _k("so3_exp")(phi)
+    return _native.so3_exp(phi)
 
 
 def so3_log(matrix: ArrayLike) -> np.ndarray:
@@ -139,7 +137,7 @@ def se3_exp(xi: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         ``J_l(ω) v`` — the *left Jacobian*, not ``R`` (the small-angle trap of some libraries).
     """
     xi = as_array(xi, "xi", 6)
-    return _k("se3_exp")(xi, _D33)
+    return _native.se3_exp(xi)
 
 
 def se3_log(rotation: ArrayLike, translation: ArrayLike) -> np.ndarray:
@@ -158,7 +156,7 @@ def se3_log(rotation: ArrayLike, translation: ArrayLike) -> np.ndarray:
     """
     omega = so3_log(rotation)
     t = as_array(translation, "translation", 3)
-    v = call_kernel(_k("so3_jacobian_apply"), (omega, t, 1.0, 1.0), ("rotation", "translation"))
+    v = call_kernel(_native.so3_jacobian_apply, (omega, t, 1.0, 1.0), ("rotation", "translation"))
     return np.concatenate(np.broadcast_arrays(omega, v), axis=-1)
 
 
@@ -169,12 +167,12 @@ def se3_log(rotation: ArrayLike, translation: ArrayLike) -> np.ndarray:
 
 def _so3_jac(phi: ArrayLike, sgn: float, inv: float) -> np.ndarray:
     phi = as_array(phi, "phi", 3)
-    return _k("so3_jacobian")(phi, sgn, inv)
+    return _native.so3_jacobian(phi, sgn, inv)
 
 
 def _se3_jac(xi: ArrayLike, sgn: float, inv: float) -> np.ndarray:
     xi = as_array(xi, "xi", 6)
-    return _k("se3_jacobian")(xi, sgn, inv)
+    return _native.se3_jacobian(xi, sgn, inv)
 
 
 def so3_left_jacobian(phi: ArrayLike) -> np.ndarray:
@@ -280,7 +278,7 @@ def se3_adjoint(q: ArrayLike, t: ArrayLike) -> np.ndarray:
     """
     q = as_array(q, "q", 4)
     t = as_array(t, "t", 3)
-    out = call_kernel(_k("se3_adjoint"), (q, t, _D66), ("q", "t"))
+    out = call_kernel(_native.se3_adjoint, (q, t), ("q", "t"))
     raise_if_zero_norm(out, q, "q")
     return out
 

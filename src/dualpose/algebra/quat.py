@@ -16,6 +16,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
+from dualpose import _native
 from dualpose._validation import (
     FLAT_MIN_ELEMENTS,
     as_array,
@@ -23,7 +24,6 @@ from dualpose._validation import (
     call_kernel,
     check_finite,
     identity_array,
-    lazy_kernels,
     raise_if_zero_norm,
     try_flat_kernel,
 )
@@ -55,11 +55,6 @@ __all__ = [
     "quat_identity",
 ]
 
-_fk = lazy_kernels("dualpose.algebra._flat_kernels")
-_k = lazy_kernels("dualpose.algebra._quat_kernels")
-_D3 = np.empty(3)
-_D4 = np.empty(4)
-_D33 = np.empty((3, 3))
 _CONJ = np.array([-1.0, -1.0, -1.0, 1.0])
 
 
@@ -85,7 +80,7 @@ def quat_mul(p: ArrayLike, q: ArrayLike, out: np.ndarray | None = None) -> np.nd
     """
     p = as_array(p, "p", 4)
     q = as_array(q, "q", 4)
-    return call_kernel(_k("quat_mul"), (p, q), ("p", "q"), out)
+    return call_kernel(_native.quat_mul, (p, q), ("p", "q"), out)
 
 
 def quat_conj(q: ArrayLike) -> np.ndarray:
@@ -97,13 +92,13 @@ def quat_conj(q: ArrayLike) -> np.ndarray:
 def quat_norm(q: ArrayLike) -> np.ndarray:
     """Euclidean norm ``|q|`` (Dantam 2014 eq. (12)), computed without underflow/overflow; (..., 4) -> (...)."""
     q = as_array(q, "q", 4)
-    return _k("quat_norm")(q)
+    return _native.quat_norm(q)
 
 
 def quat_normalize(q: ArrayLike) -> np.ndarray:
     """``q / |q|``; shape (..., 4), xyzw.  Raises ``ValueError`` for a zero quaternion."""
     q = as_array(q, "q", 4)
-    out = _k("quat_normalize")(q)
+    out = _native.quat_normalize(q)
     raise_if_zero_norm(out, q, "q")
     return out
 
@@ -111,7 +106,7 @@ def quat_normalize(q: ArrayLike) -> np.ndarray:
 def quat_inv(q: ArrayLike) -> np.ndarray:
     """Inverse ``q* / |q|**2`` (Dantam 2014 eq. (17)); shape (..., 4), xyzw.  Zero raises ``ValueError``."""
     q = as_array(q, "q", 4)
-    out = _k("quat_inv")(q)
+    out = _native.quat_inv(q)
     raise_if_zero_norm(out, q, "q")
     return out
 
@@ -122,7 +117,7 @@ def quat_canonical(q: ArrayLike) -> np.ndarray:
     ``q`` and ``-q`` are the same rotation; this picks one.  Shape (..., 4), xyzw.
     """
     q = as_array(q, "q", 4)
-    return _k("quat_canonical")(q)
+    return _native.quat_canonical(q)
 
 
 def quat_exp(q: ArrayLike) -> np.ndarray:
@@ -132,7 +127,7 @@ def quat_exp(q: ArrayLike) -> np.ndarray:
     quaternion ``[θu/2, 0]`` this is the unit quaternion rotating by θ about u.  Shape (..., 4), xyzw.
     """
     q = as_array(q, "q", 4)
-    return _k("quat_exp")(q)
+    return _native.quat_exp(q)
 
 
 def quat_log(q: ArrayLike) -> np.ndarray:
@@ -146,7 +141,7 @@ def quat_log(q: ArrayLike) -> np.ndarray:
     q = as_array(q, "q", 4)
     if q.size >= 4 * FLAT_MIN_ELEMENTS and q.flags.c_contiguous:
         return _quat_log_flat(q)
-    out = _k("quat_log")(q)
+    out = _native.quat_log(q)
     raise_if_zero_norm(out, q, "q")
     return out
 
@@ -160,10 +155,10 @@ def _quat_log_flat(q: np.ndarray) -> np.ndarray:
     qf = q.reshape(-1)
     s = np.empty(qf.size // 4)
     phi = np.empty_like(s)
-    _fk("quat_log_prepare")(qf, s, phi)
+    _native.quat_log_prepare(qf, s, phi)
     np.arctan2(s, phi, out=phi)
     out = np.empty(q.shape)
-    if _fk("quat_log_finish")(qf, s, phi, out.reshape(-1)):
+    if _native.quat_log_finish(qf, s, phi, out.reshape(-1)):
         raise_if_zero_norm(out, q, "q")
     return out
 
@@ -186,7 +181,7 @@ def quat_pow(q: ArrayLike, t: ArrayLike) -> np.ndarray:
     """
     q = as_array(q, "q", 4)
     t = as_scalar_array(t, "t")
-    out = call_kernel(_k("quat_pow"), (q, t), ("q", "t"))
+    out = call_kernel(_native.quat_pow, (q, t), ("q", "t"))
     raise_if_zero_norm(out, q, "q")
     return out
 
@@ -210,10 +205,13 @@ def quat_rotate(q: ArrayLike, v: ArrayLike, out: np.ndarray | None = None) -> np
     """
     q = as_array(q, "q", 4)
     v = as_array(v, "v", 3)
-    res = try_flat_kernel(_fk("quat_rotate"), (q, v), out, 3)
-    if res is not None:
+    flat = try_flat_kernel(_native.flat_quat_rotate, (q, v), out, 3)
+    if flat is not None:
+        res, flagged = flat
+        if flagged:  # some |q| was zero or extreme: rows are right, but look for a zero
+            raise_if_zero_norm(res[..., 0], q, "q")
         return res
-    res = call_kernel(_k("quat_rotate"), (q, v), ("q", "v"), out)
+    res = call_kernel(_native.quat_rotate, (q, v), ("q", "v"), out)
     raise_if_zero_norm(res[..., 0], q, "q")  # a zero q makes every component NaN; one column is enough
     return res
 
@@ -232,7 +230,7 @@ def quat_from_rotvec(rotvec: ArrayLike) -> np.ndarray:
         Unit quaternions, xyzw.  Tiny angles keep full relative accuracy (no flush to zero).
     """
     v = as_array(rotvec, "rotvec", 3)
-    return _k("quat_from_rotvec")(v, _D4)
+    return _native.quat_from_rotvec(v)
 
 
 def rotvec_from_quat(q: ArrayLike) -> np.ndarray:
@@ -242,7 +240,7 @@ def rotvec_from_quat(q: ArrayLike) -> np.ndarray:
     invariant).  Shape (..., 4) -> (..., 3), radians.  Raises ``ValueError`` for a zero quaternion.
     """
     q = as_array(q, "q", 4)
-    out = _k("rotvec_from_quat")(q, _D3)
+    out = _native.rotvec_from_quat(q)
     raise_if_zero_norm(out, q, "q")
     return out
 
@@ -255,7 +253,7 @@ def quat_from_axis_angle(axis: ArrayLike, angle: ArrayLike) -> np.ndarray:
     """
     axis = as_array(axis, "axis", 3)
     angle = as_scalar_array(angle, "angle")
-    out = call_kernel(_k("quat_from_axis_angle"), (axis, angle, _D4), ("axis", "angle"))
+    out = call_kernel(_native.quat_from_axis_angle, (axis, angle), ("axis", "angle"))
     if np.isnan(out).any() and np.any(np.all(axis == 0.0, axis=-1)):
         raise ValueError("axis must be a nonzero vector of shape (..., 3); a zero axis was given")
     return out
@@ -268,7 +266,7 @@ def axis_angle_from_quat(q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     valid there).  Uses ``θ = 2 atan2(|v|, w)`` (Dantam 2014 eq. (51)).
     """
     q = as_array(q, "q", 4)
-    axis, angle = _k("axis_angle_from_quat")(q, _D3)
+    axis, angle = _native.axis_angle_from_quat(q)
     raise_if_zero_norm(axis, q, "q")
     return axis, angle
 
@@ -280,7 +278,7 @@ def matrix_from_quat(q: ArrayLike) -> np.ndarray:
     ``R @ v == quat_rotate(q, v)``; column i is the child frame's axis i in parent coordinates.
     """
     q = as_array(q, "q", 4)
-    out = _k("matrix_from_quat")(q, _D33)
+    out = _native.matrix_from_quat(q)
     raise_if_zero_norm(out, q, "q")
     return out
 
@@ -294,7 +292,7 @@ def quat_from_matrix(matrix: ArrayLike) -> np.ndarray:
     """
     m = as_array(matrix, "matrix", (3, 3))
     check_finite(m, "matrix")
-    return _k("quat_from_matrix")(m, _D4)
+    return _native.quat_from_matrix(m)
 
 
 def quat_slerp(q0: ArrayLike, q1: ArrayLike, t: ArrayLike) -> np.ndarray:
@@ -315,7 +313,7 @@ def quat_slerp(q0: ArrayLike, q1: ArrayLike, t: ArrayLike) -> np.ndarray:
     q0 = as_array(q0, "q0", 4)
     q1 = as_array(q1, "q1", 4)
     t = as_scalar_array(t, "t")
-    out = call_kernel(_k("quat_slerp"), (q0, q1, t), ("q0", "q1", "t"))
+    out = call_kernel(_native.quat_slerp, (q0, q1, t), ("q0", "q1", "t"))
     if np.isnan(out).any():
         raise_if_zero_norm(out, q0, "q0")
         raise_if_zero_norm(out, q1, "q1")
@@ -332,7 +330,7 @@ def quat_angle(p: ArrayLike, q: ArrayLike) -> np.ndarray:
     """
     p = as_array(p, "p", 4)
     q = as_array(q, "q", 4)
-    out = call_kernel(_k("quat_angle"), (p, q), ("p", "q"))
+    out = call_kernel(_native.quat_angle, (p, q), ("p", "q"))
     if np.isnan(out).any():
         raise_if_zero_norm(out, p, "p")
         raise_if_zero_norm(out, q, "q")
@@ -362,9 +360,9 @@ def quat_integrate(
     omega = as_array(omega, "omega", 3)
     dt = as_scalar_array(dt, "dt")
     if frame == "space":
-        kern = _k("quat_integrate_space")
+        kern = _native.quat_integrate_space
     elif frame == "body":
-        kern = _k("quat_integrate_body")
+        kern = _native.quat_integrate_body
     else:
         raise ValueError(f"frame must be 'space' or 'body'; got {frame!r}")
     return call_kernel(kern, (q, omega, dt), ("q", "omega", "dt"))

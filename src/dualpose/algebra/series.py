@@ -4,8 +4,10 @@ Each function below is evaluated by a Horner polynomial (exact rational Taylor c
 float64) below its own cutoff, and by a closed form that is accurate above it.  The cutoff of each function is
 chosen where the closed form's cancellation error has fallen to about one ulp; the number of Taylor terms is
 chosen so that the first omitted term is below 2**-56 of the function value at the cutoff.  All are even
-functions of ``x`` and are evaluated on ``|x|``.  They are numba ``njit`` scalar functions so the algebra kernels
-inline them; :func:`series_ufunc` exposes each as a NumPy ufunc for tests and users.
+functions of ``x`` and are evaluated on ``|x|``.  The kernels use the C++ copies in ``src/native/common/series.hpp``
+(coefficients written out as hexadecimal literals of :func:`taylor_coefficients`, checked against this module by
+``tests/algebra/test_native_series.py``); :func:`series_ufunc` exposes each as a NumPy ufunc of ``dualpose._native``.
+The numba scalar functions below remain only for the numba kernels of other layers that still inline them.
 
 =============  ====================================  ===========  ===========================================
 name           function                              cutoff       used by (Dantam 2014 eq.)
@@ -33,6 +35,8 @@ from fractions import Fraction
 
 import numba as nb
 import numpy as np
+
+from dualpose import _native
 
 __all__ = [
     "CUTOFFS",
@@ -298,16 +302,23 @@ def dlogc(x: float) -> float:
     return dsinc(x) / (sx * sx * sx)
 
 
-_UFUNCS: dict[str, np.ufunc] = {}
-
-
 def series_ufunc(name: str) -> np.ufunc:
     """The named series as a NumPy ufunc of float64 (``atan2c`` takes two arguments)."""
-    if name not in _UFUNCS:
-        fn = globals()[name]
-        if name == "atan2c":
-            uf = nb.vectorize(["float64(float64, float64)"])(lambda s, c: fn(s, c))
-        else:
-            uf = nb.vectorize(["float64(float64)"])(lambda x: fn(x))
-        _UFUNCS[name] = uf
-    return _UFUNCS[name]
+    try:
+        return _SERIES_UFUNCS[name]
+    except KeyError:
+        raise KeyError(f"unknown series {name!r}; one of {sorted(_SERIES_UFUNCS)}") from None
+
+
+_SERIES_UFUNCS: dict[str, np.ufunc] = {
+    "sinc": _native.sinc,
+    "cosc2": _native.cosc2,
+    "sinc3": _native.sinc3,
+    "dsinc": _native.dsinc,
+    "cosc4": _native.cosc4,
+    "se3c": _native.se3c,
+    "jinv": _native.jinv,
+    "atan2c": _native.atan2c,
+    "dqalpha": _native.dqalpha,
+    "dlogc": _native.dlogc,
+}

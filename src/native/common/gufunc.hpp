@@ -5,6 +5,11 @@
 // gathered from NumPy's strides into small local buffers, the kernel runs, and the outputs are scattered back, so
 // broadcasting, out=, non-contiguous inputs and in-place calls behave as for any ufunc (NumPy handles overlapping
 // operands before the loop).  Shapes: S (a scalar, core "()"), V<n> (core "(n)"), M<r, c> (core "(r,c)").
+//
+// An optional ROWS function  void rows(const double* in0, ..., double* out0, ..., npy_intp n)  replaces the
+// per-element loop when every operand is a C-contiguous stack of cores (the usual large batch): a plain,
+// non-template function that the compiler vectorises across rows and that can be cloned per instruction set
+// (target_clones); it must compute exactly what F computes, row by row, and read a row before writing it.
 #pragma once
 
 #include "numpy_api.hpp"
@@ -14,6 +19,7 @@
 #include <cstddef>
 #include <string>
 #include <tuple>
+#include <type_traits>
 #include <utility>
 
 namespace dualpose {
@@ -71,11 +77,11 @@ struct Out {
     static constexpr int n = sizeof...(Ops);
 };
 
-template <auto F, class Ins, class Outs>
+template <auto F, class Ins, class Outs, auto ROWS = nullptr>
 struct Gufunc;
 
-template <auto F, class... I, class... O>
-struct Gufunc<F, In<I...>, Out<O...>> {
+template <auto F, class... I, class... O, auto ROWS>
+struct Gufunc<F, In<I...>, Out<O...>, ROWS> {
     static constexpr int nin = sizeof...(I);
     static constexpr int nout = sizeof...(O);
     static constexpr int nargs = nin + nout;
@@ -101,10 +107,19 @@ struct Gufunc<F, In<I...>, Out<O...>> {
         }
         std::tuple<std::array<double, O::size>...> ob;
         constexpr std::array<int, nargs> sizes = {I::size..., O::size...};
-        bool contiguous = true;  // every operand a C-contiguous stack of 0-d or 1-d cores
+        constexpr std::array<int, nargs> cols = {I::cols..., O::cols...};
+        constexpr npy_intp d = sizeof(double);
+        bool contiguous = true;  // every operand a C-contiguous stack of cores (scalars, vectors, row-major matrices)
         for (int j = 0; j < nargs; ++j) {
-            contiguous &= core_ndim[j] < 2 && steps[j] == npy_intp(sizeof(double)) * sizes[j];
-            if (core_ndim[j] == 1) contiguous &= cs[j][0] == npy_intp(sizeof(double));
+            contiguous &= steps[j] == d * sizes[j];
+            if (core_ndim[j] == 1) contiguous &= cs[j][0] == d;
+            if (core_ndim[j] == 2) contiguous &= cs[j][0] == d * cols[j] && cs[j][1] == d;
+        }
+        if constexpr (!std::is_same_v<decltype(ROWS), std::nullptr_t>) {
+            if (contiguous) {
+                ROWS(reinterpret_cast<const double*>(args[Ii])..., reinterpret_cast<double*>(args[nin + Oi])..., n);
+                return;
+            }
         }
         if (contiguous) {
             // C-contiguous rows: the kernel reads the inputs in place; outputs go through a local buffer so that

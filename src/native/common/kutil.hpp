@@ -82,35 +82,55 @@ inline double norm4(double x, double y, double z, double w) {
 }
 inline double norm4(Quat q) { return norm4(q.x, q.y, q.z, q.w); }
 
-// (a + ε b)(c + ε d) = a c + ε (a d + b c): Dantam 2014 eq. (79).
-inline DualQuat dq_mul(const DualQuat& a, const DualQuat& b) {
-    const Quat r = qmul(a.r, b.r), e = qmul(a.r, b.d), f = qmul(a.d, b.r);
+// (a + ε b)(c + ε d) = a c + ε (a d + b c): Dantam 2014 eq. (79), for any struct DQ with quaternion-like
+// members r and d (see qmul_t).
+template <class DQ>
+inline DQ dq_mul_t(const DQ& a, const DQ& b) {
+    const auto r = qmul_t(a.r, b.r), e = qmul_t(a.r, b.d), f = qmul_t(a.d, b.r);
     return {r, {e.x + f.x, e.y + f.y, e.z + f.z, e.w + f.w}};
 }
+inline DualQuat dq_mul(const DualQuat& a, const DualQuat& b) { return dq_mul_t(a, b); }
 
 inline Vec3 cross(Vec3 a, Vec3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
 inline double dot(Vec3 a, Vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 
-// v + s2 * q_v x (q_v x v + w v): Dantam 2014 eq. (45); s2 = 2/|q|**2 (2 for a unit quaternion).
+// v + s2 * q_v x (q_v x v + w v): Dantam 2014 eq. (45); s2 = 2/|q|**2 (2 for a unit quaternion).  Written for any
+// arithmetic type T (double, or a GCC vector of doubles holding one component of several rows: the vectorised row
+// loops evaluate this same expression lane by lane, so they round as the scalar kernels).
+template <class T>
+inline void rotate_lanes(T x, T y, T z, T w, T vx, T vy, T vz, T s2, T& ox, T& oy, T& oz) {
+    T ax = y * vz - z * vy, ay = z * vx - x * vz, az = x * vy - y * vx;  // q_v x v
+    ax += w * vx;
+    ay += w * vy;
+    az += w * vz;
+    const T bx = y * az - z * ay, by = z * ax - x * az, bz = x * ay - y * ax;  // q_v x (q_v x v + w v)
+    ox = vx + s2 * bx;
+    oy = vy + s2 * by;
+    oz = vz + s2 * bz;
+}
 inline Vec3 rotate(Quat q, Vec3 v, double s2) {
-    Vec3 a = cross({q.x, q.y, q.z}, v);
-    a.x += q.w * v.x;
-    a.y += q.w * v.y;
-    a.z += q.w * v.z;
-    const Vec3 b = cross({q.x, q.y, q.z}, a);
-    return {v.x + s2 * b.x, v.y + s2 * b.y, v.z + s2 * b.z};
+    Vec3 o;
+    rotate_lanes(q.x, q.y, q.z, q.w, v.x, v.y, v.z, s2, o.x, o.y, o.z);
+    return o;
 }
 
 // R p + t for the dual quaternion s = [r, d]; s2 = 2/|r|**2.  R p = p + s2 r_v x (r_v x p + w p) (Dantam 2014
 // eq. (45)) and t = s2 (w d_v - d_w r_v + r_v x d_v) (eq. (78)), fused into
-// p + s2 [r_v x (r_v x p + w p + d_v) + w d_v - d_w r_v].
+// p + s2 [r_v x (r_v x p + w p + d_v) + w d_v - d_w r_v].  For any arithmetic type T, as rotate_lanes.
+template <class T>
+inline void transform_lanes(T x, T y, T z, T w, T dx, T dy, T dz, T dw, T px, T py, T pz, T s2, T& ox, T& oy,
+                            T& oz) {
+    const T cx = y * pz - z * py, cy = z * px - x * pz, cz = x * py - y * px;
+    const T ax = cx + w * px + dx, ay = cy + w * py + dy, az = cz + w * pz + dz;
+    const T bx = y * az - z * ay, by = z * ax - x * az, bz = x * ay - y * ax;
+    ox = px + s2 * (bx + w * dx - dw * x);
+    oy = py + s2 * (by + w * dy - dw * y);
+    oz = pz + s2 * (bz + w * dz - dw * z);
+}
 inline Vec3 transform_point(const DualQuat& s, Vec3 p, double s2) {
-    const double x = s.r.x, y = s.r.y, z = s.r.z, w = s.r.w;
-    const double dx = s.d.x, dy = s.d.y, dz = s.d.z, dw = s.d.w;
-    const double cx = y * p.z - z * p.y, cy = z * p.x - x * p.z, cz = x * p.y - y * p.x;
-    const double ax = cx + w * p.x + dx, ay = cy + w * p.y + dy, az = cz + w * p.z + dz;
-    const double bx = y * az - z * ay, by = z * ax - x * az, bz = x * ay - y * ax;
-    return {p.x + s2 * (bx + w * dx - dw * x), p.y + s2 * (by + w * dy - dw * y), p.z + s2 * (bz + w * dz - dw * z)};
+    Vec3 o;
+    transform_lanes(s.r.x, s.r.y, s.r.z, s.r.w, s.d.x, s.d.y, s.d.z, s.d.w, p.x, p.y, p.z, s2, o.x, o.y, o.z);
+    return o;
 }
 
 // (c, s2) with s2 = 2/|c q|**2, for formulas that need 2/|q|**2 (rotation, matrices, transforms).  For ordinary

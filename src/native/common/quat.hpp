@@ -14,11 +14,15 @@ struct Quat {
     double x, y, z, w;
 };
 
-// a (x) b, Hamilton (Dantam 2014 eq. (17)).
-inline Quat qmul(Quat a, Quat b) {
+// a (x) b, Hamilton (Dantam 2014 eq. (17)), for any quaternion-like struct QT with members x, y, z, w of an
+// arithmetic type (double, or GCC vectors holding one component of several rows: vectorised loops evaluate the same
+// expression lane by lane).
+template <class QT>
+inline QT qmul_t(const QT& a, const QT& b) {
     return {a.w * b.x + a.x * b.w + a.y * b.z - a.z * b.y, a.w * b.y - a.x * b.z + a.y * b.w + a.z * b.x,
             a.w * b.z + a.x * b.y - a.y * b.x + a.z * b.w, a.w * b.w - a.x * b.x - a.y * b.y - a.z * b.z};
 }
+inline Quat qmul(Quat a, Quat b) { return qmul_t(a, b); }
 
 // o = a (x) b on 4-element buffers; o may not alias a or b.
 inline void qmul(const double* a, const double* b, double* o) {

@@ -1,0 +1,95 @@
+// Contiguous row loops of the hot algebra kernels (see rows.hpp): compiled for the x86-64 baseline and, with GCC on
+// x86-64, cloned for AVX2 with the clone picked at load time (GCC's function multiversioning, target_clones).  No
+// FMA in any clone, so every clone rounds as the baseline.  There is no AVX-512 clone: GCC 12's SLP vectoriser fuses
+// the alternating +/- lanes of the Hamilton product into vfmsubadd (an FMA) on zmm registers even under
+// -ffp-contract=off, which changes the last bit; AVX2 without the FMA extension has no fused instruction to pick.
+#include "rows.hpp"
+
+#include "lanes.hpp"
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define DUALPOSE_CLONES __attribute__((target_clones("default", "avx2")))
+#else
+#define DUALPOSE_CLONES
+#endif
+
+namespace dualpose {
+
+namespace {
+using lanes::v4;
+
+bool ordinary(double n2) { return n2 >= kTiny && n2 <= kHuge; }
+bool ordinary(v4 n2) { return lanes::all((n2 >= kTiny) & (n2 <= kHuge)); }
+}  // namespace
+
+DUALPOSE_CLONES void quat_mul_rows(const double* p, const double* q, double* o, npy_intp n) {
+    for (npy_intp i = 0; i < n; ++i) quat_mul_row(p + 4 * i, q + 4 * i, o + 4 * i);
+}
+
+// Blocks of four rows whose squared norms are all ordinary take the vector path with s2 = 2/|q|**2; any other
+// block, and the last n mod 4 rows, take the row kernel.  A block's inputs are all loaded before its outputs are
+// stored, so o may be v.
+DUALPOSE_CLONES int quat_rotate_rows(const double* q, const double* v, double* o, npy_intp n) {
+    int flagged = 0;
+    npy_intp i = 0;
+    for (; i + 4 <= n; i += 4) {
+        const lanes::Q4 a = lanes::split4(q + 4 * i, 4);
+        v4 vx, vy, vz, ox, oy, oz;
+        lanes::split3(v + 3 * i, vx, vy, vz);
+        const v4 n2 = a.x * a.x + a.y * a.y + a.z * a.z + a.w * a.w;
+        if (ordinary(n2)) {
+            rotate_lanes(a.x, a.y, a.z, a.w, vx, vy, vz, 2.0 / n2, ox, oy, oz);
+            lanes::join3(ox, oy, oz, o + 3 * i);
+        } else {
+            flagged = 1;
+            for (npy_intp k = i; k < i + 4; ++k) quat_rotate_row(q + 4 * k, v + 3 * k, o + 3 * k);
+        }
+    }
+    for (; i < n; ++i) {
+        const double* r = q + 4 * i;
+        flagged |= !ordinary(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3]);
+        quat_rotate_row(r, v + 3 * i, o + 3 * i);
+    }
+    return flagged;
+}
+
+DUALPOSE_CLONES int dualquat_mul_rows(const double* a, const double* b, double* o, npy_intp n) {
+    npy_intp i = 0;
+    for (; i + 4 <= n; i += 4) {
+        const double *pa = a + 8 * i, *pb = b + 8 * i;
+        const lanes::DQ4 x = {lanes::split4(pa, 8), lanes::split4(pa + 4, 8)};
+        const lanes::DQ4 y = {lanes::split4(pb, 8), lanes::split4(pb + 4, 8)};
+        const lanes::DQ4 c = dq_mul_t(x, y);
+        lanes::join4(c.r, o + 8 * i, 8);
+        lanes::join4(c.d, o + 8 * i + 4, 8);
+    }
+    for (; i < n; ++i) dualquat_mul_row(a + 8 * i, b + 8 * i, o + 8 * i);
+    return 0;
+}
+
+// As quat_rotate_rows, on the real parts' norms.
+DUALPOSE_CLONES int dualquat_transform_rows(const double* s, const double* p, double* o, npy_intp n) {
+    int flagged = 0;
+    npy_intp i = 0;
+    for (; i + 4 <= n; i += 4) {
+        const lanes::Q4 r = lanes::split4(s + 8 * i, 8), d = lanes::split4(s + 8 * i + 4, 8);
+        v4 px, py, pz, ox, oy, oz;
+        lanes::split3(p + 3 * i, px, py, pz);
+        const v4 n2 = r.x * r.x + r.y * r.y + r.z * r.z + r.w * r.w;
+        if (ordinary(n2)) {
+            transform_lanes(r.x, r.y, r.z, r.w, d.x, d.y, d.z, d.w, px, py, pz, 2.0 / n2, ox, oy, oz);
+            lanes::join3(ox, oy, oz, o + 3 * i);
+        } else {
+            flagged = 1;
+            for (npy_intp k = i; k < i + 4; ++k) dualquat_transform_row(s + 8 * k, p + 3 * k, o + 3 * k);
+        }
+    }
+    for (; i < n; ++i) {
+        const double* r = s + 8 * i;
+        flagged |= !ordinary(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3]);
+        dualquat_transform_row(r, p + 3 * i, o + 3 * i);
+    }
+    return flagged;
+}
+
+}  // namespace dualpose

@@ -1,0 +1,45 @@
+// The hot row kernels of the algebra and their contiguous row loops: one scalar formula per kernel (from
+// common/kutil.hpp), used by the gufunc's strided path (the *_row functions) and by the C-contiguous loops (the
+// *_rows functions, vectorised across rows and cloned per instruction set), so both paths round identically.
+//
+// Loops that need 2/|q|**2 check each block of four rows: a block whose squared norms are all in [1e-280, 1e280]
+// runs the branch-free formula with s2 = 2/|q|**2; any other block (zero, extreme or NaN norms) runs the row
+// kernel, which rescales (common/kutil.hpp unit_scale) and gives NaN for a zero quaternion.  The
+// result equals the row kernel's on every row; the return value is nonzero when some row's norm was outside
+// the ordinary range (the wrappers then look for zeros).
+#pragma once
+
+#include "../common/dualquat.hpp"
+#include "../common/kutil.hpp"
+#include "../common/numpy_api.hpp"
+
+// Row kernels are inlined into their loops (the compiler's size heuristics would otherwise call them per row).
+#define DUALPOSE_ROW inline __attribute__((always_inline))
+
+namespace dualpose {
+
+DUALPOSE_ROW void quat_mul_row(const double* p, const double* q, double* o) { store(o, qmul(load4(p), load4(q))); }
+
+// R(q/|q|) v (Dantam 2014 eq. (45)).
+DUALPOSE_ROW void quat_rotate_row(const double* q, const double* v, double* o) {
+    store(o, rotate_any(load4(q), load3(v)));
+}
+
+// Dantam 2014 eq. (79).
+DUALPOSE_ROW void dualquat_mul_row(const double* a, const double* b, double* o) { store(o, dq_mul(load8(a), load8(b))); }
+
+// p' = R p + t (Dantam 2014 eq. (95) in the implicit form (106)); s2 = 2/|r|**2 normalizes a non-unit real part
+// (extreme norms rescaled first).
+DUALPOSE_ROW void dualquat_transform_row(const double* s, const double* p, double* o) {
+    DualQuat d = load8(s);
+    const Scale u = unit_scale(d.r);
+    if (u.c != 1.0) d = scale(u.c, d);
+    store(o, transform_point(d, load3(p), u.s2));
+}
+
+void quat_mul_rows(const double* p, const double* q, double* o, npy_intp n);
+int quat_rotate_rows(const double* q, const double* v, double* o, npy_intp n);
+int dualquat_mul_rows(const double* a, const double* b, double* o, npy_intp n);
+int dualquat_transform_rows(const double* s, const double* p, double* o, npy_intp n);
+
+}  // namespace dualpose
