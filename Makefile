@@ -18,11 +18,10 @@ $(STAMP): $(PY) pyproject.toml $(NATIVE)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q "scikit-build-core>=0.10" "numpy>=2.0"
 	$(PY) -m pip install -q --no-build-isolation -e '.[test]'
-	$(PY) -m dualpose.warmup
 	touch $(STAMP)
 
 $(BSTAMP): $(STAMP)
-	$(PY) -m pip install -q -e '.[test,bench]'
+	$(PY) -m pip install -q --no-build-isolation -e '.[test,bench]'
 	touch $(BSTAMP)
 
 demo: $(STAMP)
@@ -31,7 +30,6 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(VENV)/bin/ruff check src tests benchmarks
-	$(PY) -m dualpose.warmup  # rebuild kernels once, before parallel workers load them
 	$(PY) -m pytest -q -n 2 -p no:cacheprovider
 
 bench: $(BSTAMP)

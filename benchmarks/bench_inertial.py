@@ -1,6 +1,6 @@
 """Throughput of dualpose.inertial.integrate_attitude / integrate_pose (target: >= 1e6 updates/s, docs/inertial.md §5).
 
-Run: ``NUMBA_CACHE_DIR=... .venv/bin/python benchmarks/bench_inertial.py [--updates 1000000]``
+Run: ``.venv/bin/python benchmarks/bench_inertial.py [--updates 1000000]``
 
 Each configuration is called once to load the compiled kernels, then timed best-of-5 with ``perf_counter``.  As a
 reference the same fold is timed as a Python loop over updates calling the algebra (``dp.quat_mul`` /

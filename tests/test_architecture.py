@@ -15,13 +15,12 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "dualpose"
 
 #: what each layer may import besides itself (docs/architecture.md, "The layers"); ``dualpose`` (the package root)
 #: re-exports the algebra and counts as ``algebra``
-BASE = {"_validation", "_kernel_cache", "_native"}
+BASE = {"_validation", "_native"}
 #: compiled modules (no .py source): the native kernels sit at the bottom with the argument checks
 EXTENSIONS = ("dualpose._native",)
 ALLOWED: dict[str, set[str]] = {
     "_native": set(),
-    "_kernel_cache": set(),
-    "_validation": {"_kernel_cache"},
+    "_validation": set(),
     "algebra": BASE,
     "registration": BASE | {"algebra"},
     "inertial": BASE | {"algebra"},
@@ -35,7 +34,6 @@ ALLOWED: dict[str, set[str]] = {
                          "evaluation"},
     "cli": BASE | {"algebra", "types", "registration", "inertial", "io", "sim", "calibration", "estimation",
                    "evaluation", "pipelines"},
-    "warmup": BASE | {"algebra", "registration", "inertial", "estimation"},
 }
 MAX_PUBLIC_MODULES = 12
 

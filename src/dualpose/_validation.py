@@ -153,31 +153,6 @@ def check_finite(x: np.ndarray, name: str) -> None:
         raise ValueError(f"{name} contains NaN or infinity; conversions need finite input")
 
 
-def lazy_kernels(module: str) -> Callable[[str], np.ufunc]:
-    """Return ``get(name)`` that imports ``module`` (compiling or loading cached kernels) on first use."""
-    cache: dict[str, np.ufunc] = {}
-
-    def get(name: str) -> np.ufunc:
-        try:
-            return cache[name]
-        except KeyError:
-            import importlib
-            import sys
-
-            from dualpose._kernel_cache import ensure_fresh, mark_fresh
-
-            fresh_import = module not in sys.modules
-            ensure_fresh()
-            mod = importlib.import_module(module)
-            if fresh_import:
-                mark_fresh()
-            obj = getattr(mod, name)
-            cache[name] = getattr(obj, "ufunc", obj)
-            return cache[name]
-
-    return get
-
-
 def identity_array(shape: int | tuple[int, ...], size: int) -> np.ndarray:
     """Identity (dual) quaternions: zeros of shape ``shape + (size,)`` with component 3 (``w``) set to 1."""
     lead = (shape,) if isinstance(shape, int) else tuple(shape)

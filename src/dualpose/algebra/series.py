@@ -6,8 +6,8 @@ chosen where the closed form's cancellation error has fallen to about one ulp; t
 chosen so that the first omitted term is below 2**-56 of the function value at the cutoff.  All are even
 functions of ``x`` and are evaluated on ``|x|``.  The kernels use the C++ copies in ``src/native/common/series.hpp``
 (coefficients written out as hexadecimal literals of :func:`taylor_coefficients`, checked against this module by
-``tests/algebra/test_native_series.py``); :func:`series_ufunc` exposes each as a NumPy ufunc of ``dualpose._native``.
-The numba scalar functions below remain only for the numba kernels of other layers that still inline them.
+``tests/algebra/test_native_series.py``); each name below is that kernel as a NumPy ufunc of ``dualpose._native``
+(:func:`series_ufunc` looks one up by name).
 
 =============  ====================================  ===========  ===========================================
 name           function                              cutoff       used by (Dantam 2014 eq.)
@@ -33,7 +33,6 @@ from __future__ import annotations
 import math
 from fractions import Fraction
 
-import numba as nb
 import numpy as np
 
 from dualpose import _native
@@ -159,147 +158,18 @@ def _coeff_tuple(name: str) -> tuple[float, ...]:
         n += 1
 
 
-_C_SINC = _coeff_tuple("sinc")
-_C_COSC2 = _coeff_tuple("cosc2")
-_C_SINC3 = _coeff_tuple("sinc3")
-_C_DSINC = _coeff_tuple("dsinc")
-_C_COSC4 = _coeff_tuple("cosc4")
-_C_SE3C = _coeff_tuple("se3c")
-_C_JINV = _coeff_tuple("jinv")
-
-_jit = nb.njit(cache=True, inline="always", fastmath=False, error_model="numpy")
-
-
-@_jit
-def _horner(c: tuple, y: float) -> float:
-    acc = 0.0
-    for i in range(len(c) - 1, -1, -1):
-        acc = acc * y + c[i]
-    return acc
-
-
-@_jit
-def sinc(x: float) -> float:
-    """sin(x)/x; Dantam 2014 eq. (23)."""
-    x = abs(x)
-    if x < 0.5:
-        return _horner(_C_SINC, x * x)
-    return math.sin(x) / x
-
-
-@_jit
-def cosc2(x: float) -> float:
-    """(1 - cos x)/x**2, evaluated as sinc(x/2)**2 / 2 above the cutoff (no cancellation)."""
-    x = abs(x)
-    if x < 1.0:
-        return _horner(_C_COSC2, x * x)
-    h = math.sin(0.5 * x) / x
-    return 2.0 * h * h
-
-
-@_jit
-def sinc3(x: float) -> float:
-    """(x - sin x)/x**3."""
-    x = abs(x)
-    if x < 3.0:
-        return _horner(_C_SINC3, x * x)
-    return (x - math.sin(x)) / (x * x * x)
-
-
-@_jit
-def dsinc(x: float) -> float:
-    """(x cos x - sin x)/x**3 = (cos x - sin(x)/x)/x**2; Dantam 2014 eqs. (37), (57), (85)."""
-    x = abs(x)
-    if x < 2.0:
-        return _horner(_C_DSINC, x * x)
-    return (x * math.cos(x) - math.sin(x)) / (x * x * x)
-
-
-@_jit
-def cosc4(x: float) -> float:
-    """(x**2/2 - 1 + cos x)/x**4."""
-    x = abs(x)
-    if x < 3.5:
-        return _horner(_C_COSC4, x * x)
-    x2 = x * x
-    return (0.5 * x2 - 1.0 + math.cos(x)) / (x2 * x2)
-
-
-@_jit
-def se3c(x: float) -> float:
-    """(2x - 3 sin x + x cos x)/(2 x**5)."""
-    x = abs(x)
-    if x < 4.0:
-        return _horner(_C_SE3C, x * x)
-    x2 = x * x
-    return (2.0 * x - 3.0 * math.sin(x) + x * math.cos(x)) / (2.0 * x2 * x2 * x)
-
-
-@_jit
-def jinv(x: float) -> float:
-    """(1 - (x/2) cot(x/2))/x**2 (the Phi**2 coefficient of the inverse SO(3) Jacobian); pole at 2*pi."""
-    x = abs(x)
-    if x < 2.5:
-        return _horner(_C_JINV, x * x)
-    h = 0.5 * x
-    return (1.0 - h * math.cos(h) / math.sin(h)) / (x * x)
-
-
-@_jit
-def atan2c(s: float, c: float) -> float:
-    """atan2(s, c)/s for s >= 0: the log/rotation-vector scale factor phi/|q_v|, Dantam 2014 eqs. (26)-(28).
-
-    For ``s <= 1e-4 * c`` the series ``(1/c)(1 - y**2/3 + y**4/5 - y**6/7)`` with ``y = s/c`` is used; at
-    ``s == 0`` and ``c < 0`` the value is +inf (the caller picks an axis), at ``s == c == 0`` it is NaN.
-    """
-    if s <= 1e-4 * c and c > 0.0:  # first test is false for almost all data (predictable, sign-independent)
-        return _atan2c_series(s, c)
-    if s == 0.0:
-        return _atan2c_at_zero(c)
-    return math.atan2(s, c) / s
-
-
-@_jit
-def atan2c_given(s: float, c: float, phi: float) -> float:
-    """:func:`atan2c` when ``phi = atan2(s, c)`` has already been computed (e.g. by NumPy's SIMD ``arctan2``).
-
-    Same guarded series for ``s <= 1e-4 c`` (``phi`` is ignored there) and the same values at ``s == 0``.
-    """
-    if s <= 1e-4 * c and c > 0.0:
-        return _atan2c_series(s, c)
-    if s == 0.0:
-        return _atan2c_at_zero(c)
-    return phi / s
-
-
-@_jit
-def _atan2c_series(s: float, c: float) -> float:
-    # (1/c)(1 - y**2/3 + y**4/5 - y**6/7), y = s/c <= 1e-4: truncation error below 1e-32
-    y = s / c
-    y2 = y * y
-    return (1.0 + y2 * (-1.0 / 3.0 + y2 * (0.2 - y2 / 7.0))) / c
-
-
-@_jit
-def _atan2c_at_zero(c: float) -> float:
-    # s == 0: +inf on the negative real axis (the caller picks an axis), NaN at s == c == 0
-    if c < 0.0:
-        return np.inf
-    return np.nan
-
-
-@_jit
-def dqalpha(x: float) -> float:
-    """cos x / sin**2 x - x / sin**3 x = -4 sinc3(2x)/sinc(x)**3; Dantam 2014 eqs. (91)-(92). Pole at pi."""
-    sx = sinc(x)
-    return -4.0 * sinc3(2.0 * x) / (sx * sx * sx)
-
-
-@_jit
-def dlogc(x: float) -> float:
-    """(x cos x - sin x)/sin**3 x = dsinc(x)/sinc(x)**3; Dantam 2014 eqs. (39)-(40). Pole at pi."""
-    sx = sinc(x)
-    return dsinc(x) / (sx * sx * sx)
+#: the series as NumPy ufuncs of float64 (scalars in, scalars out), evaluated by the C++ kernels of
+#: ``src/native/common/series.hpp`` with the coefficients above
+sinc = _native.sinc
+cosc2 = _native.cosc2
+sinc3 = _native.sinc3
+dsinc = _native.dsinc
+cosc4 = _native.cosc4
+se3c = _native.se3c
+jinv = _native.jinv
+atan2c = _native.atan2c
+dqalpha = _native.dqalpha
+dlogc = _native.dlogc
 
 
 def series_ufunc(name: str) -> np.ufunc:
@@ -311,14 +181,14 @@ def series_ufunc(name: str) -> np.ufunc:
 
 
 _SERIES_UFUNCS: dict[str, np.ufunc] = {
-    "sinc": _native.sinc,
-    "cosc2": _native.cosc2,
-    "sinc3": _native.sinc3,
-    "dsinc": _native.dsinc,
-    "cosc4": _native.cosc4,
-    "se3c": _native.se3c,
-    "jinv": _native.jinv,
-    "atan2c": _native.atan2c,
-    "dqalpha": _native.dqalpha,
-    "dlogc": _native.dlogc,
+    "sinc": sinc,
+    "cosc2": cosc2,
+    "sinc3": sinc3,
+    "dsinc": dsinc,
+    "cosc4": cosc4,
+    "se3c": se3c,
+    "jinv": jinv,
+    "atan2c": atan2c,
+    "dqalpha": dqalpha,
+    "dlogc": dlogc,
 }

@@ -26,7 +26,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import dualpose as dp
-from dualpose._validation import as_array, check_finite, lazy_kernels
+from dualpose import _native
+from dualpose._validation import as_array, check_finite
 from dualpose.inertial.coefficients import PREVIOUS_COEFFICIENT, check_algorithm, coning_coefficients
 
 __all__ = [
@@ -40,7 +41,6 @@ __all__ = [
 
 Frame = Literal["body", "space"]
 Family = Literal["coning-optimal", "polynomial", "one-plus-previous"]
-_k = lazy_kernels("dualpose.inertial._fold_kernels")
 
 
 def _frame_sign(frame: object) -> float:
@@ -82,7 +82,7 @@ def _update_vectors(x: np.ndarray, samples: int, coefficients: str, frame: objec
     kmat, cprev, sgn = _algorithm(samples, coefficients, frame)
     lead, _, xb = _batch(None, x)
     out = np.empty((xb.shape[0], x.shape[-2] // kmat.shape[0], x.shape[-1]))
-    _k("update_vectors")(xb, kmat.shape[0], kmat, cprev, sgn, out)
+    _native.inertial_update_vectors(xb, kmat.shape[0], kmat, cprev, sgn, out)
     return out.reshape(*lead, *out.shape[1:])
 
 
@@ -174,7 +174,8 @@ def _fold(
     lead, x0b, xb = _batch(x0, x)
     w = x0.shape[-1]
     out = np.empty((xb.shape[0], x.shape[-2] // kmat.shape[0] + 1, w))
-    _k("fold_quat" if w == 4 else "fold_dualquat")(x0b, xb, kmat.shape[0], kmat, cprev, sgn, out)
+    fold = _native.inertial_fold_quat if w == 4 else _native.inertial_fold_dualquat
+    fold(x0b, xb, kmat.shape[0], kmat, cprev, sgn, out)
     return out.reshape(*lead, *out.shape[1:])
 
 

@@ -30,8 +30,6 @@ def _vectors(x: Any, name: str, lead: int) -> np.ndarray:
     if arr.ndim != lead + 2:
         shape = "(n, 3)" if lead == 0 else "(B, n, 3)"
         raise ValueError(f"{name} must have shape {shape}; got shape {arr.shape}")
-    if not arr.flags.writeable:  # the compiled solver takes writeable C-contiguous arrays
-        return arr.copy()
     return np.ascontiguousarray(arr)  # finiteness is checked by the solver kernel (one pass)
 
 

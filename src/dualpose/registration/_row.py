@@ -18,8 +18,9 @@
                        ``len(BAD_INPUT_NAMES) + 1`` when finite inputs overflow the moments (nothing else is set)
 =====================  ====================================================================================
 
-The ``*_AT`` integers are the first index of each block, for the compiled kernels (numba freezes module globals as
-constants); the Python wrappers use the slices.
+The ``*_AT`` integers are the first index of each block; the native solver's copy of these offsets
+(``src/native/registration/row.hpp``, exported as ``dualpose._native.REGISTRATION_*``) is checked against them by
+``tests/registration/test_native_layout.py``.  The Python wrappers use the slices.
 """
 
 from __future__ import annotations

@@ -10,14 +10,12 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from dualpose._validation import lazy_kernels
+from dualpose import _native
 from dualpose.registration import _row as R
 from dualpose.registration._inputs import method_code, prepare_batch
 from dualpose.registration.estimate import PoseEstimate, bad_input_message
 
 __all__ = ["PoseBatch", "register_pose_batch"]
-
-_k = lazy_kernels("dualpose.registration._kernels")
 
 
 class PoseBatch:
@@ -126,9 +124,7 @@ def register_pose_batch(
     if scale and data[3].shape[1] > 0:
         raise ValueError("scale=True is supported for points only (the direction term does not scale)")
     rows = np.empty((data[0].shape[0], R.ROW_SIZE))
-    _k("solve_batch")(*data, code, bool(scale), rows)
-    bad = rows[:, R.BAD_INPUT] != 0.0
-    if bad.any():
-        i = int(np.argmax(bad))
+    i = _native.registration_solve_batch(*data, code, bool(scale), rows)  # the first problem with a BAD_INPUT code
+    if i >= 0:
         raise ValueError(f"problem {i}: {bad_input_message(rows[i, R.BAD_INPUT])}")
     return PoseBatch(rows, method, data)

@@ -16,18 +16,17 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from dualpose._validation import lazy_kernels
+from dualpose import _native
 from dualpose.registration import _row as R
 from dualpose.registration._inputs import _EMPTY, _EMPTY3, method_code, prepare_single
 
 __all__ = ["PoseEstimate", "register_pose", "classify_degeneracy"]
 
-_k = lazy_kernels("dualpose.registration._kernels")
 _BAD_INPUT = R.BAD_INPUT_NAMES
 
 
 def bad_input_message(code: float) -> str:
-    """The error for a non-zero result-row code ``out[24]`` of the kernel (see ``_kernels``)."""
+    """The error for a non-zero result-row code ``row[BAD_INPUT]`` of the solver (see ``_row``)."""
     if int(code) == len(_BAD_INPUT) + 1:
         return "the weighted second moments overflow (coordinates of about 1e150 or more): rescale the inputs"
     return f"{_BAD_INPUT[int(code) - 1]} contains NaN or infinity"
@@ -361,8 +360,6 @@ def _plain_points(p0: object, p1: object) -> bool:
         and p0.shape[0] >= 3
         and p0.flags.c_contiguous
         and p1.flags.c_contiguous
-        and p0.flags.writeable
-        and p1.flags.writeable
     )
 
 
@@ -431,7 +428,7 @@ def register_pose(
     if scale and data[3].shape[0] > 0:
         raise ValueError("scale=True is supported for points only (the direction term does not scale)")
     row = np.empty(R.ROW_SIZE)
-    _k("solve_one")(*data, code, bool(scale), row)
+    _native.registration_solve_one(*data, code, bool(scale), row)
     if row[R.BAD_INPUT]:
         raise ValueError(bad_input_message(row[R.BAD_INPUT]))
     return PoseEstimate(row, method, data)
