@@ -158,6 +158,15 @@ def _coeff_tuple(name: str) -> tuple[float, ...]:
         n += 1
 
 
+# the Horner coefficients, rounded once from the exact rationals (the C++ literals are checked against them)
+_C_SINC = _coeff_tuple("sinc")
+_C_COSC2 = _coeff_tuple("cosc2")
+_C_SINC3 = _coeff_tuple("sinc3")
+_C_DSINC = _coeff_tuple("dsinc")
+_C_COSC4 = _coeff_tuple("cosc4")
+_C_SE3C = _coeff_tuple("se3c")
+_C_JINV = _coeff_tuple("jinv")
+
 #: the series as NumPy ufuncs of float64 (scalars in, scalars out), evaluated by the C++ kernels of
 #: ``src/native/common/series.hpp`` with the coefficients above
 sinc = _native.sinc
