@@ -12,7 +12,7 @@ import os
 
 import numpy as np
 
-from dualpose.io._text import open_for_writing, parse_float_columns, read_table
+from dualpose.io._text import open_for_writing, read_float_table, read_table
 from dualpose.types.trajectory import Trajectory
 
 __all__ = ["read_tum", "write_tum"]
@@ -35,12 +35,13 @@ def read_tum(path: str | os.PathLike) -> Trajectory:
         ``path:line: ...`` for a line without exactly 8 fields, a field that is not a finite number, or a zero
         quaternion.
     """
-    table = read_table(path, None, (8, 8), _LAYOUT)
-    data = parse_float_columns(table, slice(0, 8), _LAYOUT)
+    p = os.fspath(path)
+    data = read_float_table(p, 8, None, _LAYOUT)
     zero = ~(data[:, 4:8] != 0.0).any(axis=1)
     if zero.any():
+        table = read_table(p, None, (8, 8), _LAYOUT)  # for the line number
         raise table.error(int(np.argmax(zero)), "zero quaternion (qx qy qz qw all 0)")
-    return Trajectory(data[:, 0], data[:, 1:4], data[:, 4:8], name=table.path)
+    return Trajectory(data[:, 0], data[:, 1:4], data[:, 4:8], name=p)
 
 
 def write_tum(path: str | os.PathLike, trajectory: Trajectory, *, overwrite: bool = False, header: bool = True) -> None:
