@@ -150,7 +150,8 @@ def main(argv: list[str] | None = None) -> int:
                 path_b.unlink()
             path_a.unlink()
     head = (
-        f"{platform.python_version()}, numpy {np.__version__}, {platform.machine()}, {os.cpu_count()} cores (shared)\n\n"
+        f"Python {platform.python_version()}, numpy {np.__version__}, {platform.machine()}, "
+        f"{os.cpu_count()} cores (shared)\n\n"
         "| what | rows per file | file(s) [MiB] | wall [s] | rows/s [1e6] | peak RSS above imports [MiB] | "
         "peak / arrays |\n|---|---:|---:|---:|---:|---:|---:|"
     )

@@ -5,9 +5,10 @@ converted in the kernel only when the conversion is exact: a decimal mantissa ``
 ``10^e`` with ``|e| <= 22`` are both exact doubles, so ``m * 10^e`` or ``m / 10^-e`` is one correctly rounded
 IEEE operation (Clinger 1990, "How to read floating point numbers accurately", the fast path) -- the same double
 Python's ``float()`` returns.  Other numbers (17 significant digits and more, huge exponents) are copied as
-"slow" tokens, space-separated, into a byte buffer that the caller converts with ``float()`` afterwards.  Anything unusual -- a character that is not part of a
-plain decimal number, a wrong number of fields, a non-ASCII byte -- stops the kernel with status 1, and the caller
-falls back to the line-by-line reader, which reports the exact ``file:line`` problem.
+"slow" tokens, space-separated, into a byte buffer that the caller converts with ``float()`` afterwards.
+Anything unusual -- a character that is not part of a plain decimal number, a wrong number of fields, a
+non-ASCII byte -- stops the kernel with status 1, and the caller falls back to the line-by-line reader, which
+reports the exact ``file:line`` problem.
 """
 
 from __future__ import annotations
