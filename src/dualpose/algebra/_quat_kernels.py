@@ -159,8 +159,28 @@ def matrix_from_quat(q, d33, o):  # noqa: ANN001
             o[i, j] = m[3 * i + j]
 
 
+#: largest accepted |R^T R - I| entry in quat_from_matrix (docs/conventions.md, "Rotation matrices")
+ORTHOGONALITY_TOL = 1e-5
+
+
 @gu(f"{_M},{_V},{_V}", "(m,m),(n)->(n)")
 def quat_from_matrix(r, d4, o):  # noqa: ANN001
+    # Refuse (NaN, reported by the caller) a matrix that is not a rotation: max |R^T R - I| > tol or det R <= 0.
+    a0, a1, a2 = r[0, 0], r[1, 0], r[2, 0]
+    b0, b1, b2 = r[0, 1], r[1, 1], r[2, 1]
+    c0, c1, c2 = r[0, 2], r[1, 2], r[2, 2]
+    g = max(
+        abs(a0 * a0 + a1 * a1 + a2 * a2 - 1.0),
+        abs(b0 * b0 + b1 * b1 + b2 * b2 - 1.0),
+        abs(c0 * c0 + c1 * c1 + c2 * c2 - 1.0),
+        abs(a0 * b0 + a1 * b1 + a2 * b2),
+        abs(a0 * c0 + a1 * c1 + a2 * c2),
+        abs(b0 * c0 + b1 * c1 + b2 * c2),
+    )
+    det = a0 * (b1 * c2 - b2 * c1) - a1 * (b0 * c2 - b2 * c0) + a2 * (b0 * c1 - b1 * c0)
+    if not (g <= ORTHOGONALITY_TOL and det > 0.0):
+        o[0] = o[1] = o[2] = o[3] = math.nan
+        return
     o[0], o[1], o[2], o[3] = quat_of_rotmat(r)
 
 
