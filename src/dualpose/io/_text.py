@@ -17,10 +17,25 @@ import numpy as np
 
 from dualpose._validation import lazy_kernels
 
-__all__ = ["Table", "read_table", "read_float_table", "parse_float_columns", "parse_int_column", "open_for_writing"]
+__all__ = [
+    "Table",
+    "read_table",
+    "read_float_table",
+    "parse_float_columns",
+    "parse_int_column",
+    "open_for_writing",
+    "check_path",
+]
 
 _k = lazy_kernels("dualpose.io._parse_kernels")
 _BLOCK = 1 << 24  # bytes read and parsed at a time
+
+
+def check_path(path: object, name: str = "path") -> str:
+    """``path`` as a str; a ``TypeError`` naming ``name`` for anything that is not a str or ``os.PathLike``."""
+    if isinstance(path, bytes) or not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"{name} must be a str or os.PathLike file path; got {type(path).__name__}")
+    return os.fspath(path)
 
 
 class Table:
@@ -58,7 +73,7 @@ def read_table(path: str | os.PathLike, delimiter: str | None, ncols: tuple[int,
     ValueError
         ``path:line: ...`` for a row with the wrong number of fields, or a file without data rows.
     """
-    p = str(path)
+    p = check_path(path)
     rows: list[list[str]] = []
     linenos: list[int] = []
     comments: list[str] = []
@@ -145,7 +160,7 @@ def read_float_table(path: str | os.PathLike, ncols: int, delimiter: str | None,
     does not accept is read again by :func:`read_table` / :func:`parse_float_columns`, whose errors name the file
     and line.  The numbers are those ``float()`` gives.
     """
-    p = os.fspath(path)
+    p = check_path(path)
     if delimiter not in (None, ","):
         raise ValueError(f"delimiter must be None or ','; got {delimiter!r}")
     data = _float_table_fast(p, ncols, delimiter == ",")

@@ -73,7 +73,7 @@ class Trajectory:
         if quats.shape != (n, 4):
             raise ValueError(f"quats must have shape (N, 4) = ({n}, 4) (xyzw); got shape {quats.shape}")
         for name, arr in (("stamps", stamps), ("positions", positions), ("quats", quats)):
-            finite = np.isfinite(arr).reshape(n, -1).all(axis=1)
+            finite = np.isfinite(arr).reshape(n, int(np.prod(arr.shape[1:]))).all(axis=1)  # n = 0 is allowed
             if not finite.all():
                 raise ValueError(f"{name} must be finite; first bad pose index {int(np.argmin(finite))}")
         zero = ~(np.abs(quats) > 0.0).any(axis=1)
