@@ -112,14 +112,14 @@ def _usage_problem(args: argparse.Namespace) -> str | None:
     if args.plot:
         from pathlib import Path
 
-        ext = Path(args.plot).suffix.lower().lstrip(".")
-        known = ("png", "pdf", "svg", "svgz", "eps", "ps", "jpg", "jpeg", "tif", "tiff", "webp", "pgf")
-        if ext not in known:
-            return f"--plot {args.plot}: unknown figure format {ext!r}; use one of .{', .'.join(known)}"
         for name in ("reference", "estimate", "ref_times", "est_times"):
             other = getattr(args, name)
             if other and _same_file(args.plot, other):
                 return f"--plot {args.plot} is the {name.replace('_', ' ')} input file; it is never overwritten"
+        ext = Path(args.plot).suffix.lower().lstrip(".")
+        known = ("png", "pdf", "svg", "svgz", "eps", "ps", "jpg", "jpeg", "tif", "tiff", "webp", "pgf")
+        if ext not in known:
+            return f"--plot {args.plot}: unknown figure format {ext!r}; use one of .{', .'.join(known)}"
     return None
 
 

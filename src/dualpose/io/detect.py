@@ -27,7 +27,8 @@ _FORMATS = (
 def detect_format(path: str | os.PathLike) -> Format:
     """Tell a TUM trajectory, a KITTI pose file, an EuRoC ground-truth CSV and an EuRoC IMU CSV apart.
 
-    An EuRoC header comment decides (``q_RS_w``/``p_RS_R`` -> ground truth, ``w_RS_S`` and ``a_RS_S`` -> IMU);
+    A header comment decides (``q_RS_w``/``p_RS_R`` -> EuRoC ground truth, ``w_RS_S`` and ``a_RS_S`` -> EuRoC IMU,
+    the fields ``tx ty tz qx qy qz qw`` -> TUM);
     otherwise the first data line does (a trailing ``# comment`` removed): comma-separated with an integer first
     field and 7 fields -> EuRoC IMU, 8 or 17 fields -> EuRoC ground truth; 8 fields separated by whitespace, or by
     commas with a non-integer first field -> TUM; 12 whitespace-separated fields -> KITTI.
@@ -53,6 +54,8 @@ def detect_format(path: str | os.PathLike) -> Format:
                 return "euroc_groundtruth"
             if "w_RS_S" in line and "a_RS_S" in line:
                 return "euroc_imu"
+            if {"tx", "ty", "tz", "qx", "qy", "qz", "qw"} <= set(line.lstrip("#").replace(",", " ").split()):
+                return "tum"  # the header write_tum (and evo) write
             continue
         data = line.split("#", 1)[0].strip()
         if "," in data:
