@@ -77,3 +77,18 @@ def test_accepts_what_the_line_reader_accepts(tmp_path):
     f.write_text("0 0 0 0 0 0 0 1_0\n1\t0 0 0 0 0 0 1\n")  # '1_0' is a Python float literal: slow path
     tr = read_tum(f)
     assert tr.quats[0, 3] == 10.0 and len(tr) == 2
+
+
+def test_long_mantissas_are_correctly_rounded(tmp_path):
+    """17-19 significant digits (``%.17g``, evo's ``%.18e``) take the double-double path: bit-equal to float()."""
+    rng = np.random.default_rng(11)
+    n = 8 * 20000
+    spread = rng.normal(size=n // 2) * 10.0 ** rng.integers(-15, 15, n // 2)
+    x = np.concatenate([spread, 1.4e9 + 1e3 * rng.random(n // 2)])
+    fmts = ["{:.17g}", "{:.18e}", "{:.19g}", "{:.16e}", "{:.21g}"]
+    toks = [fmts[k % len(fmts)].format(v) for k, v in enumerate(x)]
+    f = tmp_path / "long.txt"
+    f.write_text("\n".join(" ".join(toks[i : i + 8]) for i in range(0, n, 8)) + "\n")
+    data = _text.read_float_table(f, 8, None, "8 numbers")
+    want = np.array([float(t) for t in toks]).reshape(-1, 8)
+    assert np.array_equal(data.view(np.int64), want.view(np.int64))

@@ -103,6 +103,18 @@ def read_table(path: str | os.PathLike, delimiter: str | None, ncols: tuple[int,
     return Table(p, rows, linenos, comments)
 
 
+def _last_newline(buf: np.ndarray, start: int, stop: int) -> int:
+    """Index of the last ``\\n`` in ``buf[start:stop]``, or -1."""
+    hi = stop
+    while hi > start:
+        lo = max(start, hi - (1 << 16))
+        hits = np.flatnonzero(buf[lo:hi] == 10)
+        if hits.size:
+            return lo + int(hits[-1])
+        hi = lo
+    return -1
+
+
 def _float_table_fast(path: str, ncols: int, comma: bool) -> np.ndarray | None:
     """The numbers of a text table with exactly ``ncols`` fields per data line, or None when the kernel declines."""
     parse = _k("parse_block")
@@ -111,43 +123,52 @@ def _float_table_fast(path: str, ncols: int, comma: bool) -> np.ndarray | None:
         out = np.empty((max(min(size, _BLOCK) // (2 * ncols), 16), ncols))
         slow = np.empty(1 << 18, dtype=np.int64)
         sbuf = np.empty(1 << 23, dtype=np.uint8)
-        row, carry, first = 0, b"", True
+        buf = np.empty(min(size, _BLOCK) + 1, dtype=np.uint8)  # the bytes being parsed, reused block after block
+        have, row, first = 0, 0, True
         while True:
-            chunk = f.read(_BLOCK)
-            data = carry + chunk
-            if first and data[:3] == b"\xef\xbb\xbf":
-                data = data[3:]
-            if chunk:
-                cut = data.rfind(b"\n") + 1
-                if cut == 0:
-                    carry = data
+            if have == buf.shape[0]:  # one line longer than the block
+                buf = np.concatenate([buf, np.empty_like(buf)])
+            got = f.readinto(memoryview(buf)[have:])
+            eof = not got
+            have += got or 0
+            start = 0
+            if first:
+                first = False
+                if have >= 3 and bytes(buf[:3]) == b"\xef\xbb\xbf":
+                    start = 3
+            if eof:
+                stop = have
+            else:
+                stop = _last_newline(buf, start, have) + 1
+                if stop == 0:
                     continue
-                data, carry = data[:cut], data[cut:]
-            buf = np.frombuffer(data, dtype=np.uint8)
+            view = buf[start:stop]
             pos = 0
             while True:
-                status, pos, row, nslow, spos = parse(buf, pos, ncols, comma, out, row, slow, sbuf, 0, 0)
+                status, pos, row, nslow, spos = parse(view, pos, ncols, comma, out, row, slow, sbuf, 0, 0)
                 if status == 1:
                     return None
                 if nslow:  # 17+ significant digits or a large exponent: float() rounds exactly
                     values = np.fromiter(map(float, sbuf[:spos].tobytes().split()), np.float64, count=nslow)
+                    if not np.isfinite(values).all():
+                        return None
                     out.reshape(-1)[slow[:nslow]] = values
                 if status == 2:  # grow: estimate the rows of the whole file from the bytes per row so far
-                    done = f.tell() - len(carry) - (buf.shape[0] - pos)
+                    done = f.tell() - have + start + pos
                     estimate = int(row * size / max(done, 1) * 1.05) + 1024
                     bigger = np.empty((max(estimate, row + row // 4 + 16), ncols))
                     bigger[:row] = out[:row]
                     out = bigger
                 elif status == 0:
                     break
-            first = False
-            if not chunk:
+            if eof:
                 break
+            rest = have - stop
+            buf[:rest] = buf[stop:have]
+            have = rest
     if row == 0:
         return None
     data = out[:row]
-    if not np.isfinite(data).all():
-        return None
     return data if out.shape[0] <= row + row // 2 + 1024 else data.copy()
 
 

@@ -38,8 +38,8 @@ def read_tum(path: str | os.PathLike) -> Trajectory:
     p = check_path(path)
     delimiter = _delimiter(p)
     data = read_float_table(p, 8, delimiter, _LAYOUT)
-    zero = ~(data[:, 4:8] != 0.0).any(axis=1)
-    if zero.any():
+    q = data[:, 4:8]
+    if not np.einsum("ij,ij->i", q, q).all() and (zero := ~(q != 0.0).any(axis=1)).any():
         table = read_table(p, delimiter, (8, 8), _LAYOUT)  # for the line number
         raise table.error(int(np.argmax(zero)), "zero quaternion (qx qy qz qw all 0)")
     return Trajectory(data[:, 0], data[:, 1:4], data[:, 4:8], name=p)
