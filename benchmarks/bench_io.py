@@ -6,7 +6,8 @@ For each size a temporary TUM file is written (stamps ``1.4e9 + 0.01 k`` with 6 
 quaternions with 9 decimals, a comment header: what trackers and ground-truth tools write) and read by
 :func:`dualpose.io.read_tum` in a fresh subprocess, which reports its wall time and its peak resident memory
 (a second run under ``tracemalloc``, to which numpy reports its buffers: the peak of the memory the operation
-allocates; and the process's maximum resident size, ``resource.getrusage``, imports and kernels included).
+allocates; and the process's peak resident size, ``VmHWM`` of ``/proc/self/status``, imports and kernels
+included -- not ``getrusage``'s ``ru_maxrss``, which Linux carries over from the forking parent across exec).
 "arrays" is the size of the parsed float64 data, N x 8 x 8 bytes per file; the target is >= 5e6 rows/s and a
 peak <= 3x the arrays.  With
 ``--eval`` a second file of the same size (the first one plus noise, offset by 2 ms) is written and
@@ -28,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 _CHILD = r"""
-import contextlib, importlib.util, io, json, resource, sys, time, tracemalloc
+import contextlib, inspect, io, json, sys, time, tracemalloc
 from dualpose.io import read_tum
 from dualpose.cli.main import main
 mode, small, paths = sys.argv[1], sys.argv[2], sys.argv[3:]
@@ -39,13 +40,14 @@ def op():
     if mode == "read":
         rows = len(read_tum(paths[0]))
     else:
-        quiet = ["--quiet"] if importlib.util.find_spec("dualpose.cli._progress") else []  # older versions
+        quiet = ["--quiet"] if "--quiet" in inspect.getsource(sys.modules["dualpose.cli.eval"]) else []  # older
         with contextlib.redirect_stdout(io.StringIO()):
             assert main(["eval", *paths, "--json", *quiet]) == 0
 t0 = time.perf_counter()
 op()
 dt = time.perf_counter() - t0
-rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+# VmHWM, not ru_maxrss: Linux carries ru_maxrss over from the forking parent across exec
+rss = next(int(ln.split()[1]) for ln in open("/proc/self/status") if ln.startswith("VmHWM")) / 1024
 tracemalloc.start()  # a second run for the memory: numpy reports its buffers to tracemalloc
 op()
 peak = tracemalloc.get_traced_memory()[1] / 2**20
