@@ -15,8 +15,6 @@ import dualpose as dp
 from dualpose.cli.main import main
 from dualpose.io import Trajectory, write_kitti, write_tum
 
-SRC = Path(__file__).resolve().parents[2] / "src"
-
 
 def _walk(n: int, seed: int, noise: float = 0.0) -> Trajectory:
     rng = np.random.default_rng(seed)
@@ -154,7 +152,8 @@ def test_version(capsys):
 
 
 def test_closed_stdout_exits_quietly_with_141(pair):
-    env = dict(os.environ, PYTHONPATH=str(SRC))
+    src = str(Path(dp.__file__).resolve().parents[1])  # the dualpose this test imported
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([src, os.environ.get("PYTHONPATH", "")]))
     code = "import sys; from dualpose.cli.main import main; sys.exit(main(sys.argv[1:]))"
     proc = subprocess.Popen(
         [sys.executable, "-c", code, "eval", *pair, "--json", "--quiet"],

@@ -51,6 +51,7 @@ MAX_COORDINATE = 1e150
 MAX_SHARED_STAMPS = 0.05
 
 RpeUnit = Literal["frames", "m"]
+_RPE_CHUNK = 1 << 18
 SyncMethod = Literal["nearest", "interpolate"]
 
 
@@ -386,13 +387,18 @@ def rpe_errors(
         raise ValueError(f"pairs must be an integer array of shape (K, 2); got {ij.dtype} {ij.shape}")
     if ij.size and (ij.min() < 0 or ij.max() >= pq.shape[0]):
         raise ValueError(f"pairs must index 0..{pq.shape[0] - 1}; got range [{ij.min()}, {ij.max()}]")
-    i, j = ij[:, 0], ij[:, 1]
-    qq_i_inv, qp_i_inv = dp.quat_conj(qq[i]), dp.quat_conj(qp[i])
-    t_ref = dp.quat_rotate(qq_i_inv, pq[j] - pq[i])
-    t_est = dp.quat_rotate(qp_i_inv, pp[j] - pp[i])
-    rel_ref = dp.quat_mul(qq_i_inv, qq[j])
-    rel_est = dp.quat_mul(qp_i_inv, qp[j])
-    return np.linalg.norm(t_est - t_ref, axis=1), np.degrees(dp.quat_angle(rel_ref, rel_est))
+    k = ij.shape[0]
+    translation, rotation = np.empty(k), np.empty(k)
+    for a in range(0, k, _RPE_CHUNK):  # chunks of pairs bound the temporaries (~20 per pair) for millions of poses
+        i, j = ij[a : a + _RPE_CHUNK, 0], ij[a : a + _RPE_CHUNK, 1]
+        qq_i_inv, qp_i_inv = dp.quat_conj(qq[i]), dp.quat_conj(qp[i])
+        t_ref = dp.quat_rotate(qq_i_inv, pq[j] - pq[i])
+        t_est = dp.quat_rotate(qp_i_inv, pp[j] - pp[i])
+        rel_ref = dp.quat_mul(qq_i_inv, qq[j])
+        rel_est = dp.quat_mul(qp_i_inv, qp[j])
+        translation[a : a + _RPE_CHUNK] = np.linalg.norm(t_est - t_ref, axis=1)
+        rotation[a : a + _RPE_CHUNK] = np.degrees(dp.quat_angle(rel_ref, rel_est))
+    return translation, rotation
 
 
 # ------------------------------------------------------------------------------------------------ all together
