@@ -245,7 +245,9 @@ def test_detect_format_rejects_unknown_content_with_line(tmp_path):
         detect_format(tmp_path / "missing.txt")
     path.write_text("1 0 0 0 0 0 0 1\n")
     with pytest.raises(ValueError, match="fmt must be"):
-        read_trajectory(path, "kitti")  # type: ignore[arg-type]
+        read_trajectory(path, "g2o")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="expected 12 fields"):  # KITTI is a format now: 8 fields do not fit it
+        read_trajectory(path, "kitti")
 
 
 def test_crlf_and_bom_and_tabs_are_accepted(tmp_path):

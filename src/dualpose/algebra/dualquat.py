@@ -30,6 +30,7 @@ from dualpose._validation import (
     raise_if_zero_norm,
     try_flat_kernel,
 )
+from dualpose.algebra.quat import raise_not_rotation
 
 __all__ = [
     "dualquat_mul",
@@ -213,13 +214,16 @@ def dualquat_from_matrix(matrix: ArrayLike) -> np.ndarray:
     Raises
     ------
     ValueError
-        Non-finite input, or a bottom row that is not ``[0, 0, 0, 1]``.
+        Non-finite input, a bottom row that is not ``[0, 0, 0, 1]``, or a rotation block that is not a rotation
+        (as in :func:`~dualpose.algebra.quat.quat_from_matrix`: ``max |RᵀR − I| > 1e-5`` or ``det R <= 0``).
     """
     m = as_array(matrix, "matrix", (4, 4))
     check_finite(m, "matrix")
     if np.abs(m[..., 3, :] - _BOTTOM).max(initial=0.0) > 1e-12:
         raise ValueError("matrix must be homogeneous transforms [[R, t], [0, 1]]; a bottom row is not [0, 0, 0, 1]")
     r = _native.quat_from_matrix(m[..., :3, :3])
+    if np.isnan(r).any():
+        raise_not_rotation(r, m[..., :3, :3], "matrix")
     return _native.dualquat_from_rt(m, r)
 
 

@@ -55,6 +55,8 @@ __all__ = [
     "quat_identity",
 ]
 
+#: largest accepted |RᵀR − I| entry of quat_from_matrix (defined once, in the kernel)
+_ORTHO_TOL = _native.QUAT_FROM_MATRIX_ORTHOGONALITY_TOL
 _CONJ = np.array([-1.0, -1.0, -1.0, 1.0])
 
 
@@ -287,12 +289,38 @@ def quat_from_matrix(matrix: ArrayLike) -> np.ndarray:
     """Unit quaternion (xyzw, ``w >= 0``) of rotation matrices, shape (..., 3, 3) -> (..., 4).
 
     Shepperd's method (Walker 1991 eqs. (21)-(24) made stable by branching on the largest of the trace and the
-    diagonal), then normalized.  Exact for 180° rotations.  Input must be finite (``ValueError`` otherwise);
-    a nearly orthogonal matrix maps to a quaternion within O(|RᵀR − I|) of its nearest rotation.
+    diagonal), then normalized.  Exact for 180° rotations.  A nearly orthogonal matrix (as files rounded to 6-7
+    digits and other libraries give) maps to a quaternion within O(|RᵀR − I|) of its nearest rotation.
+
+    Raises
+    ------
+    ValueError
+        For non-finite input, and for a matrix that is not a rotation: ``max |RᵀR − I| > 1e-5`` (entrywise;
+        singular, scaled or sheared matrices) or ``det R <= 0`` (reflections).  The message gives the batch index
+        of the first such matrix and why (docs/conventions.md, "Rotation matrices").
     """
     m = as_array(matrix, "matrix", (3, 3))
     check_finite(m, "matrix")
-    return _native.quat_from_matrix(m)
+    out = _native.quat_from_matrix(m)
+    if np.isnan(out).any():
+        raise_not_rotation(out, m, "matrix")
+    return out
+
+
+def raise_not_rotation(out: np.ndarray, m: np.ndarray, name: str) -> None:
+    """Raise the ValueError of :func:`quat_from_matrix` for the first matrix of ``m`` whose ``out`` row is NaN."""
+    bad = np.isnan(out).any(axis=-1)
+    idx = np.unravel_index(int(np.argmax(bad)), bad.shape) if bad.ndim else ()
+    r = m[idx]
+    err = float(np.abs(r.T @ r - np.eye(3)).max())
+    det = float(np.linalg.det(r))
+    where = f"{name}[{', '.join(map(str, idx))}]" if idx else name
+    why = (
+        f"det = {det:.3g} <= 0 (a reflection or singular matrix)"
+        if det <= 0 and err <= _ORTHO_TOL
+        else f"max |RᵀR − I| = {err:.3g} > {_ORTHO_TOL:g} (not orthogonal; det = {det:.3g})"
+    )
+    raise ValueError(f"{where} is not a rotation matrix: {why}")
 
 
 def quat_slerp(q0: ArrayLike, q1: ArrayLike, t: ArrayLike) -> np.ndarray:
@@ -416,6 +444,7 @@ def quat_mean(quats: ArrayLike, weights: ArrayLike | None = None) -> np.ndarray:
     qs = as_array(quats, "quats", 4)
     if qs.ndim < 2 or qs.shape[-2] == 0:
         raise ValueError(f"quats must have shape (..., n, 4) with n >= 1; got shape {qs.shape}")
+    check_finite(qs, "quats")
     qs = quat_normalize(qs)
     if weights is None:
         w = np.ones(qs.shape[:-1])
@@ -427,6 +456,7 @@ def quat_mean(quats: ArrayLike, weights: ArrayLike | None = None) -> np.ndarray:
             raise ValueError(
                 f"weights must have shape (..., n) matching quats {qs.shape[:-1]}; got {np.shape(w)}"
             ) from None
+        check_finite(w, "weights")
         if np.any(w < 0) or np.any(w.sum(axis=-1) == 0):
             raise ValueError("weights must be non-negative and not all zero")
     m = np.einsum("...n,...ni,...nj->...ij", w, qs, qs)

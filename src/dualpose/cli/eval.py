@@ -1,29 +1,42 @@
 """``dualpose eval``: trajectory accuracy (ATE, orientation error, RPE) of an estimate against a reference.
 
-Like ``evo_ape`` + ``evo_rpe`` in one command, with the formats (TUM, EuRoC ground-truth CSV) detected from the
-files.  Exit status: 0 on success, 1 when a file cannot be read or evaluated (the message names file and line).
+Like ``evo_ape`` + ``evo_rpe`` in one command, with the formats (TUM, KITTI, EuRoC ground-truth CSV) detected from
+the files.  Exit status: 0 on success, 1 when a file cannot be read or evaluated (the message names file and line),
+2 for usage errors (contradictory options).  Warnings (unsorted stamps, duplicate poses) go to stderr as
+``dualpose eval: warning: ...``; progress of slow stages too (``--quiet`` turns it off).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
+import os
 import sys
+import warnings
+
+from dualpose.cli._progress import Progress, add_quiet_argument
+
+_STAGES = ("read reference", "read estimate", "associate, align, ATE, RPE", "plot")
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     """Register ``dualpose eval``."""
     p = subparsers.add_parser(
         "eval",
-        help="ATE / RPE / orientation error of an estimated trajectory (TUM or EuRoC files)",
+        help="ATE / RPE / orientation error of an estimated trajectory (TUM, KITTI or EuRoC files)",
         description=(
             "Associate the poses by timestamp, align the estimate to the reference (Umeyama), and print statistics "
             "of the absolute trajectory error (ATE), the orientation error and the relative pose error (RPE). "
-            "The numbers equal those of evo_ape / evo_rpe with the same settings."
+            "The numbers equal those of evo_ape / evo_rpe with the same settings. KITTI pose files carry no stamps: "
+            "give them with --ref-times / --est-times (one number of seconds per line, KITTI's times.txt), "
+            "otherwise pose i is at i seconds."
         ),
     )
-    p.add_argument("reference", help="reference trajectory: TUM file or EuRoC ground-truth CSV")
-    p.add_argument("estimate", help="estimated trajectory: TUM file or EuRoC ground-truth CSV")
+    p.add_argument("reference", help="reference trajectory: TUM file, KITTI pose file or EuRoC ground-truth CSV")
+    p.add_argument("estimate", help="estimated trajectory: TUM file, KITTI pose file or EuRoC ground-truth CSV")
+    p.add_argument("--ref-times", metavar="FILE", help="stamps of a KITTI reference, s (default: pose index)")
+    p.add_argument("--est-times", metavar="FILE", help="stamps of a KITTI estimate, s (default: pose index)")
     p.add_argument(
         "--align",
         choices=("se3", "sim3", "scale", "origin", "none"),
@@ -34,6 +47,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument("--n-align", type=int, metavar="N", help="estimate the alignment from the first N matched poses")
     p.add_argument("--max-diff", type=float, default=0.01, help="largest time difference to associate, s (0.01)")
     p.add_argument("--offset", type=float, default=0.0, help="seconds added to the estimate's stamps (0)")
+    p.add_argument("--t-start", type=float, metavar="T", help="use only poses stamped at or after T s (evo --t_start)")
+    p.add_argument("--t-end", type=float, metavar="T", help="use only poses stamped at or before T s (evo --t_end)")
     p.add_argument(
         "--interpolate",
         action="store_true",
@@ -43,8 +58,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument("--rpe-unit", choices=("frames", "m"), default="frames", help="unit of --rpe-delta (frames)")
     p.add_argument("--rpe-all-pairs", action="store_true", help="RPE over a pair starting at every pose")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
-    p.add_argument("--plot", metavar="FILE.png", help="draw both trajectories and the errors (needs matplotlib)")
-    p.add_argument("--force", action="store_true", help="replace an existing --plot file")
+    p.add_argument(
+        "--plot",
+        metavar="FILE",
+        help="draw both trajectories and the errors (needs matplotlib); the format follows the extension "
+        "(.png, .pdf, .svg, ...)",
+    )
+    p.add_argument("--force", action="store_true", help="replace an existing --plot file (never an input file)")
+    add_quiet_argument(p)
     return p
 
 
@@ -61,6 +82,47 @@ def _table(result: dict) -> str:
     return "\n".join(lines)
 
 
+def _error(message: object, code: int) -> int:
+    print(f"dualpose eval: error: {message}", file=sys.stderr)
+    return code
+
+
+def _same_file(a: str, b: str) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return os.path.realpath(a) == os.path.realpath(b)
+
+
+def _usage_problem(args: argparse.Namespace) -> str | None:
+    """The first contradictory or invalid option, or None."""
+    for name in ("max_diff", "offset", "rpe_delta", "t_start", "t_end"):
+        v = getattr(args, name)
+        if v is not None and not math.isfinite(v):
+            return f"--{name.replace('_', '-')} must be a finite number; got {v}"
+    if args.max_diff < 0:
+        return f"--max-diff must be >= 0; got {args.max_diff}"
+    if args.t_start is not None and args.t_end is not None and args.t_start >= args.t_end:
+        return f"--t-start ({args.t_start}) must be smaller than --t-end ({args.t_end})"
+    if args.n_align is not None:
+        if args.align in ("none", "origin"):
+            return f"--n-align applies to --align se3, sim3 or scale; it has no effect with --align {args.align}"
+        if args.n_align < 3:
+            return f"--n-align must be >= 3 (an alignment needs 3 points); got {args.n_align}"
+    if args.plot:
+        from pathlib import Path
+
+        for name in ("reference", "estimate", "ref_times", "est_times"):
+            other = getattr(args, name)
+            if other and _same_file(args.plot, other):
+                return f"--plot {args.plot} is the {name.replace('_', ' ')} input file; it is never overwritten"
+        ext = Path(args.plot).suffix.lower().lstrip(".")
+        known = ("png", "pdf", "svg", "svgz", "eps", "ps", "jpg", "jpeg", "tif", "tiff", "webp", "pgf")
+        if ext not in known:
+            return f"--plot {args.plot}: unknown figure format {ext!r}; use one of .{', .'.join(known)}"
+    return None
+
+
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``dualpose eval``."""
     from pathlib import Path
@@ -68,49 +130,70 @@ def run(args: argparse.Namespace) -> int:
     from dualpose.evaluation.metrics import evaluate
     from dualpose.io import detect_format, read_trajectory
 
+    problem = _usage_problem(args)
+    if problem:
+        return _error(problem, 2)
     if args.plot and Path(args.plot).exists() and not args.force:
-        print(f"dualpose eval: error: {args.plot}: file exists; use --force to replace it", file=sys.stderr)
-        return 1
-    try:
-        fmt_ref, fmt_est = detect_format(args.reference), detect_format(args.estimate)
-        reference = read_trajectory(args.reference, fmt_ref)
-        estimate = read_trajectory(args.estimate, fmt_est)
-        ev = evaluate(
-            reference,
-            estimate,
-            align=args.align,
-            align_first_n=args.n_align,
-            max_diff=args.max_diff,
-            offset=args.offset,
-            sync="interpolate" if args.interpolate else "nearest",
-            rpe_delta=args.rpe_delta,
-            rpe_unit=args.rpe_unit,
-            rpe_all_pairs=args.rpe_all_pairs,
-        )
-    except (OSError, ValueError) as exc:
-        print(f"dualpose eval: error: {exc}", file=sys.stderr)
-        return 1
-    result = ev.as_dict()
-    result["settings"]["reference_format"] = fmt_ref
-    result["settings"]["estimate_format"] = fmt_est
-    if args.plot:
-        from dualpose.evaluation.plot import plot_evaluation
-
+        return _error(f"{args.plot}: file exists; use --force to replace it", 1)
+    stages = _STAGES if args.plot else _STAGES[:-1]
+    with warnings.catch_warnings(record=True) as caught, Progress(
+        "eval", stages, enabled=False if args.quiet else None
+    ) as progress:
+        warnings.simplefilter("always")
         try:
-            plot_evaluation(ev, args.plot, overwrite=args.force)
-        except (OSError, ImportError) as exc:
-            print(f"dualpose eval: error: {exc}", file=sys.stderr)
-            return 1
-        result["plot"] = str(args.plot)
+            with progress.stage("read reference"):
+                fmt_ref = detect_format(args.reference)
+                reference = read_trajectory(args.reference, fmt_ref, times=args.ref_times)
+            with progress.stage("read estimate"):
+                fmt_est = detect_format(args.estimate)
+                estimate = read_trajectory(args.estimate, fmt_est, times=args.est_times)
+            with progress.stage("associate, align, ATE, RPE"):
+                ev = evaluate(
+                    reference,
+                    estimate,
+                    align=args.align,
+                    align_first_n=args.n_align,
+                    max_diff=args.max_diff,
+                    offset=args.offset,
+                    sync="interpolate" if args.interpolate else "nearest",
+                    rpe_delta=args.rpe_delta,
+                    rpe_unit=args.rpe_unit,
+                    rpe_all_pairs=args.rpe_all_pairs,
+                    t_start=args.t_start,
+                    t_end=args.t_end,
+                )
+        except (OSError, ValueError) as exc:
+            return _error(exc, 1)
+        finally:
+            for w in caught:
+                print(f"dualpose eval: warning: {w.message}", file=sys.stderr)
+            caught.clear()
+        result = ev.as_dict()
+        result["settings"]["reference_format"] = fmt_ref
+        result["settings"]["estimate_format"] = fmt_est
+        if args.plot:
+            from dualpose.evaluation.plot import plot_evaluation
+
+            try:
+                with progress.stage("plot"):
+                    plot_evaluation(ev, args.plot, overwrite=args.force)
+            except (OSError, ImportError, ValueError) as exc:
+                return _error(exc, 1)
+            result["plot"] = str(args.plot)
     if args.json:
         print(json.dumps(result, indent=2))
         return 0
     a = ev.alignment
     print(f"reference  {args.reference} ({fmt_ref}, {len(reference)} poses)")
     print(f"estimate   {args.estimate} ({fmt_est}, {len(estimate)} poses)")
+    window = ""
+    if args.t_start is not None or args.t_end is not None:
+        window = f", window [{args.t_start if args.t_start is not None else '-inf'}, "
+        window += f"{args.t_end if args.t_end is not None else 'inf'}] s"
     print(
         f"matched    {result['matched_poses']} poses (max diff {args.max_diff} s, offset {args.offset} s"
         + (", interpolated" if args.interpolate else "")
+        + window
         + "); "
         f"alignment {a.method}"
         + (f", scale {a.scale:.6f}" if a.method in ("sim3", "scale") else "")

@@ -4,11 +4,16 @@ Each subcommand lives in its own module under :mod:`dualpose.cli` and exposes tw
 ``add_parser(subparsers) -> argparse.ArgumentParser`` and ``run(args) -> int``.  Registering a new subcommand is one
 line in :data:`SUBCOMMANDS`; the modules import nothing heavy at module level: their computations are imported in
 ``run`` from :mod:`dualpose.pipelines` and the layers below.
+
+Exit status: 0 success, 1 bad data (a file that cannot be read or evaluated), 2 usage errors (argparse), and 141
+(128 + SIGPIPE, what a C tool killed by SIGPIPE reports) when the reader of stdout goes away, as in
+``dualpose eval R E --json | head -3``: the output is cut short quietly, without a ``BrokenPipeError`` traceback.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from types import ModuleType
 
@@ -19,16 +24,35 @@ SUBCOMMANDS: tuple[ModuleType, ...] = (demo, register, reproduce, eval, fuse, ah
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from dualpose import __version__
+
     parser = argparse.ArgumentParser(prog="dualpose", description="Rigid-body pose with (dual) quaternions.")
+    parser.add_argument("--version", action="version", version=f"dualpose {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     for module in SUBCOMMANDS:
         module.add_parser(sub).set_defaults(_run=module.run)
     return parser
 
 
+#: exit status when stdout is a closed pipe (128 + SIGPIPE)
+EXIT_BROKEN_PIPE = 141
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    return int(args._run(args))
+    try:
+        args = build_parser().parse_args(argv)
+        code = int(args._run(args))
+        sys.stdout.flush()  # a broken pipe shows up here for buffered output
+        return code
+    except BrokenPipeError:
+        # Point stdout at /dev/null so that the interpreter's final flush does not raise again
+        # (https://docs.python.org/3/library/signal.html#note-on-sigpipe).
+        try:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, sys.stdout.fileno())
+        except (OSError, ValueError):  # pragma: no cover - stdout without a file descriptor
+            pass
+        return EXIT_BROKEN_PIPE
 
 
 if __name__ == "__main__":

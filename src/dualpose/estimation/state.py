@@ -2,9 +2,9 @@
 
 A :class:`StateLayout` names contiguous blocks of a vector (and of the rows/columns of its covariance).  Code outside
 this module reaches a block by name (``ESKF_STATE.get(x, "quat")``, ``ESKF_ERROR.cov(P, "attitude")``), never by a
-literal index.  The compiled kernels cannot call methods on these objects, so the block offsets they need are also
-exported as plain integers (``ESKF_QUAT`` = the offset of ``"quat"`` in :data:`ESKF_STATE`, ...); numba freezes such
-module globals as compile-time constants.
+literal index.  The native kernels name the same offsets in their layout headers (``src/native/estimation/
+*_layout.hpp``), export them as module constants (``dualpose._native.ESKF_QUAT``, ...), and the tests check that
+they equal the plain integers below (``ESKF_QUAT`` = the offset of ``"quat"`` in :data:`ESKF_STATE`, ...).
 
 Layouts (quaternions xyzw; ``q_wb`` rotates body vectors into the world frame, Hol's ``q^{be}`` is its conjugate):
 

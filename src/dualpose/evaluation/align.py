@@ -18,9 +18,47 @@ from numpy.typing import ArrayLike
 import dualpose as dp
 from dualpose.registration import register_pose
 
-__all__ = ["Alignment", "umeyama_alignment", "align_positions", "origin_alignment", "AlignMethod"]
+__all__ = ["Alignment", "umeyama_alignment", "align_positions", "origin_alignment", "AlignMethod",
+           "check_alignment_rank"]
 
 AlignMethod = Literal["se3", "sim3", "scale", "origin", "none"]
+
+#: a point set is degenerate when its second principal spread is at most
+#: max(SPREAD_REL_MAGNITUDE * largest |coordinate|, SPREAD_REL_FIRST * first principal spread)
+SPREAD_REL_MAGNITUDE = 1e-12
+SPREAD_REL_FIRST = 1e-8
+
+
+def check_alignment_rank(source: np.ndarray, target: np.ndarray, names: tuple[str, str] = ("source", "target")) -> None:
+    """Refuse point sets for which the Umeyama rotation (and the Sim(3) scale) is not determined.
+
+    For each set, with ``sigma_0 >= sigma_1`` the two largest principal standard deviations (square roots of the
+    eigenvalues of its 3x3 covariance) and ``M`` its largest absolute coordinate, the set is degenerate when
+    ``sigma_1 <= max(1e-12 M, 1e-8 sigma_0)``: all points coincide to the precision their coordinates carry
+    (``sigma_0`` at rounding level, e.g. a trajectory that stands still) or lie on one line (rank < 2), so a rotation
+    about that line -- or any rotation, and the scale -- fits equally well.  The test is scale-aware: a relative
+    test on the cross-covariance alone accepts rounding noise as structure (Umeyama 1991 requires rank >= 2 of
+    the cross-covariance, eq. 39; ``docs/metrics.md``, "Alignment").
+
+    ``source``, ``target``: float64 (N, 3); ``names`` label them in the message.  Raises ``ValueError``.
+    """
+    for name, pts in zip(names, (source, target), strict=True):
+        n = pts.shape[0]
+        magnitude = float(np.abs(pts).max(initial=0.0))
+        centred = pts - pts.mean(axis=0)
+        cov = centred.T @ centred / n
+        sigma = np.sqrt(np.clip(np.linalg.eigvalsh(cov)[::-1], 0.0, None))
+        if sigma[0] <= SPREAD_REL_MAGNITUDE * magnitude or sigma[0] == 0.0:
+            raise ValueError(
+                f"alignment is degenerate: the {name} positions do not move (spread {sigma[0]:.3g} m over {n} "
+                f"points at coordinates up to {magnitude:.3g} m); use --align none or origin"
+            )
+        if sigma[1] <= max(SPREAD_REL_MAGNITUDE * magnitude, SPREAD_REL_FIRST * sigma[0]):
+            raise ValueError(
+                f"alignment is degenerate: the {name} positions lie on a line (principal spreads "
+                f"{sigma[0]:.3g} m and {sigma[1]:.3g} m), so the rotation about it is not determined; "
+                "use --align none or origin"
+            )
 
 
 @dataclass(frozen=True)
@@ -94,7 +132,8 @@ def umeyama_alignment(source: ArrayLike, target: ArrayLike, with_scale: bool = F
     ------
     ValueError
         For shapes other than (N, 3) with matching N, N < 3, non-finite input, or a degenerate configuration
-        (cross-covariance of rank < 2: all points (nearly) collinear or coincident, so the rotation is not unique).
+        (:func:`check_alignment_rank`: either point set standing still or collinear to its coordinates'
+        precision, or a cross-covariance of rank < 2, so the rotation is not unique).
     """
     x = np.asarray(source, dtype=np.float64)
     y = np.asarray(target, dtype=np.float64)
@@ -107,6 +146,7 @@ def umeyama_alignment(source: ArrayLike, target: ArrayLike, with_scale: bool = F
         raise ValueError(f"alignment needs at least 3 corresponding points; got {n}")
     if not (np.isfinite(x).all() and np.isfinite(y).all()):
         raise ValueError("source and target must be finite")
+    check_alignment_rank(x, y)
     fit = register_pose(x, y, method="svd", scale=with_scale)
     d = fit.singular_values
     if d[1] <= max(d[0], 1e-300) * 1e-12:
@@ -127,6 +167,11 @@ def align_positions(reference: ArrayLike, estimate: ArrayLike, method: AlignMeth
     """
     if method == "none":
         return Alignment(np.eye(3), np.zeros(3), 1.0, "none")
+    if method in ("se3", "sim3", "scale"):  # the messages name estimate and reference rather than source / target
+        est, ref = np.asarray(estimate, dtype=np.float64), np.asarray(reference, dtype=np.float64)
+        if est.ndim == 2 and est.shape[1:] == (3,) and ref.shape == est.shape and est.shape[0] >= 3:
+            if np.isfinite(est).all() and np.isfinite(ref).all():
+                check_alignment_rank(est, ref, ("estimate", "reference"))
     if method == "scale":
         return Alignment(np.eye(3), np.zeros(3), umeyama_alignment(estimate, reference, True).scale, "scale")
     if method not in ("se3", "sim3"):

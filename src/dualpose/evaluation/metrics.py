@@ -19,6 +19,7 @@ unit: they are normalized here).  Every function is vectorised over the poses.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -39,10 +40,108 @@ __all__ = [
     "rpe_errors",
     "Evaluation",
     "evaluate",
+    "prepare_trajectory",
+    "crop_trajectory",
+    "MAX_COORDINATE",
 ]
 
+#: largest accepted |position coordinate|, metres: squared distances of larger ones overflow float64 (~1.8e308)
+MAX_COORDINATE = 1e150
+#: largest fraction of poses that may share their stamp with a different pose (warned about) before it is refused
+MAX_SHARED_STAMPS = 0.05
+
 RpeUnit = Literal["frames", "m"]
+_RPE_CHUNK = 1 << 18
 SyncMethod = Literal["nearest", "interpolate"]
+
+
+# ------------------------------------------------------------------------------------------------ input checks
+
+
+def prepare_trajectory(trajectory: Trajectory, name: str) -> Trajectory:
+    """``trajectory`` in time order with exact duplicate poses dropped, ready for association and RPE.
+
+    - Stamps out of order are sorted (stable) with a ``UserWarning``: RPE pairs are consecutive poses, so an
+      unsorted file would pair poses far apart in time (evo assumes sorted input).
+    - Exact duplicate rows (same stamp, position and quaternion) are dropped with a ``UserWarning``: they would
+      count zero-length RPE pairs.
+    - The same stamp with different poses is warned about, naming the stamp, and kept (the association sees
+      them all, as evo does): real files have a few (stamps printed to 1 ms: TUM's ``fr2_desk`` ground truth has
+      one, the EuRoC V1_02 estimate four).  When more than :data:`MAX_SHARED_STAMPS` (5 %) of the poses share a
+      stamp with a different pose, or every stamp is the same, the stamps do not identify the poses and it raises
+      ``ValueError`` naming the first such stamp.
+    - Coordinates beyond :data:`MAX_COORDINATE` (1e150 m) raise ``ValueError`` (their squares overflow).
+
+    ``name`` labels the trajectory in the messages (with ``trajectory.name``, usually the path).
+    """
+    label = f"{name} ({trajectory.name})" if trajectory.name else name
+    n = len(trajectory)
+    if n == 0:
+        raise ValueError(f"{label} has no poses")
+    big = float(np.abs(trajectory.positions).max())
+    if big > MAX_COORDINATE:
+        raise ValueError(
+            f"{label}: position coordinates up to {big:.3g} m; |coordinates| above {MAX_COORDINATE:g} m overflow "
+            "squared distances in float64 (rescale the file)"
+        )
+    t = trajectory.stamps
+    if np.any(t[1:] < t[:-1]):
+        order = np.argsort(t, kind="stable")
+        warnings.warn(f"{label}: timestamps are not in increasing order; sorted them", UserWarning, stacklevel=3)
+        trajectory = trajectory.take(order)
+        t = trajectory.stamps
+    same = np.flatnonzero(t[1:] == t[:-1])
+    if same.size:
+        p, q = trajectory.positions, trajectory.quats
+        differ = np.any(p[same] != p[same + 1], axis=1) | np.any(q[same] != q[same + 1], axis=1)
+        if differ.any():
+            k = int(same[np.argmax(differ)])
+            n_differ = int(np.count_nonzero(differ))
+            what = (
+                f"{label}: stamp {float(t[k])!r} s has different poses (position {p[k].tolist()} vs "
+                f"{p[k + 1].tolist()})"
+            )
+            if n_differ > MAX_SHARED_STAMPS * n or t[0] == t[-1]:
+                raise ValueError(
+                    f"{what}, and {n_differ} of {n} poses share a stamp with a different pose: the stamps do not "
+                    "identify the poses (one pose per stamp is needed)"
+                )
+            warnings.warn(
+                f"{what}; {n_differ} such stamp(s), all poses kept (as evo does)", UserWarning, stacklevel=3
+            )
+            same = same[~differ]
+        if same.size == 0:
+            return trajectory
+        warnings.warn(
+            f"{label}: dropped {same.size} exact duplicate pose(s) (first at stamp {float(t[same[0]])!r} s)",
+            UserWarning,
+            stacklevel=3,
+        )
+        keep = np.ones(n, dtype=bool)
+        keep[same + 1] = False
+        trajectory = trajectory.take(np.flatnonzero(keep))
+    return trajectory
+
+
+def crop_trajectory(trajectory: Trajectory, t_start: float | None, t_end: float | None, name: str,
+                    offset: float = 0.0) -> Trajectory:
+    """The poses with ``t_start <= stamp + offset <= t_end`` (seconds; None = unbounded), like evo's ``--t_start``,
+    ``--t_end``.  Raises ``ValueError`` when ``t_start >= t_end`` or no pose is left."""
+    if t_start is None and t_end is None:
+        return trajectory
+    lo = -np.inf if t_start is None else float(t_start)
+    hi = np.inf if t_end is None else float(t_end)
+    if np.isnan(lo) or np.isnan(hi) or lo >= hi:
+        raise ValueError(f"t_start must be < t_end; got t_start = {t_start!r}, t_end = {t_end!r}")
+    t = trajectory.stamps + offset
+    keep = np.flatnonzero((t >= lo) & (t <= hi))
+    if keep.size == 0:
+        label = f"{name} ({trajectory.name})" if trajectory.name else name
+        raise ValueError(
+            f"{label} has no pose in [t_start, t_end] = [{lo}, {hi}] s (its stamps span "
+            f"[{t.min():.6f}, {t.max():.6f}] s)"
+        )
+    return trajectory if keep.size == len(trajectory) else trajectory.take(keep)
 
 
 # ------------------------------------------------------------------------------------------------ association
@@ -288,13 +387,18 @@ def rpe_errors(
         raise ValueError(f"pairs must be an integer array of shape (K, 2); got {ij.dtype} {ij.shape}")
     if ij.size and (ij.min() < 0 or ij.max() >= pq.shape[0]):
         raise ValueError(f"pairs must index 0..{pq.shape[0] - 1}; got range [{ij.min()}, {ij.max()}]")
-    i, j = ij[:, 0], ij[:, 1]
-    qq_i_inv, qp_i_inv = dp.quat_conj(qq[i]), dp.quat_conj(qp[i])
-    t_ref = dp.quat_rotate(qq_i_inv, pq[j] - pq[i])
-    t_est = dp.quat_rotate(qp_i_inv, pp[j] - pp[i])
-    rel_ref = dp.quat_mul(qq_i_inv, qq[j])
-    rel_est = dp.quat_mul(qp_i_inv, qp[j])
-    return np.linalg.norm(t_est - t_ref, axis=1), np.degrees(dp.quat_angle(rel_ref, rel_est))
+    k = ij.shape[0]
+    translation, rotation = np.empty(k), np.empty(k)
+    for a in range(0, k, _RPE_CHUNK):  # chunks of pairs bound the temporaries (~20 per pair) for millions of poses
+        i, j = ij[a : a + _RPE_CHUNK, 0], ij[a : a + _RPE_CHUNK, 1]
+        qq_i_inv, qp_i_inv = dp.quat_conj(qq[i]), dp.quat_conj(qp[i])
+        t_ref = dp.quat_rotate(qq_i_inv, pq[j] - pq[i])
+        t_est = dp.quat_rotate(qp_i_inv, pp[j] - pp[i])
+        rel_ref = dp.quat_mul(qq_i_inv, qq[j])
+        rel_est = dp.quat_mul(qp_i_inv, qp[j])
+        translation[a : a + _RPE_CHUNK] = np.linalg.norm(t_est - t_ref, axis=1)
+        rotation[a : a + _RPE_CHUNK] = np.degrees(dp.quat_angle(rel_ref, rel_est))
+    return translation, rotation
 
 
 # ------------------------------------------------------------------------------------------------ all together
@@ -393,6 +497,8 @@ def evaluate(
     rpe_unit: RpeUnit = "frames",
     rpe_all_pairs: bool = False,
     rpe_pairs_from_reference: bool = False,
+    t_start: float | None = None,
+    t_end: float | None = None,
 ) -> Evaluation:
     """Associate, align and compute ATE, orientation error and RPE of ``estimate`` against ``reference``.
 
@@ -405,15 +511,23 @@ def evaluate(
     of taking its nearest poses); ``rpe_delta``, ``rpe_unit`` = ``-d``, ``-u f|m``; ``rpe_all_pairs`` = ``--all_pairs``;
     ``rpe_pairs_from_reference`` = ``--pairs_from_reference`` (by default the pairs are chosen on the aligned
     estimate).  RPE is unchanged by a rigid alignment; "sim3"/"scale" rescale the estimate's translations first.
+    ``t_start``, ``t_end`` = ``--t_start``, ``--t_end``: only poses with stamps (the estimate's plus ``offset``) in
+    ``[t_start, t_end]`` are used.
+
+    Both trajectories first go through :func:`prepare_trajectory`: unsorted stamps are sorted and exact duplicate
+    poses dropped (each with a ``UserWarning``); the same stamp with two different poses is refused.
 
     Raises
     ------
     ValueError
-        No matching stamps, a degenerate alignment, or an RPE step that yields no pair.
+        No matching stamps, a degenerate alignment (:func:`~dualpose.evaluation.align.check_alignment_rank`), an
+        RPE step that yields no pair, two poses at one stamp, or an empty crop window.
     """
     for name, t in (("reference", reference), ("estimate", estimate)):
         if not isinstance(t, Trajectory):
             raise TypeError(f"{name} must be a dualpose.io.Trajectory; got {type(t).__name__}")
+    reference = crop_trajectory(prepare_trajectory(reference, "reference"), t_start, t_end, "reference")
+    estimate = crop_trajectory(prepare_trajectory(estimate, "estimate"), t_start, t_end, "estimate", offset)
     idx_ref, idx_est = associate(reference.stamps, estimate.stamps, max_diff, offset)
     p_ref, q_ref = reference.positions[idx_ref], dp.quat_normalize(reference.quats[idx_ref])
     p_est, q_est = estimate.positions[idx_est], dp.quat_normalize(estimate.quats[idx_est])
@@ -453,6 +567,8 @@ def evaluate(
         "rpe_unit": rpe_unit,
         "rpe_all_pairs": rpe_all_pairs,
         "rpe_pairs_from_reference": rpe_pairs_from_reference,
+        "t_start": t_start,
+        "t_end": t_end,
         "reference": reference.name,
         "estimate": estimate.name,
     }

@@ -26,7 +26,10 @@ def _gapped(t: np.ndarray, *series: np.ndarray) -> list[np.ndarray]:
 
 
 def plot_evaluation(evaluation: Evaluation, path: str | os.PathLike, *, overwrite: bool = False) -> Path:
-    """Draw ``evaluation`` into a PNG file and return its path.
+    """Draw ``evaluation`` into a figure file and return its path.
+
+    The format follows the extension of ``path`` (``.png``, ``.pdf``, ``.svg``, ... -- whatever matplotlib
+    writes); an unknown extension raises ``ValueError`` before anything is drawn.
 
     Panels: top view (x-y) and side view (x-z) of the reference and the aligned estimate; translation error (ATE),
     orientation error and relative pose error (translation, at each pair's second pose) vs time, each with its
@@ -40,6 +43,7 @@ def plot_evaluation(evaluation: Evaluation, path: str | os.PathLike, *, overwrit
         When matplotlib is not installed.
     """
     p = Path(path)
+    fmt = p.suffix.lower().lstrip(".")
     if p.exists() and not overwrite:
         raise FileExistsError(f"{p}: file exists; pass overwrite=True (CLI: --force) to replace it")
     try:
@@ -49,6 +53,11 @@ def plot_evaluation(evaluation: Evaluation, path: str | os.PathLike, *, overwrit
         import matplotlib.pyplot as plt
     except ImportError as exc:  # pragma: no cover - exercised only without matplotlib
         raise ImportError("plotting needs matplotlib: pip install 'dualpose[plot]'") from exc
+    from matplotlib.figure import Figure
+
+    supported = Figure().canvas.get_supported_filetypes()
+    if fmt not in supported:
+        raise ValueError(f"{p}: unknown figure format {fmt!r}; the extension must be one of .{', .'.join(supported)}")
 
     ev = evaluation
     t = ev.stamps - ev.stamps[0]
@@ -100,6 +109,6 @@ def plot_evaluation(evaluation: Evaluation, path: str | os.PathLike, *, overwrit
         ax[key].legend(loc="upper left")
     fig.suptitle(f"{Path(str(s.get('estimate', ''))).name} vs {Path(str(s.get('reference', ''))).name}")
     with open(p, "wb" if overwrite else "xb") as f:
-        fig.savefig(f, format="png", dpi=110)
+        fig.savefig(f, format=fmt, dpi=110)
     plt.close(fig)
     return p

@@ -1,4 +1,4 @@
-"""File formats: TUM trajectories, EuRoC IMU and ground-truth CSV, format detection, BROAD IMU trials.
+"""File formats: TUM and KITTI trajectories, EuRoC IMU and ground-truth CSV, format detection, BROAD IMU trials.
 
 Camera-IMU recordings for ``dualpose fuse --data`` (:mod:`dualpose.io.recording`): :func:`read_recording`,
 :func:`write_recording`.  Point CSV files for ``dualpose register``: :mod:`dualpose.io.csv_points`.
@@ -12,6 +12,7 @@ int64.  Writers never replace an existing file unless ``overwrite=True``.
 from dualpose.io.broad import load_broad
 from dualpose.io.detect import detect_format, read_trajectory
 from dualpose.io.euroc import ImuData, read_euroc_groundtruth, read_euroc_imu, write_euroc_groundtruth, write_euroc_imu
+from dualpose.io.kitti import read_kitti, write_kitti
 from dualpose.io.pose_csv import read_pose_csv
 from dualpose.io.recording import RecordingError, read_recording, write_recording
 from dualpose.io.tum import read_tum, write_tum
@@ -23,6 +24,8 @@ __all__ = [
     "seconds_from_ns",
     "read_tum",
     "write_tum",
+    "read_kitti",
+    "write_kitti",
     "read_euroc_imu",
     "write_euroc_imu",
     "read_euroc_groundtruth",

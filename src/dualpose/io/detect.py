@@ -6,29 +6,43 @@ import os
 from itertools import islice
 from typing import Literal
 
+from dualpose.io._text import check_path
 from dualpose.io.euroc import read_euroc_groundtruth
+from dualpose.io.kitti import read_kitti
 from dualpose.io.tum import read_tum
 from dualpose.types.trajectory import Trajectory
 
 __all__ = ["detect_format", "read_trajectory"]
 
-Format = Literal["tum", "euroc_groundtruth", "euroc_imu"]
+Format = Literal["tum", "kitti", "euroc_groundtruth", "euroc_imu"]
+
+#: what the detection knows, for the error message
+_FORMATS = (
+    "TUM ('t tx ty tz qx qy qz qw': 8 numbers separated by whitespace or commas), "
+    "KITTI (12 numbers 'r11 r12 r13 tx r21 ... tz' of a 3x4 [R|t]), "
+    "EuRoC ground-truth CSV (integer ns stamp, then 7 or 16 numbers) and EuRoC IMU CSV (integer ns stamp, then 6)"
+)
 
 
 def detect_format(path: str | os.PathLike) -> Format:
-    """Tell a TUM trajectory, an EuRoC ground-truth CSV and an EuRoC IMU CSV apart.
+    """Tell a TUM trajectory, a KITTI pose file, an EuRoC ground-truth CSV and an EuRoC IMU CSV apart.
 
-    An EuRoC header comment decides (``q_RS_w``/``p_RS_R`` -> ground truth, ``w_RS_S`` and ``a_RS_S`` -> IMU);
-    otherwise the first data line does: whitespace-separated with 8 fields -> TUM, comma-separated with an integer
-    first field and 7 fields -> IMU, 8 or 17 fields -> ground truth.
+    A header comment decides (``q_RS_w``/``p_RS_R`` -> EuRoC ground truth, ``w_RS_S`` and ``a_RS_S`` -> EuRoC IMU,
+    the fields ``tx ty tz qx qy qz qw`` -> TUM);
+    otherwise the first data line does (a trailing ``# comment`` removed): comma-separated with an integer first
+    field and 7 fields -> EuRoC IMU, 8 or 17 fields -> EuRoC ground truth; 8 fields separated by whitespace, or by
+    commas with a non-integer first field -> TUM; 12 whitespace-separated fields -> KITTI.
 
     Raises
     ------
+    TypeError
+        ``path`` is not a str or path-like.
     FileNotFoundError
     ValueError
-        ``path:line: ...`` when the first data line fits none of the formats, or the file has no data.
+        ``path:line: ...`` when the first data line fits none of the formats (the message lists them), or the
+        file has no data.
     """
-    p = str(path)
+    p = check_path(path)
     with open(p, encoding="utf-8-sig", errors="replace") as f:
         head = list(islice(f, 200))
     for i, raw in enumerate(head, start=1):
@@ -40,33 +54,47 @@ def detect_format(path: str | os.PathLike) -> Format:
                 return "euroc_groundtruth"
             if "w_RS_S" in line and "a_RS_S" in line:
                 return "euroc_imu"
+            if {"tx", "ty", "tz", "qx", "qy", "qz", "qw"} <= set(line.lstrip("#").replace(",", " ").split()):
+                return "tum"  # the header write_tum (and evo) write
             continue
-        if "," in line:
-            fields = [x.strip() for x in line.split(",")]
+        data = line.split("#", 1)[0].strip()
+        if "," in data:
+            fields = [x.strip() for x in data.split(",")]
             if fields[0].lstrip("-").isdigit():
                 if len(fields) == 7:
                     return "euroc_imu"
                 if len(fields) in (8, 17):
                     return "euroc_groundtruth"
-        elif len(line.split()) == 8:
+            elif len(fields) == 8:
+                return "tum"
+        elif len(data.split()) == 8:
             return "tum"
-        raise ValueError(
-            f"{p}:{i}: cannot tell the file format from {line[:80]!r}: expected a TUM line (8 whitespace-separated "
-            "fields 't tx ty tz qx qy qz qw') or an EuRoC CSV row (integer ns timestamp, then 6 IMU or 7+ pose fields)"
-        )
-    raise ValueError(f"{p}: no data lines found (expected a TUM or EuRoC file)")
+        elif len(data.split()) == 12:
+            return "kitti"
+        raise ValueError(f"{p}:{i}: cannot tell the file format from {line[:80]!r}; known formats: {_FORMATS}")
+    raise ValueError(f"{p}: no data lines found; known formats: {_FORMATS}")
 
 
-def read_trajectory(path: str | os.PathLike, fmt: Format | None = None) -> Trajectory:
-    """Read a trajectory from a TUM file or an EuRoC ground-truth CSV, detecting the format unless ``fmt`` is given.
+def read_trajectory(
+    path: str | os.PathLike, fmt: Format | None = None, times: str | os.PathLike | None = None
+) -> Trajectory:
+    """Read a trajectory from a TUM, KITTI or EuRoC ground-truth file, detecting the format unless ``fmt`` is given.
 
-    Returns a :class:`~dualpose.io.Trajectory` (quaternions xyzw).  An EuRoC IMU file raises ``ValueError``.
+    ``times``: the stamps file of a KITTI pose file (one number of seconds per line); without it KITTI poses get
+    their index as the stamp in seconds.  Given for another format it raises ``ValueError`` (those files carry
+    their stamps).  Returns a :class:`~dualpose.io.Trajectory` (quaternions xyzw).  An EuRoC IMU file raises
+    ``ValueError``.
     """
+    check_path(path)
     fmt = detect_format(path) if fmt is None else fmt
+    if times is not None and fmt != "kitti":
+        raise ValueError(f"{path}: a times file is only used with KITTI pose files; this is {fmt}")
     if fmt == "tum":
         return read_tum(path)
+    if fmt == "kitti":
+        return read_kitti(path, times)
     if fmt == "euroc_groundtruth":
         return read_euroc_groundtruth(path)
     if fmt == "euroc_imu":
         raise ValueError(f"{path}: is an EuRoC IMU file (angular rate and acceleration), not a trajectory")
-    raise ValueError(f"fmt must be 'tum', 'euroc_groundtruth' or None; got {fmt!r}")
+    raise ValueError(f"fmt must be 'tum', 'kitti', 'euroc_groundtruth' or None; got {fmt!r}")

@@ -2,8 +2,8 @@
 
 ``t`` is in seconds, ``tx ty tz`` the position of the camera/body origin in the world frame (metres) and
 ``qx qy qz qw`` its orientation body -> world, scalar last (Sturm et al. 2012, the TUM RGB-D benchmark format; the
-same layout as dualpose's xyzw quaternions).  Fields are separated by whitespace; lines starting with ``#`` are
-comments.
+same layout as dualpose's xyzw quaternions).  Fields are separated by whitespace or by commas (a variant some
+tools write); ``#`` starts a comment, on its own line or after the numbers.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import os
 
 import numpy as np
 
-from dualpose.io._text import open_for_writing, parse_float_columns, read_table
+from dualpose.io._text import check_path, open_for_writing, read_float_table, read_table
 from dualpose.types.trajectory import Trajectory
 
 __all__ = ["read_tum", "write_tum"]
@@ -35,12 +35,24 @@ def read_tum(path: str | os.PathLike) -> Trajectory:
         ``path:line: ...`` for a line without exactly 8 fields, a field that is not a finite number, or a zero
         quaternion.
     """
-    table = read_table(path, None, (8, 8), _LAYOUT)
-    data = parse_float_columns(table, slice(0, 8), _LAYOUT)
-    zero = ~(data[:, 4:8] != 0.0).any(axis=1)
-    if zero.any():
+    p = check_path(path)
+    delimiter = _delimiter(p)
+    data = read_float_table(p, 8, delimiter, _LAYOUT)
+    q = data[:, 4:8]
+    if not np.einsum("ij,ij->i", q, q).all() and (zero := ~(q != 0.0).any(axis=1)).any():
+        table = read_table(p, delimiter, (8, 8), _LAYOUT)  # for the line number
         raise table.error(int(np.argmax(zero)), "zero quaternion (qx qy qz qw all 0)")
-    return Trajectory(data[:, 0], data[:, 1:4], data[:, 4:8], name=table.path)
+    return Trajectory(data[:, 0], data[:, 1:4], data[:, 4:8], name=p)
+
+
+def _delimiter(path: str) -> str | None:
+    """``","`` when the first data line of ``path`` has a comma before any comment, else None (whitespace)."""
+    with open(path, "rb") as f:
+        for raw in f:
+            line = raw.split(b"#", 1)[0].strip()
+            if line:
+                return "," if b"," in line else None
+    return None
 
 
 def write_tum(path: str | os.PathLike, trajectory: Trajectory, *, overwrite: bool = False, header: bool = True) -> None:

@@ -73,12 +73,13 @@ class Trajectory:
         if quats.shape != (n, 4):
             raise ValueError(f"quats must have shape (N, 4) = ({n}, 4) (xyzw); got shape {quats.shape}")
         for name, arr in (("stamps", stamps), ("positions", positions), ("quats", quats)):
-            finite = np.isfinite(arr).reshape(n, -1).all(axis=1)
-            if not finite.all():
+            if not np.isfinite(arr).all():  # n = 0 is allowed
+                finite = np.isfinite(arr).reshape(n, -1).all(axis=1)
                 raise ValueError(f"{name} must be finite; first bad pose index {int(np.argmin(finite))}")
-        zero = ~(np.abs(quats) > 0.0).any(axis=1)
-        if zero.any():
-            raise ValueError(f"quats must be nonzero; pose index {int(np.argmax(zero))} is [0, 0, 0, 0]")
+        if n and not np.einsum("ij,ij->i", quats, quats).all():  # |q|^2 of a finite nonzero q can underflow to 0 only
+            zero = ~(quats != 0.0).any(axis=1)  # below 1e-154; check the components then
+            if zero.any():
+                raise ValueError(f"quats must be nonzero; pose index {int(np.argmax(zero))} is [0, 0, 0, 0]")
         object.__setattr__(self, "stamps", stamps)
         object.__setattr__(self, "positions", positions)
         object.__setattr__(self, "quats", quats)

@@ -110,7 +110,26 @@ static void matrix_from_quat(const double* q, double* o) {
     std::copy(m.m, m.m + 9, o);
 }
 
-static void quat_from_matrix(const double* r, double* o) { store(o, quat_of_rotmat(r)); }
+// Largest accepted |R^T R - I| entry (docs/conventions.md, "Rotation matrices"): files rounded to 6-7 digits pass,
+// scaled, sheared or singular matrices do not.  Exported as QUAT_FROM_MATRIX_ORTHOGONALITY_TOL.
+constexpr double kOrthogonalityTol = 1e-5;
+
+// Shepperd's method (quat_of_rotmat) for a rotation; NaN (the wrapper raises) for a matrix that is not one:
+// max |R^T R - I| > kOrthogonalityTol or det R <= 0 (a reflection).
+static void quat_from_matrix(const double* r, double* o) {
+    const double a0 = r[0], a1 = r[3], a2 = r[6];  // columns
+    const double b0 = r[1], b1 = r[4], b2 = r[7];
+    const double c0 = r[2], c1 = r[5], c2 = r[8];
+    const double g = std::max({std::fabs(a0 * a0 + a1 * a1 + a2 * a2 - 1.0), std::fabs(b0 * b0 + b1 * b1 + b2 * b2 - 1.0),
+                               std::fabs(c0 * c0 + c1 * c1 + c2 * c2 - 1.0), std::fabs(a0 * b0 + a1 * b1 + a2 * b2),
+                               std::fabs(a0 * c0 + a1 * c1 + a2 * c2), std::fabs(b0 * c0 + b1 * c1 + b2 * c2)});
+    const double det = a0 * (b1 * c2 - b2 * c1) - a1 * (b0 * c2 - b2 * c0) + a2 * (b0 * c1 - b1 * c0);
+    if (!(g <= kOrthogonalityTol && det > 0.0)) {
+        store(o, Quat{kNaN, kNaN, kNaN, kNaN});
+        return;
+    }
+    store(o, quat_of_rotmat(r));
+}
 
 // Dantam 2014 eq. (58): p (x) (p* (x) q)**t along the shorter arc; inputs normalized.
 static void quat_slerp(const double* p, const double* q, const double* tp, double* o) {
@@ -207,6 +226,7 @@ bool add_quat_gufuncs(PyObject* m) {
                                                                        "Axis and angle in [0, pi].") &&
            add_gufunc<Gufunc<matrix_from_quat, In<Q>, Out<M<3, 3>>>>(m, "matrix_from_quat", "Rotation matrix.") &&
            add_gufunc<Gufunc<quat_from_matrix, In<M<3, 3>>, Out<Q>>>(m, "quat_from_matrix", "Shepperd's method.") &&
+           PyModule_AddObject(m, "QUAT_FROM_MATRIX_ORTHOGONALITY_TOL", PyFloat_FromDouble(kOrthogonalityTol)) == 0 &&
            add_gufunc<Gufunc<quat_slerp, In<Q, Q, S>, Out<Q>>>(m, "quat_slerp", "Shortest-arc slerp.") &&
            add_gufunc<Gufunc<quat_angle, In<Q, Q>, Out<S>>>(m, "quat_angle", "Rotation angle between p and q.") &&
            add_gufunc<Gufunc<quat_integrate_space, In<Q, V3, S>, Out<Q>>>(m, "quat_integrate_space",
