@@ -5,13 +5,10 @@
 // -ffp-contract=off, which changes the last bit; AVX2 without the FMA extension has no fused instruction to pick.
 #include "rows.hpp"
 
+#include "../common/dispatch.hpp"
 #include "lanes.hpp"
 
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define DUALPOSE_CLONES __attribute__((target_clones("default", "avx2")))
-#else
-#define DUALPOSE_CLONES
-#endif
+#define DUALPOSE_CLONES DUALPOSE_CLONES_AVX2
 
 namespace dualpose {
 

@@ -1,13 +1,14 @@
 // Hol's Algorithm 1 over a recording (hol22_run.hpp).
 #include "hol22_run.hpp"
 
+#include "../common/dispatch.hpp"
 #include "hol22_filter.hpp"
 
 #include <algorithm>
 
 namespace dualpose::hol22 {
 
-__attribute__((target_clones("default", "avx2", "arch=x86-64-v4")))
+DUALPOSE_CLONES_V4
 void run(const Hol22Inputs& in, double* x, double* P, double* X, double* Ps, double* nis_out, std::int64_t* acc_out) {
     constexpr double depth_floor = 1e-3;  // m
     CameraWork work;

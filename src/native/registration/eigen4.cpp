@@ -1,6 +1,8 @@
 // The symmetric 4x4 eigen-solvers of the registration kernels (see eigen4.hpp).
 #include "eigen4.hpp"
 
+#include "../common/dispatch.hpp"
+
 #include <cmath>
 
 namespace dualpose::reg {
@@ -98,7 +100,7 @@ int jacobi_top(const Sym4& m, double tol, double* q, double* eigenvalues) {
 // Newton sweeps across the block (one step per problem per sweep): the loops vectorise, so wider instruction sets
 // are chosen at run time (in the baseline build; solve_x86_64_v4.cpp compiles its own copy for x86-64-v4).
 #ifndef DUALPOSE_ISA_VARIANT
-__attribute__((target_clones("default", "avx2", "arch=x86-64-v4")))
+DUALPOSE_CLONES_V4
 #endif
 void largest_roots(
     const double* c3, const double* c2, const double* c1, const double* c0, const double* scale, double* l1,
