@@ -2,6 +2,7 @@
 // argument that must be nonzero is zero; the Python wrappers turn that into a ValueError.
 #include "../common/gufunc.hpp"
 #include "../common/kutil.hpp"
+#include "../common/lie.hpp"
 #include "../common/series.hpp"
 #include "rows.hpp"
 
@@ -65,11 +66,7 @@ static void quat_pow(const double* q, const double* tp, double* o) {
 }
 
 // Dantam 2014 eq. (50): q = (sin(|v|/2) v/|v|, cos(|v|/2)).
-static void quat_from_rotvec(const double* v, double* o) {
-    const double h = 0.5 * norm3(v[0], v[1], v[2]);
-    const double f = 0.5 * sinc(h);
-    store(o, Quat{f * v[0], f * v[1], f * v[2], std::cos(h)});
-}
+static void quat_from_rotvec(const double* v, double* o) { store(o, quat_exp_rotvec(Vec3{v[0], v[1], v[2]})); }
 
 // Dantam 2014 eqs. (51)-(53) with the atan2 angle; the sign is chosen so the angle is in [0, pi].
 static void rotvec_from_quat(const double* q, double* o) {
@@ -186,12 +183,7 @@ static void quat_angle(const double* pp, const double* qq, double* o) {
 }
 
 // exp(omega dt / 2) as a quaternion (Dantam 2014 eq. (50) on the rotation vector omega dt).
-static Quat half_exp(const double* w, double dt) {
-    const double vx = w[0] * dt, vy = w[1] * dt, vz = w[2] * dt;
-    const double h = 0.5 * norm3(vx, vy, vz);
-    const double f = 0.5 * sinc(h);
-    return {f * vx, f * vy, f * vz, std::cos(h)};
-}
+static Quat half_exp(const double* w, double dt) { return quat_exp_rotvec(Vec3{w[0] * dt, w[1] * dt, w[2] * dt}); }
 
 // Dantam 2014 eq. (62): q1 = exp(omega dt / 2) (x) q0, omega in the space (world) frame.
 static void quat_integrate_space(const double* q, const double* w, const double* dt, double* o) {

@@ -11,6 +11,14 @@
 
 namespace dualpose {
 
+// exp(v/2) = (sin(|v|/2) v/|v|, cos(|v|/2)): the unit quaternion of the rotation vector v (Dantam 2014 eq. (50)),
+// with the guarded sinc, exact at v = 0.
+inline Quat quat_exp_rotvec(Vec3 v) {
+    const double h = 0.5 * norm3(v.x, v.y, v.z);
+    const double f = 0.5 * sinc(h);
+    return {f * v.x, f * v.y, f * v.z, std::cos(h)};
+}
+
 struct So3Coeffs {
     double a, b, c;
 };

@@ -64,16 +64,9 @@ inline Screw update_vector(const double* x, std::int64_t k, int n, const double*
     return {{sx, sy, sz}, {tx, ty, tz}};
 }
 
-// exp(Φ/2) = (sinc(|Φ|/2) Φ/2, cos(|Φ|/2)): the quaternion of the rotation vector Φ (Dantam 2014 eq. (50)).
-inline Quat half_exp(Vec3 p) {
-    const double h = 0.5 * norm3(p);
-    const double f = 0.5 * sinc(h);
-    return {f * p.x, f * p.y, f * p.z, std::cos(h)};
-}
-
 // exp(Φ̂/2) for the screw vector Φ̂ = σ + εσ′: r = exp(σ/2), dual = ½ Δt (x) r with Δt = J_l(σ) σ′.
-inline DualQuat screw_half_exp(const Screw& v) {
-    const Quat r = half_exp(v.s);
+inline DualQuat screw_quat_exp_rotvec(const Screw& v) {
+    const Quat r = quat_exp_rotvec(v.s);
     const Vec3 d = so3_apply(v.s, so3_coeffs(norm3(v.s), 0.0), v.t);
     return {r, qmul(Quat{0.5 * d.x, 0.5 * d.y, 0.5 * d.z, 0.0}, r)};
 }
