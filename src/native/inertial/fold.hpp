@@ -65,7 +65,7 @@ inline Screw update_vector(const double* x, std::int64_t k, int n, const double*
 }
 
 // exp(Φ̂/2) for the screw vector Φ̂ = σ + εσ′: r = exp(σ/2), dual = ½ Δt (x) r with Δt = J_l(σ) σ′.
-inline DualQuat screw_quat_exp_rotvec(const Screw& v) {
+inline DualQuat screw_half_exp(const Screw& v) {
     const Quat r = quat_exp_rotvec(v.s);
     const Vec3 d = so3_apply(v.s, so3_coeffs(norm3(v.s), 0.0), v.t);
     return {r, qmul(Quat{0.5 * d.x, 0.5 * d.y, 0.5 * d.z, 0.0}, r)};

@@ -85,7 +85,7 @@ PyObject* inertial_fold_quat(PyObject*, PyObject* args) {
         q = {q.x / nn, q.y / nn, q.z / nn, q.w / nn};
         store(&out(b, 0, 0), q);
         for (npy_intp k = 0; k < out.shape[1] - 1; ++k) {
-            const Quat e = inertial::half_exp(update_vector<3>(xb, k, n, kmat.data, cprev, sgn).s);
+            const Quat e = quat_exp_rotvec(update_vector<3>(xb, k, n, kmat.data, cprev, sgn).s);
             q = left ? qmul(e, q) : qmul(q, e);
             const double m = norm4(q);
             q = {q.x / m, q.y / m, q.z / m, q.w / m};
