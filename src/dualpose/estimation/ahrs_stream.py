@@ -112,7 +112,8 @@ class AhrsStream:
         self._n_rest = int(n_rest)
         self._rest = rest
         self._state: np.ndarray | None = None
-        self._pending: list[tuple[float, np.ndarray, np.ndarray, np.ndarray]] = []
+        self._pending: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []  # blocks (k,), (k, 3) ...
+        self._n_pending = 0
         self._t = -math.inf
         self._samples = 0
         self.rest_quat = np.empty((0, 4))
@@ -137,10 +138,8 @@ class AhrsStream:
 
     def _finish_rest(self) -> None:
         """Initialise from the buffered rest samples and filter them (their outputs go to rest_quat / bias)."""
-        g = np.array([p[1] for p in self._pending])
-        a = np.array([p[2] for p in self._pending])
-        m = np.array([p[3] for p in self._pending])
-        self._pending = []
+        _, g, a, m = self._pending_arrays()
+        self._pending, self._n_pending = [], 0
         if self._n_rest:
             self._rest = rest_statistics(g, a, m if self._use_mag else None, self._rate, self._n_rest)
             self._start(None, None)
@@ -177,13 +176,14 @@ class AhrsStream:
             self._samples += 1
             return _native.ahrs_stream_step(self._state, gyro, accel, mag)
         self._check_sample(t, mag)
-        g = np.array(gyro, dtype=np.float64).reshape(3)
-        a = np.array(accel, dtype=np.float64).reshape(3)
-        m = np.array(mag, dtype=np.float64).reshape(3) if mag is not None else np.zeros(3)
+        g = np.array(gyro, dtype=np.float64).reshape(1, 3)
+        a = np.array(accel, dtype=np.float64).reshape(1, 3)
+        m = np.array(mag, dtype=np.float64).reshape(1, 3) if mag is not None else np.zeros((1, 3))
         self._t = t
         self._samples += 1
-        self._pending.append((t, g, a, m))
-        if len(self._pending) < max(self._n_rest, 1):
+        self._pending.append((np.array([t], dtype=np.float64), g, a, m))
+        self._n_pending += 1
+        if self._n_pending < max(self._n_rest, 1):
             return np.full(4, np.nan)
         self._finish_rest()
         return self.rest_quat[-1].copy()
@@ -225,10 +225,10 @@ class AhrsStream:
         out_b = np.full((n, 3), np.nan)
         i = 0
         if self._state is None:
-            i = min(n, max(self._n_rest, 1) - len(self._pending))
-            for k in range(i):
-                self._pending.append((float(t[k]), g[k].copy(), a[k].copy(), m[k].copy()))
-            if len(self._pending) == max(self._n_rest, 1):
+            i = min(n, max(self._n_rest, 1) - self._n_pending)
+            self._pending.append((t[:i].copy(), g[:i].copy(), a[:i].copy(), m[:i].copy()))
+            self._n_pending += i
+            if self._n_pending == max(self._n_rest, 1):
                 self._finish_rest()
                 out_q[:i] = self.rest_quat[len(self.rest_quat) - i :]
                 out_b[:i] = self.rest_gyro_bias[len(self.rest_gyro_bias) - i :]
@@ -290,16 +290,11 @@ class AhrsStream:
         c = dict(self._config)
         c["noise"] = asdict(c["noise"]) if c["noise"] is not None else None
         c["rest"] = self._rest_dict(c["rest"])
-        pend = self._pending
+        pt, pg, pa, pm = self._pending_arrays()
         return {
             "version": self.LAYOUT_VERSION,
             "state": None if self._state is None else self._state.copy(),
-            "pending": {
-                "t": np.array([p[0] for p in pend], dtype=np.float64),
-                "gyro": np.array([p[1] for p in pend], dtype=np.float64).reshape(-1, 3),
-                "accel": np.array([p[2] for p in pend], dtype=np.float64).reshape(-1, 3),
-                "mag": np.array([p[3] for p in pend], dtype=np.float64).reshape(-1, 3),
-            },
+            "pending": {"t": pt, "gyro": pg, "accel": pa, "mag": pm},
             "t": self._t,
             "samples": self._samples,
             "rest_statistics": self._rest_dict(self._rest),
@@ -307,6 +302,12 @@ class AhrsStream:
             "rest_gyro_bias": self.rest_gyro_bias.copy(),
             "config": c,
         }
+
+    def _pending_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The buffered rest samples as arrays t (k,), gyro, accel, mag (k, 3)."""
+        if not self._pending:
+            return np.empty(0), np.empty((0, 3)), np.empty((0, 3)), np.empty((0, 3))
+        return tuple(np.concatenate([p[j] for p in self._pending]) for j in range(4))  # type: ignore[return-value]
 
     @staticmethod
     def _rest_dict(rest: RestStatistics | None) -> dict[str, Any] | None:
@@ -367,10 +368,9 @@ class AhrsStream:
         out._rest = cls._rest_from(state["rest_statistics"])
         out._state = buf
         pend = state["pending"]
-        out._pending = [
-            (float(pend["t"][k]), np.array(pend["gyro"][k]), np.array(pend["accel"][k]), np.array(pend["mag"][k]))
-            for k in range(len(pend["t"]))
-        ]
+        blk = tuple(np.array(pend[k], dtype=np.float64) for k in ("t", "gyro", "accel", "mag"))
+        out._pending = [(blk[0].reshape(-1), *(x.reshape(-1, 3) for x in blk[1:]))]
+        out._n_pending = len(out._pending[0][0])
         out._t = float(state["t"])
         out._samples = int(state["samples"])
         out.rest_quat = np.array(state["rest_quat"], dtype=np.float64).reshape(-1, 4)

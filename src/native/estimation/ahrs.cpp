@@ -110,14 +110,16 @@ PyObject* ahrs_stream_new(PyObject*, PyObject* args) {
     return out;
 }
 
-// Three doubles from a float64 array of 3 elements (fast path) or any sequence of 3 numbers; None for `mag` gives
+// Three doubles from a 1-d float64 array of 3 elements (fast path, any stride) or any sequence of 3 numbers; None for `mag` gives
 // zeros (6D).
 bool read3(PyObject* o, const char* name, double* v, bool none_ok) {
     if (PyArray_Check(o)) {
         auto* a = reinterpret_cast<PyArrayObject*>(o);
-        if (PyArray_TYPE(a) == NPY_DOUBLE && PyArray_SIZE(a) == 3 && PyArray_NDIM(a) == 1 &&
-            PyArray_ISCARRAY_RO(a)) {
-            std::memcpy(v, PyArray_DATA(a), 3 * sizeof(double));
+        if (PyArray_TYPE(a) == NPY_DOUBLE && PyArray_NDIM(a) == 1 && PyArray_DIM(a, 0) == 3 && PyArray_ISALIGNED(a) &&
+            PyArray_ISNOTSWAPPED(a)) {  // any stride: e.g. a row of a Fortran-ordered (n, 3) array
+            const char* d = static_cast<const char*>(PyArray_DATA(a));
+            const npy_intp st = PyArray_STRIDE(a, 0);
+            for (int i = 0; i < 3; ++i) v[i] = *reinterpret_cast<const double*>(d + i * st);
             return true;
         }
     }
