@@ -82,6 +82,8 @@ __all__ = [
     "initial_orientation",
     "rest_statistics",
     "estimate_orientation",
+    "AhrsSetup",
+    "filter_setup",
     "accelerometer_jacobian",
     "heading_jacobian",
 ]
@@ -328,6 +330,137 @@ def initial_orientation(specific_force: np.ndarray, magnetic_field: np.ndarray |
     return dp.quat_from_matrix(np.stack([east, north, up]))  # rows: earth axes in body coordinates
 
 
+@dataclass(frozen=True)
+class AhrsSetup:
+    """The constants and the initial state of one AHRS run (:func:`filter_setup`).
+
+    Attributes
+    ----------
+    params : ndarray, shape (AHRS_N_PARAMS,)
+        The kernel's parameter vector (``src/native/estimation/ahrs_layout.hpp``).
+    q : ndarray, shape (4,)
+        Initial orientation, xyzw, IMU → earth (ENU).
+    b : ndarray, shape (3,)
+        Initial gyroscope bias, rad/s.
+    P : ndarray, shape (6, 6)
+        Initial error covariance of ``[δθ (earth frame), δb]``.
+    Ha, Hm : ndarray, shape (2, 6) and (1, 6)
+        :func:`accelerometer_jacobian` and :func:`heading_jacobian`.
+    n_win, stride : int
+        Samples per window and between updates.
+    noise : AhrsNoise
+        The noise densities used.
+    """
+
+    params: np.ndarray
+    q: np.ndarray
+    b: np.ndarray
+    P: np.ndarray
+    Ha: np.ndarray
+    Hm: np.ndarray
+    n_win: int
+    stride: int
+    noise: AhrsNoise
+
+
+def filter_setup(
+    rate: float,
+    rest: RestStatistics | None,
+    first_acc: np.ndarray | None = None,
+    first_mag: np.ndarray | None = None,
+    *,
+    use_mag: bool = True,
+    noise: AhrsNoise | None = None,
+    gate_probability: float = 0.999,
+    gate_release: float = 2.0,
+    adapt_time: float = 6.0,
+    window: float = 3.0,
+    mag_adapt: bool = False,
+    gyro_scale_sigma: float = 0.005,
+    update_interval: float = 0.1,
+) -> AhrsSetup:
+    """Parameters and initial state of the AHRS, as :func:`estimate_orientation` sets them up.
+
+    Shared by :func:`estimate_orientation` and :class:`~dualpose.estimation.ahrs_stream.AhrsStream`, so that both
+    start from the same numbers.  The keyword arguments are those of :func:`estimate_orientation`.
+
+    Parameters
+    ----------
+    rate : float
+        Sampling rate, Hz.
+    rest : RestStatistics or None
+        Statistics of the rest period (:func:`rest_statistics`); None: no rest period, then ``first_acc`` (and in 9D
+        ``first_mag``) give the initial directions, the bias starts at zero with the MEMS turn-on uncertainty.
+    first_acc, first_mag : array_like, shape (3,), optional
+        The first sample's specific force (m/s²) and field (µT), IMU axes; used only when ``rest`` is None.
+
+    Returns
+    -------
+    AhrsSetup
+    """
+    if rest is not None:
+        est = rest.noise
+        noise = noise or AhrsNoise(
+            gyroscope_noise_density=est.gyroscope_noise_density,
+            accelerometer_noise_density=est.accelerometer_noise_density,
+            magnetometer_noise_density=est.magnetometer_noise_density,
+        )
+        b0 = rest.gyroscope_bias.copy()
+        # bias uncertainty after averaging the rest samples, floored at one bias-random-walk second
+        bias_sigma = max(noise.gyroscope_noise_density * math.sqrt(rate / rest.samples), noise.gyroscope_random_walk)
+        a_ref, m_ref = rest.specific_force, (rest.magnetic_field if use_mag else None)
+        gravity = rest.gravity
+    else:
+        noise = noise or AhrsNoise()
+        b0 = np.zeros(3)
+        bias_sigma = MEMS_GYRO_TURN_ON_BIAS
+        a_ref = np.asarray(first_acc, dtype=np.float64)
+        m_ref = np.asarray(first_mag, dtype=np.float64) if use_mag else None
+        gravity = float(np.linalg.norm(a_ref))
+    q0 = initial_orientation(a_ref, m_ref if use_mag else None)
+    if use_mag:
+        up = a_ref / np.linalg.norm(a_ref)
+        field_norm = float(np.linalg.norm(m_ref))
+        field_dip = math.atan2(-float(m_ref @ up), float(np.linalg.norm(m_ref - (m_ref @ up) * up)))
+    else:
+        field_norm, field_dip = 1.0, 0.0
+
+    params = np.zeros(_native.AHRS_N_PARAMS)
+    params[_native.AHRS_P_GYR_VAR] = noise.gyroscope_noise_density**2
+    params[_native.AHRS_P_BIAS_VAR] = noise.gyroscope_random_walk**2
+    params[_native.AHRS_P_ACC_VAR] = noise.accelerometer_noise_density**2 * rate
+    params[_native.AHRS_P_GRAVITY] = gravity
+    params[_native.AHRS_P_MAG_VAR] = noise.magnetometer_noise_density**2 * rate if use_mag else 1.0
+    params[_native.AHRS_P_MAG_NORM] = field_norm
+    params[_native.AHRS_P_MAG_DIP] = field_dip
+    params[_native.AHRS_P_USE_MAG] = 1.0 if use_mag else 0.0
+    params[_native.AHRS_P_ACC_GATE] = float(chi2.ppf(gate_probability, 2))
+    params[_native.AHRS_P_MAG_GATE] = float(chi2.ppf(gate_probability, 1))
+    params[_native.AHRS_P_GATE_RELEASE] = max(1.0, gate_release * rate)
+    params[_native.AHRS_P_ACC_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 else 0.0
+    if not window > 0:
+        raise ValueError(f"window must be a positive number of seconds; got {window}")
+    n_win = max(1, int(round(window * rate)))
+    params[_native.AHRS_P_WINDOW] = n_win
+    if not update_interval > 0:
+        raise ValueError(f"update_interval must be a positive number of seconds; got {update_interval}")
+    stride = min(n_win, max(1, int(round(update_interval * rate))))
+    params[_native.AHRS_P_STRIDE] = stride
+    params[_native.AHRS_P_GYR_SCALE_VAR] = gyro_scale_sigma**2 * 1.0
+    params[_native.AHRS_P_ACC_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 else 0.0
+    params[_native.AHRS_P_MAG_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 and mag_adapt else 0.0
+    # initial attitude uncertainty: the direction of a mean of N noisy specific forces (inclination) and fields
+    # (heading); heading is unknown in 6D (π is only a nominal value: no update ever uses it)
+    n_avg = rest.samples if rest is not None else 1
+    incl_sigma = noise.accelerometer_noise_density * math.sqrt(rate / n_avg) / gravity + math.radians(0.1)
+    head_sigma = math.radians(5.0) if use_mag else math.radians(5.0)
+    P = np.diag([incl_sigma**2, incl_sigma**2, head_sigma**2, bias_sigma**2, bias_sigma**2, bias_sigma**2])
+    q = np.ascontiguousarray(q0, dtype=np.float64)
+    b = np.ascontiguousarray(b0, dtype=np.float64)
+    Ha, Hm = accelerometer_jacobian(gravity), heading_jacobian()
+    return AhrsSetup(params=params, q=q, b=b, P=P, Ha=Ha, Hm=Hm, n_win=n_win, stride=stride, noise=noise)
+
+
 def estimate_orientation(
     gyr: np.ndarray,
     acc: np.ndarray,
@@ -462,71 +595,21 @@ def estimate_orientation(
             mag_offset = float(mag_time_offset)
         if mag_offset != 0.0:
             mag_arr = shift_samples(mag_arr, rate, mag_offset)
-    if rest is not None:
-        est = rest.noise
-        noise = noise or AhrsNoise(
-            gyroscope_noise_density=est.gyroscope_noise_density,
-            accelerometer_noise_density=est.accelerometer_noise_density,
-            magnetometer_noise_density=est.magnetometer_noise_density,
-        )
-        b0 = rest.gyroscope_bias.copy()
-        # bias uncertainty after averaging n_rest samples, floored at one bias-random-walk second
-        bias_sigma = max(noise.gyroscope_noise_density * math.sqrt(rate / n_rest), noise.gyroscope_random_walk)
-        a_ref, m_ref = rest.specific_force, (rest.magnetic_field if mag_arr is not None else None)
-        gravity = rest.gravity
-    else:
-        noise = noise or AhrsNoise()
-        b0 = np.zeros(3)
-        bias_sigma = MEMS_GYRO_TURN_ON_BIAS
-        a_ref, m_ref = acc[0], (mag_arr[0] if mag_arr is not None else None)
-        gravity = float(np.linalg.norm(acc[0]))
-    q0 = initial_orientation(a_ref, m_ref if use_mag else None)
-    if use_mag:
-        up = a_ref / np.linalg.norm(a_ref)
-        field_norm = float(np.linalg.norm(m_ref))
-        field_dip = math.atan2(-float(m_ref @ up), float(np.linalg.norm(m_ref - (m_ref @ up) * up)))
-    else:
-        field_norm, field_dip = 1.0, 0.0
-
-    params = np.zeros(_native.AHRS_N_PARAMS)
-    params[_native.AHRS_P_GYR_VAR] = noise.gyroscope_noise_density**2
-    params[_native.AHRS_P_BIAS_VAR] = noise.gyroscope_random_walk**2
-    params[_native.AHRS_P_ACC_VAR] = noise.accelerometer_noise_density**2 * rate
-    params[_native.AHRS_P_GRAVITY] = gravity
-    params[_native.AHRS_P_MAG_VAR] = noise.magnetometer_noise_density**2 * rate if use_mag else 1.0
-    params[_native.AHRS_P_MAG_NORM] = field_norm
-    params[_native.AHRS_P_MAG_DIP] = field_dip
-    params[_native.AHRS_P_USE_MAG] = 1.0 if use_mag else 0.0
-    params[_native.AHRS_P_ACC_GATE] = float(chi2.ppf(gate_probability, 2))
-    params[_native.AHRS_P_MAG_GATE] = float(chi2.ppf(gate_probability, 1))
-    params[_native.AHRS_P_GATE_RELEASE] = max(1.0, gate_release * rate)
-    params[_native.AHRS_P_ACC_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 else 0.0
-    if not window > 0:
-        raise ValueError(f"window must be a positive number of seconds; got {window}")
-    n_win = max(1, int(round(window * rate)))
-    params[_native.AHRS_P_WINDOW] = n_win
-    if not update_interval > 0:
-        raise ValueError(f"update_interval must be a positive number of seconds; got {update_interval}")
-    stride = min(n_win, max(1, int(round(update_interval * rate))))
-    params[_native.AHRS_P_STRIDE] = stride
-    params[_native.AHRS_P_GYR_SCALE_VAR] = gyro_scale_sigma**2 * 1.0
-    params[_native.AHRS_P_ACC_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 else 0.0
-    params[_native.AHRS_P_MAG_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 and mag_adapt else 0.0
-    # initial attitude uncertainty: the direction of a mean of N noisy specific forces (inclination) and fields
-    # (heading); heading is unknown in 6D (π is only a nominal value: no update ever uses it)
-    n_avg = max(n_rest, 1)
-    incl_sigma = noise.accelerometer_noise_density * math.sqrt(rate / n_avg) / gravity + math.radians(0.1)
-    head_sigma = math.radians(5.0) if use_mag else math.radians(5.0)
-    P = np.diag([incl_sigma**2, incl_sigma**2, head_sigma**2, bias_sigma**2, bias_sigma**2, bias_sigma**2])
-    q = np.ascontiguousarray(q0, dtype=np.float64)
-    b = np.ascontiguousarray(b0, dtype=np.float64)
+    setup = filter_setup(
+        rate, rest, acc[0], mag_arr[0] if mag_arr is not None else None,
+        use_mag=use_mag, noise=noise, gate_probability=gate_probability, gate_release=gate_release,
+        adapt_time=adapt_time, window=window, mag_adapt=mag_adapt, gyro_scale_sigma=gyro_scale_sigma,
+        update_interval=update_interval,
+    )  # fmt: skip
+    params, n_win, stride, P = setup.params, setup.n_win, setup.stride, setup.P
+    q = setup.q.copy()
+    b = setup.b.copy()
     out_q = np.empty((n, 4))
     out_b = np.empty((n, 3))
     stats = np.zeros(_native.AHRS_N_STATS)
     mag_in = mag_arr if mag_arr is not None else np.zeros((n, 3))
     t0 = time.perf_counter()
-    Ha, Hm = accelerometer_jacobian(gravity), heading_jacobian()
-    _native.ahrs_run(gyr, acc, mag_in, 1.0 / rate, q, b, P, params, Ha, Hm, out_q, out_b, stats)
+    _native.ahrs_run(gyr, acc, mag_in, 1.0 / rate, q, b, P, params, setup.Ha, setup.Hm, out_q, out_b, stats)
     seconds = time.perf_counter() - t0
 
     n_updates = max(0, (n - n_win) // stride + 1)
@@ -549,4 +632,3 @@ def estimate_orientation(
         mag_time_offset_estimate=mag_offset_est,
         mag_calibration=mag_cal,
     )
-

@@ -1,8 +1,13 @@
-// dualpose._native's AHRS part: ahrs_run (the whole recording), ahrs_predict and ahrs_inject_and_reset (one step,
-// for dualpose.estimation.ahrs_filter.AhrsFilter), and the layout constants AHRS_* (ahrs_layout.hpp).
+// dualpose._native's AHRS part: ahrs_run (the whole recording), the streaming filter ahrs_stream_* (one sample at a
+// time on a state held in a NumPy byte buffer, for dualpose.estimation.ahrs_stream.AhrsStream), ahrs_predict and
+// ahrs_inject_and_reset (one step, for dualpose.estimation.ahrs_filter.AhrsFilter), and the layout constants AHRS_*
+// (ahrs_layout.hpp).
 #include "eskf_args.hpp"
 #include "ahrs_filter.hpp"
 #include "ahrs_run.hpp"
+
+#include <cstdint>
+#include <cstring>
 
 namespace dualpose {
 
@@ -31,6 +36,177 @@ PyObject* ahrs_run(PyObject*, PyObject* args) {
     ahrs::run(n, gyr.data, acc.data, mag.data, dt, q.data, b.data, P.data, params.data, Ha.data, Hm.data, out_q.data,
               out_b.data, stats.data);
     Py_END_ALLOW_THREADS;
+    Py_RETURN_NONE;
+}
+
+// The stream held by `o` (a 1-d C-contiguous, aligned numpy.uint8 array written by ahrs_stream_new), or nullptr with
+// ValueError / TypeError naming `name`: wrong type, too short, not a stream, another layout version, wrong size.
+ahrs::Stream* stream_of(PyObject* o, const char* name, bool write) {
+    if (!PyArray_Check(o)) {
+        PyErr_Format(PyExc_TypeError, "%s must be a numpy.uint8 array (an AHRS stream state); got %s", name,
+                     Py_TYPE(o)->tp_name);
+        return nullptr;
+    }
+    auto* a = reinterpret_cast<PyArrayObject*>(o);
+    const int need = NPY_ARRAY_C_CONTIGUOUS | (write ? NPY_ARRAY_WRITEABLE : 0);
+    if (PyArray_TYPE(a) != NPY_UINT8 || PyArray_NDIM(a) != 1 || (PyArray_FLAGS(a) & need) != need ||
+        reinterpret_cast<std::uintptr_t>(PyArray_DATA(a)) % alignof(ahrs::Stream) != 0) {
+        PyErr_Format(PyExc_ValueError, "%s must be a 1-d C-contiguous, aligned%s numpy.uint8 array", name,
+                     write ? ", writeable" : "");
+        return nullptr;
+    }
+    const auto size = static_cast<std::uint64_t>(PyArray_DIM(a, 0));
+    auto* st = static_cast<ahrs::Stream*>(PyArray_DATA(a));
+    if (size < sizeof(ahrs::StreamHeader) || st->h.magic != ahrs::STREAM_MAGIC) {
+        PyErr_Format(PyExc_ValueError, "%s is not an AHRS stream state (%llu bytes, no AHRS stream header)", name,
+                     static_cast<unsigned long long>(size));
+        return nullptr;
+    }
+    if (st->h.version != ahrs::STREAM_VERSION) {
+        PyErr_Format(PyExc_ValueError, "%s has AHRS stream layout version %llu; this build reads version %llu", name,
+                     static_cast<unsigned long long>(st->h.version),
+                     static_cast<unsigned long long>(ahrs::STREAM_VERSION));
+        return nullptr;
+    }
+    if (st->h.n_win < 1 || st->h.n_win > (1ULL << 40) || size != st->h.size ||
+        size != ahrs::stream_bytes(static_cast<std::int64_t>(st->h.n_win)) ||
+        st->p.n_win != static_cast<std::int64_t>(st->h.n_win)) {
+        PyErr_Format(PyExc_ValueError, "%s has %llu bytes; an AHRS stream state of this window needs %llu", name,
+                     static_cast<unsigned long long>(size),
+                     static_cast<unsigned long long>(
+                         st->h.n_win >= 1 && st->h.n_win <= (1ULL << 40)
+                             ? ahrs::stream_bytes(static_cast<std::int64_t>(st->h.n_win))
+                             : 0));
+        return nullptr;
+    }
+    return st;
+}
+
+PyObject* ahrs_stream_new(PyObject*, PyObject* args) {
+    Array<double, 1> params, q, b;
+    Array<double, 2> Ha, Hm, P;
+    double dt;
+    if (!PyArg_ParseTuple(args, "O&O&O&dO&O&O&:ahrs_stream_new", convert<double, 1>, &params, convert<double, 2>,
+                          &Ha, convert<double, 2>, &Hm, &dt, convert<double, 1>, &q, convert<double, 1>, &b,
+                          convert<double, 2>, &P))
+        return nullptr;
+    if (!shape_is("params", params, {ahrs::N_PARAMS}) || !shape_is("Ha", Ha, {2, ahrs::NE}) ||
+        !shape_is("Hm", Hm, {1, ahrs::NE}) || !shape_is("q", q, {4}) || !shape_is("b", b, {3}) ||
+        !shape_is("P", P, {ahrs::NE, ahrs::NE}))
+        return nullptr;
+    const ahrs::Params p = ahrs::make_params(params.data, Ha.data, Hm.data, dt);
+    if (p.n_win > (std::int64_t{1} << 40)) {
+        PyErr_SetString(PyExc_ValueError, "params: the window is too long");
+        return nullptr;
+    }
+    const npy_intp size = static_cast<npy_intp>(ahrs::stream_bytes(p.n_win));
+    PyObject* out = PyArray_ZEROS(1, &size, NPY_UINT8, 0);
+    if (out == nullptr) return nullptr;
+    auto* st = static_cast<ahrs::Stream*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(out)));
+    st->h = ahrs::StreamHeader{ahrs::STREAM_MAGIC, ahrs::STREAM_VERSION, static_cast<std::uint64_t>(size),
+                               static_cast<std::uint64_t>(p.n_win)};
+    st->p = p;
+    ahrs::init_state(st->s, st->ring(), p, q.data, b.data, P.data);
+    return out;
+}
+
+// Three doubles from a 1-d float64 array of 3 elements (fast path, any stride) or any sequence of 3 numbers; None for `mag` gives
+// zeros (6D).
+bool read3(PyObject* o, const char* name, double* v, bool none_ok) {
+    if (PyArray_Check(o)) {
+        auto* a = reinterpret_cast<PyArrayObject*>(o);
+        if (PyArray_TYPE(a) == NPY_DOUBLE && PyArray_NDIM(a) == 1 && PyArray_DIM(a, 0) == 3 && PyArray_ISALIGNED(a) &&
+            PyArray_ISNOTSWAPPED(a)) {  // any stride: e.g. a row of a Fortran-ordered (n, 3) array
+            const char* d = static_cast<const char*>(PyArray_DATA(a));
+            const npy_intp st = PyArray_STRIDE(a, 0);
+            for (int i = 0; i < 3; ++i) v[i] = *reinterpret_cast<const double*>(d + i * st);
+            return true;
+        }
+    }
+    if (none_ok && o == Py_None) {
+        v[0] = v[1] = v[2] = 0.0;
+        return true;
+    }
+    PyObject* seq = PySequence_Fast(o, "");
+    if (seq == nullptr || PySequence_Fast_GET_SIZE(seq) != 3) {
+        Py_XDECREF(seq);
+        PyErr_Clear();
+        PyErr_Format(PyExc_ValueError, "%s must be 3 numbers (shape (3,))", name);
+        return false;
+    }
+    for (int i = 0; i < 3; ++i) {
+        v[i] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(seq, i));
+        if (v[i] == -1.0 && PyErr_Occurred()) {
+            Py_DECREF(seq);
+            return false;
+        }
+    }
+    Py_DECREF(seq);
+    return true;
+}
+
+PyObject* ahrs_stream_step(PyObject*, PyObject* const* args, Py_ssize_t nargs) {
+    if (nargs != 4) {
+        PyErr_SetString(PyExc_TypeError, "ahrs_stream_step(state, gyr, acc, mag) takes 4 arguments");
+        return nullptr;
+    }
+    ahrs::Stream* st = stream_of(args[0], "state", true);
+    if (st == nullptr) return nullptr;
+    double g[3], a[3], m[3];
+    if (!read3(args[1], "gyro", g, false) || !read3(args[2], "accel", a, false) || !read3(args[3], "mag", m, true))
+        return nullptr;
+    ahrs::step(st->s, st->ring(), st->p, g, a, m);
+    const npy_intp four = 4;
+    PyObject* out = PyArray_SimpleNew(1, &four, NPY_DOUBLE);
+    if (out == nullptr) return nullptr;
+    std::memcpy(PyArray_DATA(reinterpret_cast<PyArrayObject*>(out)), st->s.q, 4 * sizeof(double));
+    return out;
+}
+
+PyObject* ahrs_stream_run(PyObject*, PyObject* args) {
+    PyObject* state;
+    Array<double, 2> gyr, acc, mag;
+    Array<double, 2, true> out_q, out_b;
+    if (!PyArg_ParseTuple(args, "OO&O&O&O&O&:ahrs_stream_run", &state, convert<double, 2>, &gyr, convert<double, 2>,
+                          &acc, convert<double, 2>, &mag, convert<double, 2, true>, &out_q, convert<double, 2, true>,
+                          &out_b))
+        return nullptr;
+    ahrs::Stream* st = stream_of(state, "state", true);
+    if (st == nullptr) return nullptr;
+    const npy_intp n = gyr.shape[0];
+    if (!shape_is("gyr", gyr, {n, 3}) || !shape_is("acc", acc, {n, 3}) || !shape_is("mag", mag, {n, 3}) ||
+        !shape_is("out_q", out_q, {n, 4}) || !shape_is("out_b", out_b, {n, 3}))
+        return nullptr;
+    Py_BEGIN_ALLOW_THREADS;
+    for (npy_intp k = 0; k < n; ++k) {
+        ahrs::step(st->s, st->ring(), st->p, gyr.data + 3 * k, acc.data + 3 * k, mag.data + 3 * k);
+        for (int i = 0; i < 4; ++i) out_q.data[4 * k + i] = st->s.q[i];
+        for (int i = 0; i < 3; ++i) out_b.data[3 * k + i] = st->s.b[i];
+    }
+    Py_END_ALLOW_THREADS;
+    Py_RETURN_NONE;
+}
+
+PyObject* new_vector(const double* v, npy_intp n) {
+    PyObject* out = PyArray_SimpleNew(1, &n, NPY_DOUBLE);
+    if (out != nullptr) std::memcpy(PyArray_DATA(reinterpret_cast<PyArrayObject*>(out)), v, n * sizeof(double));
+    return out;
+}
+
+PyObject* ahrs_stream_get(PyObject*, PyObject* args) {
+    PyObject* state;
+    if (!PyArg_ParseTuple(args, "O:ahrs_stream_get", &state)) return nullptr;
+    const ahrs::Stream* st = stream_of(state, "state", false);
+    if (st == nullptr) return nullptr;
+    return Py_BuildValue("NNNN", new_vector(st->s.q, 4), new_vector(st->s.b, 3),
+                         new_vector(st->s.P, ahrs::NE * ahrs::NE), new_vector(st->s.stats, ahrs::N_STATS));
+}
+
+PyObject* ahrs_stream_check(PyObject*, PyObject* args) {
+    PyObject* state;
+    const char* name = "state";
+    if (!PyArg_ParseTuple(args, "O|s:ahrs_stream_check", &state, &name)) return nullptr;
+    if (stream_of(state, name, false) == nullptr) return nullptr;
     Py_RETURN_NONE;
 }
 
@@ -66,6 +242,19 @@ PyMethodDef ahrs_methods[] = {
     {"ahrs_run", ahrs_run, METH_VARARGS,
      "ahrs_run(gyr, acc, mag, dt, q, b, P, params, Ha, Hm, out_q, out_b, stats): the AHRS over a recording "
      "(dualpose.estimation.ahrs); q, b, P, out_q, out_b, stats written in place.  The GIL is released."},
+    {"ahrs_stream_new", ahrs_stream_new, METH_VARARGS,
+     "ahrs_stream_new(params, Ha, Hm, dt, q, b, P) -> state: a new AHRS stream (numpy.uint8 array holding the layout "
+     "version, the constants, the state and the sliding window) before its first sample."},
+    {"ahrs_stream_step", reinterpret_cast<PyCFunction>(reinterpret_cast<void (*)()>(ahrs_stream_step)), METH_FASTCALL,
+     "ahrs_stream_step(state, gyr, acc, mag) -> q (4,): one sample (the step of ahrs_run); mag may be None (6D)."},
+    {"ahrs_stream_run", ahrs_stream_run, METH_VARARGS,
+     "ahrs_stream_run(state, gyr, acc, mag, out_q, out_b): ahrs_stream_step over n samples; out_q (n, 4), out_b (n, 3) "
+     "written.  The GIL is released."},
+    {"ahrs_stream_get", ahrs_stream_get, METH_VARARGS,
+     "ahrs_stream_get(state) -> (q (4,), b (3,), P (36,), stats (N_STATS,)): copies of the stream's state."},
+    {"ahrs_stream_check", ahrs_stream_check, METH_VARARGS,
+     "ahrs_stream_check(state, name='state'): ValueError naming `name` unless state is an AHRS stream of this "
+     "layout version and size."},
     {"ahrs_predict", ahrs_predict, METH_VARARGS,
      "ahrs_predict(q, b, P, gx, gy, gz, dt, gyr_var, bias_var, scale_var): one AHRS predict in place."},
     {"ahrs_inject_and_reset", ahrs_inject_and_reset, METH_VARARGS,
@@ -79,6 +268,7 @@ bool add_ahrs(PyObject* m) {
 #define DUALPOSE_ADD(name) \
     if (PyModule_AddIntConstant(m, "AHRS_" #name, ahrs::name) != 0) return false;
     DUALPOSE_AHRS_CONSTANTS(DUALPOSE_ADD)
+    DUALPOSE_ADD(STREAM_VERSION)
 #undef DUALPOSE_ADD
     return true;
 }

@@ -1,5 +1,6 @@
-// The AHRS whole-recording loop (ahrs_run.hpp): sliding-window earth-frame means of the specific force and the
-// field, χ²-gated accelerometer (inclination) and magnetometer (heading) updates in Joseph form.
+// The AHRS one sample at a time (step) and over a whole recording (run, a loop over step; ahrs_run.hpp):
+// sliding-window earth-frame means of the specific force and the field, χ²-gated accelerometer (inclination) and
+// magnetometer (heading) updates in Joseph form.
 #include "ahrs_run.hpp"
 
 #include "ahrs_filter.hpp"
@@ -15,165 +16,209 @@ constexpr double CHI2_2_LO = 0.0506356, CHI2_2_HI = 7.3777589;    // two-sided 9
 constexpr double CHI2_1_LO = 0.000982069, CHI2_1_HI = 5.0238862;  // two-sided 95% band of χ²(1)
 }  // namespace
 
-void run(std::ptrdiff_t n, const double* gyr, const double* acc, const double* mag, double dt, double* q, double* b,
-         double* P, const double* params, const double* Ha, const double* Hm, double* out_q, double* out_b,
-         double* stats) {
-    const double gyr_var = params[P_GYR_VAR], bias_var = params[P_BIAS_VAR], acc_var = params[P_ACC_VAR];
-    const double grav = params[P_GRAVITY];
-    const double mag_var = params[P_MAG_VAR], mag_norm = params[P_MAG_NORM], mag_dip = params[P_MAG_DIP];
-    const bool use_mag = params[P_USE_MAG] > 0.5;
-    const double acc_gate = params[P_ACC_GATE], mag_gate = params[P_MAG_GATE];
-    double R[9], v[3], dx[NE], mag_mean[3];
-    double Ka[NE * 2] = {}, PH[NE * 2] = {}, Km[NE] = {};
-    int acc_closed = 0, mag_closed = 0;
-    double acc_extra = 0.0, mag_extra = 0.0;
-    const long n_win = std::max(1L, static_cast<long>(params[P_WINDOW]));
-    const double scale_var = params[P_GYR_SCALE_VAR];
-    const long stride = std::max(1L, std::min(n_win, static_cast<long>(params[P_STRIDE])));
-    const double overlap = double(n_win) / double(stride);
-    const double acc_alpha = std::min(1.0, params[P_ACC_ADAPT] * stride);  // forgetting factors are per sample
-    const double mag_alpha = std::min(1.0, params[P_MAG_ADAPT] * stride);
-    const double release = std::max(1.0, params[P_GATE_RELEASE] / stride);  // the gates count updates
-    double acc_sum[3] = {}, mag_sum[3] = {};
-    std::vector<double> ring_a(3 * n_win, 0.0), ring_m(3 * n_win, 0.0), ring_d(n_win, 0.0);
-    double Cm[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};  // accumulated corrections: current earth frame = Cm · uncorrected
-    double mag_dist_sum = 0.0, mag_dist = 0.0;
-    long head = 0, filled = 0, since = 0;
-    for (std::ptrdiff_t k = 0; k < n; ++k) {
-        // ---- predict: gyroscope as input (global error: δθ̇ = −R δb + R n_g)
-        const double* g = gyr + 3 * k;
-        predict(q, b, P, g[0], g[1], g[2], dt, gyr_var, bias_var, scale_var, R);
-        rotmat_xyzw(q[0], q[1], q[2], q[3], R);
+Params make_params(const double* params, const double* Ha, const double* Hm, double dt) {
+    Params p{};
+    p.dt = dt;
+    p.gyr_var = params[P_GYR_VAR];
+    p.bias_var = params[P_BIAS_VAR];
+    p.acc_var = params[P_ACC_VAR];
+    p.grav = params[P_GRAVITY];
+    p.mag_var = params[P_MAG_VAR];
+    p.mag_norm = params[P_MAG_NORM];
+    p.mag_dip = params[P_MAG_DIP];
+    p.use_mag = params[P_USE_MAG] > 0.5;
+    p.acc_gate = params[P_ACC_GATE];
+    p.mag_gate = params[P_MAG_GATE];
+    p.n_win = std::max(std::int64_t{1}, static_cast<std::int64_t>(params[P_WINDOW]));
+    p.scale_var = params[P_GYR_SCALE_VAR];
+    p.stride = std::max(std::int64_t{1}, std::min(p.n_win, static_cast<std::int64_t>(params[P_STRIDE])));
+    p.overlap = double(p.n_win) / double(p.stride);
+    p.acc_alpha = std::min(1.0, params[P_ACC_ADAPT] * p.stride);  // forgetting factors are per sample
+    p.mag_alpha = std::min(1.0, params[P_MAG_ADAPT] * p.stride);
+    p.release = std::max(1.0, params[P_GATE_RELEASE] / p.stride);  // the gates count updates
+    for (int i = 0; i < 2 * NE; ++i) p.Ha[i] = Ha[i];
+    for (int i = 0; i < NE; ++i) p.Hm[i] = Hm[i];
+    return p;
+}
 
-        // ---- accumulate the window: specific force and field rotated into the estimated earth frame, stored in
-        // the "uncorrected" frame (C⁻¹ R̂ v) so that a later correction rotates the whole window at once
-        // (current-frame mean = C · mean)
-        const double ax = acc[3 * k], ay = acc[3 * k + 1], az = acc[3 * k + 2];
-        for (int i = 0; i < 3; ++i) v[i] = R[3 * i] * ax + R[3 * i + 1] * ay + R[3 * i + 2] * az;
+void init_state(State& s, double* ring, const Params& p, const double* q, const double* b, const double* P) {
+    s = State{};
+    for (int i = 0; i < 4; ++i) s.q[i] = q[i];
+    for (int i = 0; i < 3; ++i) s.b[i] = b[i];
+    for (int i = 0; i < NE * NE; ++i) s.P[i] = P[i];
+    for (int i = 0; i < 9; ++i) s.Cm[i] = i % 4 == 0 ? 1.0 : 0.0;
+    std::fill(ring, ring + 7 * p.n_win, 0.0);
+}
+
+void step(State& s, double* ring, const Params& p, const double* gyr, const double* acc, const double* mag) {
+    // the names of the whole-recording loop this body was written for
+    const double dt = p.dt, gyr_var = p.gyr_var, bias_var = p.bias_var, acc_var = p.acc_var, grav = p.grav;
+    const double mag_var = p.mag_var, mag_norm = p.mag_norm, mag_dip = p.mag_dip;
+    const bool use_mag = p.use_mag != 0;
+    const double acc_gate = p.acc_gate, mag_gate = p.mag_gate, scale_var = p.scale_var;
+    const std::int64_t n_win = p.n_win, stride = p.stride;
+    const double overlap = p.overlap, acc_alpha = p.acc_alpha, mag_alpha = p.mag_alpha, release = p.release;
+    const double *Ha = p.Ha, *Hm = p.Hm;
+    double *q = s.q, *b = s.b, *P = s.P, *acc_sum = s.acc_sum, *mag_sum = s.mag_sum, *Cm = s.Cm, *stats = s.stats;
+    double &mag_dist_sum = s.mag_dist_sum, &mag_dist = s.mag_dist, &acc_extra = s.acc_extra, &mag_extra = s.mag_extra;
+    std::int64_t &head = s.head, &filled = s.filled, &since = s.since, &acc_closed = s.acc_closed,
+                 &mag_closed = s.mag_closed;
+    double* ring_a = ring;
+    double* ring_m = ring + 3 * n_win;
+    double* ring_d = ring + 6 * n_win;
+    double R[9], v[3], dx[NE], mag_mean[3];
+    double Ka[NE * 2], PH[NE * 2], Km[NE];
+
+    // ---- predict: gyroscope as input (global error: δθ̇ = −R δb + R n_g)
+    const double* g = gyr;
+    predict(q, b, P, g[0], g[1], g[2], dt, gyr_var, bias_var, scale_var, R);
+    rotmat_xyzw(q[0], q[1], q[2], q[3], R);
+
+    // ---- accumulate the window: specific force and field rotated into the estimated earth frame, stored in
+    // the "uncorrected" frame (C⁻¹ R̂ v) so that a later correction rotates the whole window at once
+    // (current-frame mean = C · mean)
+    const double ax = acc[0], ay = acc[1], az = acc[2];
+    for (int i = 0; i < 3; ++i) v[i] = R[3 * i] * ax + R[3 * i + 1] * ay + R[3 * i + 2] * az;
+    for (int i = 0; i < 3; ++i) {
+        const double e = Cm[i] * v[0] + Cm[3 + i] * v[1] + Cm[6 + i] * v[2];
+        acc_sum[i] += e - ring_a[3 * head + i];
+        ring_a[3 * head + i] = e;
+    }
+    if (use_mag) {
+        const double mx = mag[0], my = mag[1], mz = mag[2];
+        for (int i = 0; i < 3; ++i) v[i] = R[3 * i] * mx + R[3 * i + 1] * my + R[3 * i + 2] * mz;
+        // disturbance lower bound of this sample: change of the field's magnitude and dip from the reference
+        const double hs = std::sqrt(v[0] * v[0] + v[1] * v[1]);
+        const double dn = std::sqrt(mx * mx + my * my + mz * mz) - mag_norm;
+        const double dd = mag_norm * (std::atan2(-v[2], hs) - mag_dip);
+        const double dist = dn * dn + dd * dd;
+        mag_dist_sum += dist - ring_d[head];
+        ring_d[head] = dist;
         for (int i = 0; i < 3; ++i) {
             const double e = Cm[i] * v[0] + Cm[3 + i] * v[1] + Cm[6 + i] * v[2];
-            acc_sum[i] += e - ring_a[3 * head + i];
-            ring_a[3 * head + i] = e;
+            mag_sum[i] += e - ring_m[3 * head + i];
+            ring_m[3 * head + i] = e;
         }
-        if (use_mag) {
-            const double mx = mag[3 * k], my = mag[3 * k + 1], mz = mag[3 * k + 2];
-            for (int i = 0; i < 3; ++i) v[i] = R[3 * i] * mx + R[3 * i + 1] * my + R[3 * i + 2] * mz;
-            // disturbance lower bound of this sample: change of the field's magnitude and dip from the reference
-            const double hs = std::sqrt(v[0] * v[0] + v[1] * v[1]);
-            const double dn = std::sqrt(mx * mx + my * my + mz * mz) - mag_norm;
-            const double dd = mag_norm * (std::atan2(-v[2], hs) - mag_dip);
-            const double dist = dn * dn + dd * dd;
-            mag_dist_sum += dist - ring_d[head];
-            ring_d[head] = dist;
-            for (int i = 0; i < 3; ++i) {
-                const double e = Cm[i] * v[0] + Cm[3 + i] * v[1] + Cm[6 + i] * v[2];
-                mag_sum[i] += e - ring_m[3 * head + i];
-                ring_m[3 * head + i] = e;
-            }
+    }
+    head = head + 1 < n_win ? head + 1 : 0;
+    filled = std::min(filled + 1, n_win);
+    since += 1;
+    const bool window_done = filled == n_win && since >= stride;
+    if (window_done) {
+        since = 0;
+        for (int i = 0; i < 3; ++i)
+            v[i] = (Cm[3 * i] * acc_sum[0] + Cm[3 * i + 1] * acc_sum[1] + Cm[3 * i + 2] * acc_sum[2]) / n_win;
+        mag_dist = std::max(mag_dist_sum / n_win, 0.0);
+        // |mean a_lin| >= | |mean R a| - g |: that much unmodelled acceleration is certainly present
+        const double dev = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) - grav;
+        // innovation-based (Sage-Husa / Mehra) estimate of the unmodelled acceleration variance per axis:
+        // E[νᵀν]/2 = tr(HPHᵀ)/2 + r  =>  r̂ <- (1 − α) r̂ + α max(νᵀν/2 − tr(HPHᵀ)/2 − σ²/N, 0)
+        if (acc_alpha > 0.0) {
+            double hph = 0.0;  // tr(H P Hᵀ) / 2
+            for (int i = 0; i < 2; ++i)
+                for (int j = 0; j < NE; ++j)
+                    for (int m = 0; m < NE; ++m) hph += 0.5 * Ha[i * NE + j] * P[j * NE + m] * Ha[i * NE + m];
+            acc_extra = (1.0 - acc_alpha) * acc_extra +
+                        acc_alpha * std::max(0.5 * (v[0] * v[0] + v[1] * v[1]) - hph - acc_var / n_win, 0.0);
         }
-        head = head + 1 < n_win ? head + 1 : 0;
-        filled = std::min(filled + 1, n_win);
-        since += 1;
-        const bool window_done = filled == n_win && since >= stride;
-        if (window_done) {
-            since = 0;
-            for (int i = 0; i < 3; ++i)
-                v[i] = (Cm[3 * i] * acc_sum[0] + Cm[3 * i + 1] * acc_sum[1] + Cm[3 * i + 2] * acc_sum[2]) / n_win;
-            mag_dist = std::max(mag_dist_sum / n_win, 0.0);
-            // |mean a_lin| >= | |mean R a| - g |: that much unmodelled acceleration is certainly present
-            const double dev = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) - grav;
-            // innovation-based (Sage-Husa / Mehra) estimate of the unmodelled acceleration variance per axis:
-            // E[νᵀν]/2 = tr(HPHᵀ)/2 + r  =>  r̂ <- (1 − α) r̂ + α max(νᵀν/2 − tr(HPHᵀ)/2 − σ²/N, 0)
-            if (acc_alpha > 0.0) {
-                double hph = 0.0;  // tr(H P Hᵀ) / 2
-                for (int i = 0; i < 2; ++i)
-                    for (int j = 0; j < NE; ++j)
-                        for (int m = 0; m < NE; ++m) hph += 0.5 * Ha[i * NE + j] * P[j * NE + m] * Ha[i * NE + m];
-                acc_extra = (1.0 - acc_alpha) * acc_extra +
-                            acc_alpha * std::max(0.5 * (v[0] * v[0] + v[1] * v[1]) - hph - acc_var / n_win, 0.0);
+        // overlapping windows share samples: each update carries 1/overlap of a window's information
+        const double r = (acc_var / n_win + dev * dev + acc_extra) * overlap;
+        // S = H P Hᵀ + r I
+        for (int i = 0; i < NE; ++i)
+            for (int c = 0; c < 2; ++c) {
+                double t = 0.0;
+                for (int m = 0; m < NE; ++m) t += P[i * NE + m] * Ha[c * NE + m];
+                PH[i * 2 + c] = t;
             }
-            // overlapping windows share samples: each update carries 1/overlap of a window's information
-            const double r = (acc_var / n_win + dev * dev + acc_extra) * overlap;
-            // S = H P Hᵀ + r I
-            for (int i = 0; i < NE; ++i)
-                for (int c = 0; c < 2; ++c) {
-                    double t = 0.0;
-                    for (int m = 0; m < NE; ++m) t += P[i * NE + m] * Ha[c * NE + m];
-                    PH[i * 2 + c] = t;
-                }
-            double s00 = r, s01 = 0.0, s11 = r;
-            for (int m = 0; m < NE; ++m) {
-                s00 += Ha[m] * PH[m * 2];
-                s01 += Ha[m] * PH[m * 2 + 1];
-                s11 += Ha[NE + m] * PH[m * 2 + 1];
+        double s00 = r, s01 = 0.0, s11 = r;
+        for (int m = 0; m < NE; ++m) {
+            s00 += Ha[m] * PH[m * 2];
+            s01 += Ha[m] * PH[m * 2 + 1];
+            s11 += Ha[NE + m] * PH[m * 2 + 1];
+        }
+        const double det = s00 * s11 - s01 * s01;
+        const double i00 = s11 / det, i01 = -s01 / det, i11 = s00 / det;
+        const double nis = v[0] * (i00 * v[0] + i01 * v[1]) + v[1] * (i01 * v[0] + i11 * v[1]);
+        if (nis > acc_gate && acc_closed < release) {
+            acc_closed += 1;
+            stats[S_ACC_REJECTED] += 1.0;
+        } else {
+            if (nis <= acc_gate) acc_closed = 0;  // after a release the gate stays open until one fits again
+            stats[S_ACC_NIS_SUM] += nis;
+            if (CHI2_2_LO <= nis && nis <= CHI2_2_HI) stats[S_ACC_INSIDE] += 1.0;
+            for (int i = 0; i < NE; ++i) {
+                const double ph0 = PH[i * 2], ph1 = PH[i * 2 + 1];
+                Ka[i * 2] = ph0 * i00 + ph1 * i01;
+                Ka[i * 2 + 1] = ph0 * i01 + ph1 * i11;
             }
-            const double det = s00 * s11 - s01 * s01;
-            const double i00 = s11 / det, i01 = -s01 / det, i11 = s00 / det;
-            const double nis = v[0] * (i00 * v[0] + i01 * v[1]) + v[1] * (i01 * v[0] + i11 * v[1]);
-            if (nis > acc_gate && acc_closed < release) {
-                acc_closed += 1;
-                stats[S_ACC_REJECTED] += 1.0;
+            Ka[(D_ATTITUDE + 2) * 2] = 0.0;  // the accelerometer never corrects heading
+            Ka[(D_ATTITUDE + 2) * 2 + 1] = 0.0;
+            for (int i = 0; i < NE; ++i) dx[i] = Ka[i * 2] * v[0] + Ka[i * 2 + 1] * v[1];
+            joseph_update<2>(P, Ka, Ha, r);
+            inject_and_reset(q, b, P, dx);
+            left_rotate_inplace(Cm, dx);
+        }
+    }
+
+    // ---- magnetometer (9D): heading of the horizontal part of the field averaged in the earth frame over the
+    // same window (inclination-decoupled), with the field's per-sample disturbance level accumulated alongside
+    if (use_mag && window_done) {
+        for (int i = 0; i < 3; ++i)
+            mag_mean[i] = (Cm[3 * i] * mag_sum[0] + Cm[3 * i + 1] * mag_sum[1] + Cm[3 * i + 2] * mag_sum[2]) / n_win;
+        double h;
+        const double psi = heading_of_field(mag_mean, &h, 1e-3 * mag_norm);
+        if (std::isnan(psi)) {
+            stats[S_MAG_SKIPPED] += 1.0;
+        } else {
+            const double r0 = (mag_var / n_win + mag_dist) / (h * h) * overlap;
+            for (int i = 0; i < NE; ++i) {
+                double t = 0.0;
+                for (int m = 0; m < NE; ++m) t += P[i * NE + m] * Hm[m];
+                Km[i] = t;  // P Hᵀ for now
+            }
+            double hph = 0.0;
+            for (int m = 0; m < NE; ++m) hph += Hm[m] * Km[m];
+            if (mag_alpha > 0.0)
+                mag_extra = (1.0 - mag_alpha) * mag_extra + mag_alpha * std::max(psi * psi - hph - r0, 0.0);
+            const double r = r0 + mag_extra;
+            const double s = hph + r;
+            const double nis = psi * psi / s;
+            if (nis > mag_gate && mag_closed < release) {
+                mag_closed += 1;
+                stats[S_MAG_REJECTED] += 1.0;
             } else {
-                if (nis <= acc_gate) acc_closed = 0;  // after a release the gate stays open until one fits again
-                stats[S_ACC_NIS_SUM] += nis;
-                if (CHI2_2_LO <= nis && nis <= CHI2_2_HI) stats[S_ACC_INSIDE] += 1.0;
-                for (int i = 0; i < NE; ++i) {
-                    const double ph0 = PH[i * 2], ph1 = PH[i * 2 + 1];
-                    Ka[i * 2] = ph0 * i00 + ph1 * i01;
-                    Ka[i * 2 + 1] = ph0 * i01 + ph1 * i11;
-                }
-                Ka[(D_ATTITUDE + 2) * 2] = 0.0;  // the accelerometer never corrects heading
-                Ka[(D_ATTITUDE + 2) * 2 + 1] = 0.0;
-                for (int i = 0; i < NE; ++i) dx[i] = Ka[i * 2] * v[0] + Ka[i * 2 + 1] * v[1];
-                joseph_update<2>(P, Ka, Ha, r);
+                if (nis <= mag_gate) mag_closed = 0;
+                stats[S_MAG_NIS_SUM] += nis;
+                if (CHI2_1_LO <= nis && nis <= CHI2_1_HI) stats[S_MAG_INSIDE] += 1.0;
+                for (int i = 0; i < NE; ++i) Km[i] /= s;
+                Km[D_ATTITUDE] = 0.0;  // the magnetometer never corrects inclination
+                Km[D_ATTITUDE + 1] = 0.0;
+                for (int i = 0; i < NE; ++i) dx[i] = Km[i] * psi;
+                joseph_update<1>(P, Km, Hm, r);
                 inject_and_reset(q, b, P, dx);
                 left_rotate_inplace(Cm, dx);
             }
         }
-
-        // ---- magnetometer (9D): heading of the horizontal part of the field averaged in the earth frame over the
-        // same window (inclination-decoupled), with the field's per-sample disturbance level accumulated alongside
-        if (use_mag && window_done) {
-            for (int i = 0; i < 3; ++i)
-                mag_mean[i] = (Cm[3 * i] * mag_sum[0] + Cm[3 * i + 1] * mag_sum[1] + Cm[3 * i + 2] * mag_sum[2]) / n_win;
-            double h;
-            const double psi = heading_of_field(mag_mean, &h, 1e-3 * mag_norm);
-            if (std::isnan(psi)) {
-                stats[S_MAG_SKIPPED] += 1.0;
-            } else {
-                const double r0 = (mag_var / n_win + mag_dist) / (h * h) * overlap;
-                for (int i = 0; i < NE; ++i) {
-                    double t = 0.0;
-                    for (int m = 0; m < NE; ++m) t += P[i * NE + m] * Hm[m];
-                    Km[i] = t;  // P Hᵀ for now
-                }
-                double hph = 0.0;
-                for (int m = 0; m < NE; ++m) hph += Hm[m] * Km[m];
-                if (mag_alpha > 0.0)
-                    mag_extra = (1.0 - mag_alpha) * mag_extra + mag_alpha * std::max(psi * psi - hph - r0, 0.0);
-                const double r = r0 + mag_extra;
-                const double s = hph + r;
-                const double nis = psi * psi / s;
-                if (nis > mag_gate && mag_closed < release) {
-                    mag_closed += 1;
-                    stats[S_MAG_REJECTED] += 1.0;
-                } else {
-                    if (nis <= mag_gate) mag_closed = 0;
-                    stats[S_MAG_NIS_SUM] += nis;
-                    if (CHI2_1_LO <= nis && nis <= CHI2_1_HI) stats[S_MAG_INSIDE] += 1.0;
-                    for (int i = 0; i < NE; ++i) Km[i] /= s;
-                    Km[D_ATTITUDE] = 0.0;  // the magnetometer never corrects inclination
-                    Km[D_ATTITUDE + 1] = 0.0;
-                    for (int i = 0; i < NE; ++i) dx[i] = Km[i] * psi;
-                    joseph_update<1>(P, Km, Hm, r);
-                    inject_and_reset(q, b, P, dx);
-                    left_rotate_inplace(Cm, dx);
-                }
-            }
-        }
-        for (int i = 0; i < 4; ++i) out_q[4 * k + i] = q[i];
-        for (int i = 0; i < 3; ++i) out_b[3 * k + i] = b[i];
     }
+}
+
+void run(std::ptrdiff_t n, const double* gyr, const double* acc, const double* mag, double dt, double* q, double* b,
+         double* P, const double* params, const double* Ha, const double* Hm, double* out_q, double* out_b,
+         double* stats) {
+    const Params p = make_params(params, Ha, Hm, dt);
+    State s;
+    std::vector<double> ring(7 * p.n_win);
+    init_state(s, ring.data(), p, q, b, P);
+    for (int i = 0; i < N_STATS; ++i) s.stats[i] = stats[i];
+    for (std::ptrdiff_t k = 0; k < n; ++k) {
+        step(s, ring.data(), p, gyr + 3 * k, acc + 3 * k, mag + 3 * k);
+        for (int i = 0; i < 4; ++i) out_q[4 * k + i] = s.q[i];
+        for (int i = 0; i < 3; ++i) out_b[3 * k + i] = s.b[i];
+    }
+    for (int i = 0; i < 4; ++i) q[i] = s.q[i];
+    for (int i = 0; i < 3; ++i) b[i] = s.b[i];
+    for (int i = 0; i < NE * NE; ++i) P[i] = s.P[i];
+    for (int i = 0; i < N_STATS; ++i) stats[i] = s.stats[i];
 }
 
 }  // namespace dualpose::ahrs

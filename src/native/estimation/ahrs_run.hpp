@@ -1,19 +1,73 @@
-// The AHRS over a whole recording (docs/broad.md; the model in dualpose.estimation.ahrs's module docstring).
+// The AHRS one sample at a time (step) and over a whole recording (run, a loop over step): docs/broad.md; the model
+// in dualpose.estimation.ahrs's module docstring; the streaming interface in dualpose.estimation.ahrs_stream.
 #pragma once
 
+#include "ahrs_layout.hpp"
+
 #include <cstddef>
+#include <cstdint>
 
 namespace dualpose::ahrs {
 
+// Constants of one filter: the params vector (ahrs_layout.hpp) and what follows from it, set once by make_params.
+struct Params {
+    double dt;  // sampling interval, s
+    double gyr_var, bias_var, acc_var, grav, mag_var, mag_norm, mag_dip, acc_gate, mag_gate, scale_var;
+    double overlap, acc_alpha, mag_alpha, release;
+    double Ha[2 * ERROR_DIM], Hm[ERROR_DIM];  // measurement Jacobians (2, 6) and (1, 6)
+    std::int64_t n_win, stride, use_mag;
+};
+
+// Everything that changes from sample to sample (trivially copyable: a byte copy saves and restores it).  The
+// sliding window's ring buffers (7 n_win doubles: ring_a (n_win, 3), ring_m (n_win, 3), ring_d (n_win,)) are kept
+// by the caller, next to the state.
+struct State {
+    double q[4], b[3], P[ERROR_DIM * ERROR_DIM];  // nominal state (xyzw, rad/s) and error covariance
+    double acc_sum[3], mag_sum[3];                // window sums (uncorrected frame)
+    double Cm[9];                                 // accumulated corrections: current earth frame = Cm · uncorrected
+    double mag_dist_sum, mag_dist;                // window sum / mean of the field's disturbance lower bound
+    double acc_extra, mag_extra;                  // adaptive-noise estimates
+    double stats[N_STATS];                        // counters (ahrs_layout.hpp)
+    std::int64_t head, filled, since;             // ring position, samples in the window, samples since an update
+    std::int64_t acc_closed, mag_closed;          // gate counters
+};
+
+// The constants of params (N_PARAMS,), Ha (2, 6), Hm (1, 6) and dt.
+Params make_params(const double* params, const double* Ha, const double* Hm, double dt);
+
+// The state before the first sample: q (4,), b (3,), P (6, 6) copied, everything else empty; ring (7 n_win) zeroed.
+void init_state(State& s, double* ring, const Params& p, const double* q, const double* b, const double* P);
+
+// One sample: predict q <- q ⊗ Exp((ω − b) dt), P <- F P Fᵀ + Q; accumulate R̂ a and R̂ m in the sliding window;
+// every stride samples the accelerometer update of inclination and (9D) the magnetometer heading update, χ²-gated,
+// with adaptive noise.  gyr, acc, mag (3,) rad/s, m/s², µT (mag unused in 6D).
+void step(State& s, double* ring, const Params& p, const double* gyr, const double* acc, const double* mag);
+
 // Run the filter over n samples; q (4,), b (3,), P (6, 6) are the initial state, updated in place.
-//
-// Per sample k: predict q <- q ⊗ Exp((ω_k − b) dt), P <- F P Fᵀ + Q; accumulate R̂ a_k and R̂ m_k in the sliding
-// window; every stride samples the accelerometer update of inclination and (9D) the magnetometer heading update.
 // gyr, acc, mag (n, 3); params (N_PARAMS,); Ha (2, 6) and Hm (1, 6) the measurement Jacobians of
 // dualpose.estimation.ahrs.accelerometer_jacobian and heading_jacobian; out_q (n, 4), out_b (n, 3) receive the
-// state after the updates of sample k; stats (N_STATS,) accumulates the counters.
+// state after the updates of sample k; stats (N_STATS,) accumulates the counters.  A loop over step.
 void run(std::ptrdiff_t n, const double* gyr, const double* acc, const double* mag, double dt, double* q, double* b,
          double* P, const double* params, const double* Ha, const double* Hm, double* out_q, double* out_b,
          double* stats);
+
+// The saved stream: one contiguous byte buffer [StreamHeader | Params | State | ring (7 n_win doubles)], so that a
+// byte copy saves it and restores it.  STREAM_VERSION changes whenever the layout does.
+constexpr std::uint64_t STREAM_MAGIC = 0x3153524841504455ULL;  // "UDPAHRS1" little-endian
+constexpr std::uint64_t STREAM_VERSION = 1;
+struct StreamHeader {
+    std::uint64_t magic, version, size, n_win;  // size: total bytes of the buffer
+};
+struct Stream {
+    StreamHeader h;
+    Params p;
+    State s;
+    double* ring() { return reinterpret_cast<double*>(this + 1); }
+};
+static_assert(sizeof(Stream) % sizeof(double) == 0, "the ring must follow the state aligned");
+
+inline std::size_t stream_bytes(std::int64_t n_win) {
+    return sizeof(Stream) + 7 * static_cast<std::size_t>(n_win) * sizeof(double);
+}
 
 }  // namespace dualpose::ahrs

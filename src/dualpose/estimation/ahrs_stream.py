@@ -1,0 +1,378 @@
+"""The AHRS of :mod:`dualpose.estimation.ahrs` one sample at a time (streaming), with a savable state.
+
+:class:`AhrsStream` runs the same compiled per-sample step as :func:`~dualpose.estimation.ahrs.estimate_orientation`
+(``step`` in ``src/native/estimation/ahrs_run.cpp``; the whole-recording loop is a loop over it), so a stream fed
+sample by sample, a stream fed in blocks (:meth:`AhrsStream.update_batch`) and the batch estimator give the same
+orientations and biases to the last bit, provided they use the same settings and the batch estimator's non-causal
+pre-processing is off (``mag_time_offset=0.0``, ``mag_calibration=None``).
+
+The whole filter state -- orientation, bias, covariance, the sliding window's ring buffers and sums, the accumulated
+corrections, gate counters, adaptive-noise estimates and statistics -- lives in one ``numpy.uint8`` buffer with a
+header (magic number, layout version, size; ``AhrsStream.LAYOUT_VERSION``).  Saving the stream is a copy of that
+buffer (:meth:`AhrsStream.state_dict`); restoring it (:meth:`AhrsStream.from_state`) continues exactly where the saved
+stream stopped.  A buffer of another layout version or size is refused with a ValueError.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict
+from typing import Any
+
+import numpy as np
+
+from dualpose import _native
+from dualpose.estimation.ahrs import AhrsNoise, RestStatistics, filter_setup, rest_statistics
+
+__all__ = ["AhrsStream"]
+
+
+def _check_block(x: Any, name: str, n: int | None) -> np.ndarray:
+    a = np.ascontiguousarray(x, dtype=np.float64)
+    if a.ndim != 2 or a.shape[1] != 3 or (n is not None and a.shape[0] != n):
+        raise ValueError(f"{name} must have shape ({'n' if n is None else n}, 3); got {a.shape}")
+    return a
+
+
+class AhrsStream:
+    """The AHRS (gyroscope, accelerometer, optional magnetometer) updated one sample at a time.
+
+    The model, the defaults and the initialisation are those of
+    :func:`~dualpose.estimation.ahrs.estimate_orientation` (its docstring and docs/broad.md describe them); the
+    keyword arguments have the same meaning.  Differences, all because a stream cannot look ahead:
+
+    * no magnetometer–gyroscope time offset and no magnetometer self-calibration (both are estimated from the whole
+      recording in the batch estimator): pass an already calibrated and time-aligned field.  The stream equals
+      ``estimate_orientation(..., mag_time_offset=0.0, mag_calibration=None)`` sample for sample, bit for bit;
+    * initialisation from a rest period: with ``rest`` given (e.g. :func:`~dualpose.estimation.ahrs.rest_statistics`
+      of an earlier recording) the filter starts at the first sample and every output is causal.  Otherwise the
+      first ``n_rest`` samples are buffered; the rest statistics are computed when the last of them arrives, the
+      buffered samples are filtered at once, and their outputs are then in :attr:`rest_quat` /
+      :attr:`rest_gyro_bias` (outputs of those samples returned before that are NaN).  ``n_rest=0``: start at the
+      first sample from its own directions (as the batch estimator with ``n_rest=0``);
+    * the sampling is uniform at ``rate`` (the filter's step is ``1 / rate``, as in the batch estimator); the time
+      stamps ``t`` are only checked to increase strictly.
+
+    Parameters
+    ----------
+    rate : float
+        Sampling rate, Hz.
+    use_mag : bool
+        9D (True) or 6D (False).
+    n_rest : int, optional
+        Leading samples at rest (default: one second, ``round(rate)``, or 0 when that is below 10).  Ignored when
+        ``rest`` is given.
+    rest : RestStatistics, optional
+        Rest statistics to start from (no buffering).
+    noise, gate_probability, gate_release, adapt_time, window, mag_adapt, gyro_scale_sigma, update_interval
+        As in :func:`~dualpose.estimation.ahrs.estimate_orientation`.
+
+    Examples
+    --------
+    >>> s = AhrsStream(100.0, use_mag=False, n_rest=0)
+    >>> s.update_imu(0.0, [0.0, 0.0, 0.0], [0.0, 0.0, 9.81]).shape
+    (4,)
+    """
+
+    #: version of the saved state's byte layout (``STREAM_VERSION`` in ``src/native/estimation/ahrs_run.hpp``)
+    LAYOUT_VERSION: int = _native.AHRS_STREAM_VERSION
+
+    def __init__(
+        self,
+        rate: float,
+        *,
+        use_mag: bool = True,
+        n_rest: int | None = None,
+        rest: RestStatistics | None = None,
+        noise: AhrsNoise | None = None,
+        gate_probability: float = 0.999,
+        gate_release: float = 2.0,
+        adapt_time: float = 6.0,
+        window: float = 3.0,
+        mag_adapt: bool = False,
+        gyro_scale_sigma: float = 0.005,
+        update_interval: float = 0.1,
+    ) -> None:
+        if not (np.isfinite(rate) and rate > 0):
+            raise ValueError(f"rate must be a positive number of Hz; got {rate}")
+        if n_rest is None:
+            n_rest = int(round(rate))
+            n_rest = n_rest if n_rest >= 10 else 0
+        if rest is not None:
+            n_rest = 0
+        if not (n_rest == 0 or n_rest >= 10):
+            raise ValueError(f"n_rest must be 0 (no rest period) or at least 10 samples; got {n_rest}")
+        self._config = dict(
+            rate=float(rate), use_mag=bool(use_mag), n_rest=int(n_rest), rest=rest, noise=noise,
+            gate_probability=gate_probability, gate_release=gate_release, adapt_time=adapt_time, window=window,
+            mag_adapt=mag_adapt, gyro_scale_sigma=gyro_scale_sigma, update_interval=update_interval,
+        )  # fmt: skip
+        self._rate = float(rate)
+        self._use_mag = bool(use_mag)
+        self._n_rest = int(n_rest)
+        self._rest = rest
+        self._state: np.ndarray | None = None
+        self._pending: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []  # blocks (k,), (k, 3) ...
+        self._n_pending = 0
+        self._t = -math.inf
+        self._samples = 0
+        self.rest_quat = np.empty((0, 4))
+        self.rest_gyro_bias = np.empty((0, 3))
+        if rest is not None:
+            self._start(None, None)
+
+    # ---- set-up -------------------------------------------------------------------------------------------------
+
+    def _setup_kwargs(self) -> dict[str, Any]:
+        c = self._config
+        keys = ("use_mag", "noise", "gate_probability", "gate_release", "adapt_time", "window", "mag_adapt")
+        out = {k: c[k] for k in keys}
+        out.update(gyro_scale_sigma=c["gyro_scale_sigma"], update_interval=c["update_interval"])
+        return out
+
+    def _start(self, first_acc: np.ndarray | None, first_mag: np.ndarray | None) -> None:
+        setup = filter_setup(self._rate, self._rest, first_acc, first_mag, **self._setup_kwargs())
+        self._state = _native.ahrs_stream_new(
+            setup.params, setup.Ha, setup.Hm, 1.0 / self._rate, setup.q, setup.b, setup.P
+        )
+
+    def _finish_rest(self) -> None:
+        """Initialise from the buffered rest samples and filter them (their outputs go to rest_quat / bias)."""
+        _, g, a, m = self._pending_arrays()
+        self._pending, self._n_pending = [], 0
+        if self._n_rest:
+            self._rest = rest_statistics(g, a, m if self._use_mag else None, self._rate, self._n_rest)
+            self._start(None, None)
+        else:
+            self._start(a[0], m[0])
+        self.rest_quat = np.empty((len(g), 4))
+        self.rest_gyro_bias = np.empty((len(g), 3))
+        _native.ahrs_stream_run(self._state, g, a, m, self.rest_quat, self.rest_gyro_bias)
+
+    # ---- updates ------------------------------------------------------------------------------------------------
+
+    def update_imu(self, t: float, gyro: Any, accel: Any, mag: Any = None) -> np.ndarray:
+        """Filter one sample and return the orientation after it.
+
+        Parameters
+        ----------
+        t : float
+            Time stamp, s (must increase strictly; the filter's step is ``1 / rate``).
+        gyro : array_like, shape (3,)
+            Angular rate, rad/s, IMU axes.
+        accel : array_like, shape (3,)
+            Specific force, m/s², IMU axes.
+        mag : array_like, shape (3,), optional
+            Magnetic field (µT), IMU axes, calibrated and time-aligned; required in 9D, ignored in 6D.
+
+        Returns
+        -------
+        ndarray, shape (4,)
+            Orientation xyzw, IMU → earth (ENU), after this sample's updates; NaN while the rest period is still
+            being buffered (see :attr:`rest_quat`).
+        """
+        if self._state is not None and t > self._t and (mag is not None or not self._use_mag):
+            self._t = t
+            self._samples += 1
+            return _native.ahrs_stream_step(self._state, gyro, accel, mag)
+        self._check_sample(t, mag)
+        g = np.array(gyro, dtype=np.float64).reshape(1, 3)
+        a = np.array(accel, dtype=np.float64).reshape(1, 3)
+        m = np.array(mag, dtype=np.float64).reshape(1, 3) if mag is not None else np.zeros((1, 3))
+        self._t = t
+        self._samples += 1
+        self._pending.append((np.array([t], dtype=np.float64), g, a, m))
+        self._n_pending += 1
+        if self._n_pending < max(self._n_rest, 1):
+            return np.full(4, np.nan)
+        self._finish_rest()
+        return self.rest_quat[-1].copy()
+
+    def _check_sample(self, t: float, mag: Any) -> None:
+        if not t > self._t:
+            raise ValueError(f"t must increase strictly: got {t} after {self._t}")
+        if mag is None and self._use_mag:
+            raise ValueError("mag is required in 9D (use_mag=True); pass use_mag=False for 6D")
+
+    def update_batch(self, t: Any, gyro: Any, accel: Any, mag: Any = None) -> tuple[np.ndarray, np.ndarray]:
+        """Filter a block of samples (the same compiled step as :meth:`update_imu`, without a Python call per sample).
+
+        Parameters
+        ----------
+        t : array_like, shape (n,)
+            Time stamps, s, strictly increasing and after the last sample filtered.
+        gyro, accel, mag : array_like, shape (n, 3)
+            As in :meth:`update_imu` (``mag`` required in 9D).
+
+        Returns
+        -------
+        quat : ndarray, shape (n, 4)
+            Orientation after each sample, xyzw, IMU → earth (NaN for rest samples whose output is not known when the
+            call returns, as in :meth:`update_imu`).
+        gyro_bias : ndarray, shape (n, 3)
+            Gyroscope bias after each sample, rad/s.
+        """
+        t = np.ascontiguousarray(t, dtype=np.float64).reshape(-1)
+        n = t.shape[0]
+        g = _check_block(gyro, "gyro", n)
+        a = _check_block(accel, "accel", n)
+        if mag is None and self._use_mag:
+            raise ValueError("mag is required in 9D (use_mag=True); pass use_mag=False for 6D")
+        m = _check_block(mag, "mag", n) if mag is not None else np.zeros((n, 3))
+        if n and (not t[0] > self._t or np.any(np.diff(t) <= 0)):
+            raise ValueError("t must increase strictly (and start after the last sample filtered)")
+        out_q = np.full((n, 4), np.nan)
+        out_b = np.full((n, 3), np.nan)
+        i = 0
+        if self._state is None:
+            i = min(n, max(self._n_rest, 1) - self._n_pending)
+            self._pending.append((t[:i].copy(), g[:i].copy(), a[:i].copy(), m[:i].copy()))
+            self._n_pending += i
+            if self._n_pending == max(self._n_rest, 1):
+                self._finish_rest()
+                out_q[:i] = self.rest_quat[len(self.rest_quat) - i :]
+                out_b[:i] = self.rest_gyro_bias[len(self.rest_gyro_bias) - i :]
+        if i < n:
+            _native.ahrs_stream_run(self._state, g[i:], a[i:], m[i:], out_q[i:], out_b[i:])
+        if n:
+            self._t = float(t[-1])
+            self._samples += n
+        return out_q, out_b
+
+    # ---- state --------------------------------------------------------------------------------------------------
+
+    @property
+    def ready(self) -> bool:
+        """Whether the filter is initialised (the rest period, if any, is complete)."""
+        return self._state is not None
+
+    @property
+    def samples(self) -> int:
+        """Samples filtered or buffered so far."""
+        return self._samples
+
+    @property
+    def rest(self) -> RestStatistics | None:
+        """The rest statistics the filter started from (None before initialisation or without a rest period)."""
+        return self._rest
+
+    def _get(self, k: int) -> np.ndarray:
+        if self._state is None:
+            return np.full((4, 3, 36, _native.AHRS_N_STATS)[k], np.nan)
+        return _native.ahrs_stream_get(self._state)[k]
+
+    @property
+    def quat(self) -> np.ndarray:
+        """Current orientation, xyzw, IMU → earth (ENU), shape (4,) (NaN before initialisation)."""
+        return self._get(0)
+
+    @property
+    def gyro_bias(self) -> np.ndarray:
+        """Current gyroscope bias, rad/s, shape (3,)."""
+        return self._get(1)
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """Current error covariance of ``[δθ (earth frame), δb]``, shape (6, 6)."""
+        return self._get(2).reshape(6, 6)
+
+    def state_dict(self) -> dict[str, Any]:
+        """Everything needed to continue this stream elsewhere (:meth:`from_state`), as copies.
+
+        Returns
+        -------
+        dict
+            ``version`` (:attr:`LAYOUT_VERSION`), ``state`` (the filter's ``numpy.uint8`` buffer, None before
+            initialisation), ``pending`` (buffered rest samples: ``t`` (k,), ``gyro``, ``accel``, ``mag`` (k, 3)),
+            ``t`` (last time stamp), ``samples``, ``rest_quat``, ``rest_gyro_bias`` and ``config`` (the constructor's
+            arguments, with ``noise`` and ``rest`` as plain dicts).
+        """
+        c = dict(self._config)
+        c["noise"] = asdict(c["noise"]) if c["noise"] is not None else None
+        c["rest"] = self._rest_dict(c["rest"])
+        pt, pg, pa, pm = self._pending_arrays()
+        return {
+            "version": self.LAYOUT_VERSION,
+            "state": None if self._state is None else self._state.copy(),
+            "pending": {"t": pt, "gyro": pg, "accel": pa, "mag": pm},
+            "t": self._t,
+            "samples": self._samples,
+            "rest_statistics": self._rest_dict(self._rest),
+            "rest_quat": self.rest_quat.copy(),
+            "rest_gyro_bias": self.rest_gyro_bias.copy(),
+            "config": c,
+        }
+
+    def _pending_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The buffered rest samples as arrays t (k,), gyro, accel, mag (k, 3)."""
+        if not self._pending:
+            return np.empty(0), np.empty((0, 3)), np.empty((0, 3)), np.empty((0, 3))
+        return tuple(np.concatenate([p[j] for p in self._pending]) for j in range(4))  # type: ignore[return-value]
+
+    @staticmethod
+    def _rest_dict(rest: RestStatistics | None) -> dict[str, Any] | None:
+        if rest is None:
+            return None
+        d = {f: getattr(rest, f) for f in ("samples", "gyroscope_bias", "specific_force", "magnetic_field")}
+        return {**d, "noise": asdict(rest.noise)}
+
+    @staticmethod
+    def _rest_from(d: dict[str, Any] | None) -> RestStatistics | None:
+        if d is None:
+            return None
+        return RestStatistics(
+            samples=int(d["samples"]),
+            gyroscope_bias=np.array(d["gyroscope_bias"], dtype=np.float64),
+            specific_force=np.array(d["specific_force"], dtype=np.float64),
+            magnetic_field=np.array(d["magnetic_field"], dtype=np.float64),
+            noise=AhrsNoise(**d["noise"]),
+        )
+
+    @classmethod
+    def from_state(cls, state: dict[str, Any]) -> AhrsStream:
+        """A stream that continues exactly where the one that wrote ``state`` (:meth:`state_dict`) stopped.
+
+        Parameters
+        ----------
+        state : dict
+            The output of :meth:`state_dict` (possibly after a round trip through ``pickle`` or ``numpy.savez``).
+
+        Returns
+        -------
+        AhrsStream
+
+        Raises
+        ------
+        ValueError
+            Naming ``state`` when it is not a saved AHRS stream, has another layout version, or its buffer has the
+            wrong size.
+        """
+        try:
+            version, config = int(state["version"]), dict(state["config"])
+        except (TypeError, KeyError, ValueError) as exc:
+            raise ValueError(f"state is not a saved AhrsStream (state_dict()): {exc!r}") from None
+        if version != cls.LAYOUT_VERSION:
+            raise ValueError(f"state has AHRS stream layout version {version}; this build reads {cls.LAYOUT_VERSION}")
+        buf = state["state"]
+        if buf is not None:
+            if isinstance(buf, (bytes, bytearray, memoryview)):
+                buf = np.frombuffer(buf, dtype=np.uint8)
+            buf = np.array(buf, dtype=np.uint8, copy=True).reshape(-1)  # a fresh, aligned, writeable copy
+            _native.ahrs_stream_check(buf, "state")
+        config["noise"] = AhrsNoise(**config["noise"]) if config["noise"] is not None else None
+        config["rest"] = cls._rest_from(config["rest"])
+        rest0 = config["rest"]
+        config["rest"] = None  # do not start a fresh filter: the saved one is restored below
+        out = cls(**config)
+        out._config["rest"] = rest0
+        out._rest = cls._rest_from(state["rest_statistics"])
+        out._state = buf
+        pend = state["pending"]
+        blk = tuple(np.array(pend[k], dtype=np.float64) for k in ("t", "gyro", "accel", "mag"))
+        out._pending = [(blk[0].reshape(-1), *(x.reshape(-1, 3) for x in blk[1:]))]
+        out._n_pending = len(out._pending[0][0])
+        out._t = float(state["t"])
+        out._samples = int(state["samples"])
+        out.rest_quat = np.array(state["rest_quat"], dtype=np.float64).reshape(-1, 4)
+        out.rest_gyro_bias = np.array(state["rest_gyro_bias"], dtype=np.float64).reshape(-1, 3)
+        return out
