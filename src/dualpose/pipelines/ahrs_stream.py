@@ -112,7 +112,9 @@ def stream_ahrs_lines(
     Yields
     ------
     str
-        ``t, qx, qy, qz, qw`` plus a newline (:func:`format_row`), in input order.  The orientations are those of
+        ``t, qx, qy, qz, qw`` plus a newline (:func:`format_row`), in input order: one line per sample, except the
+        rest period's lines, which come together as one string (so that a caller flushing after each string writes
+        them at once and catches up with the input sooner).  The orientations are those of
         :meth:`AhrsStream.update_imu <dualpose.estimation.ahrs_stream.AhrsStream.update_imu>` (the rest period's
         from :attr:`~dualpose.estimation.ahrs_stream.AhrsStream.rest_quat`), bit for bit.
 
@@ -144,8 +146,7 @@ def stream_ahrs_lines(
             continue
         held.append(t)
         if stream.ready:  # this sample completed the rest period: its outputs are known now
-            for t_k, q_k in zip(held, stream.rest_quat, strict=True):
-                yield format_row(t_k, q_k)
+            yield "".join(format_row(t_k, q_k) for t_k, q_k in zip(held, stream.rest_quat, strict=True))
             held = []
     if held:
         raise ValueError(
