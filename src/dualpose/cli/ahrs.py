@@ -1,6 +1,11 @@
 """``dualpose ahrs FILE [--mag/--no-mag] [--json]``: orientation-only filter on a BROAD trial, scored with BROAD's
 metric (total / heading / inclination RMSE over the movement samples) when the file has a reference.
 
+``dualpose ahrs --stream --rate HZ [--no-mag] [--rest-seconds S]``: the same filter on IMU samples read as text lines
+from standard input, one orientation line written (and flushed) per input line as soon as it is known; the line
+formats, the rest period and the exit statuses are in docs/broad.md, "Streaming" (the job is
+:func:`dualpose.pipelines.ahrs_stream.stream_ahrs_lines`).
+
 9D (``--mag``, default) is scored as BROAD publishes it, in the magnetic ENU frame without alignment; 6D
 (``--no-mag``) has no absolute heading, so one constant heading offset is removed first (see
 :mod:`dualpose.evaluation.orientation_errors`); it does not need the file's ``imu_mag`` field.  Exit status: 0, 2 on
@@ -13,6 +18,22 @@ import argparse
 import json
 import sys
 
+from dualpose.cli._args import float_in
+
+_STREAM_HELP = """\
+streaming (--stream): read IMU samples from standard input, one per line:
+  t, gx, gy, gz, ax, ay, az[, mx, my, mz]      (s, rad/s, m/s^2, any field unit; 6 IMU fields with --no-mag)
+comma or whitespace separated; '#' starts a comment; blank and comment lines are skipped and give no output.
+The filter steps by 1/--rate (the time stamps must only increase).  One line per input sample is written to
+standard output and flushed at once:
+  t, qx, qy, qz, qw                             (orientation IMU -> earth (ENU), xyzw, repr: exact float64)
+The first --rest-seconds (default 1 s) initialise the filter: their lines are held and all written, in order, when
+the rest period is complete, so the first output appears after the rest period (--rest-seconds 0: at once).
+Exit status: 0 at the end of the input; 1 on a malformed line (wrong number of fields, not a number, non-finite,
+time not increasing), with 'stdin line N: ...' on stderr and every line before it already written, or when the
+input ends inside the rest period; 2 on bad arguments; 141 when the reader of standard output goes away.
+"""
+
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     """Register ``dualpose ahrs``."""
@@ -20,9 +41,18 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         "ahrs",
         help="orientation-only filter (gyro + acc [+ mag]) on a BROAD trial, scored with BROAD's metric",
         description="Run dualpose's orientation-only error-state filter on a BROAD .mat trial and print its RMSE "
-        "against the optical reference (total / heading / inclination, degrees, movement samples).",
+        "against the optical reference (total / heading / inclination, degrees, movement samples); or, with "
+        "--stream, on IMU samples read line by line from standard input, printing one orientation per line.",
+        epilog=_STREAM_HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("file", help="BROAD trial file (.mat)")
+    p.add_argument("file", nargs="?", help="BROAD trial file (.mat); not with --stream")
+    p.add_argument("--stream", action="store_true",
+                   help="read IMU sample lines from stdin, write one orientation line per sample (see below)")
+    p.add_argument("--rate", type=float_in(0.0, 1e9, lo_open=True), metavar="HZ",
+                   help="sampling rate of the streamed samples, Hz (required with --stream)")
+    p.add_argument("--rest-seconds", type=float_in(0.0, 1e6), default=1.0, metavar="S",
+                   help="with --stream: leading seconds at rest that initialise the filter (default 1; 0: none)")
     p.add_argument("--mag", dest="mag", action=argparse.BooleanOptionalAction, default=True,
                    help="use the magnetometer (9D, default) or not (--no-mag: 6D)")
     p.add_argument("--mag-calibration", action="store_true",
@@ -31,9 +61,46 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     return p
 
 
+def _usage_error(message: str) -> int:
+    print(f"dualpose ahrs: error: {message}", file=sys.stderr)
+    return 2
+
+
+def run_stream(args: argparse.Namespace) -> int:
+    """``dualpose ahrs --stream``: stdin lines in, one flushed orientation line per sample out."""
+    from dualpose.pipelines.ahrs_stream import stream_ahrs_lines
+
+    if args.file is not None:
+        return _usage_error(f"--stream reads standard input: no file argument ({args.file!r})")
+    if args.rate is None:
+        return _usage_error("--stream needs the sampling rate: --rate HZ")
+    if args.json or args.mag_calibration:
+        return _usage_error("--json and --mag-calibration are not used with --stream")
+    n_rest = round(args.rest_seconds * args.rate)
+    if 0 < n_rest < 10:
+        return _usage_error(f"--rest-seconds {args.rest_seconds:g} at --rate {args.rate:g} is {n_rest} samples; "
+                            "the rest period needs at least 10 samples, or 0 for none")  # fmt: skip
+    out = sys.stdout
+    try:
+        for line in stream_ahrs_lines(sys.stdin, args.rate, use_mag=args.mag, n_rest=n_rest):
+            out.write(line)
+            out.flush()
+    except ValueError as exc:
+        print(f"dualpose ahrs: error: {exc}", file=sys.stderr)
+        return 1
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``dualpose ahrs``."""
     import numpy as np
+
+    if args.stream:
+        return run_stream(args)
+    if args.file is None:
+        return _usage_error("a BROAD trial file, or --stream to read IMU samples from standard input")
+    if args.rate is not None:
+        return _usage_error("--rate is only used with --stream (a BROAD file has its own rate)")
 
     from dualpose.estimation.ahrs import estimate_orientation
     from dualpose.evaluation.orientation_errors import orientation_rmse

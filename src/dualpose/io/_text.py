@@ -20,6 +20,7 @@ from dualpose import _native
 __all__ = [
     "Table",
     "read_table",
+    "split_fields",
     "read_float_table",
     "parse_float_columns",
     "parse_int_column",
@@ -50,6 +51,23 @@ class Table:
 
     def error(self, k: int, message: str) -> ValueError:
         return ValueError(f"{self.path}:{self.linenos[k]}: {message}")
+
+
+def split_fields(line: str, delimiter: str | None) -> list[str] | None:
+    """The fields of one line of a text table, or None for a blank or comment line.
+
+    ``#`` starts a comment (a whole line, or the rest of a data line).  ``delimiter``: ``None`` splits on runs of
+    whitespace, ``"auto"`` on commas when the line (without its comment) has one and on whitespace otherwise, any
+    other string on that string (each field stripped of surrounding whitespace).
+    """
+    s = line.strip()
+    if "#" in s:
+        s = s[: s.index("#")].rstrip()
+    if not s:
+        return None
+    if delimiter == "auto":
+        delimiter = "," if "," in s else None
+    return s.split(delimiter) if delimiter is None else [x.strip() for x in s.split(delimiter)]
 
 
 def read_table(path: str | os.PathLike, delimiter: str | None, ncols: tuple[int, int], what: str) -> Table:
@@ -84,14 +102,12 @@ def read_table(path: str | os.PathLike, delimiter: str | None, ncols: tuple[int,
     lo, hi = ncols
     for i, line in enumerate(lines, start=1):
         s = line.strip()
-        if not s:
-            continue
         if s.startswith("#"):
             comments.append(s[1:].strip())
             continue
-        if "#" in s:  # trailing comment
-            s = s[: s.index("#")].rstrip()
-        fields = s.split(delimiter) if delimiter is None else [x.strip() for x in s.split(delimiter)]
+        fields = split_fields(s, delimiter)
+        if fields is None:
+            continue
         if not lo <= len(fields) <= hi:
             want = str(lo) if lo == hi else f"{lo} to {hi}"
             raise ValueError(f"{p}:{i}: expected {want} fields ({what}), found {len(fields)}: {s[:80]!r}")

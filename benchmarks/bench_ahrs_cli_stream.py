@@ -1,0 +1,174 @@
+"""Throughput and per-line latency of ``dualpose ahrs --stream`` through real pipes.
+
+Run ``.venv/bin/python benchmarks/bench_ahrs_cli_stream.py`` (defaults: 9D, 10 kHz, 10 s of samples after a 1 s rest
+period).  A seeded synthetic recording (rest, then a smooth rotation) is written as text lines to the standard
+input of ``python -m dualpose.cli.main ahrs --stream --rate HZ`` in two modes, each a fresh process:
+
+* ``paced``: line ``k`` is written (one ``write`` per line) at ``k / HZ`` after the first, as a sensor at HZ would;
+  one loop (no threads) writes on schedule and, in between, waits on the output pipe with ``select`` and time-stamps
+  every output line as it is read.  Latency of a line = read time of its output line - write time of its input
+  line, for the samples after the rest period (whose lines are held until the rest is complete, by design);
+* ``flood``: all lines written as fast as the pipe takes them (a writer thread); throughput = output lines after the
+  rest period / time between reading the first and the last of them.
+
+The table (Markdown) is printed, and written to ``--markdown FILE`` if given (never overwritten).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import platform
+import selectors
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+
+import dualpose as dp
+from _common import emit
+
+
+def recording(rate: float, rest_s: float, move_s: float, use_mag: bool, seed: int = 7) -> tuple[list[bytes], int]:
+    """Input lines (bytes, exact reprs) of a seeded rest + rotation recording, and the rest period in samples."""
+    rng = np.random.default_rng(seed)
+    n_rest, n = round(rest_s * rate), round((rest_s + move_s) * rate)
+    t = np.arange(n) / rate
+    tm = np.clip(t - rest_s, 0.0, None)
+    q = dp.quat_from_rotvec(np.stack([0.8 * np.sin(0.9 * tm), 0.6 * np.sin(1.3 * tm), 2.0 * np.sin(0.4 * tm)], 1))
+    w = np.vstack([dp.rotvec_from_quat(dp.quat_mul(dp.quat_conj(q[:-1]), q[1:])) * rate, np.zeros((1, 3))])
+    conj = dp.quat_conj(q)
+    cols = [t, w + rng.normal(scale=0.002, size=(n, 3)), dp.quat_rotate(conj, np.tile([0.0, 0.0, 9.81], (n, 1)))]
+    cols[2] = cols[2] + rng.normal(scale=0.05, size=(n, 3))
+    if use_mag:
+        cols.append(dp.quat_rotate(conj, np.tile([0.0, 19.0, -45.0], (n, 1))) + rng.normal(scale=0.5, size=(n, 3)))
+    data = np.column_stack(cols).tolist()
+    return [(", ".join(repr(x) for x in row) + "\n").encode() for row in data], n_rest
+
+
+def start(rate: float, use_mag: bool, rest_s: float, baseline: bool = False) -> subprocess.Popen:
+    if baseline:  # the harness and the pipes alone: `cat` echoes each line at once
+        return subprocess.Popen(["cat"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, bufsize=0)
+    cmd = [sys.executable, "-m", "dualpose.cli.main", "ahrs", "--stream", "--rate", repr(rate),
+           "--rest-seconds", repr(rest_s)] + ([] if use_mag else ["--no-mag"])  # fmt: skip
+    return subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, bufsize=0)
+
+
+def paced(
+    lines: list[bytes], rate: float, n_rest: int, use_mag: bool, rest_s: float, baseline: bool = False
+) -> dict[str, float]:
+    """Write line k at k / rate; return latency statistics (µs) over the samples after the rest period."""
+    proc = start(rate, use_mag, rest_s, baseline)
+    fd_in, fd_out = proc.stdin.fileno(), proc.stdout.fileno()
+    os.set_blocking(fd_in, False)  # never block on a full input pipe while the output pipe waits to be read
+    sel = selectors.DefaultSelector()
+    sel.register(fd_out, selectors.EVENT_READ)
+    n = len(lines)
+    sent, got = np.full(n, np.nan), np.full(n, np.nan)
+    k_in = k_out = 0
+    buf = b""
+    t0 = time.perf_counter() + 1.0  # the interpreter starts meanwhile
+    while k_out < n:
+        due = t0 + k_in / rate if k_in < n else math.inf
+        if time.perf_counter() >= due:
+            try:
+                os.write(fd_in, lines[k_in])  # a line is shorter than PIPE_BUF: written whole or not at all
+                sent[k_in] = time.perf_counter()
+                k_in += 1
+                if k_in == n:
+                    proc.stdin.close()
+            except BlockingIOError:
+                pass
+        late = k_in < n and time.perf_counter() >= t0 + k_in / rate
+        wait = 0.0 if late else (1.0 if k_in == n else max(0.0, t0 + k_in / rate - time.perf_counter()))
+        if sel.select(timeout=wait):
+            chunk = os.read(fd_out, 1 << 16)
+            stamp = time.perf_counter()
+            if not chunk:
+                break
+            buf += chunk
+            m = buf.count(b"\n")
+            got[k_out : k_out + m] = stamp
+            k_out += m
+            buf = buf[buf.rindex(b"\n") + 1 :] if m else buf
+    code = proc.wait()
+    if code != 0 or k_out != n:
+        raise RuntimeError(f"dualpose ahrs --stream exited {code} after {k_out} of {n} lines")
+    behind = sent - (t0 + np.arange(n) / rate)  # how far each write fell behind the schedule
+    out = {"lines_per_s": (n - n_rest - 1) / (got[-1] - got[n_rest])}
+    for name, first in (("all", n_rest), ("steady", n_rest + round(0.5 * rate))):
+        lat = 1e6 * (got[first:] - sent[first:])
+        out.update({f"{name}_lines": len(lat), f"{name}_median_us": float(np.median(lat)),
+                    f"{name}_p99_us": float(np.percentile(lat, 99)), f"{name}_max_us": float(lat.max()),
+                    f"{name}_behind_ms": 1e3 * float(behind[first:].max())})  # fmt: skip
+    out["over_1ms"] = int(np.sum(got[n_rest:] - sent[n_rest:] > 1e-3))
+    return out
+
+
+def flood(lines: list[bytes], rate: float, n_rest: int, use_mag: bool, rest_s: float) -> dict[str, float]:
+    """Write all lines as fast as the pipe takes them; return the throughput after the rest period."""
+    proc = start(rate, use_mag, rest_s)
+    data = b"".join(lines)
+
+    def feed() -> None:
+        proc.stdin.write(data)
+        proc.stdin.close()
+
+    writer = threading.Thread(target=feed)
+    writer.start()
+    n, k_out, t_first, t_last = len(lines), 0, None, 0.0
+    fd_out = proc.stdout.fileno()
+    while True:
+        chunk = os.read(fd_out, 1 << 16)
+        if not chunk:
+            break
+        k_out += chunk.count(b"\n")
+        t_last = time.perf_counter()
+        if t_first is None and k_out > n_rest:
+            t_first = t_last
+    writer.join()
+    code = proc.wait()
+    if code != 0 or k_out != n or t_first is None:
+        raise RuntimeError(f"dualpose ahrs --stream exited {code} after {k_out} of {n} lines")
+    return {"lines_per_s": (n - n_rest) / (t_last - t_first)}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--rate", type=float, default=10000.0, help="input rate, Hz (default 10000)")
+    ap.add_argument("--seconds", type=float, default=10.0, help="seconds of samples after the rest (default 10)")
+    ap.add_argument("--rest-seconds", type=float, default=1.0, help="rest period, s (default 1)")
+    ap.add_argument("--no-mag", dest="mag", action="store_false", help="6D lines (default 9D)")
+    ap.add_argument("--markdown", help="also write the table to this file (never overwritten)")
+    args = ap.parse_args(argv)
+    lines, n_rest = recording(args.rate, args.rest_seconds, args.seconds, args.mag)
+    p = paced(lines, args.rate, n_rest, args.mag, args.rest_seconds)
+    f = flood(lines, args.rate, n_rest, args.mag, args.rest_seconds)
+    c = paced(lines, args.rate, n_rest, args.mag, args.rest_seconds, baseline=True)
+    mode = "9D" if args.mag else "6D"
+    out = [
+        f"`dualpose ahrs --stream`, {mode}, {len(lines) - n_rest} lines after a {n_rest}-line rest period; "
+        f"Python {platform.python_version()}, {platform.machine()}",
+        "",
+        "| mode | input | lines timed | output lines/s | latency median µs | p99 µs | max µs | writes behind |",
+        "|---|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    rows = [(p, "all", "paced, all lines after the rest period"), (p, "steady", "paced, from 0.5 s after the rest")]
+    rows.append((c, "steady", "paced, `cat` instead (harness and pipes alone), same lines"))
+    for r, name, what in rows:
+        out.append(
+            f"| {what} | {args.rate:g} Hz, one write per line | {r[name + '_lines']} | {r['lines_per_s']:.0f} | "
+            f"{r[name + '_median_us']:.0f} | {r[name + '_p99_us']:.0f} | {r[name + '_max_us']:.0f} | "
+            f"≤ {r[name + '_behind_ms']:.2f} ms |"
+        )
+    n_after = len(lines) - n_rest
+    out.append(f"| flood | as fast as the pipe takes it | {n_after} | {f['lines_per_s']:.0f} | – | – | – | – |")
+    out += ["", f"Paced: {p['over_1ms']} of {n_after} lines after the rest period took over 1 ms."]
+    return emit("\n".join(out), args.markdown)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

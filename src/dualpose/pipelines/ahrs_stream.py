@@ -1,0 +1,155 @@
+"""The AHRS on a stream of text lines: one IMU sample per input line in, one orientation per input line out.
+
+The job behind ``dualpose ahrs --stream`` (docs/broad.md, "Streaming"; the line formats are defined there and in
+:data:`INPUT_FIELDS` / :func:`format_row`).  :func:`stream_ahrs_lines` parses each line, feeds it to
+:class:`~dualpose.estimation.ahrs_stream.AhrsStream` and yields the output lines as soon as they are known:
+
+* input: ``t, gx, gy, gz, ax, ay, az[, mx, my, mz]`` (s, rad/s, m/s², any field unit), separated by commas or by
+  whitespace; ``#`` starts a comment, blank and comment lines give no output;
+* output: ``t, qx, qy, qz, qw`` (orientation IMU → earth, ENU, xyzw), every number as Python's ``repr`` (the shortest
+  text that reads back to the same float64, at most 17 significant digits);
+* the rest period (its first ``n_rest`` samples) is held: its output lines all come, in order, when its last sample
+  arrives (the filter is initialised from them), then one line per input line.  With ``n_rest=0`` every output
+  comes at its own sample.
+
+Errors (a malformed line, a time that does not increase, input ending inside the rest period) are ``ValueError`` s
+naming the source and line, raised after every output line of the earlier input lines was yielded.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Iterator
+
+import numpy as np
+
+from dualpose.estimation.ahrs_stream import AhrsStream
+from dualpose.io._text import split_fields
+
+__all__ = ["INPUT_FIELDS", "OUTPUT_FIELDS", "format_row", "parse_imu_line", "stream_ahrs_lines"]
+
+#: the fields of an input line, 9D (``True``) and 6D (``False``)
+INPUT_FIELDS: dict[bool, tuple[str, ...]] = {
+    True: ("t", "gx", "gy", "gz", "ax", "ay", "az", "mx", "my", "mz"),
+    False: ("t", "gx", "gy", "gz", "ax", "ay", "az"),
+}
+
+#: the fields of an output line
+OUTPUT_FIELDS: tuple[str, ...] = ("t", "qx", "qy", "qz", "qw")
+
+
+def parse_imu_line(line: str, use_mag: bool) -> list[float] | None:
+    """The numbers of one input line, or None for a blank or comment line.
+
+    Parameters
+    ----------
+    line : str
+        ``t, gx, gy, gz, ax, ay, az[, mx, my, mz]``, comma or whitespace separated, optional ``#`` comment.
+    use_mag : bool
+        10 fields (9D) or 7 (6D).
+
+    Returns
+    -------
+    list of float or None
+        The 7 or 10 values, all finite.
+
+    Raises
+    ------
+    ValueError
+        On a wrong number of fields, a field that is not a number, or a non-finite value (the message names the
+        field; the caller adds the line).
+    """
+    fields = split_fields(line, "auto")
+    if fields is None:
+        return None
+    names = INPUT_FIELDS[use_mag]
+    if len(fields) != len(names):
+        raise ValueError(f"expected {len(names)} fields ({', '.join(names)}), got {len(fields)}")
+    try:
+        values = [float(x) for x in fields]
+    except ValueError:
+        k = next(i for i, x in enumerate(fields) if not _is_float(x))
+        raise ValueError(f"field {k + 1} ({names[k]}): {fields[k]!r} is not a number") from None
+    for k, v in enumerate(values):
+        if not math.isfinite(v):
+            raise ValueError(f"field {k + 1} ({names[k]}): non-finite value {fields[k]!r}")
+    return values
+
+
+def _is_float(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def format_row(t: float, quat: np.ndarray) -> str:
+    """One output line ``t, qx, qy, qz, qw`` with its newline; each number is ``repr`` of the float64 (exact)."""
+    qx, qy, qz, qw = quat.tolist()
+    return f"{t!r}, {qx!r}, {qy!r}, {qz!r}, {qw!r}\n"
+
+
+def stream_ahrs_lines(
+    lines: Iterable[str], rate: float, *, use_mag: bool = True, n_rest: int = 0, source: str = "stdin"
+) -> Iterator[str]:
+    """Filter the IMU samples of ``lines`` and yield one output line per sample, as soon as it is known.
+
+    Parameters
+    ----------
+    lines : iterable of str
+        Input lines (module docstring); read one at a time, so a pipe or ``sys.stdin`` is consumed as it comes.
+    rate : float
+        Sampling rate, Hz (the filter's step is ``1 / rate``, as in the batch estimator).
+    use_mag : bool
+        9D (10 fields per line) or 6D (7 fields).
+    n_rest : int
+        Samples of the rest period the filter is initialised from (0, or at least 10); their outputs are held until
+        the last of them arrives.
+    source : str
+        Name of the input in error messages.
+
+    Yields
+    ------
+    str
+        ``t, qx, qy, qz, qw`` plus a newline (:func:`format_row`), in input order: one line per sample, except the
+        rest period's lines, which come together as one string (so that a caller flushing after each string writes
+        them at once and catches up with the input sooner).  The orientations are those of
+        :meth:`AhrsStream.update_imu <dualpose.estimation.ahrs_stream.AhrsStream.update_imu>` (the rest period's
+        from :attr:`~dualpose.estimation.ahrs_stream.AhrsStream.rest_quat`), bit for bit.
+
+    Raises
+    ------
+    ValueError
+        ``"{source} line N: ..."`` for a malformed line (wrong number of fields, not a number, non-finite) or a time
+        stamp that does not increase; ``"{source}: ..."`` when the input ends before the rest period is complete.
+        Everything before the bad line has been yielded by then.
+    """
+    stream = AhrsStream(rate, use_mag=use_mag, n_rest=n_rest)
+    held: list[float] = []  # time stamps of the rest-period samples whose outputs are not known yet
+    last_t = -math.inf
+    lineno = 0
+    for lineno, line in enumerate(lines, start=1):
+        try:
+            v = parse_imu_line(line, use_mag)
+        except ValueError as exc:
+            raise ValueError(f"{source} line {lineno}: {exc}") from None
+        if v is None:
+            continue
+        t = v[0]
+        if not t > last_t:
+            raise ValueError(f"{source} line {lineno}: time {t!r} does not increase (previous {last_t!r})")
+        last_t = t
+        q = stream.update_imu(t, v[1:4], v[4:7], v[7:10] if use_mag else None)
+        if stream.ready and not held:
+            yield format_row(t, q)
+            continue
+        held.append(t)
+        if stream.ready:  # this sample completed the rest period: its outputs are known now
+            yield "".join(format_row(t_k, q_k) for t_k, q_k in zip(held, stream.rest_quat, strict=True))
+            held = []
+    if held:
+        raise ValueError(
+            f"{source}: input ended after {len(held)} samples (line {lineno}), before the rest period of {n_rest} "
+            "samples was complete: no orientation is known (a shorter rest period, or none, starts sooner)"
+        )
