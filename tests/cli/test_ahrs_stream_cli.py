@@ -232,6 +232,7 @@ def test_reader_closing_early_exits_141_quietly(tmp_path):
         (["ahrs"], "a BROAD trial file, or --stream"),
         (["ahrs", "--stream"], "--stream needs the sampling rate: --rate HZ"),
         (["ahrs", "trial.mat", "--rate", "100"], "--rate is only used with --stream"),
+        (["ahrs", "trial.mat", "--rest-seconds", "2"], "--rest-seconds is only used with --stream"),
         (["ahrs", "--stream", "--rate", "100", "--json"], "--json and --mag-calibration are not used with --stream"),
         (["ahrs", "--stream", "--rate", "100", "--rest-seconds", "0.05"], "is 5 samples; the rest period needs"),
     ],

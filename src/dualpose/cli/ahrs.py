@@ -51,7 +51,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
                    help="read IMU sample lines from stdin, write one orientation line per sample (see below)")
     p.add_argument("--rate", type=float_in(0.0, 1e9, lo_open=True), metavar="HZ",
                    help="sampling rate of the streamed samples, Hz (required with --stream)")
-    p.add_argument("--rest-seconds", type=float_in(0.0, 1e6), default=1.0, metavar="S",
+    p.add_argument("--rest-seconds", type=float_in(0.0, 1e6), default=None, metavar="S",
                    help="with --stream: leading seconds at rest that initialise the filter (default 1; 0: none)")
     p.add_argument("--mag", dest="mag", action=argparse.BooleanOptionalAction, default=True,
                    help="use the magnetometer (9D, default) or not (--no-mag: 6D)")
@@ -76,9 +76,10 @@ def run_stream(args: argparse.Namespace) -> int:
         return _usage_error("--stream needs the sampling rate: --rate HZ")
     if args.json or args.mag_calibration:
         return _usage_error("--json and --mag-calibration are not used with --stream")
-    n_rest = round(args.rest_seconds * args.rate)
+    rest_seconds = 1.0 if args.rest_seconds is None else args.rest_seconds  # the documented default
+    n_rest = round(rest_seconds * args.rate)
     if 0 < n_rest < 10:
-        return _usage_error(f"--rest-seconds {args.rest_seconds:g} at --rate {args.rate:g} is {n_rest} samples; "
+        return _usage_error(f"--rest-seconds {rest_seconds:g} at --rate {args.rate:g} is {n_rest} samples; "
                             "the rest period needs at least 10 samples, or 0 for none")  # fmt: skip
     out = sys.stdout
     try:
@@ -101,6 +102,8 @@ def run(args: argparse.Namespace) -> int:
         return _usage_error("a BROAD trial file, or --stream to read IMU samples from standard input")
     if args.rate is not None:
         return _usage_error("--rate is only used with --stream (a BROAD file has its own rate)")
+    if args.rest_seconds is not None:
+        return _usage_error("--rest-seconds is only used with --stream (a BROAD file marks its own static start)")
 
     from dualpose.estimation.ahrs import estimate_orientation
     from dualpose.evaluation.orientation_errors import orientation_rmse
