@@ -110,14 +110,11 @@ class AhrsFilter(Estimator):
             raise ValueError(f"gyro must be a finite array of shape (3,) in rad/s; got {g!r}")
         if not math.isfinite(t):
             raise ValueError(f"t must be a finite time in seconds; got {t!r}")
-        if self.time is not None:
-            dt = t - self.time
-            if dt < 0.0:
-                raise ValueError(f"IMU sample at t={t} is older than the filter time {self.time}")
-            if dt > 0.0:
-                n = self.noise
-                _native.ahrs_predict(self._q, self._b, self._P, g[0], g[1], g[2], dt, n.gyroscope_noise_density**2,
-                                     n.gyroscope_random_walk**2, self.gyro_scale_sigma**2)  # fmt: skip
+        dt = self._elapsed(t, f"IMU sample at t={t}")
+        if dt > 0.0:
+            n = self.noise
+            _native.ahrs_predict(self._q, self._b, self._P, g[0], g[1], g[2], dt, n.gyroscope_noise_density**2,
+                                 n.gyroscope_random_walk**2, self.gyro_scale_sigma**2)  # fmt: skip
         self.time = float(t)
 
     def _attitude_model(self, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -306,13 +306,10 @@ class ErrorStateEKF(Estimator):
         held and the new measurement (exact for a linear signal up to second order), then holds the new one.
         ``mag`` is not used by this filter (magnetometer updates go through :meth:`update_magnetometer`)."""
         u = np.concatenate([np.asarray(gyro, float), np.asarray(accel, float)])
-        if self.time is not None:
-            dt = t - self.time
-            if dt < 0:
-                raise ValueError(f"IMU sample at t={t} is older than the filter time {self.time}")
-            if dt > 0:
-                mid = 0.5 * (self._u + u)
-                _native.eskf_predict(self.x, self.P, mid[:3].copy(), mid[3:].copy(), dt, self.gravity, self.noise)
+        dt = self._elapsed(t, f"IMU sample at t={t}")
+        if dt > 0:
+            mid = 0.5 * (self._u + u)
+            _native.eskf_predict(self.x, self.P, mid[:3].copy(), mid[3:].copy(), dt, self.gravity, self.noise)
         self.time = float(t)
         self._u = u
 
@@ -323,11 +320,7 @@ class ErrorStateEKF(Estimator):
         (the batch :meth:`run` interpolates between the bracketing samples instead).  Returns a bool (M,) array of
         the accepted correspondences.
         """
-        t = t_cam + self.camera_time_offset
-        if self.time is None:
-            self.time = t
-        if t < self.time:
-            raise ValueError(f"frame at IMU time {t} is older than the filter time {self.time} (no out-of-order)")
+        t = self._frame_time(t_cam, self.camera_time_offset)
         if t > self.time:
             _native.eskf_predict(self.x, self.P, self._u[:3].copy(), self._u[3:].copy(), t - self.time, self.gravity,
                                  self.noise)  # fmt: skip

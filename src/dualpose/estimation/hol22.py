@@ -246,19 +246,12 @@ class Hol22EKF(Estimator):
     def propagate(self, t: float, gyro: np.ndarray, accel: np.ndarray, mag: np.ndarray | None = None) -> None:
         """Algorithm 1 for one IMU sample taken at ``t``: time update from the filter time (eq. 9), then the
         accelerometer and gyroscope measurement update (eq. 11a, 11b).  ``mag`` is not used."""
-        if self.time is not None:
-            if t < self.time:
-                raise ValueError(f"IMU sample at t={t} is older than the filter time {self.time}")
-            self.time_update(t - self.time)
+        self.time_update(self._elapsed(t, f"IMU sample at t={t}"))
         self.time = float(t)
         self.imu_update(accel, gyro)
 
     def _update_camera(self, frame: CameraFrame) -> UpdateResult:
-        t = frame.t + self.camera_time_offset
-        if self.time is None:
-            self.time = t
-        if t < self.time:
-            raise ValueError(f"frame at IMU time {t} is older than the filter time {self.time} (no out-of-order)")
+        t = self._frame_time(frame.t, self.camera_time_offset)
         self.time_update(t - self.time)
         self.time = t
         accepted = self.camera_update(frame.pixels, frame.points)

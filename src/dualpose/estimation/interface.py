@@ -172,6 +172,24 @@ class Estimator(ABC):
     def _update_camera(self, frame: CameraFrame) -> UpdateResult:
         raise TypeError(f"{type(self).__name__} has no camera model")
 
+    def _elapsed(self, t: float, what: str) -> float:
+        """Seconds from the filter time to ``t`` (0 before the first sample); the filters take their inputs in time
+        order, so ``what`` (e.g. ``"IMU sample at t=…"``) older than the filter time is a ``ValueError``."""
+        if self.time is None:
+            return 0.0
+        if t < self.time:
+            raise ValueError(f"{what} is older than the filter time {self.time} (no out-of-order)")
+        return t - self.time
+
+    def _frame_time(self, t_cam: float, camera_time_offset: float) -> float:
+        """The IMU-clock time ``t_cam + camera_time_offset`` of a camera frame stamped ``t_cam``, checked against the
+        filter time (a frame before the first IMU sample starts the clock)."""
+        t = t_cam + camera_time_offset
+        if self.time is None:
+            self.time = t
+        self._elapsed(t, f"frame at IMU time {t}")
+        return t
+
     def _check_linear(self, residual: np.ndarray, jacobian: np.ndarray, covariance: np.ndarray) -> None:
         n = self.covariance_layout.dim
         if jacobian.shape != (residual.shape[0], n):
