@@ -15,6 +15,9 @@ import textwrap
 import numpy as np
 import pytest
 
+import dualpose
+from dualpose import _native
+
 #: a fresh process's first use of the library: import, then the first call of kernels of every layer
 SCRIPT = textwrap.dedent(
     """
@@ -56,13 +59,21 @@ def _interpreter_for_nobody() -> tuple[str, str]:
     return system, "import site\n" + "".join(f"site.addsitedir({p!r})\n" for p in sites)
 
 
+def _searchable(path: str) -> bool:
+    """Every directory above ``path`` searchable by others."""
+    parts = os.path.abspath(path).split(os.sep)
+    return all(os.stat(os.sep.join(parts[:i]) or os.sep).st_mode & 0o001 for i in range(2, len(parts)))
+
+
 def _world_executable(path: str) -> bool:
     """Every directory on ``path`` searchable and the file executable by others."""
-    parts = os.path.abspath(path).split(os.sep)
-    for i in range(2, len(parts)):
-        if not os.stat(os.sep.join(parts[:i])).st_mode & 0o001:
-            return False
-    return bool(os.stat(path).st_mode & 0o001)
+    return _searchable(path) and bool(os.stat(path).st_mode & 0o001)
+
+
+def _install_readable_by_others() -> bool:
+    """Whether another account can reach this environment's packages and dualpose (an editable install reads the
+    checkout): false when the checkout or the venv lies below a private directory (e.g. ``mktemp -d``)."""
+    return all(_searchable(m.__file__) and os.stat(m.__file__).st_mode & 0o004 for m in (np, dualpose, _native))
 
 
 def _results(procs: list[subprocess.Popen]) -> list[dict]:
@@ -87,6 +98,8 @@ def test_fresh_interpreters_started_at_once_agree() -> None:
 @pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() != 0, reason="needs root to switch to nobody")
 def test_an_account_that_cannot_write_the_install() -> None:
     """Run as ``nobody`` (uid 65534), who cannot write the installation or the checkout: the same results."""
+    if not _install_readable_by_others():
+        pytest.skip("this checkout or environment lies below a directory other accounts cannot enter")
     python, prelude = _interpreter_for_nobody()
     nobody = {"preexec_fn": lambda: (os.setgid(65534), os.setuid(65534)),
               "env": {**os.environ, "HOME": "/nonexistent"}, "cwd": "/"}  # fmt: skip
