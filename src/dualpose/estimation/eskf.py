@@ -366,6 +366,15 @@ class ErrorStateEKF(Estimator):
         acc = np.concatenate(self._acc) if self._acc else np.zeros(0, bool)
         return _report(nis, acc, self.gate)
 
+    def kernel_config(self) -> tuple:
+        """The constants of the compiled filter (``eskf_run``, ``eskf_stream_new``): ``gravity`` (3,), ``noise``
+        (4,) ``[σ_g², σ_a², σ_bg², σ_ba²]``, ``intr`` (4,) ``[fx, fy, cx, cy]``, ``q_bc`` (4,), ``p_bc`` (3,),
+        ``pixel_sigma``, ``gate``; float64, C-contiguous."""
+        f64 = np.float64
+        return (np.ascontiguousarray(self.gravity, dtype=f64), np.ascontiguousarray(self.noise, dtype=f64),
+                np.ascontiguousarray(self.intrinsics, dtype=f64), np.ascontiguousarray(self.q_bc, dtype=f64),
+                np.ascontiguousarray(self.p_bc, dtype=f64), self.pixel_sigma, self.gate)  # fmt: skip
+
     # ------------------------------------------------------------------ batch
     def run(
         self,
@@ -403,8 +412,7 @@ class ErrorStateEKF(Estimator):
         nis = np.full(len(pixels), np.nan)
         acc = np.zeros(len(pixels), np.int64)
         t0 = time.perf_counter()
-        cam = (self.intrinsics, self.q_bc, self.p_bc, self.pixel_sigma, self.gate)
-        args = (t, gyro, accel, cam_t, offsets, pixels, points, self.x, self.P, self.gravity, self.noise, *cam,
+        args = (t, gyro, accel, cam_t, offsets, pixels, points, self.x, self.P, *self.kernel_config(),
                 X, Ps, XF, PF, nis, acc)  # fmt: skip
         nodes = None
         if record_nodes:

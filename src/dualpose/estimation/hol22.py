@@ -345,6 +345,16 @@ class Hol22EKF(Estimator):
         self._acc.append(acc)
         return acc
 
+    def kernel_config(self) -> tuple:
+        """The constants of the compiled filter (``hol22_run``, ``hol22_stream_new``): ``qdiag`` (22,) (
+        :meth:`process_noise_diagonal`), ``gravity`` (3,), ``R_imu`` (6, 6), ``intr`` (4,) ``[fx, fy, cx, cy]``,
+        ``p_bc`` (3,), ``R^{cb}`` (3, 3), ``pixel_sigma``, ``gate``; float64, C-contiguous."""
+        f64 = np.float64
+        Rcb = np.ascontiguousarray(dp.matrix_from_quat(dp.quat_conj(self.q_bc)), dtype=f64)
+        return (self.process_noise_diagonal(), np.ascontiguousarray(self.gravity, dtype=f64),
+                np.ascontiguousarray(self.R_imu, dtype=f64), np.array(self.intrinsics, dtype=f64),
+                np.ascontiguousarray(self.p_bc, dtype=f64), Rcb, self.pixel_sigma, self.gate)  # fmt: skip
+
     # ------------------------------------------------------------------ Algorithm 1
     def run(
         self,
@@ -370,16 +380,11 @@ class Hol22EKF(Estimator):
         Ps = np.empty((n, nx, nx))
         nis = np.full(len(pixels), np.nan)
         acc = np.zeros(len(pixels), np.int64)
-        Rcb = np.ascontiguousarray(dp.matrix_from_quat(dp.quat_conj(self.q_bc)), dtype=np.float64)
-        f64 = np.float64
         self.x = np.ascontiguousarray(self.x)
         self.P = np.ascontiguousarray(self.P)
         t0 = _time.perf_counter()
-        _native.hol22_run(t, gyro, accel, cam_t, offsets, pixels, points, self.x, self.P,
-                          self.process_noise_diagonal(), np.ascontiguousarray(self.gravity, dtype=f64),
-                          np.ascontiguousarray(self.R_imu, dtype=f64), np.array(self.intrinsics, dtype=f64),
-                          np.ascontiguousarray(self.p_bc, dtype=f64), Rcb, self.pixel_sigma, self.gate, X, Ps, nis,
-                          acc)  # fmt: skip
+        _native.hol22_run(t, gyro, accel, cam_t, offsets, pixels, points, self.x, self.P, *self.kernel_config(), X,
+                          Ps, nis, acc)  # fmt: skip
         wall = _time.perf_counter() - t0
         used = ~np.isnan(nis)
         self._nis.append(nis[used])

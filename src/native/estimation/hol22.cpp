@@ -117,8 +117,8 @@ PyObject* stream_imu(PyObject*, PyObject* const* args, Py_ssize_t nargs) {
     if (t == -1.0 && PyErr_Occurred()) return nullptr;
     double g[3], a[3];
     if (!stream::read3(args[2], "gyro", g) || !stream::read3(args[3], "accel", a)) return nullptr;
-    if (!std::isfinite(t) || (s->f.samples > 0 && !(t > s->f.tc)) || (s->f.started && t < s->f.tc))
-        return stream::time_error(t, s->f.tc);
+    if (!std::isfinite(t) || (s->f.samples > 0 && !(t > s->f.t_imu))) return stream::time_error(t, s->f.t_imu);
+    if (s->f.started && t < s->f.tc) return stream::time_error(t, s->f.tc);
     imu_step(s->f, s->c, t, g, a);
     return stream::new_vector(s->f.x, N);
 }
@@ -173,14 +173,14 @@ PyObject* stream_run(PyObject*, PyObject* args) {
     return PyLong_FromLongLong(used);
 }
 
-// hol22_stream_get(state) -> (x (22,), P (484,), tc, started, samples)
+// hol22_stream_get(state) -> (x (22,), P (484,), t_imu, tc, samples)
 PyObject* stream_get(PyObject*, PyObject* args) {
     PyObject* state;
     if (!PyArg_ParseTuple(args, "O:hol22_stream_get", &state)) return nullptr;
     const Stream* s = stream_arg(state, false);
     if (s == nullptr) return nullptr;
-    return Py_BuildValue("NNdLL", stream::new_vector(s->f.x, N), stream::new_vector(s->f.P, N * N), s->f.tc,
-                         static_cast<long long>(s->f.started), static_cast<long long>(s->f.samples));
+    return Py_BuildValue("NNddL", stream::new_vector(s->f.x, N), stream::new_vector(s->f.P, N * N), s->f.t_imu,
+                         s->f.tc, static_cast<long long>(s->f.samples));
 }
 
 PyObject* stream_check(PyObject*, PyObject* args) {
@@ -209,7 +209,8 @@ PyMethodDef hol22_methods[] = {
      "hol22_stream_run(state, t, gyro, accel, cam_t, offsets, pixels, points, X, Ps, nis, accepted) -> int: the "
      "steps over a block (Ps may be None); returns the number of frames consumed.  The GIL is released."},
     {"hol22_stream_get", stream_get, METH_VARARGS,
-     "hol22_stream_get(state) -> (x (22,), P (484,), tc, started, samples): copies of the stream's state."},
+     "hol22_stream_get(state) -> (x (22,), P (484,), t_imu, tc, samples): copies of the stream's state (t_imu: "
+     "the last IMU sample's time)."},
     {"hol22_stream_check", stream_check, METH_VARARGS,
      "hol22_stream_check(state, name='state'): ValueError naming `name` unless state is a Hol22 stream of this "
      "layout version and size."},

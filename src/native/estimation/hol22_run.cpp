@@ -41,6 +41,7 @@ void imu_step(Filter& f, const Config& c, double t, const double* gyro, const do
     time_update(f.x, f.P, t - f.tc, c.qdiag);
     f.tc = t;
     imu_update(f.x, f.P, accel, gyro, c.gravity, c.R_imu);
+    f.t_imu = t;
     ++f.samples;
 }
 

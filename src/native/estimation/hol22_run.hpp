@@ -22,7 +22,7 @@ struct Config {
 // Everything that changes (trivially copyable).
 struct Filter {
     double x[DIM], P[DIM * DIM];        // state (hol22_layout.hpp) and covariance
-    double tc;                          // time of the state, s
+    double tc, t_imu;                   // time of the state; of the last IMU sample, s
     std::int64_t started, samples;      // whether the clock has started; IMU samples filtered
 };
 
