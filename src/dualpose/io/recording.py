@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dualpose.io._text import open_for_writing, parse_float_columns, parse_int_column, read_table
+from dualpose.io._text import check_path, open_for_writing, parse_float_columns, parse_int_column, read_table
 from dualpose.io.detect import read_trajectory
 from dualpose.io.euroc import ImuData, read_euroc_imu, write_euroc_groundtruth, write_euroc_imu
 from dualpose.types import (
@@ -47,6 +47,7 @@ __all__ = [
     "read_imu",
     "read_correspondences",
     "read_sensor_setup",
+    "write_sensor_setup",
 ]
 
 #: name of the sensor file looked up in a recording directory (``sensors.yaml``/``.yml`` also, with PyYAML)
@@ -531,11 +532,21 @@ def write_recording(directory: str | os.PathLike, recording: Recording, *, overw
         write_euroc_groundtruth(out / "groundtruth.csv", gt, overwrite=overwrite)
         names["groundtruth"] = "groundtruth.csv"
 
+    sensors = _setup_dict(rec, names)
+    if rec.rest_seconds is not None:
+        sensors["rest_duration_s"] = float(rec.rest_seconds)
+    with open_for_writing(out / SENSORS_FILE, overwrite) as fh:
+        fh.write(json.dumps(sensors, indent=2) + "\n")
+    return out / SENSORS_FILE
+
+
+def _setup_dict(rec: Recording | SensorSetup, files: dict | None) -> dict:
+    """The sensor file's ``format``, ``version``, (``files``,) ``camera``, ``imu`` and ``gravity`` of ``rec``."""
     c, n = rec.camera, rec.imu_noise
-    sensors = {
+    return {
         "format": FORMAT_NAME,
         "version": FORMAT_VERSION,
-        "files": names,
+        **({} if files is None else {"files": files}),
         "camera": {
             "fx": float(c.fx), "fy": float(c.fy), "cx": float(c.cx), "cy": float(c.cy),
             "width": int(c.width), "height": int(c.height), "pixel_sigma": float(rec.pixel_sigma),
@@ -545,8 +556,28 @@ def write_recording(directory: str | os.PathLike, recording: Recording, *, overw
         "imu": {key: float(getattr(n, key)) for key in _IMU_KEYS},
         "gravity": [float(v) for v in rec.gravity],
     }  # fmt: skip
-    if rec.rest_seconds is not None:
-        sensors["rest_duration_s"] = float(rec.rest_seconds)
-    with open_for_writing(out / SENSORS_FILE, overwrite) as fh:
-        fh.write(json.dumps(sensors, indent=2) + "\n")
-    return out / SENSORS_FILE
+
+
+def write_sensor_setup(path: str | os.PathLike, setup: SensorSetup, *, overwrite: bool = False) -> Path:
+    """Write a :class:`~dualpose.types.recording.SensorSetup` as the sensor file :func:`read_sensor_setup` (and
+    ``dualpose fuse --stream --calibration FILE``) reads back exactly (JSON, numbers as their shortest exact text).
+
+    Raises
+    ------
+    FileExistsError
+        When ``path`` exists and ``overwrite`` is False.
+    """
+    if not isinstance(setup, SensorSetup):
+        raise TypeError(f"setup must be a dualpose.types.SensorSetup; got {type(setup).__name__}")
+    st = setup.start
+    out = _setup_dict(setup, None)
+    out["imu"]["update_rate"] = float(setup.imu_noise.update_rate)
+    out["initial_state"] = {
+        **{k: [float(v) for v in getattr(st, k)] for k in ("position", "quat", "velocity", "gyro_bias", "accel_bias")},
+        "position_sigma": float(st.position_sigma), "velocity_sigma": float(st.velocity_sigma),
+        "attitude_sigma_deg": math.degrees(st.attitude_sigma),
+    }  # fmt: skip
+    p = Path(check_path(path))
+    with open_for_writing(p, overwrite) as fh:
+        fh.write(json.dumps(out, indent=2) + "\n")
+    return p
