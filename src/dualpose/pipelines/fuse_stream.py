@@ -30,13 +30,15 @@ from dualpose.estimation.fusion_stream import EskfStream, Hol22Stream
 from dualpose.estimation.hol22 import Hol22EKF
 from dualpose.io.recording import read_sensor_setup
 from dualpose.pipelines._lines import format_numbers, parse_numbers, split_fields
-from dualpose.types import SensorSetup
+from dualpose.types import SensorRun, SensorSetup
 
 __all__ = [
     "INPUT_FIELDS",
     "OUTPUT_FIELDS",
+    "filter_for_setup",
     "format_pose",
     "parse_fusion_line",
+    "recording_lines",
     "stream_filter",
     "stream_fusion_lines",
 ]
@@ -95,11 +97,11 @@ def format_pose(t: float, position: np.ndarray, quat: np.ndarray) -> str:
     return format_numbers([t, *position.tolist(), *quat.tolist()])
 
 
-def stream_filter(setup: SensorSetup | str | os.PathLike, filter: str = "eskf") -> EskfStream | Hol22Stream:
-    """The streaming filter of a calibration: an :class:`~dualpose.estimation.eskf.ErrorStateEKF` at the set-up's
-    start (diagonal covariance of :func:`~dualpose.estimation.eskf.initial_covariance` with the start's sigmas), or
-    Hol's filter started from it (:meth:`Hol22EKF.from_eskf_state
-    <dualpose.estimation.hol22.Hol22EKF.from_eskf_state>`, as ``dualpose fuse --filter hol22`` starts).
+def filter_for_setup(setup: SensorSetup | str | os.PathLike, filter: str = "eskf") -> ErrorStateEKF | Hol22EKF:
+    """The filter of a calibration: an :class:`~dualpose.estimation.eskf.ErrorStateEKF` at the set-up's start
+    (diagonal covariance of :func:`~dualpose.estimation.eskf.initial_covariance` with the start's sigmas), or Hol's
+    filter started from it (:meth:`Hol22EKF.from_eskf_state <dualpose.estimation.hol22.Hol22EKF.from_eskf_state>`,
+    as ``dualpose fuse --filter hol22`` starts).
 
     Parameters
     ----------
@@ -115,9 +117,40 @@ def stream_filter(setup: SensorSetup | str | os.PathLike, filter: str = "eskf") 
     P = initial_covariance(s.position_sigma, s.velocity_sigma, s.attitude_sigma, setup.imu_noise)
     eskf = ErrorStateEKF(s.position, s.velocity, s.quat, P, gyro_bias=s.gyro_bias, accel_bias=s.accel_bias,
                          **setup.sensor_options())  # fmt: skip
-    if filter == "eskf":
-        return EskfStream(eskf)
-    return Hol22Stream(Hol22EKF.from_eskf_state(eskf.x, eskf.P, setup))
+    return eskf if filter == "eskf" else Hol22EKF.from_eskf_state(eskf.x, eskf.P, setup)
+
+
+def stream_filter(setup: SensorSetup | str | os.PathLike, filter: str = "eskf") -> EskfStream | Hol22Stream:
+    """The streaming filter (:class:`~dualpose.estimation.fusion_stream.EskfStream` or
+    :class:`~dualpose.estimation.fusion_stream.Hol22Stream`) of :func:`filter_for_setup`."""
+    f = filter_for_setup(setup, filter)
+    return EskfStream(f) if isinstance(f, ErrorStateEKF) else Hol22Stream(f)
+
+
+def recording_lines(recording: SensorRun) -> list[str]:
+    """A recording (or simulated run) as input lines of :func:`stream_fusion_lines`, in time order (on the IMU clock,
+    a frame before the IMU sample at its time), every number as its exact ``repr``.
+
+    Parameters
+    ----------
+    recording : Recording or SimulatedRun
+        ``t`` (N,), ``gyro``, ``accel`` (N, 3), ``frames`` (camera clock), ``time_offset``.
+
+    Returns
+    -------
+    list of str
+        N ``imu`` lines and one ``cam`` line per frame, each with its newline.
+    """
+    f = recording.frames
+    imu = np.column_stack([recording.t, recording.gyro, recording.accel]).tolist()
+    lines = [(row[0], 1, "imu, " + format_numbers(row)) for row in imu]
+    for j in range(len(f.t)):
+        pix, pts = f.frame(j)
+        tail = ", " + format_numbers(np.hstack([pix, pts]).ravel()) if len(pix) else "\n"
+        text = f"cam, {float(f.t[j])!r}, {len(pix)}{tail}"
+        lines.append((float(f.t[j] + recording.time_offset), 0, text))
+    lines.sort(key=lambda item: item[:2])
+    return [text for _, _, text in lines]
 
 
 def _pose(stream: EskfStream | Hol22Stream, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

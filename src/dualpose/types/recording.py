@@ -318,6 +318,13 @@ class SensorSetup:
     def __post_init__(self) -> None:
         _check_setup(self)
 
+    @classmethod
+    def of(cls, recording: Recording, start: FilterStart) -> SensorSetup:
+        """The set-up of ``recording`` (its sensors, without the data) with the filter start ``start``."""
+        r = recording
+        return cls(camera=r.camera, q_bc=r.q_bc, p_bc=r.p_bc, pixel_sigma=r.pixel_sigma, imu_noise=r.imu_noise,
+                   start=start, time_offset=r.time_offset, gravity=r.gravity)  # fmt: skip
+
     def sensor_options(self) -> dict:
         """Keyword arguments configuring a filter for this set-up (as :meth:`Recording.sensor_options`)."""
         return _sensor_options(self)
