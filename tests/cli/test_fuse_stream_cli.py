@@ -66,7 +66,7 @@ def reference(calibration: str, kind: str) -> np.ndarray:
 
 def test_parse_fusion_line():
     tag, t, g, a = parse_fusion_line("imu, 0.5, 1, 2, 3, 4, 5, 6\n")
-    assert (tag, t) == ("imu", 0.5) and g.tolist() == [1, 2, 3] and a.tolist() == [4, 5, 6]
+    assert (tag, t) == ("imu", 0.5) and g == [1, 2, 3] and a == [4, 5, 6]
     tag, t, pix, pts = parse_fusion_line("cam 0.25 2  10 20 1 2 3\t11 21 4 5 6  # two points")
     assert (tag, t) == ("cam", 0.25) and pix.tolist() == [[10, 20], [11, 21]] and pts.tolist() == [[1, 2, 3], [4, 5, 6]]
     assert parse_fusion_line("cam, 1.0, 0")[2].shape == (0, 2)

@@ -9,22 +9,22 @@ the same value), so a line read back gives the filter's numbers bit for bit.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 
 from dualpose.io._text import split_fields
 
 __all__ = ["format_numbers", "parse_numbers", "split_fields"]
 
 
-def parse_numbers(fields: Sequence[str], names: Sequence[str], first: int = 1) -> list[float]:
+def parse_numbers(fields: Sequence[str], names: Sequence[str] | Callable[[int], str], first: int = 1) -> list[float]:
     """The finite float values of ``fields``.
 
     Parameters
     ----------
     fields : sequence of str
-        The fields to convert (as many as ``names``; the caller checks the count).
-    names : sequence of str
-        Their names, for the messages.
+        The fields to convert (the caller checks their count).
+    names : sequence of str, or callable
+        Their names (``names[k]`` or ``names(k)`` for field ``k``), for the messages.
     first : int
         Number of the first field on its line (1-based), for the messages.
 
@@ -33,18 +33,23 @@ def parse_numbers(fields: Sequence[str], names: Sequence[str], first: int = 1) -
     ValueError
         ``field K (name): 'x' is not a number`` or ``field K (name): non-finite value 'inf'``.
     """
-    values = []
-    for k, (text, name) in enumerate(zip(fields, names, strict=True)):
+    try:
+        values = list(map(float, fields))
+        if all(map(math.isfinite, values)):
+            return values
+    except ValueError:
+        pass
+    name = names if callable(names) else names.__getitem__
+    for k, text in enumerate(fields):  # the first bad field, for the message
         try:
             v = float(text)
         except ValueError:
-            raise ValueError(f"field {first + k} ({name}): {text!r} is not a number") from None
+            raise ValueError(f"field {first + k} ({name(k)}): {text!r} is not a number") from None
         if not math.isfinite(v):
-            raise ValueError(f"field {first + k} ({name}): non-finite value {text!r}")
-        values.append(v)
-    return values
+            raise ValueError(f"field {first + k} ({name(k)}): non-finite value {text!r}")
+    raise AssertionError("unreachable: every field converted")
 
 
 def format_numbers(values: Iterable[float]) -> str:
     """One output line: the values' ``repr`` separated by ``", "``, with its newline."""
-    return ", ".join(repr(float(v)) for v in values) + "\n"
+    return ", ".join(map(repr, map(float, values))) + "\n"

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterable, Iterator
+from typing import Any
 
 import numpy as np
 
@@ -53,12 +54,13 @@ INPUT_FIELDS: dict[str, tuple[str, ...]] = {
 OUTPUT_FIELDS: tuple[str, ...] = ("t", "px", "py", "pz", "qx", "qy", "qz", "qw")
 
 
-def parse_fusion_line(line: str) -> tuple[str, float, np.ndarray, np.ndarray] | None:
+def parse_fusion_line(line: str) -> tuple[str, float, Any, Any] | None:
     """The content of one input line, or None for a blank or comment line.
 
     Returns
     -------
-    ("imu", t, gyro (3,), accel (3,)) or ("cam", t, pixels (n, 2), points (n, 3)), or None.
+    ("imu", t, gyro, accel) with gyro, accel lists of 3 floats, or ("cam", t, pixels (n, 2), points (n, 3)) arrays;
+    or None.
 
     Raises
     ------
@@ -75,7 +77,7 @@ def parse_fusion_line(line: str) -> tuple[str, float, np.ndarray, np.ndarray] | 
         if len(rest) != len(names):
             raise ValueError(f"an imu line has {len(names) + 1} fields (imu, {', '.join(names)}); got {len(fields)}")
         v = parse_numbers(rest, names, first=2)
-        return "imu", v[0], np.array(v[1:4]), np.array(v[4:7])
+        return "imu", v[0], v[1:4], v[4:7]
     if tag != "cam":
         raise ValueError(f"field 1: expected 'imu' or 'cam'; got {fields[0]!r}")
     if len(rest) < 2:
@@ -87,9 +89,13 @@ def parse_fusion_line(line: str) -> tuple[str, float, np.ndarray, np.ndarray] | 
     if len(rest) != 2 + 5 * n:
         raise ValueError(f"a cam line with n = {n} has {3 + 5 * n} fields (cam, t, n, then n times u, v, X, Y, Z); "
                          f"got {len(fields)}")  # fmt: skip
-    names = [f"{c}{i}" for i in range(1, n + 1) for c in INPUT_FIELDS["cam"][2:]]
-    uvxyz = np.array(parse_numbers(rest[2:], names, first=4)).reshape(n, 5)
+    uvxyz = np.array(parse_numbers(rest[2:], _point_field, first=4)).reshape(n, 5)
     return "cam", t, uvxyz[:, :2], uvxyz[:, 2:]
+
+
+def _point_field(k: int) -> str:
+    """Name of the k-th field after ``n`` on a cam line: u1, v1, X1, Y1, Z1, u2, ..."""
+    return f"{INPUT_FIELDS['cam'][2 + k % 5]}{k // 5 + 1}"
 
 
 def format_pose(t: float, position: np.ndarray, quat: np.ndarray) -> str:
@@ -153,13 +159,11 @@ def recording_lines(recording: SensorRun) -> list[str]:
     return [text for _, _, text in lines]
 
 
-def _pose(stream: EskfStream | Hol22Stream, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Position (3,) and q_wb (4,) xyzw of a state of ``stream``."""
+def _pose_slices(stream: EskfStream | Hol22Stream) -> tuple[slice, slice, bool]:
+    """Where a state of ``stream`` holds the position and the quaternion, and whether that is Hol's q^{be}."""
     L = stream.state_layout
-    if "quat" in L.names:
-        return L.get(x, "position"), L.get(x, "quat")
-    q_be = L.get(x, "quat_be")
-    return L.get(x, "position"), np.array([-q_be[0], -q_be[1], -q_be[2], q_be[3]])  # q_wb = conj(q^{be})
+    hol = "quat_be" in L.names
+    return L.slice("position"), L.slice("quat_be" if hol else "quat"), hol
 
 
 def stream_fusion_lines(lines: Iterable[str], stream: EskfStream | Hol22Stream, source: str = "stdin") -> Iterator[str]:
@@ -186,6 +190,7 @@ def stream_fusion_lines(lines: Iterable[str], stream: EskfStream | Hol22Stream, 
         ``"{source} line N: ..."`` for a malformed line or an input out of time order; everything before the bad
         line has been yielded by then.
     """
+    ps, qs, hol = _pose_slices(stream)
     for lineno, line in enumerate(lines, start=1):
         try:
             item = parse_fusion_line(line)
@@ -195,7 +200,8 @@ def stream_fusion_lines(lines: Iterable[str], stream: EskfStream | Hol22Stream, 
             if kind == "cam":
                 stream.update_camera(t, a, b)
                 continue
-            x = stream.update_imu(t, a, b)
+            x = stream.update_imu(t, a, b).tolist()
         except ValueError as exc:
             raise ValueError(f"{source} line {lineno}: {exc}") from None
-        yield format_pose(t, *_pose(stream, x))
+        q = x[qs]
+        yield format_numbers([t, *x[ps], *((-q[0], -q[1], -q[2], q[3]) if hol else q)])  # q_wb = conj(q^{be})
