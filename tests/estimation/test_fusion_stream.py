@@ -214,9 +214,12 @@ def test_refuses_bad_inputs(kind):
         stream.update_camera(0.0, np.zeros((2, 2)), np.ones((2, 3)))
     with pytest.raises(ValueError, match=r"pixels must have shape \(M, 2\) and points \(M, 3\)"):
         stream.update_camera(0.02, np.zeros((2, 2)), np.ones((3, 3)))
-    stream.update_camera(0.03, np.zeros((2, 2)), np.ones((2, 3)))
+    frame = stream.update_camera(0.03, np.zeros((2, 2)), np.ones((2, 3)))
     with pytest.raises(ValueError, match="time order"):
         stream.update_camera(0.02, np.zeros((2, 2)), np.ones((2, 3)))
+    with pytest.raises(ValueError, match=r"accel must be 3 numbers \(shape \(3,\)\); got shape \(4,\)"):
+        stream.update_imu(0.05, [0.0, 0.0, 0.0], [0.0, 0.0, 9.81, 1.0])  # the slow path: a frame is queued
+    assert frame.status == "pending" and stream.samples == 1  # nothing was filtered
     with pytest.raises(ValueError, match="t must be finite"):
         stream.update_batch([0.005, 0.004], np.zeros((2, 3)), np.zeros((2, 3)))
 

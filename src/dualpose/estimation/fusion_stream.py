@@ -85,6 +85,13 @@ class BlockResult:
     frames: list[FrameUpdate]
 
 
+def _vec3(v: Any, name: str) -> np.ndarray:
+    a = np.array(v, dtype=np.float64)
+    if a.shape != (3,):
+        raise ValueError(f"{name} must be 3 numbers (shape (3,)); got shape {a.shape}")
+    return a
+
+
 def _correspondences(pixels: Any, points: Any) -> tuple[np.ndarray, np.ndarray]:
     pix = np.array(pixels, dtype=np.float64, ndmin=2, copy=True)
     pts = np.array(points, dtype=np.float64, ndmin=2, copy=True)
@@ -237,10 +244,9 @@ class _FusionStream:
         pix, pts = _correspondences(pixels, points)
         if len(offs) != len(ft) + 1 or offs[0] != 0 or offs[-1] != len(pix) or np.any(np.diff(offs) < 0):
             raise ValueError("offsets must have F + 1 nondecreasing entries from 0 to len(pixels)")
-        out = []
-        for k in range(len(ft)):
-            out.append(FrameUpdate.new(0.0, pix[offs[k] : offs[k + 1]].copy(), pts[offs[k] : offs[k + 1]].copy()))
-            out[-1].t = float(ft[k] + self.camera_time_offset)  # as check_streams: array + offset
+        t_imu = (ft + self.camera_time_offset).tolist()  # as the batch run's check_streams: array + offset
+        out = [FrameUpdate.new(t_imu[k], pix[offs[k] : offs[k + 1]].copy(), pts[offs[k] : offs[k + 1]].copy())
+               for k in range(len(ft))]  # fmt: skip
         times = np.array([f.t for f in self._pending + out])
         if not np.isfinite(times).all() or np.any(np.diff(times) < 0) or (out and out[0].t <= self._last_imu_time()):
             raise ValueError("frame times must be finite, non-decreasing, after the last IMU sample filtered and "
@@ -250,8 +256,7 @@ class _FusionStream:
     # ---- the queue ----------------------------------------------------------------------------------------------
 
     def _imu_after_frames(self, t: float, gyro: Any, accel: Any) -> np.ndarray:
-        g = np.array(gyro, dtype=np.float64).reshape(3)
-        a = np.array(accel, dtype=np.float64).reshape(3)
+        g, a = _vec3(gyro, "gyro"), _vec3(accel, "accel")
         last = self._last_imu_time()
         if not (math.isfinite(t) and t > last):
             raise ValueError(f"t must be finite and increase strictly: got {t!r} after {last!r}")
@@ -265,9 +270,6 @@ class _FusionStream:
             if f.t < t:
                 f.status = "skipped"
         return self._first_sample(t, g, a, [f for f in due if f.t == t])
-
-    def _finish(self, f: FrameUpdate) -> None:
-        f.status = "done"
 
     # ---- state --------------------------------------------------------------------------------------------------
 
@@ -398,13 +400,13 @@ class EskfStream(_FusionStream):
 
     def _frame_between(self, f: FrameUpdate, t1: float, g1: np.ndarray, a1: np.ndarray) -> None:
         _native.eskf_stream_frame(self._buf, f.t, t1, g1, a1, f.pixels, f.points, f.nis, f.accepted_flags)
-        self._finish(f)
+        f.status = "done"
 
     def _first_sample(self, t: float, g: np.ndarray, a: np.ndarray, at_t: list[FrameUpdate]) -> np.ndarray:
         x = self._imu(self._buf, t, g, a)
         for f in at_t:  # as the batch filter: frames at the first sample's time update the start
             _native.eskf_stream_update(self._buf, f.pixels, f.points, f.nis, f.accepted_flags)
-            self._finish(f)
+            f.status = "done"
         return self.state if at_t else x
 
 
@@ -432,7 +434,7 @@ class Hol22Stream(_FusionStream):
 
     def _frame_between(self, f: FrameUpdate, t1: float, g1: np.ndarray, a1: np.ndarray) -> None:
         _native.hol22_stream_frame(self._buf, f.t, f.pixels, f.points, f.nis, f.accepted_flags)
-        self._finish(f)
+        f.status = "done"
 
     def _first_sample(self, t: float, g: np.ndarray, a: np.ndarray, at_t: list[FrameUpdate]) -> np.ndarray:
         for f in at_t:  # as the batch filter: frames at the first sample's time come before its update
