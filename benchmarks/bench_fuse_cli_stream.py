@@ -9,6 +9,7 @@ fuse --stream --calibration FILE`` in two modes, each a fresh process (the harne
 * ``paced``: each line is written (one ``write`` per line) at its time stamp after the first, as the sensors would,
   the first ``--lead`` (3) s after the process started (it imports numpy and scipy meanwhile); latency of an
   ``imu`` line = read time of its pose line - write time of the line;
+* the imu lines that follow a cam line are also timed apart: the frame is filtered when that line arrives;
 * ``flood``: all lines written as fast as the pipe takes them; throughput = pose lines / time between reading the
   first and the last of them.
 
@@ -81,6 +82,8 @@ def main(argv: list[str] | None = None) -> int:
         p = {"lines_per_s": (n_imu - 1) / (got[-1] - got[0])}
         p.update(_stream_bench.latency(sent[imu], got, behind[imu], "all"))
         p.update(_stream_bench.latency(sent[imu][steady:], got[steady:], behind[imu][steady:], "steady"))
+        after_cam = np.flatnonzero([lines[i - 1].startswith(b"cam") for i in imu[1:]]) + 1  # the frame's update
+        p.update(_stream_bench.latency(sent[imu][after_cam], got[after_cam], behind[imu][after_cam], "cam"))
         flood = _stream_bench.flood(start(cal, args.filter), lines, 0, n_imu)
         sent_c, got_c, behind_c = _stream_bench.paced(start(cal, args.filter, baseline=True), lines, send_at)
         c = {"lines_per_s": (len(got_c) - 1) / (got_c[-1] - got_c[0])}
@@ -94,6 +97,7 @@ def main(argv: list[str] | None = None) -> int:
         "|---|---:|---:|---:|---:|---:|---:|---:|",
     ]
     rows = [(p, "all", "paced, all imu lines"), (p, "steady", "paced, from 0.5 s"),
+            (p, "cam", "paced, the imu lines right after a cam line (the frame is filtered there)"),
             (c, "steady", "paced, `cat` instead (harness and pipes alone), from 0.5 s")]  # fmt: skip
     for r, name, what in rows:
         out.append(
