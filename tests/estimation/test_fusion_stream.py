@@ -1,7 +1,7 @@
-"""The streaming camera–IMU filters (dualpose.estimation.fusion_stream): one sample / frame at a time and in blocks
-they equal the batch ``run`` of ErrorStateEKF and Hol22EKF bit for bit (frames between IMU samples, at IMU times, at
-and before the first sample, after the last), outputs are causal, a saved state continues exactly, and bad states
-and inputs are refused."""
+"""The streaming camera–IMU filters (EskfStream, Hol22Stream): one sample / frame at a time and in blocks they
+equal the batch ``run`` of ErrorStateEKF and Hol22EKF bit for bit (frames between IMU samples, at IMU times, at and
+before the first sample, after the last), outputs are causal, a saved state continues exactly, and bad states and
+inputs are refused."""
 
 from __future__ import annotations
 
@@ -12,9 +12,8 @@ import pytest
 
 from dualpose import sim
 from dualpose.estimation import initialization
-from dualpose.estimation.eskf import ErrorStateEKF
-from dualpose.estimation.fusion_stream import EskfStream, Hol22Stream
-from dualpose.estimation.hol22 import Hol22EKF
+from dualpose.estimation.eskf import ErrorStateEKF, EskfStream
+from dualpose.estimation.hol22 import Hol22EKF, Hol22Stream
 
 
 def recording(seed: int = 0) -> dict:

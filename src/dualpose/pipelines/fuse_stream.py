@@ -2,8 +2,8 @@
 
 The job behind ``dualpose fuse --stream --calibration FILE`` (docs/fusion.md, "Streaming"; the line formats are
 defined there and in :data:`INPUT_FIELDS` / :func:`format_pose`).  :func:`stream_fusion_lines` parses each line,
-feeds it to a streaming filter (:class:`~dualpose.estimation.fusion_stream.EskfStream` or
-:class:`~dualpose.estimation.fusion_stream.Hol22Stream`, built by :func:`stream_filter` from the calibration file)
+feeds it to a streaming filter (:class:`~dualpose.estimation.eskf.EskfStream` or
+:class:`~dualpose.estimation.hol22.Hol22Stream`, built by :func:`stream_filter` from the calibration file)
 and yields one output line per IMU line as soon as it is known:
 
 * ``imu, t, gx, gy, gz, ax, ay, az`` -- an IMU sample (s on the IMU clock, rad/s, m/s², body frame);
@@ -26,9 +26,8 @@ from typing import Any
 
 import numpy as np
 
-from dualpose.estimation.eskf import ErrorStateEKF, initial_covariance
-from dualpose.estimation.fusion_stream import EskfStream, Hol22Stream
-from dualpose.estimation.hol22 import Hol22EKF
+from dualpose.estimation.eskf import ErrorStateEKF, EskfStream, initial_covariance
+from dualpose.estimation.hol22 import Hol22EKF, Hol22Stream
 from dualpose.io.recording import read_sensor_setup
 from dualpose.pipelines._lines import format_numbers, parse_numbers, split_fields
 from dualpose.types import SensorRun, SensorSetup
@@ -127,8 +126,8 @@ def filter_for_setup(setup: SensorSetup | str | os.PathLike, filter: str = "eskf
 
 
 def stream_filter(setup: SensorSetup | str | os.PathLike, filter: str = "eskf") -> EskfStream | Hol22Stream:
-    """The streaming filter (:class:`~dualpose.estimation.fusion_stream.EskfStream` or
-    :class:`~dualpose.estimation.fusion_stream.Hol22Stream`) of :func:`filter_for_setup`."""
+    """The streaming filter (:class:`~dualpose.estimation.eskf.EskfStream` or
+    :class:`~dualpose.estimation.hol22.Hol22Stream`) of :func:`filter_for_setup`."""
     f = filter_for_setup(setup, filter)
     return EskfStream(f) if isinstance(f, ErrorStateEKF) else Hol22Stream(f)
 
@@ -182,7 +181,7 @@ def stream_fusion_lines(lines: Iterable[str], stream: EskfStream | Hol22Stream, 
     ------
     str
         ``t, px, py, pz, qx, qy, qz, qw`` plus a newline (:func:`format_pose`): the pose of the state
-        :meth:`update_imu <dualpose.estimation.fusion_stream.EskfStream.update_imu>` returned, bit for bit.
+        :meth:`update_imu <dualpose.estimation.eskf.EskfStream.update_imu>` returned, bit for bit.
 
     Raises
     ------

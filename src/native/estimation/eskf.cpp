@@ -288,7 +288,7 @@ PyObject* py_run_recorded(PyObject*, PyObject* args) {
     return PyLong_FromLongLong(k);
 }
 
-// ---- the streaming filter (dualpose.estimation.fusion_stream.EskfStream): the state in one numpy.uint8 buffer
+// ---- the streaming filter (dualpose.estimation.eskf.EskfStream): the state in one numpy.uint8 buffer
 
 constexpr const char* stream_what = "an ESKF stream state";
 

@@ -1,6 +1,6 @@
 // The error-state filter one IMU sample / camera frame at a time (the steps) and over a whole recording (run, a loop
 // over the steps): dualpose.estimation.eskf.ErrorStateEKF.run, optionally recording every filter node for the RTS
-// smoother, and the streaming filter dualpose.estimation.fusion_stream.EskfStream (docs/fusion.md, "Streaming").
+// smoother, and the streaming filter dualpose.estimation.eskf.EskfStream (docs/fusion.md, "Streaming").
 #pragma once
 
 #include "eskf_layout.hpp"

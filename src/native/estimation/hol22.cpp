@@ -1,6 +1,6 @@
 // dualpose._native's Hol22 part: hol22_run (Algorithm 1 over a recording, for dualpose.estimation.hol22.Hol22EKF.run),
 // the streaming filter hol22_stream_* (one sample / frame at a time on a state held in a NumPy byte buffer, for
-// dualpose.estimation.fusion_stream.Hol22Stream) and the state offsets HOL22_* (hol22_layout.hpp).
+// dualpose.estimation.hol22.Hol22Stream) and the state offsets HOL22_* (hol22_layout.hpp).
 #include "eskf_args.hpp"
 #include "hol22_layout.hpp"
 #include "hol22_run.hpp"

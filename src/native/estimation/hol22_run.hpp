@@ -1,6 +1,6 @@
 // Hol's Algorithm 1 (Hol 2008) one IMU sample / camera frame at a time (the steps) and over a recording (run, a loop
 // over the steps): dualpose.estimation.hol22.Hol22EKF.run and the streaming filter
-// dualpose.estimation.fusion_stream.Hol22Stream (docs/fusion.md, "Streaming").
+// dualpose.estimation.hol22.Hol22Stream (docs/fusion.md, "Streaming").
 #pragma once
 
 #include "hol22_layout.hpp"

@@ -1,6 +1,9 @@
-"""The camera–IMU filters one IMU sample / camera frame at a time (streaming), with a savable state.
+"""What the streaming camera–IMU filters share (not public API: the classes are
+:class:`dualpose.estimation.eskf.EskfStream` and :class:`dualpose.estimation.hol22.Hol22Stream`, the result types
+:class:`FrameUpdate` and :class:`BlockResult` are exported by :mod:`dualpose.estimation.eskf`).
 
-:class:`EskfStream` and :class:`Hol22Stream` run the compiled steps that the batch filters'
+The camera–IMU filters one IMU sample / camera frame at a time, with a savable state: ``EskfStream`` and
+``Hol22Stream`` run the compiled steps that the batch filters'
 :meth:`ErrorStateEKF.run <dualpose.estimation.eskf.ErrorStateEKF.run>` and
 :meth:`Hol22EKF.run <dualpose.estimation.hol22.Hol22EKF.run>` loop over (``src/native/estimation/eskf_run.cpp``,
 ``hol22_run.cpp``), configured by such a filter (its state, covariance, noise, camera and extrinsic), so a stream fed
@@ -29,11 +32,9 @@ from typing import Any, ClassVar
 import numpy as np
 
 from dualpose import _native
-from dualpose.estimation.eskf import ErrorStateEKF
-from dualpose.estimation.hol22 import Hol22EKF
-from dualpose.estimation.state import ESKF_STATE, HOL22_STATE, StateLayout
+from dualpose.estimation.state import StateLayout
 
-__all__ = ["BlockResult", "EskfStream", "FrameUpdate", "Hol22Stream"]
+__all__ = ["BlockResult", "FrameUpdate", "FusionStream"]
 
 
 @dataclass
@@ -104,8 +105,12 @@ def _correspondences(pixels: Any, points: Any) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(pix), np.ascontiguousarray(pts)
 
 
-class _FusionStream:
-    """What both streaming filters share: the queue of frames, blocks, saving and restoring (module docstring)."""
+class FusionStream:
+    """What both streaming filters share: the queue of frames, blocks, saving and restoring (module docstring).
+
+    A subclass sets ``_kind`` (the prefix of its native ``*_stream_*`` functions), ``state_layout``,
+    ``covariance_dim`` and ``LAYOUT_VERSION``, and implements ``_frame_between`` and ``_first_sample``.
+    """
 
     _kind: ClassVar[str]  # "eskf" or "hol22": the prefix of the native functions
     state_layout: ClassVar[StateLayout]
@@ -313,7 +318,7 @@ class _FusionStream:
         }
 
     @classmethod
-    def from_state(cls, state: dict[str, Any]) -> _FusionStream:
+    def from_state(cls, state: dict[str, Any]) -> FusionStream:
         """A stream that continues exactly where the one that wrote ``state`` (:meth:`state_dict`) stopped.
 
         Raises
@@ -339,7 +344,7 @@ class _FusionStream:
         buf = np.array(buf, dtype=np.uint8, copy=True).reshape(-1)  # a fresh, aligned, writeable copy
         _native.__dict__[f"{cls._kind}_stream_check"](buf, "state['state']")
         out = cls.__new__(cls)
-        _FusionStream.__init__(out, buf, offset)
+        FusionStream.__init__(out, buf, offset)
         for p in pending:
             pix, pts = _correspondences(p["pixels"], p["points"])
             out._pending.append(FrameUpdate.new(float(p["t"]), pix, pts))
@@ -365,78 +370,3 @@ class _FusionStream:
 
     def _first_sample(self, t: float, g: np.ndarray, a: np.ndarray, at_t: list[FrameUpdate]) -> np.ndarray:
         raise NotImplementedError
-
-
-class EskfStream(_FusionStream):
-    """:class:`~dualpose.estimation.eskf.ErrorStateEKF` one sample / frame at a time (module docstring).
-
-    Parameters
-    ----------
-    filter : ErrorStateEKF
-        The filter to continue: its current state and covariance (taken to be before the first sample), IMU noise,
-        gravity, camera, extrinsic, pixel σ, gate and camera time offset.  The filter itself is not changed.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from dualpose.estimation.eskf import ErrorStateEKF, initial_covariance
-    >>> s = EskfStream(ErrorStateEKF(np.zeros(3), np.zeros(3), [0, 0, 0, 1.0], initial_covariance()))
-    >>> s.update_imu(0.0, [0.0, 0.0, 0.0], [0.0, 0.0, 9.81]).shape
-    (16,)
-    """
-
-    _kind = "eskf"
-    state_layout = ESKF_STATE
-    covariance_dim = 15
-    #: version of the saved state's byte layout (``STREAM_VERSION`` in ``src/native/estimation/eskf_run.hpp``)
-    LAYOUT_VERSION = _native.ESKF_STREAM_VERSION
-
-    def __init__(self, filter: ErrorStateEKF) -> None:
-        if not isinstance(filter, ErrorStateEKF):
-            raise TypeError(f"filter must be an ErrorStateEKF; got {type(filter).__name__}")
-        x = np.ascontiguousarray(filter.x, dtype=np.float64)
-        P = np.ascontiguousarray(filter.P, dtype=np.float64)
-        super().__init__(_native.eskf_stream_new(x, P, *filter.kernel_config()), filter.camera_time_offset)
-
-    def _frame_between(self, f: FrameUpdate, t1: float, g1: np.ndarray, a1: np.ndarray) -> None:
-        _native.eskf_stream_frame(self._buf, f.t, t1, g1, a1, f.pixels, f.points, f.nis, f.accepted_flags)
-        f.status = "done"
-
-    def _first_sample(self, t: float, g: np.ndarray, a: np.ndarray, at_t: list[FrameUpdate]) -> np.ndarray:
-        x = self._imu(self._buf, t, g, a)
-        for f in at_t:  # as the batch filter: frames at the first sample's time update the start
-            _native.eskf_stream_update(self._buf, f.pixels, f.points, f.nis, f.accepted_flags)
-            f.status = "done"
-        return self.state if at_t else x
-
-
-class Hol22Stream(_FusionStream):
-    """:class:`~dualpose.estimation.hol22.Hol22EKF` one sample / frame at a time (module docstring).
-
-    Parameters
-    ----------
-    filter : Hol22EKF
-        The filter to continue (state, covariance, noise, camera, extrinsic, gate, camera time offset); not changed.
-    """
-
-    _kind = "hol22"
-    state_layout = HOL22_STATE
-    covariance_dim = 22
-    #: version of the saved state's byte layout (``STREAM_VERSION`` in ``src/native/estimation/hol22_run.hpp``)
-    LAYOUT_VERSION = _native.HOL22_STREAM_VERSION
-
-    def __init__(self, filter: Hol22EKF) -> None:
-        if not isinstance(filter, Hol22EKF):
-            raise TypeError(f"filter must be a Hol22EKF; got {type(filter).__name__}")
-        x = np.ascontiguousarray(filter.x, dtype=np.float64)
-        P = np.ascontiguousarray(filter.P, dtype=np.float64)
-        super().__init__(_native.hol22_stream_new(x, P, *filter.kernel_config()), filter.camera_time_offset)
-
-    def _frame_between(self, f: FrameUpdate, t1: float, g1: np.ndarray, a1: np.ndarray) -> None:
-        _native.hol22_stream_frame(self._buf, f.t, f.pixels, f.points, f.nis, f.accepted_flags)
-        f.status = "done"
-
-    def _first_sample(self, t: float, g: np.ndarray, a: np.ndarray, at_t: list[FrameUpdate]) -> np.ndarray:
-        for f in at_t:  # as the batch filter: frames at the first sample's time come before its update
-            self._frame_between(f, t, g, a)
-        return self._imu(self._buf, t, g, a)
