@@ -61,7 +61,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 from scipy.stats import chi2
@@ -77,6 +77,7 @@ from dualpose.calibration.sensor_time_offset import (
 
 __all__ = [
     "AhrsNoise",
+    "AhrsConfig",
     "AhrsResult",
     "RestStatistics",
     "initial_orientation",
@@ -115,6 +116,78 @@ class AhrsNoise:
     gyroscope_random_walk: float = MEMS_GYRO_BIAS_RANDOM_WALK
     accelerometer_noise_density: float = 3.5e-3
     magnetometer_noise_density: float = 4.0e-2
+
+
+@dataclass(frozen=True)
+class AhrsConfig:
+    """Tuning of the AHRS: the same values for every recording (docs/broad.md, "Design in brief").
+
+    One object shared by :func:`estimate_orientation`, :func:`filter_setup` and
+    :class:`~dualpose.estimation.ahrs_stream.AhrsStream`, so that the batch and the streaming filter cannot be set up
+    differently.
+
+    Attributes
+    ----------
+    noise : AhrsNoise, optional
+        Overrides the densities estimated from the rest period (None: estimate them; :class:`AhrsNoise` defaults
+        without a rest period).
+    gate_probability : float
+        χ² gate of both updates (default 0.999).
+    gate_release : float
+        Seconds of uninterrupted rejection after which a gate re-opens (default 2 s).
+    adapt_time : float
+        Time constant (s) of the innovation-based (Sage-Husa) estimate of the unmodelled acceleration variance that
+        is added to the accelerometer noise (default 6 s; 0 switches it off).
+    window : float
+        Seconds of samples averaged in the estimated earth frame per accelerometer / magnetometer update (default
+        3 s; the mean linear acceleration over T is Δv / T, so bounded-velocity motion averages out).  Rounded to
+        whole samples; the outputs are still per sample.
+    mag_adapt : bool
+        Also adapt the heading noise from the innovations (default False: a drifting heading would be absorbed into
+        the estimated noise instead of being corrected).
+    gyro_scale_sigma : float
+        Relative gyroscope scale-factor + axis-misalignment uncertainty ε (calibrated MEMS class, default 0.5 %);
+        adds ``ε² |ω|² · 1 s`` to the attitude process-noise density (rad²/s).
+    update_interval : float
+        Seconds between updates (default 0.1 s, capped at ``window``).  Consecutive windows then overlap by
+        ``window / update_interval`` and share their samples, so each update's noise is multiplied by that overlap
+        factor (an update carries only its share of a window's information).  The result is insensitive to the
+        interval once it is well below the window (docs/broad.md, "Design in brief").
+    """
+
+    noise: AhrsNoise | None = None
+    gate_probability: float = 0.999
+    gate_release: float = 2.0
+    adapt_time: float = 6.0
+    window: float = 3.0
+    mag_adapt: bool = False
+    gyro_scale_sigma: float = 0.005
+    update_interval: float = 0.1
+
+    def __post_init__(self) -> None:
+        if self.noise is not None and not isinstance(self.noise, AhrsNoise):
+            raise TypeError(f"noise must be an AhrsNoise or None; got {type(self.noise).__name__}")
+        if not 0.0 < self.gate_probability < 1.0:
+            raise ValueError(f"gate_probability must be in (0, 1); got {self.gate_probability}")
+        checks = (("gate_release", self.gate_release, False), ("adapt_time", self.adapt_time, False),
+                  ("window", self.window, True), ("gyro_scale_sigma", self.gyro_scale_sigma, False),
+                  ("update_interval", self.update_interval, True))  # fmt: skip
+        for name, value, positive in checks:
+            if not (math.isfinite(value) and (value > 0.0 if positive else value >= 0.0)):
+                kind = "a positive" if positive else "a non-negative"
+                raise ValueError(f"{name} must be {kind} finite number; got {value}")
+
+    def as_dict(self) -> dict:
+        """The settings as plain Python values (``noise`` as a dict or None), for saving; inverse :meth:`from_dict`."""
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> AhrsConfig:
+        """The configuration saved by :meth:`as_dict`."""
+        d = dict(d)
+        if d.get("noise") is not None:
+            d["noise"] = AhrsNoise(**d["noise"])
+        return cls(**d)
 
 
 @dataclass(frozen=True)
@@ -370,19 +443,12 @@ def filter_setup(
     first_mag: np.ndarray | None = None,
     *,
     use_mag: bool = True,
-    noise: AhrsNoise | None = None,
-    gate_probability: float = 0.999,
-    gate_release: float = 2.0,
-    adapt_time: float = 6.0,
-    window: float = 3.0,
-    mag_adapt: bool = False,
-    gyro_scale_sigma: float = 0.005,
-    update_interval: float = 0.1,
+    config: AhrsConfig | None = None,
 ) -> AhrsSetup:
     """Parameters and initial state of the AHRS, as :func:`estimate_orientation` sets them up.
 
     Shared by :func:`estimate_orientation` and :class:`~dualpose.estimation.ahrs_stream.AhrsStream`, so that both
-    start from the same numbers.  The keyword arguments are those of :func:`estimate_orientation`.
+    start from the same numbers.
 
     Parameters
     ----------
@@ -393,11 +459,17 @@ def filter_setup(
         ``first_mag``) give the initial directions, the bias starts at zero with the MEMS turn-on uncertainty.
     first_acc, first_mag : array_like, shape (3,), optional
         The first sample's specific force (m/s²) and field (µT), IMU axes; used only when ``rest`` is None.
+    use_mag : bool
+        9D (True) or 6D (False).
+    config : AhrsConfig, optional
+        Tuning (default :class:`AhrsConfig`).
 
     Returns
     -------
     AhrsSetup
     """
+    c = config if config is not None else AhrsConfig()
+    noise = c.noise
     if rest is not None:
         est = rest.noise
         noise = noise or AhrsNoise(
@@ -434,21 +506,16 @@ def filter_setup(
     params[_native.AHRS_P_MAG_NORM] = field_norm
     params[_native.AHRS_P_MAG_DIP] = field_dip
     params[_native.AHRS_P_USE_MAG] = 1.0 if use_mag else 0.0
-    params[_native.AHRS_P_ACC_GATE] = float(chi2.ppf(gate_probability, 2))
-    params[_native.AHRS_P_MAG_GATE] = float(chi2.ppf(gate_probability, 1))
-    params[_native.AHRS_P_GATE_RELEASE] = max(1.0, gate_release * rate)
-    params[_native.AHRS_P_ACC_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 else 0.0
-    if not window > 0:
-        raise ValueError(f"window must be a positive number of seconds; got {window}")
-    n_win = max(1, int(round(window * rate)))
+    params[_native.AHRS_P_ACC_GATE] = float(chi2.ppf(c.gate_probability, 2))
+    params[_native.AHRS_P_MAG_GATE] = float(chi2.ppf(c.gate_probability, 1))
+    params[_native.AHRS_P_GATE_RELEASE] = max(1.0, c.gate_release * rate)
+    n_win = max(1, int(round(c.window * rate)))
     params[_native.AHRS_P_WINDOW] = n_win
-    if not update_interval > 0:
-        raise ValueError(f"update_interval must be a positive number of seconds; got {update_interval}")
-    stride = min(n_win, max(1, int(round(update_interval * rate))))
+    stride = min(n_win, max(1, int(round(c.update_interval * rate))))
     params[_native.AHRS_P_STRIDE] = stride
-    params[_native.AHRS_P_GYR_SCALE_VAR] = gyro_scale_sigma**2 * 1.0
-    params[_native.AHRS_P_ACC_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 else 0.0
-    params[_native.AHRS_P_MAG_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 and mag_adapt else 0.0
+    params[_native.AHRS_P_GYR_SCALE_VAR] = c.gyro_scale_sigma**2 * 1.0
+    params[_native.AHRS_P_ACC_ADAPT] = 1.0 / (c.adapt_time * rate) if c.adapt_time > 0 else 0.0
+    params[_native.AHRS_P_MAG_ADAPT] = 1.0 / (c.adapt_time * rate) if c.adapt_time > 0 and c.mag_adapt else 0.0
     # initial attitude uncertainty: the direction of a mean of N noisy specific forces (inclination) and fields
     # (heading); heading is unknown in 6D (π is only a nominal value: no update ever uses it)
     n_avg = rest.samples if rest is not None else 1
@@ -469,14 +536,7 @@ def estimate_orientation(
     *,
     use_mag: bool = True,
     n_rest: int | None = None,
-    noise: AhrsNoise | None = None,
-    gate_probability: float = 0.999,
-    gate_release: float = 2.0,
-    adapt_time: float = 6.0,
-    window: float = 3.0,
-    mag_adapt: bool = False,
-    gyro_scale_sigma: float = 0.005,
-    update_interval: float = 0.1,
+    config: AhrsConfig | None = None,
     mag_time_offset: str | float = "estimate",
     mag_calibration: str | MagCalibration | None = None,
 ) -> AhrsResult:
@@ -498,30 +558,9 @@ def estimate_orientation(
         Leading samples at rest, used for initialisation and noise estimation (default: the first second).  With
         ``n_rest=0`` nothing is estimated: ``noise`` (or :class:`AhrsNoise` defaults), zero initial bias with the
         MEMS turn-on uncertainty and the first sample's directions are used.
-    noise : AhrsNoise, optional
-        Overrides the densities estimated from the rest period.
-    gate_probability : float
-        χ² gate of both updates (default 0.999).
-    gate_release : float
-        Seconds of uninterrupted rejection after which a gate re-opens (default 2 s).
-    adapt_time : float
-        Time constant (s) of the innovation-based (Sage-Husa) estimate of the unmodelled acceleration variance that
-        is added to the accelerometer noise (default 6 s; 0 switches it off).
-    window : float
-        Seconds of samples averaged in the estimated earth frame per accelerometer / magnetometer update (default
-        3 s; the mean linear acceleration over T is Δv / T, so bounded-velocity motion averages out).  Rounded to
-        whole samples; the outputs are still per sample.
-    update_interval : float
-        Seconds between updates (default 0.1 s, capped at ``window``).  Consecutive windows then overlap by
-        ``window / update_interval`` and share their samples, so each update's noise is multiplied by that overlap
-        factor (an update carries only its share of a window's information).  The result is insensitive to the
-        interval once it is well below the window (docs/broad.md, "Design in brief").
-    mag_adapt : bool
-        Also adapt the heading noise from the innovations (default False: a drifting heading would be absorbed into
-        the estimated noise instead of being corrected).
-    gyro_scale_sigma : float
-        Relative gyroscope scale-factor + axis-misalignment uncertainty ε (calibrated MEMS class, default 0.5 %);
-        adds ``ε² |ω|² · 1 s`` to the attitude process-noise density (rad²/s).
+    config : AhrsConfig, optional
+        Tuning: noise override, gates, adaptation, window, update interval, scale-factor uncertainty (default
+        :class:`AhrsConfig`, the same for every recording).
     mag_time_offset : "estimate" or float
         Lag of the magnetometer samples behind the gyroscope's, s, compensated by re-sampling the magnetometer at
         ``t + offset`` (:func:`~dualpose.calibration.sensor_time_offset.shift_samples`) before filtering.
@@ -597,9 +636,7 @@ def estimate_orientation(
             mag_arr = shift_samples(mag_arr, rate, mag_offset)
     setup = filter_setup(
         rate, rest, acc[0], mag_arr[0] if mag_arr is not None else None,
-        use_mag=use_mag, noise=noise, gate_probability=gate_probability, gate_release=gate_release,
-        adapt_time=adapt_time, window=window, mag_adapt=mag_adapt, gyro_scale_sigma=gyro_scale_sigma,
-        update_interval=update_interval,
+        use_mag=use_mag, config=config,
     )  # fmt: skip
     params, n_win, stride, P = setup.params, setup.n_win, setup.stride, setup.P
     q = setup.q.copy()
