@@ -85,6 +85,9 @@ __all__ = [
     "estimate_orientation",
     "AhrsSetup",
     "filter_setup",
+    "PreparedRecording",
+    "prepare_recording",
+    "run_result",
     "accelerometer_jacobian",
     "heading_jacobian",
 ]
@@ -528,7 +531,46 @@ def filter_setup(
     return AhrsSetup(params=params, q=q, b=b, P=P, Ha=Ha, Hm=Hm, n_win=n_win, stride=stride, noise=noise)
 
 
-def estimate_orientation(
+@dataclass(frozen=True)
+class PreparedRecording:
+    """One recording made ready for the AHRS kernel (:func:`prepare_recording`): checked arrays, the corrections
+    that need the whole recording applied, the rest statistics and the filter's set-up.
+
+    Attributes
+    ----------
+    gyr, acc : ndarray, shape (n, 3)
+        rad/s and m/s², IMU axes (checked, C-contiguous float64).
+    mag : ndarray, shape (n, 3)
+        The field after the self-calibration and the time-offset compensation (zeros in 6D), IMU axes.
+    rate : float
+        Sampling rate, Hz.
+    use_mag : bool
+        9D (True) or 6D (False).
+    rest : RestStatistics or None
+        Statistics of the rest period.
+    setup : AhrsSetup
+        Parameters and initial state of the kernel.
+    mag_time_offset : float
+        Compensated lag of the magnetometer behind the gyroscope, s.
+    mag_time_offset_estimate : SensorTimeOffset or None
+        The estimator's result when it was asked for.
+    mag_calibration : MagCalibration or None
+        The self-calibration decision when it was asked for.
+    """
+
+    gyr: np.ndarray
+    acc: np.ndarray
+    mag: np.ndarray
+    rate: float
+    use_mag: bool
+    rest: RestStatistics | None
+    setup: AhrsSetup
+    mag_time_offset: float
+    mag_time_offset_estimate: SensorTimeOffset | None
+    mag_calibration: MagCalibration | None
+
+
+def prepare_recording(
     gyr: np.ndarray,
     acc: np.ndarray,
     mag: np.ndarray | None,
@@ -539,49 +581,22 @@ def estimate_orientation(
     config: AhrsConfig | None = None,
     mag_time_offset: str | float = "estimate",
     mag_calibration: str | MagCalibration | None = None,
-) -> AhrsResult:
-    """Estimate the orientation of an IMU from gyroscope, accelerometer and (9D) magnetometer samples.
+) -> PreparedRecording:
+    """Check the inputs of :func:`estimate_orientation` and do everything before its kernel runs.
 
-    Parameters
-    ----------
-    gyr : array_like, shape (n, 3)
-        Angular rate, rad/s, IMU axes.
-    acc : array_like, shape (n, 3)
-        Specific force, m/s², IMU axes.
-    mag : array_like, shape (n, 3) or None
-        Magnetic field (µT or any unit), IMU axes; required when ``use_mag``.
-    rate : float
-        Sampling rate, Hz (uniform sampling).
-    use_mag : bool
-        9D (True) or 6D (False, the magnetometer is ignored).
-    n_rest : int, optional
-        Leading samples at rest, used for initialisation and noise estimation (default: the first second).  With
-        ``n_rest=0`` nothing is estimated: ``noise`` (or :class:`AhrsNoise` defaults), zero initial bias with the
-        MEMS turn-on uncertainty and the first sample's directions are used.
-    config : AhrsConfig, optional
-        Tuning: noise override, gates, adaptation, window, update interval, scale-factor uncertainty (default
-        :class:`AhrsConfig`, the same for every recording).
-    mag_time_offset : "estimate" or float
-        Lag of the magnetometer samples behind the gyroscope's, s, compensated by re-sampling the magnetometer at
-        ``t + offset`` (:func:`~dualpose.calibration.sensor_time_offset.shift_samples`) before filtering.
-        ``"estimate"`` (default) estimates it from this recording's gyroscope and magnetometer alone, with the
-        kinematic residual
-        ``dm/dt + ω(t − τ) × m = 0`` of a static field (:func:`~dualpose.calibration.sensor_time_offset.
-        estimate_sensor_time_offset`, ±30 ms, gyroscope bias from the rest period); when that is not possible (too
-        little rotation) nothing is shifted.  A number is used as given; 0 switches the compensation off.  In fast
-        rotation a lag τ makes the magnetometer read a heading rotated by ``ω τ`` (docs/broad.md,
-        "Magnetometer–gyroscope time offset").  Ignored in 6D.
-    mag_calibration : "auto", MagCalibration or None
-        None (default): raw magnetometer.  ``"auto"``: fit hard iron / per-axis scale / symmetric soft iron to this
-        recording's field samples and apply the smallest model that passes the decision rule of
-        :func:`~dualpose.calibration.magnetometer.estimate_mag_calibration` (noise level of ``|m|`` from the rest
-        period when there is one); raw data otherwise.  A :class:`MagCalibration` is applied as given (if its
-        ``applied`` flag is set).  Off by default; its effect and cost on BROAD are in docs/broad.md
-        ("Magnetometer self-calibration").  Runs before the time-offset estimate.  Ignored in 6D.
+    Shared by :func:`estimate_orientation` and :func:`dualpose.estimation.ahrs_smoother.smooth_orientation`, so that
+    both filter the same data from the same start.  The parameters are those of :func:`estimate_orientation`; the
+    magnetometer self-calibration runs first, then the rest statistics, then the time-offset estimate and
+    compensation, then :func:`filter_setup`.
 
     Returns
     -------
-    AhrsResult
+    PreparedRecording
+
+    Raises
+    ------
+    ValueError, TypeError
+        As :func:`estimate_orientation`.
     """
     gyr = check_samples(gyr, "gyr")
     n = gyr.shape[0]
@@ -638,26 +653,120 @@ def estimate_orientation(
         rate, rest, acc[0], mag_arr[0] if mag_arr is not None else None,
         use_mag=use_mag, config=config,
     )  # fmt: skip
-    params, n_win, stride, P = setup.params, setup.n_win, setup.stride, setup.P
-    q = setup.q.copy()
-    b = setup.b.copy()
+    return PreparedRecording(
+        gyr=gyr, acc=acc, mag=mag_arr if mag_arr is not None else np.zeros((n, 3)), rate=float(rate),
+        use_mag=use_mag, rest=rest, setup=setup, mag_time_offset=mag_offset, mag_time_offset_estimate=mag_offset_est,
+        mag_calibration=mag_cal,
+    )  # fmt: skip
+
+
+def estimate_orientation(
+    gyr: np.ndarray,
+    acc: np.ndarray,
+    mag: np.ndarray | None,
+    rate: float,
+    *,
+    use_mag: bool = True,
+    n_rest: int | None = None,
+    config: AhrsConfig | None = None,
+    mag_time_offset: str | float = "estimate",
+    mag_calibration: str | MagCalibration | None = None,
+) -> AhrsResult:
+    """Estimate the orientation of an IMU from gyroscope, accelerometer and (9D) magnetometer samples.
+
+    Parameters
+    ----------
+    gyr : array_like, shape (n, 3)
+        Angular rate, rad/s, IMU axes.
+    acc : array_like, shape (n, 3)
+        Specific force, m/s², IMU axes.
+    mag : array_like, shape (n, 3) or None
+        Magnetic field (µT or any unit), IMU axes; required when ``use_mag``.
+    rate : float
+        Sampling rate, Hz (uniform sampling).
+    use_mag : bool
+        9D (True) or 6D (False, the magnetometer is ignored).
+    n_rest : int, optional
+        Leading samples at rest, used for initialisation and noise estimation (default: the first second).  With
+        ``n_rest=0`` nothing is estimated: ``noise`` (or :class:`AhrsNoise` defaults), zero initial bias with the
+        MEMS turn-on uncertainty and the first sample's directions are used.
+    config : AhrsConfig, optional
+        Tuning: noise override, gates, adaptation, window, update interval, scale-factor uncertainty (default
+        :class:`AhrsConfig`, the same for every recording).
+    mag_time_offset : "estimate" or float
+        Lag of the magnetometer samples behind the gyroscope's, s, compensated by re-sampling the magnetometer at
+        ``t + offset`` (:func:`~dualpose.calibration.sensor_time_offset.shift_samples`) before filtering.
+        ``"estimate"`` (default) estimates it from this recording's gyroscope and magnetometer alone, with the
+        kinematic residual
+        ``dm/dt + ω(t − τ) × m = 0`` of a static field (:func:`~dualpose.calibration.sensor_time_offset.
+        estimate_sensor_time_offset`, ±30 ms, gyroscope bias from the rest period); when that is not possible (too
+        little rotation) nothing is shifted.  A number is used as given; 0 switches the compensation off.  In fast
+        rotation a lag τ makes the magnetometer read a heading rotated by ``ω τ`` (docs/broad.md,
+        "Magnetometer–gyroscope time offset").  Ignored in 6D.
+    mag_calibration : "auto", MagCalibration or None
+        None (default): raw magnetometer.  ``"auto"``: fit hard iron / per-axis scale / symmetric soft iron to this
+        recording's field samples and apply the smallest model that passes the decision rule of
+        :func:`~dualpose.calibration.magnetometer.estimate_mag_calibration` (noise level of ``|m|`` from the rest
+        period when there is one); raw data otherwise.  A :class:`MagCalibration` is applied as given (if its
+        ``applied`` flag is set).  Off by default; its effect and cost on BROAD are in docs/broad.md
+        ("Magnetometer self-calibration").  Runs before the time-offset estimate.  Ignored in 6D.
+
+    Returns
+    -------
+    AhrsResult
+    """
+    prep = prepare_recording(
+        gyr, acc, mag, rate, use_mag=use_mag, n_rest=n_rest, config=config, mag_time_offset=mag_time_offset,
+        mag_calibration=mag_calibration,
+    )  # fmt: skip
+    n = prep.gyr.shape[0]
+    setup = prep.setup
+    q, b, P = setup.q.copy(), setup.b.copy(), setup.P.copy()
     out_q = np.empty((n, 4))
     out_b = np.empty((n, 3))
     stats = np.zeros(_native.AHRS_N_STATS)
-    mag_in = mag_arr if mag_arr is not None else np.zeros((n, 3))
     t0 = time.perf_counter()
-    _native.ahrs_run(gyr, acc, mag_in, 1.0 / rate, q, b, P, params, setup.Ha, setup.Hm, out_q, out_b, stats)
+    _native.ahrs_run(prep.gyr, prep.acc, prep.mag, 1.0 / prep.rate, q, b, P, setup.params, setup.Ha, setup.Hm, out_q,
+                     out_b, stats)  # fmt: skip
     seconds = time.perf_counter() - t0
+    return run_result(prep, out_q, out_b, P, stats, seconds)
 
+
+def run_result(
+    prep: PreparedRecording, quat: np.ndarray, gyroscope_bias: np.ndarray, covariance: np.ndarray, stats: np.ndarray,
+    seconds: float,
+) -> AhrsResult:
+    """The :class:`AhrsResult` of one kernel run over a :class:`PreparedRecording`.
+
+    Parameters
+    ----------
+    prep : PreparedRecording
+    quat : ndarray, shape (n, 4)
+        Filtered orientation, xyzw.
+    gyroscope_bias : ndarray, shape (n, 3)
+        Filtered gyroscope bias, rad/s.
+    covariance : ndarray, shape (6, 6)
+        Final error covariance.
+    stats : ndarray, shape (AHRS_N_STATS,)
+        The kernel's counters.
+    seconds : float
+        Kernel wall time.
+
+    Returns
+    -------
+    AhrsResult
+    """
+    n, n_win, stride = quat.shape[0], prep.setup.n_win, prep.setup.stride
+    use_mag = prep.use_mag
     n_updates = max(0, (n - n_win) // stride + 1)
     acc_acc = n_updates - stats[_native.AHRS_S_ACC_REJECTED]
     mag_acc = (n_updates - stats[_native.AHRS_S_MAG_REJECTED] - stats[_native.AHRS_S_MAG_SKIPPED]) if use_mag else 0
     return AhrsResult(
-        quat=out_q,
-        gyroscope_bias=out_b,
-        covariance=P,
+        quat=quat,
+        gyroscope_bias=gyroscope_bias,
+        covariance=covariance,
         use_mag=use_mag,
-        rest=rest,
+        rest=prep.rest,
         acc_rejected=int(stats[_native.AHRS_S_ACC_REJECTED]),
         mag_rejected=int(stats[_native.AHRS_S_MAG_REJECTED]),
         acc_nis_mean=float(stats[_native.AHRS_S_ACC_NIS_SUM] / acc_acc) if acc_acc else math.nan,
@@ -665,7 +774,7 @@ def estimate_orientation(
         acc_fraction_inside=float(stats[_native.AHRS_S_ACC_INSIDE] / acc_acc) if acc_acc else math.nan,
         mag_fraction_inside=float(stats[_native.AHRS_S_MAG_INSIDE] / mag_acc) if mag_acc else math.nan,
         seconds=seconds,
-        mag_time_offset=mag_offset,
-        mag_time_offset_estimate=mag_offset_est,
-        mag_calibration=mag_cal,
+        mag_time_offset=prep.mag_time_offset,
+        mag_time_offset_estimate=prep.mag_time_offset_estimate,
+        mag_calibration=prep.mag_calibration,
     )

@@ -50,7 +50,8 @@ void init_state(State& s, double* ring, const Params& p, const double* q, const 
     std::fill(ring, ring + 7 * p.n_win, 0.0);
 }
 
-void step(State& s, double* ring, const Params& p, const double* gyr, const double* acc, const double* mag) {
+void step(State& s, double* ring, const Params& p, const double* gyr, const double* acc, const double* mag,
+          PredictRecord* record) {
     // the names of the whole-recording loop this body was written for
     const double dt = p.dt, gyr_var = p.gyr_var, bias_var = p.bias_var, acc_var = p.acc_var, grav = p.grav;
     const double mag_var = p.mag_var, mag_norm = p.mag_norm, mag_dip = p.mag_dip;
@@ -72,6 +73,7 @@ void step(State& s, double* ring, const Params& p, const double* gyr, const doub
     // ---- predict: gyroscope as input (global error: δθ̇ = −R δb + R n_g)
     const double* g = gyr;
     predict(q, b, P, g[0], g[1], g[2], dt, gyr_var, bias_var, scale_var, R);
+    if (record != nullptr) record_prediction(*record, q, b, P, R);
     rotmat_xyzw(q[0], q[1], q[2], q[3], R);
 
     // ---- accumulate the window: specific force and field rotated into the estimated earth frame, stored in

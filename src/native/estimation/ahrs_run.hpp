@@ -38,10 +38,25 @@ Params make_params(const double* params, const double* Ha, const double* Hm, dou
 // The state before the first sample: q (4,), b (3,), P (6, 6) copied, everything else empty; ring (7 n_win) zeroed.
 void init_state(State& s, double* ring, const Params& p, const double* q, const double* b, const double* P);
 
+// What the offline smoother (ahrs_smoother.cpp) needs from one step: the state right after the prediction, before
+// this sample's updates (q, b, P = P_{k|k−1}), and the rotation R̂ of the state before it, which enters the
+// transition F = [[I, −R̂ dt], [0, I]] of the global attitude error.
+struct PredictRecord {
+    double q[4], b[3], P[ERROR_DIM * ERROR_DIM], R[9];
+};
+inline void record_prediction(PredictRecord& r, const double* q, const double* b, const double* P, const double* R) {
+    for (int i = 0; i < 4; ++i) r.q[i] = q[i];
+    for (int i = 0; i < 3; ++i) r.b[i] = b[i];
+    for (int i = 0; i < ERROR_DIM * ERROR_DIM; ++i) r.P[i] = P[i];
+    for (int i = 0; i < 9; ++i) r.R[i] = R[i];
+}
+
 // One sample: predict q <- q ⊗ Exp((ω − b) dt), P <- F P Fᵀ + Q; accumulate R̂ a and R̂ m in the sliding window;
 // every stride samples the accelerometer update of inclination and (9D) the magnetometer heading update, χ²-gated,
-// with adaptive noise.  gyr, acc, mag (3,) rad/s, m/s², µT (mag unused in 6D).
-void step(State& s, double* ring, const Params& p, const double* gyr, const double* acc, const double* mag);
+// with adaptive noise.  gyr, acc, mag (3,) rad/s, m/s², µT (mag unused in 6D).  record (optional) receives the
+// prediction (PredictRecord); nullptr in the filter's own run and stream paths.
+void step(State& s, double* ring, const Params& p, const double* gyr, const double* acc, const double* mag,
+          PredictRecord* record = nullptr);
 
 // Run the filter over n samples; q (4,), b (3,), P (6, 6) are the initial state, updated in place.
 // gyr, acc, mag (n, 3); params (N_PARAMS,); Ha (2, 6) and Hm (1, 6) the measurement Jacobians of
