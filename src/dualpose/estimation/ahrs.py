@@ -7,15 +7,18 @@ The error-state filter of :mod:`dualpose.estimation.eskf` reduced to orientation
 * error state ``δx = [δθ, δb]`` (6,) with a **global** 3-parameter attitude error ``q = Exp(δθ) ⊗ q̂``: ``δθ_z``
   is the heading error and ``(δθ_x, δθ_y)`` the inclination error, so the two are separated by construction;
 * predict with the gyroscope as input (Solà 2017 §5 with the global error: ``δθ̇ = −R δb + R n_g``);
-* measurements are sliding-window means: the specific force ``a`` and the field ``m`` of every sample are rotated
-  into the estimated earth frame with that sample's estimate and averaged over the last ``window`` seconds
-  (default 3 s); an update is made every ``update_interval`` (0.1 s).  The mean linear acceleration of a body whose
-  velocity stays bounded is Δv / T over a window T, so averaging in the earth frame removes most of it (the idea
-  behind VQF's inertial-frame low-pass filter, Laidig & Seel 2023); it also averages sensor noise and fast
-  tilt-coupled heading errors.  The window's vectors are stored in the *uncorrected* frame (``C⁻¹ R̂ v`` with ``C``
-  the product of all corrections applied so far), so every correction rotates the whole window at once
-  (current-frame mean ``= C · mean``).  Overlapping windows share samples: each update's noise is multiplied by
-  the overlap ``window / update_interval``;
+* measurements are earth-frame averages: the specific force ``a`` and the field ``m`` of every sample are rotated into
+  the estimated earth frame with that sample's estimate; the field is averaged over the last ``window`` seconds (default
+  3 s, a boxcar), the specific force is low-passed by a 2nd-order Butterworth with DC group delay ``τ = window / 2``
+  (the discretisation of VQF's inertial-frame accelerometer filter, Laidig & Seel 2023); an update is made every
+  ``update_interval`` (0.1 s). That low-pass has the boxcar's delay (T / 2) and the boxcar's noise-equivalent bandwidth
+  (1 / (2T)), so it averages white noise as much, but its response to a linear acceleration oscillating at f falls as
+  ``(f_c / f)²`` (``f_c = √2 / (2π τ)``) instead of the boxcar's ``1 / (π f T)``: in the earth frame the mean linear
+  acceleration of a body whose velocity stays bounded is Δv / T over a boxcar, which the low-pass attenuates further.
+  Averaging also removes sensor noise and fast tilt-coupled heading errors. The window's vectors and the low-pass state
+  are stored in the *uncorrected* frame (``C⁻¹ R̂ v`` with ``C`` the product of all corrections applied so far; both are
+  linear in the samples), so every correction rotates all past samples at once (current-frame value ``= C · stored``).
+  Consecutive updates share samples: each update's noise is multiplied by the overlap ``window / update_interval``;
 * accelerometer update: the horizontal components of the mean earth-frame specific force must vanish (2-D
   measurement ``y = [mean R̂ a]_{x,y}``, ``H = [[0, −g, 0, 0₃], [g, 0, 0, 0₃]]``).  It carries no heading
   information and its gain row for ``δθ_z`` is zeroed;
@@ -45,15 +48,15 @@ The error-state filter of :mod:`dualpose.estimation.eskf` reduced to orientation
   :mod:`dualpose.calibration.magnetometer`); otherwise the raw field is used.  It runs before the time-offset
   estimate and the rest statistics.
 
-Noise is set on principle, never per trial: white-noise levels of the three sensors are estimated from the rest
-period at the start of the recording (robustly: median absolute deviation); the bias random walk and the relative
-gyroscope scale-factor / misalignment uncertainty (0.5 %, calibrated-MEMS class; rate-proportional process noise)
-are fixed sensor-class values; the window (3 s) and adaptation time (2 windows) are motion-class choices for
-hand-held motion.  The same values are used for every recording.  Initialisation: the gyroscope bias is the median
-rate over the rest period, the orientation comes from the rest period's median specific force (inclination) and
-magnetic field (heading; 6D: the body x axis projected on the horizontal is east), and the field's magnitude and
-dip at rest are the magnetometer's reference.  In 6D the earth frame's heading is defined by that initial
-orientation, so the initial heading uncertainty is small by definition (a huge value would only feed spurious
+Noise is set on principle, never per trial: white-noise levels of the three sensors are estimated from the rest period
+at the start of the recording (robustly: median absolute deviation); the bias random walk and the relative gyroscope
+scale-factor / misalignment uncertainty (0.5 %, calibrated-MEMS class; rate-proportional process noise) are fixed
+sensor-class values; the window (3 s; the accelerometer low-pass's delay is half of it) and adaptation time (2 windows)
+are motion-class choices for hand-held motion. The same values are used for every recording. Initialisation: the
+gyroscope bias is the median rate over the rest period, the orientation comes from the rest period's median specific
+force (inclination) and magnetic field (heading; 6D: the body x axis projected on the horizontal is east), and the
+field's magnitude and dip at rest are the magnetometer's reference. In 6D the earth frame's heading is defined by that
+initial orientation, so the initial heading uncertainty is small by definition (a huge value would only feed spurious
 cross-covariances into the linearisation).
 """
 
@@ -142,9 +145,10 @@ class AhrsConfig:
         Time constant (s) of the innovation-based (Sage-Husa) estimate of the unmodelled acceleration variance that
         is added to the accelerometer noise (default 6 s; 0 switches it off).
     window : float
-        Seconds of samples averaged in the estimated earth frame per accelerometer / magnetometer update (default
-        3 s; the mean linear acceleration over T is Δv / T, so bounded-velocity motion averages out).  Rounded to
-        whole samples; the outputs are still per sample.
+        Seconds of samples averaged in the estimated earth frame per magnetometer update (default 3 s); the
+        accelerometer's earth-frame low-pass has the same delay and noise bandwidth (2nd-order Butterworth, DC group
+        delay ``window / 2``).  The mean linear acceleration over T is Δv / T, so bounded-velocity motion averages
+        out.  Rounded to whole samples; the outputs are still per sample.
     mag_adapt : bool
         Also adapt the heading noise from the innovations (default False: a drifting heading would be absorbed into
         the estimated noise instead of being corrected).

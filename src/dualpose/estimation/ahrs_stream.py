@@ -6,11 +6,11 @@ sample by sample, a stream fed in blocks (:meth:`AhrsStream.update_batch`) and t
 orientations and biases to the last bit, provided they use the same settings and the batch estimator's non-causal
 pre-processing is off (``mag_time_offset=0.0``, ``mag_calibration=None``).
 
-The whole filter state -- orientation, bias, covariance, the sliding window's ring buffers and sums, the accumulated
-corrections, gate counters, adaptive-noise estimates and statistics -- lives in one ``numpy.uint8`` buffer with a
-header (magic number, layout version, size; ``AhrsStream.LAYOUT_VERSION``).  Saving the stream is a copy of that
-buffer (:meth:`AhrsStream.state_dict`); restoring it (:meth:`AhrsStream.from_state`) continues exactly where the saved
-stream stopped.  A buffer of another layout version or size is refused with a ValueError.
+The whole filter state -- orientation, bias, covariance, the field window's ring buffers and sums, the accelerometer
+low-pass state, the accumulated corrections, gate counters, adaptive-noise estimates and statistics -- lives in one
+``numpy.uint8`` buffer with a header (magic number, layout version, size; ``AhrsStream.LAYOUT_VERSION``). Saving the
+stream is a copy of that buffer (:meth:`AhrsStream.state_dict`); restoring it (:meth:`AhrsStream.from_state`) continues
+exactly where the saved stream stopped. A buffer of another layout version or size is refused with a ValueError.
 """
 
 from __future__ import annotations

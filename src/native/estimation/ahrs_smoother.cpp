@@ -86,7 +86,7 @@ smoother::Status smooth(std::ptrdiff_t n, const double* gyr, const double* acc, 
     constexpr int nn = NE * NE;
     const Params p = make_params(params, Ha, Hm, dt);
     State s;
-    std::vector<double> ring(7 * p.n_win);
+    std::vector<double> ring(ring_doubles(p.n_win));
     std::vector<PredictRecord> rec(static_cast<std::size_t>(n));
     init_state(s, ring.data(), p, q, b, P);
     for (int i = 0; i < N_STATS; ++i) s.stats[i] = stats[i];
