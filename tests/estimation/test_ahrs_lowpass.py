@@ -9,7 +9,7 @@ import math
 import numpy as np
 
 import dualpose as dp
-from dualpose.estimation.ahrs import AhrsNoise, estimate_orientation
+from dualpose.estimation.ahrs import AhrsConfig, AhrsNoise, estimate_orientation
 from dualpose.evaluation.orientation_errors import earth_error_quat
 
 RATE = 200.0
@@ -33,8 +33,8 @@ def _tilt_error_amplitude(freq: float, accel: float, seed: int = 5) -> float:
     # a gyroscope noise far above the accelerometer's: the updates follow the low-passed measurement (gain ≈ 1), so
     # the tilt error is the filter's response to the acceleration itself; no adaptive noise (adapt_time=0)
     noise = AhrsNoise(gyroscope_noise_density=0.05, accelerometer_noise_density=1e-3)
-    res = estimate_orientation(gyr, acc, None, RATE, use_mag=False, n_rest=int(rest_s * RATE), noise=noise,
-                               adapt_time=0.0, window=WINDOW)  # fmt: skip
+    config = AhrsConfig(noise=noise, adapt_time=0.0, window=WINDOW)
+    res = estimate_orientation(gyr, acc, None, RATE, use_mag=False, n_rest=int(rest_s * RATE), config=config)
     e = earth_error_quat(res.quat, np.broadcast_to(q_true, (n, 4)))
     tilt = 2.0 * e[:, :2] * np.sign(e[:, 3])[:, None]
     last = t >= t[-1] - 20.0
