@@ -10,6 +10,7 @@ import pytest
 
 import dualpose as dp
 from dualpose.estimation.ahrs import (
+    AhrsConfig,
     accelerometer_jacobian,
     estimate_orientation,
     heading_jacobian,
@@ -83,8 +84,9 @@ def test_9d_tracks_the_analytic_truth(clean):
     assert score.total_rmse_deg < 1.5
     assert score.inclination_rmse_deg < 1.0
     # a per-sample accelerometer update (window of one sample) follows the linear acceleration instead
-    per_sample = orientation_rmse(estimate_orientation(gyr, acc, mag, RATE, n_rest=n_rest, window=1 / RATE).quat,
-                                  q, movement)
+    per_sample_config = AhrsConfig(window=1 / RATE)
+    per_sample_res = estimate_orientation(gyr, acc, mag, RATE, n_rest=n_rest, config=per_sample_config)
+    per_sample = orientation_rmse(per_sample_res.quat, q, movement)
     assert per_sample.inclination_rmse_deg > score.inclination_rmse_deg
     np.testing.assert_allclose(res.gyroscope_bias[n_rest - 1], bias, atol=5e-4)  # from the rest period
     assert res.quat.shape == (q.shape[0], 4) and res.us_per_sample > 0
@@ -188,7 +190,6 @@ def test_heading_jacobian_matches_finite_differences_in_heading():
         ({"rate": 0.0}, "rate must be a positive"),
         ({"n_rest": 9}, "n_rest must be 0 .no rest period. or at least 10"),
         ({"n_rest": 6}, "n_rest must be in"),
-        ({"window": 0.0}, "window must be a positive"),
     ],
 )
 def test_bad_arguments_raise_naming_them(kwargs, match):
@@ -196,11 +197,35 @@ def test_bad_arguments_raise_naming_them(kwargs, match):
     args = {"gyr": np.zeros((5, 3)), "acc": acc, "mag": mag, "rate": 100.0}
     if "n_rest" in kwargs and kwargs["n_rest"] == 9:
         args = {k: (np.repeat(v, 4, axis=0) if isinstance(v, np.ndarray) else v) for k, v in args.items()}
-    extra = {k: kwargs.pop(k) for k in ("n_rest", "window") if k in kwargs}
+    n_rest = kwargs.pop("n_rest", 0)
     args.update(kwargs)
     with pytest.raises(ValueError, match=match):
-        estimate_orientation(args["gyr"], args["acc"], args["mag"], args["rate"], n_rest=extra.get("n_rest", 0),
-                             **({"window": extra["window"]} if "window" in extra else {}))
+        estimate_orientation(args["gyr"], args["acc"], args["mag"], args["rate"], n_rest=n_rest)
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "match"),
+    [
+        ("window", 0.0, "window must be a positive finite"),
+        ("update_interval", -0.1, "update_interval must be a positive finite"),
+        ("adapt_time", float("nan"), "adapt_time must be a non-negative finite"),
+        ("gyro_scale_sigma", -1e-3, "gyro_scale_sigma must be a non-negative"),
+        ("gate_probability", 1.0, r"gate_probability must be in \(0, 1\)"),
+    ],
+)
+def test_bad_config_raises_naming_the_field(field, value, match):
+    with pytest.raises(ValueError, match=match):
+        AhrsConfig(**{field: value})
+    with pytest.raises(TypeError, match="noise must be an AhrsNoise"):
+        AhrsConfig(noise={"gyroscope_noise_density": 1e-3})
+
+
+def test_config_round_trips_through_a_plain_dict():
+    from dualpose.estimation.ahrs import AhrsNoise
+
+    c = AhrsConfig(noise=AhrsNoise(gyroscope_noise_density=2e-4), window=2.0)
+    assert AhrsConfig.from_dict(c.as_dict()) == c
+    assert AhrsConfig.from_dict(AhrsConfig().as_dict()) == AhrsConfig()
 
 
 def test_native_layout_matches_the_python_layouts() -> None:

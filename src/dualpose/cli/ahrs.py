@@ -6,6 +6,11 @@ from standard input, one orientation line written (and flushed) per input line a
 formats, the rest period and the exit statuses are in docs/broad.md, "Streaming" (the job is
 :func:`dualpose.pipelines.ahrs_stream.stream_ahrs_lines`).
 
+``dualpose ahrs FILE --offline``: the offline orientation, the filter's RTS smoother (forward filter, backward
+pass; :mod:`dualpose.estimation.ahrs_smoother`, job in :func:`dualpose.pipelines.ahrs_offline.smooth_broad_trial`),
+scored next to the forward filter's (``forward_*`` keys); the magnetometer self-calibration decision is on by default
+there (``--no-mag-calibration`` switches it off); docs/broad.md, "Offline (smoothed)".
+
 9D (``--mag``, default) is scored as BROAD publishes it, in the magnetic ENU frame without alignment; 6D
 (``--no-mag``) has no absolute heading, so one constant heading offset is removed first (see
 :mod:`dualpose.evaluation.orientation_errors`); it does not need the file's ``imu_mag`` field.  Exit status: 0, 2 on
@@ -56,8 +61,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
                    help="with --stream: leading seconds at rest that initialise the filter (default 1; 0: none)")
     p.add_argument("--mag", dest="mag", action=argparse.BooleanOptionalAction, default=True,
                    help="use the magnetometer (9D, default) or not (--no-mag: 6D)")
-    p.add_argument("--mag-calibration", action="store_true",
-                   help="self-calibrate the magnetometer (hard/soft iron) when the recording supports it")
+    p.add_argument("--offline", action="store_true",
+                   help="smooth the whole recording (RTS smoother over the filter; not with --stream)")
+    p.add_argument("--mag-calibration", action=argparse.BooleanOptionalAction, default=None,
+                   help="self-calibrate the magnetometer (hard/soft iron) when the recording supports it "
+                   "(default: off, on with --offline)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     return p
 
@@ -75,7 +83,9 @@ def run_stream(args: argparse.Namespace) -> int:
         return _usage_error(f"--stream reads standard input: no file argument ({args.file!r})")
     if args.rate is None:
         return _usage_error("--stream needs the sampling rate: --rate HZ")
-    if args.json or args.mag_calibration:
+    if args.offline:
+        return _usage_error("--offline smooths a whole recording file: not with --stream")
+    if args.json or args.mag_calibration is not None:
         return _usage_error("--json and --mag-calibration are not used with --stream")
     rest_seconds = 1.0 if args.rest_seconds is None else args.rest_seconds  # the documented default
     n_rest = round(rest_seconds * args.rate)
@@ -101,6 +111,7 @@ def run(args: argparse.Namespace) -> int:
     from dualpose.estimation.ahrs import estimate_orientation
     from dualpose.evaluation.orientation_errors import orientation_rmse
     from dualpose.io import load_broad
+    from dualpose.pipelines.ahrs_offline import smooth_broad_trial
 
     try:
         trial = load_broad(args.file)
@@ -114,20 +125,29 @@ def run(args: argparse.Namespace) -> int:
         print(f"dualpose ahrs: error: {args.file}: no field imu_mag (magnetometer): use --no-mag for 6D",
               file=sys.stderr)  # fmt: skip
         return 1
+    calibrate = args.mag_calibration if args.mag_calibration is not None else args.offline
+    smoothed = scores = None
     try:
-        result = estimate_orientation(
-            trial.gyr, trial.acc, trial.mag if args.mag else None, trial.rate, use_mag=args.mag,
-            n_rest=max(trial.static_start, 10), mag_calibration="auto" if args.mag_calibration else None,
-        )  # fmt: skip
+        if args.offline:
+            cal = "auto" if calibrate else None
+            smoothed, scores = smooth_broad_trial(trial, use_mag=args.mag, mag_calibration=cal)
+            result = smoothed.forward
+        else:
+            result = estimate_orientation(
+                trial.gyr, trial.acc, trial.mag if args.mag else None, trial.rate, use_mag=args.mag,
+                n_rest=max(trial.static_start, 10), mag_calibration="auto" if calibrate else None,
+            )  # fmt: skip
     except ValueError as exc:
         print(f"dualpose ahrs: error: {args.file}: {exc}", file=sys.stderr)
         return 1
     out: dict[str, object] = {
         "file": str(args.file),
         "mode": "9D" if args.mag else "6D",
+        "offline": bool(args.offline),
         "samples": int(result.quat.shape[0]),
         "rate_hz": trial.rate,
-        "us_per_sample": result.us_per_sample,
+        # offline: forward and backward pass together
+        "us_per_sample": smoothed.us_per_sample if smoothed is not None else result.us_per_sample,
         "acc_rejected": result.acc_rejected,
         "mag_rejected": result.mag_rejected,
         # compensated magnetometer lag behind the gyroscope, estimated from the IMU data alone (None in 6D)
@@ -138,7 +158,9 @@ def run(args: argparse.Namespace) -> int:
     if args.mag and result.mag_calibration is not None:
         out.update(result.mag_calibration.as_dict())
     has_ref = bool(np.isfinite(trial.quat[trial.movement]).all(axis=1).any())
-    if has_ref:
+    if args.offline and has_ref:
+        out.update(scores)
+    elif has_ref:
         score = orientation_rmse(result.quat, trial.quat, trial.movement, fit_heading_offset=not args.mag)
         out.update(score.as_dict())
     else:
@@ -146,11 +168,13 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(out))
         return 0
-    print(f"dualpose ahrs: {trial.name} ({out['mode']}, {out['samples']} samples at {trial.rate:.1f} Hz)")
+    kind = ", offline: RTS smoother" if args.offline else ""
+    print(f"dualpose ahrs: {trial.name} ({out['mode']}{kind}, {out['samples']} samples at {trial.rate:.1f} Hz)")
     if has_ref:
-        print(f"  total RMSE        {out['total_rmse_deg']:8.3f} deg")
-        print(f"  heading RMSE      {out['heading_rmse_deg']:8.3f} deg")
-        print(f"  inclination RMSE  {out['inclination_rmse_deg']:8.3f} deg")
+        for label, key in (("total", "total_rmse_deg"), ("heading", "heading_rmse_deg"),
+                           ("inclination", "inclination_rmse_deg")):  # fmt: skip
+            line = f"  {label + ' RMSE':<18}{out[key]:8.3f} deg"
+            print(line + (f"   (forward filter {out['forward_' + key]:.3f} deg)" if args.offline else ""))
         if not args.mag:
             print(f"  heading offset removed (6D): {out['heading_offset_deg']:.2f} deg")
     else:
@@ -160,5 +184,6 @@ def run(args: argparse.Namespace) -> int:
     if args.mag and result.mag_calibration is not None:
         cal = result.mag_calibration
         print(f"  mag calibration   {'applied' if cal.applied else 'not applied'} ({cal.reason})")
-    print(f"  filter time       {out['us_per_sample']:8.3f} us/sample")
+    print(f"  {'smoother' if args.offline else 'filter'} time{'' if args.offline else '  '}     "
+          f"{out['us_per_sample']:8.3f} us/sample")
     return 0

@@ -7,15 +7,18 @@ The error-state filter of :mod:`dualpose.estimation.eskf` reduced to orientation
 * error state ``δx = [δθ, δb]`` (6,) with a **global** 3-parameter attitude error ``q = Exp(δθ) ⊗ q̂``: ``δθ_z``
   is the heading error and ``(δθ_x, δθ_y)`` the inclination error, so the two are separated by construction;
 * predict with the gyroscope as input (Solà 2017 §5 with the global error: ``δθ̇ = −R δb + R n_g``);
-* measurements are sliding-window means: the specific force ``a`` and the field ``m`` of every sample are rotated
-  into the estimated earth frame with that sample's estimate and averaged over the last ``window`` seconds
-  (default 3 s); an update is made every ``update_interval`` (0.1 s).  The mean linear acceleration of a body whose
-  velocity stays bounded is Δv / T over a window T, so averaging in the earth frame removes most of it (the idea
-  behind VQF's inertial-frame low-pass filter, Laidig & Seel 2023); it also averages sensor noise and fast
-  tilt-coupled heading errors.  The window's vectors are stored in the *uncorrected* frame (``C⁻¹ R̂ v`` with ``C``
-  the product of all corrections applied so far), so every correction rotates the whole window at once
-  (current-frame mean ``= C · mean``).  Overlapping windows share samples: each update's noise is multiplied by
-  the overlap ``window / update_interval``;
+* measurements are earth-frame averages: the specific force ``a`` and the field ``m`` of every sample are rotated into
+  the estimated earth frame with that sample's estimate; the field is averaged over the last ``window`` seconds (default
+  3 s, a boxcar), the specific force is low-passed by a 2nd-order Butterworth with DC group delay ``τ = window / 2``
+  (the discretisation of VQF's inertial-frame accelerometer filter, Laidig & Seel 2023); an update is made every
+  ``update_interval`` (0.1 s). That low-pass has the boxcar's delay (T / 2) and the boxcar's noise-equivalent bandwidth
+  (1 / (2T)), so it averages white noise as much, but its response to a linear acceleration oscillating at f falls as
+  ``(f_c / f)²`` (``f_c = √2 / (2π τ)``) instead of the boxcar's ``1 / (π f T)``: in the earth frame the mean linear
+  acceleration of a body whose velocity stays bounded is Δv / T over a boxcar, which the low-pass attenuates further.
+  Averaging also removes sensor noise and fast tilt-coupled heading errors. The window's vectors and the low-pass state
+  are stored in the *uncorrected* frame (``C⁻¹ R̂ v`` with ``C`` the product of all corrections applied so far; both are
+  linear in the samples), so every correction rotates all past samples at once (current-frame value ``= C · stored``).
+  Consecutive updates share samples: each update's noise is multiplied by the overlap ``window / update_interval``;
 * accelerometer update: the horizontal components of the mean earth-frame specific force must vanish (2-D
   measurement ``y = [mean R̂ a]_{x,y}``, ``H = [[0, −g, 0, 0₃], [g, 0, 0, 0₃]]``).  It carries no heading
   information and its gain row for ``δθ_z`` is zeroed;
@@ -45,15 +48,15 @@ The error-state filter of :mod:`dualpose.estimation.eskf` reduced to orientation
   :mod:`dualpose.calibration.magnetometer`); otherwise the raw field is used.  It runs before the time-offset
   estimate and the rest statistics.
 
-Noise is set on principle, never per trial: white-noise levels of the three sensors are estimated from the rest
-period at the start of the recording (robustly: median absolute deviation); the bias random walk and the relative
-gyroscope scale-factor / misalignment uncertainty (0.5 %, calibrated-MEMS class; rate-proportional process noise)
-are fixed sensor-class values; the window (3 s) and adaptation time (2 windows) are motion-class choices for
-hand-held motion.  The same values are used for every recording.  Initialisation: the gyroscope bias is the median
-rate over the rest period, the orientation comes from the rest period's median specific force (inclination) and
-magnetic field (heading; 6D: the body x axis projected on the horizontal is east), and the field's magnitude and
-dip at rest are the magnetometer's reference.  In 6D the earth frame's heading is defined by that initial
-orientation, so the initial heading uncertainty is small by definition (a huge value would only feed spurious
+Noise is set on principle, never per trial: white-noise levels of the three sensors are estimated from the rest period
+at the start of the recording (robustly: median absolute deviation); the bias random walk and the relative gyroscope
+scale-factor / misalignment uncertainty (0.5 %, calibrated-MEMS class; rate-proportional process noise) are fixed
+sensor-class values; the window (3 s; the accelerometer low-pass's delay is half of it) and adaptation time (2 windows)
+are motion-class choices for hand-held motion. The same values are used for every recording. Initialisation: the
+gyroscope bias is the median rate over the rest period, the orientation comes from the rest period's median specific
+force (inclination) and magnetic field (heading; 6D: the body x axis projected on the horizontal is east), and the
+field's magnitude and dip at rest are the magnetometer's reference. In 6D the earth frame's heading is defined by that
+initial orientation, so the initial heading uncertainty is small by definition (a huge value would only feed spurious
 cross-covariances into the linearisation).
 """
 
@@ -61,7 +64,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 from scipy.stats import chi2
@@ -77,6 +80,7 @@ from dualpose.calibration.sensor_time_offset import (
 
 __all__ = [
     "AhrsNoise",
+    "AhrsConfig",
     "AhrsResult",
     "RestStatistics",
     "initial_orientation",
@@ -84,6 +88,9 @@ __all__ = [
     "estimate_orientation",
     "AhrsSetup",
     "filter_setup",
+    "PreparedRecording",
+    "prepare_recording",
+    "run_result",
     "accelerometer_jacobian",
     "heading_jacobian",
 ]
@@ -115,6 +122,79 @@ class AhrsNoise:
     gyroscope_random_walk: float = MEMS_GYRO_BIAS_RANDOM_WALK
     accelerometer_noise_density: float = 3.5e-3
     magnetometer_noise_density: float = 4.0e-2
+
+
+@dataclass(frozen=True)
+class AhrsConfig:
+    """Tuning of the AHRS: the same values for every recording (docs/broad.md, "Design in brief").
+
+    One object shared by :func:`estimate_orientation`, :func:`filter_setup` and
+    :class:`~dualpose.estimation.ahrs_stream.AhrsStream`, so that the batch and the streaming filter cannot be set up
+    differently.
+
+    Attributes
+    ----------
+    noise : AhrsNoise, optional
+        Overrides the densities estimated from the rest period (None: estimate them; :class:`AhrsNoise` defaults
+        without a rest period).
+    gate_probability : float
+        χ² gate of both updates (default 0.999).
+    gate_release : float
+        Seconds of uninterrupted rejection after which a gate re-opens (default 2 s).
+    adapt_time : float
+        Time constant (s) of the innovation-based (Sage-Husa) estimate of the unmodelled acceleration variance that
+        is added to the accelerometer noise (default 6 s; 0 switches it off).
+    window : float
+        Seconds of samples averaged in the estimated earth frame per magnetometer update (default 3 s); the
+        accelerometer's earth-frame low-pass has the same delay and noise bandwidth (2nd-order Butterworth, DC group
+        delay ``window / 2``).  The mean linear acceleration over T is Δv / T, so bounded-velocity motion averages
+        out.  Rounded to whole samples; the outputs are still per sample.
+    mag_adapt : bool
+        Also adapt the heading noise from the innovations (default False: a drifting heading would be absorbed into
+        the estimated noise instead of being corrected).
+    gyro_scale_sigma : float
+        Relative gyroscope scale-factor + axis-misalignment uncertainty ε (calibrated MEMS class, default 0.5 %);
+        adds ``ε² |ω|² · 1 s`` to the attitude process-noise density (rad²/s).
+    update_interval : float
+        Seconds between updates (default 0.1 s, capped at ``window``).  Consecutive windows then overlap by
+        ``window / update_interval`` and share their samples, so each update's noise is multiplied by that overlap
+        factor (an update carries only its share of a window's information).  The result is insensitive to the
+        interval once it is well below the window (docs/broad.md, "Design in brief").
+    """
+
+    noise: AhrsNoise | None = None
+    gate_probability: float = 0.999
+    gate_release: float = 2.0
+    adapt_time: float = 6.0
+    window: float = 3.0
+    mag_adapt: bool = False
+    gyro_scale_sigma: float = 0.005
+    update_interval: float = 0.1
+
+    def __post_init__(self) -> None:
+        if self.noise is not None and not isinstance(self.noise, AhrsNoise):
+            raise TypeError(f"noise must be an AhrsNoise or None; got {type(self.noise).__name__}")
+        if not 0.0 < self.gate_probability < 1.0:
+            raise ValueError(f"gate_probability must be in (0, 1); got {self.gate_probability}")
+        checks = (("gate_release", self.gate_release, False), ("adapt_time", self.adapt_time, False),
+                  ("window", self.window, True), ("gyro_scale_sigma", self.gyro_scale_sigma, False),
+                  ("update_interval", self.update_interval, True))  # fmt: skip
+        for name, value, positive in checks:
+            if not (math.isfinite(value) and (value > 0.0 if positive else value >= 0.0)):
+                kind = "a positive" if positive else "a non-negative"
+                raise ValueError(f"{name} must be {kind} finite number; got {value}")
+
+    def as_dict(self) -> dict:
+        """The settings as plain Python values (``noise`` as a dict or None), for saving; inverse :meth:`from_dict`."""
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> AhrsConfig:
+        """The configuration saved by :meth:`as_dict`."""
+        d = dict(d)
+        if d.get("noise") is not None:
+            d["noise"] = AhrsNoise(**d["noise"])
+        return cls(**d)
 
 
 @dataclass(frozen=True)
@@ -370,19 +450,12 @@ def filter_setup(
     first_mag: np.ndarray | None = None,
     *,
     use_mag: bool = True,
-    noise: AhrsNoise | None = None,
-    gate_probability: float = 0.999,
-    gate_release: float = 2.0,
-    adapt_time: float = 6.0,
-    window: float = 3.0,
-    mag_adapt: bool = False,
-    gyro_scale_sigma: float = 0.005,
-    update_interval: float = 0.1,
+    config: AhrsConfig | None = None,
 ) -> AhrsSetup:
     """Parameters and initial state of the AHRS, as :func:`estimate_orientation` sets them up.
 
     Shared by :func:`estimate_orientation` and :class:`~dualpose.estimation.ahrs_stream.AhrsStream`, so that both
-    start from the same numbers.  The keyword arguments are those of :func:`estimate_orientation`.
+    start from the same numbers.
 
     Parameters
     ----------
@@ -393,11 +466,17 @@ def filter_setup(
         ``first_mag``) give the initial directions, the bias starts at zero with the MEMS turn-on uncertainty.
     first_acc, first_mag : array_like, shape (3,), optional
         The first sample's specific force (m/s²) and field (µT), IMU axes; used only when ``rest`` is None.
+    use_mag : bool
+        9D (True) or 6D (False).
+    config : AhrsConfig, optional
+        Tuning (default :class:`AhrsConfig`).
 
     Returns
     -------
     AhrsSetup
     """
+    c = config if config is not None else AhrsConfig()
+    noise = c.noise
     if rest is not None:
         est = rest.noise
         noise = noise or AhrsNoise(
@@ -434,21 +513,16 @@ def filter_setup(
     params[_native.AHRS_P_MAG_NORM] = field_norm
     params[_native.AHRS_P_MAG_DIP] = field_dip
     params[_native.AHRS_P_USE_MAG] = 1.0 if use_mag else 0.0
-    params[_native.AHRS_P_ACC_GATE] = float(chi2.ppf(gate_probability, 2))
-    params[_native.AHRS_P_MAG_GATE] = float(chi2.ppf(gate_probability, 1))
-    params[_native.AHRS_P_GATE_RELEASE] = max(1.0, gate_release * rate)
-    params[_native.AHRS_P_ACC_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 else 0.0
-    if not window > 0:
-        raise ValueError(f"window must be a positive number of seconds; got {window}")
-    n_win = max(1, int(round(window * rate)))
+    params[_native.AHRS_P_ACC_GATE] = float(chi2.ppf(c.gate_probability, 2))
+    params[_native.AHRS_P_MAG_GATE] = float(chi2.ppf(c.gate_probability, 1))
+    params[_native.AHRS_P_GATE_RELEASE] = max(1.0, c.gate_release * rate)
+    n_win = max(1, int(round(c.window * rate)))
     params[_native.AHRS_P_WINDOW] = n_win
-    if not update_interval > 0:
-        raise ValueError(f"update_interval must be a positive number of seconds; got {update_interval}")
-    stride = min(n_win, max(1, int(round(update_interval * rate))))
+    stride = min(n_win, max(1, int(round(c.update_interval * rate))))
     params[_native.AHRS_P_STRIDE] = stride
-    params[_native.AHRS_P_GYR_SCALE_VAR] = gyro_scale_sigma**2 * 1.0
-    params[_native.AHRS_P_ACC_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 else 0.0
-    params[_native.AHRS_P_MAG_ADAPT] = 1.0 / (adapt_time * rate) if adapt_time > 0 and mag_adapt else 0.0
+    params[_native.AHRS_P_GYR_SCALE_VAR] = c.gyro_scale_sigma**2 * 1.0
+    params[_native.AHRS_P_ACC_ADAPT] = 1.0 / (c.adapt_time * rate) if c.adapt_time > 0 else 0.0
+    params[_native.AHRS_P_MAG_ADAPT] = 1.0 / (c.adapt_time * rate) if c.adapt_time > 0 and c.mag_adapt else 0.0
     # initial attitude uncertainty: the direction of a mean of N noisy specific forces (inclination) and fields
     # (heading); heading is unknown in 6D (π is only a nominal value: no update ever uses it)
     n_avg = rest.samples if rest is not None else 1
@@ -461,7 +535,46 @@ def filter_setup(
     return AhrsSetup(params=params, q=q, b=b, P=P, Ha=Ha, Hm=Hm, n_win=n_win, stride=stride, noise=noise)
 
 
-def estimate_orientation(
+@dataclass(frozen=True)
+class PreparedRecording:
+    """One recording made ready for the AHRS kernel (:func:`prepare_recording`): checked arrays, the corrections
+    that need the whole recording applied, the rest statistics and the filter's set-up.
+
+    Attributes
+    ----------
+    gyr, acc : ndarray, shape (n, 3)
+        rad/s and m/s², IMU axes (checked, C-contiguous float64).
+    mag : ndarray, shape (n, 3)
+        The field after the self-calibration and the time-offset compensation (zeros in 6D), IMU axes.
+    rate : float
+        Sampling rate, Hz.
+    use_mag : bool
+        9D (True) or 6D (False).
+    rest : RestStatistics or None
+        Statistics of the rest period.
+    setup : AhrsSetup
+        Parameters and initial state of the kernel.
+    mag_time_offset : float
+        Compensated lag of the magnetometer behind the gyroscope, s.
+    mag_time_offset_estimate : SensorTimeOffset or None
+        The estimator's result when it was asked for.
+    mag_calibration : MagCalibration or None
+        The self-calibration decision when it was asked for.
+    """
+
+    gyr: np.ndarray
+    acc: np.ndarray
+    mag: np.ndarray
+    rate: float
+    use_mag: bool
+    rest: RestStatistics | None
+    setup: AhrsSetup
+    mag_time_offset: float
+    mag_time_offset_estimate: SensorTimeOffset | None
+    mag_calibration: MagCalibration | None
+
+
+def prepare_recording(
     gyr: np.ndarray,
     acc: np.ndarray,
     mag: np.ndarray | None,
@@ -469,80 +582,25 @@ def estimate_orientation(
     *,
     use_mag: bool = True,
     n_rest: int | None = None,
-    noise: AhrsNoise | None = None,
-    gate_probability: float = 0.999,
-    gate_release: float = 2.0,
-    adapt_time: float = 6.0,
-    window: float = 3.0,
-    mag_adapt: bool = False,
-    gyro_scale_sigma: float = 0.005,
-    update_interval: float = 0.1,
+    config: AhrsConfig | None = None,
     mag_time_offset: str | float = "estimate",
     mag_calibration: str | MagCalibration | None = None,
-) -> AhrsResult:
-    """Estimate the orientation of an IMU from gyroscope, accelerometer and (9D) magnetometer samples.
+) -> PreparedRecording:
+    """Check the inputs of :func:`estimate_orientation` and do everything before its kernel runs.
 
-    Parameters
-    ----------
-    gyr : array_like, shape (n, 3)
-        Angular rate, rad/s, IMU axes.
-    acc : array_like, shape (n, 3)
-        Specific force, m/s², IMU axes.
-    mag : array_like, shape (n, 3) or None
-        Magnetic field (µT or any unit), IMU axes; required when ``use_mag``.
-    rate : float
-        Sampling rate, Hz (uniform sampling).
-    use_mag : bool
-        9D (True) or 6D (False, the magnetometer is ignored).
-    n_rest : int, optional
-        Leading samples at rest, used for initialisation and noise estimation (default: the first second).  With
-        ``n_rest=0`` nothing is estimated: ``noise`` (or :class:`AhrsNoise` defaults), zero initial bias with the
-        MEMS turn-on uncertainty and the first sample's directions are used.
-    noise : AhrsNoise, optional
-        Overrides the densities estimated from the rest period.
-    gate_probability : float
-        χ² gate of both updates (default 0.999).
-    gate_release : float
-        Seconds of uninterrupted rejection after which a gate re-opens (default 2 s).
-    adapt_time : float
-        Time constant (s) of the innovation-based (Sage-Husa) estimate of the unmodelled acceleration variance that
-        is added to the accelerometer noise (default 6 s; 0 switches it off).
-    window : float
-        Seconds of samples averaged in the estimated earth frame per accelerometer / magnetometer update (default
-        3 s; the mean linear acceleration over T is Δv / T, so bounded-velocity motion averages out).  Rounded to
-        whole samples; the outputs are still per sample.
-    update_interval : float
-        Seconds between updates (default 0.1 s, capped at ``window``).  Consecutive windows then overlap by
-        ``window / update_interval`` and share their samples, so each update's noise is multiplied by that overlap
-        factor (an update carries only its share of a window's information).  The result is insensitive to the
-        interval once it is well below the window (docs/broad.md, "Design in brief").
-    mag_adapt : bool
-        Also adapt the heading noise from the innovations (default False: a drifting heading would be absorbed into
-        the estimated noise instead of being corrected).
-    gyro_scale_sigma : float
-        Relative gyroscope scale-factor + axis-misalignment uncertainty ε (calibrated MEMS class, default 0.5 %);
-        adds ``ε² |ω|² · 1 s`` to the attitude process-noise density (rad²/s).
-    mag_time_offset : "estimate" or float
-        Lag of the magnetometer samples behind the gyroscope's, s, compensated by re-sampling the magnetometer at
-        ``t + offset`` (:func:`~dualpose.calibration.sensor_time_offset.shift_samples`) before filtering.
-        ``"estimate"`` (default) estimates it from this recording's gyroscope and magnetometer alone, with the
-        kinematic residual
-        ``dm/dt + ω(t − τ) × m = 0`` of a static field (:func:`~dualpose.calibration.sensor_time_offset.
-        estimate_sensor_time_offset`, ±30 ms, gyroscope bias from the rest period); when that is not possible (too
-        little rotation) nothing is shifted.  A number is used as given; 0 switches the compensation off.  In fast
-        rotation a lag τ makes the magnetometer read a heading rotated by ``ω τ`` (docs/broad.md,
-        "Magnetometer–gyroscope time offset").  Ignored in 6D.
-    mag_calibration : "auto", MagCalibration or None
-        None (default): raw magnetometer.  ``"auto"``: fit hard iron / per-axis scale / symmetric soft iron to this
-        recording's field samples and apply the smallest model that passes the decision rule of
-        :func:`~dualpose.calibration.magnetometer.estimate_mag_calibration` (noise level of ``|m|`` from the rest
-        period when there is one); raw data otherwise.  A :class:`MagCalibration` is applied as given (if its
-        ``applied`` flag is set).  Off by default; its effect and cost on BROAD are in docs/broad.md
-        ("Magnetometer self-calibration").  Runs before the time-offset estimate.  Ignored in 6D.
+    Shared by :func:`estimate_orientation` and :func:`dualpose.estimation.ahrs_smoother.smooth_orientation`, so that
+    both filter the same data from the same start.  The parameters are those of :func:`estimate_orientation`; the
+    magnetometer self-calibration runs first, then the rest statistics, then the time-offset estimate and
+    compensation, then :func:`filter_setup`.
 
     Returns
     -------
-    AhrsResult
+    PreparedRecording
+
+    Raises
+    ------
+    ValueError, TypeError
+        As :func:`estimate_orientation`.
     """
     gyr = check_samples(gyr, "gyr")
     n = gyr.shape[0]
@@ -597,30 +655,122 @@ def estimate_orientation(
             mag_arr = shift_samples(mag_arr, rate, mag_offset)
     setup = filter_setup(
         rate, rest, acc[0], mag_arr[0] if mag_arr is not None else None,
-        use_mag=use_mag, noise=noise, gate_probability=gate_probability, gate_release=gate_release,
-        adapt_time=adapt_time, window=window, mag_adapt=mag_adapt, gyro_scale_sigma=gyro_scale_sigma,
-        update_interval=update_interval,
+        use_mag=use_mag, config=config,
     )  # fmt: skip
-    params, n_win, stride, P = setup.params, setup.n_win, setup.stride, setup.P
-    q = setup.q.copy()
-    b = setup.b.copy()
+    return PreparedRecording(
+        gyr=gyr, acc=acc, mag=mag_arr if mag_arr is not None else np.zeros((n, 3)), rate=float(rate),
+        use_mag=use_mag, rest=rest, setup=setup, mag_time_offset=mag_offset, mag_time_offset_estimate=mag_offset_est,
+        mag_calibration=mag_cal,
+    )  # fmt: skip
+
+
+def estimate_orientation(
+    gyr: np.ndarray,
+    acc: np.ndarray,
+    mag: np.ndarray | None,
+    rate: float,
+    *,
+    use_mag: bool = True,
+    n_rest: int | None = None,
+    config: AhrsConfig | None = None,
+    mag_time_offset: str | float = "estimate",
+    mag_calibration: str | MagCalibration | None = None,
+) -> AhrsResult:
+    """Estimate the orientation of an IMU from gyroscope, accelerometer and (9D) magnetometer samples.
+
+    Parameters
+    ----------
+    gyr : array_like, shape (n, 3)
+        Angular rate, rad/s, IMU axes.
+    acc : array_like, shape (n, 3)
+        Specific force, m/s², IMU axes.
+    mag : array_like, shape (n, 3) or None
+        Magnetic field (µT or any unit), IMU axes; required when ``use_mag``.
+    rate : float
+        Sampling rate, Hz (uniform sampling).
+    use_mag : bool
+        9D (True) or 6D (False, the magnetometer is ignored).
+    n_rest : int, optional
+        Leading samples at rest, used for initialisation and noise estimation (default: the first second).  With
+        ``n_rest=0`` nothing is estimated: ``noise`` (or :class:`AhrsNoise` defaults), zero initial bias with the
+        MEMS turn-on uncertainty and the first sample's directions are used.
+    config : AhrsConfig, optional
+        Tuning: noise override, gates, adaptation, window, update interval, scale-factor uncertainty (default
+        :class:`AhrsConfig`, the same for every recording).
+    mag_time_offset : "estimate" or float
+        Lag of the magnetometer samples behind the gyroscope's, s, compensated by re-sampling the magnetometer at
+        ``t + offset`` (:func:`~dualpose.calibration.sensor_time_offset.shift_samples`) before filtering.
+        ``"estimate"`` (default) estimates it from this recording's gyroscope and magnetometer alone, with the
+        kinematic residual
+        ``dm/dt + ω(t − τ) × m = 0`` of a static field (:func:`~dualpose.calibration.sensor_time_offset.
+        estimate_sensor_time_offset`, ±30 ms, gyroscope bias from the rest period); when that is not possible (too
+        little rotation) nothing is shifted.  A number is used as given; 0 switches the compensation off.  In fast
+        rotation a lag τ makes the magnetometer read a heading rotated by ``ω τ`` (docs/broad.md,
+        "Magnetometer–gyroscope time offset").  Ignored in 6D.
+    mag_calibration : "auto", MagCalibration or None
+        None (default): raw magnetometer.  ``"auto"``: fit hard iron / per-axis scale / symmetric soft iron to this
+        recording's field samples and apply the smallest model that passes the decision rule of
+        :func:`~dualpose.calibration.magnetometer.estimate_mag_calibration` (noise level of ``|m|`` from the rest
+        period when there is one); raw data otherwise.  A :class:`MagCalibration` is applied as given (if its
+        ``applied`` flag is set).  Off by default; its effect and cost on BROAD are in docs/broad.md
+        ("Magnetometer self-calibration").  Runs before the time-offset estimate.  Ignored in 6D.
+
+    Returns
+    -------
+    AhrsResult
+    """
+    prep = prepare_recording(
+        gyr, acc, mag, rate, use_mag=use_mag, n_rest=n_rest, config=config, mag_time_offset=mag_time_offset,
+        mag_calibration=mag_calibration,
+    )  # fmt: skip
+    n = prep.gyr.shape[0]
+    setup = prep.setup
+    q, b, P = setup.q.copy(), setup.b.copy(), setup.P.copy()
     out_q = np.empty((n, 4))
     out_b = np.empty((n, 3))
     stats = np.zeros(_native.AHRS_N_STATS)
-    mag_in = mag_arr if mag_arr is not None else np.zeros((n, 3))
     t0 = time.perf_counter()
-    _native.ahrs_run(gyr, acc, mag_in, 1.0 / rate, q, b, P, params, setup.Ha, setup.Hm, out_q, out_b, stats)
+    _native.ahrs_run(prep.gyr, prep.acc, prep.mag, 1.0 / prep.rate, q, b, P, setup.params, setup.Ha, setup.Hm, out_q,
+                     out_b, stats)  # fmt: skip
     seconds = time.perf_counter() - t0
+    return run_result(prep, out_q, out_b, P, stats, seconds)
 
+
+def run_result(
+    prep: PreparedRecording, quat: np.ndarray, gyroscope_bias: np.ndarray, covariance: np.ndarray, stats: np.ndarray,
+    seconds: float,
+) -> AhrsResult:
+    """The :class:`AhrsResult` of one kernel run over a :class:`PreparedRecording`.
+
+    Parameters
+    ----------
+    prep : PreparedRecording
+    quat : ndarray, shape (n, 4)
+        Filtered orientation, xyzw.
+    gyroscope_bias : ndarray, shape (n, 3)
+        Filtered gyroscope bias, rad/s.
+    covariance : ndarray, shape (6, 6)
+        Final error covariance.
+    stats : ndarray, shape (AHRS_N_STATS,)
+        The kernel's counters.
+    seconds : float
+        Kernel wall time.
+
+    Returns
+    -------
+    AhrsResult
+    """
+    n, n_win, stride = quat.shape[0], prep.setup.n_win, prep.setup.stride
+    use_mag = prep.use_mag
     n_updates = max(0, (n - n_win) // stride + 1)
     acc_acc = n_updates - stats[_native.AHRS_S_ACC_REJECTED]
     mag_acc = (n_updates - stats[_native.AHRS_S_MAG_REJECTED] - stats[_native.AHRS_S_MAG_SKIPPED]) if use_mag else 0
     return AhrsResult(
-        quat=out_q,
-        gyroscope_bias=out_b,
-        covariance=P,
+        quat=quat,
+        gyroscope_bias=gyroscope_bias,
+        covariance=covariance,
         use_mag=use_mag,
-        rest=rest,
+        rest=prep.rest,
         acc_rejected=int(stats[_native.AHRS_S_ACC_REJECTED]),
         mag_rejected=int(stats[_native.AHRS_S_MAG_REJECTED]),
         acc_nis_mean=float(stats[_native.AHRS_S_ACC_NIS_SUM] / acc_acc) if acc_acc else math.nan,
@@ -628,7 +778,7 @@ def estimate_orientation(
         acc_fraction_inside=float(stats[_native.AHRS_S_ACC_INSIDE] / acc_acc) if acc_acc else math.nan,
         mag_fraction_inside=float(stats[_native.AHRS_S_MAG_INSIDE] / mag_acc) if mag_acc else math.nan,
         seconds=seconds,
-        mag_time_offset=mag_offset,
-        mag_time_offset_estimate=mag_offset_est,
-        mag_calibration=mag_cal,
+        mag_time_offset=prep.mag_time_offset,
+        mag_time_offset_estimate=prep.mag_time_offset_estimate,
+        mag_calibration=prep.mag_calibration,
     )

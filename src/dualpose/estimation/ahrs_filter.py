@@ -9,7 +9,7 @@ State :data:`~dualpose.estimation.state.AHRS_STATE` = ``[q_wb (4) xyzw, b_g (3) 
 scale-factor noise (Solà 2017 §5 with the global error).  Attitude information enters through
 :meth:`~dualpose.estimation.interface.Estimator.update` (an :class:`~dualpose.estimation.interface.AttitudeFix` or a
 :class:`~dualpose.estimation.interface.LinearMeasurement`), applied with the batch filter's Joseph update and
-injection/reset.  The sliding-window accelerometer and magnetometer updates of
+injection/reset.  The earth-frame averaged accelerometer and magnetometer updates of
 :func:`~dualpose.estimation.ahrs.estimate_orientation` run in its compiled whole-recording loop (docs/broad.md).
 """
 

@@ -6,11 +6,11 @@ sample by sample, a stream fed in blocks (:meth:`AhrsStream.update_batch`) and t
 orientations and biases to the last bit, provided they use the same settings and the batch estimator's non-causal
 pre-processing is off (``mag_time_offset=0.0``, ``mag_calibration=None``).
 
-The whole filter state -- orientation, bias, covariance, the sliding window's ring buffers and sums, the accumulated
-corrections, gate counters, adaptive-noise estimates and statistics -- lives in one ``numpy.uint8`` buffer with a
-header (magic number, layout version, size; ``AhrsStream.LAYOUT_VERSION``).  Saving the stream is a copy of that
-buffer (:meth:`AhrsStream.state_dict`); restoring it (:meth:`AhrsStream.from_state`) continues exactly where the saved
-stream stopped.  A buffer of another layout version or size is refused with a ValueError.
+The whole filter state -- orientation, bias, covariance, the field window's ring buffers and sums, the accelerometer
+low-pass state, the accumulated corrections, gate counters, adaptive-noise estimates and statistics -- lives in one
+``numpy.uint8`` buffer with a header (magic number, layout version, size; ``AhrsStream.LAYOUT_VERSION``). Saving the
+stream is a copy of that buffer (:meth:`AhrsStream.state_dict`); restoring it (:meth:`AhrsStream.from_state`) continues
+exactly where the saved stream stopped. A buffer of another layout version or size is refused with a ValueError.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from dualpose import _native
-from dualpose.estimation.ahrs import AhrsNoise, RestStatistics, filter_setup, rest_statistics
+from dualpose.estimation.ahrs import AhrsConfig, AhrsNoise, RestStatistics, filter_setup, rest_statistics
 
 __all__ = ["AhrsStream"]
 
@@ -64,8 +64,8 @@ class AhrsStream:
         ``rest`` is given.
     rest : RestStatistics, optional
         Rest statistics to start from (no buffering).
-    noise, gate_probability, gate_release, adapt_time, window, mag_adapt, gyro_scale_sigma, update_interval
-        As in :func:`~dualpose.estimation.ahrs.estimate_orientation`.
+    config : AhrsConfig, optional
+        Tuning, as in :func:`~dualpose.estimation.ahrs.estimate_orientation` (default :class:`AhrsConfig`).
 
     Examples
     --------
@@ -84,14 +84,7 @@ class AhrsStream:
         use_mag: bool = True,
         n_rest: int | None = None,
         rest: RestStatistics | None = None,
-        noise: AhrsNoise | None = None,
-        gate_probability: float = 0.999,
-        gate_release: float = 2.0,
-        adapt_time: float = 6.0,
-        window: float = 3.0,
-        mag_adapt: bool = False,
-        gyro_scale_sigma: float = 0.005,
-        update_interval: float = 0.1,
+        config: AhrsConfig | None = None,
     ) -> None:
         if not (np.isfinite(rate) and rate > 0):
             raise ValueError(f"rate must be a positive number of Hz; got {rate}")
@@ -102,11 +95,10 @@ class AhrsStream:
             n_rest = 0
         if not (n_rest == 0 or n_rest >= 10):
             raise ValueError(f"n_rest must be 0 (no rest period) or at least 10 samples; got {n_rest}")
-        self._config = dict(
-            rate=float(rate), use_mag=bool(use_mag), n_rest=int(n_rest), rest=rest, noise=noise,
-            gate_probability=gate_probability, gate_release=gate_release, adapt_time=adapt_time, window=window,
-            mag_adapt=mag_adapt, gyro_scale_sigma=gyro_scale_sigma, update_interval=update_interval,
-        )  # fmt: skip
+        if config is not None and not isinstance(config, AhrsConfig):
+            raise TypeError(f"config must be an AhrsConfig or None; got {type(config).__name__}")
+        self._settings = config if config is not None else AhrsConfig()
+        self._config = dict(rate=float(rate), use_mag=bool(use_mag), n_rest=int(n_rest), rest=rest)
         self._rate = float(rate)
         self._use_mag = bool(use_mag)
         self._n_rest = int(n_rest)
@@ -123,15 +115,8 @@ class AhrsStream:
 
     # ---- set-up -------------------------------------------------------------------------------------------------
 
-    def _setup_kwargs(self) -> dict[str, Any]:
-        c = self._config
-        keys = ("use_mag", "noise", "gate_probability", "gate_release", "adapt_time", "window", "mag_adapt")
-        out = {k: c[k] for k in keys}
-        out.update(gyro_scale_sigma=c["gyro_scale_sigma"], update_interval=c["update_interval"])
-        return out
-
     def _start(self, first_acc: np.ndarray | None, first_mag: np.ndarray | None) -> None:
-        setup = filter_setup(self._rate, self._rest, first_acc, first_mag, **self._setup_kwargs())
+        setup = filter_setup(self._rate, self._rest, first_acc, first_mag, use_mag=self._use_mag, config=self._settings)
         self._state = _native.ahrs_stream_new(
             setup.params, setup.Ha, setup.Hm, 1.0 / self._rate, setup.q, setup.b, setup.P
         )
@@ -285,10 +270,10 @@ class AhrsStream:
             ``version`` (:attr:`LAYOUT_VERSION`), ``state`` (the filter's ``numpy.uint8`` buffer, None before
             initialisation), ``pending`` (buffered rest samples: ``t`` (k,), ``gyro``, ``accel``, ``mag`` (k, 3)),
             ``t`` (last time stamp), ``samples``, ``rest_quat``, ``rest_gyro_bias`` and ``config`` (the constructor's
-            arguments, with ``noise`` and ``rest`` as plain dicts).
+            arguments, with ``config`` and ``rest`` as plain dicts).
         """
         c = dict(self._config)
-        c["noise"] = asdict(c["noise"]) if c["noise"] is not None else None
+        c["config"] = self._settings.as_dict()
         c["rest"] = self._rest_dict(c["rest"])
         pt, pg, pa, pm = self._pending_arrays()
         return {
@@ -359,7 +344,7 @@ class AhrsStream:
                 buf = np.frombuffer(buf, dtype=np.uint8)
             buf = np.array(buf, dtype=np.uint8, copy=True).reshape(-1)  # a fresh, aligned, writeable copy
             _native.ahrs_stream_check(buf, "state")
-        config["noise"] = AhrsNoise(**config["noise"]) if config["noise"] is not None else None
+        config["config"] = AhrsConfig.from_dict(config["config"])
         config["rest"] = cls._rest_from(config["rest"])
         rest0 = config["rest"]
         config["rest"] = None  # do not start a fresh filter: the saved one is restored below

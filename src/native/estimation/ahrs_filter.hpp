@@ -88,6 +88,36 @@ inline void left_rotate_inplace(double* C, const double* dx) {
     for (int k = 0; k < 9; ++k) C[k] = Cn[k];
 }
 
+// Second-order Butterworth low-pass of DC group delay tau (s) at sampling interval dt (s), by the bilinear transform
+// with pre-warped cut-off fc = √2 / (2π tau) (the discretisation VQF uses for its inertial-frame accelerometer
+// filter, Laidig & Seel 2023, with its time constant tau): H(z) = b0 (1 + 2z⁻¹ + z⁻²) / (1 + a1 z⁻¹ + a2 z⁻²).
+// A continuous 2nd-order Butterworth of cut-off ωc has DC group delay √2/ωc = tau and noise-equivalent bandwidth
+// ωc / (4√2) = 1 / (4 tau): the same delay (T/2) and the same white-noise averaging (T samples' worth) as a boxcar
+// mean over T = 2 tau, with a response to a sinusoid of frequency f that falls as (fc/f)² instead of 1/(π f T).
+struct LowPass2 {
+    double b0, a1, a2;
+};
+inline LowPass2 butterworth_lowpass(double tau, double dt) {
+    constexpr double pi = 3.14159265358979323846;
+    const double fc = std::sqrt(2.0) / (2.0 * pi * tau);
+    const double c = std::tan(pi * fc * dt);
+    const double d = c * c + std::sqrt(2.0) * c + 1.0;
+    return LowPass2{c * c / d, 2.0 * (c * c - 1.0) / d, (1.0 - std::sqrt(2.0) * c + c * c) / d};
+}
+
+// One sample x through the filter (transposed direct form II, state z (2,)); returns the output.  start: set z to
+// the steady state of a constant input x first (output = x).
+inline double lowpass_step(const LowPass2& f, double* z, double x, bool start) {
+    if (start) {
+        z[0] = (1.0 - f.b0) * x;
+        z[1] = (f.b0 - f.a2) * x;
+    }
+    const double y = f.b0 * x + z[0];
+    z[0] = 2.0 * f.b0 * x - f.a1 * y + z[1];
+    z[1] = f.b0 * x - f.a2 * y;
+    return y;
+}
+
 // Heading of an earth-frame field vector m_e (3,): atan2(m_x, m_y) (rad, 0 = north, positive towards east); *h
 // receives the horizontal magnitude.  NaN when the horizontal part is below eps.
 inline double heading_of_field(const double* m_e, double* h, double eps) {

@@ -1,6 +1,6 @@
 // The AHRS one sample at a time (step) and over a whole recording (run, a loop over step; ahrs_run.hpp):
-// sliding-window earth-frame means of the specific force and the field, χ²-gated accelerometer (inclination) and
-// magnetometer (heading) updates in Joseph form.
+// the earth-frame low-pass of the specific force and sliding-window mean of the field, χ²-gated accelerometer
+// (inclination) and magnetometer (heading) updates in Joseph form.
 #include "ahrs_run.hpp"
 
 #include "ahrs_filter.hpp"
@@ -38,6 +38,7 @@ Params make_params(const double* params, const double* Ha, const double* Hm, dou
     p.release = std::max(1.0, params[P_GATE_RELEASE] / p.stride);  // the gates count updates
     for (int i = 0; i < 2 * NE; ++i) p.Ha[i] = Ha[i];
     for (int i = 0; i < NE; ++i) p.Hm[i] = Hm[i];
+    p.acc_lp = butterworth_lowpass(0.5 * double(p.n_win) * dt, dt);
     return p;
 }
 
@@ -47,10 +48,11 @@ void init_state(State& s, double* ring, const Params& p, const double* q, const 
     for (int i = 0; i < 3; ++i) s.b[i] = b[i];
     for (int i = 0; i < NE * NE; ++i) s.P[i] = P[i];
     for (int i = 0; i < 9; ++i) s.Cm[i] = i % 4 == 0 ? 1.0 : 0.0;
-    std::fill(ring, ring + 7 * p.n_win, 0.0);
+    std::fill(ring, ring + ring_doubles(p.n_win), 0.0);
 }
 
-void step(State& s, double* ring, const Params& p, const double* gyr, const double* acc, const double* mag) {
+void step(State& s, double* ring, const Params& p, const double* gyr, const double* acc, const double* mag,
+          PredictRecord* record) {
     // the names of the whole-recording loop this body was written for
     const double dt = p.dt, gyr_var = p.gyr_var, bias_var = p.bias_var, acc_var = p.acc_var, grav = p.grav;
     const double mag_var = p.mag_var, mag_norm = p.mag_norm, mag_dip = p.mag_dip;
@@ -59,30 +61,30 @@ void step(State& s, double* ring, const Params& p, const double* gyr, const doub
     const std::int64_t n_win = p.n_win, stride = p.stride;
     const double overlap = p.overlap, acc_alpha = p.acc_alpha, mag_alpha = p.mag_alpha, release = p.release;
     const double *Ha = p.Ha, *Hm = p.Hm;
-    double *q = s.q, *b = s.b, *P = s.P, *acc_sum = s.acc_sum, *mag_sum = s.mag_sum, *Cm = s.Cm, *stats = s.stats;
+    double *q = s.q, *b = s.b, *P = s.P, *mag_sum = s.mag_sum, *Cm = s.Cm, *stats = s.stats;
     double &mag_dist_sum = s.mag_dist_sum, &mag_dist = s.mag_dist, &acc_extra = s.acc_extra, &mag_extra = s.mag_extra;
     std::int64_t &head = s.head, &filled = s.filled, &since = s.since, &acc_closed = s.acc_closed,
                  &mag_closed = s.mag_closed;
-    double* ring_a = ring;
-    double* ring_m = ring + 3 * n_win;
-    double* ring_d = ring + 6 * n_win;
-    double R[9], v[3], dx[NE], mag_mean[3];
+    double* ring_m = ring;
+    double* ring_d = ring + 3 * n_win;
+    double R[9], v[3], dx[NE], mag_mean[3], acc_mean[3];
     double Ka[NE * 2], PH[NE * 2], Km[NE];
 
     // ---- predict: gyroscope as input (global error: δθ̇ = −R δb + R n_g)
     const double* g = gyr;
     predict(q, b, P, g[0], g[1], g[2], dt, gyr_var, bias_var, scale_var, R);
+    if (record != nullptr) record_prediction(*record, q, b, P, R);
     rotmat_xyzw(q[0], q[1], q[2], q[3], R);
 
-    // ---- accumulate the window: specific force and field rotated into the estimated earth frame, stored in
-    // the "uncorrected" frame (C⁻¹ R̂ v) so that a later correction rotates the whole window at once
-    // (current-frame mean = C · mean)
+    // ---- specific force and field rotated into the estimated earth frame and kept in the "uncorrected" frame
+    // (C⁻¹ R̂ v), so that a later correction rotates all past samples at once (current frame = C · uncorrected):
+    // the specific force through the 2nd-order low-pass (a linear filter, so its state rotates with them), the
+    // field into the sliding window
     const double ax = acc[0], ay = acc[1], az = acc[2];
     for (int i = 0; i < 3; ++i) v[i] = R[3 * i] * ax + R[3 * i + 1] * ay + R[3 * i + 2] * az;
     for (int i = 0; i < 3; ++i) {
         const double e = Cm[i] * v[0] + Cm[3 + i] * v[1] + Cm[6 + i] * v[2];
-        acc_sum[i] += e - ring_a[3 * head + i];
-        ring_a[3 * head + i] = e;
+        acc_mean[i] = lowpass_step(p.acc_lp, s.acc_lp + 2 * i, e, filled == 0);
     }
     if (use_mag) {
         const double mx = mag[0], my = mag[1], mz = mag[2];
@@ -107,9 +109,9 @@ void step(State& s, double* ring, const Params& p, const double* gyr, const doub
     if (window_done) {
         since = 0;
         for (int i = 0; i < 3; ++i)
-            v[i] = (Cm[3 * i] * acc_sum[0] + Cm[3 * i + 1] * acc_sum[1] + Cm[3 * i + 2] * acc_sum[2]) / n_win;
+            v[i] = Cm[3 * i] * acc_mean[0] + Cm[3 * i + 1] * acc_mean[1] + Cm[3 * i + 2] * acc_mean[2];
         mag_dist = std::max(mag_dist_sum / n_win, 0.0);
-        // |mean a_lin| >= | |mean R a| - g |: that much unmodelled acceleration is certainly present
+        // |filtered a_lin| >= | |filtered R a| - g |: that much unmodelled acceleration is certainly present
         const double dev = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) - grav;
         // innovation-based (Sage-Husa / Mehra) estimate of the unmodelled acceleration variance per axis:
         // E[νᵀν]/2 = tr(HPHᵀ)/2 + r  =>  r̂ <- (1 − α) r̂ + α max(νᵀν/2 − tr(HPHᵀ)/2 − σ²/N, 0)
@@ -121,7 +123,8 @@ void step(State& s, double* ring, const Params& p, const double* gyr, const doub
             acc_extra = (1.0 - acc_alpha) * acc_extra +
                         acc_alpha * std::max(0.5 * (v[0] * v[0] + v[1] * v[1]) - hph - acc_var / n_win, 0.0);
         }
-        // overlapping windows share samples: each update carries 1/overlap of a window's information
+        // consecutive updates share samples: each carries 1/overlap of a window's information (the low-pass
+        // averages white noise as the n_win-sample boxcar does: same noise-equivalent bandwidth)
         const double r = (acc_var / n_win + dev * dev + acc_extra) * overlap;
         // S = H P Hᵀ + r I
         for (int i = 0; i < NE; ++i)
@@ -207,7 +210,7 @@ void run(std::ptrdiff_t n, const double* gyr, const double* acc, const double* m
          double* stats) {
     const Params p = make_params(params, Ha, Hm, dt);
     State s;
-    std::vector<double> ring(7 * p.n_win);
+    std::vector<double> ring(ring_doubles(p.n_win));
     init_state(s, ring.data(), p, q, b, P);
     for (int i = 0; i < N_STATS; ++i) s.stats[i] = stats[i];
     for (std::ptrdiff_t k = 0; k < n; ++k) {

@@ -2,6 +2,7 @@
 // in dualpose.estimation.ahrs's module docstring; the streaming interface in dualpose.estimation.ahrs_stream.
 #pragma once
 
+#include "ahrs_filter.hpp"
 #include "ahrs_layout.hpp"
 
 #include <cstddef>
@@ -15,15 +16,17 @@ struct Params {
     double gyr_var, bias_var, acc_var, grav, mag_var, mag_norm, mag_dip, acc_gate, mag_gate, scale_var;
     double overlap, acc_alpha, mag_alpha, release;
     double Ha[2 * ERROR_DIM], Hm[ERROR_DIM];  // measurement Jacobians (2, 6) and (1, 6)
+    LowPass2 acc_lp;                          // the specific force's earth-frame low-pass (tau = window / 2)
     std::int64_t n_win, stride, use_mag;
 };
 
 // Everything that changes from sample to sample (trivially copyable: a byte copy saves and restores it).  The
-// sliding window's ring buffers (7 n_win doubles: ring_a (n_win, 3), ring_m (n_win, 3), ring_d (n_win,)) are kept
-// by the caller, next to the state.
+// field's sliding-window ring buffers (ring_doubles(n_win): ring_m (n_win, 3), ring_d (n_win,)) are kept by the
+// caller, next to the state.
 struct State {
     double q[4], b[3], P[ERROR_DIM * ERROR_DIM];  // nominal state (xyzw, rad/s) and error covariance
-    double acc_sum[3], mag_sum[3];                // window sums (uncorrected frame)
+    double acc_lp[6];                             // low-pass state of the specific force, (3, 2) (uncorrected frame)
+    double mag_sum[3];                            // field window sum (uncorrected frame)
     double Cm[9];                                 // accumulated corrections: current earth frame = Cm · uncorrected
     double mag_dist_sum, mag_dist;                // window sum / mean of the field's disturbance lower bound
     double acc_extra, mag_extra;                  // adaptive-noise estimates
@@ -35,13 +38,31 @@ struct State {
 // The constants of params (N_PARAMS,), Ha (2, 6), Hm (1, 6) and dt.
 Params make_params(const double* params, const double* Ha, const double* Hm, double dt);
 
-// The state before the first sample: q (4,), b (3,), P (6, 6) copied, everything else empty; ring (7 n_win) zeroed.
+// Doubles of the ring buffers of a window of n_win samples: the field (n_win, 3) and its disturbance level (n_win,).
+inline std::size_t ring_doubles(std::int64_t n_win) { return 4 * static_cast<std::size_t>(n_win); }
+
+// The state before the first sample: q (4,), b (3,), P (6, 6) copied, everything else empty; ring zeroed.
 void init_state(State& s, double* ring, const Params& p, const double* q, const double* b, const double* P);
 
-// One sample: predict q <- q ⊗ Exp((ω − b) dt), P <- F P Fᵀ + Q; accumulate R̂ a and R̂ m in the sliding window;
-// every stride samples the accelerometer update of inclination and (9D) the magnetometer heading update, χ²-gated,
-// with adaptive noise.  gyr, acc, mag (3,) rad/s, m/s², µT (mag unused in 6D).
-void step(State& s, double* ring, const Params& p, const double* gyr, const double* acc, const double* mag);
+// What the offline smoother (ahrs_smoother.cpp) needs from one step: the state right after the prediction, before
+// this sample's updates (q, b, P = P_{k|k−1}), and the rotation R̂ of the state before it, which enters the
+// transition F = [[I, −R̂ dt], [0, I]] of the global attitude error.
+struct PredictRecord {
+    double q[4], b[3], P[ERROR_DIM * ERROR_DIM], R[9];
+};
+inline void record_prediction(PredictRecord& r, const double* q, const double* b, const double* P, const double* R) {
+    for (int i = 0; i < 4; ++i) r.q[i] = q[i];
+    for (int i = 0; i < 3; ++i) r.b[i] = b[i];
+    for (int i = 0; i < ERROR_DIM * ERROR_DIM; ++i) r.P[i] = P[i];
+    for (int i = 0; i < 9; ++i) r.R[i] = R[i];
+}
+
+// One sample: predict q <- q ⊗ Exp((ω − b) dt), P <- F P Fᵀ + Q; low-pass R̂ a and accumulate R̂ m in the sliding
+// window; every stride samples the accelerometer update of inclination and (9D) the magnetometer heading update,
+// χ²-gated, with adaptive noise.  gyr, acc, mag (3,) rad/s, m/s², µT (mag unused in 6D).  record (optional)
+// receives the prediction (PredictRecord); nullptr in the filter's own run and stream paths.
+void step(State& s, double* ring, const Params& p, const double* gyr, const double* acc, const double* mag,
+          PredictRecord* record = nullptr);
 
 // Run the filter over n samples; q (4,), b (3,), P (6, 6) are the initial state, updated in place.
 // gyr, acc, mag (n, 3); params (N_PARAMS,); Ha (2, 6) and Hm (1, 6) the measurement Jacobians of
@@ -51,10 +72,10 @@ void run(std::ptrdiff_t n, const double* gyr, const double* acc, const double* m
          double* P, const double* params, const double* Ha, const double* Hm, double* out_q, double* out_b,
          double* stats);
 
-// The saved stream: one contiguous byte buffer [StreamHeader | Params | State | ring (7 n_win doubles)], so that a
+// The saved stream: one contiguous byte buffer [StreamHeader | Params | State | ring (ring_doubles)], so that a
 // byte copy saves it and restores it.  STREAM_VERSION changes whenever the layout does.
 constexpr std::uint64_t STREAM_MAGIC = 0x3153524841504455ULL;  // "UDPAHRS1" little-endian
-constexpr std::uint64_t STREAM_VERSION = 1;
+constexpr std::uint64_t STREAM_VERSION = 2;
 struct StreamHeader {
     std::uint64_t magic, version, size, n_win;  // size: total bytes of the buffer
 };
@@ -67,7 +88,7 @@ struct Stream {
 static_assert(sizeof(Stream) % sizeof(double) == 0, "the ring must follow the state aligned");
 
 inline std::size_t stream_bytes(std::int64_t n_win) {
-    return sizeof(Stream) + 7 * static_cast<std::size_t>(n_win) * sizeof(double);
+    return sizeof(Stream) + ring_doubles(n_win) * sizeof(double);
 }
 
 }  // namespace dualpose::ahrs

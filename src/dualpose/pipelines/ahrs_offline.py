@@ -1,0 +1,49 @@
+"""The offline AHRS on a BROAD trial: the RTS smoother (:mod:`dualpose.estimation.ahrs_smoother`) and the scores of
+the smoothed and the forward orientation with BROAD's metric; the job behind ``dualpose ahrs FILE --offline``
+(docs/broad.md, "Offline (smoothed)")."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dualpose.estimation.ahrs_smoother import SmoothedOrientation, smooth_orientation
+from dualpose.evaluation.orientation_errors import orientation_rmse
+from dualpose.io.broad import BroadTrial
+
+__all__ = ["smooth_broad_trial"]
+
+
+def smooth_broad_trial(
+    trial: BroadTrial, *, use_mag: bool = True, mag_calibration: str | None = "auto"
+) -> tuple[SmoothedOrientation, dict[str, float] | None]:
+    """Smooth one BROAD trial's orientation and score it.
+
+    Parameters
+    ----------
+    trial : BroadTrial
+        From :func:`dualpose.io.load_broad`; the samples before its first movement sample are the rest period
+        (at least 10).
+    use_mag : bool
+        9D (True) or 6D (False).
+    mag_calibration : "auto" or None
+        The magnetometer self-calibration decision (offline default ``"auto"``), or None for the raw field.
+
+    Returns
+    -------
+    smoothed : SmoothedOrientation
+    scores : dict or None
+        BROAD's total / heading / inclination RMSE (°) over the movement samples of the smoothed orientation
+        (``total_rmse_deg``, ... as :meth:`~dualpose.evaluation.orientation_errors.OrientationRmse.as_dict`) and of
+        the forward filter (the same keys prefixed ``forward_``); 6D after one constant heading offset each.  None when
+        the trial has no reference on its movement samples.
+    """
+    s = smooth_orientation(
+        trial.gyr, trial.acc, trial.mag if use_mag else None, trial.rate, use_mag=use_mag,
+        n_rest=max(trial.static_start, 10), mag_calibration=mag_calibration,
+    )  # fmt: skip
+    if not bool(np.isfinite(trial.quat[trial.movement]).all(axis=1).any()):
+        return s, None
+    scores = dict(orientation_rmse(s.quat, trial.quat, trial.movement, fit_heading_offset=not use_mag).as_dict())
+    fwd = orientation_rmse(s.forward.quat, trial.quat, trial.movement, fit_heading_offset=not use_mag)
+    scores.update({f"forward_{k}": v for k, v in fwd.as_dict().items()})
+    return s, scores
