@@ -17,17 +17,13 @@ The table (Markdown) is printed, and written to ``--markdown FILE`` if given (ne
 from __future__ import annotations
 
 import argparse
-import math
-import os
 import platform
-import selectors
 import subprocess
 import sys
-import threading
-import time
 
 import numpy as np
 
+import _stream_bench
 import dualpose as dp
 from _common import emit
 
@@ -61,79 +57,20 @@ def paced(
     lines: list[bytes], rate: float, n_rest: int, use_mag: bool, rest_s: float, baseline: bool = False
 ) -> dict[str, float]:
     """Write line k at k / rate; return latency statistics (µs) over the samples after the rest period."""
-    proc = start(rate, use_mag, rest_s, baseline)
-    fd_in, fd_out = proc.stdin.fileno(), proc.stdout.fileno()
-    os.set_blocking(fd_in, False)  # never block on a full input pipe while the output pipe waits to be read
-    sel = selectors.DefaultSelector()
-    sel.register(fd_out, selectors.EVENT_READ)
     n = len(lines)
-    sent, got = np.full(n, np.nan), np.full(n, np.nan)
-    k_in = k_out = 0
-    buf = b""
-    t0 = time.perf_counter() + 1.0  # the interpreter starts meanwhile
-    while k_out < n:
-        due = t0 + k_in / rate if k_in < n else math.inf
-        if time.perf_counter() >= due:
-            try:
-                os.write(fd_in, lines[k_in])  # a line is shorter than PIPE_BUF: written whole or not at all
-                sent[k_in] = time.perf_counter()
-                k_in += 1
-                if k_in == n:
-                    proc.stdin.close()
-            except BlockingIOError:
-                pass
-        late = k_in < n and time.perf_counter() >= t0 + k_in / rate
-        wait = 0.0 if late else (1.0 if k_in == n else max(0.0, t0 + k_in / rate - time.perf_counter()))
-        if sel.select(timeout=wait):
-            chunk = os.read(fd_out, 1 << 16)
-            stamp = time.perf_counter()
-            if not chunk:
-                break
-            buf += chunk
-            m = buf.count(b"\n")
-            got[k_out : k_out + m] = stamp
-            k_out += m
-            buf = buf[buf.rindex(b"\n") + 1 :] if m else buf
-    code = proc.wait()
-    if code != 0 or k_out != n:
-        raise RuntimeError(f"dualpose ahrs --stream exited {code} after {k_out} of {n} lines")
-    behind = sent - (t0 + np.arange(n) / rate)  # how far each write fell behind the schedule
+    sent, got, behind = _stream_bench.paced(start(rate, use_mag, rest_s, baseline), lines, np.arange(n) / rate)
+    if len(got) != n:
+        raise RuntimeError(f"dualpose ahrs --stream wrote {len(got)} of {n} lines")
     out = {"lines_per_s": (n - n_rest - 1) / (got[-1] - got[n_rest])}
     for name, first in (("all", n_rest), ("steady", n_rest + round(0.5 * rate))):
-        lat = 1e6 * (got[first:] - sent[first:])
-        out.update({f"{name}_lines": len(lat), f"{name}_median_us": float(np.median(lat)),
-                    f"{name}_p99_us": float(np.percentile(lat, 99)), f"{name}_max_us": float(lat.max()),
-                    f"{name}_behind_ms": 1e3 * float(behind[first:].max())})  # fmt: skip
-    out["over_1ms"] = int(np.sum(got[n_rest:] - sent[n_rest:] > 1e-3))
+        out.update(_stream_bench.latency(sent[first:], got[first:], behind[first:], name))
+    out["over_1ms"] = out["all_over_1ms"]
     return out
 
 
 def flood(lines: list[bytes], rate: float, n_rest: int, use_mag: bool, rest_s: float) -> dict[str, float]:
     """Write all lines as fast as the pipe takes them; return the throughput after the rest period."""
-    proc = start(rate, use_mag, rest_s)
-    data = b"".join(lines)
-
-    def feed() -> None:
-        proc.stdin.write(data)
-        proc.stdin.close()
-
-    writer = threading.Thread(target=feed)
-    writer.start()
-    n, k_out, t_first, t_last = len(lines), 0, None, 0.0
-    fd_out = proc.stdout.fileno()
-    while True:
-        chunk = os.read(fd_out, 1 << 16)
-        if not chunk:
-            break
-        k_out += chunk.count(b"\n")
-        t_last = time.perf_counter()
-        if t_first is None and k_out > n_rest:
-            t_first = t_last
-    writer.join()
-    code = proc.wait()
-    if code != 0 or k_out != n or t_first is None:
-        raise RuntimeError(f"dualpose ahrs --stream exited {code} after {k_out} of {n} lines")
-    return {"lines_per_s": (n - n_rest) / (t_last - t_first)}
+    return {"lines_per_s": _stream_bench.flood(start(rate, use_mag, rest_s), lines, n_rest, len(lines))}
 
 
 def main(argv: list[str] | None = None) -> int:

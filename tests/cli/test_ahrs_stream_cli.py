@@ -4,16 +4,12 @@ after everything before it was written, and a reader that goes away ends it quie
 
 from __future__ import annotations
 
-import os
-import selectors
 import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from _pipes import LineReader, dualpose_process
 
-import dualpose as dp
 from dualpose.cli.main import main
 from dualpose.estimation.ahrs import estimate_orientation
 from dualpose.estimation.ahrs_stream import AhrsStream
@@ -49,10 +45,7 @@ def parse_output(text: str) -> np.ndarray:
 
 def dualpose_stream(*args: str, stdin=subprocess.PIPE) -> subprocess.Popen:
     """``python -m dualpose.cli.main ahrs --stream ARGS`` with pipes (the dualpose this test imported)."""
-    src = str(Path(dp.__file__).resolve().parents[1])
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([src, os.environ.get("PYTHONPATH", "")]))
-    cmd = [sys.executable, "-m", "dualpose.cli.main", "ahrs", "--stream", *args]
-    return subprocess.Popen(cmd, stdin=stdin, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, text=True)
+    return dualpose_process("ahrs", "--stream", *args, stdin=stdin)
 
 
 def run_stream(lines: list[str], *args: str) -> tuple[int, str, str]:
@@ -135,28 +128,6 @@ def test_stream_equals_batch_on_broad_9d(trial):
     )
     assert got.shape == (n, 5) and np.array_equal(got[:, 0], t)
     assert np.array_equal(got[:, 1:], batch.quat)
-
-
-class LineReader:
-    """Lines of a child's stdout read straight from the pipe (no read-ahead buffer to hide them from ``select``);
-    fails (rather than hangs) when no line comes, i.e. when the child did not flush it."""
-
-    def __init__(self, proc: subprocess.Popen) -> None:
-        self.proc, self.fd, self.buf = proc, proc.stdout.fileno(), b""
-        self.sel = selectors.DefaultSelector()
-        self.sel.register(self.fd, selectors.EVENT_READ)
-
-    def readline(self) -> str:
-        while b"\n" not in self.buf:
-            if not self.sel.select(timeout=120):
-                self.proc.kill()
-                pytest.fail("no output line: the stream did not flush")
-            chunk = os.read(self.fd, 1 << 16)
-            if not chunk:
-                return ""
-            self.buf += chunk
-        line, _, self.buf = self.buf.partition(b"\n")
-        return line.decode() + "\n"
 
 
 def test_one_flushed_line_per_input_line():

@@ -24,6 +24,7 @@ import json
 import sys
 
 from dualpose.cli._args import float_in
+from dualpose.cli._stream import write_flushed
 
 _STREAM_HELP = """\
 streaming (--stream): read IMU samples from standard input, one per line:
@@ -91,15 +92,7 @@ def run_stream(args: argparse.Namespace) -> int:
     if 0 < n_rest < 10:
         return _usage_error(f"--rest-seconds {rest_seconds:g} at --rate {args.rate:g} is {n_rest} samples; "
                             "the rest period needs at least 10 samples, or 0 for none")  # fmt: skip
-    out = sys.stdout
-    try:
-        for line in stream_ahrs_lines(sys.stdin, args.rate, use_mag=args.mag, n_rest=n_rest):
-            out.write(line)
-            out.flush()
-    except ValueError as exc:
-        print(f"dualpose ahrs: error: {exc}", file=sys.stderr)
-        return 1
-    return 0
+    return write_flushed(stream_ahrs_lines(sys.stdin, args.rate, use_mag=args.mag, n_rest=n_rest), "ahrs")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -11,6 +11,11 @@ writable) before anything is computed.  Warnings about the input (IMU gaps, a do
 "Checks on the input") are printed on stderr, one line each.  Exit status: 0 on success, 2 on bad arguments, an
 unusable output location or an output file that exists, 1 on a missing, malformed or unusable input (the message
 names the file and line).
+
+``dualpose fuse --stream --calibration FILE [--filter eskf|hol22]``: the filter on IMU and camera-correspondence lines
+read from standard input, one pose line written (and flushed) per IMU line as soon as it is known; the calibration
+file (a recording's sensor file with ``imu.update_rate`` and an ``initial_state``), the line formats and the exit
+statuses are in docs/fusion.md, "Streaming" (the job is :func:`dualpose.pipelines.fuse_stream.stream_fusion_lines`).
 """
 
 from __future__ import annotations
@@ -20,9 +25,31 @@ import json
 import sys
 
 from dualpose.cli._args import seed
+from dualpose.cli._stream import write_flushed
 
 #: files ``--out`` writes
 OUTPUT_FILES: tuple[str, ...] = ("trajectory.tum", "metrics.json", "top_view.png", "errors.png", "nis.png")
+
+
+_STREAM_HELP = """\
+streaming (--stream --calibration FILE): read lines from standard input, one IMU sample or camera frame each:
+  imu, t, gx, gy, gz, ax, ay, az                  (s IMU clock, rad/s, m/s^2; body frame)
+  cam, t, n, u1, v1, X1, Y1, Z1, ..., un, vn, Xn, Yn, Zn
+                                                  (s camera clock; n correspondences: undistorted pixel u, v (px),
+                                                   landmark X, Y, Z in the world frame (m))
+comma or whitespace separated; '#' starts a comment; blank and comment lines are skipped.  Lines in time order: a
+cam line comes before the imu line at or after its time (t + camera.timeshift_cam_imu on the IMU clock) and is
+filtered there.  One line per imu line is written to standard output and flushed at once:
+  t, px, py, pz, qx, qy, qz, qw                   (body position in the world, m; q_wb xyzw body -> world;
+                                                   repr: exact float64)
+FILE is a recording's sensor file (docs/fusion.md: camera, imu, gravity) that also gives imu.update_rate and
+  "initial_state": {"position": [x, y, z], "quat": [qx, qy, qz, qw], "velocity": ..., "gyro_bias": ...,
+                    "accel_bias": ..., "position_sigma": m, "velocity_sigma": m/s, "attitude_sigma_deg": deg}
+(position and quat required).  Exit status: 0 at the end of the input; 1 on an unreadable or invalid FILE, or a
+malformed line (unknown tag, wrong number of fields, not a number, non-finite, out of time order), with
+'stdin line N: ...' on stderr and every line before it already written; 2 on bad arguments; 141 when the reader of
+standard output goes away.
+"""
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -33,16 +60,25 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         description=(
             "Run a camera-IMU filter on the built-in simulated eight-shaped run (Hol 2008) or on a recording, "
             "starting from static alignment + first-frame PnP, and report ATE (SE(3)-aligned), RPE, orientation "
-            "RMSE (when the recording has ground truth), NIS coverage and the real-time factor."
+            "RMSE (when the recording has ground truth), NIS coverage and the real-time factor; or, with --stream, "
+            "on IMU and camera lines read from standard input, printing one pose per IMU line."
         ),
+        epilog=_STREAM_HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument(
         "--data",
-        default="sim",
+        default=None,
         help="input: 'sim' (default), a recording directory or its sensors.json (docs/fusion.md), or a BROAD .mat",
     )
     p.add_argument("--filter", choices=("eskf", "hol22"), default="eskf", help="filter (default eskf)")
-    p.add_argument("--seed", type=seed, default=0, help="seed of the simulation or of BROAD's pseudo-vision (0; >= 0)")
+    p.add_argument("--seed", type=seed, default=None,
+                   help="seed of the simulation or of BROAD's pseudo-vision (0; >= 0)")  # fmt: skip
+    p.add_argument("--stream", action="store_true",
+                   help="read IMU and camera lines from stdin, write one pose line per IMU line (see below)")
+    p.add_argument("--calibration", metavar="FILE",
+                   help="with --stream: sensor set-up and filter start (a sensor file with imu.update_rate and "
+                   "initial_state; see below)")  # fmt: skip
     p.add_argument("--out", metavar="DIR", help="write trajectory.tum, metrics.json and PNG figures into DIR")
     p.add_argument("--force", action="store_true", help="replace existing output files")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
@@ -128,7 +164,8 @@ def _run_job(args: argparse.Namespace):
             bar.update(1)
 
         try:
-            result = run_fuse(data=args.data, filter=args.filter, seed=args.seed, progress=progress,
+            result = run_fuse(data="sim" if args.data is None else args.data, filter=args.filter,
+                              seed=0 if args.seed is None else args.seed, progress=progress,
                               smooth=args.smooth)  # fmt: skip
         except (RecordingError, ValueError) as exc:
             result = exc
@@ -141,11 +178,41 @@ def _run_job(args: argparse.Namespace):
     return result
 
 
+def _usage_error(message: str) -> int:
+    print(f"dualpose fuse: error: {message}", file=sys.stderr)
+    return 2
+
+
+def run_stream(args: argparse.Namespace) -> int:
+    """``dualpose fuse --stream``: stdin lines in, one flushed pose line per IMU line out."""
+    if args.calibration is None:
+        return _usage_error("--stream needs the sensor set-up and filter start: --calibration FILE")
+    used = [name for name, given in (("--data", args.data is not None), ("--seed", args.seed is not None),
+                                     ("--out", args.out), ("--force", args.force), ("--json", args.json),
+                                     ("--smooth", args.smooth)) if given]  # fmt: skip
+    if used:
+        return _usage_error(f"{', '.join(used)}: not used with --stream (it reads standard input)")
+    from dualpose.io.recording import RecordingError
+    from dualpose.pipelines.fuse_stream import stream_filter, stream_fusion_lines
+
+    try:
+        stream = stream_filter(args.calibration, args.filter)
+    except (RecordingError, ValueError) as exc:
+        print(f"dualpose fuse: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 1
+    return write_flushed(stream_fusion_lines(sys.stdin, stream), "fuse")
+
+
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``dualpose fuse``."""
     from pathlib import Path
 
     from dualpose.cli._output import output_dir_problem
+
+    if args.stream:
+        return run_stream(args)
+    if args.calibration is not None:
+        return _usage_error("--calibration is only used with --stream (a recording has its own sensor file)")
 
     if args.smooth and args.filter != "eskf":
         print(f"dualpose fuse: error: --smooth needs --filter eskf (got {args.filter!r}): the RTS smoother runs "

@@ -6,7 +6,8 @@
   :mod:`~dualpose.estimation.hol22` (Hol's 22-state EKF), :mod:`~dualpose.estimation.ahrs_filter` (the orientation
   filter one sample at a time), :mod:`~dualpose.estimation.ahrs` (its whole-recording estimator on real IMU data) and
   :mod:`~dualpose.estimation.ahrs_stream` (that estimator streaming, bit for bit equal, with a savable state);
-  :mod:`~dualpose.estimation.ahrs_smoother` (its offline RTS smoother).
+  :mod:`~dualpose.estimation.ahrs_smoother` (its offline RTS smoother).  ``eskf.EskfStream`` and
+  ``hol22.Hol22Stream``: the camera-IMU filters streaming, bit for bit their batch ``run``.
 * :mod:`~dualpose.estimation.smoother` (RTS), :mod:`~dualpose.estimation.initialization` (static alignment + PnP
   start), :mod:`~dualpose.estimation.consistency` (NEES), :mod:`~dualpose.estimation.models` (measurement models).
 

@@ -6,7 +6,8 @@ as input; error state (15,) = ``[δp, δv, δθ, δb_g, δb_a]`` with a 3-parame
 ``q = q̂ ⊗ Exp(δθ)``.  Updates use the Joseph form and are followed by injection and the reset Jacobian
 ``G = diag(I, I, I − [½δθ]×, I, I)``.  Camera updates use the reprojection model of :mod:`dualpose.estimation.models`,
 one χ²-gated 2-D update per correspondence.  Predict/update kernels and the whole-run loop are the native
-extension's ``eskf_*`` functions (``src/native/estimation``).
+extension's ``eskf_*`` functions (``src/native/estimation``); :class:`EskfStream` runs the same compiled steps one
+sample / frame at a time (streaming, docs/fusion.md "Streaming").
 """
 
 from __future__ import annotations
@@ -21,12 +22,22 @@ from scipy.stats import chi2
 import dualpose as dp
 from dualpose import _native
 from dualpose.estimation import models
+from dualpose.estimation._fusion_stream import BlockResult, FrameUpdate, FusionStream
 from dualpose.estimation._stream import check_streams
 from dualpose.estimation.interface import Estimator, UpdateResult
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
 from dualpose.types import CameraFrame, ImuNoise, PinholeCamera, SensorRun
 
-__all__ = ["ErrorStateEKF", "FilterNodes", "FilterResult", "InnovationReport", "initial_covariance"]
+__all__ = [
+    "BlockResult",
+    "ErrorStateEKF",
+    "EskfStream",
+    "FilterNodes",
+    "FilterResult",
+    "FrameUpdate",
+    "InnovationReport",
+    "initial_covariance",
+]
 
 
 def initial_covariance(
@@ -366,6 +377,15 @@ class ErrorStateEKF(Estimator):
         acc = np.concatenate(self._acc) if self._acc else np.zeros(0, bool)
         return _report(nis, acc, self.gate)
 
+    def kernel_config(self) -> tuple:
+        """The constants of the compiled filter (``eskf_run``, ``eskf_stream_new``): ``gravity`` (3,), ``noise``
+        (4,) ``[σ_g², σ_a², σ_bg², σ_ba²]``, ``intr`` (4,) ``[fx, fy, cx, cy]``, ``q_bc`` (4,), ``p_bc`` (3,),
+        ``pixel_sigma``, ``gate``; float64, C-contiguous."""
+        f64 = np.float64
+        return (np.ascontiguousarray(self.gravity, dtype=f64), np.ascontiguousarray(self.noise, dtype=f64),
+                np.ascontiguousarray(self.intrinsics, dtype=f64), np.ascontiguousarray(self.q_bc, dtype=f64),
+                np.ascontiguousarray(self.p_bc, dtype=f64), self.pixel_sigma, self.gate)  # fmt: skip
+
     # ------------------------------------------------------------------ batch
     def run(
         self,
@@ -403,8 +423,7 @@ class ErrorStateEKF(Estimator):
         nis = np.full(len(pixels), np.nan)
         acc = np.zeros(len(pixels), np.int64)
         t0 = time.perf_counter()
-        cam = (self.intrinsics, self.q_bc, self.p_bc, self.pixel_sigma, self.gate)
-        args = (t, gyro, accel, cam_t, offsets, pixels, points, self.x, self.P, self.gravity, self.noise, *cam,
+        args = (t, gyro, accel, cam_t, offsets, pixels, points, self.x, self.P, *self.kernel_config(),
                 X, Ps, XF, PF, nis, acc)  # fmt: skip
         nodes = None
         if record_nodes:
@@ -451,3 +470,47 @@ def _report(nis: np.ndarray, accepted: np.ndarray, gate: float) -> InnovationRep
     return InnovationReport(
         nis=nis, accepted=accepted, dof=2, bounds=(float(chi2.ppf(0.025, 2)), float(chi2.ppf(0.975, 2))), gate=gate
     )
+
+
+class EskfStream(FusionStream):
+    """:class:`ErrorStateEKF` one sample / frame at a time, bit for bit its :meth:`~ErrorStateEKF.run`
+    (docs/fusion.md "Streaming"; the queue, blocks and saved state: :mod:`dualpose.estimation._fusion_stream`).
+
+    Parameters
+    ----------
+    filter : ErrorStateEKF
+        The filter to continue: its current state and covariance (taken to be before the first sample), IMU noise,
+        gravity, camera, extrinsic, pixel σ, gate and camera time offset.  The filter itself is not changed.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from dualpose.estimation.eskf import EskfStream, ErrorStateEKF, initial_covariance
+    >>> s = EskfStream(ErrorStateEKF(np.zeros(3), np.zeros(3), [0, 0, 0, 1.0], initial_covariance()))
+    >>> s.update_imu(0.0, [0.0, 0.0, 0.0], [0.0, 0.0, 9.81]).shape
+    (16,)
+    """
+
+    _kind = "eskf"
+    state_layout = ESKF_STATE
+    covariance_dim = 15
+    #: version of the saved state's byte layout (``STREAM_VERSION`` in ``src/native/estimation/eskf_run.hpp``)
+    LAYOUT_VERSION = _native.ESKF_STREAM_VERSION
+
+    def __init__(self, filter: ErrorStateEKF) -> None:
+        if not isinstance(filter, ErrorStateEKF):
+            raise TypeError(f"filter must be an ErrorStateEKF; got {type(filter).__name__}")
+        x = np.ascontiguousarray(filter.x, dtype=np.float64)
+        P = np.ascontiguousarray(filter.P, dtype=np.float64)
+        super().__init__(_native.eskf_stream_new(x, P, *filter.kernel_config()), filter.camera_time_offset)
+
+    def _frame_between(self, f: FrameUpdate, t1: float, g1: np.ndarray, a1: np.ndarray) -> None:
+        _native.eskf_stream_frame(self._buf, f.t, t1, g1, a1, f.pixels, f.points, f.nis, f.accepted_flags)
+        f.status = "done"
+
+    def _first_sample(self, t: float, g: np.ndarray, a: np.ndarray, at_t: list[FrameUpdate]) -> np.ndarray:
+        x = self._imu(self._buf, t, g, a)
+        for f in at_t:  # as the batch filter: frames at the first sample's time update the start
+            _native.eskf_stream_update(self._buf, f.pixels, f.points, f.nis, f.accepted_flags)
+            f.status = "done"
+        return self.state if at_t else x

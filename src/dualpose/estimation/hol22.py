@@ -8,7 +8,8 @@ every IMU sample; camera frames (eq. 11c, the implicit ``[−f I₂, zⁱ] z^c =
 ``(Z σ_px)² I₂`` with the predicted depth Z) whenever a frame arrives, after a time update to the frame time.  The
 quaternion is renormalized after each update and its covariance block projected accordingly.  The step methods
 are plain numpy (the readable reference); :meth:`Hol22EKF.run` is the same algorithm compiled
-(``dualpose._native.hol22_run``, src/native/estimation/hol22_*).  The error-state filter
+(``dualpose._native.hol22_run``, src/native/estimation/hol22_*), and :class:`Hol22Stream` runs its steps one
+sample / frame at a time (streaming).  The error-state filter
 (:mod:`dualpose.estimation.eskf`) is the faster, recommended default.
 """
 
@@ -24,13 +25,14 @@ from scipy.stats import chi2
 import dualpose as dp
 from dualpose import _native
 from dualpose.estimation import models
+from dualpose.estimation._fusion_stream import FrameUpdate, FusionStream
 from dualpose.estimation._stream import check_streams
 from dualpose.estimation.eskf import InnovationReport
 from dualpose.estimation.interface import Estimator, UpdateResult
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE, HOL22_STATE
 from dualpose.types import CameraFrame, ImuNoise, PinholeCamera, SensorRun
 
-__all__ = ["Hol22EKF", "Hol22Result", "HolProcessNoise", "process_model"]
+__all__ = ["Hol22EKF", "Hol22Result", "Hol22Stream", "HolProcessNoise", "process_model"]
 
 
 @dataclass(frozen=True)
@@ -345,6 +347,16 @@ class Hol22EKF(Estimator):
         self._acc.append(acc)
         return acc
 
+    def kernel_config(self) -> tuple:
+        """The constants of the compiled filter (``hol22_run``, ``hol22_stream_new``): ``qdiag`` (22,) (
+        :meth:`process_noise_diagonal`), ``gravity`` (3,), ``R_imu`` (6, 6), ``intr`` (4,) ``[fx, fy, cx, cy]``,
+        ``p_bc`` (3,), ``R^{cb}`` (3, 3), ``pixel_sigma``, ``gate``; float64, C-contiguous."""
+        f64 = np.float64
+        Rcb = np.ascontiguousarray(dp.matrix_from_quat(dp.quat_conj(self.q_bc)), dtype=f64)
+        return (self.process_noise_diagonal(), np.ascontiguousarray(self.gravity, dtype=f64),
+                np.ascontiguousarray(self.R_imu, dtype=f64), np.array(self.intrinsics, dtype=f64),
+                np.ascontiguousarray(self.p_bc, dtype=f64), Rcb, self.pixel_sigma, self.gate)  # fmt: skip
+
     # ------------------------------------------------------------------ Algorithm 1
     def run(
         self,
@@ -370,16 +382,11 @@ class Hol22EKF(Estimator):
         Ps = np.empty((n, nx, nx))
         nis = np.full(len(pixels), np.nan)
         acc = np.zeros(len(pixels), np.int64)
-        Rcb = np.ascontiguousarray(dp.matrix_from_quat(dp.quat_conj(self.q_bc)), dtype=np.float64)
-        f64 = np.float64
         self.x = np.ascontiguousarray(self.x)
         self.P = np.ascontiguousarray(self.P)
         t0 = _time.perf_counter()
-        _native.hol22_run(t, gyro, accel, cam_t, offsets, pixels, points, self.x, self.P,
-                          self.process_noise_diagonal(), np.ascontiguousarray(self.gravity, dtype=f64),
-                          np.ascontiguousarray(self.R_imu, dtype=f64), np.array(self.intrinsics, dtype=f64),
-                          np.ascontiguousarray(self.p_bc, dtype=f64), Rcb, self.pixel_sigma, self.gate, X, Ps, nis,
-                          acc)  # fmt: skip
+        _native.hol22_run(t, gyro, accel, cam_t, offsets, pixels, points, self.x, self.P, *self.kernel_config(), X,
+                          Ps, nis, acc)  # fmt: skip
         wall = _time.perf_counter() - t0
         used = ~np.isnan(nis)
         self._nis.append(nis[used])
@@ -399,3 +406,36 @@ class Hol22EKF(Estimator):
         """:meth:`run` on a recording or simulated run (anything with the :class:`~dualpose.types.SensorRun` fields)."""
         f = run.frames
         return self.run(run.t, run.gyro, run.accel, f.t, f.offsets, f.pixels, f.points)
+
+
+class Hol22Stream(FusionStream):
+    """:class:`Hol22EKF` one sample / frame at a time, bit for bit its :meth:`~Hol22EKF.run` (docs/fusion.md
+    "Streaming"; the queue, blocks and saved state: :mod:`dualpose.estimation._fusion_stream`).
+
+    Parameters
+    ----------
+    filter : Hol22EKF
+        The filter to continue (state, covariance, noise, camera, extrinsic, gate, camera time offset); not changed.
+    """
+
+    _kind = "hol22"
+    state_layout = HOL22_STATE
+    covariance_dim = 22
+    #: version of the saved state's byte layout (``STREAM_VERSION`` in ``src/native/estimation/hol22_run.hpp``)
+    LAYOUT_VERSION = _native.HOL22_STREAM_VERSION
+
+    def __init__(self, filter: Hol22EKF) -> None:
+        if not isinstance(filter, Hol22EKF):
+            raise TypeError(f"filter must be a Hol22EKF; got {type(filter).__name__}")
+        x = np.ascontiguousarray(filter.x, dtype=np.float64)
+        P = np.ascontiguousarray(filter.P, dtype=np.float64)
+        super().__init__(_native.hol22_stream_new(x, P, *filter.kernel_config()), filter.camera_time_offset)
+
+    def _frame_between(self, f: FrameUpdate, t1: float, g1: np.ndarray, a1: np.ndarray) -> None:
+        _native.hol22_stream_frame(self._buf, f.t, f.pixels, f.points, f.nis, f.accepted_flags)
+        f.status = "done"
+
+    def _first_sample(self, t: float, g: np.ndarray, a: np.ndarray, at_t: list[FrameUpdate]) -> np.ndarray:
+        for f in at_t:  # as the batch filter: frames at the first sample's time come before its update
+            self._frame_between(f, t, g, a)
+        return self._imu(self._buf, t, g, a)

@@ -1,7 +1,9 @@
 """File formats: TUM and KITTI trajectories, EuRoC IMU and ground-truth CSV, format detection, BROAD IMU trials.
 
 Camera-IMU recordings for ``dualpose fuse --data`` (:mod:`dualpose.io.recording`): :func:`read_recording`,
-:func:`write_recording`.  Point CSV files for ``dualpose register``: :mod:`dualpose.io.csv_points`.
+:func:`write_recording`; their sensor set-up with a filter start for ``dualpose fuse --stream --calibration``:
+:func:`read_sensor_setup`, :func:`write_sensor_setup`.  Point CSV files for ``dualpose register``:
+:mod:`dualpose.io.csv_points`.
 Pose streams ``t, x, y, z, qx, qy, qz, qw`` for ``dualpose calibrate hand-eye``: :func:`read_pose_csv`.  Import
 explicitly; ``import dualpose`` does not load this.
 
@@ -14,7 +16,13 @@ from dualpose.io.detect import detect_format, read_trajectory
 from dualpose.io.euroc import ImuData, read_euroc_groundtruth, read_euroc_imu, write_euroc_groundtruth, write_euroc_imu
 from dualpose.io.kitti import read_kitti, write_kitti
 from dualpose.io.pose_csv import read_pose_csv
-from dualpose.io.recording import RecordingError, read_recording, write_recording
+from dualpose.io.recording import (
+    RecordingError,
+    read_recording,
+    read_sensor_setup,
+    write_recording,
+    write_sensor_setup,
+)
 from dualpose.io.tum import read_tum, write_tum
 from dualpose.types.trajectory import Trajectory, seconds_from_ns
 
@@ -37,4 +45,6 @@ __all__ = [
     "RecordingError",
     "read_recording",
     "write_recording",
+    "read_sensor_setup",
+    "write_sensor_setup",
 ]

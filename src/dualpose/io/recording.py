@@ -25,10 +25,18 @@ from pathlib import Path
 
 import numpy as np
 
-from dualpose.io._text import open_for_writing, parse_float_columns, parse_int_column, read_table
+from dualpose.io._text import check_path, open_for_writing, parse_float_columns, parse_int_column, read_table
 from dualpose.io.detect import read_trajectory
 from dualpose.io.euroc import ImuData, read_euroc_imu, write_euroc_groundtruth, write_euroc_imu
-from dualpose.types import CameraIntrinsics, FrameCorrespondences, ImuNoise, Recording, Trajectory
+from dualpose.types import (
+    CameraIntrinsics,
+    FilterStart,
+    FrameCorrespondences,
+    ImuNoise,
+    Recording,
+    SensorSetup,
+    Trajectory,
+)
 from dualpose.types.trajectory import seconds_from_ns
 
 __all__ = [
@@ -38,6 +46,8 @@ __all__ = [
     "write_recording",
     "read_imu",
     "read_correspondences",
+    "read_sensor_setup",
+    "write_sensor_setup",
 ]
 
 #: name of the sensor file looked up in a recording directory (``sensors.yaml``/``.yml`` also, with PyYAML)
@@ -85,6 +95,17 @@ _TOP_KEYS = {
     "imu": (True, "dict", "noise densities (Kalibr imu.yaml names)"),
     "gravity": (False, "vec3", "world gravity, m/s^2 (default [0, 0, -9.81])"),
     "rest_duration_s": (False, "pos", "leading rest period, s (default: detected)"),
+    "initial_state": (False, "dict", "filter start for dualpose fuse --stream (the batch starts from the rest)"),
+}
+_START_KEYS = {
+    "position": (True, "vec3", "p_wb, world frame, m"),
+    "quat": (True, "quat", "q_wb, body to world, xyzw"),
+    "velocity": (False, "vec3", "v_w, m/s (default 0)"),
+    "gyro_bias": (False, "vec3", "rad/s (default 0)"),
+    "accel_bias": (False, "vec3", "m/s^2 (default 0)"),
+    "position_sigma": (False, "pos", "m (default 0.01)"),
+    "velocity_sigma": (False, "pos", "m/s (default 0.01)"),
+    "attitude_sigma_deg": (False, "pos", "deg (default 0.5)"),
 }
 
 
@@ -343,6 +364,65 @@ def read_correspondences(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarra
     return ns[starts], offsets, data[:, 0:2].copy(), data[:, 2:5].copy()
 
 
+def _setup_sections(sf: _SensorFile) -> tuple[dict, dict, dict]:
+    """The checked top level, ``camera`` and ``imu`` sections of a sensor file."""
+    top = sf.section(sf.data, "", _TOP_KEYS)
+    if top.get("format", FORMAT_NAME) != FORMAT_NAME:
+        raise sf.error("format", f"expected '{FORMAT_NAME}'; got {top['format']!r}")
+    if top.get("version", FORMAT_VERSION) != FORMAT_VERSION:
+        raise sf.error("version", f"this dualpose reads version {FORMAT_VERSION}; got {top['version']!r}")
+    return top, sf.section(top["camera"], "camera.", _CAMERA_KEYS), sf.section(top["imu"], "imu.", _IMU_KEYS)
+
+
+def _imu_noise(imu_cfg: dict, rate: float) -> ImuNoise:
+    default_noise = ImuNoise()
+    return ImuNoise(
+        gyroscope_noise_density=imu_cfg["gyroscope_noise_density"],
+        gyroscope_random_walk=imu_cfg["gyroscope_random_walk"],
+        accelerometer_noise_density=imu_cfg["accelerometer_noise_density"],
+        accelerometer_random_walk=imu_cfg["accelerometer_random_walk"],
+        gyroscope_initial_bias_sigma=imu_cfg.get(
+            "gyroscope_initial_bias_sigma", default_noise.gyroscope_initial_bias_sigma
+        ),
+        accelerometer_initial_bias_sigma=imu_cfg.get(
+            "accelerometer_initial_bias_sigma", default_noise.accelerometer_initial_bias_sigma
+        ),
+        update_rate=rate,
+    )
+
+
+def read_sensor_setup(path: str | os.PathLike) -> SensorSetup:
+    """Read the sensor set-up and the filter start of a sensor file (``dualpose fuse --stream --calibration``).
+
+    The file is a recording's sensor file (docs/fusion.md; ``camera``, ``imu``, ``gravity`` as there, ``files`` and
+    ``rest_duration_s`` ignored) that also gives ``imu.update_rate`` (there are no IMU stamps to take it from) and
+    an ``initial_state`` object: ``position`` (m) and ``quat`` (q_wb, xyzw) required; ``velocity``, ``gyro_bias``,
+    ``accel_bias`` (default 0), ``position_sigma`` (m), ``velocity_sigma`` (m/s), ``attitude_sigma_deg``.
+
+    Raises
+    ------
+    RecordingError
+        Anything missing or malformed, with the file (and line).
+    """
+    sf = _SensorFile(_sensor_path(path))
+    top, cam, imu_cfg = _setup_sections(sf)
+    if "update_rate" not in imu_cfg:
+        raise RecordingError(f"{sf.path}: imu.update_rate: missing (the IMU rate, Hz: a stream has no stamps yet)")
+    if "initial_state" not in top:
+        raise RecordingError(f"{sf.path}: initial_state: missing (where the filter starts: position, quat, ...)")
+    st = sf.section(top["initial_state"], "initial_state.", _START_KEYS)
+    sig = math.radians(st.pop("attitude_sigma_deg", 0.5))
+    try:
+        return SensorSetup(
+            camera=CameraIntrinsics(cam["fx"], cam["fy"], cam["cx"], cam["cy"], cam["width"], cam["height"]),
+            q_bc=cam["q_bc"], p_bc=cam["p_bc"], pixel_sigma=cam["pixel_sigma"],
+            imu_noise=_imu_noise(imu_cfg, imu_cfg["update_rate"]), start=FilterStart(**st, attitude_sigma=sig),
+            time_offset=cam.get("timeshift_cam_imu", 0.0), gravity=top.get("gravity", np.array([0.0, 0.0, -9.81])),
+        )  # fmt: skip
+    except ValueError as exc:
+        raise RecordingError(f"{sf.path}: {exc}") from None
+
+
 # ------------------------------------------------------------------------------------------------ recording
 
 
@@ -359,13 +439,7 @@ def read_recording(path: str | os.PathLike):
         Anything missing or malformed, with the file (and line).
     """
     sf = _SensorFile(_sensor_path(path))
-    top = sf.section(sf.data, "", _TOP_KEYS)
-    if top.get("format", FORMAT_NAME) != FORMAT_NAME:
-        raise sf.error("format", f"expected '{FORMAT_NAME}'; got {top['format']!r}")
-    if top.get("version", FORMAT_VERSION) != FORMAT_VERSION:
-        raise sf.error("version", f"this dualpose reads version {FORMAT_VERSION}; got {top['version']!r}")
-    cam = sf.section(top["camera"], "camera.", _CAMERA_KEYS)
-    imu_cfg = sf.section(top["imu"], "imu.", _IMU_KEYS)
+    top, cam, imu_cfg = _setup_sections(sf)
     files = {**_DEFAULT_FILES, **sf.section(top.get("files", {}), "files.", _FILES_KEYS)}
     base = sf.path.parent
 
@@ -381,21 +455,7 @@ def read_recording(path: str | os.PathLike):
         except ValueError as exc:
             raise RecordingError(str(exc)) from None
 
-    default_noise = ImuNoise()
-    rate = imu_cfg.get("update_rate", 1.0 / float(np.median(np.diff(imu.stamps))))
-    noise = ImuNoise(
-        gyroscope_noise_density=imu_cfg["gyroscope_noise_density"],
-        gyroscope_random_walk=imu_cfg["gyroscope_random_walk"],
-        accelerometer_noise_density=imu_cfg["accelerometer_noise_density"],
-        accelerometer_random_walk=imu_cfg["accelerometer_random_walk"],
-        gyroscope_initial_bias_sigma=imu_cfg.get(
-            "gyroscope_initial_bias_sigma", default_noise.gyroscope_initial_bias_sigma
-        ),
-        accelerometer_initial_bias_sigma=imu_cfg.get(
-            "accelerometer_initial_bias_sigma", default_noise.accelerometer_initial_bias_sigma
-        ),
-        update_rate=rate,
-    )
+    noise = _imu_noise(imu_cfg, imu_cfg.get("update_rate", 1.0 / float(np.median(np.diff(imu.stamps)))))
     camera = CameraIntrinsics(cam["fx"], cam["fy"], cam["cx"], cam["cy"], cam["width"], cam["height"])
     frames = FrameCorrespondences(seconds_from_ns(frame_ns), offsets, pixels, points)
     try:  # Recording checks the values (IMU ranges, noise parameters, gravity): name the file they came from
@@ -472,11 +532,21 @@ def write_recording(directory: str | os.PathLike, recording: Recording, *, overw
         write_euroc_groundtruth(out / "groundtruth.csv", gt, overwrite=overwrite)
         names["groundtruth"] = "groundtruth.csv"
 
+    sensors = _setup_dict(rec, names)
+    if rec.rest_seconds is not None:
+        sensors["rest_duration_s"] = float(rec.rest_seconds)
+    with open_for_writing(out / SENSORS_FILE, overwrite) as fh:
+        fh.write(json.dumps(sensors, indent=2) + "\n")
+    return out / SENSORS_FILE
+
+
+def _setup_dict(rec: Recording | SensorSetup, files: dict | None) -> dict:
+    """The sensor file's ``format``, ``version``, (``files``,) ``camera``, ``imu`` and ``gravity`` of ``rec``."""
     c, n = rec.camera, rec.imu_noise
-    sensors = {
+    return {
         "format": FORMAT_NAME,
         "version": FORMAT_VERSION,
-        "files": names,
+        **({} if files is None else {"files": files}),
         "camera": {
             "fx": float(c.fx), "fy": float(c.fy), "cx": float(c.cx), "cy": float(c.cy),
             "width": int(c.width), "height": int(c.height), "pixel_sigma": float(rec.pixel_sigma),
@@ -486,8 +556,28 @@ def write_recording(directory: str | os.PathLike, recording: Recording, *, overw
         "imu": {key: float(getattr(n, key)) for key in _IMU_KEYS},
         "gravity": [float(v) for v in rec.gravity],
     }  # fmt: skip
-    if rec.rest_seconds is not None:
-        sensors["rest_duration_s"] = float(rec.rest_seconds)
-    with open_for_writing(out / SENSORS_FILE, overwrite) as fh:
-        fh.write(json.dumps(sensors, indent=2) + "\n")
-    return out / SENSORS_FILE
+
+
+def write_sensor_setup(path: str | os.PathLike, setup: SensorSetup, *, overwrite: bool = False) -> Path:
+    """Write a :class:`~dualpose.types.recording.SensorSetup` as the sensor file :func:`read_sensor_setup` (and
+    ``dualpose fuse --stream --calibration FILE``) reads back exactly (JSON, numbers as their shortest exact text).
+
+    Raises
+    ------
+    FileExistsError
+        When ``path`` exists and ``overwrite`` is False.
+    """
+    if not isinstance(setup, SensorSetup):
+        raise TypeError(f"setup must be a dualpose.types.SensorSetup; got {type(setup).__name__}")
+    st = setup.start
+    out = _setup_dict(setup, None)
+    out["imu"]["update_rate"] = float(setup.imu_noise.update_rate)
+    out["initial_state"] = {
+        **{k: [float(v) for v in getattr(st, k)] for k in ("position", "quat", "velocity", "gyro_bias", "accel_bias")},
+        "position_sigma": float(st.position_sigma), "velocity_sigma": float(st.velocity_sigma),
+        "attitude_sigma_deg": math.degrees(st.attitude_sigma),
+    }  # fmt: skip
+    p = Path(check_path(path))
+    with open_for_writing(p, overwrite) as fh:
+        fh.write(json.dumps(out, indent=2) + "\n")
+    return p

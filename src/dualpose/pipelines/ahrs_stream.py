@@ -24,7 +24,7 @@ from collections.abc import Iterable, Iterator
 import numpy as np
 
 from dualpose.estimation.ahrs_stream import AhrsStream
-from dualpose.io._text import split_fields
+from dualpose.pipelines._lines import format_numbers, parse_numbers, split_fields
 
 __all__ = ["INPUT_FIELDS", "OUTPUT_FIELDS", "format_row", "parse_imu_line", "stream_ahrs_lines"]
 
@@ -65,29 +65,12 @@ def parse_imu_line(line: str, use_mag: bool) -> list[float] | None:
     names = INPUT_FIELDS[use_mag]
     if len(fields) != len(names):
         raise ValueError(f"expected {len(names)} fields ({', '.join(names)}), got {len(fields)}")
-    try:
-        values = [float(x) for x in fields]
-    except ValueError:
-        k = next(i for i, x in enumerate(fields) if not _is_float(x))
-        raise ValueError(f"field {k + 1} ({names[k]}): {fields[k]!r} is not a number") from None
-    for k, v in enumerate(values):
-        if not math.isfinite(v):
-            raise ValueError(f"field {k + 1} ({names[k]}): non-finite value {fields[k]!r}")
-    return values
-
-
-def _is_float(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
+    return parse_numbers(fields, names)
 
 
 def format_row(t: float, quat: np.ndarray) -> str:
     """One output line ``t, qx, qy, qz, qw`` with its newline; each number is ``repr`` of the float64 (exact)."""
-    qx, qy, qz, qw = quat.tolist()
-    return f"{t!r}, {qx!r}, {qy!r}, {qz!r}, {qw!r}\n"
+    return format_numbers([t, *quat.tolist()])
 
 
 def stream_ahrs_lines(

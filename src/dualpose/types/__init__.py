@@ -3,14 +3,15 @@
 * :class:`Trajectory` (:mod:`~dualpose.types.trajectory`): timestamped poses, what readers return and metrics take.
 * :class:`ImuNoise` (:mod:`~dualpose.types.imu`): IMU noise densities and random walks (Kalibr conventions).
 * :class:`PinholeCamera`, :class:`CameraIntrinsics`, :class:`FrameCorrespondences` (:mod:`~dualpose.types.camera`).
-* :class:`Recording` (:mod:`~dualpose.types.recording`): one camera-IMU run, whatever its source.
+* :class:`Recording` (:mod:`~dualpose.types.recording`): one camera-IMU run, whatever its source;
+  :class:`SensorSetup` / :class:`FilterStart`: its sensor set-up and a filter start without the data (streaming).
 
 Layouts: positions ``(N, 3)`` metres, quaternions ``(N, 4)`` xyzw Hamilton body -> world, times in seconds.
 """
 
 from dualpose.types.camera import CameraFrame, CameraIntrinsics, FrameCorrespondences, PinholeCamera, PinholeModel
 from dualpose.types.imu import STANDARD_GRAVITY, ImuNoise
-from dualpose.types.recording import Recording, SensorRun
+from dualpose.types.recording import FilterStart, Recording, SensorRun, SensorSetup
 from dualpose.types.trajectory import Trajectory, seconds_from_ns
 
 __all__ = [
@@ -18,11 +19,13 @@ __all__ = [
     "CameraFrame",
     "CameraIntrinsics",
     "FrameCorrespondences",
+    "FilterStart",
     "ImuNoise",
     "PinholeCamera",
     "PinholeModel",
     "Recording",
     "SensorRun",
+    "SensorSetup",
     "Trajectory",
     "seconds_from_ns",
 ]

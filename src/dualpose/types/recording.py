@@ -23,7 +23,7 @@ from dualpose.types.camera import FrameCorrespondences, PinholeModel
 from dualpose.types.imu import ImuNoise
 from dualpose.types.trajectory import Trajectory
 
-__all__ = ["IMU_LIMITS", "NOISE_LIMITS", "Recording", "RecordingWarning", "SensorRun"]
+__all__ = ["IMU_LIMITS", "NOISE_LIMITS", "FilterStart", "Recording", "RecordingWarning", "SensorRun", "SensorSetup"]
 
 #: largest plausible IMU reading per stream (rad/s, m/s²): far above any MEMS or tactical IMU's range (±35 rad/s,
 #: ±160 m/s² are typical full scales); a larger value is a corrupt sample, not a measurement
@@ -140,20 +140,7 @@ class Recording:
                 raise ValueError(f"{name}: sample {k} (t = {self.t[k]:.6f} s) is not finite ({bad.size} such); drop "
                                  "or interpolate the missing samples")  # fmt: skip
             setattr(self, name, a)
-        self.q_bc = np.asarray(self.q_bc, dtype=np.float64)
-        self.p_bc = np.asarray(self.p_bc, dtype=np.float64)
-        if self.q_bc.shape != (4,) or self.p_bc.shape != (3,):
-            raise ValueError(f"q_bc must have shape (4,) and p_bc (3,); got {self.q_bc.shape}, {self.p_bc.shape}")
-        if not (math.isfinite(self.pixel_sigma) and self.pixel_sigma > 0):
-            raise ValueError(f"pixel_sigma must be > 0 px; got {self.pixel_sigma}")
-        self.gravity = np.asarray(self.gravity, dtype=np.float64)
-        if self.gravity.shape != (3,):
-            raise ValueError(f"gravity must have shape (3,); got {self.gravity.shape}")
-        g = float(np.linalg.norm(self.gravity)) if np.isfinite(self.gravity).all() else math.nan
-        if not 1.0 <= g <= 100.0:
-            raise ValueError(
-                f"gravity: magnitude must be in [1, 100] m/s² (9.81 on Earth); got {self.gravity.tolist()}"
-            )
+        _check_setup(self)
         for name, limit in IMU_LIMITS.items():
             a = getattr(self, name)
             big = np.flatnonzero(np.abs(a).max(axis=1) > limit)
@@ -163,14 +150,6 @@ class Recording:
                     f"{name}: sample {k} (t = {self.t[k]:.6f} s) has |value| {np.abs(a[k]).max():.3g} > {limit:g} "
                     f"({'rad/s' if name == 'gyro' else 'm/s²'}): a corrupt sample ({big.size} such)"
                 )
-        for f in fields(self.imu_noise):
-            v = getattr(self.imu_noise, f.name)
-            hi = NOISE_LIMITS.get(f.name, 1e6)  # update_rate: Hz
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and 0 <= v <= hi):
-                raise ValueError(f"imu_noise.{f.name} must be finite and in [0, {hi:g}]; got {v!r}")
-        if not self.imu_noise.update_rate > 0:
-            raise ValueError(f"imu_noise.update_rate must be > 0 Hz; got {self.imu_noise.update_rate!r}")
-
     @property
     def duration(self) -> float:
         """``t[-1] − t[0]``, seconds."""
@@ -180,15 +159,7 @@ class Recording:
         """Keyword arguments configuring a filter for this recording (IMU noise, gravity, camera, extrinsic,
         pixel σ, time offset); the counterpart of :meth:`SimulatedRun.sensor_options
         <dualpose.sim.SimulatedRun.sensor_options>`."""
-        return {
-            "imu_noise": self.imu_noise,
-            "gravity": self.gravity,
-            "camera": self.camera,
-            "q_bc": self.q_bc,
-            "p_bc": self.p_bc,
-            "pixel_sigma": self.pixel_sigma,
-            "camera_time_offset": self.time_offset,
-        }
+        return _sensor_options(self)
 
     def nominal_period(self) -> float:
         """The median IMU sample spacing, seconds."""
@@ -259,3 +230,101 @@ class Recording:
             warnings.warn(f"{where}: the specific force at rest is {nf:.3f} m/s² but |gravity| is {ng:.3f} m/s²: "
                           "check the accelerometer's unit (m/s², not g)", RecordingWarning, stacklevel=2)  # fmt: skip
         return angle
+
+
+def _check_setup(s: Recording | SensorSetup) -> None:
+    """Check (and convert to float64 arrays) the sensor set-up fields shared by Recording and SensorSetup."""
+    s.q_bc = np.asarray(s.q_bc, dtype=np.float64)
+    s.p_bc = np.asarray(s.p_bc, dtype=np.float64)
+    if s.q_bc.shape != (4,) or s.p_bc.shape != (3,):
+        raise ValueError(f"q_bc must have shape (4,) and p_bc (3,); got {s.q_bc.shape}, {s.p_bc.shape}")
+    if not (math.isfinite(s.pixel_sigma) and s.pixel_sigma > 0):
+        raise ValueError(f"pixel_sigma must be > 0 px; got {s.pixel_sigma}")
+    s.gravity = np.asarray(s.gravity, dtype=np.float64)
+    if s.gravity.shape != (3,):
+        raise ValueError(f"gravity must have shape (3,); got {s.gravity.shape}")
+    g = float(np.linalg.norm(s.gravity)) if np.isfinite(s.gravity).all() else math.nan
+    if not 1.0 <= g <= 100.0:
+        raise ValueError(
+            f"gravity: magnitude must be in [1, 100] m/s² (9.81 on Earth); got {s.gravity.tolist()}"
+        )
+    for f in fields(s.imu_noise):
+        v = getattr(s.imu_noise, f.name)
+        hi = NOISE_LIMITS.get(f.name, 1e6)  # update_rate: Hz
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and 0 <= v <= hi):
+            raise ValueError(f"imu_noise.{f.name} must be finite and in [0, {hi:g}]; got {v!r}")
+    if not s.imu_noise.update_rate > 0:
+        raise ValueError(f"imu_noise.update_rate must be > 0 Hz; got {s.imu_noise.update_rate!r}")
+
+
+def _sensor_options(s: Recording | SensorSetup) -> dict:
+    return {
+        "imu_noise": s.imu_noise,
+        "gravity": s.gravity,
+        "camera": s.camera,
+        "q_bc": s.q_bc,
+        "p_bc": s.p_bc,
+        "pixel_sigma": s.pixel_sigma,
+        "camera_time_offset": s.time_offset,
+    }
+
+
+@dataclass(frozen=True)
+class FilterStart:
+    """Where a camera–IMU filter starts: the error-state filter's nominal state and the sigmas of its diagonal
+    covariance (the bias sigmas are the IMU's turn-on bias sigmas).
+
+    Attributes
+    ----------
+    position, velocity : ndarray, shape (3,)
+        ``p_wb`` (m) and ``v_w`` (m/s), world frame.
+    quat : ndarray, shape (4,)
+        ``q_wb``, xyzw, body → world (unit).
+    gyro_bias, accel_bias : ndarray, shape (3,)
+        rad/s, m/s².
+    position_sigma, velocity_sigma, attitude_sigma : float
+        1σ of the start, m, m/s, rad (attitude: the local error ``q = q̂ ⊗ Exp(δθ)``).
+    """
+
+    position: np.ndarray
+    quat: np.ndarray
+    velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    gyro_bias: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    accel_bias: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    position_sigma: float = 0.01
+    velocity_sigma: float = 0.01
+    attitude_sigma: float = math.radians(0.5)
+
+
+@dataclass
+class SensorSetup:
+    """The sensor set-up of a recording without its data, and where the filter starts: what a camera–IMU filter
+    needs before the first sample (``dualpose fuse --stream --calibration FILE``, docs/fusion.md "Streaming").
+
+    Attributes as :class:`Recording`'s of the same names (``camera``, ``q_bc``, ``p_bc``, ``pixel_sigma``,
+    ``imu_noise`` -- whose ``update_rate`` is the IMU rate --, ``time_offset``, ``gravity``); ``start`` the
+    :class:`FilterStart`.
+    """
+
+    camera: PinholeModel
+    q_bc: np.ndarray
+    p_bc: np.ndarray
+    pixel_sigma: float
+    imu_noise: ImuNoise
+    start: FilterStart
+    time_offset: float = 0.0
+    gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
+
+    def __post_init__(self) -> None:
+        _check_setup(self)
+
+    @classmethod
+    def of(cls, recording: Recording, start: FilterStart) -> SensorSetup:
+        """The set-up of ``recording`` (its sensors, without the data) with the filter start ``start``."""
+        r = recording
+        return cls(camera=r.camera, q_bc=r.q_bc, p_bc=r.p_bc, pixel_sigma=r.pixel_sigma, imu_noise=r.imu_noise,
+                   start=start, time_offset=r.time_offset, gravity=r.gravity)  # fmt: skip
+
+    def sensor_options(self) -> dict:
+        """Keyword arguments configuring a filter for this set-up (as :meth:`Recording.sensor_options`)."""
+        return _sensor_options(self)

@@ -4,7 +4,10 @@
 #include "eskf_args.hpp"
 #include "eskf_kernels.hpp"
 #include "eskf_run.hpp"
+#include "stream_buffer.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <vector>
 
 namespace dualpose {
@@ -28,6 +31,24 @@ constexpr auto ci1 = convert<std::int64_t, 1>;
 constexpr auto ci1w = convert<std::int64_t, 1, true>;
 
 bool state_ok(const V1w& x, const M2w& P) { return shape_is("x", x, {NX}) && shape_is("P", P, {NE, NE}); }
+
+bool config_ok(const V1& gravity, const V1& noise, const V1& intr, const V1& q_bc, const V1& p_bc) {
+    return shape_is("gravity", gravity, {3}) && shape_is("noise", noise, {4}) && shape_is("intr", intr, {4}) &&
+           shape_is("q_bc", q_bc, {4}) && shape_is("p_bc", p_bc, {3});
+}
+
+Config make_config(const V1& gravity, const V1& noise, const V1& intr, const V1& q_bc, const V1& p_bc,
+                   double sigma_px, double gate) {
+    Config c{};
+    std::copy(gravity.data, gravity.data + 3, c.gravity);
+    std::copy(noise.data, noise.data + 4, c.noise);
+    std::copy(intr.data, intr.data + 4, c.intr);
+    std::copy(q_bc.data, q_bc.data + 4, c.q_bc);
+    std::copy(p_bc.data, p_bc.data + 3, c.p_bc);
+    c.sigma_px = sigma_px;
+    c.gate = gate;
+    return c;
+}
 
 bool camera_ok(const V1& intr, const V1& q_bc, const V1& p_bc, const M2& pixels, const M2& points) {
     return shape_is("intr", intr, {4}) && shape_is("q_bc", q_bc, {4}) && shape_is("p_bc", p_bc, {3}) &&
@@ -196,9 +217,8 @@ PyObject* py_update_dense(PyObject*, PyObject* args) {
 
 // Parse the 22 arguments of eskf_run (and the 8 node arrays of eskf_run_recorded when rec is given).
 bool parse_run(PyObject* args, const char* fmt, RunArgs& a, NodeRecord* rec) {
-    V1 t, cam_t, gravity, noise, intr, q_bc, p_bc;
-    M2 gyro, accel, pixels, points;
-    I1 offsets;
+    BlockArrays ba;
+    V1 gravity, noise, intr, q_bc, p_bc;
     V1w x, nis;
     M2w P, X, XF;
     T3w Ps, PF;
@@ -207,32 +227,26 @@ bool parse_run(PyObject* args, const char* fmt, RunArgs& a, NodeRecord* rec) {
     T3w PA, PB, FS;
     V1w TN;
     I1w imu_node, frame_node;
-    bool ok = rec ? PyArg_ParseTuple(args, fmt, cv1, &t, cm2, &gyro, cm2, &accel, cv1, &cam_t, ci1, &offsets, cm2,
-                                     &pixels, cm2, &points, cv1w, &x, cm2w, &P, cv1, &gravity, cv1, &noise, cv1, &intr,
-                                     cv1, &q_bc, cv1, &p_bc, &a.sigma_px, &a.gate, cm2w, &X, ct3w, &Ps, cm2w, &XF, ct3w,
-                                     &PF, cv1w, &nis, ci1w, &acc, cm2w, &XA, ct3w, &PA, cm2w, &XB, ct3w, &PB, ct3w, &FS,
-                                     cv1w, &TN, ci1w, &imu_node, ci1w, &frame_node)
-                  : PyArg_ParseTuple(args, fmt, cv1, &t, cm2, &gyro, cm2, &accel, cv1, &cam_t, ci1, &offsets, cm2,
-                                     &pixels, cm2, &points, cv1w, &x, cm2w, &P, cv1, &gravity, cv1, &noise, cv1, &intr,
-                                     cv1, &q_bc, cv1, &p_bc, &a.sigma_px, &a.gate, cm2w, &X, ct3w, &Ps, cm2w, &XF, ct3w,
-                                     &PF, cv1w, &nis, ci1w, &acc);
+    double sigma_px, gate;
+    bool ok = rec ? PyArg_ParseTuple(args, fmt, cv1, &ba.t, cm2, &ba.gyro, cm2, &ba.accel, cv1, &ba.cam_t, ci1,
+                                     &ba.offsets, cm2, &ba.pixels, cm2, &ba.points, cv1w, &x, cm2w, &P, cv1, &gravity,
+                                     cv1, &noise, cv1, &intr, cv1, &q_bc, cv1, &p_bc, &sigma_px, &gate, cm2w, &X,
+                                     ct3w, &Ps, cm2w, &XF, ct3w, &PF, cv1w, &nis, ci1w, &acc, cm2w, &XA, ct3w, &PA,
+                                     cm2w, &XB, ct3w, &PB, ct3w, &FS, cv1w, &TN, ci1w, &imu_node, ci1w, &frame_node)
+                  : PyArg_ParseTuple(args, fmt, cv1, &ba.t, cm2, &ba.gyro, cm2, &ba.accel, cv1, &ba.cam_t, ci1,
+                                     &ba.offsets, cm2, &ba.pixels, cm2, &ba.points, cv1w, &x, cm2w, &P, cv1, &gravity,
+                                     cv1, &noise, cv1, &intr, cv1, &q_bc, cv1, &p_bc, &sigma_px, &gate, cm2w, &X,
+                                     ct3w, &Ps, cm2w, &XF, ct3w, &PF, cv1w, &nis, ci1w, &acc);
     if (!ok) return false;
-    const npy_intp n = t.shape[0], nf = cam_t.shape[0], m = pixels.shape[0];
+    const npy_intp n = ba.t.shape[0], nf = ba.cam_t.shape[0], m = ba.pixels.shape[0];
     if (n < 1) {
         PyErr_SetString(PyExc_ValueError, "t must hold at least one IMU sample");
         return false;
     }
-    if (!shape_is("gyro", gyro, {n, 3}) || !shape_is("accel", accel, {n, 3}) ||
-        !shape_is("offsets", offsets, {nf + 1}) || !state_ok(x, P) || !shape_is("gravity", gravity, {3}) ||
-        !shape_is("noise", noise, {4}) || !camera_ok(intr, q_bc, p_bc, pixels, points) ||
+    if (!block_of(ba, a.b) || !state_ok(x, P) || !config_ok(gravity, noise, intr, q_bc, p_bc) ||
         !shape_is("X", X, {n, NX}) || !shape_is("Ps", Ps, {n, NE, NE}) || !shape_is("XF", XF, {nf, NX}) ||
         !shape_is("PF", PF, {nf, NE, NE}) || !shape_is("nis_out", nis, {m}) || !shape_is("accepted_out", acc, {m}))
         return false;
-    for (npy_intp j = 0; j < nf; ++j)
-        if (offsets[j] < 0 || offsets[j] > offsets[j + 1] || offsets[j + 1] > m) {
-            PyErr_SetString(PyExc_ValueError, "offsets must be nondecreasing within [0, M]");
-            return false;
-        }
     if (rec) {
         const npy_intp k = XA.shape[0];
         if (k < n + nf) {
@@ -246,28 +260,10 @@ bool parse_run(PyObject* args, const char* fmt, RunArgs& a, NodeRecord* rec) {
             return false;
         *rec = {XA.data, PA.data, XB.data, PB.data, FS.data, TN.data, imu_node.data, frame_node.data};
     }
-    a.n = n;
-    a.nf = nf;
-    a.t = t.data;
-    a.gyro = gyro.data;
-    a.accel = accel.data;
-    a.cam_t = cam_t.data;
-    a.offsets = offsets.data;
-    a.pixels = pixels.data;
-    a.points = points.data;
     a.x = x.data;
     a.P = P.data;
-    a.gravity = gravity.data;
-    a.noise = noise.data;
-    a.intr = intr.data;
-    a.q_bc = q_bc.data;
-    a.p_bc = p_bc.data;
-    a.X = X.data;
-    a.Ps = Ps.data;
-    a.XF = XF.data;
-    a.PF = PF.data;
-    a.nis_out = nis.data;
-    a.accepted_out = acc.data;
+    a.c = make_config(gravity, noise, intr, q_bc, p_bc, sigma_px, gate);
+    a.o = Outputs{X.data, Ps.data, XF.data, PF.data, nis.data, acc.data};
     return true;
 }
 
@@ -292,6 +288,146 @@ PyObject* py_run_recorded(PyObject*, PyObject* args) {
     return PyLong_FromLongLong(k);
 }
 
+// ---- the streaming filter (dualpose.estimation.eskf.EskfStream): the state in one numpy.uint8 buffer
+
+constexpr const char* stream_what = "an ESKF stream state";
+
+Stream* stream_arg(PyObject* o, bool write) {
+    return stream::stream_of<Stream>(o, "state", write, STREAM_MAGIC, STREAM_VERSION, stream_what);
+}
+
+PyObject* py_stream_new(PyObject*, PyObject* args) {
+    V1 x, gravity, noise, intr, q_bc, p_bc;
+    M2 P;
+    double sigma_px, gate;
+    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&dd:eskf_stream_new", cv1, &x, cm2, &P, cv1, &gravity, cv1, &noise,
+                          cv1, &intr, cv1, &q_bc, cv1, &p_bc, &sigma_px, &gate))
+        return nullptr;
+    if (!shape_is("x", x, {NX}) || !shape_is("P", P, {NE, NE}) || !config_ok(gravity, noise, intr, q_bc, p_bc))
+        return nullptr;
+    PyObject* out = stream::new_buffer<Stream>(STREAM_MAGIC, STREAM_VERSION);
+    if (out == nullptr) return nullptr;
+    auto* s = static_cast<Stream*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(out)));
+    s->c = make_config(gravity, noise, intr, q_bc, p_bc, sigma_px, gate);
+    init_filter(s->f, x.data, P.data);
+    return out;
+}
+
+// eskf_stream_imu(state, t, gyro, accel) -> x (16,): the IMU sample at t (after the frames up to t were given).
+PyObject* py_stream_imu(PyObject*, PyObject* const* args, Py_ssize_t nargs) {
+    if (nargs != 4) {
+        PyErr_SetString(PyExc_TypeError, "eskf_stream_imu(state, t, gyro, accel) takes 4 arguments");
+        return nullptr;
+    }
+    Stream* s = stream_arg(args[0], true);
+    if (s == nullptr) return nullptr;
+    const double t = PyFloat_AsDouble(args[1]);
+    if (t == -1.0 && PyErr_Occurred()) return nullptr;
+    double g[3], a[3];
+    if (!stream::read3(args[2], "gyro", g) || !stream::read3(args[3], "accel", a)) return nullptr;
+    if (!std::isfinite(t) || (s->f.samples > 0 && !(t > s->f.t0))) return stream::time_error(t, s->f.t0);
+    double F[NE * NE];
+    if (s->f.samples == 0)
+        start(s->f, t, g, a);
+    else
+        finish_interval(s->f, s->c, t, g, a, F);
+    return stream::new_vector(s->f.x, NX);
+}
+
+// The correspondences and the (m,) nis / accepted outputs of one frame.
+struct FrameArgs {
+    M2 pixels, points;
+    V1w nis;
+    I1w acc;
+    bool ok() const {
+        const npy_intp m = pixels.shape[0];
+        return shape_is("pixels", pixels, {-1, 2}) && shape_is("points", points, {m, 3}) &&
+               shape_is("nis", nis, {m}) && shape_is("accepted", acc, {m});
+    }
+};
+
+// eskf_stream_frame(state, tj, t1, g1, a1, pixels, points, nis, accepted) -> int: predict to the frame time tj
+// with the input interpolated towards the next IMU sample (t1, g1, a1), then the camera update.
+PyObject* py_stream_frame(PyObject*, PyObject* args) {
+    PyObject *state, *go, *ao;
+    double tj, t1;
+    FrameArgs fa;
+    if (!PyArg_ParseTuple(args, "OddOOO&O&O&O&:eskf_stream_frame", &state, &tj, &t1, &go, &ao, cm2, &fa.pixels, cm2,
+                          &fa.points, cv1w, &fa.nis, ci1w, &fa.acc))
+        return nullptr;
+    Stream* s = stream_arg(state, true);
+    double g[3], a[3];
+    if (s == nullptr || !stream::read3(go, "gyro", g) || !stream::read3(ao, "accel", a) || !fa.ok()) return nullptr;
+    if (s->f.samples == 0 || !(s->f.tc <= tj && tj <= t1 && t1 > s->f.t0)) {
+        PyErr_SetString(PyExc_ValueError, "eskf_stream_frame: the frame time must lie in the interval from the "
+                                          "time reached to the next IMU sample");
+        return nullptr;
+    }
+    double F[NE * NE];
+    predict_to_frame(s->f, s->c, tj, t1, g, a, F);
+    return PyLong_FromLongLong(
+        update_frame(s->f, s->c, fa.pixels.data, fa.points.data, fa.pixels.shape[0], fa.nis.data, fa.acc.data));
+}
+
+// eskf_stream_update(state, pixels, points, nis, accepted) -> int: the camera update at the current time.
+PyObject* py_stream_update(PyObject*, PyObject* args) {
+    PyObject* state;
+    FrameArgs fa;
+    if (!PyArg_ParseTuple(args, "OO&O&O&O&:eskf_stream_update", &state, cm2, &fa.pixels, cm2, &fa.points, cv1w,
+                          &fa.nis, ci1w, &fa.acc))
+        return nullptr;
+    Stream* s = stream_arg(state, true);
+    if (s == nullptr || !fa.ok()) return nullptr;
+    return PyLong_FromLongLong(
+        update_frame(s->f, s->c, fa.pixels.data, fa.points.data, fa.pixels.shape[0], fa.nis.data, fa.acc.data));
+}
+
+// eskf_stream_run(state, t, gyro, accel, cam_t, offsets, pixels, points, X, Ps, nis, accepted) -> int: feed a
+// block; Ps may be None; returns the frames consumed.
+PyObject* py_stream_run(PyObject*, PyObject* args) {
+    PyObject *state, *ps_obj;
+    BlockArrays ba;
+    M2w X;
+    V1w nis;
+    I1w acc;
+    if (!PyArg_ParseTuple(args, "OO&O&O&O&O&O&O&O&OO&O&:eskf_stream_run", &state, cv1, &ba.t, cm2, &ba.gyro, cm2,
+                          &ba.accel, cv1, &ba.cam_t, ci1, &ba.offsets, cm2, &ba.pixels, cm2, &ba.points, cm2w, &X,
+                          &ps_obj, cv1w, &nis, ci1w, &acc))
+        return nullptr;
+    Stream* s = stream_arg(state, true);
+    Block b;
+    if (s == nullptr || !block_of(ba, b)) return nullptr;
+    const npy_intp n = b.n, m = ba.pixels.shape[0];
+    T3w Ps;
+    if (ps_obj != Py_None && (!ct3w(ps_obj, &Ps) || !shape_is("Ps", Ps, {n, NE, NE}))) return nullptr;
+    if (!shape_is("X", X, {n, NX}) || !shape_is("nis", nis, {m}) || !shape_is("accepted", acc, {m})) return nullptr;
+    const Outputs o{X.data, ps_obj == Py_None ? nullptr : Ps.data, nullptr, nullptr, nis.data, acc.data};
+    std::int64_t used;
+    Py_BEGIN_ALLOW_THREADS
+    used = feed(s->f, s->c, b, o, nullptr, nullptr);
+    Py_END_ALLOW_THREADS
+    return PyLong_FromLongLong(used);
+}
+
+// eskf_stream_get(state) -> (x (16,), P (225,), t0, tc, samples)
+PyObject* py_stream_get(PyObject*, PyObject* args) {
+    PyObject* state;
+    if (!PyArg_ParseTuple(args, "O:eskf_stream_get", &state)) return nullptr;
+    const Stream* s = stream_arg(state, false);
+    if (s == nullptr) return nullptr;
+    return Py_BuildValue("NNddL", stream::new_vector(s->f.x, NX), stream::new_vector(s->f.P, NE * NE), s->f.t0,
+                         s->f.tc, static_cast<long long>(s->f.samples));
+}
+
+PyObject* py_stream_check(PyObject*, PyObject* args) {
+    PyObject* state;
+    const char* name = "state";
+    if (!PyArg_ParseTuple(args, "O|s:eskf_stream_check", &state, &name)) return nullptr;
+    if (stream::stream_of<Stream>(state, name, false, STREAM_MAGIC, STREAM_VERSION, stream_what) == nullptr)
+        return nullptr;
+    Py_RETURN_NONE;
+}
+
 PyMethodDef methods[] = {
     {"eskf_predict", py_predict, METH_VARARGS,
      "eskf_predict(x, P, gyro, accel, dt, gravity, noise): propagate nominal state x (16,) and error covariance "
@@ -314,6 +450,24 @@ PyMethodDef methods[] = {
     {"eskf_update_dense", py_update_dense, METH_VARARGS,
      "eskf_update_dense(x, P, r, H, R) -> float: batch update with residual r (m,), Jacobian H (m, 15), noise "
      "R (m, m); returns the NIS."},
+    {"eskf_stream_new", py_stream_new, METH_VARARGS,
+     "eskf_stream_new(x, P, gravity, noise, intr, q_bc, p_bc, sigma_px, gate) -> state: a new ESKF stream "
+     "(numpy.uint8 array: layout header, constants, filter state) before its first sample."},
+    {"eskf_stream_imu", reinterpret_cast<PyCFunction>(reinterpret_cast<void (*)()>(py_stream_imu)), METH_FASTCALL,
+     "eskf_stream_imu(state, t, gyro, accel) -> x (16,): one IMU sample (the step of eskf_run)."},
+    {"eskf_stream_frame", py_stream_frame, METH_VARARGS,
+     "eskf_stream_frame(state, tj, t1, g1, a1, pixels, points, nis, accepted) -> int: predict to the frame time tj "
+     "(input interpolated towards the next IMU sample t1, g1, a1) and update with the frame."},
+    {"eskf_stream_update", py_stream_update, METH_VARARGS,
+     "eskf_stream_update(state, pixels, points, nis, accepted) -> int: camera update at the current time."},
+    {"eskf_stream_run", py_stream_run, METH_VARARGS,
+     "eskf_stream_run(state, t, gyro, accel, cam_t, offsets, pixels, points, X, Ps, nis, accepted) -> int: the "
+     "steps over a block (Ps may be None); returns the number of frames consumed.  The GIL is released."},
+    {"eskf_stream_get", py_stream_get, METH_VARARGS,
+     "eskf_stream_get(state) -> (x (16,), P (225,), t0, tc, samples): copies of the stream's state."},
+    {"eskf_stream_check", py_stream_check, METH_VARARGS,
+     "eskf_stream_check(state, name='state'): ValueError naming `name` unless state is an ESKF stream of this "
+     "layout version and size."},
     {"eskf_run", py_run, METH_VARARGS,
      "eskf_run(t, gyro, accel, cam_t, offsets, pixels, points, x, P, gravity, noise, intr, q_bc, p_bc, sigma_px, "
      "gate, X, Ps, XF, PF, nis_out, accepted_out): filter a whole stream (see ErrorStateEKF.run)."},
@@ -328,6 +482,7 @@ PyMethodDef methods[] = {
 bool add_eskf(PyObject* m) {
     for (const auto& c : eskf::layout_constants)
         if (PyModule_AddIntConstant(m, c.name, c.value) != 0) return false;
+    if (PyModule_AddIntConstant(m, "ESKF_STREAM_VERSION", eskf::STREAM_VERSION) != 0) return false;
     return PyModule_AddFunctions(m, methods) == 0;
 }
 

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "../common/args.hpp"
+#include "sensor_block.hpp"
 
 #include <initializer_list>
 #include <string>
@@ -42,6 +43,35 @@ inline PyObject* raise_linalg_error(const char* msg) {
     PyErr_SetString(exc, msg);
     Py_DECREF(exc);
     return nullptr;
+}
+
+// The arrays of a SensorBlock as parsed by PyArg_ParseTuple ("O&" with convert<...>, in the order t, gyro, accel,
+// cam_t, offsets, pixels, points).
+struct BlockArrays {
+    Array<double, 1> t;
+    Array<double, 2> gyro, accel;
+    Array<double, 1> cam_t;
+    Array<std::int64_t, 1> offsets;
+    Array<double, 2> pixels, points;
+};
+
+// Check the shapes of a block (N IMU samples, F frames, M correspondences; offsets nondecreasing within [0, M]) and
+// fill b; false with ValueError otherwise.
+inline bool block_of(const BlockArrays& a, SensorBlock& b) {
+    const npy_intp n = a.t.shape[0], nf = a.cam_t.shape[0];
+    if (!shape_is("gyro", a.gyro, {n, 3}) || !shape_is("accel", a.accel, {n, 3}) ||
+        !shape_is("offsets", a.offsets, {nf + 1}) || !shape_is("pixels", a.pixels, {-1, 2}) ||
+        !shape_is("points", a.points, {a.pixels.shape[0], 3}))
+        return false;
+    const npy_intp m = a.pixels.shape[0];
+    for (npy_intp j = 0; j <= nf; ++j)
+        if (a.offsets[j] < 0 || (j < nf && a.offsets[j] > a.offsets[j + 1]) || a.offsets[j] > m) {
+            PyErr_SetString(PyExc_ValueError, "offsets must be nondecreasing within [0, len(pixels)]");
+            return false;
+        }
+    b = SensorBlock{n, nf, a.t.data, a.gyro.data, a.accel.data, a.cam_t.data, a.offsets.data, a.pixels.data,
+                    a.points.data};
+    return true;
 }
 
 constexpr const char* singular_message = "Matrix is singular to machine precision.";

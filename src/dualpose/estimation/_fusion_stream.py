@@ -1,0 +1,372 @@
+"""What the streaming camera–IMU filters share (not public API: the classes are
+:class:`dualpose.estimation.eskf.EskfStream` and :class:`dualpose.estimation.hol22.Hol22Stream`, the result types
+:class:`FrameUpdate` and :class:`BlockResult` are exported by :mod:`dualpose.estimation.eskf`).
+
+The camera–IMU filters one IMU sample / camera frame at a time, with a savable state: ``EskfStream`` and
+``Hol22Stream`` run the compiled steps that the batch filters'
+:meth:`ErrorStateEKF.run <dualpose.estimation.eskf.ErrorStateEKF.run>` and
+:meth:`Hol22EKF.run <dualpose.estimation.hol22.Hol22EKF.run>` loop over (``src/native/estimation/eskf_run.cpp``,
+``hol22_run.cpp``), configured by such a filter (its state, covariance, noise, camera and extrinsic), so a stream fed
+sample by sample, a stream fed in blocks and the batch ``run`` give the same states to the last bit.
+
+**Camera frames.** :meth:`update_camera` queues a frame; it is filtered at the first IMU sample stamped at or after
+it, before that sample's own update -- where the batch filter processes it: the error-state filter predicts to the
+frame time with the IMU input interpolated between the samples around it, so it needs the next sample; Hol22 gives
+the same result either way.  The returned :class:`FrameUpdate` is filled in then (``status`` ``"done"``, per-point
+NIS and acceptance).  As in the batch filters, frames before the first IMU sample are skipped (``"skipped"``) and
+a frame at its time is filtered before it.  A frame stamped at or before the last IMU sample filtered is refused:
+the stream cannot go back.
+
+**State.** The filter -- state, covariance, constants and the interval reached between IMU samples -- lives in one
+``numpy.uint8`` buffer with a header (magic number, layout version, size; :attr:`LAYOUT_VERSION`).
+:meth:`state_dict` copies it together with the queued frames; :meth:`from_state` continues exactly where the saved
+stream stopped, and refuses a buffer of another kind, layout version or size with a ValueError.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+from dualpose import _native
+from dualpose.estimation.state import StateLayout
+
+__all__ = ["BlockResult", "FrameUpdate", "FusionStream"]
+
+
+@dataclass
+class FrameUpdate:
+    """One camera frame given to a stream, and its update once filtered.
+
+    Attributes
+    ----------
+    t : float
+        Frame time on the IMU clock, s (the camera stamp plus the filter's ``camera_time_offset``).
+    pixels : ndarray, shape (M, 2)
+        Undistorted pixels (u right, v down), px.
+    points : ndarray, shape (M, 3)
+        Landmarks in the world frame, m.
+    nis : ndarray, shape (M,)
+        NIS (2 dof) of each correspondence at its turn (inf: behind the camera; NaN until filtered or when skipped).
+    accepted_flags : ndarray of int64, shape (M,)
+        1 where the χ² gate accepted the correspondence.
+    status : {"pending", "done", "skipped"}
+        Queued (waiting for an IMU sample at or after ``t``), filtered, or skipped (before the first IMU sample).
+    """
+
+    t: float
+    pixels: np.ndarray
+    points: np.ndarray
+    nis: np.ndarray = field(repr=False)
+    accepted_flags: np.ndarray = field(repr=False)
+    status: str = "pending"
+
+    @property
+    def accepted(self) -> np.ndarray:
+        """Accepted correspondences, bool (M,)."""
+        return self.accepted_flags.astype(bool)
+
+    @classmethod
+    def new(cls, t: float, pixels: np.ndarray, points: np.ndarray) -> FrameUpdate:
+        m = len(pixels)
+        return cls(t, pixels, points, np.full(m, np.nan), np.zeros(m, np.int64))
+
+
+@dataclass
+class BlockResult:
+    """Output of :meth:`update_batch`: ``states`` (N, dim) after each IMU sample (the stream's ``state_layout``),
+    ``covariance`` (N, d, d) or None, and ``frames``: a :class:`FrameUpdate` per frame of the block (the ones after
+    the block's last sample still pending)."""
+
+    states: np.ndarray
+    covariance: np.ndarray | None
+    frames: list[FrameUpdate]
+
+
+def _vec3(v: Any, name: str) -> np.ndarray:
+    a = np.array(v, dtype=np.float64)
+    if a.shape != (3,):
+        raise ValueError(f"{name} must be 3 numbers (shape (3,)); got shape {a.shape}")
+    return a
+
+
+def _correspondences(pixels: Any, points: Any) -> tuple[np.ndarray, np.ndarray]:
+    pix = np.array(pixels, dtype=np.float64, ndmin=2, copy=True)
+    pts = np.array(points, dtype=np.float64, ndmin=2, copy=True)
+    if pix.size == 0:
+        pix = pix.reshape(0, 2)
+    if pts.size == 0:
+        pts = pts.reshape(0, 3)
+    if pix.ndim != 2 or pix.shape[1] != 2 or pts.shape != (len(pix), 3):
+        raise ValueError(f"pixels must have shape (M, 2) and points (M, 3); got {pix.shape} and {pts.shape}")
+    return np.ascontiguousarray(pix), np.ascontiguousarray(pts)
+
+
+class FusionStream:
+    """What both streaming filters share: the queue of frames, blocks, saving and restoring (module docstring).
+
+    A subclass sets ``_kind`` (the prefix of its native ``*_stream_*`` functions), ``state_layout``,
+    ``covariance_dim`` and ``LAYOUT_VERSION``, and implements ``_frame_between`` and ``_first_sample``.
+    """
+
+    _kind: ClassVar[str]  # "eskf" or "hol22": the prefix of the native functions
+    state_layout: ClassVar[StateLayout]
+    covariance_dim: ClassVar[int]
+    LAYOUT_VERSION: ClassVar[int]
+
+    def __init__(self, buffer: np.ndarray, camera_time_offset: float) -> None:
+        self._buf = buffer
+        self.camera_time_offset = float(camera_time_offset)
+        self._pending: list[FrameUpdate] = []
+        ns = _native.__dict__
+        self._imu = ns[f"{self._kind}_stream_imu"]
+        self._run = ns[f"{self._kind}_stream_run"]
+        self._get = ns[f"{self._kind}_stream_get"]
+
+    # ---- updates ------------------------------------------------------------------------------------------------
+
+    def update_imu(self, t: float, gyro: Any, accel: Any) -> np.ndarray:
+        """Filter the IMU sample taken at ``t`` (after the queued frames up to ``t``) and return the state after it.
+
+        Parameters
+        ----------
+        t : float
+            Time stamp, s (IMU clock), strictly after the previous sample.
+        gyro : array_like, shape (3,)
+            Angular rate, body frame, rad/s.
+        accel : array_like, shape (3,)
+            Specific force, body frame, m/s².
+
+        Returns
+        -------
+        ndarray, shape (state_layout.dim,)
+            The state after this sample, laid out by :attr:`state_layout`.
+
+        Raises
+        ------
+        ValueError
+            A time that is not finite or does not increase, or a sample that is not 3 numbers.
+        """
+        if not self._pending:
+            return self._imu(self._buf, t, gyro, accel)
+        return self._imu_after_frames(float(t), gyro, accel)
+
+    def update_camera(self, t: float, pixels: Any, points: Any) -> FrameUpdate:
+        """Queue the point correspondences of the frame stamped ``t`` (camera clock); see the module docstring.
+
+        Parameters
+        ----------
+        t : float
+            Camera time stamp, s (``t + camera_time_offset`` on the IMU clock).
+        pixels : array_like, shape (M, 2)
+            Undistorted pixels, px.
+        points : array_like, shape (M, 3)
+            Landmarks, world frame, m.
+
+        Returns
+        -------
+        FrameUpdate
+            Filled in (``status`` "done" or "skipped") when the frame is filtered: at the first IMU sample at or
+            after it.
+
+        Raises
+        ------
+        ValueError
+            Shapes that do not match, a time that is not finite, at or before the last IMU sample filtered, or
+            before a frame already queued.
+        """
+        pix, pts = _correspondences(pixels, points)
+        tj = float(t) + self.camera_time_offset
+        last = self._last_imu_time()
+        if not math.isfinite(tj) or tj <= last or (self._pending and tj < self._pending[-1].t):
+            before = self._pending[-1].t if self._pending else last
+            raise ValueError(f"frame at IMU time {tj!r} is not after the last IMU sample ({last!r}) and the frames "
+                             f"queued ({before!r}): the stream takes its inputs in time order")  # fmt: skip
+        frame = FrameUpdate.new(tj, pix, pts)
+        self._pending.append(frame)
+        return frame
+
+    def update_batch(
+        self, t: Any, gyro: Any, accel: Any, frame_t: Any = (), offsets: Any = (0,), pixels: Any = (), points: Any = (),
+        *, covariance: bool = False,
+    ) -> BlockResult:  # fmt: skip
+        """Filter a block of IMU samples and frames (the same compiled steps as :meth:`update_imu` and
+        :meth:`update_camera`, without a Python call per sample).
+
+        Parameters
+        ----------
+        t : array_like, shape (N,)
+            IMU times, s, strictly increasing and after the last sample filtered.
+        gyro, accel : array_like, shape (N, 3)
+            As in :meth:`update_imu`.
+        frame_t : array_like, shape (F,)
+            Camera stamps (camera clock), non-decreasing and not before the frames already queued.
+        offsets : array_like of int, shape (F + 1,)
+            Frame k owns rows ``offsets[k]:offsets[k + 1]`` of ``pixels`` (M, 2) and ``points`` (M, 3).
+        covariance : bool
+            Also return the covariance after each sample.
+
+        Returns
+        -------
+        BlockResult
+        """
+        t = np.ascontiguousarray(t, dtype=np.float64).reshape(-1)
+        n = len(t)
+        gyro = np.ascontiguousarray(gyro, dtype=np.float64).reshape(-1, 3) if n else np.zeros((0, 3))
+        accel = np.ascontiguousarray(accel, dtype=np.float64).reshape(-1, 3) if n else np.zeros((0, 3))
+        if gyro.shape != (n, 3) or accel.shape != (n, 3):
+            raise ValueError(f"gyro and accel must have shape ({n}, 3); got {gyro.shape} and {accel.shape}")
+        last = self._last_imu_time()
+        if n and (not np.isfinite(t).all() or not t[0] > last or np.any(np.diff(t) <= 0)):
+            raise ValueError(f"t must be finite and increase strictly, after the last sample filtered ({last!r})")
+        new = self._block_frames(frame_t, offsets, pixels, points)
+        frames = self._pending + new
+        cam_t = np.array([f.t for f in frames], dtype=np.float64)
+        offs = np.zeros(len(frames) + 1, np.int64)
+        np.cumsum([len(f.pixels) for f in frames], out=offs[1:])
+        pix = np.concatenate([f.pixels for f in frames]) if frames else np.zeros((0, 2))
+        pts = np.concatenate([f.points for f in frames]) if frames else np.zeros((0, 3))
+        nis = np.full(len(pix), np.nan)
+        acc = np.zeros(len(pix), np.int64)
+        d = self.covariance_dim
+        X = np.empty((n, self.state_layout.dim))
+        Ps = np.empty((n, d, d)) if covariance else None
+        started = self._started()
+        used = self._run(self._buf, t, gyro, accel, cam_t, offs, pix, pts, X, Ps, nis, acc)
+        for k, f in enumerate(frames[:used]):
+            f.nis[:] = nis[offs[k] : offs[k + 1]]
+            f.accepted_flags[:] = acc[offs[k] : offs[k + 1]]
+            f.status = "skipped" if not started and f.t < t[0] else "done"
+        self._pending = frames[used:]
+        return BlockResult(X, Ps, new)
+
+    def _block_frames(self, frame_t: Any, offsets: Any, pixels: Any, points: Any) -> list[FrameUpdate]:
+        ft = np.asarray(frame_t, dtype=np.float64).reshape(-1)
+        offs = np.asarray(offsets, dtype=np.int64).reshape(-1)
+        pix, pts = _correspondences(pixels, points)
+        if len(offs) != len(ft) + 1 or offs[0] != 0 or offs[-1] != len(pix) or np.any(np.diff(offs) < 0):
+            raise ValueError("offsets must have F + 1 nondecreasing entries from 0 to len(pixels)")
+        t_imu = (ft + self.camera_time_offset).tolist()  # as the batch run's check_streams: array + offset
+        out = [FrameUpdate.new(t_imu[k], pix[offs[k] : offs[k + 1]].copy(), pts[offs[k] : offs[k + 1]].copy())
+               for k in range(len(ft))]  # fmt: skip
+        times = np.array([f.t for f in self._pending + out])
+        if not np.isfinite(times).all() or np.any(np.diff(times) < 0) or (out and out[0].t <= self._last_imu_time()):
+            raise ValueError("frame times must be finite, non-decreasing, after the last IMU sample filtered and "
+                             "not before the frames already queued")  # fmt: skip
+        return out
+
+    # ---- the queue ----------------------------------------------------------------------------------------------
+
+    def _imu_after_frames(self, t: float, gyro: Any, accel: Any) -> np.ndarray:
+        g, a = _vec3(gyro, "gyro"), _vec3(accel, "accel")
+        last = self._last_imu_time()
+        if not (math.isfinite(t) and t > last):
+            raise ValueError(f"t must be finite and increase strictly: got {t!r} after {last!r}")
+        due = [f for f in self._pending if f.t <= t]
+        self._pending = self._pending[len(due) :]
+        if self._started():
+            for f in due:
+                self._frame_between(f, t, g, a)
+            return self._imu(self._buf, t, g, a)
+        for f in due:
+            if f.t < t:
+                f.status = "skipped"
+        return self._first_sample(t, g, a, [f for f in due if f.t == t])
+
+    # ---- state --------------------------------------------------------------------------------------------------
+
+    @property
+    def pending_frames(self) -> list[FrameUpdate]:
+        """The frames queued and not filtered yet (oldest first)."""
+        return list(self._pending)
+
+    @property
+    def state(self) -> np.ndarray:
+        """The current state (:attr:`state_layout`), a copy."""
+        return self._get(self._buf)[0]
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """The current covariance, a copy (square, :attr:`covariance_dim`)."""
+        d = self.covariance_dim
+        return self._get(self._buf)[1].reshape(d, d)
+
+    @property
+    def samples(self) -> int:
+        """IMU samples filtered so far."""
+        return int(self._get(self._buf)[-1])
+
+    def state_dict(self) -> dict[str, Any]:
+        """Everything needed to continue this stream elsewhere (:meth:`from_state`), as copies.
+
+        Returns
+        -------
+        dict
+            ``kind`` ("eskf" / "hol22"), ``version`` (:attr:`LAYOUT_VERSION`), ``state`` (the filter's
+            ``numpy.uint8`` buffer), ``camera_time_offset`` and ``pending`` (the queued frames: ``t`` on the IMU
+            clock, ``pixels`` (M, 2), ``points`` (M, 3)).
+        """
+        return {
+            "kind": self._kind,
+            "version": self.LAYOUT_VERSION,
+            "state": self._buf.copy(),
+            "camera_time_offset": self.camera_time_offset,
+            "pending": [{"t": f.t, "pixels": f.pixels.copy(), "points": f.points.copy()} for f in self._pending],
+        }
+
+    @classmethod
+    def from_state(cls, state: dict[str, Any]) -> FusionStream:
+        """A stream that continues exactly where the one that wrote ``state`` (:meth:`state_dict`) stopped.
+
+        Raises
+        ------
+        ValueError
+            Naming ``state`` when it is not a saved stream of this kind, has another layout version, or its buffer
+            has the wrong size or header.
+        """
+        try:
+            kind, version, buf = state["kind"], int(state["version"]), state["state"]
+            offset, pending = float(state["camera_time_offset"]), list(state["pending"])
+        except (TypeError, KeyError, ValueError) as exc:
+            raise ValueError(f"state is not a saved {cls.__name__} (state_dict()): {exc!r}") from None
+        if kind != cls._kind:
+            raise ValueError(f"state is a saved {kind!r} stream; {cls.__name__} reads {cls._kind!r}")
+        if version != cls.LAYOUT_VERSION:
+            raise ValueError(f"state has {cls.__name__} layout version {version}; this build reads "
+                             f"{cls.LAYOUT_VERSION}")  # fmt: skip
+        if isinstance(buf, (bytes, bytearray, memoryview)):
+            buf = np.frombuffer(buf, dtype=np.uint8)
+        if not isinstance(buf, np.ndarray) or buf.dtype != np.uint8:
+            raise ValueError(f"state['state'] must be a numpy.uint8 array; got {type(buf).__name__}")
+        buf = np.array(buf, dtype=np.uint8, copy=True).reshape(-1)  # a fresh, aligned, writeable copy
+        _native.__dict__[f"{cls._kind}_stream_check"](buf, "state['state']")
+        out = cls.__new__(cls)
+        FusionStream.__init__(out, buf, offset)
+        for p in pending:
+            pix, pts = _correspondences(p["pixels"], p["points"])
+            out._pending.append(FrameUpdate.new(float(p["t"]), pix, pts))
+        return out
+
+    # ---- per filter ---------------------------------------------------------------------------------------------
+
+    def _last_imu_time(self) -> float:
+        _, _, t_imu, _, samples = self._get(self._buf)
+        return t_imu if samples else -math.inf
+
+    @property
+    def time(self) -> float | None:
+        """Time of the last IMU sample filtered, s (None before the first)."""
+        t = self._last_imu_time()
+        return None if t == -math.inf else t
+
+    def _started(self) -> bool:
+        return self.samples > 0
+
+    def _frame_between(self, f: FrameUpdate, t1: float, g1: np.ndarray, a1: np.ndarray) -> None:
+        raise NotImplementedError
+
+    def _first_sample(self, t: float, g: np.ndarray, a: np.ndarray, at_t: list[FrameUpdate]) -> np.ndarray:
+        raise NotImplementedError

@@ -1,0 +1,113 @@
+// Python-side helpers of the streaming camera–IMU filters (eskf_stream_*, hol22_stream_*): the filter state lives
+// in one 1-d numpy.uint8 array [header (magic, version, size, reserved) | constants | state] of a fixed size, so that
+// a byte copy saves it and restores it; and the fast reading of one (3,) sample.
+#pragma once
+
+#include "../common/numpy_api.hpp"
+
+#include <cstdint>
+#include <cstring>
+
+namespace dualpose::stream {
+
+// A new zeroed buffer of sizeof(S) bytes whose header is (magic, version, size); nullptr with an exception set.
+template <class S>
+PyObject* new_buffer(std::uint64_t magic, std::uint64_t version) {
+    const npy_intp size = static_cast<npy_intp>(sizeof(S));
+    PyObject* out = PyArray_ZEROS(1, &size, NPY_UINT8, 0);
+    if (out == nullptr) return nullptr;
+    auto* s = static_cast<S*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(out)));
+    s->h.magic = magic;
+    s->h.version = version;
+    s->h.size = static_cast<std::uint64_t>(size);
+    return out;
+}
+
+// The stream held by `o` (a 1-d C-contiguous, aligned numpy.uint8 array written by new_buffer<S>), or nullptr with
+// TypeError / ValueError naming `name` and `what` (e.g. "an ESKF stream state"): wrong type, not a stream of this
+// kind, another layout version, wrong size.
+template <class S>
+S* stream_of(PyObject* o, const char* name, bool write, std::uint64_t magic, std::uint64_t version, const char* what) {
+    if (!PyArray_Check(o)) {
+        PyErr_Format(PyExc_TypeError, "%s must be a numpy.uint8 array (%s); got %s", name, what, Py_TYPE(o)->tp_name);
+        return nullptr;
+    }
+    auto* a = reinterpret_cast<PyArrayObject*>(o);
+    const int need = NPY_ARRAY_C_CONTIGUOUS | (write ? NPY_ARRAY_WRITEABLE : 0);
+    if (PyArray_TYPE(a) != NPY_UINT8 || PyArray_NDIM(a) != 1 || (PyArray_FLAGS(a) & need) != need ||
+        reinterpret_cast<std::uintptr_t>(PyArray_DATA(a)) % alignof(S) != 0) {
+        PyErr_Format(PyExc_ValueError, "%s must be a 1-d C-contiguous, aligned%s numpy.uint8 array (%s)", name,
+                     write ? ", writeable" : "", what);
+        return nullptr;
+    }
+    const auto size = static_cast<std::uint64_t>(PyArray_DIM(a, 0));
+    auto* s = static_cast<S*>(PyArray_DATA(a));
+    if (size < sizeof(s->h) || s->h.magic != magic) {
+        PyErr_Format(PyExc_ValueError, "%s is not %s (%llu bytes, no such header)", name, what,
+                     static_cast<unsigned long long>(size));
+        return nullptr;
+    }
+    if (s->h.version != version) {
+        PyErr_Format(PyExc_ValueError, "%s has layout version %llu; this build reads %s version %llu", name,
+                     static_cast<unsigned long long>(s->h.version), what, static_cast<unsigned long long>(version));
+        return nullptr;
+    }
+    if (size != sizeof(S) || s->h.size != sizeof(S)) {
+        PyErr_Format(PyExc_ValueError, "%s has %llu bytes (header: %llu); %s has %llu", name,
+                     static_cast<unsigned long long>(size), static_cast<unsigned long long>(s->h.size), what,
+                     static_cast<unsigned long long>(sizeof(S)));
+        return nullptr;
+    }
+    return s;
+}
+
+// Three doubles from a 1-d float64 array of 3 elements (fast path, any stride) or any sequence of 3 numbers;
+// ValueError naming `name` otherwise.
+inline bool read3(PyObject* o, const char* name, double* v) {
+    if (PyArray_Check(o)) {
+        auto* a = reinterpret_cast<PyArrayObject*>(o);
+        if (PyArray_TYPE(a) == NPY_DOUBLE && PyArray_NDIM(a) == 1 && PyArray_DIM(a, 0) == 3 && PyArray_ISALIGNED(a) &&
+            PyArray_ISNOTSWAPPED(a)) {
+            const char* d = static_cast<const char*>(PyArray_DATA(a));
+            const npy_intp st = PyArray_STRIDE(a, 0);
+            for (int i = 0; i < 3; ++i) v[i] = *reinterpret_cast<const double*>(d + i * st);
+            return true;
+        }
+    }
+    PyObject* seq = PySequence_Fast(o, "");
+    if (seq == nullptr || PySequence_Fast_GET_SIZE(seq) != 3) {
+        Py_XDECREF(seq);
+        PyErr_Clear();
+        PyErr_Format(PyExc_ValueError, "%s must be 3 numbers (shape (3,))", name);
+        return false;
+    }
+    for (int i = 0; i < 3; ++i) {
+        v[i] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(seq, i));
+        if (v[i] == -1.0 && PyErr_Occurred()) {
+            Py_DECREF(seq);
+            return false;
+        }
+    }
+    Py_DECREF(seq);
+    return true;
+}
+
+// ValueError "t must be finite and increase strictly: got <t> after <last>"; returns nullptr.
+inline PyObject* time_error(double t, double last) {
+    PyObject* a = PyFloat_FromDouble(t);
+    PyObject* b = PyFloat_FromDouble(last);
+    if (a != nullptr && b != nullptr)
+        PyErr_Format(PyExc_ValueError, "t must be finite and increase strictly: got %R after %R", a, b);
+    Py_XDECREF(a);
+    Py_XDECREF(b);
+    return nullptr;
+}
+
+// A new float64 vector (n,) holding a copy of v.
+inline PyObject* new_vector(const double* v, npy_intp n) {
+    PyObject* out = PyArray_SimpleNew(1, &n, NPY_DOUBLE);
+    if (out != nullptr) std::memcpy(PyArray_DATA(reinterpret_cast<PyArrayObject*>(out)), v, n * sizeof(double));
+    return out;
+}
+
+}  // namespace dualpose::stream

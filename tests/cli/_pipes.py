@@ -1,0 +1,44 @@
+"""Helpers of the streaming CLI tests: the dualpose command on real pipes, and reading a child's output line by line
+straight from the pipe (so that a line that was not flushed is a failure, not a hang)."""
+
+from __future__ import annotations
+
+import os
+import selectors
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import dualpose as dp
+
+
+def dualpose_process(*args: str, stdin=subprocess.PIPE) -> subprocess.Popen:
+    """``python -m dualpose.cli.main ARGS`` with text pipes (the dualpose the tests imported)."""
+    src = str(Path(dp.__file__).resolve().parents[1])
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([src, os.environ.get("PYTHONPATH", "")]))
+    cmd = [sys.executable, "-m", "dualpose.cli.main", *args]
+    return subprocess.Popen(cmd, stdin=stdin, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, text=True)
+
+
+class LineReader:
+    """Lines of a child's stdout read straight from the pipe (no read-ahead buffer to hide them from ``select``);
+    fails (rather than hangs) when no line comes, i.e. when the child did not flush it."""
+
+    def __init__(self, proc: subprocess.Popen) -> None:
+        self.proc, self.fd, self.buf = proc, proc.stdout.fileno(), b""
+        self.sel = selectors.DefaultSelector()
+        self.sel.register(self.fd, selectors.EVENT_READ)
+
+    def readline(self) -> str:
+        while b"\n" not in self.buf:
+            if not self.sel.select(timeout=120):
+                self.proc.kill()
+                pytest.fail("no output line: the stream did not flush")
+            chunk = os.read(self.fd, 1 << 16)
+            if not chunk:
+                return ""
+            self.buf += chunk
+        line, _, self.buf = self.buf.partition(b"\n")
+        return line.decode() + "\n"
