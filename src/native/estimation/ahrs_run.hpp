@@ -3,6 +3,7 @@
 #pragma once
 
 #include "ahrs_layout.hpp"
+#include "ahrs_mag_lag.hpp"
 
 #include <cstddef>
 #include <cstdint>
@@ -16,11 +17,12 @@ struct Params {
     double overlap, acc_alpha, mag_alpha, release;
     double Ha[2 * ERROR_DIM], Hm[ERROR_DIM];  // measurement Jacobians (2, 6) and (1, 6)
     std::int64_t n_win, stride, use_mag;
+    LagParams lag;  // magnetometer–gyroscope time offset (ahrs_mag_lag.hpp)
 };
 
-// Everything that changes from sample to sample (trivially copyable: a byte copy saves and restores it).  The
-// sliding window's ring buffers (7 n_win doubles: ring_a (n_win, 3), ring_m (n_win, 3), ring_d (n_win,)) are kept
-// by the caller, next to the state.
+// Everything that changes from sample to sample (trivially copyable: a byte copy saves and restores it).  The ring
+// buffers (ring_doubles(p): the sliding window's ring_a (n_win, 3), ring_m (n_win, 3), ring_d (n_win,), then the
+// time offset's rings, lag_ring_doubles) are kept by the caller, next to the state.
 struct State {
     double q[4], b[3], P[ERROR_DIM * ERROR_DIM];  // nominal state (xyzw, rad/s) and error covariance
     double acc_sum[3], mag_sum[3];                // window sums (uncorrected frame)
@@ -30,17 +32,22 @@ struct State {
     double stats[N_STATS];                        // counters (ahrs_layout.hpp)
     std::int64_t head, filled, since;             // ring position, samples in the window, samples since an update
     std::int64_t acc_closed, mag_closed;          // gate counters
+    LagState lag;                                 // magnetometer–gyroscope time offset (ahrs_mag_lag.hpp)
 };
+
+// Doubles of the ring buffers that follow the state.
+inline std::int64_t ring_doubles(const Params& p) { return 7 * p.n_win + lag_ring_doubles(p.lag); }
 
 // The constants of params (N_PARAMS,), Ha (2, 6), Hm (1, 6) and dt.
 Params make_params(const double* params, const double* Ha, const double* Hm, double dt);
 
-// The state before the first sample: q (4,), b (3,), P (6, 6) copied, everything else empty; ring (7 n_win) zeroed.
+// The state before the first sample: q (4,), b (3,), P (6, 6) copied, everything else empty; ring (ring_doubles)
+// zeroed.
 void init_state(State& s, double* ring, const Params& p, const double* q, const double* b, const double* P);
 
-// One sample: predict q <- q ⊗ Exp((ω − b) dt), P <- F P Fᵀ + Q; accumulate R̂ a and R̂ m in the sliding window;
-// every stride samples the accelerometer update of inclination and (9D) the magnetometer heading update, χ²-gated,
-// with adaptive noise.  gyr, acc, mag (3,) rad/s, m/s², µT (mag unused in 6D).
+// One sample: predict q <- q ⊗ Exp((ω − b) dt), P <- F P Fᵀ + Q; accumulate R̂ a and R̂(t − τ̂) m in the sliding
+// window; every stride samples the accelerometer update of inclination and (9D) the magnetometer heading update,
+// χ²-gated, with adaptive noise, and (online) a new τ̂.  gyr, acc, mag (3,) rad/s, m/s², µT (mag unused in 6D).
 void step(State& s, double* ring, const Params& p, const double* gyr, const double* acc, const double* mag);
 
 // Run the filter over n samples; q (4,), b (3,), P (6, 6) are the initial state, updated in place.
@@ -51,12 +58,20 @@ void run(std::ptrdiff_t n, const double* gyr, const double* acc, const double* m
          double* P, const double* params, const double* Ha, const double* Hm, double* out_q, double* out_b,
          double* stats);
 
-// The saved stream: one contiguous byte buffer [StreamHeader | Params | State | ring (7 n_win doubles)], so that a
-// byte copy saves it and restores it.  STREAM_VERSION changes whenever the layout does.
+// The causal outputs inside the rest period, before the filter can be initialised: sums (10,) = running sums of gyr,
+// acc, mag (3 each) and the sample count, updated with each of the n samples; out_q (n, 4) receives the orientation
+// of the running mean specific force and field (the initial orientation's construction, dualpose.estimation.ahrs.
+// initial_orientation; 6D: body x projected on the horizontal is east), out_b (n, 3) the running mean rate.
+void rest_run(std::ptrdiff_t n, const double* gyr, const double* acc, const double* mag, bool use_mag, double* sums,
+              double* out_q, double* out_b);
+
+// The saved stream: one contiguous byte buffer [StreamHeader | Params | State | ring (ring_doubles(p) doubles)], so
+// that a byte copy saves it and restores it.  STREAM_VERSION changes whenever the layout does (2: the time offset's
+// parameters, state and rings, and n_ring in the header).
 constexpr std::uint64_t STREAM_MAGIC = 0x3153524841504455ULL;  // "UDPAHRS1" little-endian
-constexpr std::uint64_t STREAM_VERSION = 1;
+constexpr std::uint64_t STREAM_VERSION = 2;
 struct StreamHeader {
-    std::uint64_t magic, version, size, n_win;  // size: total bytes of the buffer
+    std::uint64_t magic, version, size, n_win, n_ring;  // size: total bytes of the buffer; n_ring = ring_doubles
 };
 struct Stream {
     StreamHeader h;
@@ -66,8 +81,8 @@ struct Stream {
 };
 static_assert(sizeof(Stream) % sizeof(double) == 0, "the ring must follow the state aligned");
 
-inline std::size_t stream_bytes(std::int64_t n_win) {
-    return sizeof(Stream) + 7 * static_cast<std::size_t>(n_win) * sizeof(double);
+inline std::size_t stream_bytes(std::int64_t n_ring) {
+    return sizeof(Stream) + static_cast<std::size_t>(n_ring) * sizeof(double);
 }
 
 }  // namespace dualpose::ahrs
