@@ -27,11 +27,13 @@ comma or whitespace separated; '#' starts a comment; blank and comment lines are
 The filter steps by 1/--rate (the time stamps must only increase).  One line per input sample is written to
 standard output and flushed at once:
   t, qx, qy, qz, qw                             (orientation IMU -> earth (ENU), xyzw, repr: exact float64)
-The first --rest-seconds (default 1 s) initialise the filter: their lines are held and all written, in order, when
-the rest period is complete, so the first output appears after the rest period (--rest-seconds 0: at once).
+Every output is causal and written at its own input line.  The first --rest-seconds (default 1 s) initialise the
+filter: inside them the output is the orientation of the running mean specific force and field so far; at their
+last sample the filter starts from the rest statistics (--rest-seconds 0: from the first sample).  The
+magnetometer-gyroscope time offset is estimated online and compensated.
 Exit status: 0 at the end of the input; 1 on a malformed line (wrong number of fields, not a number, non-finite,
-time not increasing), with 'stdin line N: ...' on stderr and every line before it already written, or when the
-input ends inside the rest period; 2 on bad arguments; 141 when the reader of standard output goes away.
+time not increasing), with 'stdin line N: ...' on stderr and every line before it already written; 2 on bad
+arguments; 141 when the reader of standard output goes away.
 """
 
 
