@@ -4,8 +4,9 @@ Run ``.venv/bin/python benchmarks/bench_ahrs_stream.py`` (VQF is timed if ``vqf`
 extra).  Per trial, best of 3, in one process:
 
 * ``update_imu``: wall time of a Python loop calling ``AhrsStream.update_imu(t, gyro, accel, mag)`` once per sample
-  after the rest period (9D, default settings, rows of the trial's arrays as given, ``t`` a Python float), divided by the samples: the
-  per-call cost a Python caller pays, loop included (the rest period is fed with ``update_batch`` first);
+  after the rest period (9D, default settings, rows of the trial's arrays as given, ``t`` a Python float), divided by
+  the samples: the per-call cost a Python caller pays, loop included (the rest period is fed with ``update_batch``
+  first);
 * batch: :func:`dualpose.estimation.ahrs.estimate_orientation`'s kernel time per sample (``AhrsResult.us_per_sample``,
   9D, default settings: online magnetometer time offset), the native whole-recording loop over the same per-sample
   step; "batch, τ = 0": the same with ``mag_time_offset=0.0`` (no time-offset compensation or estimate), the cost

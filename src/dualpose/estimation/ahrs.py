@@ -109,7 +109,7 @@ MEMS_GYRO_TURN_ON_BIAS = math.radians(0.5)
 #: is used -- the offline estimator's generic values (dualpose.calibration.sensor_time_offset)
 MAG_LAG_RANGE = 0.03
 MAG_LAG_STEP = 0.001
-MAG_LAG_CUTOFF = 10.0
+MAG_LAG_CUTOFF = 5.0
 MAG_LAG_MIN_RATE = 0.5
 MAG_LAG_NORM_TOLERANCE = 0.1
 MAG_LAG_MIN_SECONDS = 1.0
