@@ -36,9 +36,19 @@ void make_lag_params(LagParams& lp, const double* params, double rate) {
     lp.thin = std::max(std::int64_t{1}, static_cast<std::int64_t>(params[P_LAG_THIN]));
     lp.min_count = std::max(std::int64_t{1}, static_cast<std::int64_t>(params[P_LAG_MIN_COUNT]));
     lp.resolve = std::max(std::int64_t{1}, static_cast<std::int64_t>(std::round(0.25 * rate / double(lp.thin))));
+    lp.rate = rate;
+    lp.inv_box = 1.0 / double(lp.box);
 }
 
 namespace {
+// τ̂ and the split of its history position, computed once per change instead of once per sample
+void set_tau(LagState& ls, const LagParams& lp, double tau) {
+    ls.tau = tau;
+    ls.back = tau > 0.0 ? std::min(tau * lp.rate, double(lp.comp - 1)) : 0.0;
+    ls.back_whole = static_cast<std::int64_t>(std::floor(ls.back));
+    ls.back_frac = ls.back - double(ls.back_whole);
+}
+
 // (i + d) modulo n for 0 ≤ i < n and −n ≤ d < n (no division)
 inline std::int64_t wrap(std::int64_t i, std::int64_t d, std::int64_t n) {
     std::int64_t j = i + d;
@@ -50,7 +60,7 @@ inline std::int64_t wrap(std::int64_t i, std::int64_t d, std::int64_t n) {
 
 void init_lag(LagState& ls, double* ring, const LagParams& lp) {
     ls = LagState{};
-    ls.tau = lp.online ? 0.0 : lp.fixed;
+    set_tau(ls, lp, lp.online ? 0.0 : lp.fixed);
     ls.pos_box = lp.box - 1;  // the first sample goes to position 0
     ls.pos_hist = lp.hist - 1;
     ls.pos_comp = lp.comp - 1;
@@ -85,8 +95,8 @@ void lag_ingest(LagState& ls, double* ring, const LagParams& lp, double dt, cons
     if (k < L - 1) return;
     const std::int64_t jh = ls.pos_hist = wrap(ls.pos_hist, 1, H);  // filtered sample k − L + 1 ... any label works
     for (int i = 0; i < 3; ++i) {
-        hist_w[3 * jh + i] = ls.box_w[i] / double(L);
-        hist_m[3 * jh + i] = ls.box_m[i] / double(L);
+        hist_w[3 * jh + i] = ls.box_w[i] * lp.inv_box;
+        hist_m[3 * jh + i] = ls.box_m[i] * lp.inv_box;
     }
     if (k < L + 2 * K) return;  // the oldest filtered sample needed (c − K) is not there yet
     const std::int64_t jc = wrap(jh, -(K + 1), H);  // the centre c, K + 1 filtered samples back
@@ -132,7 +142,7 @@ void lag_solve(LagState& ls, const LagParams& lp) {
     if (!lp.online || ls.used - ls.used_at_solve < lp.resolve) return;
     ls.used_at_solve = ls.used;
     if (ls.informative < lp.min_count) {
-        ls.tau = 0.0;
+        set_tau(ls, lp, 0.0);
         return;
     }
     double cost[LAG_MAX_CANDIDATES];
@@ -154,16 +164,16 @@ void lag_solve(LagState& ls, const LagParams& lp) {
         if (cost[j] < cost[best]) best = j;
     }
     if (best == 0 || best == lp.n_cand - 1) {
-        ls.tau = 0.0;  // the minimum is on the edge of the range: not estimable (yet)
+        set_tau(ls, lp, 0.0);  // the minimum is on the edge of the range: not estimable (yet)
         return;
     }
     const double cm = cost[best - 1], c0 = cost[best], cp = cost[best + 1];
     const double den = cm - 2.0 * c0 + cp;
     const double shift = den > 0.0 ? std::clamp(0.5 * (cm - cp) / den, -0.5, 0.5) : 0.0;
-    ls.tau = lp.first + (double(best) + shift) * lp.step;
+    set_tau(ls, lp, lp.first + (double(best) + shift) * lp.step);
 }
 
-void lag_compensate(const LagState& ls, const double* ring, const LagParams& lp, double dt, const double* gyr,
+void lag_compensate(const LagState& ls, const double* ring, const LagParams& lp, const double* gyr,
                     const double* b, const double* mag, double* m_c) {
     const double tau = ls.tau;
     if (tau == 0.0) {
@@ -176,9 +186,12 @@ void lag_compensate(const LagState& ls, const double* ring, const LagParams& lp,
         const double* cum = ring + 6 * lp.box + 6 * lp.hist;
         const std::int64_t k = ls.seen - 1;  // this sample (ingested already, at pos_comp)
         // t − τ̂ in samples back from this one, within the history (before the first sample: ∫ from sample 0)
-        const double back = std::min(tau / dt, double(std::min(k + 1, C - 1)));
-        const std::int64_t nb = static_cast<std::int64_t>(std::floor(back));
-        const double f = back - double(nb);  // between nb and nb + 1 samples back
+        std::int64_t nb = ls.back_whole;
+        double f = ls.back_frac;  // between nb and nb + 1 samples back
+        if (double(k + 1) < ls.back) {  // the first samples: the history is shorter than τ̂
+            nb = k + 1;
+            f = 0.0;
+        }
         const bool before_first = nb + 1 > k;  // sample k − nb − 1 does not exist: cum there is 0
         const double* c0 = cum + 3 * wrap(ls.pos_comp, -nb, C);
         const double* c1 = cum + 3 * wrap(ls.pos_comp, -std::min(nb + 1, C - 1), C);
@@ -190,9 +203,20 @@ void lag_compensate(const LagState& ls, const double* ring, const LagParams& lp,
     } else {
         for (int i = 0; i < 3; ++i) u[i] = -(gyr[i] - b[i]) * tau;  // the future: the current rate extrapolated
     }
-    // Rodrigues: Exp(u) m = m + sinc(a) u × m + cosc2(a) u × (u × m), a = |u| (common/series.hpp)
-    const double a = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-    const double s = sinc(a), c2 = cosc2(a);
+    // Rodrigues: Exp(u) m = m + sinc(a) u × m + cosc2(a) u × (u × m), a = |u|.  Below a = 0.35 rad (|ω| ≤ 12 rad/s
+    // at τ̂ = 30 ms) the Taylor series to a⁶, evaluated in two short chains (truncation a⁸/9! < 1e-9, relative);
+    // above, the guarded functions of common/series.hpp
+    const double y = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+    double s, c2;
+    if (y < 0.35 * 0.35) {
+        const double y2 = y * y;
+        s = (1.0 - y * (1.0 / 6.0)) + y2 * ((1.0 / 120.0) - y * (1.0 / 5040.0));
+        c2 = (0.5 - y * (1.0 / 24.0)) + y2 * ((1.0 / 720.0) - y * (1.0 / 40320.0));
+    } else {
+        const double a = std::sqrt(y);
+        s = sinc(a);
+        c2 = cosc2(a);
+    }
     const double vx = u[1] * mag[2] - u[2] * mag[1], vy = u[2] * mag[0] - u[0] * mag[2],
                  vz = u[0] * mag[1] - u[1] * mag[0];
     const double wx = u[1] * vz - u[2] * vy, wy = u[2] * vx - u[0] * vz, wz = u[0] * vy - u[1] * vx;

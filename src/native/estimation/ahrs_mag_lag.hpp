@@ -36,11 +36,15 @@ struct LagParams {
     double min_rate, norm_lo, norm_hi;   // informative: |ω| ≥ min_rate, norm_lo ≤ |m| ≤ norm_hi
     std::int64_t thin, min_count;        // every thin-th informative sample; informative samples before τ̂ ≠ 0
     std::int64_t resolve;                // samples added to the sums between two solutions (~0.25 s of them)
+    double rate, inv_box;                // 1 / dt, 1 / L
 };
 
 // What changes (part of State): the estimate, the filters' running sums and the per-candidate sufficient statistics.
 struct LagState {
     double tau;                            // current τ̂ (s), used by the compensation
+    double back;                           // τ̂ > 0: τ̂ / dt capped at C − 1 (samples back), split into
+    std::int64_t back_whole;               //   whole samples and
+    double back_frac;                      //   the fraction of the next one
     double box_w[3], box_m[3];             // boxcar sums of ω − b and m
     double cum[3];                         // ∫ ω dt of all samples so far (raw rate), rad
     std::int64_t seen;                     // samples ingested
@@ -83,7 +87,7 @@ void lag_solve(LagState& ls, const LagParams& lp);
 
 // m_c = Exp(−Δθ) m: the field of this sample as seen with the orientation at t − τ̂ (ahrs_mag_lag.hpp's header).
 // Returns m unchanged (bit for bit) when τ̂ = 0.
-void lag_compensate(const LagState& ls, const double* ring, const LagParams& lp, double dt, const double* gyr,
+void lag_compensate(const LagState& ls, const double* ring, const LagParams& lp, const double* gyr,
                     const double* b, const double* mag, double* m_c);
 
 }  // namespace dualpose::ahrs

@@ -92,7 +92,7 @@ void step(State& s, double* ring, const Params& p, const double* gyr, const doub
         // the field at t is the field at t − τ̂: seen with the orientation at t − τ̂ (ahrs_mag_lag.hpp)
         double mc[3];
         lag_ingest(s.lag, ring_lag, p.lag, dt, gyr, b, mag);
-        lag_compensate(s.lag, ring_lag, p.lag, dt, gyr, b, mag, mc);
+        lag_compensate(s.lag, ring_lag, p.lag, gyr, b, mag, mc);
         const double mx = mc[0], my = mc[1], mz = mc[2];
         for (int i = 0; i < 3; ++i) v[i] = R[3 * i] * mx + R[3 * i + 1] * my + R[3 * i + 2] * mz;
         // disturbance lower bound of this sample: change of the field's magnitude and dip from the reference
