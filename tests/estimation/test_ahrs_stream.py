@@ -186,3 +186,18 @@ def test_bad_samples_raise_naming_them():
         s.update_batch([0.1, 0.2], np.zeros((2, 3)), np.zeros((3, 3)), np.zeros((2, 3)))
     with pytest.raises(ValueError, match="n_rest must be 0"):
         AhrsStream(RATE, n_rest=5)
+
+
+def test_mag_time_offset_settings_are_checked():
+    with pytest.raises(ValueError, match='mag_time_offset must be "online" or a number'):
+        AhrsStream(RATE, mag_time_offset="estimate")  # the whole recording's estimate needs the future
+    with pytest.raises(ValueError, match="mag_time_offset must be a finite number"):
+        AhrsStream(RATE, mag_time_offset=float("nan"))
+    with pytest.raises(TypeError, match="mag_time_offset must be a string or a number"):
+        AhrsStream(RATE, mag_time_offset=[0.01])
+    with pytest.raises(ValueError, match="time-offset search range is too long for this rate"):
+        AhrsStream(20000.0, n_rest=0).update_imu(0.0, [0, 0, 0], [0, 0, 9.8], [0, 20, -40])
+    s = AhrsStream(RATE, n_rest=0, mag_time_offset=0.011)
+    s.update_imu(0.0, [0, 0, 0], [0, 0, 9.8], [0, 20, -40])
+    assert s.mag_time_offset == 0.011
+    assert AhrsStream.from_state(s.state_dict()).mag_time_offset == 0.011
