@@ -104,9 +104,10 @@ MEMS_GYRO_BIAS_RANDOM_WALK = 1.0e-4
 MEMS_GYRO_TURN_ON_BIAS = math.radians(0.5)
 
 #: online magnetometer–gyroscope time offset (docs/broad.md, "Magnetometer–gyroscope time offset"): search range ±s,
-#: grid step s, low-pass cut-off Hz (a boxcar of round(0.443 rate / cut-off) samples: its -3 dB frequency), informative
+#: grid step s, low-pass cut-off Hz (a boxcar of round(0.443 rate / cut-off) samples: its -3 dB frequency; 5 Hz,
+#: below the offline estimator's 10 Hz, because the differentiated field's noise biases τ̂: docs/broad.md), informative
 #: samples (|ω| ≥ rad/s, |m| within the fraction of the rest field's norm), seconds of informative samples before τ̂
-#: is used -- the offline estimator's generic values (dualpose.calibration.sensor_time_offset)
+#: is used -- otherwise the offline estimator's generic values (dualpose.calibration.sensor_time_offset)
 MAG_LAG_RANGE = 0.03
 MAG_LAG_STEP = 0.001
 MAG_LAG_CUTOFF = 5.0
