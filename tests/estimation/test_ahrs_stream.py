@@ -186,6 +186,12 @@ def test_bad_samples_raise_naming_them():
         s.update_batch([0.1, 0.2], np.zeros((2, 3)), np.zeros((3, 3)), np.zeros((2, 3)))
     with pytest.raises(ValueError, match="n_rest must be 0"):
         AhrsStream(RATE, n_rest=5)
+    r = AhrsStream(RATE, n_rest=20)  # inside the rest period (buffered in Python): the same checks
+    with pytest.raises(ValueError, match="gyro must be 3 numbers"):
+        r.update_imu(0.0, 0.5, [0, 0, 9.8], [0, 20, -40])  # a scalar is not broadcast
+    with pytest.raises(ValueError, match="mag must be 3 numbers"):
+        r.update_imu(0.0, [0, 0, 0], [0, 0, 9.8], [0, 20])
+    assert r.samples == 0
 
 
 def test_mag_time_offset_settings_are_checked():

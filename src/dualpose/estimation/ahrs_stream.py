@@ -43,6 +43,13 @@ def _check_block(x: Any, name: str, n: int | None) -> np.ndarray:
     return a
 
 
+def _row3(x: Any, name: str) -> np.ndarray:
+    v = np.asarray(x, dtype=np.float64)
+    if v.shape != (3,):
+        raise ValueError(f"{name} must be 3 numbers (shape (3,)); got shape {v.shape}")
+    return v
+
+
 class AhrsStream:
     """The AHRS (gyroscope, accelerometer, optional magnetometer) updated one sample at a time.
 
@@ -121,7 +128,9 @@ class AhrsStream:
         self._n_rest = int(n_rest)
         self._rest = rest
         self._state: np.ndarray | None = None
-        self._pending: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []  # blocks (k,), (k, 3) ...
+        # the rest samples buffered until the rest period is complete: t (N,), gyro, accel, mag (N, 3), N = n_rest
+        size = max(self._n_rest, 1)
+        self._pending = (np.zeros(size), np.zeros((size, 3)), np.zeros((size, 3)), np.zeros((size, 3)))
         self._n_pending = 0
         self._t = -math.inf
         self._samples = 0
@@ -142,7 +151,7 @@ class AhrsStream:
     def _finish_rest(self) -> tuple[np.ndarray, np.ndarray]:
         """Initialise from the buffered rest samples and filter them; the filter's output at the last one."""
         _, g, a, m = self._pending_arrays()
-        self._pending, self._n_pending = [], 0
+        self._n_pending = 0
         if self._n_rest:
             self._rest = rest_statistics(g, a, m if self._use_mag else None, self._rate, self._n_rest)
             self._start(None, None)
@@ -187,15 +196,16 @@ class AhrsStream:
             self._samples += 1
             return _native.ahrs_stream_step(self._state, gyro, accel, mag)
         self._check_sample(t, mag)
-        g = np.array(gyro, dtype=np.float64).reshape(1, 3)
-        a = np.array(accel, dtype=np.float64).reshape(1, 3)
-        m = np.array(mag, dtype=np.float64).reshape(1, 3) if mag is not None else np.zeros((1, 3))
+        k = self._n_pending
+        pt, pg, pa, pm = self._pending
+        pg[k], pa[k] = _row3(gyro, "gyro"), _row3(accel, "accel")
+        pm[k] = _row3(mag, "mag") if mag is not None else 0.0
+        pt[k] = t
         self._t = t
         self._samples += 1
-        self._pending.append((np.array([t], dtype=np.float64), g, a, m))
         self._n_pending += 1
         if self._n_pending < max(self._n_rest, 1):
-            return self._rest_outputs(g, a, m)[0][0]
+            return self._rest_outputs(pg[k : k + 1], pa[k : k + 1], pm[k : k + 1])[0][0]
         return self._finish_rest()[0].copy()
 
     def _check_sample(self, t: float, mag: Any) -> None:
@@ -236,7 +246,9 @@ class AhrsStream:
         if self._state is None:
             need = max(self._n_rest, 1) - self._n_pending
             i = min(n, need)
-            self._pending.append((t[:i].copy(), g[:i].copy(), a[:i].copy(), m[:i].copy()))
+            k = self._n_pending
+            for buf, x in zip(self._pending, (t, g, a, m), strict=True):
+                buf[k : k + i] = x[:i]
             self._n_pending += i
             j = i - 1 if i == need else i  # samples before the one that completes the rest period
             out_q[:j], out_b[:j] = self._rest_outputs(g[:j], a[:j], m[:j])
@@ -323,9 +335,8 @@ class AhrsStream:
 
     def _pending_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The buffered rest samples as arrays t (k,), gyro, accel, mag (k, 3)."""
-        if not self._pending:
-            return np.empty(0), np.empty((0, 3)), np.empty((0, 3)), np.empty((0, 3))
-        return tuple(np.concatenate([p[j] for p in self._pending]) for j in range(4))  # type: ignore[return-value]
+        k = self._n_pending
+        return tuple(x[:k].copy() for x in self._pending)  # type: ignore[return-value]
 
     @staticmethod
     def _rest_dict(rest: RestStatistics | None) -> dict[str, Any] | None:
@@ -387,8 +398,10 @@ class AhrsStream:
         out._state = buf
         pend = state["pending"]
         blk = tuple(np.array(pend[k], dtype=np.float64) for k in ("t", "gyro", "accel", "mag"))
-        out._pending = [(blk[0].reshape(-1), *(x.reshape(-1, 3) for x in blk[1:]))]
-        out._n_pending = len(out._pending[0][0])
+        k = blk[0].size
+        for buf, x in zip(out._pending, (blk[0].reshape(-1), *(x.reshape(-1, 3) for x in blk[1:])), strict=True):
+            buf[:k] = x
+        out._n_pending = k
         out._t = float(state["t"])
         out._samples = int(state["samples"])
         out._rest_sums = np.array(state["rest_sums"], dtype=np.float64).reshape(10).copy()
