@@ -93,7 +93,7 @@ void lag_ingest(LagState& ls, double* ring, const LagParams& lp, double dt, cons
         box_m[3 * jb + i] = mag[i];
     }
     if (k < L - 1) return;
-    const std::int64_t jh = ls.pos_hist = wrap(ls.pos_hist, 1, H);  // filtered sample k − L + 1 ... any label works
+    const std::int64_t jh = ls.pos_hist = wrap(ls.pos_hist, 1, H);  // ring position of the newest filtered sample
     for (int i = 0; i < 3; ++i) {
         hist_w[3 * jh + i] = ls.box_w[i] * lp.inv_box;
         hist_m[3 * jh + i] = ls.box_m[i] * lp.inv_box;
