@@ -2,13 +2,13 @@
 
 Run ``.venv/bin/python benchmarks/bench_mag_lag_online.py`` (docs/broad.md, "Magnetometer–gyroscope time offset").
 
-* Synthetic: :func:`dualpose.sim.magnetometer_lag.lagged_recording` (analytic tumbling motion, 200 Hz, 2 s rest + 30 s
-  motion, magnetometer sampled ``lag`` earlier) for lags ±5, ±10, ±20 ms (seed ``lag_ms + 300``, as
-  ``tests/calibration/test_sensor_time_offset.py``): the online τ̂ after every 0.1 s block of an
-  :class:`~dualpose.estimation.ahrs_stream.AhrsStream` (equal to the batch estimator's state at the same sample), its
-  final error, the motion time after which it stays within 1.5 ms / 1 ms of the truth, the offline (whole-recording,
-  not causal) estimate on the same data, and the heading RMSE of the filter with the online, no (τ = 0) and the
-  offline compensation.
+* Synthetic: :func:`dualpose.sim.magnetometer_lag.lagged_recording` (analytic tumbling motion, 200 Hz, 2 s rest +
+  30 s motion, magnetometer sampled ``lag`` earlier; the motion starting abruptly, and smoothly over 1 s) for lags
+  ±5, ±10, ±20 ms (seed ``lag_ms + 300``, as ``tests/calibration/test_sensor_time_offset.py``): the online τ̂
+  after every 0.1 s block of an :class:`~dualpose.estimation.ahrs_stream.AhrsStream` (equal to the batch
+  estimator's state at the same sample), its final error, the motion time after which it stays within 1.5 ms /
+  1 ms of the truth, the offline (whole-recording, not causal) estimate on the same data, and the heading RMSE of
+  the filter with the online, no (τ = 0) and the offline compensation.
 * Cut-off: RMS error of the final online τ̂ and of the offline estimate over 6 lags × 3 seeds (``lag_ms + 100, 300,
   500``) for a 5 Hz and a 10 Hz low-pass (``dualpose.estimation.ahrs.MAG_LAG_CUTOFF`` and the offline ``cutoff``).
 * BROAD: per trial, the online τ̂ after the last sample, the time of the first non-zero τ̂ (after the first sample),
@@ -59,14 +59,14 @@ def _heading_rmse_deg(quat, q_true, sel) -> float:
     return float(np.sqrt(np.mean(np.degrees(2 * np.arctan2(np.abs(e[sel, 2]), np.abs(e[sel, 3]))) ** 2)))
 
 
-def synthetic_table() -> list[str]:
+def synthetic_table(ramp: float) -> list[str]:
     out = [
         "| injected lag (ms) | online τ̂ at the end (ms) | error (ms) | offline estimate (ms) | within 1.5 ms for good "
         "after (s of motion) | within 1 ms for good after (s of motion) | heading RMSE online / τ = 0 / offline (°) |",
         "|---:|---:|---:|---:|---:|---:|---|",
     ]
     for lag_ms in LAGS_MS:
-        r = lagged_recording(lag_ms * 1e-3, seed=int(lag_ms) + 300)
+        r = lagged_recording(lag_ms * 1e-3, ramp_seconds=ramp, seed=int(lag_ms) + 300)
         track = _online_track(r.gyr, r.acc, r.mag, r.rate, r.n_rest)
         rest_s = r.n_rest / r.rate
         off = estimate_sensor_time_offset(r.gyr, r.mag, r.rate, gyroscope_bias=np.median(r.gyr[: r.n_rest], axis=0))
@@ -120,7 +120,9 @@ def broad_table() -> list[str]:
 
 
 def main() -> int:
-    lines = ["Synthetic (200 Hz, 2 s rest + 30 s tumbling motion):", "", *synthetic_table(), "",
+    lines = ["Synthetic (200 Hz, 2 s rest + 30 s tumbling motion), the motion starting abruptly:", "",
+             *synthetic_table(0.0), "", "The same, the motion starting smoothly (1 s ramp):", "",
+             *synthetic_table(1.0), "",
              "Low-pass cut-off (6 lags × 3 seeds):", "", *cutoff_table()]
     if DATA.is_dir():
         lines += ["", "BROAD (online τ̂ read after every 0.1 s):", "", *broad_table()]

@@ -71,13 +71,33 @@ class LaggedRecording:
     rate: float
 
 
+def _motion_time(t: np.ndarray, ramp: float) -> tuple[np.ndarray, np.ndarray]:
+    """Motion time s(t) and its rate ds/dt (both (n,)): 0 before t = 0; with ``ramp`` > 0 the rate rises as
+    (1 − cos(π t / ramp)) / 2 to 1 (continuous angular rate and acceleration), else it jumps to 1 at t = 0."""
+    started = t >= 0.0
+    t = np.maximum(t, 0.0)
+    if ramp <= 0.0:
+        return t, started.astype(np.float64)
+    inside = t < ramp
+    s = np.where(inside, 0.5 * t - ramp / (2 * np.pi) * np.sin(np.pi * t / ramp), t - 0.5 * ramp)
+    return s, np.where(inside, 0.5 * (1.0 - np.cos(np.pi * t / ramp)), 1.0)
+
+
 def lagged_recording(
-    lag: float, seconds: float = 32.0, *, rate: float = 200.0, rest_seconds: float = 2.0, seed: int = 0
+    lag: float,
+    seconds: float = 32.0,
+    *,
+    rate: float = 200.0,
+    rest_seconds: float = 2.0,
+    ramp_seconds: float = 0.0,
+    seed: int = 0,
 ) -> LaggedRecording:
     """``rest_seconds`` at rest (the motion frozen at its start), then the tumbling motion; the magnetometer lags.
 
     Noise (seeded): gyroscope 0.005 rad/s, accelerometer 0.02 m/s², magnetometer 0.3 µT per sample; no bias, no
-    linear acceleration, field :data:`FIELD_ENU`.
+    linear acceleration, field :data:`FIELD_ENU`.  With ``ramp_seconds`` = 0 the angular rate jumps from 0 to the
+    motion's at the end of the rest (an infinite angular acceleration); with ``ramp_seconds`` > 0 the motion's time
+    runs up smoothly over that many seconds (rate and acceleration continuous), as a real motion starts.
 
     Parameters
     ----------
@@ -89,6 +109,8 @@ def lagged_recording(
         Sampling rate, Hz.
     rest_seconds : float
         Leading rest, s.
+    ramp_seconds : float
+        Smooth start of the motion, s (0: abrupt).
     seed : int
         Noise seed.
 
@@ -98,13 +120,13 @@ def lagged_recording(
     """
     rng = np.random.default_rng(seed)
     t = np.arange(int(seconds * rate)) / rate
-    tm = np.maximum(t - rest_seconds, 0.0)  # motion time: frozen during the rest
+    tm, rate_tm = _motion_time(t - rest_seconds, ramp_seconds)  # motion time: frozen during the rest
     moving = t >= rest_seconds
-    gyr = np.where(moving[:, None], tumbling_body_rate(tm), 0.0) + rng.normal(0.0, 0.005, (t.size, 3))
+    gyr = rate_tm[:, None] * tumbling_body_rate(tm) + rng.normal(0.0, 0.005, (t.size, 3))
     q = tumbling_quat(tm)
     acc = dp.quat_rotate(dp.quat_conj(q), np.broadcast_to([0.0, 0.0, 9.81], (t.size, 3)))
     acc = acc + rng.normal(0.0, 0.02, (t.size, 3))
-    q_mag = tumbling_quat(np.maximum(tm - lag, 0.0))
+    q_mag = tumbling_quat(_motion_time(t - rest_seconds - lag, ramp_seconds)[0])
     mag = dp.quat_rotate(dp.quat_conj(q_mag), np.broadcast_to(FIELD_ENU, (t.size, 3)))
     mag = mag + rng.normal(0.0, 0.3, (t.size, 3))
     return LaggedRecording(gyr, acc, mag, int(round(rest_seconds * rate)), moving, q, float(rate))
