@@ -55,11 +55,9 @@ def run_stream(lines: list[str], *args: str) -> tuple[int, str, str]:
 
 
 def stream_reference(t, gyr, acc, mag, rate, n_rest) -> np.ndarray:
-    """AhrsStream.update_imu per sample, the rest period's outputs from rest_quat."""
+    """AhrsStream.update_imu per sample (every output at its own sample, the rest period's included)."""
     s = AhrsStream(rate, use_mag=mag is not None, n_rest=n_rest)
-    q = np.array([s.update_imu(t[k], gyr[k], acc[k], None if mag is None else mag[k]) for k in range(len(t))])
-    q[: len(s.rest_quat)] = s.rest_quat
-    return q
+    return np.array([s.update_imu(t[k], gyr[k], acc[k], None if mag is None else mag[k]) for k in range(len(t))])
 
 
 # ---- the line formats -----------------------------------------------------------------------------------------------
@@ -85,15 +83,15 @@ def test_format_row_is_repr_exact():
     assert np.array_equal(parse_output(line)[0, 1:], q) and parse_output(line)[0, 0] == 0.01
 
 
-def test_pipeline_holds_the_rest_period_then_one_line_per_sample():
+def test_pipeline_yields_one_line_per_sample_also_inside_the_rest_period():
     t, gyr, acc = synthetic()
     lines = lines_of(t, gyr, acc)
     it = stream_ahrs_lines(iter(lines[: N_REST + 2]), RATE, use_mag=False, n_rest=N_REST)
     out = list(it)
-    assert len(out) == 3 and out[0].count("\n") == N_REST  # the rest period's lines at once, then one per sample
+    assert len(out) == N_REST + 2 and all(o.count("\n") == 1 for o in out)  # nothing held
     assert np.array_equal(parse_output("".join(out))[:, 1:], stream_reference(t, gyr, acc, None, RATE, N_REST)[:102])
-    with pytest.raises(ValueError, match=r"stdin: input ended after 99 samples \(line 99\), before the rest period"):
-        list(stream_ahrs_lines(iter(lines[:99]), RATE, use_mag=False, n_rest=N_REST))
+    # input ending inside the rest period: every sample already has its line
+    assert len(list(stream_ahrs_lines(iter(lines[:40]), RATE, use_mag=False, n_rest=N_REST))) == 40
 
 
 # ---- through pipes --------------------------------------------------------------------------------------------------
@@ -112,7 +110,7 @@ def test_stream_equals_ahrs_stream_and_batch_synthetic(rest_seconds):
     n_rest = N_REST if rest_seconds is None else 0
     assert got.shape == (len(t), 5) and np.array_equal(got[:, 0], t)
     assert np.array_equal(got[:, 1:], stream_reference(t, gyr, acc, None, RATE, n_rest))
-    batch = estimate_orientation(gyr, acc, None, RATE, use_mag=False, n_rest=n_rest, mag_time_offset=0.0)
+    batch = estimate_orientation(gyr, acc, None, RATE, use_mag=False, n_rest=n_rest)
     assert np.array_equal(got[:, 1:], batch.quat)
 
 
@@ -123,9 +121,9 @@ def test_stream_equals_batch_on_broad_9d(trial):
     assert code == 0 and err == ""
     got = parse_output(out)
     n_rest = round(trial.rate)  # --rest-seconds 1
-    batch = estimate_orientation(
-        trial.gyr, trial.acc, trial.mag, trial.rate, n_rest=n_rest, mag_time_offset=0.0, mag_calibration=None
-    )
+    # the defaults on both sides: online magnetometer time offset, causal rest period
+    batch = estimate_orientation(trial.gyr, trial.acc, trial.mag, trial.rate, n_rest=n_rest)
+    assert 0.005 < batch.mag_time_offset < 0.02  # the online estimate is at work (BROAD: ~11 ms)
     assert got.shape == (n, 5) and np.array_equal(got[:, 0], t)
     assert np.array_equal(got[:, 1:], batch.quat)
 
@@ -136,10 +134,8 @@ def test_one_flushed_line_per_input_line():
     ref = stream_reference(t[: N_REST + 5], gyr, acc, None, RATE, N_REST)
     proc = dualpose_stream("--rate", "100", "--no-mag")
     reader = LineReader(proc)
-    proc.stdin.writelines(lines[:N_REST])  # the rest period: its lines come when it is complete
-    proc.stdin.flush()
-    got = [reader.readline() for _ in range(N_REST)]
-    for line in lines[N_REST:]:  # then one line per line, before the next is sent
+    got = []
+    for line in lines:  # one line per line, before the next is sent, also inside the rest period
         proc.stdin.write(line)
         proc.stdin.flush()
         got.append(reader.readline())
@@ -173,8 +169,8 @@ def test_malformed_line_in_the_middle(bad, message):
 def test_input_ending_inside_the_rest_period():
     t, gyr, acc = synthetic()
     code, out, err = run_stream(lines_of(t, gyr, acc)[:40], "--rate", "100", "--no-mag")
-    assert code == 1 and out == ""
-    assert err.startswith("dualpose ahrs: error: stdin: input ended after 40 samples (line 40), before the rest")
+    assert code == 0 and err == ""
+    assert np.array_equal(parse_output(out)[:, 1:], stream_reference(t, gyr, acc, None, RATE, N_REST)[:40])
 
 
 def test_reader_closing_early_exits_141_quietly(tmp_path):

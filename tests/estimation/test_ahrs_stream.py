@@ -1,5 +1,6 @@
-"""The streaming AHRS (dualpose.estimation.ahrs_stream): one sample at a time equals the batch estimator bit for bit,
-outputs are causal, and a saved state continues exactly; on a synthetic recording and on a real BROAD trial."""
+"""The streaming AHRS (dualpose.estimation.ahrs_stream): one sample at a time equals the batch estimator bit for bit
+with the default (online magnetometer time offset) settings, every output is causal -- batch and stream, inside and
+after the rest period -- and a saved state continues exactly; on a synthetic recording and on a real BROAD trial."""
 
 from __future__ import annotations
 
@@ -53,16 +54,14 @@ def run(request):
     return synthetic() if request.param == "synthetic" else broad()
 
 
-def batch(run, use_mag=True, n_rest=None):
+def batch(run, use_mag=True, n_rest=None, **kw):
     t, gyr, acc, mag, rate, n0 = run
     n_rest = n0 if n_rest is None else n_rest
-    return estimate_orientation(
-        gyr, acc, mag, rate, use_mag=use_mag, n_rest=n_rest, mag_time_offset=0.0, mag_calibration=None
-    )
+    return estimate_orientation(gyr, acc, mag, rate, use_mag=use_mag, n_rest=n_rest, **kw)
 
 
 def stream_one_by_one(s: AhrsStream, t, gyr, acc, mag, start: int = 0):
-    """update_imu per sample from `start`; returns (quat, bias) per sample, the rest-period outputs filled in."""
+    """update_imu per sample from `start`; returns (quat, bias) per sample."""
     n = len(t)
     q, b = np.empty((n, 4)), np.empty((n, 3))
     for k in range(start, n):
@@ -77,8 +76,7 @@ def test_stream_equals_batch_bit_for_bit(run, use_mag):
     ref = batch(run, use_mag)
     s = AhrsStream(rate, use_mag=use_mag, n_rest=n_rest)
     q, b = stream_one_by_one(s, t, gyr, acc, mag if use_mag else None)
-    assert np.isnan(q[: n_rest - 1]).all()  # the rest period is buffered until complete ...
-    q[:n_rest], b[:n_rest] = s.rest_quat, s.rest_gyro_bias  # ... and its outputs are kept
+    assert np.isfinite(q).all()  # every output at its own sample, the rest period's included
     assert np.array_equal(q, ref.quat)
     assert np.array_equal(b, ref.gyroscope_bias)
     assert np.array_equal(s.covariance, ref.covariance)
@@ -89,9 +87,16 @@ def test_stream_equals_batch_bit_for_bit(run, use_mag):
     parts = [s2.update_batch(t[i:j], gyr[i:j], acc[i:j], m[i:j]) for i, j in zip(cuts[:-1], cuts[1:], strict=True)]
     q2 = np.concatenate([p[0] for p in parts])
     b2 = np.concatenate([p[1] for p in parts])
-    q2[:n_rest], b2[:n_rest] = s2.rest_quat, s2.rest_gyro_bias
     assert np.array_equal(q2, ref.quat)
     assert np.array_equal(b2, ref.gyroscope_bias)
+    if use_mag:  # the online lag estimate is part of the state: the same value at the end
+        assert s.mag_time_offset == s2.mag_time_offset == ref.mag_time_offset
+    # a fixed lag, compensated the same causal way
+    ref_fixed = batch(run, use_mag, mag_time_offset=0.012)
+    q3, _ = AhrsStream(rate, use_mag=use_mag, n_rest=n_rest, mag_time_offset=0.012).update_batch(
+        t, gyr, acc, mag if use_mag else None
+    )
+    assert np.array_equal(q3, ref_fixed.quat)
 
 
 def test_stream_without_rest_period_and_with_given_rest_statistics():
@@ -100,31 +105,37 @@ def test_stream_without_rest_period_and_with_given_rest_statistics():
     ref0 = batch(run, n_rest=0)
     q, b = stream_one_by_one(AhrsStream(rate, n_rest=0), t, gyr, acc, mag)
     assert np.array_equal(q, ref0.quat) and np.array_equal(b, ref0.gyroscope_bias)
-    # rest statistics known beforehand: every output is available at its own sample
+    # rest statistics known beforehand: the filter runs from the first sample; from the rest period's last sample on
+    # (where the batch estimator's filter output begins) the same numbers
     rest = rest_statistics(gyr, acc, mag, rate, n_rest)
     q, b = stream_one_by_one(AhrsStream(rate, rest=rest), t, gyr, acc, mag)
     ref = batch(run)
-    assert np.array_equal(q, ref.quat) and np.array_equal(b, ref.gyroscope_bias)
+    k = n_rest - 1
+    assert np.array_equal(q[k:], ref.quat[k:]) and np.array_equal(b[k:], ref.gyroscope_bias[k:])
 
 
-def test_outputs_are_causal(run):
+@pytest.mark.parametrize("where", ["rest", "last rest sample", "moving"])
+def test_outputs_are_causal(run, where):
+    # changing one sample (gyro, accel or mag) never changes an earlier output, to the bit: batch and stream
     t, gyr, acc, mag, rate, n_rest = run
-    k = n_rest + 500
-    q, b = AhrsStream(rate, n_rest=n_rest).update_batch(t, gyr, acc, mag)
-    for arr in (gyr, acc, mag):
-        changed = [x.copy() for x in (gyr, acc, mag)]
-        changed[[id(gyr), id(acc), id(mag)].index(id(arr))][k + 100] += [0.7, -3.0, 20.0]
-        s = AhrsStream(rate, n_rest=n_rest)
-        q1, b1 = stream_one_by_one(s, t[: k + 200], *(c[: k + 200] for c in changed))
-        assert np.array_equal(q1[n_rest : k + 1], q[n_rest : k + 1])
-        assert np.array_equal(b1[n_rest : k + 1], b[n_rest : k + 1])
-        assert not np.array_equal(q1[k + 100 : k + 200], q[k + 100 : k + 200])  # the change is seen after it
+    j = {"rest": n_rest // 2, "last rest sample": n_rest - 1, "moving": n_rest + 600}[where]
+    end = n_rest + 900
+    ref = batch((t[:end], gyr[:end], acc[:end], mag[:end], rate, n_rest))
+    for which in range(3):
+        changed = [x[:end].copy() for x in (gyr, acc, mag)]
+        changed[which][j] += [0.7, -3.0, 20.0][which] * np.array([1.0, -0.5, 0.3])
+        r = batch((t[:end], *changed, rate, n_rest))
+        assert np.array_equal(r.quat[:j], ref.quat[:j]) and np.array_equal(r.gyroscope_bias[:j], ref.gyroscope_bias[:j])
+        assert not np.array_equal(r.quat[j:], ref.quat[j:])  # the change is seen from its own sample on
+        q1, b1 = stream_one_by_one(AhrsStream(rate, n_rest=n_rest), t[:end], *changed)
+        assert np.array_equal(q1, r.quat) and np.array_equal(b1, r.gyroscope_bias)
 
 
-@pytest.mark.parametrize("where", ["rest", "moving"])
+@pytest.mark.parametrize("where", ["rest", "moving", "late"])
 def test_save_and_restore_continues_exactly(run, where):
+    # "late": near the end, where (on the BROAD trial) the online time offset is estimated and compensated
     t, gyr, acc, mag, rate, n_rest = run
-    k = n_rest // 2 if where == "rest" else n_rest + 777
+    k = {"rest": n_rest // 2, "moving": n_rest + 777, "late": len(t) - 500}[where]
     whole = AhrsStream(rate, n_rest=n_rest)
     q_ref, b_ref = stream_one_by_one(whole, t, gyr, acc, mag)
     s = AhrsStream(rate, n_rest=n_rest)
@@ -133,10 +144,11 @@ def test_save_and_restore_continues_exactly(run, where):
     s.update_imu(t[k], gyr[k] + 1.0, acc[k], mag[k])  # the saved state is a copy: later use does not touch it
     r = AhrsStream.from_state(saved)
     q, b = stream_one_by_one(r, t, gyr, acc, mag, start=k)
-    # NaN: outputs of rest samples returned before the rest period was complete (the same in both)
-    assert np.array_equal(q[k:], q_ref[k:], equal_nan=True) and np.array_equal(b[k:], b_ref[k:], equal_nan=True)
-    assert np.array_equal(r.rest_quat, whole.rest_quat)
+    assert np.array_equal(q[k:], q_ref[k:]) and np.array_equal(b[k:], b_ref[k:])
     assert np.array_equal(r.covariance, whole.covariance)
+    assert r.mag_time_offset == whole.mag_time_offset
+    if where == "late" and rate > 200:  # the BROAD trial: τ̂ ≈ 11 ms is in use at the save
+        assert 0.005 < AhrsStream.from_state(saved).mag_time_offset < 0.02
     assert r.samples == whole.samples
 
 
@@ -177,3 +189,24 @@ def test_bad_samples_raise_naming_them():
         s.update_batch([0.1, 0.2], np.zeros((2, 3)), np.zeros((3, 3)), np.zeros((2, 3)))
     with pytest.raises(ValueError, match="n_rest must be 0"):
         AhrsStream(RATE, n_rest=5)
+    r = AhrsStream(RATE, n_rest=20)  # inside the rest period (buffered in Python): the same checks
+    with pytest.raises(ValueError, match="gyro must be 3 numbers"):
+        r.update_imu(0.0, 0.5, [0, 0, 9.8], [0, 20, -40])  # a scalar is not broadcast
+    with pytest.raises(ValueError, match="mag must be 3 numbers"):
+        r.update_imu(0.0, [0, 0, 0], [0, 0, 9.8], [0, 20])
+    assert r.samples == 0
+
+
+def test_mag_time_offset_settings_are_checked():
+    with pytest.raises(ValueError, match='mag_time_offset must be "online" or a number'):
+        AhrsStream(RATE, mag_time_offset="estimate")  # the whole recording's estimate needs the future
+    with pytest.raises(ValueError, match="mag_time_offset must be a finite number"):
+        AhrsStream(RATE, mag_time_offset=float("nan"))
+    with pytest.raises(TypeError, match="mag_time_offset must be a string or a number"):
+        AhrsStream(RATE, mag_time_offset=[0.01])
+    with pytest.raises(ValueError, match="time-offset search range is too long for this rate"):
+        AhrsStream(20000.0, n_rest=0).update_imu(0.0, [0, 0, 0], [0, 0, 9.8], [0, 20, -40])
+    s = AhrsStream(RATE, n_rest=0, mag_time_offset=0.011)
+    s.update_imu(0.0, [0, 0, 0], [0, 0, 9.8], [0, 20, -40])
+    assert s.mag_time_offset == 0.011
+    assert AhrsStream.from_state(s.state_dict()).mag_time_offset == 0.011

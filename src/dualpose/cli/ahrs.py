@@ -33,11 +33,13 @@ comma or whitespace separated; '#' starts a comment; blank and comment lines are
 The filter steps by 1/--rate (the time stamps must only increase).  One line per input sample is written to
 standard output and flushed at once:
   t, qx, qy, qz, qw                             (orientation IMU -> earth (ENU), xyzw, repr: exact float64)
-The first --rest-seconds (default 1 s) initialise the filter: their lines are held and all written, in order, when
-the rest period is complete, so the first output appears after the rest period (--rest-seconds 0: at once).
+Every output is causal and written at its own input line.  The first --rest-seconds (default 1 s) initialise the
+filter: inside them the output is the orientation of the running mean specific force and field so far; at their
+last sample the filter starts from the rest statistics (--rest-seconds 0: from the first sample).  The
+magnetometer-gyroscope time offset is estimated online and compensated.
 Exit status: 0 at the end of the input; 1 on a malformed line (wrong number of fields, not a number, non-finite,
-time not increasing), with 'stdin line N: ...' on stderr and every line before it already written, or when the
-input ends inside the rest period; 2 on bad arguments; 141 when the reader of standard output goes away.
+time not increasing), with 'stdin line N: ...' on stderr and every line before it already written; 2 on bad
+arguments; 141 when the reader of standard output goes away.
 """
 
 
@@ -150,7 +152,8 @@ def run(args: argparse.Namespace) -> int:
         "us_per_sample": smoothed.us_per_sample if smoothed is not None else result.us_per_sample,
         "acc_rejected": result.acc_rejected,
         "mag_rejected": result.mag_rejected,
-        # compensated magnetometer lag behind the gyroscope, estimated from the IMU data alone (None in 6D)
+        # compensated magnetometer lag behind the gyroscope, estimated online (causally) from the IMU data alone: the
+        # estimate after the last sample (None in 6D)
         "mag_time_offset_ms": result.mag_time_offset_ms if args.mag else None,
         # magnetometer self-calibration (--mag-calibration): applied only when the data support it (None in 6D)
         "mag_calibration_applied": result.mag_calibration_applied if args.mag else None,
@@ -180,7 +183,8 @@ def run(args: argparse.Namespace) -> int:
     else:
         print("  no reference orientation on the movement samples: nothing scored")
     if args.mag:
-        print(f"  mag time offset   {out['mag_time_offset_ms']:8.3f} ms (estimated from the IMU data, compensated)")
+        print(f"  mag time offset   {out['mag_time_offset_ms']:8.3f} ms (estimated online from the IMU data, "
+              "compensated; value after the last sample)")
     if args.mag and result.mag_calibration is not None:
         cal = result.mag_calibration
         print(f"  mag calibration   {'applied' if cal.applied else 'not applied'} ({cal.reason})")

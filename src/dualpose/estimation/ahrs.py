@@ -37,16 +37,23 @@ The error-state filter of :mod:`dualpose.estimation.eskf` reduced to orientation
   uninterrupted rejection the gate re-opens and stays open until an innovation fits again, so that the filter
   re-acquires instead of locking itself out);
 * covariance updates in Joseph form (valid for the zeroed, sub-optimal gains) followed by the reset Jacobian.
-* magnetometer–gyroscope time offset: by default the lag of the magnetometer behind the gyroscope is estimated
-  from the recording's own gyroscope and magnetometer (kinematic residual ``dm/dt + ω(t − τ) × m = 0`` of a static
-  field, :mod:`dualpose.calibration.sensor_time_offset`) and compensated by re-sampling the magnetometer before
-  filtering.
-  In fast rotation a lag τ turns the measured field by ``ω τ`` (at 5 rad/s and 11 ms: 3°).
+* magnetometer–gyroscope time offset, strictly causal by default: the field measured at ``t`` is the field at
+  ``t − τ``, so it is rotated into the earth frame with the orientation at ``t − τ̂``,
+  ``R̂(t) Exp(−∫_{t−τ̂}^{t} (ω − b) dt)`` from the gyroscope samples already seen; ``τ̂`` is estimated online inside
+  the filter from the kinematic residual ``dm/dt + ω(t − τ) × (m − h) = 0`` of a static field with a hard-iron term
+  ``h`` on causally filtered data (running sufficient statistics per candidate ``τ`` on a ±30 ms grid, ``h`` in
+  closed form; ``src/native/estimation/ahrs_mag_lag.hpp``, docs/broad.md "Magnetometer–gyroscope time offset").  In
+  fast rotation a lag τ turns the measured field by ``ω τ`` (at 5 rad/s and 11 ms: 3°).  The whole-recording
+  (offline, not causal) estimate of :mod:`dualpose.calibration.sensor_time_offset` remains an option;
+* causal rest period: inside the rest period (before its statistics are complete) the output is the orientation of
+  the running mean specific force and field of the samples so far; at its last sample the filter is initialised from
+  the rest statistics and run over the rest samples (all in the past by then), so no output depends on a later
+  sample;
 * optional magnetometer self-calibration (``mag_calibration="auto"``; hard iron / per-axis scale / symmetric soft
   iron) from the recording's own field samples, applied only when objective criteria say the data support it
   (orientation coverage, well-determined parameters, the field-magnitude spread in excess of the noise at least halved;
   :mod:`dualpose.calibration.magnetometer`); otherwise the raw field is used.  It runs before the time-offset
-  estimate and the rest statistics.
+  estimate and the rest statistics (and, being fitted to the whole recording, is not causal).
 
 Noise is set on principle, never per trial: white-noise levels of the three sensors are estimated from the rest period
 at the start of the recording (robustly: median absolute deviation); the bias random walk and the relative gyroscope
@@ -91,6 +98,7 @@ __all__ = [
     "PreparedRecording",
     "prepare_recording",
     "run_result",
+    "check_mag_time_offset",
     "accelerometer_jacobian",
     "heading_jacobian",
 ]
@@ -100,6 +108,18 @@ __all__ = [
 MEMS_GYRO_BIAS_RANDOM_WALK = 1.0e-4
 #: initial bias uncertainty (rad/s) when no rest period is given: MEMS turn-on bias, ~0.5 °/s
 MEMS_GYRO_TURN_ON_BIAS = math.radians(0.5)
+
+#: online magnetometer–gyroscope time offset (docs/broad.md, "Magnetometer–gyroscope time offset"): search range ±s,
+#: grid step s, low-pass cut-off Hz (a boxcar of round(0.443 rate / cut-off) samples: its -3 dB frequency; 5 Hz,
+#: below the offline estimator's 10 Hz, because the differentiated field's noise biases τ̂: docs/broad.md), informative
+#: samples (|ω| ≥ rad/s, |m| within the fraction of the rest field's norm), seconds of informative samples before τ̂
+#: is used -- otherwise the offline estimator's generic values (dualpose.calibration.sensor_time_offset)
+MAG_LAG_RANGE = 0.03
+MAG_LAG_STEP = 0.001
+MAG_LAG_CUTOFF = 5.0
+MAG_LAG_MIN_RATE = 0.5
+MAG_LAG_NORM_TOLERANCE = 0.1
+MAG_LAG_MIN_SECONDS = 1.0
 
 
 @dataclass(frozen=True)
@@ -267,9 +287,12 @@ class AhrsResult:
     seconds : float
         Wall time of the filter kernel (excluding compilation and set-up).
     mag_time_offset : float
-        Lag of the magnetometer behind the gyroscope that was compensated, s (0.0 in 6D or when not estimable).
+        Lag of the magnetometer behind the gyroscope that was compensated, s (0.0 in 6D or when not estimable); with
+        ``mag_time_offset="online"`` the online estimate τ̂ after the last sample.
     mag_time_offset_estimate : SensorTimeOffset or None
-        The estimator's full result when ``mag_time_offset="estimate"`` (None otherwise).
+        The offline estimator's full result when ``mag_time_offset="estimate"`` (None otherwise).
+    mag_time_offset_samples : int
+        Informative samples the online estimate has seen (0 unless ``mag_time_offset="online"``).
     mag_calibration : MagCalibration or None
         The magnetometer self-calibration decision and parameters when ``mag_calibration="auto"`` in 9D (None
         otherwise); see :attr:`mag_calibration_applied`.
@@ -290,6 +313,7 @@ class AhrsResult:
     mag_time_offset: float = 0.0
     mag_time_offset_estimate: SensorTimeOffset | None = None
     mag_calibration: MagCalibration | None = None
+    mag_time_offset_samples: int = 0
 
     @property
     def mag_calibration_applied(self) -> bool:
@@ -451,6 +475,7 @@ def filter_setup(
     *,
     use_mag: bool = True,
     config: AhrsConfig | None = None,
+    mag_time_offset: float | None = None,
 ) -> AhrsSetup:
     """Parameters and initial state of the AHRS, as :func:`estimate_orientation` sets them up.
 
@@ -470,6 +495,9 @@ def filter_setup(
         9D (True) or 6D (False).
     config : AhrsConfig, optional
         Tuning (default :class:`AhrsConfig`).
+    mag_time_offset : float, optional
+        None (default): estimate the magnetometer lag online inside the filter; a number: the fixed lag, s, that the
+        causal compensation uses (0: none).  See :func:`estimate_orientation`.
 
     Returns
     -------
@@ -523,6 +551,7 @@ def filter_setup(
     params[_native.AHRS_P_GYR_SCALE_VAR] = c.gyro_scale_sigma**2 * 1.0
     params[_native.AHRS_P_ACC_ADAPT] = 1.0 / (c.adapt_time * rate) if c.adapt_time > 0 else 0.0
     params[_native.AHRS_P_MAG_ADAPT] = 1.0 / (c.adapt_time * rate) if c.adapt_time > 0 and c.mag_adapt else 0.0
+    _set_lag_params(params, rate, use_mag, mag_time_offset)
     # initial attitude uncertainty: the direction of a mean of N noisy specific forces (inclination) and fields
     # (heading); heading is unknown in 6D (π is only a nominal value: no update ever uses it)
     n_avg = rest.samples if rest is not None else 1
@@ -533,6 +562,37 @@ def filter_setup(
     b = np.ascontiguousarray(b0, dtype=np.float64)
     Ha, Hm = accelerometer_jacobian(gravity), heading_jacobian()
     return AhrsSetup(params=params, q=q, b=b, P=P, Ha=Ha, Hm=Hm, n_win=n_win, stride=stride, noise=noise)
+
+
+def _set_lag_params(params: np.ndarray, rate: float, use_mag: bool, mag_time_offset: float | None) -> None:
+    """The P_LAG_* entries of the kernel's parameters: online (None) or fixed lag, the estimator's constants."""
+    online = use_mag and mag_time_offset is None
+    params[_native.AHRS_P_LAG_ONLINE] = 1.0 if online else 0.0
+    params[_native.AHRS_P_LAG_FIXED] = float(mag_time_offset) if use_mag and mag_time_offset is not None else 0.0
+    params[_native.AHRS_P_LAG_BOX] = max(1, int(round(0.443 * rate / MAG_LAG_CUTOFF)))
+    params[_native.AHRS_P_LAG_MAX] = MAG_LAG_RANGE
+    params[_native.AHRS_P_LAG_STEP] = MAG_LAG_STEP
+    params[_native.AHRS_P_LAG_MIN_RATE] = MAG_LAG_MIN_RATE
+    params[_native.AHRS_P_LAG_NORM_TOL] = MAG_LAG_NORM_TOLERANCE
+    params[_native.AHRS_P_LAG_THIN] = max(1, int(rate / (4.0 * MAG_LAG_CUTOFF)))
+    params[_native.AHRS_P_LAG_MIN_COUNT] = max(1, int(round(MAG_LAG_MIN_SECONDS * rate)))
+
+
+def check_mag_time_offset(mag_time_offset: object, allowed: tuple[str, ...]) -> float | None:
+    """``mag_time_offset`` validated: None for "online", the number for a number; "estimate" returned as is when
+    allowed (ValueError naming the argument otherwise)."""
+    if isinstance(mag_time_offset, str):
+        if mag_time_offset not in allowed:
+            choices = " or ".join(f'"{a}"' for a in allowed)
+            raise ValueError(f"mag_time_offset must be {choices} or a number of seconds; got {mag_time_offset!r}")
+        return None if mag_time_offset == "online" else mag_time_offset  # type: ignore[return-value]
+    try:
+        value = float(mag_time_offset)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise TypeError(f"mag_time_offset must be a string or a number; got {type(mag_time_offset).__name__}") from None
+    if not math.isfinite(value):
+        raise ValueError(f"mag_time_offset must be a finite number of seconds; got {mag_time_offset}")
+    return value
 
 
 @dataclass(frozen=True)
@@ -554,8 +614,11 @@ class PreparedRecording:
         Statistics of the rest period.
     setup : AhrsSetup
         Parameters and initial state of the kernel.
-    mag_time_offset : float
-        Compensated lag of the magnetometer behind the gyroscope, s.
+    n_rest : int
+        Leading rest samples (0: none).
+    mag_time_offset : float or None
+        Lag of the magnetometer behind the gyroscope compensated before or inside the kernel, s; None when the kernel
+        estimates it online (its value is then in the kernel's statistics).
     mag_time_offset_estimate : SensorTimeOffset or None
         The estimator's result when it was asked for.
     mag_calibration : MagCalibration or None
@@ -569,7 +632,8 @@ class PreparedRecording:
     use_mag: bool
     rest: RestStatistics | None
     setup: AhrsSetup
-    mag_time_offset: float
+    n_rest: int
+    mag_time_offset: float | None
     mag_time_offset_estimate: SensorTimeOffset | None
     mag_calibration: MagCalibration | None
 
@@ -583,7 +647,7 @@ def prepare_recording(
     use_mag: bool = True,
     n_rest: int | None = None,
     config: AhrsConfig | None = None,
-    mag_time_offset: str | float = "estimate",
+    mag_time_offset: str | float = "online",
     mag_calibration: str | MagCalibration | None = None,
 ) -> PreparedRecording:
     """Check the inputs of :func:`estimate_orientation` and do everything before its kernel runs.
@@ -620,11 +684,7 @@ def prepare_recording(
     if 0 < n_rest < 10:
         raise ValueError(f"n_rest must be 0 (no rest period) or at least 10 samples; got {n_rest}")
 
-    if isinstance(mag_time_offset, str):
-        if mag_time_offset != "estimate":
-            raise ValueError(f'mag_time_offset must be "estimate" or a number of seconds; got {mag_time_offset!r}')
-    elif not np.isfinite(float(mag_time_offset)):
-        raise ValueError(f"mag_time_offset must be a finite number of seconds; got {mag_time_offset}")
+    lag_setting = check_mag_time_offset(mag_time_offset, ("online", "estimate"))
 
     if isinstance(mag_calibration, str) and mag_calibration != "auto":
         raise ValueError(f'mag_calibration must be "auto", a MagCalibration or None; got {mag_calibration!r}')
@@ -642,25 +702,28 @@ def prepare_recording(
             mag_cal = mag_calibration
         mag_arr = np.ascontiguousarray(mag_cal.apply(mag_arr))
     rest = rest_statistics(gyr, acc, mag_arr, rate, n_rest) if n_rest else None
-    mag_offset, mag_offset_est = 0.0, None
-    if use_mag:
-        if mag_time_offset == "estimate":
-            mag_offset_est = estimate_sensor_time_offset(
-                gyr, mag_arr, rate, gyroscope_bias=rest.gyroscope_bias if rest is not None else None
-            )
-            mag_offset = mag_offset_est.offset if mag_offset_est.valid else 0.0
-        else:
-            mag_offset = float(mag_time_offset)
-        if mag_offset != 0.0:
-            mag_arr = shift_samples(mag_arr, rate, mag_offset)
+    mag_offset_est, kernel_lag = None, lag_setting
+    if use_mag and lag_setting == "estimate":
+        mag_offset_est = estimate_sensor_time_offset(
+            gyr, mag_arr, rate, gyroscope_bias=rest.gyroscope_bias if rest is not None else None
+        )
+        if mag_offset_est.valid and mag_offset_est.offset != 0.0:
+            mag_arr = shift_samples(mag_arr, rate, mag_offset_est.offset)
+        kernel_lag = 0.0
+    if not use_mag:
+        mag_offset: float | None = 0.0
+    elif mag_offset_est is not None:
+        mag_offset = mag_offset_est.offset if mag_offset_est.valid else 0.0
+    else:
+        mag_offset = kernel_lag  # a fixed lag, or None: estimated online by the kernel
     setup = filter_setup(
         rate, rest, acc[0], mag_arr[0] if mag_arr is not None else None,
-        use_mag=use_mag, config=config,
+        use_mag=use_mag, config=config, mag_time_offset=kernel_lag,
     )  # fmt: skip
     return PreparedRecording(
         gyr=gyr, acc=acc, mag=mag_arr if mag_arr is not None else np.zeros((n, 3)), rate=float(rate),
-        use_mag=use_mag, rest=rest, setup=setup, mag_time_offset=mag_offset, mag_time_offset_estimate=mag_offset_est,
-        mag_calibration=mag_cal,
+        use_mag=use_mag, rest=rest, setup=setup, n_rest=n_rest, mag_time_offset=mag_offset,
+        mag_time_offset_estimate=mag_offset_est, mag_calibration=mag_cal,
     )  # fmt: skip
 
 
@@ -673,7 +736,7 @@ def estimate_orientation(
     use_mag: bool = True,
     n_rest: int | None = None,
     config: AhrsConfig | None = None,
-    mag_time_offset: str | float = "estimate",
+    mag_time_offset: str | float = "online",
     mag_calibration: str | MagCalibration | None = None,
 ) -> AhrsResult:
     """Estimate the orientation of an IMU from gyroscope, accelerometer and (9D) magnetometer samples.
@@ -697,16 +760,23 @@ def estimate_orientation(
     config : AhrsConfig, optional
         Tuning: noise override, gates, adaptation, window, update interval, scale-factor uncertainty (default
         :class:`AhrsConfig`, the same for every recording).
-    mag_time_offset : "estimate" or float
-        Lag of the magnetometer samples behind the gyroscope's, s, compensated by re-sampling the magnetometer at
-        ``t + offset`` (:func:`~dualpose.calibration.sensor_time_offset.shift_samples`) before filtering.
-        ``"estimate"`` (default) estimates it from this recording's gyroscope and magnetometer alone, with the
-        kinematic residual
-        ``dm/dt + ω(t − τ) × m = 0`` of a static field (:func:`~dualpose.calibration.sensor_time_offset.
-        estimate_sensor_time_offset`, ±30 ms, gyroscope bias from the rest period); when that is not possible (too
-        little rotation) nothing is shifted.  A number is used as given; 0 switches the compensation off.  In fast
-        rotation a lag τ makes the magnetometer read a heading rotated by ``ω τ`` (docs/broad.md,
-        "Magnetometer–gyroscope time offset").  Ignored in 6D.
+    mag_time_offset : "online", "estimate" or float
+        Lag of the magnetometer samples behind the gyroscope's, s (docs/broad.md, "Magnetometer–gyroscope time
+        offset").  In fast rotation a lag τ makes the magnetometer read a heading rotated by ``ω τ``.
+
+        * ``"online"`` (default, strictly causal): estimated inside the filter from the samples seen so far
+          (kinematic residual ``dm/dt + ω(t − τ) × (m − h) = 0`` of a static field with a hard-iron term ``h``,
+          causally filtered, ±30 ms grid; 0 until one second of informative samples -- ``|ω| ≥ 0.5`` rad/s, ``|m|``
+          within 10 % of the rest field -- has been seen and the minimum is inside the range) and compensated by
+          rotating each field sample with the orientation at ``t − τ̂`` (``R̂(t) Exp(−∫_{t−τ̂}^{t} (ω − b) dt)``);
+        * a number: that lag, compensated the same causal way; 0 switches the compensation off;
+        * ``"estimate"`` (not causal): the whole recording's offline estimate
+          (:func:`~dualpose.calibration.sensor_time_offset.estimate_sensor_time_offset`, gyroscope bias from the
+          rest period), compensated by re-sampling the magnetometer at ``t + τ``
+          (:func:`~dualpose.calibration.sensor_time_offset.shift_samples`); nothing is shifted when it is not
+          estimable.
+
+        Ignored in 6D.
     mag_calibration : "auto", MagCalibration or None
         None (default): raw magnetometer.  ``"auto"``: fit hard iron / per-axis scale / symmetric soft iron to this
         recording's field samples and apply the smallest model that passes the decision rule of
@@ -718,6 +788,9 @@ def estimate_orientation(
     Returns
     -------
     AhrsResult
+        Every output is causal (depends on no later sample) unless ``mag_time_offset="estimate"`` or
+        ``mag_calibration`` is used: inside the rest period the orientation of the running mean specific force and
+        field so far and the running mean rate as bias; from the rest period's last sample on, the filter's.
     """
     prep = prepare_recording(
         gyr, acc, mag, rate, use_mag=use_mag, n_rest=n_rest, config=config, mag_time_offset=mag_time_offset,
@@ -733,6 +806,11 @@ def estimate_orientation(
     _native.ahrs_run(prep.gyr, prep.acc, prep.mag, 1.0 / prep.rate, q, b, P, setup.params, setup.Ha, setup.Hm, out_q,
                      out_b, stats)  # fmt: skip
     seconds = time.perf_counter() - t0
+    n_rest = prep.n_rest
+    if n_rest > 1:  # the outputs before the rest period is complete: running means of the samples so far
+        k = n_rest - 1
+        _native.ahrs_rest_run(prep.gyr[:k], prep.acc[:k], prep.mag[:k], prep.use_mag, np.zeros(10), out_q[:k],
+                              out_b[:k])  # fmt: skip
     return run_result(prep, out_q, out_b, P, stats, seconds)
 
 
@@ -765,6 +843,7 @@ def run_result(
     n_updates = max(0, (n - n_win) // stride + 1)
     acc_acc = n_updates - stats[_native.AHRS_S_ACC_REJECTED]
     mag_acc = (n_updates - stats[_native.AHRS_S_MAG_REJECTED] - stats[_native.AHRS_S_MAG_SKIPPED]) if use_mag else 0
+    mag_offset = prep.mag_time_offset if prep.mag_time_offset is not None else float(stats[_native.AHRS_S_MAG_LAG])
     return AhrsResult(
         quat=quat,
         gyroscope_bias=gyroscope_bias,
@@ -778,7 +857,8 @@ def run_result(
         acc_fraction_inside=float(stats[_native.AHRS_S_ACC_INSIDE] / acc_acc) if acc_acc else math.nan,
         mag_fraction_inside=float(stats[_native.AHRS_S_MAG_INSIDE] / mag_acc) if mag_acc else math.nan,
         seconds=seconds,
-        mag_time_offset=prep.mag_time_offset,
+        mag_time_offset=mag_offset,
         mag_time_offset_estimate=prep.mag_time_offset_estimate,
         mag_calibration=prep.mag_calibration,
+        mag_time_offset_samples=int(stats[_native.AHRS_S_MAG_LAG_SAMPLES]),
     )

@@ -1,10 +1,12 @@
 """The AHRS of :mod:`dualpose.estimation.ahrs` one sample at a time (streaming), with a savable state.
 
 :class:`AhrsStream` runs the same compiled per-sample step as :func:`~dualpose.estimation.ahrs.estimate_orientation`
-(``step`` in ``src/native/estimation/ahrs_run.cpp``; the whole-recording loop is a loop over it), so a stream fed
-sample by sample, a stream fed in blocks (:meth:`AhrsStream.update_batch`) and the batch estimator give the same
-orientations and biases to the last bit, provided they use the same settings and the batch estimator's non-causal
-pre-processing is off (``mag_time_offset=0.0``, ``mag_calibration=None``).
+(``step`` in ``src/native/estimation/ahrs_run.cpp``; the whole-recording loop is a loop over it) and the same
+compiled rest-period outputs (``rest_run``), so a stream fed sample by sample, a stream fed in blocks
+(:meth:`AhrsStream.update_batch`) and the batch estimator give the same orientations and biases to the last bit,
+provided they use the same settings -- including the default online magnetometer time offset -- and the batch
+estimator's non-causal options are off (``mag_time_offset="estimate"``, ``mag_calibration``).  Every output is causal
+and returned at its own sample.
 
 The whole filter state -- orientation, bias, covariance, the field window's ring buffers and sums, the accelerometer
 low-pass state, the accumulated corrections, gate counters, adaptive-noise estimates and statistics -- lives in one
@@ -22,7 +24,14 @@ from typing import Any
 import numpy as np
 
 from dualpose import _native
-from dualpose.estimation.ahrs import AhrsConfig, AhrsNoise, RestStatistics, filter_setup, rest_statistics
+from dualpose.estimation.ahrs import (
+    AhrsConfig,
+    AhrsNoise,
+    RestStatistics,
+    check_mag_time_offset,
+    filter_setup,
+    rest_statistics,
+)
 
 __all__ = ["AhrsStream"]
 
@@ -34,6 +43,13 @@ def _check_block(x: Any, name: str, n: int | None) -> np.ndarray:
     return a
 
 
+def _row3(x: Any, name: str) -> np.ndarray:
+    v = np.asarray(x, dtype=np.float64)
+    if v.shape != (3,):
+        raise ValueError(f"{name} must be 3 numbers (shape (3,)); got shape {v.shape}")
+    return v
+
+
 class AhrsStream:
     """The AHRS (gyroscope, accelerometer, optional magnetometer) updated one sample at a time.
 
@@ -41,15 +57,17 @@ class AhrsStream:
     :func:`~dualpose.estimation.ahrs.estimate_orientation` (its docstring and docs/broad.md describe them); the
     keyword arguments have the same meaning.  Differences, all because a stream cannot look ahead:
 
-    * no magnetometer–gyroscope time offset and no magnetometer self-calibration (both are estimated from the whole
-      recording in the batch estimator): pass an already calibrated and time-aligned field.  The stream equals
-      ``estimate_orientation(..., mag_time_offset=0.0, mag_calibration=None)`` sample for sample, bit for bit;
+    * the magnetometer–gyroscope time offset is estimated online (the default ``mag_time_offset="online"``, inside
+      the compiled state) or fixed; the batch estimator's whole-recording estimate (``"estimate"``) and its
+      magnetometer self-calibration need the future and are not available: the stream equals
+      ``estimate_orientation(..., mag_time_offset=<the same>, mag_calibration=None)`` sample for sample, bit for bit;
     * initialisation from a rest period: with ``rest`` given (e.g. :func:`~dualpose.estimation.ahrs.rest_statistics`
-      of an earlier recording) the filter starts at the first sample and every output is causal.  Otherwise the
-      first ``n_rest`` samples are buffered; the rest statistics are computed when the last of them arrives, the
-      buffered samples are filtered at once, and their outputs are then in :attr:`rest_quat` /
-      :attr:`rest_gyro_bias` (outputs of those samples returned before that are NaN).  ``n_rest=0``: start at the
-      first sample from its own directions (as the batch estimator with ``n_rest=0``);
+      of an earlier recording) the filter starts at the first sample.  Otherwise, inside the first ``n_rest``
+      samples the output is the orientation of the running mean specific force and field so far (and the running
+      mean rate as :attr:`gyro_bias`); at the last of them the rest statistics are computed, the filter is
+      initialised and run over the rest samples, and its output is returned.  Every output comes at its own
+      sample.  ``n_rest=0``: start at the first sample from its own directions (as the batch estimator with
+      ``n_rest=0``);
     * the sampling is uniform at ``rate`` (the filter's step is ``1 / rate``, as in the batch estimator); the time
       stamps ``t`` are only checked to increase strictly.
 
@@ -66,6 +84,9 @@ class AhrsStream:
         Rest statistics to start from (no buffering).
     config : AhrsConfig, optional
         Tuning, as in :func:`~dualpose.estimation.ahrs.estimate_orientation` (default :class:`AhrsConfig`).
+    mag_time_offset : "online" or float
+        Magnetometer lag behind the gyroscope: estimated online (default) or this many seconds (0: none), compensated
+        causally as in :func:`~dualpose.estimation.ahrs.estimate_orientation`.  Ignored in 6D.
 
     Examples
     --------
@@ -85,6 +106,7 @@ class AhrsStream:
         n_rest: int | None = None,
         rest: RestStatistics | None = None,
         config: AhrsConfig | None = None,
+        mag_time_offset: str | float = "online",
     ) -> None:
         if not (np.isfinite(rate) and rate > 0):
             raise ValueError(f"rate must be a positive number of Hz; got {rate}")
@@ -98,41 +120,54 @@ class AhrsStream:
         if config is not None and not isinstance(config, AhrsConfig):
             raise TypeError(f"config must be an AhrsConfig or None; got {type(config).__name__}")
         self._settings = config if config is not None else AhrsConfig()
-        self._config = dict(rate=float(rate), use_mag=bool(use_mag), n_rest=int(n_rest), rest=rest)
+        self._lag = check_mag_time_offset(mag_time_offset, ("online",))
+        self._config = dict(rate=float(rate), use_mag=bool(use_mag), n_rest=int(n_rest), rest=rest,
+                            mag_time_offset="online" if self._lag is None else self._lag)
         self._rate = float(rate)
         self._use_mag = bool(use_mag)
         self._n_rest = int(n_rest)
         self._rest = rest
         self._state: np.ndarray | None = None
-        self._pending: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []  # blocks (k,), (k, 3) ...
+        # the rest samples buffered until the rest period is complete: t (N,), gyro, accel, mag (N, 3), N = n_rest
+        size = max(self._n_rest, 1)
+        self._pending = (np.zeros(size), np.zeros((size, 3)), np.zeros((size, 3)), np.zeros((size, 3)))
         self._n_pending = 0
         self._t = -math.inf
         self._samples = 0
-        self.rest_quat = np.empty((0, 4))
-        self.rest_gyro_bias = np.empty((0, 3))
+        self._rest_sums = np.zeros(10)  # running sums of gyro, accel, mag and the count inside the rest period
+        self._rest_out = (np.full(4, np.nan), np.full(3, np.nan))  # the last rest-period output (quat, bias)
         if rest is not None:
             self._start(None, None)
 
     # ---- set-up -------------------------------------------------------------------------------------------------
 
     def _start(self, first_acc: np.ndarray | None, first_mag: np.ndarray | None) -> None:
-        setup = filter_setup(self._rate, self._rest, first_acc, first_mag, use_mag=self._use_mag, config=self._settings)
+        setup = filter_setup(self._rate, self._rest, first_acc, first_mag, use_mag=self._use_mag, config=self._settings,
+                             mag_time_offset=self._lag)
         self._state = _native.ahrs_stream_new(
             setup.params, setup.Ha, setup.Hm, 1.0 / self._rate, setup.q, setup.b, setup.P
         )
 
-    def _finish_rest(self) -> None:
-        """Initialise from the buffered rest samples and filter them (their outputs go to rest_quat / bias)."""
+    def _finish_rest(self) -> tuple[np.ndarray, np.ndarray]:
+        """Initialise from the buffered rest samples and filter them; the filter's output at the last one."""
         _, g, a, m = self._pending_arrays()
-        self._pending, self._n_pending = [], 0
+        self._n_pending = 0
         if self._n_rest:
             self._rest = rest_statistics(g, a, m if self._use_mag else None, self._rate, self._n_rest)
             self._start(None, None)
         else:
             self._start(a[0], m[0])
-        self.rest_quat = np.empty((len(g), 4))
-        self.rest_gyro_bias = np.empty((len(g), 3))
-        _native.ahrs_stream_run(self._state, g, a, m, self.rest_quat, self.rest_gyro_bias)
+        out_q, out_b = np.empty((len(g), 4)), np.empty((len(g), 3))
+        _native.ahrs_stream_run(self._state, g, a, m, out_q, out_b)
+        return out_q[-1], out_b[-1]
+
+    def _rest_outputs(self, g: np.ndarray, a: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The causal outputs of rest samples before the last one: running means (``ahrs_rest_run``)."""
+        out_q, out_b = np.empty((len(g), 4)), np.empty((len(g), 3))
+        _native.ahrs_rest_run(g, a, m, self._use_mag, self._rest_sums, out_q, out_b)
+        if len(g):
+            self._rest_out = (out_q[-1].copy(), out_b[-1].copy())
+        return out_q, out_b
 
     # ---- updates ------------------------------------------------------------------------------------------------
 
@@ -153,25 +188,25 @@ class AhrsStream:
         Returns
         -------
         ndarray, shape (4,)
-            Orientation xyzw, IMU → earth (ENU), after this sample's updates; NaN while the rest period is still
-            being buffered (see :attr:`rest_quat`).
+            Orientation xyzw, IMU → earth (ENU), after this sample's updates (inside the rest period: from the
+            running mean directions so far).
         """
         if self._state is not None and t > self._t and (mag is not None or not self._use_mag):
             self._t = t
             self._samples += 1
             return _native.ahrs_stream_step(self._state, gyro, accel, mag)
         self._check_sample(t, mag)
-        g = np.array(gyro, dtype=np.float64).reshape(1, 3)
-        a = np.array(accel, dtype=np.float64).reshape(1, 3)
-        m = np.array(mag, dtype=np.float64).reshape(1, 3) if mag is not None else np.zeros((1, 3))
+        k = self._n_pending
+        pt, pg, pa, pm = self._pending
+        pg[k], pa[k] = _row3(gyro, "gyro"), _row3(accel, "accel")
+        pm[k] = _row3(mag, "mag") if mag is not None else 0.0
+        pt[k] = t
         self._t = t
         self._samples += 1
-        self._pending.append((np.array([t], dtype=np.float64), g, a, m))
         self._n_pending += 1
         if self._n_pending < max(self._n_rest, 1):
-            return np.full(4, np.nan)
-        self._finish_rest()
-        return self.rest_quat[-1].copy()
+            return self._rest_outputs(pg[k : k + 1], pa[k : k + 1], pm[k : k + 1])[0][0]
+        return self._finish_rest()[0].copy()
 
     def _check_sample(self, t: float, mag: Any) -> None:
         if not t > self._t:
@@ -192,8 +227,7 @@ class AhrsStream:
         Returns
         -------
         quat : ndarray, shape (n, 4)
-            Orientation after each sample, xyzw, IMU → earth (NaN for rest samples whose output is not known when the
-            call returns, as in :meth:`update_imu`).
+            Orientation after each sample, xyzw, IMU → earth (as :meth:`update_imu` returns them).
         gyro_bias : ndarray, shape (n, 3)
             Gyroscope bias after each sample, rad/s.
         """
@@ -210,13 +244,16 @@ class AhrsStream:
         out_b = np.full((n, 3), np.nan)
         i = 0
         if self._state is None:
-            i = min(n, max(self._n_rest, 1) - self._n_pending)
-            self._pending.append((t[:i].copy(), g[:i].copy(), a[:i].copy(), m[:i].copy()))
+            need = max(self._n_rest, 1) - self._n_pending
+            i = min(n, need)
+            k = self._n_pending
+            for buf, x in zip(self._pending, (t, g, a, m), strict=True):
+                buf[k : k + i] = x[:i]
             self._n_pending += i
-            if self._n_pending == max(self._n_rest, 1):
-                self._finish_rest()
-                out_q[:i] = self.rest_quat[len(self.rest_quat) - i :]
-                out_b[:i] = self.rest_gyro_bias[len(self.rest_gyro_bias) - i :]
+            j = i - 1 if i == need else i  # samples before the one that completes the rest period
+            out_q[:j], out_b[:j] = self._rest_outputs(g[:j], a[:j], m[:j])
+            if i == need:
+                out_q[j], out_b[j] = self._finish_rest()
         if i < n:
             _native.ahrs_stream_run(self._state, g[i:], a[i:], m[i:], out_q[i:], out_b[i:])
         if n:
@@ -243,18 +280,25 @@ class AhrsStream:
 
     def _get(self, k: int) -> np.ndarray:
         if self._state is None:
-            return np.full((4, 3, 36, _native.AHRS_N_STATS)[k], np.nan)
+            return self._rest_out[k].copy() if k < 2 else np.full((4, 3, 36, _native.AHRS_N_STATS)[k], np.nan)
         return _native.ahrs_stream_get(self._state)[k]
 
     @property
     def quat(self) -> np.ndarray:
-        """Current orientation, xyzw, IMU → earth (ENU), shape (4,) (NaN before initialisation)."""
+        """Current orientation, xyzw, IMU → earth (ENU), shape (4,) (inside the rest period: the running-mean
+        orientation; NaN before the first sample)."""
         return self._get(0)
 
     @property
     def gyro_bias(self) -> np.ndarray:
-        """Current gyroscope bias, rad/s, shape (3,)."""
+        """Current gyroscope bias, rad/s, shape (3,) (inside the rest period: the running mean rate)."""
         return self._get(1)
+
+    @property
+    def mag_time_offset(self) -> float:
+        """The magnetometer lag τ̂ the filter currently compensates, s (online: the estimate so far; 0 in 6D;
+        NaN before initialisation)."""
+        return float(self._get(3)[_native.AHRS_S_MAG_LAG])
 
     @property
     def covariance(self) -> np.ndarray:
@@ -269,8 +313,9 @@ class AhrsStream:
         dict
             ``version`` (:attr:`LAYOUT_VERSION`), ``state`` (the filter's ``numpy.uint8`` buffer, None before
             initialisation), ``pending`` (buffered rest samples: ``t`` (k,), ``gyro``, ``accel``, ``mag`` (k, 3)),
-            ``t`` (last time stamp), ``samples``, ``rest_quat``, ``rest_gyro_bias`` and ``config`` (the constructor's
-            arguments, with ``config`` and ``rest`` as plain dicts).
+            ``rest_sums`` (running sums of the rest-period outputs), ``t`` (last time stamp), ``samples``,
+            ``rest_output`` (the last rest-period output) and ``config`` (the constructor's arguments, with
+            ``config`` and ``rest`` as plain dicts).
         """
         c = dict(self._config)
         c["config"] = self._settings.as_dict()
@@ -283,16 +328,15 @@ class AhrsStream:
             "t": self._t,
             "samples": self._samples,
             "rest_statistics": self._rest_dict(self._rest),
-            "rest_quat": self.rest_quat.copy(),
-            "rest_gyro_bias": self.rest_gyro_bias.copy(),
+            "rest_sums": self._rest_sums.copy(),
+            "rest_output": {"quat": self._rest_out[0].copy(), "gyro_bias": self._rest_out[1].copy()},
             "config": c,
         }
 
     def _pending_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The buffered rest samples as arrays t (k,), gyro, accel, mag (k, 3)."""
-        if not self._pending:
-            return np.empty(0), np.empty((0, 3)), np.empty((0, 3)), np.empty((0, 3))
-        return tuple(np.concatenate([p[j] for p in self._pending]) for j in range(4))  # type: ignore[return-value]
+        k = self._n_pending
+        return tuple(x[:k].copy() for x in self._pending)  # type: ignore[return-value]
 
     @staticmethod
     def _rest_dict(rest: RestStatistics | None) -> dict[str, Any] | None:
@@ -354,10 +398,13 @@ class AhrsStream:
         out._state = buf
         pend = state["pending"]
         blk = tuple(np.array(pend[k], dtype=np.float64) for k in ("t", "gyro", "accel", "mag"))
-        out._pending = [(blk[0].reshape(-1), *(x.reshape(-1, 3) for x in blk[1:]))]
-        out._n_pending = len(out._pending[0][0])
+        k = blk[0].size
+        for buf, x in zip(out._pending, (blk[0].reshape(-1), *(x.reshape(-1, 3) for x in blk[1:])), strict=True):
+            buf[:k] = x
+        out._n_pending = k
         out._t = float(state["t"])
         out._samples = int(state["samples"])
-        out.rest_quat = np.array(state["rest_quat"], dtype=np.float64).reshape(-1, 4)
-        out.rest_gyro_bias = np.array(state["rest_gyro_bias"], dtype=np.float64).reshape(-1, 3)
+        out._rest_sums = np.array(state["rest_sums"], dtype=np.float64).reshape(10).copy()
+        ro = state["rest_output"]
+        out._rest_out = (np.array(ro["quat"], dtype=np.float64).reshape(4), np.array(ro["gyro_bias"]).reshape(3))
         return out

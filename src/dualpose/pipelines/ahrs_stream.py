@@ -8,12 +8,12 @@ The job behind ``dualpose ahrs --stream`` (docs/broad.md, "Streaming"; the line 
   whitespace; ``#`` starts a comment, blank and comment lines give no output;
 * output: ``t, qx, qy, qz, qw`` (orientation IMU → earth, ENU, xyzw), every number as Python's ``repr`` (the shortest
   text that reads back to the same float64, at most 17 significant digits);
-* the rest period (its first ``n_rest`` samples) is held: its output lines all come, in order, when its last sample
-  arrives (the filter is initialised from them), then one line per input line.  With ``n_rest=0`` every output
-  comes at its own sample.
+* every output line comes at its own input line (the filter is strictly causal): inside the rest period (its first
+  ``n_rest`` samples) the orientation of the running mean specific force and field so far; at its last sample the
+  filter is initialised from the rest statistics and its output follows from then on.
 
-Errors (a malformed line, a time that does not increase, input ending inside the rest period) are ``ValueError`` s
-naming the source and line, raised after every output line of the earlier input lines was yielded.
+Errors (a malformed line, a time that does not increase) are ``ValueError`` s naming the source and line, raised
+after every output line of the earlier input lines was yielded.
 """
 
 from __future__ import annotations
@@ -87,31 +87,27 @@ def stream_ahrs_lines(
     use_mag : bool
         9D (10 fields per line) or 6D (7 fields).
     n_rest : int
-        Samples of the rest period the filter is initialised from (0, or at least 10); their outputs are held until
-        the last of them arrives.
+        Samples of the rest period the filter is initialised from (0, or at least 10); their outputs are the running
+        mean directions so far until the last of them.
     source : str
         Name of the input in error messages.
 
     Yields
     ------
     str
-        ``t, qx, qy, qz, qw`` plus a newline (:func:`format_row`), in input order: one line per sample, except the
-        rest period's lines, which come together as one string (so that a caller flushing after each string writes
-        them at once and catches up with the input sooner).  The orientations are those of
-        :meth:`AhrsStream.update_imu <dualpose.estimation.ahrs_stream.AhrsStream.update_imu>` (the rest period's
-        from :attr:`~dualpose.estimation.ahrs_stream.AhrsStream.rest_quat`), bit for bit.
+        ``t, qx, qy, qz, qw`` plus a newline (:func:`format_row`), one per sample, in input order, each as soon as
+        its input line was read.  The orientations are those of
+        :meth:`AhrsStream.update_imu <dualpose.estimation.ahrs_stream.AhrsStream.update_imu>` (default settings:
+        online magnetometer time offset), bit for bit.
 
     Raises
     ------
     ValueError
         ``"{source} line N: ..."`` for a malformed line (wrong number of fields, not a number, non-finite) or a time
-        stamp that does not increase; ``"{source}: ..."`` when the input ends before the rest period is complete.
-        Everything before the bad line has been yielded by then.
+        stamp that does not increase.  Everything before the bad line has been yielded by then.
     """
     stream = AhrsStream(rate, use_mag=use_mag, n_rest=n_rest)
-    held: list[float] = []  # time stamps of the rest-period samples whose outputs are not known yet
     last_t = -math.inf
-    lineno = 0
     for lineno, line in enumerate(lines, start=1):
         try:
             v = parse_imu_line(line, use_mag)
@@ -123,16 +119,4 @@ def stream_ahrs_lines(
         if not t > last_t:
             raise ValueError(f"{source} line {lineno}: time {t!r} does not increase (previous {last_t!r})")
         last_t = t
-        q = stream.update_imu(t, v[1:4], v[4:7], v[7:10] if use_mag else None)
-        if stream.ready and not held:
-            yield format_row(t, q)
-            continue
-        held.append(t)
-        if stream.ready:  # this sample completed the rest period: its outputs are known now
-            yield "".join(format_row(t_k, q_k) for t_k, q_k in zip(held, stream.rest_quat, strict=True))
-            held = []
-    if held:
-        raise ValueError(
-            f"{source}: input ended after {len(held)} samples (line {lineno}), before the rest period of {n_rest} "
-            "samples was complete: no orientation is known (a shorter rest period, or none, starts sooner)"
-        )
+        yield format_row(t, stream.update_imu(t, v[1:4], v[4:7], v[7:10] if use_mag else None))

@@ -32,6 +32,10 @@ PyObject* ahrs_run(PyObject*, PyObject* args) {
         !shape_is("Hm", Hm, {1, ahrs::NE}) || !shape_is("out_q", out_q, {n, 4}) ||
         !shape_is("out_b", out_b, {n, 3}) || !shape_is("stats", stats, {ahrs::N_STATS}))
         return nullptr;
+    if (!ahrs::lag_params_valid(ahrs::make_params(params.data, Ha.data, Hm.data, dt).lag)) {
+        PyErr_SetString(PyExc_ValueError, "params: the time-offset search range is too long for this rate");
+        return nullptr;
+    }
     Py_BEGIN_ALLOW_THREADS;
     ahrs::run(n, gyr.data, acc.data, mag.data, dt, q.data, b.data, P.data, params.data, Ha.data, Hm.data, out_q.data,
               out_b.data, stats.data);
@@ -68,15 +72,15 @@ ahrs::Stream* stream_of(PyObject* o, const char* name, bool write) {
                      static_cast<unsigned long long>(ahrs::STREAM_VERSION));
         return nullptr;
     }
-    if (st->h.n_win < 1 || st->h.n_win > (1ULL << 40) || size != st->h.size ||
-        size != ahrs::stream_bytes(static_cast<std::int64_t>(st->h.n_win)) ||
-        st->p.n_win != static_cast<std::int64_t>(st->h.n_win)) {
+    // the constants come from the buffer: bound the ring lengths before computing the size from them
+    const ahrs::Params& p = st->p;
+    const bool sane = size >= sizeof(ahrs::Stream) && st->h.n_win >= 1 && st->h.n_win <= (1ULL << 40) &&
+                      p.n_win == static_cast<std::int64_t>(st->h.n_win) && ahrs::lag_params_valid(p.lag);
+    const std::uint64_t bytes = sane ? ahrs::stream_bytes(ahrs::ring_doubles(p)) : 0;
+    if (!sane || size != st->h.size || size != bytes ||
+        st->h.n_ring != static_cast<std::uint64_t>(ahrs::ring_doubles(p))) {
         PyErr_Format(PyExc_ValueError, "%s has %llu bytes; an AHRS stream state of this window needs %llu", name,
-                     static_cast<unsigned long long>(size),
-                     static_cast<unsigned long long>(
-                         st->h.n_win >= 1 && st->h.n_win <= (1ULL << 40)
-                             ? ahrs::stream_bytes(static_cast<std::int64_t>(st->h.n_win))
-                             : 0));
+                     static_cast<unsigned long long>(size), static_cast<unsigned long long>(bytes));
         return nullptr;
     }
     return st;
@@ -99,12 +103,17 @@ PyObject* ahrs_stream_new(PyObject*, PyObject* args) {
         PyErr_SetString(PyExc_ValueError, "params: the window is too long");
         return nullptr;
     }
-    const npy_intp size = static_cast<npy_intp>(ahrs::stream_bytes(p.n_win));
+    if (!ahrs::lag_params_valid(p.lag)) {
+        PyErr_SetString(PyExc_ValueError, "params: the time-offset search range is too long for this rate");
+        return nullptr;
+    }
+    const npy_intp size = static_cast<npy_intp>(ahrs::stream_bytes(ahrs::ring_doubles(p)));
     PyObject* out = PyArray_ZEROS(1, &size, NPY_UINT8, 0);
     if (out == nullptr) return nullptr;
     auto* st = static_cast<ahrs::Stream*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(out)));
     st->h = ahrs::StreamHeader{ahrs::STREAM_MAGIC, ahrs::STREAM_VERSION, static_cast<std::uint64_t>(size),
-                               static_cast<std::uint64_t>(p.n_win)};
+                               static_cast<std::uint64_t>(p.n_win),
+                               static_cast<std::uint64_t>(ahrs::ring_doubles(p))};
     st->p = p;
     ahrs::init_state(st->s, st->ring(), p, q.data, b.data, P.data);
     return out;
@@ -187,6 +196,23 @@ PyObject* ahrs_stream_run(PyObject*, PyObject* args) {
     Py_RETURN_NONE;
 }
 
+PyObject* ahrs_rest_run(PyObject*, PyObject* args) {
+    Array<double, 2> gyr, acc, mag;
+    int use_mag;
+    Array<double, 1, true> sums;
+    Array<double, 2, true> out_q, out_b;
+    if (!PyArg_ParseTuple(args, "O&O&O&pO&O&O&:ahrs_rest_run", convert<double, 2>, &gyr, convert<double, 2>, &acc,
+                          convert<double, 2>, &mag, &use_mag, convert<double, 1, true>, &sums,
+                          convert<double, 2, true>, &out_q, convert<double, 2, true>, &out_b))
+        return nullptr;
+    const npy_intp n = gyr.shape[0];
+    if (!shape_is("gyr", gyr, {n, 3}) || !shape_is("acc", acc, {n, 3}) || !shape_is("mag", mag, {n, 3}) ||
+        !shape_is("sums", sums, {10}) || !shape_is("out_q", out_q, {n, 4}) || !shape_is("out_b", out_b, {n, 3}))
+        return nullptr;
+    ahrs::rest_run(n, gyr.data, acc.data, mag.data, use_mag != 0, sums.data, out_q.data, out_b.data);
+    Py_RETURN_NONE;
+}
+
 PyObject* new_vector(const double* v, npy_intp n) {
     PyObject* out = PyArray_SimpleNew(1, &n, NPY_DOUBLE);
     if (out != nullptr) std::memcpy(PyArray_DATA(reinterpret_cast<PyArrayObject*>(out)), v, n * sizeof(double));
@@ -250,6 +276,9 @@ PyMethodDef ahrs_methods[] = {
     {"ahrs_stream_run", ahrs_stream_run, METH_VARARGS,
      "ahrs_stream_run(state, gyr, acc, mag, out_q, out_b): ahrs_stream_step over n samples; out_q (n, 4), out_b (n, 3) "
      "written.  The GIL is released."},
+    {"ahrs_rest_run", ahrs_rest_run, METH_VARARGS,
+     "ahrs_rest_run(gyr, acc, mag, use_mag, sums, out_q, out_b): the causal outputs inside the rest period (running "
+     "means; sums (10,) updated in place, out_q (n, 4), out_b (n, 3) written)."},
     {"ahrs_stream_get", ahrs_stream_get, METH_VARARGS,
      "ahrs_stream_get(state) -> (q (4,), b (3,), P (36,), stats (N_STATS,)): copies of the stream's state."},
     {"ahrs_stream_check", ahrs_stream_check, METH_VARARGS,

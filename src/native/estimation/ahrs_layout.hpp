@@ -27,7 +27,17 @@ constexpr int P_MAG_ADAPT = 12;      // same for the heading noise
 constexpr int P_WINDOW = 13;         // samples averaged (in the earth frame) per update
 constexpr int P_GYR_SCALE_VAR = 14;  // gyroscope scale-factor / misalignment variance ε² times 1 s
 constexpr int P_STRIDE = 15;         // samples between updates (≤ window; windows overlap when smaller)
-constexpr int N_PARAMS = 16;
+// magnetometer–gyroscope time offset (ahrs_mag_lag.hpp)
+constexpr int P_LAG_ONLINE = 16;     // 1.0: estimate τ online; 0.0: fixed at P_LAG_FIXED
+constexpr int P_LAG_FIXED = 17;      // fixed lag of the magnetometer behind the gyroscope, s (0: no compensation)
+constexpr int P_LAG_BOX = 18;        // boxcar length (samples) of the causal low-pass on ω − b and m
+constexpr int P_LAG_MAX = 19;        // search range ±τ_max, s
+constexpr int P_LAG_STEP = 20;       // grid step, s
+constexpr int P_LAG_MIN_RATE = 21;   // informative samples: filtered |ω| ≥ this, rad/s
+constexpr int P_LAG_NORM_TOL = 22;   // ... and |m| within this fraction of P_MAG_NORM
+constexpr int P_LAG_THIN = 23;       // every thin-th informative sample enters the sums
+constexpr int P_LAG_MIN_COUNT = 24;  // informative samples needed before τ̂ ≠ 0
+constexpr int N_PARAMS = 25;
 
 // stats indices
 constexpr int S_ACC_REJECTED = 0;
@@ -37,14 +47,18 @@ constexpr int S_MAG_NIS_SUM = 3;
 constexpr int S_ACC_INSIDE = 4;  // accepted updates with NIS inside the two-sided 95% χ² band
 constexpr int S_MAG_INSIDE = 5;
 constexpr int S_MAG_SKIPPED = 6;  // updates with a degenerate (vertical) field
-constexpr int N_STATS = 7;
+constexpr int S_MAG_LAG = 7;          // current magnetometer lag τ̂ used by the compensation, s (not a counter)
+constexpr int S_MAG_LAG_SAMPLES = 8;  // informative samples seen by the online estimate (not thinned)
+constexpr int N_STATS = 9;
 
 // Every constant above, for the module's integer constants (prefixed AHRS_).
 #define DUALPOSE_AHRS_CONSTANTS(X)                                                                            \
     X(D_ATTITUDE) X(D_GYRO_BIAS) X(ERROR_DIM) X(P_GYR_VAR) X(P_BIAS_VAR) X(P_ACC_VAR) X(P_GRAVITY) X(P_MAG_VAR) \
         X(P_MAG_NORM) X(P_MAG_DIP) X(P_USE_MAG) X(P_ACC_GATE) X(P_MAG_GATE) X(P_GATE_RELEASE) X(P_ACC_ADAPT)    \
-            X(P_MAG_ADAPT) X(P_WINDOW) X(P_GYR_SCALE_VAR) X(P_STRIDE) X(N_PARAMS) X(S_ACC_REJECTED)             \
-                X(S_MAG_REJECTED) X(S_ACC_NIS_SUM) X(S_MAG_NIS_SUM) X(S_ACC_INSIDE) X(S_MAG_INSIDE)             \
-                    X(S_MAG_SKIPPED) X(N_STATS)
+            X(P_MAG_ADAPT) X(P_WINDOW) X(P_GYR_SCALE_VAR) X(P_STRIDE) X(P_LAG_ONLINE) X(P_LAG_FIXED)            \
+                X(P_LAG_BOX) X(P_LAG_MAX) X(P_LAG_STEP) X(P_LAG_MIN_RATE) X(P_LAG_NORM_TOL) X(P_LAG_THIN)       \
+                    X(P_LAG_MIN_COUNT) X(N_PARAMS) X(S_ACC_REJECTED) X(S_MAG_REJECTED) X(S_ACC_NIS_SUM)         \
+                        X(S_MAG_NIS_SUM) X(S_ACC_INSIDE) X(S_MAG_INSIDE) X(S_MAG_SKIPPED) X(S_MAG_LAG)          \
+                            X(S_MAG_LAG_SAMPLES) X(N_STATS)
 
 }  // namespace dualpose::ahrs

@@ -39,6 +39,7 @@ Params make_params(const double* params, const double* Ha, const double* Hm, dou
     for (int i = 0; i < 2 * NE; ++i) p.Ha[i] = Ha[i];
     for (int i = 0; i < NE; ++i) p.Hm[i] = Hm[i];
     p.acc_lp = butterworth_lowpass(0.5 * double(p.n_win) * dt, dt);
+    make_lag_params(p.lag, params, 1.0 / dt);
     return p;
 }
 
@@ -48,7 +49,9 @@ void init_state(State& s, double* ring, const Params& p, const double* q, const 
     for (int i = 0; i < 3; ++i) s.b[i] = b[i];
     for (int i = 0; i < NE * NE; ++i) s.P[i] = P[i];
     for (int i = 0; i < 9; ++i) s.Cm[i] = i % 4 == 0 ? 1.0 : 0.0;
-    std::fill(ring, ring + ring_doubles(p.n_win), 0.0);
+    std::fill(ring, ring + 4 * p.n_win, 0.0);
+    init_lag(s.lag, ring + 4 * p.n_win, p.lag);
+    s.stats[S_MAG_LAG] = s.lag.tau;
 }
 
 void step(State& s, double* ring, const Params& p, const double* gyr, const double* acc, const double* mag,
@@ -86,8 +89,13 @@ void step(State& s, double* ring, const Params& p, const double* gyr, const doub
         const double e = Cm[i] * v[0] + Cm[3 + i] * v[1] + Cm[6 + i] * v[2];
         acc_mean[i] = lowpass_step(p.acc_lp, s.acc_lp + 2 * i, e, filled == 0);
     }
+    double* ring_lag = ring + 4 * n_win;
     if (use_mag) {
-        const double mx = mag[0], my = mag[1], mz = mag[2];
+        // the field at t is the field at t − τ̂: seen with the orientation at t − τ̂ (ahrs_mag_lag.hpp)
+        double mc[3];
+        lag_ingest(s.lag, ring_lag, p.lag, dt, gyr, b, mag);
+        lag_compensate(s.lag, ring_lag, p.lag, gyr, b, mag, mc);
+        const double mx = mc[0], my = mc[1], mz = mc[2];
         for (int i = 0; i < 3; ++i) v[i] = R[3 * i] * mx + R[3 * i + 1] * my + R[3 * i + 2] * mz;
         // disturbance lower bound of this sample: change of the field's magnitude and dip from the reference
         const double hs = std::sqrt(v[0] * v[0] + v[1] * v[1]);
@@ -202,6 +210,87 @@ void step(State& s, double* ring, const Params& p, const double* gyr, const doub
                 left_rotate_inplace(Cm, dx);
             }
         }
+        lag_solve(s.lag, p.lag);  // a new τ̂ for the samples that follow
+        stats[S_MAG_LAG] = s.lag.tau;
+        stats[S_MAG_LAG_SAMPLES] = double(s.lag.informative);
+    }
+}
+
+namespace {
+// The orientation (xyzw) of the rotation matrix M (3, 3) row-major (Shepperd's method: the largest of 1 + tr M and
+// 1 + 2 M_ii − tr M under the square root).
+void quat_of_matrix(const double* M, double* q) {
+    const double tr = M[0] + M[4] + M[8];
+    if (tr >= M[0] && tr >= M[4] && tr >= M[8]) {
+        const double s = 2.0 * std::sqrt(1.0 + tr);
+        q[3] = 0.25 * s;
+        q[0] = (M[7] - M[5]) / s;
+        q[1] = (M[2] - M[6]) / s;
+        q[2] = (M[3] - M[1]) / s;
+    } else if (M[0] >= M[4] && M[0] >= M[8]) {
+        const double s = 2.0 * std::sqrt(1.0 + 2.0 * M[0] - tr);
+        q[0] = 0.25 * s;
+        q[3] = (M[7] - M[5]) / s;
+        q[1] = (M[1] + M[3]) / s;
+        q[2] = (M[2] + M[6]) / s;
+    } else if (M[4] >= M[8]) {
+        const double s = 2.0 * std::sqrt(1.0 + 2.0 * M[4] - tr);
+        q[1] = 0.25 * s;
+        q[3] = (M[2] - M[6]) / s;
+        q[0] = (M[1] + M[3]) / s;
+        q[2] = (M[5] + M[7]) / s;
+    } else {
+        const double s = 2.0 * std::sqrt(1.0 + 2.0 * M[8] - tr);
+        q[2] = 0.25 * s;
+        q[3] = (M[3] - M[1]) / s;
+        q[0] = (M[2] + M[6]) / s;
+        q[1] = (M[5] + M[7]) / s;
+    }
+    if (q[3] < 0.0)
+        for (int i = 0; i < 4; ++i) q[i] = -q[i];
+}
+
+void normalise3(double* v) {
+    const double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    for (int i = 0; i < 3; ++i) v[i] /= n;
+}
+}  // namespace
+
+void rest_run(std::ptrdiff_t n, const double* gyr, const double* acc, const double* mag, bool use_mag, double* sums,
+              double* out_q, double* out_b) {
+    for (std::ptrdiff_t k = 0; k < n; ++k) {
+        for (int i = 0; i < 3; ++i) {
+            sums[i] += gyr[3 * k + i];
+            sums[3 + i] += acc[3 * k + i];
+            sums[6 + i] += mag[3 * k + i];
+        }
+        sums[9] += 1.0;
+        for (int i = 0; i < 3; ++i) out_b[3 * k + i] = sums[i] / sums[9];
+        // rows east, north, up: the earth axes in body coordinates (dualpose.estimation.ahrs.initial_orientation)
+        double M[9];
+        double *e = M, *nn = M + 3, *u = M + 6;
+        for (int i = 0; i < 3; ++i) u[i] = sums[3 + i];
+        normalise3(u);
+        const double* m = sums + 6;
+        if (use_mag) {
+            e[0] = m[1] * u[2] - m[2] * u[1];
+            e[1] = m[2] * u[0] - m[0] * u[2];
+            e[2] = m[0] * u[1] - m[1] * u[0];
+        } else {
+            for (int i = 0; i < 3; ++i) e[i] = (i == 0 ? 1.0 : 0.0) - u[0] * u[i];
+        }
+        const double en = std::sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+        const double mn = use_mag ? std::sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]) : 1.0;
+        if (!(en > 1e-9 * std::max(1.0, mn))) {  // degenerate: field (or x axis) parallel to gravity
+            e[0] = u[2];
+            e[1] = 0.0;
+            e[2] = -u[0];
+        }
+        normalise3(e);
+        nn[0] = u[1] * e[2] - u[2] * e[1];
+        nn[1] = u[2] * e[0] - u[0] * e[2];
+        nn[2] = u[0] * e[1] - u[1] * e[0];
+        quat_of_matrix(M, out_q + 4 * k);
     }
 }
 
@@ -210,9 +299,9 @@ void run(std::ptrdiff_t n, const double* gyr, const double* acc, const double* m
          double* stats) {
     const Params p = make_params(params, Ha, Hm, dt);
     State s;
-    std::vector<double> ring(ring_doubles(p.n_win));
+    std::vector<double> ring(ring_doubles(p));
     init_state(s, ring.data(), p, q, b, P);
-    for (int i = 0; i < N_STATS; ++i) s.stats[i] = stats[i];
+    for (int i = 0; i < S_MAG_LAG; ++i) s.stats[i] = stats[i];  // the counters accumulate; τ̂ is the state's
     for (std::ptrdiff_t k = 0; k < n; ++k) {
         step(s, ring.data(), p, gyr + 3 * k, acc + 3 * k, mag + 3 * k);
         for (int i = 0; i < 4; ++i) out_q[4 * k + i] = s.q[i];

@@ -4,6 +4,7 @@
 
 #include "ahrs_filter.hpp"
 #include "ahrs_layout.hpp"
+#include "ahrs_mag_lag.hpp"
 
 #include <cstddef>
 #include <cstdint>
@@ -18,11 +19,12 @@ struct Params {
     double Ha[2 * ERROR_DIM], Hm[ERROR_DIM];  // measurement Jacobians (2, 6) and (1, 6)
     LowPass2 acc_lp;                          // the specific force's earth-frame low-pass (tau = window / 2)
     std::int64_t n_win, stride, use_mag;
+    LagParams lag;  // magnetometer–gyroscope time offset (ahrs_mag_lag.hpp)
 };
 
-// Everything that changes from sample to sample (trivially copyable: a byte copy saves and restores it).  The
-// field's sliding-window ring buffers (ring_doubles(n_win): ring_m (n_win, 3), ring_d (n_win,)) are kept by the
-// caller, next to the state.
+// Everything that changes from sample to sample (trivially copyable: a byte copy saves and restores it).  The ring
+// buffers (ring_doubles(p): the field's sliding window ring_m (n_win, 3) and ring_d (n_win,), then the time offset's
+// rings, lag_ring_doubles) are kept by the caller, next to the state.
 struct State {
     double q[4], b[3], P[ERROR_DIM * ERROR_DIM];  // nominal state (xyzw, rad/s) and error covariance
     double acc_lp[6];                             // low-pass state of the specific force, (3, 2) (uncorrected frame)
@@ -33,15 +35,18 @@ struct State {
     double stats[N_STATS];                        // counters (ahrs_layout.hpp)
     std::int64_t head, filled, since;             // ring position, samples in the window, samples since an update
     std::int64_t acc_closed, mag_closed;          // gate counters
+    LagState lag;                                 // magnetometer–gyroscope time offset (ahrs_mag_lag.hpp)
 };
+
+// Doubles of the ring buffers that follow the state: the field's window (n_win, 3) and its disturbance level (n_win,), then the time
+// offset's rings (ahrs_mag_lag.hpp).
+inline std::int64_t ring_doubles(const Params& p) { return 4 * p.n_win + lag_ring_doubles(p.lag); }
 
 // The constants of params (N_PARAMS,), Ha (2, 6), Hm (1, 6) and dt.
 Params make_params(const double* params, const double* Ha, const double* Hm, double dt);
 
-// Doubles of the ring buffers of a window of n_win samples: the field (n_win, 3) and its disturbance level (n_win,).
-inline std::size_t ring_doubles(std::int64_t n_win) { return 4 * static_cast<std::size_t>(n_win); }
-
-// The state before the first sample: q (4,), b (3,), P (6, 6) copied, everything else empty; ring zeroed.
+// The state before the first sample: q (4,), b (3,), P (6, 6) copied, everything else empty; ring (ring_doubles)
+// zeroed.
 void init_state(State& s, double* ring, const Params& p, const double* q, const double* b, const double* P);
 
 // What the offline smoother (ahrs_smoother.cpp) needs from one step: the state right after the prediction, before
@@ -57,10 +62,10 @@ inline void record_prediction(PredictRecord& r, const double* q, const double* b
     for (int i = 0; i < 9; ++i) r.R[i] = R[i];
 }
 
-// One sample: predict q <- q ⊗ Exp((ω − b) dt), P <- F P Fᵀ + Q; low-pass R̂ a and accumulate R̂ m in the sliding
-// window; every stride samples the accelerometer update of inclination and (9D) the magnetometer heading update,
-// χ²-gated, with adaptive noise.  gyr, acc, mag (3,) rad/s, m/s², µT (mag unused in 6D).  record (optional)
-// receives the prediction (PredictRecord); nullptr in the filter's own run and stream paths.
+// One sample: predict q <- q ⊗ Exp((ω − b) dt), P <- F P Fᵀ + Q; low-pass R̂ a and accumulate R̂(t − τ̂) m in the
+// sliding window; every stride samples the accelerometer update of inclination and (9D) the magnetometer heading
+// update, χ²-gated, with adaptive noise, and (online) a new τ̂.  gyr, acc, mag (3,) rad/s, m/s², µT (mag unused in
+// 6D).  record (optional) receives the prediction (PredictRecord); nullptr in the filter's own run and stream paths.
 void step(State& s, double* ring, const Params& p, const double* gyr, const double* acc, const double* mag,
           PredictRecord* record = nullptr);
 
@@ -72,12 +77,20 @@ void run(std::ptrdiff_t n, const double* gyr, const double* acc, const double* m
          double* P, const double* params, const double* Ha, const double* Hm, double* out_q, double* out_b,
          double* stats);
 
-// The saved stream: one contiguous byte buffer [StreamHeader | Params | State | ring (ring_doubles)], so that a
-// byte copy saves it and restores it.  STREAM_VERSION changes whenever the layout does.
+// The causal outputs inside the rest period, before the filter can be initialised: sums (10,) = running sums of gyr,
+// acc, mag (3 each) and the sample count, updated with each of the n samples; out_q (n, 4) receives the orientation
+// of the running mean specific force and field (the initial orientation's construction, dualpose.estimation.ahrs.
+// initial_orientation; 6D: body x projected on the horizontal is east), out_b (n, 3) the running mean rate.
+void rest_run(std::ptrdiff_t n, const double* gyr, const double* acc, const double* mag, bool use_mag, double* sums,
+              double* out_q, double* out_b);
+
+// The saved stream: one contiguous byte buffer [StreamHeader | Params | State | ring (ring_doubles(p) doubles)], so
+// that a byte copy saves it and restores it.  STREAM_VERSION changes whenever the layout does (2: the time offset's
+// parameters, state and rings, and n_ring in the header).
 constexpr std::uint64_t STREAM_MAGIC = 0x3153524841504455ULL;  // "UDPAHRS1" little-endian
 constexpr std::uint64_t STREAM_VERSION = 2;
 struct StreamHeader {
-    std::uint64_t magic, version, size, n_win;  // size: total bytes of the buffer
+    std::uint64_t magic, version, size, n_win, n_ring;  // size: total bytes of the buffer; n_ring = ring_doubles
 };
 struct Stream {
     StreamHeader h;
@@ -87,8 +100,8 @@ struct Stream {
 };
 static_assert(sizeof(Stream) % sizeof(double) == 0, "the ring must follow the state aligned");
 
-inline std::size_t stream_bytes(std::int64_t n_win) {
-    return sizeof(Stream) + ring_doubles(n_win) * sizeof(double);
+inline std::size_t stream_bytes(std::int64_t n_ring) {
+    return sizeof(Stream) + static_cast<std::size_t>(n_ring) * sizeof(double);
 }
 
 }  // namespace dualpose::ahrs

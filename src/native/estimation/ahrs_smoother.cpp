@@ -86,10 +86,10 @@ smoother::Status smooth(std::ptrdiff_t n, const double* gyr, const double* acc, 
     constexpr int nn = NE * NE;
     const Params p = make_params(params, Ha, Hm, dt);
     State s;
-    std::vector<double> ring(ring_doubles(p.n_win));
+    std::vector<double> ring(ring_doubles(p));
     std::vector<PredictRecord> rec(static_cast<std::size_t>(n));
     init_state(s, ring.data(), p, q, b, P);
-    for (int i = 0; i < N_STATS; ++i) s.stats[i] = stats[i];
+    for (int i = 0; i < S_MAG_LAG; ++i) s.stats[i] = stats[i];  // the counters accumulate; τ̂ is the state's
     for (std::ptrdiff_t k = 0; k < n; ++k) {
         step(s, ring.data(), p, gyr + 3 * k, acc + 3 * k, mag + 3 * k, &rec[k]);
         for (int i = 0; i < 4; ++i) out_q[4 * k + i] = s.q[i];
