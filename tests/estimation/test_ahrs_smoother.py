@@ -49,9 +49,11 @@ def test_forward_pass_is_the_filter_and_the_last_sample_is_filtered(run, smoothe
     use_mag, s = smoothed
     assert isinstance(s, SmoothedOrientation)
     f = estimate_orientation(gyr, acc, mag if use_mag else None, RATE, use_mag=use_mag, n_rest=n_rest,
-                             mag_calibration="auto")  # fmt: skip
-    np.testing.assert_array_equal(s.forward.quat, f.quat)
-    np.testing.assert_array_equal(s.forward.gyroscope_bias, f.gyroscope_bias)
+                             mag_time_offset="estimate", mag_calibration="auto")  # fmt: skip
+    # the filter's outputs before the rest period is complete are the causal running means; offline the forward
+    # pass keeps the initialised filter's there too
+    np.testing.assert_array_equal(s.forward.quat[n_rest - 1 :], f.quat[n_rest - 1 :])
+    np.testing.assert_array_equal(s.forward.gyroscope_bias[n_rest - 1 :], f.gyroscope_bias[n_rest - 1 :])
     np.testing.assert_array_equal(s.forward.covariance, f.covariance)
     np.testing.assert_array_equal(s.filtered_covariance[-1], f.covariance)
     np.testing.assert_array_equal(s.quat[-1], f.quat[-1])
