@@ -5,6 +5,7 @@
 #include "eskf_args.hpp"
 #include "ahrs_filter.hpp"
 #include "ahrs_run.hpp"
+#include "stream_buffer.hpp"
 
 #include <cstdint>
 #include <cstring>
@@ -119,41 +120,6 @@ PyObject* ahrs_stream_new(PyObject*, PyObject* args) {
     return out;
 }
 
-// Three doubles from a 1-d float64 array of 3 elements (fast path, any stride) or any sequence of 3 numbers; None for `mag` gives
-// zeros (6D).
-bool read3(PyObject* o, const char* name, double* v, bool none_ok) {
-    if (PyArray_Check(o)) {
-        auto* a = reinterpret_cast<PyArrayObject*>(o);
-        if (PyArray_TYPE(a) == NPY_DOUBLE && PyArray_NDIM(a) == 1 && PyArray_DIM(a, 0) == 3 && PyArray_ISALIGNED(a) &&
-            PyArray_ISNOTSWAPPED(a)) {  // any stride: e.g. a row of a Fortran-ordered (n, 3) array
-            const char* d = static_cast<const char*>(PyArray_DATA(a));
-            const npy_intp st = PyArray_STRIDE(a, 0);
-            for (int i = 0; i < 3; ++i) v[i] = *reinterpret_cast<const double*>(d + i * st);
-            return true;
-        }
-    }
-    if (none_ok && o == Py_None) {
-        v[0] = v[1] = v[2] = 0.0;
-        return true;
-    }
-    PyObject* seq = PySequence_Fast(o, "");
-    if (seq == nullptr || PySequence_Fast_GET_SIZE(seq) != 3) {
-        Py_XDECREF(seq);
-        PyErr_Clear();
-        PyErr_Format(PyExc_ValueError, "%s must be 3 numbers (shape (3,))", name);
-        return false;
-    }
-    for (int i = 0; i < 3; ++i) {
-        v[i] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(seq, i));
-        if (v[i] == -1.0 && PyErr_Occurred()) {
-            Py_DECREF(seq);
-            return false;
-        }
-    }
-    Py_DECREF(seq);
-    return true;
-}
-
 PyObject* ahrs_stream_step(PyObject*, PyObject* const* args, Py_ssize_t nargs) {
     if (nargs != 4) {
         PyErr_SetString(PyExc_TypeError, "ahrs_stream_step(state, gyr, acc, mag) takes 4 arguments");
@@ -162,7 +128,8 @@ PyObject* ahrs_stream_step(PyObject*, PyObject* const* args, Py_ssize_t nargs) {
     ahrs::Stream* st = stream_of(args[0], "state", true);
     if (st == nullptr) return nullptr;
     double g[3], a[3], m[3];
-    if (!read3(args[1], "gyro", g, false) || !read3(args[2], "accel", a, false) || !read3(args[3], "mag", m, true))
+    if (!stream::read3(args[1], "gyro", g) || !stream::read3(args[2], "accel", a) ||
+        !stream::read3(args[3], "mag", m, true))
         return nullptr;
     ahrs::step(st->s, st->ring(), st->p, g, a, m);
     const npy_intp four = 4;

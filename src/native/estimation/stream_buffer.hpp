@@ -1,4 +1,4 @@
-// Python-side helpers of the streaming camera–IMU filters (eskf_stream_*, hol22_stream_*): the filter state lives
+// Python-side helpers of the streaming filters (eskf_stream_*, hol22_stream_*, ahrs_stream_*): the filter state lives
 // in one 1-d numpy.uint8 array [header (magic, version, size, reserved) | constants | state] of a fixed size, so that
 // a byte copy saves it and restores it; and the fast reading of one (3,) sample.
 #pragma once
@@ -61,9 +61,10 @@ S* stream_of(PyObject* o, const char* name, bool write, std::uint64_t magic, std
     return s;
 }
 
-// Three doubles from a 1-d float64 array of 3 elements (fast path, any stride) or any sequence of 3 numbers;
+// Three doubles from a 1-d float64 array of 3 elements (fast path, any stride: e.g. a row of a Fortran-ordered
+// (n, 3) array) or any sequence of 3 numbers; with none_ok, None gives zeros (an absent magnetometer in 6D);
 // ValueError naming `name` otherwise.
-inline bool read3(PyObject* o, const char* name, double* v) {
+inline bool read3(PyObject* o, const char* name, double* v, bool none_ok = false) {
     if (PyArray_Check(o)) {
         auto* a = reinterpret_cast<PyArrayObject*>(o);
         if (PyArray_TYPE(a) == NPY_DOUBLE && PyArray_NDIM(a) == 1 && PyArray_DIM(a, 0) == 3 && PyArray_ISALIGNED(a) &&
@@ -73,6 +74,10 @@ inline bool read3(PyObject* o, const char* name, double* v) {
             for (int i = 0; i < 3; ++i) v[i] = *reinterpret_cast<const double*>(d + i * st);
             return true;
         }
+    }
+    if (none_ok && o == Py_None) {
+        v[0] = v[1] = v[2] = 0.0;
+        return true;
     }
     PyObject* seq = PySequence_Fast(o, "");
     if (seq == nullptr || PySequence_Fast_GET_SIZE(seq) != 3) {
