@@ -152,8 +152,8 @@ def run(args: argparse.Namespace) -> int:
         "us_per_sample": smoothed.us_per_sample if smoothed is not None else result.us_per_sample,
         "acc_rejected": result.acc_rejected,
         "mag_rejected": result.mag_rejected,
-        # compensated magnetometer lag behind the gyroscope, estimated online (causally) from the IMU data alone: the
-        # estimate after the last sample (None in 6D)
+        # compensated magnetometer lag behind the gyroscope, from the IMU data alone: estimated online (causally),
+        # the estimate after the last sample; --offline: estimated from the whole recording (None in 6D)
         "mag_time_offset_ms": result.mag_time_offset_ms if args.mag else None,
         # magnetometer self-calibration (--mag-calibration): applied only when the data support it (None in 6D)
         "mag_calibration_applied": result.mag_calibration_applied if args.mag else None,
@@ -183,8 +183,9 @@ def run(args: argparse.Namespace) -> int:
     else:
         print("  no reference orientation on the movement samples: nothing scored")
     if args.mag:
-        print(f"  mag time offset   {out['mag_time_offset_ms']:8.3f} ms (estimated online from the IMU data, "
-              "compensated; value after the last sample)")
+        how = ("estimated from the whole recording's IMU data, compensated" if args.offline
+               else "estimated online from the IMU data, compensated; value after the last sample")  # fmt: skip
+        print(f"  mag time offset   {out['mag_time_offset_ms']:8.3f} ms ({how})")
     if args.mag and result.mag_calibration is not None:
         cal = result.mag_calibration
         print(f"  mag calibration   {'applied' if cal.applied else 'not applied'} ({cal.reason})")
