@@ -29,7 +29,9 @@ The error-state filter of :mod:`dualpose.estimation.eskf` reduced to orientation
   inclination, which the accelerometer measures better).  The price is that the field's own tilt information is
   unused, which costs little because the accelerometer dominates inclination;
 * adaptive rejection (innovation-based): each update's noise is inflated by a lower bound of the disturbance
-  present -- ``(|ā| − g)²`` for the accelerometer (the mean linear acceleration has at least that magnitude), the
+  present -- ``(| |ā| − g | − 2δg)₊²`` for the accelerometer (the mean linear acceleration has at least that
+  magnitude once the sensor's own error δ, ``acc_scale_sigma``, is allowed for; its direction error ``(δg)² / 3``
+  per axis is part of the noise too), the
   window mean of ``(|m| − m₀)² + (m₀ Δdip)²`` for the magnetometer (change of the field's magnitude and dip from the
   reference measured at rest) -- and the accelerometer noise additionally gets an innovation-based (Sage-Husa /
   Mehra) estimate of the unmodelled acceleration variance (time constant ``adapt_time``).  Every innovation is
