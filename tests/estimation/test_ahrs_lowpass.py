@@ -31,9 +31,10 @@ def _tilt_error_amplitude(freq: float, accel: float, seed: int = 5) -> float:
     acc = dp.quat_rotate(conj, a_lin + [0.0, 0.0, G]) + rng.normal(scale=0.01, size=(n, 3))
     gyr = rng.normal(scale=1e-4, size=(n, 3))
     # a gyroscope noise far above the accelerometer's: the updates follow the low-passed measurement (gain ≈ 1), so
-    # the tilt error is the filter's response to the acceleration itself; no adaptive noise (adapt_time=0)
+    # the tilt error is the filter's response to the acceleration itself; no adaptive noise (adapt_time=0) and no
+    # accelerometer calibration error (acc_scale_sigma=0: its (δg)²/3 would dominate this accelerometer's noise)
     noise = AhrsNoise(gyroscope_noise_density=0.05, accelerometer_noise_density=1e-3)
-    config = AhrsConfig(noise=noise, adapt_time=0.0, window=WINDOW)
+    config = AhrsConfig(noise=noise, adapt_time=0.0, window=WINDOW, acc_scale_sigma=0.0)
     res = estimate_orientation(gyr, acc, None, RATE, use_mag=False, n_rest=int(rest_s * RATE), config=config)
     e = earth_error_quat(res.quat, np.broadcast_to(q_true, (n, 4)))
     tilt = 2.0 * e[:, :2] * np.sign(e[:, 3])[:, None]

@@ -29,7 +29,9 @@ The error-state filter of :mod:`dualpose.estimation.eskf` reduced to orientation
   inclination, which the accelerometer measures better).  The price is that the field's own tilt information is
   unused, which costs little because the accelerometer dominates inclination;
 * adaptive rejection (innovation-based): each update's noise is inflated by a lower bound of the disturbance
-  present -- ``(|ā| − g)²`` for the accelerometer (the mean linear acceleration has at least that magnitude), the
+  present -- ``(| |ā| − g | − 2δg)₊²`` for the accelerometer (the mean linear acceleration has at least that
+  magnitude once the sensor's own error δ, ``acc_scale_sigma``, is allowed for; its direction error ``(δg)² / 3``
+  per axis is part of the noise too), the
   window mean of ``(|m| − m₀)² + (m₀ Δdip)²`` for the magnetometer (change of the field's magnitude and dip from the
   reference measured at rest) -- and the accelerometer noise additionally gets an innovation-based (Sage-Husa /
   Mehra) estimate of the unmodelled acceleration variance (time constant ``adapt_time``).  Every innovation is
@@ -180,6 +182,13 @@ class AhrsConfig:
         ``window / update_interval`` and share their samples, so each update's noise is multiplied by that overlap
         factor (an update carries only its share of a window's information).  The result is insensitive to the
         interval once it is well below the window (docs/broad.md, "Design in brief").
+    acc_scale_sigma : float
+        Relative error δ of the accelerometer (scale factor + axis misalignment; calibrated MEMS class, default
+        0.5 %, as the gyroscope's): a specific force ≈ g is measured off by up to δ g.  So the lower bound
+        ``| |ā| − g |`` of the filtered linear acceleration added to the accelerometer noise is reduced by ``2 δ g``
+        (the magnitude difference the sensor can produce by itself between the rest orientation that set ``g`` and
+        the current one), and the direction error's per-axis variance ``(δ g)² / 3`` is added instead
+        (docs/broad.md, "Design in brief").
     """
 
     noise: AhrsNoise | None = None
@@ -190,6 +199,7 @@ class AhrsConfig:
     mag_adapt: bool = False
     gyro_scale_sigma: float = 0.005
     update_interval: float = 0.1
+    acc_scale_sigma: float = 0.005
 
     def __post_init__(self) -> None:
         if self.noise is not None and not isinstance(self.noise, AhrsNoise):
@@ -198,7 +208,8 @@ class AhrsConfig:
             raise ValueError(f"gate_probability must be in (0, 1); got {self.gate_probability}")
         checks = (("gate_release", self.gate_release, False), ("adapt_time", self.adapt_time, False),
                   ("window", self.window, True), ("gyro_scale_sigma", self.gyro_scale_sigma, False),
-                  ("update_interval", self.update_interval, True))  # fmt: skip
+                  ("update_interval", self.update_interval, True),
+                  ("acc_scale_sigma", self.acc_scale_sigma, False))  # fmt: skip
         for name, value, positive in checks:
             if not (math.isfinite(value) and (value > 0.0 if positive else value >= 0.0)):
                 kind = "a positive" if positive else "a non-negative"
@@ -549,6 +560,7 @@ def filter_setup(
     stride = min(n_win, max(1, int(round(c.update_interval * rate))))
     params[_native.AHRS_P_STRIDE] = stride
     params[_native.AHRS_P_GYR_SCALE_VAR] = c.gyro_scale_sigma**2 * 1.0
+    params[_native.AHRS_P_ACC_SCALE] = c.acc_scale_sigma
     params[_native.AHRS_P_ACC_ADAPT] = 1.0 / (c.adapt_time * rate) if c.adapt_time > 0 else 0.0
     params[_native.AHRS_P_MAG_ADAPT] = 1.0 / (c.adapt_time * rate) if c.adapt_time > 0 and c.mag_adapt else 0.0
     _set_lag_params(params, rate, use_mag, mag_time_offset)

@@ -37,7 +37,8 @@ constexpr int P_LAG_MIN_RATE = 21;   // informative samples: filtered |ω| ≥ t
 constexpr int P_LAG_NORM_TOL = 22;   // ... and |m| within this fraction of P_MAG_NORM
 constexpr int P_LAG_THIN = 23;       // every thin-th informative sample enters the sums
 constexpr int P_LAG_MIN_COUNT = 24;  // informative samples needed before τ̂ ≠ 0
-constexpr int N_PARAMS = 25;
+constexpr int P_ACC_SCALE = 25;      // accelerometer relative error δ (scale factor / misalignment)
+constexpr int N_PARAMS = 26;
 
 // stats indices
 constexpr int S_ACC_REJECTED = 0;
@@ -57,8 +58,8 @@ constexpr int N_STATS = 9;
         X(P_MAG_NORM) X(P_MAG_DIP) X(P_USE_MAG) X(P_ACC_GATE) X(P_MAG_GATE) X(P_GATE_RELEASE) X(P_ACC_ADAPT)    \
             X(P_MAG_ADAPT) X(P_WINDOW) X(P_GYR_SCALE_VAR) X(P_STRIDE) X(P_LAG_ONLINE) X(P_LAG_FIXED)            \
                 X(P_LAG_BOX) X(P_LAG_MAX) X(P_LAG_STEP) X(P_LAG_MIN_RATE) X(P_LAG_NORM_TOL) X(P_LAG_THIN)       \
-                    X(P_LAG_MIN_COUNT) X(N_PARAMS) X(S_ACC_REJECTED) X(S_MAG_REJECTED) X(S_ACC_NIS_SUM)         \
-                        X(S_MAG_NIS_SUM) X(S_ACC_INSIDE) X(S_MAG_INSIDE) X(S_MAG_SKIPPED) X(S_MAG_LAG)          \
-                            X(S_MAG_LAG_SAMPLES) X(N_STATS)
+                    X(P_LAG_MIN_COUNT) X(P_ACC_SCALE) X(N_PARAMS) X(S_ACC_REJECTED) X(S_MAG_REJECTED)           \
+                        X(S_ACC_NIS_SUM) X(S_MAG_NIS_SUM) X(S_ACC_INSIDE) X(S_MAG_INSIDE) X(S_MAG_SKIPPED)      \
+                            X(S_MAG_LAG) X(S_MAG_LAG_SAMPLES) X(N_STATS)
 
 }  // namespace dualpose::ahrs

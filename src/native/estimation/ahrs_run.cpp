@@ -40,6 +40,9 @@ Params make_params(const double* params, const double* Ha, const double* Hm, dou
     for (int i = 0; i < NE; ++i) p.Hm[i] = Hm[i];
     p.acc_lp = butterworth_lowpass(0.5 * double(p.n_win) * dt, dt);
     make_lag_params(p.lag, params, 1.0 / dt);
+    const double dg = params[P_ACC_SCALE] * p.grav;  // the accelerometer's own error of a specific force ≈ g
+    p.acc_tol = 2.0 * dg;
+    p.acc_cal_var = dg * dg / 3.0;
     return p;
 }
 
@@ -119,21 +122,26 @@ void step(State& s, double* ring, const Params& p, const double* gyr, const doub
         for (int i = 0; i < 3; ++i)
             v[i] = Cm[3 * i] * acc_mean[0] + Cm[3 * i + 1] * acc_mean[1] + Cm[3 * i + 2] * acc_mean[2];
         mag_dist = std::max(mag_dist_sum / n_win, 0.0);
-        // |filtered a_lin| >= | |filtered R a| - g |: that much unmodelled acceleration is certainly present
-        const double dev = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) - grav;
+        // |filtered a_lin| >= | |filtered R a| - g | - 2δg: that much unmodelled acceleration is certainly present
+        // (g is the magnitude the accelerometer read at rest; its magnitude error, at most δg there and δg now, can
+        // account for 2δg of the difference by itself)
+        const double a_norm = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        const double dev = std::max(std::fabs(a_norm - grav) - p.acc_tol, 0.0);
         // innovation-based (Sage-Husa / Mehra) estimate of the unmodelled acceleration variance per axis:
-        // E[νᵀν]/2 = tr(HPHᵀ)/2 + r  =>  r̂ <- (1 − α) r̂ + α max(νᵀν/2 − tr(HPHᵀ)/2 − σ²/N, 0)
+        // E[νᵀν]/2 = tr(HPHᵀ)/2 + r  =>  r̂ <- (1 − α) r̂ + α max(νᵀν/2 − tr(HPHᵀ)/2 − σ²/N − (δg)²/3, 0)
         if (acc_alpha > 0.0) {
             double hph = 0.0;  // tr(H P Hᵀ) / 2
             for (int i = 0; i < 2; ++i)
                 for (int j = 0; j < NE; ++j)
                     for (int m = 0; m < NE; ++m) hph += 0.5 * Ha[i * NE + j] * P[j * NE + m] * Ha[i * NE + m];
             acc_extra = (1.0 - acc_alpha) * acc_extra +
-                        acc_alpha * std::max(0.5 * (v[0] * v[0] + v[1] * v[1]) - hph - acc_var / n_win, 0.0);
+                        acc_alpha * std::max(0.5 * (v[0] * v[0] + v[1] * v[1]) - hph - acc_var / n_win - p.acc_cal_var, 0.0);
         }
-        // consecutive updates share samples: each carries 1/overlap of a window's information (the low-pass
-        // averages white noise as the n_win-sample boxcar does: same noise-equivalent bandwidth)
-        const double r = (acc_var / n_win + dev * dev + acc_extra) * overlap;
+        // white noise, the accelerometer's own direction error (δg)²/3 per axis, the acceleration bound and the
+        // innovation-based estimate; consecutive updates share samples: each carries 1/overlap of a window's
+        // information (the low-pass averages white noise as the n_win-sample boxcar does: same noise-equivalent
+        // bandwidth)
+        const double r = (acc_var / n_win + p.acc_cal_var + dev * dev + acc_extra) * overlap;
         // S = H P Hᵀ + r I
         for (int i = 0; i < NE; ++i)
             for (int c = 0; c < 2; ++c) {

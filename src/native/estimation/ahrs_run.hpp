@@ -16,6 +16,8 @@ struct Params {
     double dt;  // sampling interval, s
     double gyr_var, bias_var, acc_var, grav, mag_var, mag_norm, mag_dip, acc_gate, mag_gate, scale_var;
     double overlap, acc_alpha, mag_alpha, release;
+    double acc_tol;      // magnitude error the accelerometer can make by itself, vs. the rest magnitude: 2 δ g (m/s²)
+    double acc_cal_var;  // per-axis variance of its direction error: (δ g)² / 3 (m/s²)²
     double Ha[2 * ERROR_DIM], Hm[ERROR_DIM];  // measurement Jacobians (2, 6) and (1, 6)
     LowPass2 acc_lp;                          // the specific force's earth-frame low-pass (tau = window / 2)
     std::int64_t n_win, stride, use_mag;
@@ -86,9 +88,9 @@ void rest_run(std::ptrdiff_t n, const double* gyr, const double* acc, const doub
 
 // The saved stream: one contiguous byte buffer [StreamHeader | Params | State | ring (ring_doubles(p) doubles)], so
 // that a byte copy saves it and restores it.  STREAM_VERSION changes whenever the layout does (2: the time offset's
-// parameters, state and rings, and n_ring in the header).
+// parameters, state and rings, and n_ring in the header; 3: the accelerometer's own error in Params).
 constexpr std::uint64_t STREAM_MAGIC = 0x3153524841504455ULL;  // "UDPAHRS1" little-endian
-constexpr std::uint64_t STREAM_VERSION = 2;
+constexpr std::uint64_t STREAM_VERSION = 3;
 struct StreamHeader {
     std::uint64_t magic, version, size, n_win, n_ring;  // size: total bytes of the buffer; n_ring = ring_doubles
 };
