@@ -67,7 +67,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
                    help="smooth the whole recording (RTS smoother over the filter; not with --stream)")
     p.add_argument("--mag-calibration", action=argparse.BooleanOptionalAction, default=None,
                    help="self-calibrate the magnetometer (hard/soft iron) when the recording supports it "
-                   "(default: off, on with --offline)")
+                   "(default: off)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     return p
 
@@ -127,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"dualpose ahrs: error: {args.file}: no field imu_mag (magnetometer): use --no-mag for 6D",
               file=sys.stderr)  # fmt: skip
         return 1
-    calibrate = args.mag_calibration if args.mag_calibration is not None else args.offline
+    calibrate = bool(args.mag_calibration)
     smoothed = scores = None
     try:
         if args.offline:

@@ -86,7 +86,7 @@ def smooth_orientation(
     n_rest: int | None = None,
     config: AhrsConfig | None = None,
     mag_time_offset: str | float = "estimate",
-    mag_calibration: str | MagCalibration | None = "auto",
+    mag_calibration: str | MagCalibration | None = None,
 ) -> SmoothedOrientation:
     """Offline orientation: the AHRS forward, then its RTS smoother backward (module docstring).
 
@@ -97,8 +97,8 @@ def smooth_orientation(
         IMU axes; Hz; 9D or 6D; leading rest samples; tuning; the magnetometer lag (``"estimate"``: from this
         recording, the default).
     mag_calibration : "auto", MagCalibration or None
-        As :func:`~dualpose.estimation.ahrs.estimate_orientation`, but ``"auto"`` by default: offline the whole
-        recording is available, and the fit is applied only when its reference-free rule passes.  Ignored in 6D.
+        As :func:`~dualpose.estimation.ahrs.estimate_orientation` (off by default, as there: on the one BROAD trial
+        where its reference-free rule fires it costs accuracy; docs/broad.md, "Offline (smoothed)").  Ignored in 6D.
 
     Returns
     -------

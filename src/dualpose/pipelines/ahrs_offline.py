@@ -14,7 +14,7 @@ __all__ = ["smooth_broad_trial"]
 
 
 def smooth_broad_trial(
-    trial: BroadTrial, *, use_mag: bool = True, mag_calibration: str | None = "auto"
+    trial: BroadTrial, *, use_mag: bool = True, mag_calibration: str | None = None
 ) -> tuple[SmoothedOrientation, dict[str, float] | None]:
     """Smooth one BROAD trial's orientation and score it.
 
@@ -26,7 +26,7 @@ def smooth_broad_trial(
     use_mag : bool
         9D (True) or 6D (False).
     mag_calibration : "auto" or None
-        The magnetometer self-calibration decision (offline default ``"auto"``), or None for the raw field.
+        The magnetometer self-calibration decision (``"auto"``), or None (default) for the raw field.
 
     Returns
     -------
