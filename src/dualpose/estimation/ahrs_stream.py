@@ -143,7 +143,7 @@ class AhrsStream:
 
     def _start(self, first_acc: np.ndarray | None, first_mag: np.ndarray | None) -> None:
         setup = filter_setup(self._rate, self._rest, first_acc, first_mag, use_mag=self._use_mag, config=self._settings,
-                             mag_time_offset=self._lag)
+                             mag_time_offset=self._lag, rest_skip=self._n_rest)
         self._state = _native.ahrs_stream_new(
             setup.params, setup.Ha, setup.Hm, 1.0 / self._rate, setup.q, setup.b, setup.P
         )
