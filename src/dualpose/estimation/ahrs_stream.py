@@ -301,6 +301,12 @@ class AhrsStream:
         return float(self._get(3)[_native.AHRS_S_MAG_LAG])
 
     @property
+    def rest_samples(self) -> int:
+        """Samples the rest detector has flagged as at rest so far (docs/broad.md, "Rest detector and bias update";
+        0 before initialisation)."""
+        return int(np.nan_to_num(self._get(3)[_native.AHRS_S_REST_SAMPLES]))
+
+    @property
     def covariance(self) -> np.ndarray:
         """Current error covariance of ``[δθ (earth frame), δb]``, shape (6, 6)."""
         return self._get(2).reshape(6, 6)
