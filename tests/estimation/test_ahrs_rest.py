@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from dualpose.estimation.ahrs import AhrsConfig, estimate_orientation
+from dualpose.estimation.ahrs_smoother import smooth_orientation
 from dualpose.estimation.ahrs_stream import AhrsStream
 from dualpose.evaluation.orientation_errors import orientation_rmse
 from dualpose.io import load_broad
@@ -95,3 +96,15 @@ def test_stream_equals_batch_across_a_save_inside_a_break(rec):
     q2 = np.array([r.update_imu(t[j], rec.gyr[j], rec.acc[j], rec.mag[j]) for j in range(k, len(t))])
     assert np.array_equal(np.vstack([q1, q2]), ref.quat) and np.array_equal(b1, ref.gyroscope_bias[:k])
     assert r.rest_samples == ref.rest_samples
+
+
+def test_smoother_with_the_rest_update_keeps_its_forward_pass_and_improves_on_it(rec):
+    sm = smooth_orientation(rec.gyr, rec.acc, rec.mag, rec.rate, n_rest=rec.n_rest, mag_time_offset="online",
+                            rest_update=True)  # fmt: skip
+    fw = _run(rec, True)
+    k = rec.n_rest - 1  # the batch estimator's own outputs inside the rest period are running means
+    assert np.array_equal(sm.forward.quat[k:], fw.quat[k:]) and sm.forward.rest_samples == fw.rest_samples > 0
+    s_sm = orientation_rmse(sm.quat, rec.quat, rec.scored).total_rmse_deg
+    assert s_sm < orientation_rmse(fw.quat, rec.quat, rec.scored).total_rmse_deg
+    off = smooth_orientation(rec.gyr, rec.acc, rec.mag, rec.rate, n_rest=rec.n_rest, mag_time_offset="online")
+    assert off.forward.rest_samples == 0  # offline default: no rest update
