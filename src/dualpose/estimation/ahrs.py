@@ -47,6 +47,11 @@ The error-state filter of :mod:`dualpose.estimation.eskf` reduced to orientation
   closed form; ``src/native/estimation/ahrs_mag_lag.hpp``, docs/broad.md "Magnetometer–gyroscope time offset").  In
   fast rotation a lag τ turns the measured field by ``ω τ`` (at 5 rad/s and 11 ms: 3°).  The whole-recording
   (offline, not causal) estimate of :mod:`dualpose.calibration.sensor_time_offset` remains an option;
+* rest detection with a gyroscope-bias update (strictly causal, in the same per-sample step): when the variances
+  of the gyroscope and the accelerometer over the trailing ``rest_window`` (1.5 s) are both within ``rest_margin²``
+  (9) times their white-noise variance measured at rest, the window's mean rate measures the bias (``H = [0, I]``,
+  noise ``σ_g² / N`` times the window overlap, χ²(3)-gated without release; ``src/native/estimation/ahrs_rest.hpp``,
+  docs/broad.md, "Rest detector and bias update");
 * causal rest period: inside the rest period (before its statistics are complete) the output is the orientation of
   the running mean specific force and field of the samples so far; at its last sample the filter is initialised from
   the rest statistics and run over the rest samples (all in the past by then), so no output depends on a later
