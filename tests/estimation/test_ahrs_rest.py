@@ -108,3 +108,12 @@ def test_smoother_with_the_rest_update_keeps_its_forward_pass_and_improves_on_it
     assert s_sm < orientation_rmse(fw.quat, rec.quat, rec.scored).total_rmse_deg
     off = smooth_orientation(rec.gyr, rec.acc, rec.mag, rec.rate, n_rest=rec.n_rest, mag_time_offset="online")
     assert off.forward.rest_samples == 0  # offline default: no rest update
+
+
+def test_without_a_rest_period_the_class_noise_values_still_detect_the_breaks(rec):
+    # n_rest=0: thresholds from the AhrsNoise class defaults (1.2e-4 rad/s/√Hz: 2.5 times below this gyroscope's
+    # noise, inside the margin of 3); the initial 5 s of rest are seen by the detector too
+    n_win = int(round(WINDOW_S * rec.rate))
+    r = estimate_orientation(rec.gyr, rec.acc, None, rec.rate, use_mag=False, n_rest=0)
+    quiet = int(np.sum(rec.breaks[:, 1] - rec.breaks[:, 0])) + rec.n_rest
+    assert quiet - 4 * n_win <= r.rest_samples <= quiet + 4 * 2 * int(rec.rate)  # each stop's 2 s slow-down at most
