@@ -11,8 +11,9 @@ and returned at its own sample.
 The whole filter state -- orientation, bias, covariance, the field window's ring buffers and sums, the accelerometer
 low-pass state, the accumulated corrections, gate counters, adaptive-noise estimates, the rest detector's window and
 statistics -- lives in one ``numpy.uint8`` buffer with a header (magic number, layout version, size;
-``AhrsStream.LAYOUT_VERSION``). Saving the stream is a copy of that buffer (:meth:`AhrsStream.state_dict`); restoring it (:meth:`AhrsStream.from_state`) continues
-exactly where the saved stream stopped. A buffer of another layout version or size is refused with a ValueError.
+``AhrsStream.LAYOUT_VERSION``). Saving the stream is a copy of that buffer (:meth:`AhrsStream.state_dict`); restoring it
+(:meth:`AhrsStream.from_state`) continues exactly where the saved stream stopped. A buffer of another layout version or
+size is refused with a ValueError.
 """
 
 from __future__ import annotations
