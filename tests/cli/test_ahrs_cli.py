@@ -30,6 +30,8 @@ def test_json_keys(flag, capsys):
     assert out["total_rmse_deg"] >= max(out["heading_rmse_deg"], out["inclination_rmse_deg"])
     assert out["total_rmse_deg"] < 1.768  # BROAD's published Madgwick result on this trial
     assert (out["heading_offset_deg"] != 0.0) == (flag == "--no-mag")
+    # the rest detector sees the trial's still period after the movement (none inside it; docs/broad.md)
+    assert out["rest_samples"] > 5000 and 0 < out["rest_updates"] <= out["rest_samples"]
     if flag == "--mag":  # estimated from gyro + mag only; BROAD's magnetometer lags by ~11 ms in every trial
         assert isinstance(out["mag_time_offset_ms"], float) and 5.0 < out["mag_time_offset_ms"] < 20.0
         assert out["mag_calibration_applied"] is False  # off unless --mag-calibration

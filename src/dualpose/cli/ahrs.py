@@ -152,6 +152,9 @@ def run(args: argparse.Namespace) -> int:
         "us_per_sample": smoothed.us_per_sample if smoothed is not None else result.us_per_sample,
         "acc_rejected": result.acc_rejected,
         "mag_rejected": result.mag_rejected,
+        # samples the rest detector flagged after the initial rest period, and the bias updates made there
+        "rest_samples": result.rest_samples,
+        "rest_updates": result.rest_updates,
         # compensated magnetometer lag behind the gyroscope, from the IMU data alone: estimated online (causally),
         # the estimate after the last sample; --offline: estimated from the whole recording (None in 6D)
         "mag_time_offset_ms": result.mag_time_offset_ms if args.mag else None,

@@ -47,6 +47,11 @@ The error-state filter of :mod:`dualpose.estimation.eskf` reduced to orientation
   closed form; ``src/native/estimation/ahrs_mag_lag.hpp``, docs/broad.md "Magnetometer–gyroscope time offset").  In
   fast rotation a lag τ turns the measured field by ``ω τ`` (at 5 rad/s and 11 ms: 3°).  The whole-recording
   (offline, not causal) estimate of :mod:`dualpose.calibration.sensor_time_offset` remains an option;
+* rest detection with a gyroscope-bias update (strictly causal, in the same per-sample step): when the variances
+  of the gyroscope and the accelerometer over the trailing ``rest_window`` (1.5 s) are both within ``rest_margin²``
+  (9) times their white-noise variance measured at rest, the window's mean rate measures the bias (``H = [0, I]``,
+  noise ``σ_g² / N`` times the window overlap, χ²(3)-gated without release; ``src/native/estimation/ahrs_rest.hpp``,
+  docs/broad.md, "Rest detector and bias update");
 * causal rest period: inside the rest period (before its statistics are complete) the output is the orientation of
   the running mean specific force and field of the samples so far; at its last sample the filter is initialised from
   the rest statistics and run over the rest samples (all in the past by then), so no output depends on a later
@@ -123,6 +128,12 @@ MAG_LAG_MIN_RATE = 0.5
 MAG_LAG_NORM_TOLERANCE = 0.1
 MAG_LAG_MIN_SECONDS = 1.0
 
+#: rest detector (docs/broad.md, "Rest detector and bias update"): quantisation floor of the per-sample noise used
+#: for its thresholds and its bias measurement, the standard deviation LSB/√12 of one least significant bit of a
+#: 16-bit MEMS gyroscope at ±2000 °/s (0.061 °/s) and accelerometer at ±16 g (0.0048 m/s²)
+REST_GYRO_QUANTISATION = math.radians(2000.0 / 32768.0) / math.sqrt(12.0)
+REST_ACC_QUANTISATION = 16.0 * 9.80665 / 32768.0 / math.sqrt(12.0)
+
 
 @dataclass(frozen=True)
 class AhrsNoise:
@@ -182,6 +193,13 @@ class AhrsConfig:
         ``window / update_interval`` and share their samples, so each update's noise is multiplied by that overlap
         factor (an update carries only its share of a window's information).  The result is insensitive to the
         interval once it is well below the window (docs/broad.md, "Design in brief").
+    rest_window : float
+        Seconds of gyroscope and accelerometer samples that must be quiet before the filter takes the IMU to be at
+        rest and measures the gyroscope bias with their mean rate (default 1.5 s, VQF's minimum rest time; 0
+        switches the rest detector off).  Only samples after the initial rest period are seen.
+    rest_margin : float
+        Quiet means: the window's variance of each sensor (pooled over the axes) at most ``rest_margin²`` times its
+        per-sample noise variance measured at rest (default 3; docs/broad.md, "Rest detector and bias update").
     acc_scale_sigma : float
         Relative error δ of the accelerometer (scale factor + axis misalignment; calibrated MEMS class, default
         0.5 %, as the gyroscope's): a specific force ≈ g is measured off by up to δ g.  So the lower bound
@@ -200,6 +218,8 @@ class AhrsConfig:
     gyro_scale_sigma: float = 0.005
     update_interval: float = 0.1
     acc_scale_sigma: float = 0.005
+    rest_window: float = 1.5
+    rest_margin: float = 3.0
 
     def __post_init__(self) -> None:
         if self.noise is not None and not isinstance(self.noise, AhrsNoise):
@@ -209,7 +229,8 @@ class AhrsConfig:
         checks = (("gate_release", self.gate_release, False), ("adapt_time", self.adapt_time, False),
                   ("window", self.window, True), ("gyro_scale_sigma", self.gyro_scale_sigma, False),
                   ("update_interval", self.update_interval, True),
-                  ("acc_scale_sigma", self.acc_scale_sigma, False))  # fmt: skip
+                  ("acc_scale_sigma", self.acc_scale_sigma, False), ("rest_window", self.rest_window, False),
+                  ("rest_margin", self.rest_margin, True))  # fmt: skip
         for name, value, positive in checks:
             if not (math.isfinite(value) and (value > 0.0 if positive else value >= 0.0)):
                 kind = "a positive" if positive else "a non-negative"
@@ -304,6 +325,10 @@ class AhrsResult:
         The offline estimator's full result when ``mag_time_offset="estimate"`` (None otherwise).
     mag_time_offset_samples : int
         Informative samples the online estimate has seen (0 unless ``mag_time_offset="online"``).
+    rest_samples : int
+        Samples the rest detector flagged as at rest (the initial rest period is not seen by it).
+    rest_updates : int
+        Gyroscope-bias updates made at rest (accepted by the χ² gate).
     mag_calibration : MagCalibration or None
         The magnetometer self-calibration decision and parameters when ``mag_calibration="auto"`` in 9D (None
         otherwise); see :attr:`mag_calibration_applied`.
@@ -325,6 +350,8 @@ class AhrsResult:
     mag_time_offset_estimate: SensorTimeOffset | None = None
     mag_calibration: MagCalibration | None = None
     mag_time_offset_samples: int = 0
+    rest_samples: int = 0
+    rest_updates: int = 0
 
     @property
     def mag_calibration_applied(self) -> bool:
@@ -487,6 +514,7 @@ def filter_setup(
     use_mag: bool = True,
     config: AhrsConfig | None = None,
     mag_time_offset: float | None = None,
+    rest_skip: int = 0,
 ) -> AhrsSetup:
     """Parameters and initial state of the AHRS, as :func:`estimate_orientation` sets them up.
 
@@ -509,6 +537,9 @@ def filter_setup(
     mag_time_offset : float, optional
         None (default): estimate the magnetometer lag online inside the filter; a number: the fixed lag, s, that the
         causal compensation uses (0: none).  See :func:`estimate_orientation`.
+    rest_skip : int
+        Leading samples the rest detector does not see: the initial rest period, whose samples already gave the
+        initial bias (default 0).
 
     Returns
     -------
@@ -564,6 +595,7 @@ def filter_setup(
     params[_native.AHRS_P_ACC_ADAPT] = 1.0 / (c.adapt_time * rate) if c.adapt_time > 0 else 0.0
     params[_native.AHRS_P_MAG_ADAPT] = 1.0 / (c.adapt_time * rate) if c.adapt_time > 0 and c.mag_adapt else 0.0
     _set_lag_params(params, rate, use_mag, mag_time_offset)
+    _set_rest_params(params, rate, noise, c, rest_skip)
     # initial attitude uncertainty: the direction of a mean of N noisy specific forces (inclination) and fields
     # (heading); heading is unknown in 6D (π is only a nominal value: no update ever uses it)
     n_avg = rest.samples if rest is not None else 1
@@ -588,6 +620,19 @@ def _set_lag_params(params: np.ndarray, rate: float, use_mag: bool, mag_time_off
     params[_native.AHRS_P_LAG_NORM_TOL] = MAG_LAG_NORM_TOLERANCE
     params[_native.AHRS_P_LAG_THIN] = max(1, int(rate / (4.0 * MAG_LAG_CUTOFF)))
     params[_native.AHRS_P_LAG_MIN_COUNT] = max(1, int(round(MAG_LAG_MIN_SECONDS * rate)))
+
+
+def _set_rest_params(params: np.ndarray, rate: float, noise: AhrsNoise, c: AhrsConfig, skip: int) -> None:
+    """The P_REST_* entries of the kernel's parameters (docs/broad.md, "Rest detector and bias update"): per-sample
+    noise σ = density · √rate floored at the quantisation σ; quiet = the window's pooled variance ≤ (margin σ)²."""
+    sg = max(noise.gyroscope_noise_density * math.sqrt(rate), REST_GYRO_QUANTISATION)
+    sa = max(noise.accelerometer_noise_density * math.sqrt(rate), REST_ACC_QUANTISATION)
+    params[_native.AHRS_P_REST_WINDOW] = int(round(c.rest_window * rate))
+    params[_native.AHRS_P_REST_GYR_TH] = (c.rest_margin * sg) ** 2
+    params[_native.AHRS_P_REST_ACC_TH] = (c.rest_margin * sa) ** 2
+    params[_native.AHRS_P_REST_GYR_VAR] = sg**2
+    params[_native.AHRS_P_REST_GATE] = float(chi2.ppf(c.gate_probability, 3))
+    params[_native.AHRS_P_REST_SKIP] = int(skip)
 
 
 def check_mag_time_offset(mag_time_offset: object, allowed: tuple[str, ...]) -> float | None:
@@ -730,7 +775,7 @@ def prepare_recording(
         mag_offset = kernel_lag  # a fixed lag, or None: estimated online by the kernel
     setup = filter_setup(
         rate, rest, acc[0], mag_arr[0] if mag_arr is not None else None,
-        use_mag=use_mag, config=config, mag_time_offset=kernel_lag,
+        use_mag=use_mag, config=config, mag_time_offset=kernel_lag, rest_skip=n_rest,
     )  # fmt: skip
     return PreparedRecording(
         gyr=gyr, acc=acc, mag=mag_arr if mag_arr is not None else np.zeros((n, 3)), rate=float(rate),
@@ -873,4 +918,6 @@ def run_result(
         mag_time_offset_estimate=prep.mag_time_offset_estimate,
         mag_calibration=prep.mag_calibration,
         mag_time_offset_samples=int(stats[_native.AHRS_S_MAG_LAG_SAMPLES]),
+        rest_samples=int(stats[_native.AHRS_S_REST_SAMPLES]),
+        rest_updates=int(stats[_native.AHRS_S_REST_UPDATES]),
     )

@@ -24,6 +24,7 @@ reference-free decision rule passes; docs/broad.md says why it is the offline de
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 
@@ -87,6 +88,7 @@ def smooth_orientation(
     config: AhrsConfig | None = None,
     mag_time_offset: str | float = "estimate",
     mag_calibration: str | MagCalibration | None = None,
+    rest_update: bool = False,
 ) -> SmoothedOrientation:
     """Offline orientation: the AHRS forward, then its RTS smoother backward (module docstring).
 
@@ -99,6 +101,11 @@ def smooth_orientation(
     mag_calibration : "auto", MagCalibration or None
         As :func:`~dualpose.estimation.ahrs.estimate_orientation` (off by default, as there: on the one BROAD trial
         where its reference-free rule fires it costs accuracy; docs/broad.md, "Offline (smoothed)").  Ignored in 6D.
+    rest_update : bool
+        Keep the forward pass's rest detector and gyroscope-bias update (``config.rest_window``).  Off by default
+        offline (``rest_window`` set to 0): the smoother carries a rest's bias back into the movement before it,
+        where on BROAD the effective bias differs from the one at rest by ~0.02 °/s; there it sees only the rest
+        after the movement and costs 9D accuracy (docs/broad.md, "Rest detector and bias update").
 
     Returns
     -------
@@ -111,6 +118,10 @@ def smooth_orientation(
         covariance is singular (only with a :class:`~dualpose.estimation.ahrs.AhrsNoise` of zero process noise and
         zero initial uncertainty).
     """
+    if config is not None and not isinstance(config, AhrsConfig):
+        raise TypeError(f"config must be an AhrsConfig or None; got {type(config).__name__}")
+    if not rest_update:
+        config = dataclasses.replace(config if config is not None else AhrsConfig(), rest_window=0.0)
     prep = prepare_recording(
         gyr, acc, mag, rate, use_mag=use_mag, n_rest=n_rest, config=config, mag_time_offset=mag_time_offset,
         mag_calibration=mag_calibration,

@@ -9,10 +9,11 @@ estimator's non-causal options are off (``mag_time_offset="estimate"``, ``mag_ca
 and returned at its own sample.
 
 The whole filter state -- orientation, bias, covariance, the field window's ring buffers and sums, the accelerometer
-low-pass state, the accumulated corrections, gate counters, adaptive-noise estimates and statistics -- lives in one
-``numpy.uint8`` buffer with a header (magic number, layout version, size; ``AhrsStream.LAYOUT_VERSION``). Saving the
-stream is a copy of that buffer (:meth:`AhrsStream.state_dict`); restoring it (:meth:`AhrsStream.from_state`) continues
-exactly where the saved stream stopped. A buffer of another layout version or size is refused with a ValueError.
+low-pass state, the accumulated corrections, gate counters, adaptive-noise estimates, the rest detector's window and
+statistics -- lives in one ``numpy.uint8`` buffer with a header (magic number, layout version, size;
+``AhrsStream.LAYOUT_VERSION``). Saving the stream is a copy of that buffer (:meth:`AhrsStream.state_dict`); restoring it
+(:meth:`AhrsStream.from_state`) continues exactly where the saved stream stopped. A buffer of another layout version or
+size is refused with a ValueError.
 """
 
 from __future__ import annotations
@@ -143,7 +144,7 @@ class AhrsStream:
 
     def _start(self, first_acc: np.ndarray | None, first_mag: np.ndarray | None) -> None:
         setup = filter_setup(self._rate, self._rest, first_acc, first_mag, use_mag=self._use_mag, config=self._settings,
-                             mag_time_offset=self._lag)
+                             mag_time_offset=self._lag, rest_skip=self._n_rest)
         self._state = _native.ahrs_stream_new(
             setup.params, setup.Ha, setup.Hm, 1.0 / self._rate, setup.q, setup.b, setup.P
         )
@@ -299,6 +300,12 @@ class AhrsStream:
         """The magnetometer lag τ̂ the filter currently compensates, s (online: the estimate so far; 0 in 6D;
         NaN before initialisation)."""
         return float(self._get(3)[_native.AHRS_S_MAG_LAG])
+
+    @property
+    def rest_samples(self) -> int:
+        """Samples the rest detector has flagged as at rest so far (docs/broad.md, "Rest detector and bias update";
+        0 before initialisation)."""
+        return int(np.nan_to_num(self._get(3)[_native.AHRS_S_REST_SAMPLES]))
 
     @property
     def covariance(self) -> np.ndarray:

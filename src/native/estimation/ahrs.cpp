@@ -76,7 +76,8 @@ ahrs::Stream* stream_of(PyObject* o, const char* name, bool write) {
     // the constants come from the buffer: bound the ring lengths before computing the size from them
     const ahrs::Params& p = st->p;
     const bool sane = size >= sizeof(ahrs::Stream) && st->h.n_win >= 1 && st->h.n_win <= (1ULL << 40) &&
-                      p.n_win == static_cast<std::int64_t>(st->h.n_win) && ahrs::lag_params_valid(p.lag);
+                      p.n_win == static_cast<std::int64_t>(st->h.n_win) && ahrs::lag_params_valid(p.lag) &&
+                      ahrs::rest_params_valid(p.rest);
     const std::uint64_t bytes = sane ? ahrs::stream_bytes(ahrs::ring_doubles(p)) : 0;
     if (!sane || size != st->h.size || size != bytes ||
         st->h.n_ring != static_cast<std::uint64_t>(ahrs::ring_doubles(p))) {
@@ -106,6 +107,10 @@ PyObject* ahrs_stream_new(PyObject*, PyObject* args) {
     }
     if (!ahrs::lag_params_valid(p.lag)) {
         PyErr_SetString(PyExc_ValueError, "params: the time-offset search range is too long for this rate");
+        return nullptr;
+    }
+    if (!ahrs::rest_params_valid(p.rest)) {
+        PyErr_SetString(PyExc_ValueError, "params: the rest window is too long");
         return nullptr;
     }
     const npy_intp size = static_cast<npy_intp>(ahrs::stream_bytes(ahrs::ring_doubles(p)));

@@ -38,7 +38,14 @@ constexpr int P_LAG_NORM_TOL = 22;   // ... and |m| within this fraction of P_MA
 constexpr int P_LAG_THIN = 23;       // every thin-th informative sample enters the sums
 constexpr int P_LAG_MIN_COUNT = 24;  // informative samples needed before τ̂ ≠ 0
 constexpr int P_ACC_SCALE = 25;      // accelerometer relative error δ (scale factor / misalignment)
-constexpr int N_PARAMS = 26;
+// rest detector and gyroscope-bias update (ahrs_rest.hpp)
+constexpr int P_REST_WINDOW = 26;    // samples of the trailing window that must be quiet (0: no rest detection)
+constexpr int P_REST_GYR_TH = 27;    // threshold of the window's gyroscope variance (pooled over axes), rad²/s²
+constexpr int P_REST_ACC_TH = 28;    // same for the accelerometer, (m/s²)²
+constexpr int P_REST_GYR_VAR = 29;   // gyroscope per-sample noise variance of the bias measurement, rad²/s²
+constexpr int P_REST_GATE = 30;      // χ²(3) rejection threshold of the bias innovation
+constexpr int P_REST_SKIP = 31;      // leading samples not seen by the detector (the initial rest period)
+constexpr int N_PARAMS = 32;
 
 // stats indices
 constexpr int S_ACC_REJECTED = 0;
@@ -50,7 +57,10 @@ constexpr int S_MAG_INSIDE = 5;
 constexpr int S_MAG_SKIPPED = 6;  // updates with a degenerate (vertical) field
 constexpr int S_MAG_LAG = 7;          // current magnetometer lag τ̂ used by the compensation, s (not a counter)
 constexpr int S_MAG_LAG_SAMPLES = 8;  // informative samples seen by the online estimate (not thinned)
-constexpr int N_STATS = 9;
+constexpr int S_REST_SAMPLES = 9;     // samples flagged at rest by the detector
+constexpr int S_REST_UPDATES = 10;    // accepted gyroscope-bias updates at rest
+constexpr int S_REST_REJECTED = 11;   // bias updates rejected by the χ² gate
+constexpr int N_STATS = 12;
 
 // Every constant above, for the module's integer constants (prefixed AHRS_).
 #define DUALPOSE_AHRS_CONSTANTS(X)                                                                            \
@@ -58,8 +68,10 @@ constexpr int N_STATS = 9;
         X(P_MAG_NORM) X(P_MAG_DIP) X(P_USE_MAG) X(P_ACC_GATE) X(P_MAG_GATE) X(P_GATE_RELEASE) X(P_ACC_ADAPT)    \
             X(P_MAG_ADAPT) X(P_WINDOW) X(P_GYR_SCALE_VAR) X(P_STRIDE) X(P_LAG_ONLINE) X(P_LAG_FIXED)            \
                 X(P_LAG_BOX) X(P_LAG_MAX) X(P_LAG_STEP) X(P_LAG_MIN_RATE) X(P_LAG_NORM_TOL) X(P_LAG_THIN)       \
-                    X(P_LAG_MIN_COUNT) X(P_ACC_SCALE) X(N_PARAMS) X(S_ACC_REJECTED) X(S_MAG_REJECTED)           \
-                        X(S_ACC_NIS_SUM) X(S_MAG_NIS_SUM) X(S_ACC_INSIDE) X(S_MAG_INSIDE) X(S_MAG_SKIPPED)      \
-                            X(S_MAG_LAG) X(S_MAG_LAG_SAMPLES) X(N_STATS)
+                    X(P_LAG_MIN_COUNT) X(P_ACC_SCALE) X(P_REST_WINDOW) X(P_REST_GYR_TH) X(P_REST_ACC_TH)        \
+                        X(P_REST_GYR_VAR) X(P_REST_GATE) X(P_REST_SKIP) X(N_PARAMS) X(S_ACC_REJECTED)           \
+                            X(S_MAG_REJECTED) X(S_ACC_NIS_SUM) X(S_MAG_NIS_SUM) X(S_ACC_INSIDE) X(S_MAG_INSIDE) \
+                                X(S_MAG_SKIPPED) X(S_MAG_LAG) X(S_MAG_LAG_SAMPLES) X(S_REST_SAMPLES)            \
+                                    X(S_REST_UPDATES) X(S_REST_REJECTED) X(N_STATS)
 
 }  // namespace dualpose::ahrs

@@ -40,6 +40,7 @@ Params make_params(const double* params, const double* Ha, const double* Hm, dou
     for (int i = 0; i < NE; ++i) p.Hm[i] = Hm[i];
     p.acc_lp = butterworth_lowpass(0.5 * double(p.n_win) * dt, dt);
     make_lag_params(p.lag, params, 1.0 / dt);
+    p.rest = make_rest_params(params, p.stride);
     const double dg = params[P_ACC_SCALE] * p.grav;  // the accelerometer's own error of a specific force ≈ g
     p.acc_tol = 2.0 * dg;
     p.acc_cal_var = dg * dg / 3.0;
@@ -54,6 +55,7 @@ void init_state(State& s, double* ring, const Params& p, const double* q, const 
     for (int i = 0; i < 9; ++i) s.Cm[i] = i % 4 == 0 ? 1.0 : 0.0;
     std::fill(ring, ring + 4 * p.n_win, 0.0);
     init_lag(s.lag, ring + 4 * p.n_win, p.lag);
+    init_rest(s.rest, ring + 4 * p.n_win + lag_ring_doubles(p.lag), p.rest);
     s.stats[S_MAG_LAG] = s.lag.tau;
 }
 
@@ -221,6 +223,12 @@ void step(State& s, double* ring, const Params& p, const double* gyr, const doub
         lag_solve(s.lag, p.lag);  // a new τ̂ for the samples that follow
         stats[S_MAG_LAG] = s.lag.tau;
         stats[S_MAG_LAG_SAMPLES] = double(s.lag.informative);
+    }
+
+    // ---- rest: gyroscope and accelerometer quiet over the trailing window -> the window's mean rate measures b
+    if (p.rest.n > 0) {
+        const bool quiet = rest_ingest(s.rest, ring_lag + lag_ring_doubles(p.lag), p.rest, gyr, acc);
+        rest_update(s.rest, p.rest, quiet, stride, q, b, P, Cm, stats);
     }
 }
 

@@ -5,6 +5,7 @@
 #include "ahrs_filter.hpp"
 #include "ahrs_layout.hpp"
 #include "ahrs_mag_lag.hpp"
+#include "ahrs_rest.hpp"
 
 #include <cstddef>
 #include <cstdint>
@@ -21,12 +22,13 @@ struct Params {
     double Ha[2 * ERROR_DIM], Hm[ERROR_DIM];  // measurement Jacobians (2, 6) and (1, 6)
     LowPass2 acc_lp;                          // the specific force's earth-frame low-pass (tau = window / 2)
     std::int64_t n_win, stride, use_mag;
-    LagParams lag;  // magnetometer–gyroscope time offset (ahrs_mag_lag.hpp)
+    LagParams lag;    // magnetometer–gyroscope time offset (ahrs_mag_lag.hpp)
+    RestParams rest;  // rest detector and bias update (ahrs_rest.hpp)
 };
 
 // Everything that changes from sample to sample (trivially copyable: a byte copy saves and restores it).  The ring
 // buffers (ring_doubles(p): the field's sliding window ring_m (n_win, 3) and ring_d (n_win,), then the time offset's
-// rings, lag_ring_doubles) are kept by the caller, next to the state.
+// rings, lag_ring_doubles, and the rest detector's, rest_ring_doubles) are kept by the caller, next to the state.
 struct State {
     double q[4], b[3], P[ERROR_DIM * ERROR_DIM];  // nominal state (xyzw, rad/s) and error covariance
     double acc_lp[6];                             // low-pass state of the specific force, (3, 2) (uncorrected frame)
@@ -38,11 +40,14 @@ struct State {
     std::int64_t head, filled, since;             // ring position, samples in the window, samples since an update
     std::int64_t acc_closed, mag_closed;          // gate counters
     LagState lag;                                 // magnetometer–gyroscope time offset (ahrs_mag_lag.hpp)
+    RestState rest;                               // rest detector (ahrs_rest.hpp)
 };
 
 // Doubles of the ring buffers that follow the state: the field's window (n_win, 3) and its disturbance level (n_win,), then the time
-// offset's rings (ahrs_mag_lag.hpp).
-inline std::int64_t ring_doubles(const Params& p) { return 4 * p.n_win + lag_ring_doubles(p.lag); }
+// offset's rings (ahrs_mag_lag.hpp), then the rest detector's window (ahrs_rest.hpp).
+inline std::int64_t ring_doubles(const Params& p) {
+    return 4 * p.n_win + lag_ring_doubles(p.lag) + rest_ring_doubles(p.rest);
+}
 
 // The constants of params (N_PARAMS,), Ha (2, 6), Hm (1, 6) and dt.
 Params make_params(const double* params, const double* Ha, const double* Hm, double dt);
@@ -66,7 +71,8 @@ inline void record_prediction(PredictRecord& r, const double* q, const double* b
 
 // One sample: predict q <- q ⊗ Exp((ω − b) dt), P <- F P Fᵀ + Q; low-pass R̂ a and accumulate R̂(t − τ̂) m in the
 // sliding window; every stride samples the accelerometer update of inclination and (9D) the magnetometer heading
-// update, χ²-gated, with adaptive noise, and (online) a new τ̂.  gyr, acc, mag (3,) rad/s, m/s², µT (mag unused in
+// update, χ²-gated, with adaptive noise, and (online) a new τ̂; while the rest detector's window is quiet, every
+// stride samples the gyroscope-bias update (ahrs_rest.hpp).  gyr, acc, mag (3,) rad/s, m/s², µT (mag unused in
 // 6D).  record (optional) receives the prediction (PredictRecord); nullptr in the filter's own run and stream paths.
 void step(State& s, double* ring, const Params& p, const double* gyr, const double* acc, const double* mag,
           PredictRecord* record = nullptr);
@@ -88,9 +94,10 @@ void rest_run(std::ptrdiff_t n, const double* gyr, const double* acc, const doub
 
 // The saved stream: one contiguous byte buffer [StreamHeader | Params | State | ring (ring_doubles(p) doubles)], so
 // that a byte copy saves it and restores it.  STREAM_VERSION changes whenever the layout does (2: the time offset's
-// parameters, state and rings, and n_ring in the header; 3: the accelerometer's own error in Params).
+// parameters, state and rings, and n_ring in the header; 3: the accelerometer's own error in Params; 4: the rest
+// detector's parameters, state and ring).
 constexpr std::uint64_t STREAM_MAGIC = 0x3153524841504455ULL;  // "UDPAHRS1" little-endian
-constexpr std::uint64_t STREAM_VERSION = 3;
+constexpr std::uint64_t STREAM_VERSION = 4;
 struct StreamHeader {
     std::uint64_t magic, version, size, n_win, n_ring;  // size: total bytes of the buffer; n_ring = ring_doubles
 };
