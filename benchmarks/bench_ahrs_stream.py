@@ -1,4 +1,4 @@
-"""Cost of the streaming AHRS (dualpose.estimation.ahrs_stream.AhrsStream) on the BROAD trials, next to VQF.
+"""Cost of the streaming AHRS (dualpose.estimation.ahrs.stream.AhrsStream) on the BROAD trials, next to VQF.
 
 Run ``.venv/bin/python benchmarks/bench_ahrs_stream.py`` (VQF is timed if ``vqf`` is importable: the ``bench``
 extra).  Per trial, best of 3, in one process:
@@ -35,7 +35,7 @@ DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "broad"
 
 
 def _loop_stream(trial) -> float:
-    from dualpose.estimation.ahrs_stream import AhrsStream
+    from dualpose.estimation.ahrs.stream import AhrsStream
 
     n, r = len(trial.gyr), trial.static_start
     t = np.arange(n) / trial.rate
@@ -51,7 +51,7 @@ def _loop_stream(trial) -> float:
 
 
 def _batch_stream(trial) -> float:
-    from dualpose.estimation.ahrs_stream import AhrsStream
+    from dualpose.estimation.ahrs.stream import AhrsStream
 
     n = len(trial.gyr)
     s = AhrsStream(trial.rate, n_rest=trial.static_start)

@@ -3,7 +3,7 @@
 Run ``.venv/bin/python benchmarks/bench_broad_offline.py [--markdown docs/broad.md]`` (needs the ``bench`` extra for
 ``vqf``).  Everything runs in one process on the trials in ``../shared/data/broad``; defaults fixed for every trial.
 
-* dualpose offline 9D / 6D: :func:`dualpose.estimation.ahrs_smoother.smooth_orientation` with its defaults
+* dualpose offline 9D / 6D: :func:`dualpose.estimation.ahrs.smoother.smooth_orientation` with its defaults
   (magnetometer time offset estimated from the whole recording, no magnetometer self-calibration); "9D + mag
   calibration" adds the self-calibration decided by its reference-free rule (``mag_calibration="auto"``).
 * dualpose forward 9D / 6D: :func:`dualpose.estimation.ahrs.estimate_orientation` with its defaults (the forward pass
@@ -31,7 +31,7 @@ import numpy as np
 
 from bench_broad import MADGWICK_012
 from dualpose.estimation.ahrs import estimate_orientation
-from dualpose.estimation.ahrs_smoother import smooth_orientation
+from dualpose.estimation.ahrs.smoother import smooth_orientation
 from dualpose.evaluation.orientation_errors import orientation_rmse
 from dualpose.io import load_broad
 

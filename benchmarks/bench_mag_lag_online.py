@@ -5,12 +5,13 @@ Run ``.venv/bin/python benchmarks/bench_mag_lag_online.py`` (docs/broad.md, "Mag
 * Synthetic: :func:`dualpose.sim.magnetometer_lag.lagged_recording` (analytic tumbling motion, 200 Hz, 2 s rest +
   30 s motion, magnetometer sampled ``lag`` earlier; the motion starting abruptly, and smoothly over 1 s) for lags
   ±5, ±10, ±20 ms (seed ``lag_ms + 300``, as ``tests/calibration/test_sensor_time_offset.py``): the online τ̂
-  after every 0.1 s block of an :class:`~dualpose.estimation.ahrs_stream.AhrsStream` (equal to the batch
+  after every 0.1 s block of an :class:`~dualpose.estimation.ahrs.stream.AhrsStream` (equal to the batch
   estimator's state at the same sample), its final error, the motion time after which it stays within 1.5 ms /
   1 ms of the truth, the offline (whole-recording, not causal) estimate on the same data, and the heading RMSE of
   the filter with the online, no (τ = 0) and the offline compensation.
 * Cut-off: RMS error of the final online τ̂ and of the offline estimate over 6 lags × 3 seeds (``lag_ms + 100, 300,
-  500``) for a 5 Hz and a 10 Hz low-pass (``dualpose.estimation.ahrs.MAG_LAG_CUTOFF`` and the offline ``cutoff``).
+  500``) for a 5 Hz and a 10 Hz low-pass (``dualpose.estimation.ahrs.config.MAG_LAG_CUTOFF`` and the offline
+  ``cutoff``).
 * BROAD: per trial, the online τ̂ after the last sample, the time of the first non-zero τ̂ (after the first sample),
   the time after which it stays within 0.5 ms of its final value, and the offline estimate.
 """
@@ -23,10 +24,10 @@ from pathlib import Path
 import numpy as np
 
 import dualpose as dp
-import dualpose.estimation.ahrs as ahrs
+import dualpose.estimation.ahrs.config as ahrs_config
 from dualpose.calibration.sensor_time_offset import estimate_sensor_time_offset
 from dualpose.estimation.ahrs import estimate_orientation
-from dualpose.estimation.ahrs_stream import AhrsStream
+from dualpose.estimation.ahrs.stream import AhrsStream
 from dualpose.io import load_broad
 from dualpose.sim.magnetometer_lag import lagged_recording
 
@@ -82,10 +83,10 @@ def synthetic_table(ramp: float) -> list[str]:
 
 def cutoff_table() -> list[str]:
     out = ["| low-pass cut-off | online: RMS error of the final τ̂ (ms) | offline: RMS error (ms) |", "|---:|---:|---:|"]
-    keep = ahrs.MAG_LAG_CUTOFF
+    keep = ahrs_config.MAG_LAG_CUTOFF
     try:
         for cut in (5.0, 10.0):
-            ahrs.MAG_LAG_CUTOFF = cut
+            ahrs_config.MAG_LAG_CUTOFF = cut
             on, off = [], []
             for lag_ms in LAGS_MS:
                 for s in (100, 300, 500):
@@ -98,7 +99,7 @@ def cutoff_table() -> list[str]:
             out.append(f"| {cut:g} Hz | {np.sqrt(np.mean((np.array(on) - truth) ** 2)):.2f} | "
                        f"{np.sqrt(np.mean((np.array(off) - truth) ** 2)):.2f} |")
     finally:
-        ahrs.MAG_LAG_CUTOFF = keep
+        ahrs_config.MAG_LAG_CUTOFF = keep
     return out
 
 

@@ -130,7 +130,7 @@ def _heading_rmse_deg(quat: np.ndarray, q_true: np.ndarray, sel: np.ndarray) -> 
 def test_online_estimate_recovers_injected_lag_causally(lag_ms):
     # the AHRS's online (causal) estimate: τ̂ after each 0.1 s block of a stream fed in blocks, which equals the
     # batch estimator's state at the same sample
-    from dualpose.estimation.ahrs_stream import AhrsStream
+    from dualpose.estimation.ahrs.stream import AhrsStream
 
     rec = lagged_recording(lag_ms * 1e-3, rate=RATE, seed=int(lag_ms) + 300)
     gyr, acc, mag, n_rest, moving, q_true = rec.gyr, rec.acc, rec.mag, rec.n_rest, rec.moving, rec.quat

@@ -12,7 +12,7 @@ from _pipes import LineReader, dualpose_process
 
 from dualpose.cli.main import main
 from dualpose.estimation.ahrs import estimate_orientation
-from dualpose.estimation.ahrs_stream import AhrsStream
+from dualpose.estimation.ahrs.stream import AhrsStream
 from dualpose.pipelines.ahrs_stream import format_row, parse_imu_line, stream_ahrs_lines
 from dualpose.sim import simulate_eight
 

@@ -12,7 +12,7 @@ import pytest
 import dualpose as dp
 from dualpose import sim
 from dualpose.estimation.ahrs import AhrsNoise
-from dualpose.estimation.ahrs_filter import AhrsFilter
+from dualpose.estimation.ahrs.estimator import AhrsFilter
 from dualpose.estimation.consistency import nees_band
 from dualpose.estimation.eskf import ErrorStateEKF, initial_covariance
 from dualpose.estimation.hol22 import Hol22EKF, HolProcessNoise

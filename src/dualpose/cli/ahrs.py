@@ -7,7 +7,7 @@ formats, the rest period and the exit statuses are in docs/broad.md, "Streaming"
 :func:`dualpose.pipelines.ahrs_stream.stream_ahrs_lines`).
 
 ``dualpose ahrs FILE --offline``: the offline orientation, the filter's RTS smoother (forward filter, backward
-pass; :mod:`dualpose.estimation.ahrs_smoother`, job in :func:`dualpose.pipelines.ahrs_offline.smooth_broad_trial`),
+pass; :mod:`dualpose.estimation.ahrs.smoother`, job in :func:`dualpose.pipelines.ahrs_offline.smooth_broad_trial`),
 scored next to the forward filter's (``forward_*`` keys); the magnetometer self-calibration decision is on by default
 there (``--no-mag-calibration`` switches it off); docs/broad.md, "Offline (smoothed)".
 

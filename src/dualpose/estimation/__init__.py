@@ -3,10 +3,11 @@
 * :mod:`~dualpose.estimation.interface`: :class:`Estimator` (``propagate``, ``update``, ``state``, ``covariance``,
   named blocks) and the measurements it takes; :mod:`~dualpose.estimation.state`: every state layout, by name.
 * :mod:`~dualpose.estimation.eskf` (error-state EKF, the recommended camera-IMU filter),
-  :mod:`~dualpose.estimation.hol22` (Hol's 22-state EKF), :mod:`~dualpose.estimation.ahrs_filter` (the orientation
-  filter one sample at a time), :mod:`~dualpose.estimation.ahrs` (its whole-recording estimator on real IMU data) and
-  :mod:`~dualpose.estimation.ahrs_stream` (that estimator streaming, bit for bit equal, with a savable state);
-  :mod:`~dualpose.estimation.ahrs_smoother` (its offline RTS smoother).  ``eskf.EskfStream`` and
+  :mod:`~dualpose.estimation.hol22` (Hol's 22-state EKF), and the orientation-only filter in its own package
+  :mod:`~dualpose.estimation.ahrs`: ``config`` (noise, tuning, rest statistics, set-up), ``batch`` (the
+  whole-recording, real-time estimator ``estimate_orientation``), ``stream`` (the same filter one sample at a time,
+  bit for bit equal, with a savable state), ``smoother`` (its offline RTS smoother) and ``estimator`` (the filter
+  behind the :class:`Estimator` interface); the package re-exports all of them.  ``eskf.EskfStream`` and
   ``hol22.Hol22Stream``: the camera-IMU filters streaming, bit for bit their batch ``run``.
 * :mod:`~dualpose.estimation.smoother` (RTS), :mod:`~dualpose.estimation.initialization` (static alignment + PnP
   start), :mod:`~dualpose.estimation.consistency` (NEES), :mod:`~dualpose.estimation.models` (measurement models).

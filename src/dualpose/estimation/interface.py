@@ -1,7 +1,7 @@
 """The one interface of dualpose's recursive estimators, and the measurements they take.
 
 Every estimator -- :class:`~dualpose.estimation.eskf.ErrorStateEKF`, :class:`~dualpose.estimation.hol22.Hol22EKF`,
-:class:`~dualpose.estimation.ahrs_filter.AhrsFilter` -- is an :class:`Estimator`:
+:class:`~dualpose.estimation.ahrs.estimator.AhrsFilter` -- is an :class:`Estimator`:
 
 * :meth:`Estimator.propagate` ``(t, gyro, accel, mag=None)`` feeds the IMU sample taken at time ``t`` (s);
 * :meth:`Estimator.update` ``(measurement)`` fuses a measurement and returns an :class:`UpdateResult` (NIS, degrees

@@ -1,4 +1,4 @@
-"""The offline AHRS on a BROAD trial: the RTS smoother (:mod:`dualpose.estimation.ahrs_smoother`) and the scores of
+"""The offline AHRS on a BROAD trial: the RTS smoother (:mod:`dualpose.estimation.ahrs.smoother`) and the scores of
 the smoothed and the forward orientation with BROAD's metric; the job behind ``dualpose ahrs FILE --offline``
 (docs/broad.md, "Offline (smoothed)")."""
 
@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dualpose.estimation.ahrs_smoother import SmoothedOrientation, smooth_orientation
+from dualpose.estimation.ahrs.smoother import SmoothedOrientation, smooth_orientation
 from dualpose.evaluation.orientation_errors import orientation_rmse
 from dualpose.io.broad import BroadTrial
 

@@ -2,7 +2,7 @@
 
 The job behind ``dualpose ahrs --stream`` (docs/broad.md, "Streaming"; the line formats are defined there and in
 :data:`INPUT_FIELDS` / :func:`format_row`).  :func:`stream_ahrs_lines` parses each line, feeds it to
-:class:`~dualpose.estimation.ahrs_stream.AhrsStream` and yields the output lines as soon as they are known:
+:class:`~dualpose.estimation.ahrs.stream.AhrsStream` and yields the output lines as soon as they are known:
 
 * input: ``t, gx, gy, gz, ax, ay, az[, mx, my, mz]`` (s, rad/s, m/s², any field unit), separated by commas or by
   whitespace; ``#`` starts a comment, blank and comment lines give no output;
@@ -23,7 +23,7 @@ from collections.abc import Iterable, Iterator
 
 import numpy as np
 
-from dualpose.estimation.ahrs_stream import AhrsStream
+from dualpose.estimation.ahrs.stream import AhrsStream
 from dualpose.pipelines._lines import format_numbers, parse_numbers, split_fields
 
 __all__ = ["INPUT_FIELDS", "OUTPUT_FIELDS", "format_row", "parse_imu_line", "stream_ahrs_lines"]
@@ -97,7 +97,7 @@ def stream_ahrs_lines(
     str
         ``t, qx, qy, qz, qw`` plus a newline (:func:`format_row`), one per sample, in input order, each as soon as
         its input line was read.  The orientations are those of
-        :meth:`AhrsStream.update_imu <dualpose.estimation.ahrs_stream.AhrsStream.update_imu>` (default settings:
+        :meth:`AhrsStream.update_imu <dualpose.estimation.ahrs.stream.AhrsStream.update_imu>` (default settings:
         online magnetometer time offset), bit for bit.
 
     Raises

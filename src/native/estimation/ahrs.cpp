@@ -1,6 +1,6 @@
 // dualpose._native's AHRS part: ahrs_run (the whole recording), the streaming filter ahrs_stream_* (one sample at a
-// time on a state held in a NumPy byte buffer, for dualpose.estimation.ahrs_stream.AhrsStream), ahrs_predict and
-// ahrs_inject_and_reset (one step, for dualpose.estimation.ahrs_filter.AhrsFilter), and the layout constants AHRS_*
+// time on a state held in a NumPy byte buffer, for dualpose.estimation.ahrs.stream.AhrsStream), ahrs_predict and
+// ahrs_inject_and_reset (one step, for dualpose.estimation.ahrs.estimator.AhrsFilter), and the layout constants AHRS_*
 // (ahrs_layout.hpp).
 #include "eskf_args.hpp"
 #include "ahrs_filter.hpp"

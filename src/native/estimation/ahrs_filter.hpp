@@ -2,7 +2,7 @@
 //
 // Nominal state q (4,) xyzw (body -> earth, ENU) and gyroscope bias b (3,) rad/s; error state δx = [δθ, δb] (6,)
 // with a global attitude error q = Exp(δθ) ⊗ q̂ (ahrs_layout.hpp); P (6, 6) row-major.  Used by the whole-recording
-// loop (ahrs_run.cpp) and, one sample at a time, by dualpose.estimation.ahrs_filter.AhrsFilter.
+// loop (ahrs_run.cpp) and, one sample at a time, by dualpose.estimation.ahrs.estimator.AhrsFilter.
 #pragma once
 
 #include "../common/quat.hpp"

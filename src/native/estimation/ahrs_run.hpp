@@ -1,5 +1,5 @@
 // The AHRS one sample at a time (step) and over a whole recording (run, a loop over step): docs/broad.md; the model
-// in dualpose.estimation.ahrs's module docstring; the streaming interface in dualpose.estimation.ahrs_stream.
+// in dualpose.estimation.ahrs's module docstring; the streaming interface in dualpose.estimation.ahrs.stream.
 #pragma once
 
 #include "ahrs_filter.hpp"

@@ -1,6 +1,6 @@
 // dualpose._native's AHRS smoother part (add_ahrs_smoother): ahrs_smooth, the offline Rauch–Tung–Striebel smoother
 // over the AHRS's error-state model (Rauch, Tung & Striebel 1965; Särkkä 2013, "Bayesian Filtering and Smoothing",
-// Thm 8.2; the global attitude chart after Solà 2017, §7), used by dualpose.estimation.ahrs_smoother.
+// Thm 8.2; the global attitude chart after Solà 2017, §7), used by dualpose.estimation.ahrs.smoother.
 //
 // Forward: the AHRS's own per-sample step (ahrs_run.cpp), unchanged, with a PredictRecord that keeps the state right
 // after each prediction: x_{k+1|k} = (q_{k+1|k}, b_{k|k}), P_{k+1|k} and the rotation R̂_k of F_k = [[I, −R̂_k dt],

@@ -27,7 +27,7 @@ from dualpose.estimation.ahrs import estimate_orientation
 from dualpose.evaluation.orientation_errors import orientation_rmse
 from dualpose.io import load_broad
 
-BROAD = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "broad"
+BROAD = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "broad"
 MADGWICK_012 = {
     "01_undisturbed_slow_rotation_A": 2.310,
     "06_undisturbed_fast_rotation_A": 2.307,

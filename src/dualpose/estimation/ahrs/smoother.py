@@ -32,7 +32,8 @@ import numpy as np
 
 from dualpose import _native
 from dualpose.calibration.magnetometer import MagCalibration
-from dualpose.estimation.ahrs import AhrsConfig, AhrsResult, prepare_recording, run_result
+from dualpose.estimation.ahrs.batch import AhrsResult, prepare_recording, run_result
+from dualpose.estimation.ahrs.config import AhrsConfig
 
 __all__ = ["SmoothedOrientation", "smooth_orientation"]
 

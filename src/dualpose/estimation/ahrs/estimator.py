@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike
 
 import dualpose as dp
 from dualpose import _native
-from dualpose.estimation.ahrs import MEMS_GYRO_BIAS_RANDOM_WALK, AhrsNoise
+from dualpose.estimation.ahrs.config import MEMS_GYRO_BIAS_RANDOM_WALK, AhrsNoise
 from dualpose.estimation.interface import Estimator, UpdateResult
 from dualpose.estimation.state import AHRS_ERROR, AHRS_STATE
 

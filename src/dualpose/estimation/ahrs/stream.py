@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from dualpose import _native
-from dualpose.estimation.ahrs import (
+from dualpose.estimation.ahrs.config import (
     AhrsConfig,
     AhrsNoise,
     RestStatistics,

@@ -1,4 +1,4 @@
-"""The streaming AHRS (dualpose.estimation.ahrs_stream): one sample at a time equals the batch estimator bit for bit
+"""The streaming AHRS (dualpose.estimation.ahrs.stream): one sample at a time equals the batch estimator bit for bit
 with the default (online magnetometer time offset) settings, every output is causal -- batch and stream, inside and
 after the rest period -- and a saved state continues exactly; on a synthetic recording and on a real BROAD trial."""
 
@@ -13,10 +13,10 @@ import pytest
 import dualpose as dp
 from dualpose import _native
 from dualpose.estimation.ahrs import AhrsConfig, estimate_orientation, rest_statistics
-from dualpose.estimation.ahrs_stream import AhrsStream
+from dualpose.estimation.ahrs.stream import AhrsStream
 from dualpose.io import load_broad
 
-BROAD = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "broad"
+BROAD = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "broad"
 BROAD_TRIAL = "24_disturbed_tapping_A"  # disturbed: the gates and the adaptive noise are exercised
 RATE = 100.0
 

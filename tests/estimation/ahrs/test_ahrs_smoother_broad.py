@@ -14,11 +14,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dualpose.estimation.ahrs_smoother import smooth_orientation
+from dualpose.estimation.ahrs.smoother import smooth_orientation
 from dualpose.evaluation.orientation_errors import orientation_rmse
 from dualpose.io import load_broad
 
-BROAD = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "broad"
+BROAD = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "broad"
 OFFLINE_VQF_9D = {
     "01_undisturbed_slow_rotation_A": 3.372,
     "06_undisturbed_fast_rotation_A": 4.108,

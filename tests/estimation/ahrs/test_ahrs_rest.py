@@ -13,13 +13,13 @@ import numpy as np
 import pytest
 
 from dualpose.estimation.ahrs import AhrsConfig, estimate_orientation
-from dualpose.estimation.ahrs_smoother import smooth_orientation
-from dualpose.estimation.ahrs_stream import AhrsStream
+from dualpose.estimation.ahrs.smoother import smooth_orientation
+from dualpose.estimation.ahrs.stream import AhrsStream
 from dualpose.evaluation.orientation_errors import orientation_rmse
 from dualpose.io import load_broad
 from dualpose.sim.rest_breaks import rest_break_recording
 
-BROAD = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "broad"
+BROAD = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "broad"
 WINDOW_S = AhrsConfig().rest_window
 
 

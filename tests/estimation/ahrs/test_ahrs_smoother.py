@@ -12,7 +12,7 @@ from test_ahrs import RATE, synthetic_run
 import dualpose as dp
 from dualpose import _native
 from dualpose.estimation.ahrs import AhrsConfig, estimate_orientation, prepare_recording
-from dualpose.estimation.ahrs_smoother import SmoothedOrientation, smooth_orientation
+from dualpose.estimation.ahrs.smoother import SmoothedOrientation, smooth_orientation
 from dualpose.estimation.smoother import rts_smooth_linear
 from dualpose.evaluation.orientation_errors import orientation_rmse
 
