@@ -10,7 +10,7 @@ of sinusoids (rotation vector of ~1–2 rad at 0.03–0.05 Hz: |ω| up to ~25 °
 that, held over the interval, carries ``q_{k−1}`` to ``q_k`` to second order; in the breaks it is exactly zero.
 The gyroscope bias is ``b0 + drift · t / duration`` plus a random walk of density ``bias_walk`` (MEMS class, the
 AHRS's own :data:`~dualpose.estimation.ahrs.MEMS_GYRO_BIAS_RANDOM_WALK` by default).  Used by
-``tests/estimation/test_ahrs_rest.py`` and ``benchmarks/bench_ahrs_rest.py`` (docs/broad.md, "Rest detector and
+``tests/estimation/ahrs/test_ahrs_rest.py`` and ``benchmarks/bench_ahrs_rest.py`` (docs/broad.md, "Rest detector and
 bias update").
 """
 

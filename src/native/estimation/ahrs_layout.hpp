@@ -1,5 +1,5 @@
 // Layouts of the orientation-only filter (AHRS, dualpose.estimation.ahrs): the one C++ definition of the error-state
-// offsets (equal to dualpose.estimation.state.AHRS_ERROR, checked by tests/estimation/test_ahrs.py) and of the
+// offsets (equal to dualpose.estimation.state.AHRS_ERROR, checked by tests/estimation/ahrs/test_ahrs.py) and of the
 // params / stats indices of ahrs_run (the Python side reads these from dualpose._native).
 #pragma once
 
