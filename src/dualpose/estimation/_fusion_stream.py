@@ -25,6 +25,7 @@ stream stopped, and refuses a buffer of another kind, layout version or size wit
 
 from __future__ import annotations
 
+import abc
 import math
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
@@ -105,7 +106,7 @@ def _correspondences(pixels: Any, points: Any) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(pix), np.ascontiguousarray(pts)
 
 
-class FusionStream:
+class FusionStream(abc.ABC):
     """What both streaming filters share: the queue of frames, blocks, saving and restoring (module docstring).
 
     A subclass sets ``_kind`` (the prefix of its native ``*_stream_*`` functions), ``state_layout``,
@@ -365,8 +366,12 @@ class FusionStream:
     def _started(self) -> bool:
         return self.samples > 0
 
+    @abc.abstractmethod
     def _frame_between(self, f: FrameUpdate, t1: float, g1: np.ndarray, a1: np.ndarray) -> None:
-        raise NotImplementedError
+        """Filter the queued frame ``f`` (IMU time ``f.t``) before the IMU sample ``(t1, g1, a1)`` that follows it,
+        fill in its NIS and acceptance and mark it ``"done"`` (the filter has started)."""
 
+    @abc.abstractmethod
     def _first_sample(self, t: float, g: np.ndarray, a: np.ndarray, at_t: list[FrameUpdate]) -> np.ndarray:
-        raise NotImplementedError
+        """Filter the first IMU sample ``(t, g, a)`` together with the frames ``at_t`` stamped at its time (as the
+        batch filter orders them) and return the state after it."""
