@@ -467,6 +467,8 @@ def _vec3(v: np.ndarray) -> np.ndarray:
 
 
 def _report(nis: np.ndarray, accepted: np.ndarray, gate: float) -> InnovationReport:
+    """The :class:`InnovationReport` of camera updates (2 dof, two-sided 95 % band); also used by
+    :mod:`dualpose.estimation.hol22`."""
     return InnovationReport(
         nis=nis, accepted=accepted, dof=2, bounds=(float(chi2.ppf(0.025, 2)), float(chi2.ppf(0.975, 2))), gate=gate
     )

@@ -27,7 +27,7 @@ from dualpose import _native
 from dualpose.estimation import models
 from dualpose.estimation._fusion_stream import FrameUpdate, FusionStream
 from dualpose.estimation._stream import check_streams
-from dualpose.estimation.eskf import InnovationReport
+from dualpose.estimation.eskf import InnovationReport, _report
 from dualpose.estimation.interface import Estimator, UpdateResult
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE, HOL22_STATE
 from dualpose.types import CameraFrame, ImuNoise, PinholeCamera, SensorRun
@@ -391,9 +391,7 @@ class Hol22EKF(Estimator):
         used = ~np.isnan(nis)
         self._nis.append(nis[used])
         self._acc.append(acc[used].astype(bool))
-        rep = InnovationReport(
-            nis[used], acc[used].astype(bool), 2, (float(chi2.ppf(0.025, 2)), float(chi2.ppf(0.975, 2))), self.gate
-        )
+        rep = _report(nis[used], acc[used].astype(bool), self.gate)
         self.time = float(t[-1])
         L = HOL22_STATE
         return Hol22Result(
