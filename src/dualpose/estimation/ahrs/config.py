@@ -393,7 +393,7 @@ def filter_setup(
     -------
     AhrsSetup
     """
-    c = config if config is not None else AhrsConfig()
+    c = _check_config(config)
     noise = c.noise
     if rest is not None:
         est = rest.noise
@@ -479,6 +479,33 @@ def _set_rest_params(params: np.ndarray, rate: float, noise: AhrsNoise, c: AhrsC
     params[_native.AHRS_P_REST_GYR_VAR] = sg**2
     params[_native.AHRS_P_REST_GATE] = float(chi2.ppf(c.gate_probability, 3))
     params[_native.AHRS_P_REST_SKIP] = int(skip)
+
+
+def _check_config(config: object) -> AhrsConfig:
+    """``config`` (an :class:`AhrsConfig`, or None for the defaults) checked: TypeError naming it otherwise.  The
+    check of every AHRS entry point (batch, smoother, stream)."""
+    if config is None:
+        return AhrsConfig()
+    if not isinstance(config, AhrsConfig):
+        raise TypeError(f"config must be an AhrsConfig or None; got {type(config).__name__}")
+    return config
+
+
+def _rest_length(rate: float, n_rest: int | None, n: int | None = None) -> int:
+    """The sampling ``rate`` (Hz) checked and the number of leading rest samples: ``n_rest``, or by default one
+    second (at most ``n``, the recording's length when known), 0 when that is below 10 samples.  ValueError naming
+    ``rate`` / ``n_rest`` for a rate that is not a positive number, or a rest period outside ``[0, n]`` or of 1 to 9
+    samples."""
+    if not (np.isfinite(rate) and rate > 0):
+        raise ValueError(f"rate must be a positive number of Hz; got {rate}")
+    if n_rest is None:
+        n_rest = int(round(rate)) if n is None else min(n, int(round(rate)))
+        n_rest = n_rest if n_rest >= 10 else 0
+    if n is not None and not 0 <= n_rest <= n:
+        raise ValueError(f"n_rest must be in [0, {n}]; got {n_rest}")
+    if not (n_rest == 0 or n_rest >= 10):
+        raise ValueError(f"n_rest must be 0 (no rest period) or at least 10 samples; got {n_rest}")
+    return n_rest
 
 
 def check_mag_time_offset(mag_time_offset: object, allowed: tuple[str, ...]) -> float | None:

@@ -29,6 +29,8 @@ from dualpose.estimation.ahrs.config import (
     AhrsConfig,
     AhrsNoise,
     RestStatistics,
+    _check_config,
+    _rest_length,
     check_mag_time_offset,
     filter_setup,
     rest_statistics,
@@ -109,18 +111,8 @@ class AhrsStream:
         config: AhrsConfig | None = None,
         mag_time_offset: str | float = "online",
     ) -> None:
-        if not (np.isfinite(rate) and rate > 0):
-            raise ValueError(f"rate must be a positive number of Hz; got {rate}")
-        if n_rest is None:
-            n_rest = int(round(rate))
-            n_rest = n_rest if n_rest >= 10 else 0
-        if rest is not None:
-            n_rest = 0
-        if not (n_rest == 0 or n_rest >= 10):
-            raise ValueError(f"n_rest must be 0 (no rest period) or at least 10 samples; got {n_rest}")
-        if config is not None and not isinstance(config, AhrsConfig):
-            raise TypeError(f"config must be an AhrsConfig or None; got {type(config).__name__}")
-        self._settings = config if config is not None else AhrsConfig()
+        n_rest = _rest_length(rate, 0 if rest is not None else n_rest)
+        self._settings = _check_config(config)
         self._lag = check_mag_time_offset(mag_time_offset, ("online",))
         self._config = dict(rate=float(rate), use_mag=bool(use_mag), n_rest=int(n_rest), rest=rest,
                             mag_time_offset="online" if self._lag is None else self._lag)
