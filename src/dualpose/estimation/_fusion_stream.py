@@ -33,6 +33,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from dualpose import _native
+from dualpose.estimation._stream import saved_buffer
 from dualpose.estimation.state import StateLayout
 
 __all__ = ["BlockResult", "FrameUpdate", "FusionStream"]
@@ -338,12 +339,7 @@ class FusionStream(abc.ABC):
         if version != cls.LAYOUT_VERSION:
             raise ValueError(f"state has {cls.__name__} layout version {version}; this build reads "
                              f"{cls.LAYOUT_VERSION}")  # fmt: skip
-        if isinstance(buf, (bytes, bytearray, memoryview)):
-            buf = np.frombuffer(buf, dtype=np.uint8)
-        if not isinstance(buf, np.ndarray) or buf.dtype != np.uint8:
-            raise ValueError(f"state['state'] must be a numpy.uint8 array; got {type(buf).__name__}")
-        buf = np.array(buf, dtype=np.uint8, copy=True).reshape(-1)  # a fresh, aligned, writeable copy
-        _native.__dict__[f"{cls._kind}_stream_check"](buf, "state['state']")
+        buf = saved_buffer(buf, _native.__dict__[f"{cls._kind}_stream_check"], "state['state']")
         out = cls.__new__(cls)
         FusionStream.__init__(out, buf, offset)
         for p in pending:

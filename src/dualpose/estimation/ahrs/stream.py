@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from dualpose import _native
+from dualpose.estimation._stream import saved_buffer
 from dualpose.estimation.ahrs.config import (
     AhrsConfig,
     AhrsNoise,
@@ -383,10 +384,7 @@ class AhrsStream:
             raise ValueError(f"state has AHRS stream layout version {version}; this build reads {cls.LAYOUT_VERSION}")
         buf = state["state"]
         if buf is not None:
-            if isinstance(buf, (bytes, bytearray, memoryview)):
-                buf = np.frombuffer(buf, dtype=np.uint8)
-            buf = np.array(buf, dtype=np.uint8, copy=True).reshape(-1)  # a fresh, aligned, writeable copy
-            _native.ahrs_stream_check(buf, "state")
+            buf = saved_buffer(buf, _native.ahrs_stream_check, "state")
         config["config"] = AhrsConfig.from_dict(config["config"])
         config["rest"] = cls._rest_from(config["rest"])
         rest0 = config["rest"]
