@@ -33,7 +33,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from dualpose import _native
-from dualpose.estimation._stream import saved_buffer
+from dualpose.estimation._stream import saved_buffer, vec3
 from dualpose.estimation.state import StateLayout
 
 __all__ = ["BlockResult", "FrameUpdate", "FusionStream"]
@@ -86,13 +86,6 @@ class BlockResult:
     states: np.ndarray
     covariance: np.ndarray | None
     frames: list[FrameUpdate]
-
-
-def _vec3(v: Any, name: str) -> np.ndarray:
-    a = np.array(v, dtype=np.float64)
-    if a.shape != (3,):
-        raise ValueError(f"{name} must be 3 numbers (shape (3,)); got shape {a.shape}")
-    return a
 
 
 def _correspondences(pixels: Any, points: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -263,7 +256,7 @@ class FusionStream(abc.ABC):
     # ---- the queue ----------------------------------------------------------------------------------------------
 
     def _imu_after_frames(self, t: float, gyro: Any, accel: Any) -> np.ndarray:
-        g, a = _vec3(gyro, "gyro"), _vec3(accel, "accel")
+        g, a = vec3(gyro, "gyro"), vec3(accel, "accel")
         last = self._last_imu_time()
         if not (math.isfinite(t) and t > last):
             raise ValueError(f"t must be finite and increase strictly: got {t!r} after {last!r}")

@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -72,3 +72,11 @@ def saved_buffer(buf: object, check: Callable[[np.ndarray, str], None], name: st
     out = np.array(buf, dtype=np.uint8, copy=True).reshape(-1)
     check(out, name)
     return out
+
+
+def vec3(v: Any, name: str) -> np.ndarray:
+    """One sample ``v`` as a float64 array of shape (3,); ValueError naming ``name`` otherwise (no broadcasting)."""
+    a = np.array(v, dtype=np.float64)
+    if a.shape != (3,):
+        raise ValueError(f"{name} must be 3 numbers (shape (3,)); got shape {a.shape}")
+    return a

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from dualpose import _native
-from dualpose.estimation._stream import saved_buffer
+from dualpose.estimation._stream import saved_buffer, vec3
 from dualpose.estimation.ahrs.config import (
     AhrsConfig,
     AhrsNoise,
@@ -45,13 +45,6 @@ def _check_block(x: Any, name: str, n: int | None) -> np.ndarray:
     if a.ndim != 2 or a.shape[1] != 3 or (n is not None and a.shape[0] != n):
         raise ValueError(f"{name} must have shape ({'n' if n is None else n}, 3); got {a.shape}")
     return a
-
-
-def _row3(x: Any, name: str) -> np.ndarray:
-    v = np.asarray(x, dtype=np.float64)
-    if v.shape != (3,):
-        raise ValueError(f"{name} must be 3 numbers (shape (3,)); got shape {v.shape}")
-    return v
 
 
 class AhrsStream:
@@ -192,8 +185,8 @@ class AhrsStream:
         self._check_sample(t, mag)
         k = self._n_pending
         pt, pg, pa, pm = self._pending
-        pg[k], pa[k] = _row3(gyro, "gyro"), _row3(accel, "accel")
-        pm[k] = _row3(mag, "mag") if mag is not None else 0.0
+        pg[k], pa[k] = vec3(gyro, "gyro"), vec3(accel, "accel")
+        pm[k] = vec3(mag, "mag") if mag is not None else 0.0
         pt[k] = t
         self._t = t
         self._samples += 1
