@@ -34,6 +34,7 @@ import numpy as np
 
 from dualpose import _native
 from dualpose.estimation._stream import saved_buffer, vec3
+from dualpose.estimation.interface import Estimator
 from dualpose.estimation.state import StateLayout
 
 __all__ = ["BlockResult", "FrameUpdate", "FusionStream"]
@@ -103,16 +104,29 @@ def _correspondences(pixels: Any, points: Any) -> tuple[np.ndarray, np.ndarray]:
 class FusionStream(abc.ABC):
     """What both streaming filters share: the queue of frames, blocks, saving and restoring (module docstring).
 
-    A subclass sets ``_kind`` (the prefix of its native ``*_stream_*`` functions), ``state_layout``,
-    ``covariance_dim`` and ``LAYOUT_VERSION``, and implements ``_frame_between`` and ``_first_sample``.
+    A subclass sets ``_kind`` (the prefix of its native ``*_stream_*`` functions), ``_filter_type`` (the batch filter
+    it continues), ``state_layout``, ``covariance_dim`` and ``LAYOUT_VERSION``, and implements ``_frame_between`` and
+    ``_first_sample``.
     """
 
     _kind: ClassVar[str]  # "eskf" or "hol22": the prefix of the native functions
+    _filter_type: ClassVar[type]  # ErrorStateEKF or Hol22EKF
     state_layout: ClassVar[StateLayout]
     covariance_dim: ClassVar[int]
     LAYOUT_VERSION: ClassVar[int]
 
-    def __init__(self, buffer: np.ndarray, camera_time_offset: float) -> None:
+    def __init__(self, filter: Estimator) -> None:
+        name = self._filter_type.__name__
+        if not isinstance(filter, self._filter_type):
+            article = "an" if name[0] in "AEIOU" else "a"
+            raise TypeError(f"filter must be {article} {name}; got {type(filter).__name__}")
+        x = np.ascontiguousarray(filter.x, dtype=np.float64)
+        P = np.ascontiguousarray(filter.P, dtype=np.float64)
+        new = _native.__dict__[f"{self._kind}_stream_new"]
+        self._attach(new(x, P, *filter.kernel_config()), filter.camera_time_offset)
+
+    def _attach(self, buffer: np.ndarray, camera_time_offset: float) -> None:
+        """Run on the native state ``buffer`` (a new filter's, or a restored one) with no frame queued."""
         self._buf = buffer
         self.camera_time_offset = float(camera_time_offset)
         self._pending: list[FrameUpdate] = []
@@ -334,7 +348,7 @@ class FusionStream(abc.ABC):
                              f"{cls.LAYOUT_VERSION}")  # fmt: skip
         buf = saved_buffer(buf, _native.__dict__[f"{cls._kind}_stream_check"], "state['state']")
         out = cls.__new__(cls)
-        FusionStream.__init__(out, buf, offset)
+        out._attach(buf, offset)
         for p in pending:
             pix, pts = _correspondences(p["pixels"], p["points"])
             out._pending.append(FrameUpdate.new(float(p["t"]), pix, pts))

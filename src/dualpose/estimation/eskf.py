@@ -494,17 +494,11 @@ class EskfStream(FusionStream):
     """
 
     _kind = "eskf"
+    _filter_type = ErrorStateEKF
     state_layout = ESKF_STATE
     covariance_dim = 15
     #: version of the saved state's byte layout (``STREAM_VERSION`` in ``src/native/estimation/eskf_run.hpp``)
     LAYOUT_VERSION = _native.ESKF_STREAM_VERSION
-
-    def __init__(self, filter: ErrorStateEKF) -> None:
-        if not isinstance(filter, ErrorStateEKF):
-            raise TypeError(f"filter must be an ErrorStateEKF; got {type(filter).__name__}")
-        x = np.ascontiguousarray(filter.x, dtype=np.float64)
-        P = np.ascontiguousarray(filter.P, dtype=np.float64)
-        super().__init__(_native.eskf_stream_new(x, P, *filter.kernel_config()), filter.camera_time_offset)
 
     def _frame_between(self, f: FrameUpdate, t1: float, g1: np.ndarray, a1: np.ndarray) -> None:
         _native.eskf_stream_frame(self._buf, f.t, t1, g1, a1, f.pixels, f.points, f.nis, f.accepted_flags)

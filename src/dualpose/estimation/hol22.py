@@ -417,17 +417,11 @@ class Hol22Stream(FusionStream):
     """
 
     _kind = "hol22"
+    _filter_type = Hol22EKF
     state_layout = HOL22_STATE
     covariance_dim = 22
     #: version of the saved state's byte layout (``STREAM_VERSION`` in ``src/native/estimation/hol22_run.hpp``)
     LAYOUT_VERSION = _native.HOL22_STREAM_VERSION
-
-    def __init__(self, filter: Hol22EKF) -> None:
-        if not isinstance(filter, Hol22EKF):
-            raise TypeError(f"filter must be a Hol22EKF; got {type(filter).__name__}")
-        x = np.ascontiguousarray(filter.x, dtype=np.float64)
-        P = np.ascontiguousarray(filter.P, dtype=np.float64)
-        super().__init__(_native.hol22_stream_new(x, P, *filter.kernel_config()), filter.camera_time_offset)
 
     def _frame_between(self, f: FrameUpdate, t1: float, g1: np.ndarray, a1: np.ndarray) -> None:
         _native.hol22_stream_frame(self._buf, f.t, f.pixels, f.points, f.nis, f.accepted_flags)
