@@ -23,7 +23,7 @@ import dualpose as dp
 from dualpose import _native
 from dualpose.estimation import models
 from dualpose.estimation._fusion_stream import BlockResult, FrameUpdate, FusionStream
-from dualpose.estimation._stream import check_streams
+from dualpose.estimation._stream import check_streams, vec3
 from dualpose.estimation.interface import Estimator, UpdateResult
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
 from dualpose.types import CameraFrame, ImuNoise, PinholeCamera, SensorRun
@@ -310,7 +310,8 @@ class ErrorStateEKF(Estimator):
         """Propagate by ``dt`` seconds with the IMU measurement held constant (gyro rad/s, accel m/s², body)."""
         if dt < 0:
             raise ValueError(f"dt must be >= 0; got {dt}")
-        _native.eskf_predict(self.x, self.P, _vec3(gyro), _vec3(accel), float(dt), self.gravity, self.noise)
+        g, a = vec3(gyro, "gyro"), vec3(accel, "accel")
+        _native.eskf_predict(self.x, self.P, g, a, float(dt), self.gravity, self.noise)
 
     def propagate(self, t: float, gyro: np.ndarray, accel: np.ndarray, mag: np.ndarray | None = None) -> None:
         """Feed the IMU sample taken at time ``t``: integrates from the filter time to ``t`` with the mean of the
@@ -460,10 +461,6 @@ def _record_run(args: tuple, n: int, nf: int) -> FilterNodes:
         t=TN[:k], prior_states=XA[:k], prior_covariance=PA[:k], posterior_states=XB[:k], posterior_covariance=PB[:k],
         transition=FS[:k], imu_node=imu_node, frame_node=frame_node,
     )  # fmt: skip
-
-
-def _vec3(v: np.ndarray) -> np.ndarray:
-    return np.ascontiguousarray(v, dtype=np.float64)
 
 
 def _report(nis: np.ndarray, accepted: np.ndarray, gate: float) -> InnovationReport:
