@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import dualpose as dp
-from dualpose.calibration.static import checked_static_inputs
+from dualpose.calibration.static import checked_covariance3, checked_static_inputs
 
 __all__ = ["ExtrinsicRotation", "camera_imu_rotation", "unobservability_check"]
 
@@ -169,9 +169,7 @@ def camera_imu_rotation(
         cov = est.rotation_covariance(sigma_directions=sigma_d)
     g = est.direction_influence()  # (K, 3, 3): ε = Σ G_k e_k, e_k the measured-direction (u_b) error
     if accel_bias_covariance is not None:
-        sb = np.asarray(accel_bias_covariance, dtype=np.float64)
-        if sb.shape != (3, 3) or not np.isfinite(sb).all():
-            raise ValueError(f"accel_bias_covariance must be a finite array of shape (3, 3); got {sb.shape}")
+        sb = checked_covariance3(accel_bias_covariance, "accel_bias_covariance")
         a = np.einsum("kij,kjl->il", g, proj / nf[:, None, None])
         cov = cov + a @ sb @ a.T
     if pattern_tilt_sigma:

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import dualpose as dp
-from dualpose.calibration.static import checked_static_inputs
+from dualpose.calibration.static import checked_covariance3, checked_static_inputs
 
 __all__ = ["SceneGravity", "scene_gravity"]
 
@@ -127,15 +127,11 @@ def scene_gravity(
     p_up = (np.eye(3) - np.outer(up, up)) / np.linalg.norm(m)
     cov = p_up @ np.einsum("k,kij->ij", w**2, c_ind) @ p_up.T
     if extrinsic_covariance is not None:
-        se = np.asarray(extrinsic_covariance, dtype=np.float64)
-        if se.shape != (3, 3) or not np.isfinite(se).all():
-            raise ValueError(f"extrinsic_covariance must be a finite array of shape (3, 3); got {se.shape}")
+        se = checked_covariance3(extrinsic_covariance, "extrinsic_covariance")
         a = p_up @ np.einsum("k,kij,kjl->il", w, -R_wb, dp.so3_hat(fh))
         cov = cov + a @ se @ a.T
     if accel_bias_covariance is not None:
-        sb = np.asarray(accel_bias_covariance, dtype=np.float64)
-        if sb.shape != (3, 3) or not np.isfinite(sb).all():
-            raise ValueError(f"accel_bias_covariance must be a finite array of shape (3, 3); got {sb.shape}")
+        sb = checked_covariance3(accel_bias_covariance, "accel_bias_covariance")
         a = p_up @ np.einsum("k,kij->ij", w, j_f)
         cov = cov + a @ sb @ a.T
     cov = 0.5 * (cov + cov.T)

@@ -18,7 +18,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 import dualpose as dp
-from dualpose.calibration.hand_eye_residual import pair_motions, pair_residuals, select_pairs
+from dualpose.calibration.hand_eye_residual import pair_motions, pair_residuals, select_pairs, squared_pair_residuals
 from dualpose.calibration.hand_eye_streams import CleaningReport, PoseStream, interpolate_stream, shift_stamps
 from dualpose.calibration.hand_eye_time import coarse_time_offset
 from dualpose.registration import HandEyeWarning, calibrate_hand_eye
@@ -110,13 +110,10 @@ class HandEyeStreamResult:
         return len(self.pairs)
 
 
-def _dq(q: np.ndarray, t: np.ndarray) -> np.ndarray:
-    return dp.dualquat_from_qt(q, t)
-
-
 def _lmeds_daniilidis(qa, ta, qb, tb, rng: np.random.Generator, iterations: int):
     """Least-median-of-squares over Daniilidis solutions of random 3-pair samples, then a fit on the inliers."""
-    a_dq, b_dq = _dq(qb, tb), _dq(qa, ta)  # calibrate_hand_eye solves A X = X B with A the body motions
+    # calibrate_hand_eye solves A X = X B with A the body motions
+    a_dq, b_dq = dp.dualquat_from_qt(qb, tb), dp.dualquat_from_qt(qa, ta)
     m = len(qa)
     cands = []
     with warnings.catch_warnings():
@@ -129,8 +126,7 @@ def _lmeds_daniilidis(qa, ta, qb, tb, rng: np.random.Generator, iterations: int)
                 continue
             if r.parallel_axes:
                 continue
-            rv, te = pair_residuals(qa, ta, qb, tb, r.quat, r.translation)
-            cands.append((r.quat, r.translation, np.einsum("ij,ij->i", rv, rv), np.einsum("ij,ij->i", te, te)))
+            cands.append((r.quat, r.translation, *squared_pair_residuals(qa, ta, qb, tb, r.quat, r.translation)))
     if not cands:
         raise ValueError("no sample of motion pairs gave a hand-eye solution (rotation axes all parallel?)")
     best = min(cands, key=lambda c: np.median(c[2]))  # rotation first: the translation depends on it
@@ -225,8 +221,7 @@ def calibrate_hand_eye_streams(
     for _ in range(max_rounds):
         ok = usable(tau)
         qa, ta, qb, tb, _ = pair_motions(camera, body, i_all[ok], j_all[ok], tau, max_gap)
-        rv, te = pair_residuals(qa, ta, qb, tb, qx, tx)
-        th2, t2 = np.einsum("ij,ij->i", rv, rv), np.einsum("ij,ij->i", te, te)
+        th2, t2 = squared_pair_residuals(qa, ta, qb, tb, qx, tx)
         s2r, s2t = _robust_scales(th2, t2)
         new = np.flatnonzero(ok)[th2 / s2r + t2 / s2t <= gate]
         if inliers is not None and np.array_equal(new, inliers):
@@ -238,11 +233,10 @@ def calibrate_hand_eye_streams(
                                       np.sqrt(s2t), fix_time_offset, max_gap)  # fmt: skip
     i, j = i_all[inliers], j_all[inliers]
     qa, ta, qb, tb, _ = pair_motions(camera, body, i, j, tau, max_gap)
-    rv, te = pair_residuals(qa, ta, qb, tb, qx, tx)
-    th2, t2 = np.einsum("ij,ij->i", rv, rv), np.einsum("ij,ij->i", te, te)
+    th2, t2 = squared_pair_residuals(qa, ta, qb, tb, qx, tx)
     cov = _covariance(sol, fix_time_offset)
     sd = np.sqrt(np.diag(cov))
-    x = dp.dualquat_canonical(_dq(qx, tx))
+    x = dp.dualquat_canonical(dp.dualquat_from_qt(qx, tx))
     pairs_total = int(usable(tau).sum())
     tau = float(time_offset) if fix_time_offset else tau + shift
     tau0 += shift

@@ -18,7 +18,15 @@ from scipy.optimize import least_squares
 import dualpose as dp
 from dualpose.calibration.hand_eye_streams import PoseStream, interpolate_stream
 
-__all__ = ["LoopResidual", "select_pairs", "pair_motions", "pair_residuals", "fit_hand_eye", "loop_residual"]
+__all__ = [
+    "LoopResidual",
+    "select_pairs",
+    "pair_motions",
+    "pair_residuals",
+    "squared_pair_residuals",
+    "fit_hand_eye",
+    "loop_residual",
+]
 
 
 def select_pairs(
@@ -87,6 +95,15 @@ def pair_residuals(
     return dp.rotvec_from_quat(qe), te
 
 
+def squared_pair_residuals(
+    qa: np.ndarray, ta: np.ndarray, qb: np.ndarray, tb: np.ndarray, qx: np.ndarray, tx: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Squared rotation angles (m,) rad² and squared translation norms (m,) m² of the loop residuals
+    (:func:`pair_residuals`)."""
+    rv, te = pair_residuals(qa, ta, qb, tb, qx, tx)
+    return np.einsum("ij,ij->i", rv, rv), np.einsum("ij,ij->i", te, te)
+
+
 def fit_hand_eye(
     qa: np.ndarray, ta: np.ndarray, qb: np.ndarray, tb: np.ndarray, qx0: np.ndarray, tx0: np.ndarray,
     sigma_rotation: float, sigma_translation: float,
@@ -151,9 +168,7 @@ def loop_residual(
     qx, tx = np.asarray(quat, float), np.asarray(translation, float)
     if refit:
         qx, tx = fit_hand_eye(qa, ta, qb, tb, qx, tx, sigma_rotation, sigma_translation)
-    rv, te = pair_residuals(qa, ta, qb, tb, qx, tx)
-    th2 = np.einsum("ij,ij->i", rv, rv)
-    t2 = np.einsum("ij,ij->i", te, te)
+    th2, t2 = squared_pair_residuals(qa, ta, qb, tb, qx, tx)
     cost = float(np.mean(th2 / sigma_rotation**2 + t2 / sigma_translation**2))
     return LoopResidual(float(tau), cost, float(np.degrees(np.sqrt(th2.mean()))), float(np.sqrt(t2.mean())), qx, tx,
                         int(ok.sum()))  # fmt: skip

@@ -114,8 +114,7 @@ def clean_pose_stream(
     norm = np.linalg.norm(q, axis=1)
     if (norm == 0).any():
         raise ValueError(f"{label}zero quaternion at row {int(np.argmax(norm == 0))}")
-    q = q / norm[:, None]
-    q = np.where((q[:, 3] < 0)[:, None], -q, q)  # canonical sign for the duplicate test
+    q = dp.quat_canonical(q / norm[:, None])  # one sign per rotation for the duplicate test
     was_sorted = bool(np.all(np.diff(t) >= 0))
     order = np.argsort(t, kind="stable")
     t, p, q = t[order], p[order], q[order]

@@ -48,6 +48,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from dualpose.calibration.sensor_time_offset import check_samples
+
 __all__ = ["MagCalibration", "MAG_CALIBRATION_MODELS", "estimate_mag_calibration", "fit_mag_calibration"]
 
 #: nested models, smallest first
@@ -271,11 +273,7 @@ def estimate_mag_calibration(
     -------
     MagCalibration
     """
-    m = np.asarray(mag, dtype=np.float64)
-    if m.ndim != 2 or m.shape[1] != 3:
-        raise ValueError(f"mag must have shape (n, 3); got shape {m.shape}")
-    if not np.isfinite(m).all():
-        raise ValueError("mag contains NaN or inf samples")
+    m = check_samples(mag, "mag")
     for name in models:
         if name not in MAG_CALIBRATION_MODELS:
             raise ValueError(f"models must be taken from {MAG_CALIBRATION_MODELS}; got {name!r}")

@@ -178,6 +178,14 @@ def _stack_cov(c: np.ndarray | None, name: str, k: int) -> np.ndarray:
     return np.array(a)
 
 
+def checked_covariance3(c: object, name: str) -> np.ndarray:
+    """``c`` as a finite (3, 3) float64 array; ValueError naming ``name`` otherwise."""
+    a = np.asarray(c, dtype=np.float64)
+    if a.shape != (3, 3) or not np.isfinite(a).all():
+        raise ValueError(f"{name} must be a finite array of shape (3, 3); got {a.shape}")
+    return a
+
+
 def checked_static_inputs(
     specific_force: np.ndarray,
     q_wc: np.ndarray,

@@ -25,6 +25,7 @@ stream stopped, and refuses a buffer of another kind, layout version or size wit
 
 from __future__ import annotations
 
+import abc
 import math
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
@@ -32,6 +33,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from dualpose import _native
+from dualpose.estimation._stream import saved_buffer, vec3
+from dualpose.estimation.interface import Estimator
 from dualpose.estimation.state import StateLayout
 
 __all__ = ["BlockResult", "FrameUpdate", "FusionStream"]
@@ -86,13 +89,6 @@ class BlockResult:
     frames: list[FrameUpdate]
 
 
-def _vec3(v: Any, name: str) -> np.ndarray:
-    a = np.array(v, dtype=np.float64)
-    if a.shape != (3,):
-        raise ValueError(f"{name} must be 3 numbers (shape (3,)); got shape {a.shape}")
-    return a
-
-
 def _correspondences(pixels: Any, points: Any) -> tuple[np.ndarray, np.ndarray]:
     pix = np.array(pixels, dtype=np.float64, ndmin=2, copy=True)
     pts = np.array(points, dtype=np.float64, ndmin=2, copy=True)
@@ -105,19 +101,32 @@ def _correspondences(pixels: Any, points: Any) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(pix), np.ascontiguousarray(pts)
 
 
-class FusionStream:
+class FusionStream(abc.ABC):
     """What both streaming filters share: the queue of frames, blocks, saving and restoring (module docstring).
 
-    A subclass sets ``_kind`` (the prefix of its native ``*_stream_*`` functions), ``state_layout``,
-    ``covariance_dim`` and ``LAYOUT_VERSION``, and implements ``_frame_between`` and ``_first_sample``.
+    A subclass sets ``_kind`` (the prefix of its native ``*_stream_*`` functions), ``_filter_type`` (the batch filter
+    it continues), ``state_layout``, ``covariance_dim`` and ``LAYOUT_VERSION``, and implements ``_frame_between`` and
+    ``_first_sample``.
     """
 
     _kind: ClassVar[str]  # "eskf" or "hol22": the prefix of the native functions
+    _filter_type: ClassVar[type]  # ErrorStateEKF or Hol22EKF
     state_layout: ClassVar[StateLayout]
     covariance_dim: ClassVar[int]
     LAYOUT_VERSION: ClassVar[int]
 
-    def __init__(self, buffer: np.ndarray, camera_time_offset: float) -> None:
+    def __init__(self, filter: Estimator) -> None:
+        name = self._filter_type.__name__
+        if not isinstance(filter, self._filter_type):
+            article = "an" if name[0] in "AEIOU" else "a"
+            raise TypeError(f"filter must be {article} {name}; got {type(filter).__name__}")
+        x = np.ascontiguousarray(filter.x, dtype=np.float64)
+        P = np.ascontiguousarray(filter.P, dtype=np.float64)
+        new = _native.__dict__[f"{self._kind}_stream_new"]
+        self._attach(new(x, P, *filter.kernel_config()), filter.camera_time_offset)
+
+    def _attach(self, buffer: np.ndarray, camera_time_offset: float) -> None:
+        """Run on the native state ``buffer`` (a new filter's, or a restored one) with no frame queued."""
         self._buf = buffer
         self.camera_time_offset = float(camera_time_offset)
         self._pending: list[FrameUpdate] = []
@@ -261,7 +270,7 @@ class FusionStream:
     # ---- the queue ----------------------------------------------------------------------------------------------
 
     def _imu_after_frames(self, t: float, gyro: Any, accel: Any) -> np.ndarray:
-        g, a = _vec3(gyro, "gyro"), _vec3(accel, "accel")
+        g, a = vec3(gyro, "gyro"), vec3(accel, "accel")
         last = self._last_imu_time()
         if not (math.isfinite(t) and t > last):
             raise ValueError(f"t must be finite and increase strictly: got {t!r} after {last!r}")
@@ -337,14 +346,9 @@ class FusionStream:
         if version != cls.LAYOUT_VERSION:
             raise ValueError(f"state has {cls.__name__} layout version {version}; this build reads "
                              f"{cls.LAYOUT_VERSION}")  # fmt: skip
-        if isinstance(buf, (bytes, bytearray, memoryview)):
-            buf = np.frombuffer(buf, dtype=np.uint8)
-        if not isinstance(buf, np.ndarray) or buf.dtype != np.uint8:
-            raise ValueError(f"state['state'] must be a numpy.uint8 array; got {type(buf).__name__}")
-        buf = np.array(buf, dtype=np.uint8, copy=True).reshape(-1)  # a fresh, aligned, writeable copy
-        _native.__dict__[f"{cls._kind}_stream_check"](buf, "state['state']")
+        buf = saved_buffer(buf, _native.__dict__[f"{cls._kind}_stream_check"], "state['state']")
         out = cls.__new__(cls)
-        FusionStream.__init__(out, buf, offset)
+        out._attach(buf, offset)
         for p in pending:
             pix, pts = _correspondences(p["pixels"], p["points"])
             out._pending.append(FrameUpdate.new(float(p["t"]), pix, pts))
@@ -365,8 +369,12 @@ class FusionStream:
     def _started(self) -> bool:
         return self.samples > 0
 
+    @abc.abstractmethod
     def _frame_between(self, f: FrameUpdate, t1: float, g1: np.ndarray, a1: np.ndarray) -> None:
-        raise NotImplementedError
+        """Filter the queued frame ``f`` (IMU time ``f.t``) before the IMU sample ``(t1, g1, a1)`` that follows it,
+        fill in its NIS and acceptance and mark it ``"done"`` (the filter has started)."""
 
+    @abc.abstractmethod
     def _first_sample(self, t: float, g: np.ndarray, a: np.ndarray, at_t: list[FrameUpdate]) -> np.ndarray:
-        raise NotImplementedError
+        """Filter the first IMU sample ``(t, g, a)`` together with the frames ``at_t`` stamped at its time (as the
+        batch filter orders them) and return the state after it."""

@@ -1,8 +1,10 @@
-"""Validation of the sensor streams the batch filters take (not public API)."""
+"""Validation of the sensor streams the batch filters take, and of the saved state the streaming filters restore
+(not public API)."""
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from collections.abc import Callable
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -52,3 +54,29 @@ def check_streams(
     if len(offsets) != len(cam_t) + 1 or offsets[-1] != len(pixels) or len(points) != len(pixels):
         raise ValueError("offsets must have F + 1 entries ending at len(pixels) == len(points)")
     return Streams(t, gyro, accel, cam_t, offsets, pixels, points)
+
+
+def saved_buffer(buf: object, check: Callable[[np.ndarray, str], None], name: str) -> np.ndarray:
+    """A streaming filter's saved ``numpy.uint8`` state buffer (or its bytes) as a fresh, aligned, writeable 1-D copy,
+    checked by the native ``check(buffer, name)`` (header, layout version, size).
+
+    Raises
+    ------
+    ValueError
+        Naming ``name`` when ``buf`` is not a ``numpy.uint8`` array or bytes, or fails ``check``.
+    """
+    if isinstance(buf, (bytes, bytearray, memoryview)):
+        buf = np.frombuffer(buf, dtype=np.uint8)
+    if not isinstance(buf, np.ndarray) or buf.dtype != np.uint8:
+        raise ValueError(f"{name} must be a numpy.uint8 array; got {type(buf).__name__}")
+    out = np.array(buf, dtype=np.uint8, copy=True).reshape(-1)
+    check(out, name)
+    return out
+
+
+def vec3(v: Any, name: str) -> np.ndarray:
+    """One sample ``v`` as a float64 array of shape (3,); ValueError naming ``name`` otherwise (no broadcasting)."""
+    a = np.array(v, dtype=np.float64)
+    if a.shape != (3,):
+        raise ValueError(f"{name} must be 3 numbers (shape (3,)); got shape {a.shape}")
+    return a

@@ -23,7 +23,7 @@ import dualpose as dp
 from dualpose import _native
 from dualpose.estimation import models
 from dualpose.estimation._fusion_stream import BlockResult, FrameUpdate, FusionStream
-from dualpose.estimation._stream import check_streams
+from dualpose.estimation._stream import check_streams, vec3
 from dualpose.estimation.interface import Estimator, UpdateResult
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
 from dualpose.types import CameraFrame, ImuNoise, PinholeCamera, SensorRun
@@ -310,7 +310,8 @@ class ErrorStateEKF(Estimator):
         """Propagate by ``dt`` seconds with the IMU measurement held constant (gyro rad/s, accel m/s², body)."""
         if dt < 0:
             raise ValueError(f"dt must be >= 0; got {dt}")
-        _native.eskf_predict(self.x, self.P, _vec3(gyro), _vec3(accel), float(dt), self.gravity, self.noise)
+        g, a = vec3(gyro, "gyro"), vec3(accel, "accel")
+        _native.eskf_predict(self.x, self.P, g, a, float(dt), self.gravity, self.noise)
 
     def propagate(self, t: float, gyro: np.ndarray, accel: np.ndarray, mag: np.ndarray | None = None) -> None:
         """Feed the IMU sample taken at time ``t``: integrates from the filter time to ``t`` with the mean of the
@@ -462,11 +463,9 @@ def _record_run(args: tuple, n: int, nf: int) -> FilterNodes:
     )  # fmt: skip
 
 
-def _vec3(v: np.ndarray) -> np.ndarray:
-    return np.ascontiguousarray(v, dtype=np.float64)
-
-
 def _report(nis: np.ndarray, accepted: np.ndarray, gate: float) -> InnovationReport:
+    """The :class:`InnovationReport` of camera updates (2 dof, two-sided 95 % band); also used by
+    :mod:`dualpose.estimation.hol22`."""
     return InnovationReport(
         nis=nis, accepted=accepted, dof=2, bounds=(float(chi2.ppf(0.025, 2)), float(chi2.ppf(0.975, 2))), gate=gate
     )
@@ -492,17 +491,11 @@ class EskfStream(FusionStream):
     """
 
     _kind = "eskf"
+    _filter_type = ErrorStateEKF
     state_layout = ESKF_STATE
     covariance_dim = 15
     #: version of the saved state's byte layout (``STREAM_VERSION`` in ``src/native/estimation/eskf_run.hpp``)
     LAYOUT_VERSION = _native.ESKF_STREAM_VERSION
-
-    def __init__(self, filter: ErrorStateEKF) -> None:
-        if not isinstance(filter, ErrorStateEKF):
-            raise TypeError(f"filter must be an ErrorStateEKF; got {type(filter).__name__}")
-        x = np.ascontiguousarray(filter.x, dtype=np.float64)
-        P = np.ascontiguousarray(filter.P, dtype=np.float64)
-        super().__init__(_native.eskf_stream_new(x, P, *filter.kernel_config()), filter.camera_time_offset)
 
     def _frame_between(self, f: FrameUpdate, t1: float, g1: np.ndarray, a1: np.ndarray) -> None:
         _native.eskf_stream_frame(self._buf, f.t, t1, g1, a1, f.pixels, f.points, f.nis, f.accepted_flags)

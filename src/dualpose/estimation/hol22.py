@@ -27,7 +27,7 @@ from dualpose import _native
 from dualpose.estimation import models
 from dualpose.estimation._fusion_stream import FrameUpdate, FusionStream
 from dualpose.estimation._stream import check_streams
-from dualpose.estimation.eskf import InnovationReport
+from dualpose.estimation.eskf import InnovationReport, _report
 from dualpose.estimation.interface import Estimator, UpdateResult
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE, HOL22_STATE
 from dualpose.types import CameraFrame, ImuNoise, PinholeCamera, SensorRun
@@ -391,9 +391,7 @@ class Hol22EKF(Estimator):
         used = ~np.isnan(nis)
         self._nis.append(nis[used])
         self._acc.append(acc[used].astype(bool))
-        rep = InnovationReport(
-            nis[used], acc[used].astype(bool), 2, (float(chi2.ppf(0.025, 2)), float(chi2.ppf(0.975, 2))), self.gate
-        )
+        rep = _report(nis[used], acc[used].astype(bool), self.gate)
         self.time = float(t[-1])
         L = HOL22_STATE
         return Hol22Result(
@@ -419,17 +417,11 @@ class Hol22Stream(FusionStream):
     """
 
     _kind = "hol22"
+    _filter_type = Hol22EKF
     state_layout = HOL22_STATE
     covariance_dim = 22
     #: version of the saved state's byte layout (``STREAM_VERSION`` in ``src/native/estimation/hol22_run.hpp``)
     LAYOUT_VERSION = _native.HOL22_STREAM_VERSION
-
-    def __init__(self, filter: Hol22EKF) -> None:
-        if not isinstance(filter, Hol22EKF):
-            raise TypeError(f"filter must be a Hol22EKF; got {type(filter).__name__}")
-        x = np.ascontiguousarray(filter.x, dtype=np.float64)
-        P = np.ascontiguousarray(filter.P, dtype=np.float64)
-        super().__init__(_native.hol22_stream_new(x, P, *filter.kernel_config()), filter.camera_time_offset)
 
     def _frame_between(self, f: FrameUpdate, t1: float, g1: np.ndarray, a1: np.ndarray) -> None:
         _native.hol22_stream_frame(self._buf, f.t, f.pixels, f.points, f.nis, f.accepted_flags)

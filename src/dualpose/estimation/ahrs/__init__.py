@@ -74,51 +74,11 @@ initial orientation, so the initial heading uncertainty is small by definition (
 cross-covariances into the linearisation).
 """
 
-from dualpose.estimation.ahrs.batch import (
-    AhrsResult,
-    PreparedRecording,
-    estimate_orientation,
-    prepare_recording,
-    run_result,
-)
-from dualpose.estimation.ahrs.config import (
-    MEMS_GYRO_BIAS_RANDOM_WALK,
-    MEMS_GYRO_TURN_ON_BIAS,
-    AhrsConfig,
-    AhrsNoise,
-    AhrsSetup,
-    RestStatistics,
-    accelerometer_jacobian,
-    check_mag_time_offset,
-    filter_setup,
-    heading_jacobian,
-    initial_orientation,
-    rest_statistics,
-)
-from dualpose.estimation.ahrs.estimator import AhrsFilter
-from dualpose.estimation.ahrs.smoother import SmoothedOrientation, smooth_orientation
-from dualpose.estimation.ahrs.stream import AhrsStream
+from dualpose.estimation.ahrs import batch, config, estimator, smoother, stream
+from dualpose.estimation.ahrs.batch import *  # noqa: F403
+from dualpose.estimation.ahrs.config import *  # noqa: F403
+from dualpose.estimation.ahrs.estimator import *  # noqa: F403
+from dualpose.estimation.ahrs.smoother import *  # noqa: F403
+from dualpose.estimation.ahrs.stream import *  # noqa: F403
 
-__all__ = [
-    "MEMS_GYRO_BIAS_RANDOM_WALK",
-    "MEMS_GYRO_TURN_ON_BIAS",
-    "AhrsNoise",
-    "AhrsConfig",
-    "RestStatistics",
-    "AhrsSetup",
-    "accelerometer_jacobian",
-    "heading_jacobian",
-    "rest_statistics",
-    "initial_orientation",
-    "filter_setup",
-    "check_mag_time_offset",
-    "AhrsResult",
-    "PreparedRecording",
-    "prepare_recording",
-    "estimate_orientation",
-    "run_result",
-    "AhrsFilter",
-    "AhrsStream",
-    "SmoothedOrientation",
-    "smooth_orientation",
-]
+__all__ = [*config.__all__, *batch.__all__, *estimator.__all__, *stream.__all__, *smoother.__all__]

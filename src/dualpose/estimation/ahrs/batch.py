@@ -23,6 +23,8 @@ from dualpose.estimation.ahrs.config import (
     AhrsConfig,
     AhrsSetup,
     RestStatistics,
+    _check_config,
+    _rest_length,
     check_mag_time_offset,
     filter_setup,
     rest_statistics,
@@ -185,15 +187,8 @@ def prepare_recording(
     if use_mag and mag is None:
         raise ValueError("use_mag=True needs mag samples (n, 3); pass use_mag=False for 6D")
     mag_arr = check_samples(mag, "mag", n) if mag is not None else None
-    if not (np.isfinite(rate) and rate > 0):
-        raise ValueError(f"rate must be a positive number of Hz; got {rate}")
-    if n_rest is None:
-        n_rest = min(n, int(round(rate)))
-        n_rest = n_rest if n_rest >= 10 else 0
-    if not 0 <= n_rest <= n:
-        raise ValueError(f"n_rest must be in [0, {n}]; got {n_rest}")
-    if 0 < n_rest < 10:
-        raise ValueError(f"n_rest must be 0 (no rest period) or at least 10 samples; got {n_rest}")
+    n_rest = _rest_length(rate, n_rest, n)
+    config = _check_config(config)
 
     lag_setting = check_mag_time_offset(mag_time_offset, ("online", "estimate"))
 

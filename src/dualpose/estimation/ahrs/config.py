@@ -207,10 +207,14 @@ class RestStatistics:
     def field_dip(self) -> float:
         """Dip (inclination) of the field at rest: angle below the horizon, rad (atan2 of the components along and
         across the specific force)."""
-        up = self.specific_force / np.linalg.norm(self.specific_force)
-        m = self.magnetic_field
-        down_part = -float(m @ up)
-        return math.atan2(down_part, float(np.linalg.norm(m - (m @ up) * up)))
+        return _field_dip(self.specific_force, self.magnetic_field)
+
+
+def _field_dip(specific_force: np.ndarray, field: np.ndarray) -> float:
+    """Dip of ``field`` (3,) below the plane normal to ``specific_force`` (3,, up), rad: atan2 of its components
+    along −up and across it."""
+    up = specific_force / np.linalg.norm(specific_force)
+    return math.atan2(-float(field @ up), float(np.linalg.norm(field - (field @ up) * up)))
 
 
 def accelerometer_jacobian(gravity: float) -> np.ndarray:
@@ -389,7 +393,7 @@ def filter_setup(
     -------
     AhrsSetup
     """
-    c = config if config is not None else AhrsConfig()
+    c = _check_config(config)
     noise = c.noise
     if rest is not None:
         est = rest.noise
@@ -411,10 +415,8 @@ def filter_setup(
         m_ref = np.asarray(first_mag, dtype=np.float64) if use_mag else None
         gravity = float(np.linalg.norm(a_ref))
     q0 = initial_orientation(a_ref, m_ref if use_mag else None)
-    if use_mag:
-        up = a_ref / np.linalg.norm(a_ref)
-        field_norm = float(np.linalg.norm(m_ref))
-        field_dip = math.atan2(-float(m_ref @ up), float(np.linalg.norm(m_ref - (m_ref @ up) * up)))
+    if use_mag:  # the field's reference at rest (RestStatistics.field_norm / field_dip), or of the first sample
+        field_norm, field_dip = float(np.linalg.norm(m_ref)), _field_dip(a_ref, m_ref)
     else:
         field_norm, field_dip = 1.0, 0.0
 
@@ -440,11 +442,11 @@ def filter_setup(
     params[_native.AHRS_P_MAG_ADAPT] = 1.0 / (c.adapt_time * rate) if c.adapt_time > 0 and c.mag_adapt else 0.0
     _set_lag_params(params, rate, use_mag, mag_time_offset)
     _set_rest_params(params, rate, noise, c, rest_skip)
-    # initial attitude uncertainty: the direction of a mean of N noisy specific forces (inclination) and fields
-    # (heading); heading is unknown in 6D (π is only a nominal value: no update ever uses it)
+    # initial attitude uncertainty: the direction of a mean of N noisy specific forces (inclination); heading 5° in
+    # 9D and 6D alike (in 6D the initial orientation defines the earth frame's heading: module docstring)
     n_avg = rest.samples if rest is not None else 1
     incl_sigma = noise.accelerometer_noise_density * math.sqrt(rate / n_avg) / gravity + math.radians(0.1)
-    head_sigma = math.radians(5.0) if use_mag else math.radians(5.0)
+    head_sigma = math.radians(5.0)
     P = np.diag([incl_sigma**2, incl_sigma**2, head_sigma**2, bias_sigma**2, bias_sigma**2, bias_sigma**2])
     q = np.ascontiguousarray(q0, dtype=np.float64)
     b = np.ascontiguousarray(b0, dtype=np.float64)
@@ -477,6 +479,33 @@ def _set_rest_params(params: np.ndarray, rate: float, noise: AhrsNoise, c: AhrsC
     params[_native.AHRS_P_REST_GYR_VAR] = sg**2
     params[_native.AHRS_P_REST_GATE] = float(chi2.ppf(c.gate_probability, 3))
     params[_native.AHRS_P_REST_SKIP] = int(skip)
+
+
+def _check_config(config: object) -> AhrsConfig:
+    """``config`` (an :class:`AhrsConfig`, or None for the defaults) checked: TypeError naming it otherwise.  The
+    check of every AHRS entry point (batch, smoother, stream)."""
+    if config is None:
+        return AhrsConfig()
+    if not isinstance(config, AhrsConfig):
+        raise TypeError(f"config must be an AhrsConfig or None; got {type(config).__name__}")
+    return config
+
+
+def _rest_length(rate: float, n_rest: int | None, n: int | None = None) -> int:
+    """The sampling ``rate`` (Hz) checked and the number of leading rest samples: ``n_rest``, or by default one
+    second (at most ``n``, the recording's length when known), 0 when that is below 10 samples.  ValueError naming
+    ``rate`` / ``n_rest`` for a rate that is not a positive number, or a rest period outside ``[0, n]`` or of 1 to 9
+    samples."""
+    if not (np.isfinite(rate) and rate > 0):
+        raise ValueError(f"rate must be a positive number of Hz; got {rate}")
+    if n_rest is None:
+        n_rest = int(round(rate)) if n is None else min(n, int(round(rate)))
+        n_rest = n_rest if n_rest >= 10 else 0
+    if n is not None and not 0 <= n_rest <= n:
+        raise ValueError(f"n_rest must be in [0, {n}]; got {n_rest}")
+    if not (n_rest == 0 or n_rest >= 10):
+        raise ValueError(f"n_rest must be 0 (no rest period) or at least 10 samples; got {n_rest}")
+    return n_rest
 
 
 def check_mag_time_offset(mag_time_offset: object, allowed: tuple[str, ...]) -> float | None:

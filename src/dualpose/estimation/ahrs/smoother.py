@@ -33,7 +33,7 @@ import numpy as np
 from dualpose import _native
 from dualpose.calibration.magnetometer import MagCalibration
 from dualpose.estimation.ahrs.batch import AhrsResult, prepare_recording, run_result
-from dualpose.estimation.ahrs.config import AhrsConfig
+from dualpose.estimation.ahrs.config import AhrsConfig, _check_config
 
 __all__ = ["SmoothedOrientation", "smooth_orientation"]
 
@@ -119,10 +119,9 @@ def smooth_orientation(
         covariance is singular (only with a :class:`~dualpose.estimation.ahrs.AhrsNoise` of zero process noise and
         zero initial uncertainty).
     """
-    if config is not None and not isinstance(config, AhrsConfig):
-        raise TypeError(f"config must be an AhrsConfig or None; got {type(config).__name__}")
+    config = _check_config(config)
     if not rest_update:
-        config = dataclasses.replace(config if config is not None else AhrsConfig(), rest_window=0.0)
+        config = dataclasses.replace(config, rest_window=0.0)
     prep = prepare_recording(
         gyr, acc, mag, rate, use_mag=use_mag, n_rest=n_rest, config=config, mag_time_offset=mag_time_offset,
         mag_calibration=mag_calibration,

@@ -25,10 +25,13 @@ from typing import Any
 import numpy as np
 
 from dualpose import _native
+from dualpose.estimation._stream import saved_buffer, vec3
 from dualpose.estimation.ahrs.config import (
     AhrsConfig,
     AhrsNoise,
     RestStatistics,
+    _check_config,
+    _rest_length,
     check_mag_time_offset,
     filter_setup,
     rest_statistics,
@@ -42,13 +45,6 @@ def _check_block(x: Any, name: str, n: int | None) -> np.ndarray:
     if a.ndim != 2 or a.shape[1] != 3 or (n is not None and a.shape[0] != n):
         raise ValueError(f"{name} must have shape ({'n' if n is None else n}, 3); got {a.shape}")
     return a
-
-
-def _row3(x: Any, name: str) -> np.ndarray:
-    v = np.asarray(x, dtype=np.float64)
-    if v.shape != (3,):
-        raise ValueError(f"{name} must be 3 numbers (shape (3,)); got shape {v.shape}")
-    return v
 
 
 class AhrsStream:
@@ -109,18 +105,8 @@ class AhrsStream:
         config: AhrsConfig | None = None,
         mag_time_offset: str | float = "online",
     ) -> None:
-        if not (np.isfinite(rate) and rate > 0):
-            raise ValueError(f"rate must be a positive number of Hz; got {rate}")
-        if n_rest is None:
-            n_rest = int(round(rate))
-            n_rest = n_rest if n_rest >= 10 else 0
-        if rest is not None:
-            n_rest = 0
-        if not (n_rest == 0 or n_rest >= 10):
-            raise ValueError(f"n_rest must be 0 (no rest period) or at least 10 samples; got {n_rest}")
-        if config is not None and not isinstance(config, AhrsConfig):
-            raise TypeError(f"config must be an AhrsConfig or None; got {type(config).__name__}")
-        self._settings = config if config is not None else AhrsConfig()
+        n_rest = _rest_length(rate, 0 if rest is not None else n_rest)
+        self._settings = _check_config(config)
         self._lag = check_mag_time_offset(mag_time_offset, ("online",))
         self._config = dict(rate=float(rate), use_mag=bool(use_mag), n_rest=int(n_rest), rest=rest,
                             mag_time_offset="online" if self._lag is None else self._lag)
@@ -199,8 +185,8 @@ class AhrsStream:
         self._check_sample(t, mag)
         k = self._n_pending
         pt, pg, pa, pm = self._pending
-        pg[k], pa[k] = _row3(gyro, "gyro"), _row3(accel, "accel")
-        pm[k] = _row3(mag, "mag") if mag is not None else 0.0
+        pg[k], pa[k] = vec3(gyro, "gyro"), vec3(accel, "accel")
+        pm[k] = vec3(mag, "mag") if mag is not None else 0.0
         pt[k] = t
         self._t = t
         self._samples += 1
@@ -391,10 +377,7 @@ class AhrsStream:
             raise ValueError(f"state has AHRS stream layout version {version}; this build reads {cls.LAYOUT_VERSION}")
         buf = state["state"]
         if buf is not None:
-            if isinstance(buf, (bytes, bytearray, memoryview)):
-                buf = np.frombuffer(buf, dtype=np.uint8)
-            buf = np.array(buf, dtype=np.uint8, copy=True).reshape(-1)  # a fresh, aligned, writeable copy
-            _native.ahrs_stream_check(buf, "state")
+            buf = saved_buffer(buf, _native.ahrs_stream_check, "state")
         config["config"] = AhrsConfig.from_dict(config["config"])
         config["rest"] = cls._rest_from(config["rest"])
         rest0 = config["rest"]
