@@ -290,11 +290,10 @@ PyObject* py_run_recorded(PyObject*, PyObject* args) {
 
 // ---- the streaming filter (dualpose.estimation.eskf.EskfStream): the state in one numpy.uint8 buffer
 
-constexpr const char* stream_what = "an ESKF stream state";
+constexpr stream::Kind stream_kind{STREAM_MAGIC, STREAM_VERSION, "ESKF stream", "an ESKF stream state",
+                                    "O|s:eskf_stream_check"};
 
-Stream* stream_arg(PyObject* o, bool write) {
-    return stream::stream_of<Stream>(o, "state", write, STREAM_MAGIC, STREAM_VERSION, stream_what);
-}
+Stream* stream_arg(PyObject* o, bool write) { return stream::stream_of<Stream>(o, "state", write, stream_kind); }
 
 PyObject* py_stream_new(PyObject*, PyObject* args) {
     V1 x, gravity, noise, intr, q_bc, p_bc;
@@ -305,7 +304,7 @@ PyObject* py_stream_new(PyObject*, PyObject* args) {
         return nullptr;
     if (!shape_is("x", x, {NX}) || !shape_is("P", P, {NE, NE}) || !config_ok(gravity, noise, intr, q_bc, p_bc))
         return nullptr;
-    PyObject* out = stream::new_buffer<Stream>(STREAM_MAGIC, STREAM_VERSION);
+    PyObject* out = stream::new_buffer<Stream>(stream_kind);
     if (out == nullptr) return nullptr;
     auto* s = static_cast<Stream*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(out)));
     s->c = make_config(gravity, noise, intr, q_bc, p_bc, sigma_px, gate);
@@ -419,15 +418,6 @@ PyObject* py_stream_get(PyObject*, PyObject* args) {
                          s->f.tc, static_cast<long long>(s->f.samples));
 }
 
-PyObject* py_stream_check(PyObject*, PyObject* args) {
-    PyObject* state;
-    const char* name = "state";
-    if (!PyArg_ParseTuple(args, "O|s:eskf_stream_check", &state, &name)) return nullptr;
-    if (stream::stream_of<Stream>(state, name, false, STREAM_MAGIC, STREAM_VERSION, stream_what) == nullptr)
-        return nullptr;
-    Py_RETURN_NONE;
-}
-
 PyMethodDef methods[] = {
     {"eskf_predict", py_predict, METH_VARARGS,
      "eskf_predict(x, P, gyro, accel, dt, gravity, noise): propagate nominal state x (16,) and error covariance "
@@ -465,7 +455,7 @@ PyMethodDef methods[] = {
      "steps over a block (Ps may be None); returns the number of frames consumed.  The GIL is released."},
     {"eskf_stream_get", py_stream_get, METH_VARARGS,
      "eskf_stream_get(state) -> (x (16,), P (225,), t0, tc, samples): copies of the stream's state."},
-    {"eskf_stream_check", py_stream_check, METH_VARARGS,
+    {"eskf_stream_check", stream::check<Stream, stream_kind>, METH_VARARGS,
      "eskf_stream_check(state, name='state'): ValueError naming `name` unless state is an ESKF stream of this "
      "layout version and size."},
     {"eskf_run", py_run, METH_VARARGS,

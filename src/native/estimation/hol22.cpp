@@ -82,11 +82,10 @@ PyObject* hol22_run(PyObject*, PyObject* args) {
 
 // ---- the streaming filter: the state in one numpy.uint8 buffer
 
-constexpr const char* stream_what = "a Hol22 stream state";
+constexpr stream::Kind stream_kind{STREAM_MAGIC, STREAM_VERSION, "Hol22 stream", "a Hol22 stream state",
+                                    "O|s:hol22_stream_check"};
 
-Stream* stream_arg(PyObject* o, bool write) {
-    return stream::stream_of<Stream>(o, "state", write, STREAM_MAGIC, STREAM_VERSION, stream_what);
-}
+Stream* stream_arg(PyObject* o, bool write) { return stream::stream_of<Stream>(o, "state", write, stream_kind); }
 
 PyObject* stream_new(PyObject*, PyObject* args) {
     V1 x;
@@ -97,7 +96,7 @@ PyObject* stream_new(PyObject*, PyObject* args) {
                           &ca.gravity, cm2, &ca.R_imu, cv1, &ca.intr, cv1, &ca.p_bc, cm2, &ca.Rcb, &sigma_px, &gate))
         return nullptr;
     if (!shape_is("x", x, {N}) || !shape_is("P", P, {N, N}) || !ca.ok()) return nullptr;
-    PyObject* out = stream::new_buffer<Stream>(STREAM_MAGIC, STREAM_VERSION);
+    PyObject* out = stream::new_buffer<Stream>(stream_kind);
     if (out == nullptr) return nullptr;
     auto* s = static_cast<Stream*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(out)));
     s->c = ca.config(sigma_px, gate);
@@ -183,15 +182,6 @@ PyObject* stream_get(PyObject*, PyObject* args) {
                          s->f.tc, static_cast<long long>(s->f.samples));
 }
 
-PyObject* stream_check(PyObject*, PyObject* args) {
-    PyObject* state;
-    const char* name = "state";
-    if (!PyArg_ParseTuple(args, "O|s:hol22_stream_check", &state, &name)) return nullptr;
-    if (stream::stream_of<Stream>(state, name, false, STREAM_MAGIC, STREAM_VERSION, stream_what) == nullptr)
-        return nullptr;
-    Py_RETURN_NONE;
-}
-
 PyMethodDef hol22_methods[] = {
     {"hol22_run", hol22_run, METH_VARARGS,
      "hol22_run(t, gyro, accel, cam_t, offsets, pixels, points, x, P, qdiag, gravity, R_imu, intr, p_bc, Rcb, "
@@ -211,7 +201,7 @@ PyMethodDef hol22_methods[] = {
     {"hol22_stream_get", stream_get, METH_VARARGS,
      "hol22_stream_get(state) -> (x (22,), P (484,), t_imu, tc, samples): copies of the stream's state (t_imu: "
      "the last IMU sample's time)."},
-    {"hol22_stream_check", stream_check, METH_VARARGS,
+    {"hol22_stream_check", stream::check<Stream, stream_kind>, METH_VARARGS,
      "hol22_stream_check(state, name='state'): ValueError naming `name` unless state is a Hol22 stream of this "
      "layout version and size."},
     {nullptr, nullptr, 0, nullptr}};
