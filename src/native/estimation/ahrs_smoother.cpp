@@ -49,12 +49,7 @@ void congruence_attitude(double* S, const double* A) {
             }
             S[i * NE + j] = s;
         }
-    for (int i = 0; i < NE; ++i)
-        for (int j = i + 1; j < NE; ++j) {
-            const double s = 0.5 * (S[i * NE + j] + S[j * NE + i]);
-            S[i * NE + j] = s;
-            S[j * NE + i] = s;
-        }
+    symmetrize<NE>(S);
 }
 
 // out (3, 3) = J_l(φ) (inverse = 0) or J_l⁻¹(φ) (inverse = 1); J_l(φ) = J_r(−φ).
