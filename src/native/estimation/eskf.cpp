@@ -314,16 +314,9 @@ PyObject* py_stream_new(PyObject*, PyObject* args) {
 
 // eskf_stream_imu(state, t, gyro, accel) -> x (16,): the IMU sample at t (after the frames up to t were given).
 PyObject* py_stream_imu(PyObject*, PyObject* const* args, Py_ssize_t nargs) {
-    if (nargs != 4) {
-        PyErr_SetString(PyExc_TypeError, "eskf_stream_imu(state, t, gyro, accel) takes 4 arguments");
-        return nullptr;
-    }
-    Stream* s = stream_arg(args[0], true);
+    double t, g[3], a[3];
+    Stream* s = stream::imu_args<Stream>(args, nargs, "eskf_stream_imu(state, t, gyro, accel)", stream_kind, t, g, a);
     if (s == nullptr) return nullptr;
-    const double t = PyFloat_AsDouble(args[1]);
-    if (t == -1.0 && PyErr_Occurred()) return nullptr;
-    double g[3], a[3];
-    if (!stream::read3(args[2], "gyro", g) || !stream::read3(args[3], "accel", a)) return nullptr;
     if (!std::isfinite(t) || (s->f.samples > 0 && !(t > s->f.t0))) return stream::time_error(t, s->f.t0);
     double F[NE * NE];
     if (s->f.samples == 0)
@@ -333,17 +326,7 @@ PyObject* py_stream_imu(PyObject*, PyObject* const* args, Py_ssize_t nargs) {
     return stream::new_vector(s->f.x, NX);
 }
 
-// The correspondences and the (m,) nis / accepted outputs of one frame.
-struct FrameArgs {
-    M2 pixels, points;
-    V1w nis;
-    I1w acc;
-    bool ok() const {
-        const npy_intp m = pixels.shape[0];
-        return shape_is("pixels", pixels, {-1, 2}) && shape_is("points", points, {m, 3}) &&
-               shape_is("nis", nis, {m}) && shape_is("accepted", acc, {m});
-    }
-};
+using stream::FrameArgs;
 
 // eskf_stream_frame(state, tj, t1, g1, a1, pixels, points, nis, accepted) -> int: predict to the frame time tj
 // with the input interpolated towards the next IMU sample (t1, g1, a1), then the camera update.
@@ -384,26 +367,13 @@ PyObject* py_stream_update(PyObject*, PyObject* args) {
 // eskf_stream_run(state, t, gyro, accel, cam_t, offsets, pixels, points, X, Ps, nis, accepted) -> int: feed a
 // block; Ps may be None; returns the frames consumed.
 PyObject* py_stream_run(PyObject*, PyObject* args) {
-    PyObject *state, *ps_obj;
-    BlockArrays ba;
-    M2w X;
-    V1w nis;
-    I1w acc;
-    if (!PyArg_ParseTuple(args, "OO&O&O&O&O&O&O&O&OO&O&:eskf_stream_run", &state, cv1, &ba.t, cm2, &ba.gyro, cm2,
-                          &ba.accel, cv1, &ba.cam_t, ci1, &ba.offsets, cm2, &ba.pixels, cm2, &ba.points, cm2w, &X,
-                          &ps_obj, cv1w, &nis, ci1w, &acc))
-        return nullptr;
-    Stream* s = stream_arg(state, true);
-    Block b;
-    if (s == nullptr || !block_of(ba, b)) return nullptr;
-    const npy_intp n = b.n, m = ba.pixels.shape[0];
-    T3w Ps;
-    if (ps_obj != Py_None && (!ct3w(ps_obj, &Ps) || !shape_is("Ps", Ps, {n, NE, NE}))) return nullptr;
-    if (!shape_is("X", X, {n, NX}) || !shape_is("nis", nis, {m}) || !shape_is("accepted", acc, {m})) return nullptr;
-    const Outputs o{X.data, ps_obj == Py_None ? nullptr : Ps.data, nullptr, nullptr, nis.data, acc.data};
+    stream::BlockRun r;
+    Stream* s = stream::block_run_args<Stream>(args, "OO&O&O&O&O&O&O&O&OO&O&:eskf_stream_run", stream_kind, NX, NE, r);
+    if (s == nullptr) return nullptr;
+    const Outputs o{r.X, r.Ps, nullptr, nullptr, r.nis, r.acc};
     std::int64_t used;
     Py_BEGIN_ALLOW_THREADS
-    used = feed(s->f, s->c, b, o, nullptr, nullptr);
+    used = feed(s->f, s->c, r.b, o, nullptr, nullptr);
     Py_END_ALLOW_THREADS
     return PyLong_FromLongLong(used);
 }

@@ -1,9 +1,11 @@
 // Python-side helpers of the streaming filters (eskf_stream_*, hol22_stream_*, ahrs_stream_*): the filter state lives
-// in one 1-d numpy.uint8 array [header (magic, version, size, reserved) | constants | state] of a fixed size, so that
-// a byte copy saves it and restores it; and the fast reading of one (3,) sample.
+// in one 1-d numpy.uint8 array [header (magic, version, size, ...) | constants | state (| rings: the AHRS)], so that
+// a byte copy saves it and restores it; the fast reading of one (3,) sample; and the arguments the camera–IMU
+// streams (ESKF, Hol22) share.
 #pragma once
 
 #include "../common/numpy_api.hpp"
+#include "eskf_args.hpp"
 
 #include <cstddef>
 #include <cstdint>
@@ -142,6 +144,74 @@ inline PyObject* new_vector(const double* v, npy_intp n) {
     PyObject* out = PyArray_SimpleNew(1, &n, NPY_DOUBLE);
     if (out != nullptr) std::memcpy(PyArray_DATA(reinterpret_cast<PyArrayObject*>(out)), v, n * sizeof(double));
     return out;
+}
+
+// The arguments of <kind>_stream_imu(state, t, gyro, accel) (METH_FASTCALL): the writeable stream of kind k, t, and
+// gyro, accel (3,); nullptr with TypeError naming `usage` (e.g. "eskf_stream_imu(state, t, gyro, accel)") or
+// ValueError otherwise.
+template <class S>
+S* imu_args(PyObject* const* args, Py_ssize_t nargs, const char* usage, const Kind& k, double& t, double* g,
+            double* a) {
+    if (nargs != 4) {
+        PyErr_Format(PyExc_TypeError, "%s takes 4 arguments", usage);
+        return nullptr;
+    }
+    S* s = stream_of<S>(args[0], "state", true, k);
+    if (s == nullptr) return nullptr;
+    t = PyFloat_AsDouble(args[1]);
+    if (t == -1.0 && PyErr_Occurred()) return nullptr;
+    if (!read3(args[2], "gyro", g) || !read3(args[3], "accel", a)) return nullptr;
+    return s;
+}
+
+// The correspondences of one frame, pixels (M, 2) and points (M, 3), and its (M,) outputs nis and accepted.
+struct FrameArgs {
+    Array<double, 2> pixels, points;
+    Array<double, 1, true> nis;
+    Array<std::int64_t, 1, true> acc;
+    bool ok() const {
+        const npy_intp m = pixels.shape[0];
+        return shape_is("pixels", pixels, {-1, 2}) && shape_is("points", points, {m, 3}) &&
+               shape_is("nis", nis, {m}) && shape_is("accepted", acc, {m});
+    }
+};
+
+// A block fed to a camera–IMU stream and the outputs of its steps: X (N, nx), Ps (N, ne, ne) or nullptr (None),
+// nis and accepted (M,).
+struct BlockRun {
+    SensorBlock b;
+    double *X, *Ps, *nis;
+    std::int64_t* acc;
+};
+
+// The arguments of <kind>_stream_run(state, t, gyro, accel, cam_t, offsets, pixels, points, X, Ps, nis, accepted)
+// for a stream of kind k with nominal state (nx,) and error covariance (ne, ne); fmt the PyArg_ParseTuple format
+// ("OO&O&O&O&O&O&O&O&OO&O&:<kind>_stream_run").  The writeable stream, r filled; nullptr with an exception set.
+template <class S>
+S* block_run_args(PyObject* args, const char* fmt, const Kind& k, npy_intp nx, npy_intp ne, BlockRun& r) {
+    PyObject *state, *ps_obj;
+    BlockArrays ba;
+    Array<double, 2, true> X;
+    Array<double, 1, true> nis;
+    Array<std::int64_t, 1, true> acc;
+    if (!PyArg_ParseTuple(args, fmt, &state, convert<double, 1>, &ba.t, convert<double, 2>, &ba.gyro,
+                          convert<double, 2>, &ba.accel, convert<double, 1>, &ba.cam_t, convert<std::int64_t, 1>,
+                          &ba.offsets, convert<double, 2>, &ba.pixels, convert<double, 2>, &ba.points,
+                          convert<double, 2, true>, &X, &ps_obj, convert<double, 1, true>, &nis,
+                          convert<std::int64_t, 1, true>, &acc))
+        return nullptr;
+    S* s = stream_of<S>(state, "state", true, k);
+    if (s == nullptr || !block_of(ba, r.b)) return nullptr;
+    const npy_intp n = r.b.n, m = ba.pixels.shape[0];
+    Array<double, 3, true> Ps;
+    if (ps_obj != Py_None && (!convert<double, 3, true>(ps_obj, &Ps) || !shape_is("Ps", Ps, {n, ne, ne})))
+        return nullptr;
+    if (!shape_is("X", X, {n, nx}) || !shape_is("nis", nis, {m}) || !shape_is("accepted", acc, {m})) return nullptr;
+    r.X = X.data;
+    r.Ps = ps_obj == Py_None ? nullptr : Ps.data;
+    r.nis = nis.data;
+    r.acc = acc.data;
+    return s;
 }
 
 }  // namespace dualpose::stream
