@@ -27,12 +27,7 @@ inline void boxminus(const double* x, const double* y, double* out) {
         out[DBG + i] = x[BG + i] - y[BG + i];
         out[DBA + i] = x[BA + i] - y[BA + i];
     }
-    Quat r = qmul(Quat{-y[Q], -y[Q + 1], -y[Q + 2], y[Q + 3]}, Quat{x[Q], x[Q + 1], x[Q + 2], x[Q + 3]});
-    if (r.w < 0.0) r = Quat{-r.x, -r.y, -r.z, -r.w};
-    const double f = 2.0 * atan2c(norm3(r.x, r.y, r.z), r.w);
-    out[DTH] = f * r.x;
-    out[DTH + 1] = f * r.y;
-    out[DTH + 2] = f * r.z;
+    store(out + DTH, rotvec_of_quat(qmul(Quat{-y[Q], -y[Q + 1], -y[Q + 2], y[Q + 3]}, load4(x + Q))));
 }
 
 // out (16,) = x ⊞ δx: p + δp, v + δv, q ⊗ Exp(δθ), b_g + δb_g, b_a + δb_a.
