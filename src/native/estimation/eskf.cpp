@@ -55,34 +55,26 @@ bool camera_ok(const V1& intr, const V1& q_bc, const V1& p_bc, const M2& pixels,
            shape_is("pixels", pixels, {-1, 2}) && shape_is("points", points, {pixels.shape[0], 3});
 }
 
-PyObject* py_predict_transition(PyObject*, PyObject* args) {
+// eskf_predict(x, P, gyro, accel, dt, gravity, noise) and eskf_predict_transition(..., F): the same step, the
+// transition written to F (15, 15) only by the latter.
+template <bool TRANSITION>
+PyObject* py_predict(PyObject*, PyObject* args) {
     V1w x;
     M2w P, F;
     V1 gyro, accel, gravity, noise;
     double dt;
-    if (!PyArg_ParseTuple(args, "O&O&O&O&dO&O&O&:eskf_predict_transition", cv1w, &x, cm2w, &P, cv1, &gyro, cv1,
-                          &accel, &dt, cv1, &gravity, cv1, &noise, cm2w, &F))
+    const bool parsed =
+        TRANSITION ? PyArg_ParseTuple(args, "O&O&O&O&dO&O&O&:eskf_predict_transition", cv1w, &x, cm2w, &P, cv1, &gyro,
+                                      cv1, &accel, &dt, cv1, &gravity, cv1, &noise, cm2w, &F)
+                   : PyArg_ParseTuple(args, "O&O&O&O&dO&O&:eskf_predict", cv1w, &x, cm2w, &P, cv1, &gyro, cv1, &accel,
+                                      &dt, cv1, &gravity, cv1, &noise);
+    if (!parsed || !state_ok(x, P) || !shape_is("gyro", gyro, {3}) || !shape_is("accel", accel, {3}) ||
+        !shape_is("gravity", gravity, {3}) || !shape_is("noise", noise, {4}) ||
+        (TRANSITION && !shape_is("F", F, {NE, NE})))
         return nullptr;
-    if (!state_ok(x, P) || !shape_is("gyro", gyro, {3}) || !shape_is("accel", accel, {3}) ||
-        !shape_is("gravity", gravity, {3}) || !shape_is("noise", noise, {4}) || !shape_is("F", F, {NE, NE}))
-        return nullptr;
-    predict_transition(x.data, P.data, gyro.data, accel.data, dt, gravity.data, noise.data, F.data);
-    Py_RETURN_NONE;
-}
-
-PyObject* py_predict(PyObject*, PyObject* args) {
-    V1w x;
-    M2w P;
-    V1 gyro, accel, gravity, noise;
-    double dt;
-    if (!PyArg_ParseTuple(args, "O&O&O&O&dO&O&:eskf_predict", cv1w, &x, cm2w, &P, cv1, &gyro, cv1, &accel, &dt, cv1,
-                          &gravity, cv1, &noise))
-        return nullptr;
-    if (!state_ok(x, P) || !shape_is("gyro", gyro, {3}) || !shape_is("accel", accel, {3}) ||
-        !shape_is("gravity", gravity, {3}) || !shape_is("noise", noise, {4}))
-        return nullptr;
-    double F[NE * NE];
-    predict_transition(x.data, P.data, gyro.data, accel.data, dt, gravity.data, noise.data, F);
+    double scratch[NE * NE];
+    predict_transition(x.data, P.data, gyro.data, accel.data, dt, gravity.data, noise.data,
+                       TRANSITION ? F.data : scratch);
     Py_RETURN_NONE;
 }
 
@@ -389,10 +381,10 @@ PyObject* py_stream_get(PyObject*, PyObject* args) {
 }
 
 PyMethodDef methods[] = {
-    {"eskf_predict", py_predict, METH_VARARGS,
+    {"eskf_predict", py_predict<false>, METH_VARARGS,
      "eskf_predict(x, P, gyro, accel, dt, gravity, noise): propagate nominal state x (16,) and error covariance "
      "P (15, 15) in place over dt with constant IMU input (Solà 2017 eq. 260, 269-270)."},
-    {"eskf_predict_transition", py_predict_transition, METH_VARARGS,
+    {"eskf_predict_transition", py_predict<true>, METH_VARARGS,
      "eskf_predict_transition(x, P, gyro, accel, dt, gravity, noise, F): eskf_predict that also writes the "
      "error-state transition of the step (Solà eq. 269) to F (15, 15)."},
     {"eskf_camera_batch", py_camera_batch, METH_VARARGS,
