@@ -11,9 +11,15 @@ namespace dualpose {
 #undef DUALPOSE_PART
 }  // namespace dualpose
 
-static PyModuleDef native_module = {PyModuleDef_HEAD_INIT, "_native",
+static PyModuleDef native_module = {PyModuleDef_HEAD_INIT,
+                                    "_native",
                                     "Ahead-of-time compiled kernels of dualpose (gufuncs and whole-recording loops).",
-                                    -1, nullptr};
+                                    -1,
+                                    nullptr,
+                                    nullptr,
+                                    nullptr,
+                                    nullptr,
+                                    nullptr};
 
 PyMODINIT_FUNC PyInit__native(void) {
     import_array();
