@@ -69,12 +69,7 @@ static void quat_pow(const double* q, const double* tp, double* o) {
 static void quat_from_rotvec(const double* v, double* o) { store(o, quat_exp_rotvec(Vec3{v[0], v[1], v[2]})); }
 
 // Dantam 2014 eqs. (51)-(53) with the atan2 angle; the sign is chosen so the angle is in [0, pi].
-static void rotvec_from_quat(const double* q, double* o) {
-    Quat v = load4(q);
-    if (v.w < 0.0) v = neg(v);
-    const double f = 2.0 * atan2c(norm3(v.x, v.y, v.z), v.w);
-    store(o, Vec3{f * v.x, f * v.y, f * v.z});
-}
+static void rotvec_from_quat(const double* q, double* o) { store(o, rotvec_of_quat(load4(q))); }
 
 static void quat_from_axis_angle(const double* axis, const double* angle, double* o) {
     double n = norm3(axis[0], axis[1], axis[2]);

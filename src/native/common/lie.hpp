@@ -19,6 +19,14 @@ inline Quat quat_exp_rotvec(Vec3 v) {
     return {f * v.x, f * v.y, f * v.z, std::cos(h)};
 }
 
+// The rotation vector of q with the angle in [0, π] (the sign of q chosen so that w >= 0): 2 ln(±q), Dantam 2014
+// eqs. (51)-(53) with the atan2 angle (atan2c: exact at q_v = 0; NaN for a zero q).
+inline Vec3 rotvec_of_quat(Quat q) {
+    if (q.w < 0.0) q = neg(q);
+    const double f = 2.0 * atan2c(norm3(q.x, q.y, q.z), q.w);
+    return {f * q.x, f * q.y, f * q.z};
+}
+
 struct So3Coeffs {
     double a, b, c;
 };

@@ -8,7 +8,6 @@
 #include "stream_buffer.hpp"
 
 #include <cstdint>
-#include <cstring>
 
 namespace dualpose {
 
@@ -44,48 +43,22 @@ PyObject* ahrs_run(PyObject*, PyObject* args) {
     Py_RETURN_NONE;
 }
 
-// The stream held by `o` (a 1-d C-contiguous, aligned numpy.uint8 array written by ahrs_stream_new), or nullptr with
-// ValueError / TypeError naming `name`: wrong type, too short, not a stream, another layout version, wrong size.
-ahrs::Stream* stream_of(PyObject* o, const char* name, bool write) {
-    if (!PyArray_Check(o)) {
-        PyErr_Format(PyExc_TypeError, "%s must be a numpy.uint8 array (an AHRS stream state); got %s", name,
-                     Py_TYPE(o)->tp_name);
-        return nullptr;
-    }
-    auto* a = reinterpret_cast<PyArrayObject*>(o);
-    const int need = NPY_ARRAY_C_CONTIGUOUS | (write ? NPY_ARRAY_WRITEABLE : 0);
-    if (PyArray_TYPE(a) != NPY_UINT8 || PyArray_NDIM(a) != 1 || (PyArray_FLAGS(a) & need) != need ||
-        reinterpret_cast<std::uintptr_t>(PyArray_DATA(a)) % alignof(ahrs::Stream) != 0) {
-        PyErr_Format(PyExc_ValueError, "%s must be a 1-d C-contiguous, aligned%s numpy.uint8 array", name,
-                     write ? ", writeable" : "");
-        return nullptr;
-    }
-    const auto size = static_cast<std::uint64_t>(PyArray_DIM(a, 0));
-    auto* st = static_cast<ahrs::Stream*>(PyArray_DATA(a));
-    if (size < sizeof(ahrs::StreamHeader) || st->h.magic != ahrs::STREAM_MAGIC) {
-        PyErr_Format(PyExc_ValueError, "%s is not an AHRS stream state (%llu bytes, no AHRS stream header)", name,
-                     static_cast<unsigned long long>(size));
-        return nullptr;
-    }
-    if (st->h.version != ahrs::STREAM_VERSION) {
-        PyErr_Format(PyExc_ValueError, "%s has AHRS stream layout version %llu; this build reads version %llu", name,
-                     static_cast<unsigned long long>(st->h.version),
-                     static_cast<unsigned long long>(ahrs::STREAM_VERSION));
-        return nullptr;
-    }
-    // the constants come from the buffer: bound the ring lengths before computing the size from them
-    const ahrs::Params& p = st->p;
-    const bool sane = size >= sizeof(ahrs::Stream) && st->h.n_win >= 1 && st->h.n_win <= (1ULL << 40) &&
-                      p.n_win == static_cast<std::int64_t>(st->h.n_win) && ahrs::lag_params_valid(p.lag) &&
-                      ahrs::rest_params_valid(p.rest);
-    const std::uint64_t bytes = sane ? ahrs::stream_bytes(ahrs::ring_doubles(p)) : 0;
-    if (!sane || size != st->h.size || size != bytes ||
-        st->h.n_ring != static_cast<std::uint64_t>(ahrs::ring_doubles(p))) {
-        PyErr_Format(PyExc_ValueError, "%s has %llu bytes; an AHRS stream state of this window needs %llu", name,
-                     static_cast<unsigned long long>(size), static_cast<unsigned long long>(bytes));
-        return nullptr;
-    }
-    return st;
+constexpr stream::Kind stream_kind{ahrs::STREAM_MAGIC, ahrs::STREAM_VERSION, "AHRS stream", "an AHRS stream state",
+                                    "O|s:ahrs_stream_check"};
+
+// The bytes of an AHRS stream with the constants held by s: the struct and the rings after it (the constants come
+// from the buffer: the ring lengths are bounded before the size is computed from them); 0 when they are inconsistent.
+std::uint64_t stream_bytes_of(const ahrs::Stream& st) {
+    const ahrs::Params& p = st.p;
+    const bool sane = st.h.n_win >= 1 && st.h.n_win <= (1ULL << 40) &&
+                      p.n_win == static_cast<std::int64_t>(st.h.n_win) && ahrs::lag_params_valid(p.lag) &&
+                      ahrs::rest_params_valid(p.rest) &&
+                      st.h.n_ring == static_cast<std::uint64_t>(ahrs::ring_doubles(p));
+    return sane ? ahrs::stream_bytes(ahrs::ring_doubles(p)) : 0;
+}
+
+ahrs::Stream* stream_arg(PyObject* o, bool write) {
+    return stream::stream_of<ahrs::Stream>(o, "state", write, stream_kind, stream_bytes_of);
 }
 
 PyObject* ahrs_stream_new(PyObject*, PyObject* args) {
@@ -113,13 +86,11 @@ PyObject* ahrs_stream_new(PyObject*, PyObject* args) {
         PyErr_SetString(PyExc_ValueError, "params: the rest window is too long");
         return nullptr;
     }
-    const npy_intp size = static_cast<npy_intp>(ahrs::stream_bytes(ahrs::ring_doubles(p)));
-    PyObject* out = PyArray_ZEROS(1, &size, NPY_UINT8, 0);
+    PyObject* out = stream::new_buffer<ahrs::Stream>(stream_kind, ahrs::stream_bytes(ahrs::ring_doubles(p)));
     if (out == nullptr) return nullptr;
     auto* st = static_cast<ahrs::Stream*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(out)));
-    st->h = ahrs::StreamHeader{ahrs::STREAM_MAGIC, ahrs::STREAM_VERSION, static_cast<std::uint64_t>(size),
-                               static_cast<std::uint64_t>(p.n_win),
-                               static_cast<std::uint64_t>(ahrs::ring_doubles(p))};
+    st->h.n_win = static_cast<std::uint64_t>(p.n_win);
+    st->h.n_ring = static_cast<std::uint64_t>(ahrs::ring_doubles(p));
     st->p = p;
     ahrs::init_state(st->s, st->ring(), p, q.data, b.data, P.data);
     return out;
@@ -130,18 +101,14 @@ PyObject* ahrs_stream_step(PyObject*, PyObject* const* args, Py_ssize_t nargs) {
         PyErr_SetString(PyExc_TypeError, "ahrs_stream_step(state, gyr, acc, mag) takes 4 arguments");
         return nullptr;
     }
-    ahrs::Stream* st = stream_of(args[0], "state", true);
+    ahrs::Stream* st = stream_arg(args[0], true);
     if (st == nullptr) return nullptr;
     double g[3], a[3], m[3];
     if (!stream::read3(args[1], "gyro", g) || !stream::read3(args[2], "accel", a) ||
         !stream::read3(args[3], "mag", m, true))
         return nullptr;
     ahrs::step(st->s, st->ring(), st->p, g, a, m);
-    const npy_intp four = 4;
-    PyObject* out = PyArray_SimpleNew(1, &four, NPY_DOUBLE);
-    if (out == nullptr) return nullptr;
-    std::memcpy(PyArray_DATA(reinterpret_cast<PyArrayObject*>(out)), st->s.q, 4 * sizeof(double));
-    return out;
+    return stream::new_vector(st->s.q, 4);
 }
 
 PyObject* ahrs_stream_run(PyObject*, PyObject* args) {
@@ -152,7 +119,7 @@ PyObject* ahrs_stream_run(PyObject*, PyObject* args) {
                           &acc, convert<double, 2>, &mag, convert<double, 2, true>, &out_q, convert<double, 2, true>,
                           &out_b))
         return nullptr;
-    ahrs::Stream* st = stream_of(state, "state", true);
+    ahrs::Stream* st = stream_arg(state, true);
     if (st == nullptr) return nullptr;
     const npy_intp n = gyr.shape[0];
     if (!shape_is("gyr", gyr, {n, 3}) || !shape_is("acc", acc, {n, 3}) || !shape_is("mag", mag, {n, 3}) ||
@@ -185,27 +152,14 @@ PyObject* ahrs_rest_run(PyObject*, PyObject* args) {
     Py_RETURN_NONE;
 }
 
-PyObject* new_vector(const double* v, npy_intp n) {
-    PyObject* out = PyArray_SimpleNew(1, &n, NPY_DOUBLE);
-    if (out != nullptr) std::memcpy(PyArray_DATA(reinterpret_cast<PyArrayObject*>(out)), v, n * sizeof(double));
-    return out;
-}
-
 PyObject* ahrs_stream_get(PyObject*, PyObject* args) {
     PyObject* state;
     if (!PyArg_ParseTuple(args, "O:ahrs_stream_get", &state)) return nullptr;
-    const ahrs::Stream* st = stream_of(state, "state", false);
+    const ahrs::Stream* st = stream_arg(state, false);
     if (st == nullptr) return nullptr;
-    return Py_BuildValue("NNNN", new_vector(st->s.q, 4), new_vector(st->s.b, 3),
-                         new_vector(st->s.P, ahrs::NE * ahrs::NE), new_vector(st->s.stats, ahrs::N_STATS));
-}
-
-PyObject* ahrs_stream_check(PyObject*, PyObject* args) {
-    PyObject* state;
-    const char* name = "state";
-    if (!PyArg_ParseTuple(args, "O|s:ahrs_stream_check", &state, &name)) return nullptr;
-    if (stream_of(state, name, false) == nullptr) return nullptr;
-    Py_RETURN_NONE;
+    return Py_BuildValue("NNNN", stream::new_vector(st->s.q, 4), stream::new_vector(st->s.b, 3),
+                         stream::new_vector(st->s.P, ahrs::NE * ahrs::NE),
+                         stream::new_vector(st->s.stats, ahrs::N_STATS));
 }
 
 PyObject* ahrs_predict(PyObject*, PyObject* args) {
@@ -253,7 +207,7 @@ PyMethodDef ahrs_methods[] = {
      "means; sums (10,) updated in place, out_q (n, 4), out_b (n, 3) written)."},
     {"ahrs_stream_get", ahrs_stream_get, METH_VARARGS,
      "ahrs_stream_get(state) -> (q (4,), b (3,), P (36,), stats (N_STATS,)): copies of the stream's state."},
-    {"ahrs_stream_check", ahrs_stream_check, METH_VARARGS,
+    {"ahrs_stream_check", stream::check<ahrs::Stream, stream_kind, stream_bytes_of>, METH_VARARGS,
      "ahrs_stream_check(state, name='state'): ValueError naming `name` unless state is an AHRS stream of this "
      "layout version and size."},
     {"ahrs_predict", ahrs_predict, METH_VARARGS,

@@ -8,6 +8,7 @@
 #include "../common/quat.hpp"
 #include "../common/series.hpp"
 #include "ahrs_layout.hpp"
+#include "eskf_linalg.hpp"
 #include "updates.hpp"
 
 #include <cmath>
@@ -51,19 +52,7 @@ inline void inject_and_reset(double* q, double* b, double* P, const double* dx) 
     G[c * NE + e] = -hx;
     G[e * NE + a] = -hy;
     G[e * NE + c] = hx;
-    double GP[NE * NE];
-    for (int i = 0; i < NE; ++i)
-        for (int j = 0; j < NE; ++j) {
-            double s = 0.0;
-            for (int k = 0; k < NE; ++k) s += G[i * NE + k] * P[k * NE + j];
-            GP[i * NE + j] = s;
-        }
-    for (int i = 0; i < NE; ++i)
-        for (int j = 0; j < NE; ++j) {
-            double s = 0.0;
-            for (int k = 0; k < NE; ++k) s += GP[i * NE + k] * G[j * NE + k];
-            P[i * NE + j] = s;
-        }
+    congruence_sparse<NE>(G, P);
 }
 
 // C <- Exp(δθ) C for a rotation matrix C (3, 3) row-major and δθ = dx[0:3]: Rodrigues' formula

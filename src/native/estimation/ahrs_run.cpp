@@ -3,6 +3,7 @@
 // (inclination) and magnetometer (heading) updates in Joseph form.
 #include "ahrs_run.hpp"
 
+#include "../common/kutil.hpp"
 #include "ahrs_filter.hpp"
 
 #include <algorithm>
@@ -233,39 +234,6 @@ void step(State& s, double* ring, const Params& p, const double* gyr, const doub
 }
 
 namespace {
-// The orientation (xyzw) of the rotation matrix M (3, 3) row-major (Shepperd's method: the largest of 1 + tr M and
-// 1 + 2 M_ii − tr M under the square root).
-void quat_of_matrix(const double* M, double* q) {
-    const double tr = M[0] + M[4] + M[8];
-    if (tr >= M[0] && tr >= M[4] && tr >= M[8]) {
-        const double s = 2.0 * std::sqrt(1.0 + tr);
-        q[3] = 0.25 * s;
-        q[0] = (M[7] - M[5]) / s;
-        q[1] = (M[2] - M[6]) / s;
-        q[2] = (M[3] - M[1]) / s;
-    } else if (M[0] >= M[4] && M[0] >= M[8]) {
-        const double s = 2.0 * std::sqrt(1.0 + 2.0 * M[0] - tr);
-        q[0] = 0.25 * s;
-        q[3] = (M[7] - M[5]) / s;
-        q[1] = (M[1] + M[3]) / s;
-        q[2] = (M[2] + M[6]) / s;
-    } else if (M[4] >= M[8]) {
-        const double s = 2.0 * std::sqrt(1.0 + 2.0 * M[4] - tr);
-        q[1] = 0.25 * s;
-        q[3] = (M[2] - M[6]) / s;
-        q[0] = (M[1] + M[3]) / s;
-        q[2] = (M[5] + M[7]) / s;
-    } else {
-        const double s = 2.0 * std::sqrt(1.0 + 2.0 * M[8] - tr);
-        q[2] = 0.25 * s;
-        q[3] = (M[3] - M[1]) / s;
-        q[0] = (M[2] + M[6]) / s;
-        q[1] = (M[5] + M[7]) / s;
-    }
-    if (q[3] < 0.0)
-        for (int i = 0; i < 4; ++i) q[i] = -q[i];
-}
-
 void normalise3(double* v) {
     const double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
     for (int i = 0; i < 3; ++i) v[i] /= n;
@@ -306,7 +274,7 @@ void rest_run(std::ptrdiff_t n, const double* gyr, const double* acc, const doub
         nn[0] = u[1] * e[2] - u[2] * e[1];
         nn[1] = u[2] * e[0] - u[0] * e[2];
         nn[2] = u[0] * e[1] - u[1] * e[0];
-        quat_of_matrix(M, out_q + 4 * k);
+        store(out_q + 4 * k, quat_of_rotmat(M));  // as dualpose.quat_from_matrix
     }
 }
 

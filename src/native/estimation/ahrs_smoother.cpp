@@ -49,12 +49,7 @@ void congruence_attitude(double* S, const double* A) {
             }
             S[i * NE + j] = s;
         }
-    for (int i = 0; i < NE; ++i)
-        for (int j = i + 1; j < NE; ++j) {
-            const double s = 0.5 * (S[i * NE + j] + S[j * NE + i]);
-            S[i * NE + j] = s;
-            S[j * NE + i] = s;
-        }
+    symmetrize<NE>(S);
 }
 
 // out (3, 3) = J_l(φ) (inverse = 0) or J_l⁻¹(φ) (inverse = 1); J_l(φ) = J_r(−φ).
@@ -65,12 +60,7 @@ void left_jacobian(const double* phi, double inverse, double* out) {
 
 // out (3,) = Log(a ⊗ b*), the global rotation vector taking b to a (angle in [0, π]); a, b (4,) xyzw.
 void log_global(const double* a, const double* b, double* out) {
-    Quat r = qmul(Quat{a[0], a[1], a[2], a[3]}, Quat{-b[0], -b[1], -b[2], b[3]});
-    if (r.w < 0.0) r = Quat{-r.x, -r.y, -r.z, -r.w};
-    const double f = 2.0 * atan2c(norm3(r.x, r.y, r.z), r.w);
-    out[0] = f * r.x;
-    out[1] = f * r.y;
-    out[2] = f * r.z;
+    store(out, rotvec_of_quat(qmul(load4(a), Quat{-b[0], -b[1], -b[2], b[3]})));
 }
 
 }  // namespace

@@ -55,34 +55,26 @@ bool camera_ok(const V1& intr, const V1& q_bc, const V1& p_bc, const M2& pixels,
            shape_is("pixels", pixels, {-1, 2}) && shape_is("points", points, {pixels.shape[0], 3});
 }
 
-PyObject* py_predict_transition(PyObject*, PyObject* args) {
+// eskf_predict(x, P, gyro, accel, dt, gravity, noise) and eskf_predict_transition(..., F): the same step, the
+// transition written to F (15, 15) only by the latter.
+template <bool TRANSITION>
+PyObject* py_predict(PyObject*, PyObject* args) {
     V1w x;
     M2w P, F;
     V1 gyro, accel, gravity, noise;
     double dt;
-    if (!PyArg_ParseTuple(args, "O&O&O&O&dO&O&O&:eskf_predict_transition", cv1w, &x, cm2w, &P, cv1, &gyro, cv1,
-                          &accel, &dt, cv1, &gravity, cv1, &noise, cm2w, &F))
+    const bool parsed =
+        TRANSITION ? PyArg_ParseTuple(args, "O&O&O&O&dO&O&O&:eskf_predict_transition", cv1w, &x, cm2w, &P, cv1, &gyro,
+                                      cv1, &accel, &dt, cv1, &gravity, cv1, &noise, cm2w, &F)
+                   : PyArg_ParseTuple(args, "O&O&O&O&dO&O&:eskf_predict", cv1w, &x, cm2w, &P, cv1, &gyro, cv1, &accel,
+                                      &dt, cv1, &gravity, cv1, &noise);
+    if (!parsed || !state_ok(x, P) || !shape_is("gyro", gyro, {3}) || !shape_is("accel", accel, {3}) ||
+        !shape_is("gravity", gravity, {3}) || !shape_is("noise", noise, {4}) ||
+        (TRANSITION && !shape_is("F", F, {NE, NE})))
         return nullptr;
-    if (!state_ok(x, P) || !shape_is("gyro", gyro, {3}) || !shape_is("accel", accel, {3}) ||
-        !shape_is("gravity", gravity, {3}) || !shape_is("noise", noise, {4}) || !shape_is("F", F, {NE, NE}))
-        return nullptr;
-    predict_transition(x.data, P.data, gyro.data, accel.data, dt, gravity.data, noise.data, F.data);
-    Py_RETURN_NONE;
-}
-
-PyObject* py_predict(PyObject*, PyObject* args) {
-    V1w x;
-    M2w P;
-    V1 gyro, accel, gravity, noise;
-    double dt;
-    if (!PyArg_ParseTuple(args, "O&O&O&O&dO&O&:eskf_predict", cv1w, &x, cm2w, &P, cv1, &gyro, cv1, &accel, &dt, cv1,
-                          &gravity, cv1, &noise))
-        return nullptr;
-    if (!state_ok(x, P) || !shape_is("gyro", gyro, {3}) || !shape_is("accel", accel, {3}) ||
-        !shape_is("gravity", gravity, {3}) || !shape_is("noise", noise, {4}))
-        return nullptr;
-    double F[NE * NE];
-    predict_transition(x.data, P.data, gyro.data, accel.data, dt, gravity.data, noise.data, F);
+    double scratch[NE * NE];
+    predict_transition(x.data, P.data, gyro.data, accel.data, dt, gravity.data, noise.data,
+                       TRANSITION ? F.data : scratch);
     Py_RETURN_NONE;
 }
 
@@ -290,11 +282,10 @@ PyObject* py_run_recorded(PyObject*, PyObject* args) {
 
 // ---- the streaming filter (dualpose.estimation.eskf.EskfStream): the state in one numpy.uint8 buffer
 
-constexpr const char* stream_what = "an ESKF stream state";
+constexpr stream::Kind stream_kind{STREAM_MAGIC, STREAM_VERSION, "ESKF stream", "an ESKF stream state",
+                                    "O|s:eskf_stream_check"};
 
-Stream* stream_arg(PyObject* o, bool write) {
-    return stream::stream_of<Stream>(o, "state", write, STREAM_MAGIC, STREAM_VERSION, stream_what);
-}
+Stream* stream_arg(PyObject* o, bool write) { return stream::stream_of<Stream>(o, "state", write, stream_kind); }
 
 PyObject* py_stream_new(PyObject*, PyObject* args) {
     V1 x, gravity, noise, intr, q_bc, p_bc;
@@ -305,7 +296,7 @@ PyObject* py_stream_new(PyObject*, PyObject* args) {
         return nullptr;
     if (!shape_is("x", x, {NX}) || !shape_is("P", P, {NE, NE}) || !config_ok(gravity, noise, intr, q_bc, p_bc))
         return nullptr;
-    PyObject* out = stream::new_buffer<Stream>(STREAM_MAGIC, STREAM_VERSION);
+    PyObject* out = stream::new_buffer<Stream>(stream_kind);
     if (out == nullptr) return nullptr;
     auto* s = static_cast<Stream*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(out)));
     s->c = make_config(gravity, noise, intr, q_bc, p_bc, sigma_px, gate);
@@ -315,16 +306,9 @@ PyObject* py_stream_new(PyObject*, PyObject* args) {
 
 // eskf_stream_imu(state, t, gyro, accel) -> x (16,): the IMU sample at t (after the frames up to t were given).
 PyObject* py_stream_imu(PyObject*, PyObject* const* args, Py_ssize_t nargs) {
-    if (nargs != 4) {
-        PyErr_SetString(PyExc_TypeError, "eskf_stream_imu(state, t, gyro, accel) takes 4 arguments");
-        return nullptr;
-    }
-    Stream* s = stream_arg(args[0], true);
+    double t, g[3], a[3];
+    Stream* s = stream::imu_args<Stream>(args, nargs, "eskf_stream_imu(state, t, gyro, accel)", stream_kind, t, g, a);
     if (s == nullptr) return nullptr;
-    const double t = PyFloat_AsDouble(args[1]);
-    if (t == -1.0 && PyErr_Occurred()) return nullptr;
-    double g[3], a[3];
-    if (!stream::read3(args[2], "gyro", g) || !stream::read3(args[3], "accel", a)) return nullptr;
     if (!std::isfinite(t) || (s->f.samples > 0 && !(t > s->f.t0))) return stream::time_error(t, s->f.t0);
     double F[NE * NE];
     if (s->f.samples == 0)
@@ -334,17 +318,7 @@ PyObject* py_stream_imu(PyObject*, PyObject* const* args, Py_ssize_t nargs) {
     return stream::new_vector(s->f.x, NX);
 }
 
-// The correspondences and the (m,) nis / accepted outputs of one frame.
-struct FrameArgs {
-    M2 pixels, points;
-    V1w nis;
-    I1w acc;
-    bool ok() const {
-        const npy_intp m = pixels.shape[0];
-        return shape_is("pixels", pixels, {-1, 2}) && shape_is("points", points, {m, 3}) &&
-               shape_is("nis", nis, {m}) && shape_is("accepted", acc, {m});
-    }
-};
+using stream::FrameArgs;
 
 // eskf_stream_frame(state, tj, t1, g1, a1, pixels, points, nis, accepted) -> int: predict to the frame time tj
 // with the input interpolated towards the next IMU sample (t1, g1, a1), then the camera update.
@@ -385,26 +359,13 @@ PyObject* py_stream_update(PyObject*, PyObject* args) {
 // eskf_stream_run(state, t, gyro, accel, cam_t, offsets, pixels, points, X, Ps, nis, accepted) -> int: feed a
 // block; Ps may be None; returns the frames consumed.
 PyObject* py_stream_run(PyObject*, PyObject* args) {
-    PyObject *state, *ps_obj;
-    BlockArrays ba;
-    M2w X;
-    V1w nis;
-    I1w acc;
-    if (!PyArg_ParseTuple(args, "OO&O&O&O&O&O&O&O&OO&O&:eskf_stream_run", &state, cv1, &ba.t, cm2, &ba.gyro, cm2,
-                          &ba.accel, cv1, &ba.cam_t, ci1, &ba.offsets, cm2, &ba.pixels, cm2, &ba.points, cm2w, &X,
-                          &ps_obj, cv1w, &nis, ci1w, &acc))
-        return nullptr;
-    Stream* s = stream_arg(state, true);
-    Block b;
-    if (s == nullptr || !block_of(ba, b)) return nullptr;
-    const npy_intp n = b.n, m = ba.pixels.shape[0];
-    T3w Ps;
-    if (ps_obj != Py_None && (!ct3w(ps_obj, &Ps) || !shape_is("Ps", Ps, {n, NE, NE}))) return nullptr;
-    if (!shape_is("X", X, {n, NX}) || !shape_is("nis", nis, {m}) || !shape_is("accepted", acc, {m})) return nullptr;
-    const Outputs o{X.data, ps_obj == Py_None ? nullptr : Ps.data, nullptr, nullptr, nis.data, acc.data};
+    stream::BlockRun r;
+    Stream* s = stream::block_run_args<Stream>(args, "OO&O&O&O&O&O&O&O&OO&O&:eskf_stream_run", stream_kind, NX, NE, r);
+    if (s == nullptr) return nullptr;
+    const Outputs o{r.X, r.Ps, nullptr, nullptr, r.nis, r.acc};
     std::int64_t used;
     Py_BEGIN_ALLOW_THREADS
-    used = feed(s->f, s->c, b, o, nullptr, nullptr);
+    used = feed(s->f, s->c, r.b, o, nullptr, nullptr);
     Py_END_ALLOW_THREADS
     return PyLong_FromLongLong(used);
 }
@@ -419,20 +380,11 @@ PyObject* py_stream_get(PyObject*, PyObject* args) {
                          s->f.tc, static_cast<long long>(s->f.samples));
 }
 
-PyObject* py_stream_check(PyObject*, PyObject* args) {
-    PyObject* state;
-    const char* name = "state";
-    if (!PyArg_ParseTuple(args, "O|s:eskf_stream_check", &state, &name)) return nullptr;
-    if (stream::stream_of<Stream>(state, name, false, STREAM_MAGIC, STREAM_VERSION, stream_what) == nullptr)
-        return nullptr;
-    Py_RETURN_NONE;
-}
-
 PyMethodDef methods[] = {
-    {"eskf_predict", py_predict, METH_VARARGS,
+    {"eskf_predict", py_predict<false>, METH_VARARGS,
      "eskf_predict(x, P, gyro, accel, dt, gravity, noise): propagate nominal state x (16,) and error covariance "
      "P (15, 15) in place over dt with constant IMU input (Solà 2017 eq. 260, 269-270)."},
-    {"eskf_predict_transition", py_predict_transition, METH_VARARGS,
+    {"eskf_predict_transition", py_predict<true>, METH_VARARGS,
      "eskf_predict_transition(x, P, gyro, accel, dt, gravity, noise, F): eskf_predict that also writes the "
      "error-state transition of the step (Solà eq. 269) to F (15, 15)."},
     {"eskf_camera_batch", py_camera_batch, METH_VARARGS,
@@ -465,7 +417,7 @@ PyMethodDef methods[] = {
      "steps over a block (Ps may be None); returns the number of frames consumed.  The GIL is released."},
     {"eskf_stream_get", py_stream_get, METH_VARARGS,
      "eskf_stream_get(state) -> (x (16,), P (225,), t0, tc, samples): copies of the stream's state."},
-    {"eskf_stream_check", py_stream_check, METH_VARARGS,
+    {"eskf_stream_check", stream::check<Stream, stream_kind>, METH_VARARGS,
      "eskf_stream_check(state, name='state'): ValueError naming `name` unless state is an ESKF stream of this "
      "layout version and size."},
     {"eskf_run", py_run, METH_VARARGS,

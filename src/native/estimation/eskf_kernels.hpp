@@ -68,12 +68,11 @@ inline void predict_transition(double* x, double* Pm, const double* gyro, const 
 }
 
 // Reprojection residual r = pixel − π(R_bcᵀ(R_wbᵀ(z − p) − p_bc)) (2,) and H = ∂π/∂δx (2, 15); returns the depth Z
-// of the point in the camera frame (the model is valid only for Z > 0).
-inline double camera_residual_jacobian(const double* x, const double* intr, const double* q_bc, const double* p_bc,
-                                       const double* pixel, const double* point, double* r, double* H) {
-    double R[9], Rbc[9];
-    rotmat_xyzw(x[Q], x[Q + 1], x[Q + 2], x[Q + 3], R);
-    rotmat_xyzw(q_bc[0], q_bc[1], q_bc[2], q_bc[3], Rbc);
+// of the point in the camera frame (the model is valid only for Z > 0).  R = R_wb of x's attitude, Rbc = R_bc
+// (3, 3) row-major, computed once per frame by camera_batch.
+inline double camera_residual_jacobian(const double* x, const double* R, const double* Rbc, const double* intr,
+                                       const double* p_bc, const double* pixel, const double* point, double* r,
+                                       double* H) {
     double d[3], pb[3], pc[3];
     for (int i = 0; i < 3; ++i) d[i] = point[i] - x[P + i];
     for (int i = 0; i < 3; ++i) pb[i] = R[i] * d[0] + R[3 + i] * d[1] + R[6 + i] * d[2];  // R_wbᵀ (z − p)
@@ -110,8 +109,11 @@ inline double camera_residual_jacobian(const double* x, const double* intr, cons
 inline void camera_batch(const double* x, const double* intr, const double* q_bc, const double* p_bc,
                          const double* pixels, const double* points, std::int64_t m, double* r, double* H,
                          double* depth) {
+    double R[9], Rbc[9];
+    rotmat_xyzw(x[Q], x[Q + 1], x[Q + 2], x[Q + 3], R);
+    rotmat_xyzw(q_bc[0], q_bc[1], q_bc[2], q_bc[3], Rbc);
     for (std::int64_t k = 0; k < m; ++k)
-        depth[k] = camera_residual_jacobian(x, intr, q_bc, p_bc, pixels + 2 * k, points + 3 * k, r + 2 * k,
+        depth[k] = camera_residual_jacobian(x, R, Rbc, intr, p_bc, pixels + 2 * k, points + 3 * k, r + 2 * k,
                                             H + k * 2 * NE);
 }
 

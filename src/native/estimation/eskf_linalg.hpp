@@ -11,18 +11,31 @@
 namespace dualpose {
 
 // out (R, C) = A (R, K) B (K, C), skipping the zero entries of A (exact: a skipped term is +0 for finite B).
-// out may not alias A or B.
+// out may not alias A or B.  R, K, C > 0 fix the sizes at compile time; 0 takes r_, k_, c_ at run time.
 template <int R, int K, int C>
-inline void mul_sparse_left(const double* A, const double* B, double* out) {
-    for (int i = 0; i < R; ++i) {
-        double* o = out + i * C;
-        for (int j = 0; j < C; ++j) o[j] = 0.0;
-        for (int k = 0; k < K; ++k) {
-            const double a = A[i * K + k];
+inline void mul_sparse_left(const double* A, const double* B, double* out, int r_ = R, int k_ = K, int c_ = C) {
+    const int nr = R > 0 ? R : r_, nk = K > 0 ? K : k_, nc = C > 0 ? C : c_;
+    for (int i = 0; i < nr; ++i) {
+        double* o = out + i * nc;
+        for (int j = 0; j < nc; ++j) o[j] = 0.0;
+        for (int k = 0; k < nk; ++k) {
+            const double a = A[i * nk + k];
             if (a != 0.0)
-                for (int j = 0; j < C; ++j) o[j] += a * B[k * C + j];
+                for (int j = 0; j < nc; ++j) o[j] += a * B[k * nc + j];
         }
     }
+}
+
+// S (n, n) <- (S + Sᵀ) / 2 element by element: exactly symmetric afterwards.  N > 0 fixes n at compile time.
+template <int N = 0>
+inline void symmetrize(double* S, int n_ = N) {
+    const int n = N > 0 ? N : n_;
+    for (int i = 0; i < n; ++i)
+        for (int j = i + 1; j < n; ++j) {
+            const double s = 0.5 * (S[i * n + j] + S[j * n + i]);
+            S[i * n + j] = s;
+            S[j * n + i] = s;
+        }
 }
 
 // P <- A P Aᵀ (N, N) for a sparse A (the transition F or the reset Jacobian G):  W = (A P)ᵀ, P = (A W)ᵀ, each

@@ -82,11 +82,10 @@ PyObject* hol22_run(PyObject*, PyObject* args) {
 
 // ---- the streaming filter: the state in one numpy.uint8 buffer
 
-constexpr const char* stream_what = "a Hol22 stream state";
+constexpr stream::Kind stream_kind{STREAM_MAGIC, STREAM_VERSION, "Hol22 stream", "a Hol22 stream state",
+                                    "O|s:hol22_stream_check"};
 
-Stream* stream_arg(PyObject* o, bool write) {
-    return stream::stream_of<Stream>(o, "state", write, STREAM_MAGIC, STREAM_VERSION, stream_what);
-}
+Stream* stream_arg(PyObject* o, bool write) { return stream::stream_of<Stream>(o, "state", write, stream_kind); }
 
 PyObject* stream_new(PyObject*, PyObject* args) {
     V1 x;
@@ -97,7 +96,7 @@ PyObject* stream_new(PyObject*, PyObject* args) {
                           &ca.gravity, cm2, &ca.R_imu, cv1, &ca.intr, cv1, &ca.p_bc, cm2, &ca.Rcb, &sigma_px, &gate))
         return nullptr;
     if (!shape_is("x", x, {N}) || !shape_is("P", P, {N, N}) || !ca.ok()) return nullptr;
-    PyObject* out = stream::new_buffer<Stream>(STREAM_MAGIC, STREAM_VERSION);
+    PyObject* out = stream::new_buffer<Stream>(stream_kind);
     if (out == nullptr) return nullptr;
     auto* s = static_cast<Stream*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(out)));
     s->c = ca.config(sigma_px, gate);
@@ -107,16 +106,9 @@ PyObject* stream_new(PyObject*, PyObject* args) {
 
 // hol22_stream_imu(state, t, gyro, accel) -> x (22,)
 PyObject* stream_imu(PyObject*, PyObject* const* args, Py_ssize_t nargs) {
-    if (nargs != 4) {
-        PyErr_SetString(PyExc_TypeError, "hol22_stream_imu(state, t, gyro, accel) takes 4 arguments");
-        return nullptr;
-    }
-    Stream* s = stream_arg(args[0], true);
+    double t, g[3], a[3];
+    Stream* s = stream::imu_args<Stream>(args, nargs, "hol22_stream_imu(state, t, gyro, accel)", stream_kind, t, g, a);
     if (s == nullptr) return nullptr;
-    const double t = PyFloat_AsDouble(args[1]);
-    if (t == -1.0 && PyErr_Occurred()) return nullptr;
-    double g[3], a[3];
-    if (!stream::read3(args[2], "gyro", g) || !stream::read3(args[3], "accel", a)) return nullptr;
     if (!std::isfinite(t) || (s->f.samples > 0 && !(t > s->f.t_imu))) return stream::time_error(t, s->f.t_imu);
     if (s->f.started && t < s->f.tc) return stream::time_error(t, s->f.tc);
     imu_step(s->f, s->c, t, g, a);
@@ -127,48 +119,29 @@ PyObject* stream_imu(PyObject*, PyObject* const* args, Py_ssize_t nargs) {
 PyObject* stream_frame(PyObject*, PyObject* args) {
     PyObject* state;
     double tj;
-    M2 pixels, points;
-    V1w nis;
-    I1w acc;
-    if (!PyArg_ParseTuple(args, "OdO&O&O&O&:hol22_stream_frame", &state, &tj, cm2, &pixels, cm2, &points, cv1w, &nis,
-                          ci1w, &acc))
+    stream::FrameArgs fa;
+    if (!PyArg_ParseTuple(args, "OdO&O&O&O&:hol22_stream_frame", &state, &tj, cm2, &fa.pixels, cm2, &fa.points, cv1w,
+                          &fa.nis, ci1w, &fa.acc))
         return nullptr;
     Stream* s = stream_arg(state, true);
-    if (s == nullptr) return nullptr;
-    const npy_intp m = pixels.shape[0];
-    if (!shape_is("pixels", pixels, {-1, 2}) || !shape_is("points", points, {m, 3}) || !shape_is("nis", nis, {m}) ||
-        !shape_is("accepted", acc, {m}))
-        return nullptr;
+    if (s == nullptr || !fa.ok()) return nullptr;
     if (!std::isfinite(tj) || (s->f.started && tj < s->f.tc)) return stream::time_error(tj, s->f.tc);
-    frame_step(s->f, s->c, tj, pixels.data, points.data, m, nis.data, acc.data);
+    const npy_intp m = fa.pixels.shape[0];
+    frame_step(s->f, s->c, tj, fa.pixels.data, fa.points.data, m, fa.nis.data, fa.acc.data);
     std::int64_t n_acc = 0;
-    for (npy_intp k = 0; k < m; ++k) n_acc += acc.data[k];
+    for (npy_intp k = 0; k < m; ++k) n_acc += fa.acc.data[k];
     return PyLong_FromLongLong(n_acc);
 }
 
 // hol22_stream_run(state, t, gyro, accel, cam_t, offsets, pixels, points, X, Ps, nis, accepted) -> int: feed a block
 // (Ps may be None); returns the frames consumed.
 PyObject* stream_run(PyObject*, PyObject* args) {
-    PyObject *state, *ps_obj;
-    BlockArrays ba;
-    M2w X;
-    V1w nis;
-    I1w acc;
-    if (!PyArg_ParseTuple(args, "OO&O&O&O&O&O&O&O&OO&O&:hol22_stream_run", &state, cv1, &ba.t, cm2, &ba.gyro, cm2,
-                          &ba.accel, cv1, &ba.cam_t, ci1, &ba.offsets, cm2, &ba.pixels, cm2, &ba.points, cm2w, &X,
-                          &ps_obj, cv1w, &nis, ci1w, &acc))
-        return nullptr;
-    Stream* s = stream_arg(state, true);
-    SensorBlock b;
-    if (s == nullptr || !block_of(ba, b)) return nullptr;
-    const npy_intp n = b.n, m = ba.pixels.shape[0];
-    T3w Ps;
-    if (ps_obj != Py_None && (!ct3w(ps_obj, &Ps) || !shape_is("Ps", Ps, {n, N, N}))) return nullptr;
-    if (!shape_is("X", X, {n, N}) || !shape_is("nis", nis, {m}) || !shape_is("accepted", acc, {m})) return nullptr;
-    double* Pout = ps_obj == Py_None ? nullptr : Ps.data;
+    stream::BlockRun r;
+    Stream* s = stream::block_run_args<Stream>(args, "OO&O&O&O&O&O&O&O&OO&O&:hol22_stream_run", stream_kind, N, N, r);
+    if (s == nullptr) return nullptr;
     std::int64_t used;
     Py_BEGIN_ALLOW_THREADS;
-    used = feed(s->f, s->c, b, X.data, Pout, nis.data, acc.data);
+    used = feed(s->f, s->c, r.b, r.X, r.Ps, r.nis, r.acc);
     Py_END_ALLOW_THREADS;
     return PyLong_FromLongLong(used);
 }
@@ -181,15 +154,6 @@ PyObject* stream_get(PyObject*, PyObject* args) {
     if (s == nullptr) return nullptr;
     return Py_BuildValue("NNddL", stream::new_vector(s->f.x, N), stream::new_vector(s->f.P, N * N), s->f.t_imu,
                          s->f.tc, static_cast<long long>(s->f.samples));
-}
-
-PyObject* stream_check(PyObject*, PyObject* args) {
-    PyObject* state;
-    const char* name = "state";
-    if (!PyArg_ParseTuple(args, "O|s:hol22_stream_check", &state, &name)) return nullptr;
-    if (stream::stream_of<Stream>(state, name, false, STREAM_MAGIC, STREAM_VERSION, stream_what) == nullptr)
-        return nullptr;
-    Py_RETURN_NONE;
 }
 
 PyMethodDef hol22_methods[] = {
@@ -211,7 +175,7 @@ PyMethodDef hol22_methods[] = {
     {"hol22_stream_get", stream_get, METH_VARARGS,
      "hol22_stream_get(state) -> (x (22,), P (484,), t_imu, tc, samples): copies of the stream's state (t_imu: "
      "the last IMU sample's time)."},
-    {"hol22_stream_check", stream_check, METH_VARARGS,
+    {"hol22_stream_check", stream::check<Stream, stream_kind>, METH_VARARGS,
      "hol22_stream_check(state, name='state'): ValueError naming `name` unless state is a Hol22 stream of this "
      "layout version and size."},
     {nullptr, nullptr, 0, nullptr}};

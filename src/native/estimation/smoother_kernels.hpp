@@ -27,12 +27,7 @@ inline void boxminus(const double* x, const double* y, double* out) {
         out[DBG + i] = x[BG + i] - y[BG + i];
         out[DBA + i] = x[BA + i] - y[BA + i];
     }
-    Quat r = qmul(Quat{-y[Q], -y[Q + 1], -y[Q + 2], y[Q + 3]}, Quat{x[Q], x[Q + 1], x[Q + 2], x[Q + 3]});
-    if (r.w < 0.0) r = Quat{-r.x, -r.y, -r.z, -r.w};
-    const double f = 2.0 * atan2c(norm3(r.x, r.y, r.z), r.w);
-    out[DTH] = f * r.x;
-    out[DTH + 1] = f * r.y;
-    out[DTH + 2] = f * r.z;
+    store(out + DTH, rotvec_of_quat(qmul(Quat{-y[Q], -y[Q + 1], -y[Q + 2], y[Q + 3]}, load4(x + Q))));
 }
 
 // out (16,) = x ⊞ δx: p + δp, v + δv, q ⊗ Exp(δθ), b_g + δb_g, b_a + δb_a.
@@ -110,15 +105,7 @@ inline Status rts_step(const double* P_post, const double* P_prior_next, const d
     double* LU = w.LU.data();
     double* Gt = w.Gt.data();
     double* GD = w.GD.data();
-    for (int i = 0; i < n; ++i) {  // Gt <- F P_post
-        double* o = Gt + i * n;
-        for (int j = 0; j < n; ++j) o[j] = 0.0;
-        for (int k = 0; k < n; ++k) {
-            const double f = F[i * n + k];
-            if (f != 0.0)
-                for (int j = 0; j < n; ++j) o[j] += f * P_post[k * n + j];
-        }
-    }
+    mul_sparse_left<N, N, N>(F, P_post, Gt, n, n, n);  // Gt <- F P_post
     std::copy(P_prior_next, P_prior_next + n * n, LU);
     if (!all_finite(LU, n * n) || !all_finite(Gt, n * n)) return Status::not_finite;
     if (!lu_factor<N>(LU, n, w.piv.data())) return Status::singular;
@@ -147,12 +134,7 @@ inline Status rts_step(const double* P_post, const double* P_prior_next, const d
         }
         for (int j = 0; j < n; ++j) o[j] = P_post[i * n + j] + o[j];
     }
-    for (int i = 0; i < n; ++i)
-        for (int j = i + 1; j < n; ++j) {
-            const double s = 0.5 * (S_out[i * n + j] + S_out[j * n + i]);
-            S_out[i * n + j] = s;
-            S_out[j * n + i] = s;
-        }
+    symmetrize<N>(S_out, n);
     return Status::ok;
 }
 

@@ -6,6 +6,8 @@
 // in the order of the numba kernels they replace (no fast-math, no FMA contraction: see CMakeLists.txt).
 #pragma once
 
+#include "eskf_linalg.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -51,12 +53,7 @@ inline void joseph(double* P, const double* K, const double* H, const double* R,
             P[i * N + j] = apa + krk;
         }
     }
-    for (int i = 0; i < N; ++i)  // keep exactly symmetric
-        for (int j = i + 1; j < N; ++j) {
-            const double s = 0.5 * (P[i * N + j] + P[j * N + i]);
-            P[i * N + j] = s;
-            P[j * N + i] = s;
-        }
+    symmetrize<N>(P);  // keep exactly symmetric
 }
 
 // Joseph update for a 2-row measurement with noise s2 I₂, without forming I − K H:
