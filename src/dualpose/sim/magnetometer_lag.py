@@ -14,11 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 
 import dualpose as dp
+from dualpose.sim._imu_truth import FIELD_ENU, central_body_rate
 
 __all__ = ["FIELD_ENU", "LaggedRecording", "tumbling_quat", "tumbling_body_rate", "lagged_recording"]
-
-#: the earth-frame field of the recordings, µT, ENU (north and down components)
-FIELD_ENU = np.array([0.0, 20.0, -44.0])
 
 
 def tumbling_quat(t: np.ndarray) -> np.ndarray:
@@ -37,11 +35,7 @@ def tumbling_quat(t: np.ndarray) -> np.ndarray:
 
 def tumbling_body_rate(t: np.ndarray) -> np.ndarray:
     """Body-frame angular rate, rad/s, shape (n, 3), of :func:`tumbling_quat` at the times ``t`` (s, shape (n,))."""
-    t = np.asarray(t, dtype=np.float64)
-    h = 1e-6
-    q = tumbling_quat(t)
-    dq = (tumbling_quat(t + h) - tumbling_quat(t - h)) / (2 * h)
-    return 2.0 * dp.quat_mul(dp.quat_conj(q), dq)[:, :3]
+    return central_body_rate(tumbling_quat, np.asarray(t, dtype=np.float64))
 
 
 @dataclass(frozen=True)
