@@ -91,6 +91,16 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     return p
 
 
+#: rows of the summary tables scored against the ground truth: label, metrics key, format
+_ERROR_ROWS = (
+    ("ATE RMSE (SE(3)) [m]", "ate_rmse_m", ".6f"),
+    ("orientation RMSE (SE(3)) [deg]", "orientation_rmse_deg", ".4f"),
+    ("RPE RMSE (0.5 m) [m]", "rpe_rmse_m", ".6f"),
+    ("position RMSE, unaligned [m]", "position_rmse_unaligned_m", ".6f"),
+    ("orientation RMSE, unaligned [deg]", "orientation_rmse_unaligned_deg", ".4f"),
+)
+
+
 def _table(m: dict) -> str:
     def num(key: str, spec: str) -> str:
         return "n/a (no ground truth)" if m[key] is None else format(m[key], spec)
@@ -100,11 +110,7 @@ def _table(m: dict) -> str:
     rows = [
         ("data", m["data"]),
         ("filter", m["filter"]),
-        ("ATE RMSE (SE(3)) [m]", num("ate_rmse_m", ".6f")),
-        ("orientation RMSE (SE(3)) [deg]", num("orientation_rmse_deg", ".4f")),
-        ("RPE RMSE (0.5 m) [m]", num("rpe_rmse_m", ".6f")),
-        ("position RMSE, unaligned [m]", num("position_rmse_unaligned_m", ".6f")),
-        ("orientation RMSE, unaligned [deg]", num("orientation_rmse_unaligned_deg", ".4f")),
+        *((label, num(key, fmt)) for label, key, fmt in _ERROR_ROWS),
         ("NIS inside 95% band", f"{m['nis_fraction_inside']:.3f}"),
         ("correspondences rejected", f"{m['n_rejected']} of {m['n_correspondences']}"),
         ("real-time factor", f"{m['realtime_factor']:.1f}x"),
@@ -113,22 +119,12 @@ def _table(m: dict) -> str:
     return "\n".join(f"{name:<{width}}  {value}" for name, value in rows)
 
 
-#: rows of the filter-vs-smoother table: label, metrics key, format
-_SMOOTHED_ROWS = (
-    ("ATE RMSE (SE(3)) [m]", "ate_rmse_m", ".6f"),
-    ("orientation RMSE (SE(3)) [deg]", "orientation_rmse_deg", ".4f"),
-    ("RPE RMSE (0.5 m) [m]", "rpe_rmse_m", ".6f"),
-    ("position RMSE, unaligned [m]", "position_rmse_unaligned_m", ".6f"),
-    ("orientation RMSE, unaligned [deg]", "orientation_rmse_unaligned_deg", ".4f"),
-)
-
-
 def _table_smoothed(m: dict, num) -> str:
     """The summary table with a filter and a smoother column (``--smooth``)."""
     s = m["smoothed"]
     rows = [("data", m["data"], ""), ("method", "filter", "RTS smoother")]
     rows += [
-        (label, num(key, fmt), "n/a" if s[key] is None else format(s[key], fmt)) for label, key, fmt in _SMOOTHED_ROWS
+        (label, num(key, fmt), "n/a" if s[key] is None else format(s[key], fmt)) for label, key, fmt in _ERROR_ROWS
     ]
     rows += [
         ("NIS inside 95% band", f"{m['nis_fraction_inside']:.3f}", ""),
