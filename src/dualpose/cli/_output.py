@@ -1,5 +1,5 @@
-"""Output locations checked before a command computes anything: ``--out DIR`` must be a directory, or creatable,
-and writable.
+"""Output of the commands: the aligned two-column tables they print (:func:`aligned_rows`), and the output locations
+checked before a command computes anything: ``--out DIR`` must be a directory, or creatable, and writable.
 
 Permission bits do not tell the whole story (root writes to a mode 0o555 directory; ``/proc`` and read-only mounts
 refuse everyone), so besides :func:`os.access` a temporary file is created and deleted in the directory (or in its
@@ -12,7 +12,13 @@ import os
 import tempfile
 from pathlib import Path
 
-__all__ = ["output_dir_problem"]
+__all__ = ["aligned_rows", "output_dir_problem"]
+
+
+def aligned_rows(rows: list[tuple[str, str]], indent: str = "") -> str:
+    """``rows`` of (label, value) as lines ``{indent}{label}  {value}``, the labels padded to the longest one."""
+    width = max(len(r[0]) for r in rows)
+    return "\n".join(f"{indent}{name:<{width}}  {value}" for name, value in rows)
 
 
 def _trial_write(directory: Path) -> str | None:

@@ -102,6 +102,8 @@ _ERROR_ROWS = (
 
 
 def _table(m: dict) -> str:
+    from dualpose.cli._output import aligned_rows
+
     def num(key: str, spec: str) -> str:
         return "n/a (no ground truth)" if m[key] is None else format(m[key], spec)
 
@@ -115,8 +117,7 @@ def _table(m: dict) -> str:
         ("correspondences rejected", f"{m['n_rejected']} of {m['n_correspondences']}"),
         ("real-time factor", f"{m['realtime_factor']:.1f}x"),
     ]
-    width = max(len(r[0]) for r in rows)
-    return "\n".join(f"{name:<{width}}  {value}" for name, value in rows)
+    return aligned_rows(rows)
 
 
 def _table_smoothed(m: dict, num) -> str:
