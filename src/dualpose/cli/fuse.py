@@ -204,7 +204,7 @@ def run(args: argparse.Namespace) -> int:
     """Entry point of ``dualpose fuse``."""
     from pathlib import Path
 
-    from dualpose.cli._output import output_dir_problem
+    from dualpose.cli._output import output_files_problem
 
     if args.stream:
         return run_stream(args)
@@ -218,16 +218,10 @@ def run(args: argparse.Namespace) -> int:
     paths: dict[str, Path] = {}
     if args.out:
         out = Path(args.out)
-        problem = output_dir_problem(out)
+        problem = output_files_problem(out, _output_files(args.smooth), args.force)
         if problem is not None:
-            print(f"dualpose fuse: error: --out {problem}", file=sys.stderr)
-            return 2
+            return _usage_error(problem)
         paths = {name: out / name for name in _output_files(args.smooth)}
-        if not args.force:
-            for path in paths.values():
-                if path.exists():
-                    print(f"dualpose fuse: error: {path}: file exists; use --force to replace it", file=sys.stderr)
-                    return 2
     result = _run_job(args)
     if result is None:
         return 1

@@ -150,7 +150,7 @@ def _table(summary: dict[str, Any]) -> str:
 def run_screw_vector(args: argparse.Namespace) -> int:
     from dataclasses import asdict
 
-    from dualpose.cli._output import output_dir_problem
+    from dualpose.cli._output import output_files_problem
     from dualpose.pipelines.reproduce_screw_vector import Scenario
 
     out: Path | None = args.out
@@ -165,13 +165,9 @@ def run_screw_vector(args: argparse.Namespace) -> int:
             print(f"{_PROG}: error: --out writes PNG figures, which need matplotlib: pip install 'dualpose[plot]'",
                   file=sys.stderr)  # fmt: skip
             return 2
-        problem = output_dir_problem(out)
+        problem = output_files_problem(out, names, args.force)
         if problem is not None:
-            print(f"{_PROG}: error: --out {problem}", file=sys.stderr)
-            return 2
-        clash = [n for n in names if (out / n).exists()]
-        if clash and not args.force:
-            print(f"{_PROG}: error: {out} already has {', '.join(clash)}; use --force to overwrite", file=sys.stderr)
+            print(f"{_PROG}: error: {problem}", file=sys.stderr)
             return 2
         out.mkdir(parents=True, exist_ok=True)
     sc = Scenario()

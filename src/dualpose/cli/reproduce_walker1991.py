@@ -127,22 +127,16 @@ def _plot(res: dict, path: Path) -> bool:
 
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``dualpose reproduce walker1991``."""
-    from dualpose.cli._output import output_dir_problem
+    from dualpose.cli._output import output_files_problem
     from dualpose.cli._progress import progress_bar
     from dualpose.pipelines import reproduce_walker1991 as walker1991
 
     out_dir = Path(args.out) if args.out else None
     names = ("walker1991.md", "walker1991.json", "walker1991.png")
     if out_dir is not None:
-        problem = output_dir_problem(out_dir)
+        problem = output_files_problem(out_dir, names, args.force)
         if problem is not None:
-            print(f"dualpose reproduce walker1991: error: --out {problem}", file=sys.stderr)
-            return 2
-    if out_dir is not None and not args.force:
-        existing = [n for n in names if (out_dir / n).exists()]
-        if existing:
-            print(f"dualpose reproduce walker1991: error: {out_dir}/{existing[0]} exists (use --force to overwrite)",
-                  file=sys.stderr)  # fmt: skip
+            print(f"dualpose reproduce walker1991: error: {problem}", file=sys.stderr)
             return 2
     with progress_bar(20, "dualpose reproduce walker1991") as bar:
         res = walker1991.run(quick=args.quick, progress=_Bar(bar))
