@@ -147,6 +147,13 @@ SCENE_TARGET = np.array([0.0, 0.35, 0.35])
 CAMERA_HOME = np.array([0.0, 1.45, 0.85])
 
 
+def _home_body_pose(extrinsic: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
+    """Body pose ``(q_wb, p_wb)`` whose camera (extrinsic, default :func:`default_extrinsic`) sits at
+    :data:`CAMERA_HOME` looking at :data:`SCENE_TARGET`: where the motions start."""
+    q_bc, p_bc = default_extrinsic() if extrinsic is None else extrinsic
+    return body_from_camera(look_at_quat(CAMERA_HOME, SCENE_TARGET), CAMERA_HOME, q_bc, p_bc)
+
+
 def eight_motion(
     path_length: float = 2.6,
     period: float = 5.4,
@@ -161,8 +168,7 @@ def eight_motion(
     so the body is at rest for ``static_before`` s (for static alignment), then moves with peak acceleration
     ≈ 3.9 m/s² and peak angular rate ≈ 1 rad/s (Hol: up to 4 m/s², 1 rad/s), then rests for ``static_after`` s.
     """
-    q_bc, p_bc = default_extrinsic() if extrinsic is None else extrinsic
-    q_wb0, p0 = body_from_camera(look_at_quat(CAMERA_HOME, SCENE_TARGET), CAMERA_HOME, q_bc, p_bc)
+    q_wb0, p0 = _home_body_pose(extrinsic)
     # shape: x = a sin θ, z = b sin 2θ, y = d (cos 2θ − 1); scaled to the requested path length
     shape = np.array([[1.0, 0.0, 0.0], [0.0, 0.12, 0.5]])
     harm = np.array([1.0, 2.0])
@@ -205,8 +211,7 @@ def random_motion(
     metres and ``rotation_amplitude`` radians per term; the camera stays near the default home pose, facing the scene.
     """
     rng = np.random.default_rng(seed)
-    q_bc, p_bc = default_extrinsic() if extrinsic is None else extrinsic
-    q_wb0, p0 = body_from_camera(look_at_quat(CAMERA_HOME, SCENE_TARGET), CAMERA_HOME, q_bc, p_bc)
+    q_wb0, p0 = _home_body_pose(extrinsic)
     omega0 = 2 * math.pi * 0.1
     harm_p = rng.uniform(1.0, max_frequency_hz / 0.1, n_terms)
     harm_r = rng.uniform(1.0, max_frequency_hz / 0.1, n_terms)
