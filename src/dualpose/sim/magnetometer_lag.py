@@ -15,6 +15,7 @@ import numpy as np
 
 import dualpose as dp
 from dualpose.sim._imu_truth import FIELD_ENU, central_body_rate
+from dualpose.types.imu import STANDARD_GRAVITY
 
 __all__ = ["FIELD_ENU", "LaggedRecording", "tumbling_quat", "tumbling_body_rate", "lagged_recording"]
 
@@ -118,7 +119,7 @@ def lagged_recording(
     moving = t >= rest_seconds
     gyr = rate_tm[:, None] * tumbling_body_rate(tm) + rng.normal(0.0, 0.005, (t.size, 3))
     q = tumbling_quat(tm)
-    acc = dp.quat_rotate(dp.quat_conj(q), np.broadcast_to([0.0, 0.0, 9.81], (t.size, 3)))
+    acc = dp.quat_rotate(dp.quat_conj(q), np.broadcast_to([0.0, 0.0, STANDARD_GRAVITY], (t.size, 3)))
     acc = acc + rng.normal(0.0, 0.02, (t.size, 3))
     q_mag = tumbling_quat(_motion_time(t - rest_seconds - lag, ramp_seconds)[0])
     mag = dp.quat_rotate(dp.quat_conj(q_mag), np.broadcast_to(FIELD_ENU, (t.size, 3)))

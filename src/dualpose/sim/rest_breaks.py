@@ -22,10 +22,9 @@ import numpy as np
 
 import dualpose as dp
 from dualpose.sim._imu_truth import FIELD_ENU, central_body_rate
+from dualpose.types.imu import STANDARD_GRAVITY
 
 __all__ = ["FIELD_ENU", "RestBreakRecording", "rest_break_recording"]
-
-GRAVITY = 9.81
 
 
 @dataclass(frozen=True)
@@ -177,7 +176,7 @@ def rest_break_recording(
     )
     conj = dp.quat_conj(quat)
     gyr = w + bias + rng.normal(scale=gyr_sigma, size=(n, 3))
-    acc = dp.quat_rotate(conj, a_lin + [0.0, 0.0, GRAVITY]) + rng.normal(scale=acc_sigma, size=(n, 3))
+    acc = dp.quat_rotate(conj, a_lin + [0.0, 0.0, STANDARD_GRAVITY]) + rng.normal(scale=acc_sigma, size=(n, 3))
     mag = dp.quat_rotate(conj, np.broadcast_to(FIELD_ENU, (n, 3))) + rng.normal(scale=mag_sigma, size=(n, 3))
     ends = segments[:-1, 1]
     breaks = np.stack([np.round(ends * rate), np.round((ends + pause) * rate)], axis=1).astype(np.int64)
