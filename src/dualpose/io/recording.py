@@ -37,6 +37,7 @@ from dualpose.types import (
     SensorSetup,
     Trajectory,
 )
+from dualpose.types.imu import STANDARD_GRAVITY
 from dualpose.types.trajectory import seconds_from_ns
 
 __all__ = [
@@ -397,7 +398,8 @@ def _sensor_fields(top: dict, cam: dict) -> dict:
     return {
         "camera": CameraIntrinsics(cam["fx"], cam["fy"], cam["cx"], cam["cy"], cam["width"], cam["height"]),
         "q_bc": cam["q_bc"], "p_bc": cam["p_bc"], "pixel_sigma": cam["pixel_sigma"],
-        "time_offset": cam.get("timeshift_cam_imu", 0.0), "gravity": top.get("gravity", np.array([0.0, 0.0, -9.81])),
+        "time_offset": cam.get("timeshift_cam_imu", 0.0),
+        "gravity": top.get("gravity", np.array([0.0, 0.0, -STANDARD_GRAVITY])),
     }  # fmt: skip
 
 

@@ -20,7 +20,7 @@ from typing import Protocol
 import numpy as np
 
 from dualpose.types.camera import FrameCorrespondences, PinholeModel
-from dualpose.types.imu import ImuNoise
+from dualpose.types.imu import STANDARD_GRAVITY, ImuNoise
 from dualpose.types.trajectory import Trajectory
 
 __all__ = ["IMU_LIMITS", "NOISE_LIMITS", "FilterStart", "Recording", "RecordingWarning", "SensorRun", "SensorSetup"]
@@ -118,7 +118,7 @@ class Recording:
     pixel_sigma: float
     imu_noise: ImuNoise
     time_offset: float = 0.0
-    gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
+    gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -STANDARD_GRAVITY]))
     rest_seconds: float | None = None
     ground_truth: Trajectory | None = None
     stamps_ns: np.ndarray | None = None
@@ -313,7 +313,7 @@ class SensorSetup:
     imu_noise: ImuNoise
     start: FilterStart
     time_offset: float = 0.0
-    gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
+    gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -STANDARD_GRAVITY]))
 
     def __post_init__(self) -> None:
         _check_setup(self)
