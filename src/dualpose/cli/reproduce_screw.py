@@ -48,27 +48,14 @@ def add_target(targets: Any) -> argparse.ArgumentParser:
     return p
 
 
-class _Bar:
-    """Progress of one simulated run on the shared helper, in 10 % steps (``progress(frac)``)."""
-
-    def __init__(self, bar: Any) -> None:
-        self.bar, self.done = bar, 0
-
-    def __call__(self, frac: float) -> None:
-        k = min(int(10 * frac + 1e-9), 10)
-        if self.bar is not None and k > self.done:
-            self.bar.update(k - self.done)
-            self.done = k
-
-
 def _simulate(sc: Any, n: int, duration: float, label: str, show: bool) -> dict:
     from contextlib import nullcontext
 
-    from dualpose.cli._progress import progress_bar
+    from dualpose.cli._progress import FractionSteps, progress_bar
     from dualpose.pipelines.reproduce_screw_vector import simulate
 
-    with progress_bar(10, f"{_PROG}: {label}") if show else nullcontext() as bar:
-        return simulate(sc, n, duration, progress=_Bar(bar))
+    with progress_bar(10, f"{_PROG}: {label}") if show else nullcontext() as bar:  # 10 % steps
+        return simulate(sc, n, duration, progress=FractionSteps(bar, 10))
 
 
 def _summary(res: dict[str, Any]) -> dict[str, float]:
