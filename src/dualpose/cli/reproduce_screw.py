@@ -58,22 +58,6 @@ def _simulate(sc: Any, n: int, duration: float, label: str, show: bool) -> dict:
         return simulate(sc, n, duration, progress=FractionSteps(bar, 10))
 
 
-def _summary(res: dict[str, Any]) -> dict[str, float]:
-    import numpy as np
-
-    t, pos, att = res["t"], res["position_error"], res["attitude_error"]
-    slope = float(np.dot(t, pos) / np.dot(t, t)) if np.dot(t, t) > 0 else 0.0
-    return {
-        "duration_s": float(t[-1]),
-        "attitude_error_final_rad": float(att[-1]),
-        "attitude_error_max_rad": float(att.max()),
-        "position_error_final_m": float(pos[-1]),
-        "position_error_max_m": float(pos.max()),
-        "position_error_growth_m_per_s": slope,
-        "rotvec_minus_screw_attitude_error_max_rad": float(np.abs(res["attitude_error_rotvec"] - att).max()),
-    }
-
-
 def _figures(out: Path, runs: dict[int, dict], long_run: dict | None) -> list[Path]:
     import matplotlib
 
@@ -138,7 +122,7 @@ def run_screw_vector(args: argparse.Namespace) -> int:
     from dataclasses import asdict
 
     from dualpose.cli._output import output_files_problem
-    from dualpose.pipelines.reproduce_screw_vector import Scenario
+    from dualpose.pipelines.reproduce_screw_vector import Scenario, summarize
 
     out: Path | None = args.out
     names = [f"screw_vector_{n}_sample.png" for n in args.samples]
@@ -170,10 +154,10 @@ def run_screw_vector(args: argparse.Namespace) -> int:
             "h_s": sc.h,
             "note": "leader: classical coning (attitude only); follower: dual coning (a + eps d)",
         },
-        "runs": {f"{n}-sample": _summary(r) for n, r in runs.items()},
+        "runs": {f"{n}-sample": summarize(r) for n, r in runs.items()},
     }
     if long_run is not None:
-        summary["runs"]["3-sample long run"] = _summary(long_run)
+        summary["runs"]["3-sample long run"] = summarize(long_run)
     if out is not None:
         files = _figures(out, runs, long_run)
         (out / "summary.json").write_text(json.dumps(summary, indent=2))
