@@ -7,6 +7,7 @@ import os
 import sys
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 
 def emit(text: str, markdown: str | None) -> int:
@@ -19,6 +20,18 @@ def emit(text: str, markdown: str | None) -> int:
         with open(markdown, "w") as fh:
             fh.write(text + "\n")
     return 0
+
+
+def write_marked_block(path: Path, table: str, begin: str, end: str) -> None:
+    """Replace the generated block between the markers ``begin`` and ``end`` in ``path`` (the hand-written text
+    around it is kept); without the markers the block is appended."""
+    text = path.read_text() if path.exists() else ""
+    block = f"{begin}\n{table}\n{end}"
+    if begin in text and end in text:
+        text = text[: text.index(begin)] + block + text[text.index(end) + len(end):]
+    else:
+        text += ("\n" if text else "") + block + "\n"
+    path.write_text(text)
 
 
 def best_of(fn: Callable[[], object], k: int = 7) -> float:

@@ -5,7 +5,8 @@
   and time-stamps every output line as it is read;
 * :func:`flood`: all lines written as fast as the pipe takes them (a writer thread); throughput = output lines after
   the first ``skip`` / time between reading the first and the last of them;
-* :func:`latency`: statistics of (read time of an output line − write time of the input line it answers).
+* :func:`latency`: statistics of (read time of an output line − write time of the input line it answers);
+* :func:`spawn`: the process under test (or :data:`BASELINE`) with the pipes these expect.
 """
 
 from __future__ import annotations
@@ -14,10 +15,22 @@ import math
 import os
 import selectors
 import subprocess
+import sys
 import threading
 import time
 
 import numpy as np
+
+#: the baseline process: ``cat`` echoes each line at once (the harness and the pipes alone)
+BASELINE = ["cat"]
+
+
+def spawn(command: list[str]) -> subprocess.Popen:
+    """``command`` started with binary, unbuffered stdin/stdout pipes (what :func:`paced` and :func:`flood` drive);
+    a command starting with ``"dualpose"`` runs the CLI of this interpreter (``python -m dualpose.cli.main``)."""
+    if command[0] == "dualpose":
+        command = [sys.executable, "-m", "dualpose.cli.main", *command[1:]]
+    return subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, bufsize=0)
 
 
 def paced(

@@ -48,11 +48,8 @@ def recording(rate: float, rest_s: float, move_s: float, use_mag: bool, seed: in
 
 
 def start(rate: float, use_mag: bool, rest_s: float, baseline: bool = False) -> subprocess.Popen:
-    if baseline:  # the harness and the pipes alone: `cat` echoes each line at once
-        return subprocess.Popen(["cat"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, bufsize=0)
-    cmd = [sys.executable, "-m", "dualpose.cli.main", "ahrs", "--stream", "--rate", repr(rate),
-           "--rest-seconds", repr(rest_s)] + ([] if use_mag else ["--no-mag"])  # fmt: skip
-    return subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, bufsize=0)
+    cmd = ["dualpose", "ahrs", "--stream", "--rate", repr(rate), "--rest-seconds", repr(rest_s)]
+    return _stream_bench.spawn(_stream_bench.BASELINE if baseline else cmd + ([] if use_mag else ["--no-mag"]))
 
 
 def paced(

@@ -39,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+from _common import write_marked_block
 from dualpose.calibration.magnetometer import estimate_mag_calibration
 from dualpose.calibration.sensor_time_offset import estimate_sensor_time_offset
 from dualpose.estimation.ahrs import estimate_orientation
@@ -124,7 +125,7 @@ def main() -> int:
     text = "\n".join(lines)
     print(text)
     if args.markdown:
-        _write_section(Path(args.markdown), text)
+        write_marked_block(Path(args.markdown), text, "<!-- bench_broad:begin -->", "<!-- bench_broad:end -->")
     return 0
 
 
@@ -245,18 +246,6 @@ def _calibration_table(calibrations: list) -> list[str]:
         out.append(f"| {name} | {c.coverage[0]:.2g} | {c.noise_spread:.4f} | {c.spread_before:.4f} | "
                    f"{' | '.join(sp)} | {sb} | {dec} | {with_cal:.3f} | {without:.3f} | {us:.2f} |")
     return out
-
-
-def _write_section(path: Path, table: str) -> None:
-    """Replace the generated block between the markers (kept by hand-written text around it)."""
-    begin, end = "<!-- bench_broad:begin -->", "<!-- bench_broad:end -->"
-    text = path.read_text() if path.exists() else ""
-    block = f"{begin}\n{table}\n{end}"
-    if begin in text and end in text:
-        text = text[: text.index(begin)] + block + text[text.index(end) + len(end):]
-    else:
-        text += ("\n" if text else "") + block + "\n"
-    path.write_text(text)
 
 
 if __name__ == "__main__":

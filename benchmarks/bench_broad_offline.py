@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from _common import write_marked_block
 from bench_broad import MADGWICK_012
 from dualpose.estimation.ahrs import estimate_orientation
 from dualpose.estimation.ahrs.smoother import smooth_orientation
@@ -109,7 +110,7 @@ def main() -> int:
     text = "\n".join(_markdown(rows))
     print(text)
     if args.markdown:
-        _write_block(Path(args.markdown), text)
+        write_marked_block(Path(args.markdown), text, BEGIN, END)
     return 0
 
 
@@ -147,17 +148,6 @@ def _markdown(rows: list) -> list[str]:
     out += ["", f"Machine: {platform.machine()}, Python {platform.python_version()}, numpy {np.__version__}, "
             f"vqf {version('vqf')}."]  # fmt: skip
     return out
-
-
-def _write_block(path: Path, table: str) -> None:
-    """Replace the generated block between the markers (the hand-written text around it is kept)."""
-    text = path.read_text() if path.exists() else ""
-    block = f"{BEGIN}\n{table}\n{END}"
-    if BEGIN in text and END in text:
-        text = text[: text.index(BEGIN)] + block + text[text.index(END) + len(END):]
-    else:
-        text += ("\n" if text else "") + block + "\n"
-    path.write_text(text)
 
 
 if __name__ == "__main__":

@@ -55,11 +55,8 @@ def recording(imu_rate: float, camera_rate: float, calibration: Path) -> tuple[l
 
 
 def start(calibration: Path, kind: str, baseline: bool = False) -> subprocess.Popen:
-    if baseline:  # the harness and the pipes alone: `cat` echoes each line at once
-        return subprocess.Popen(["cat"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, bufsize=0)
-    cmd = [sys.executable, "-m", "dualpose.cli.main", "fuse", "--stream", "--calibration", str(calibration),
-           "--filter", kind]  # fmt: skip
-    return subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, bufsize=0)
+    cmd = ["dualpose", "fuse", "--stream", "--calibration", str(calibration), "--filter", kind]
+    return _stream_bench.spawn(_stream_bench.BASELINE if baseline else cmd)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -22,6 +22,25 @@ def dualpose_process(*args: str, stdin=subprocess.PIPE) -> subprocess.Popen:
     return subprocess.Popen(cmd, stdin=stdin, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, text=True)
 
 
+def run_lines(lines: list[str], *args: str) -> tuple[int, str, str]:
+    """Exit status, stdout and stderr of ``dualpose ARGS`` fed ``lines`` on stdin."""
+    proc = dualpose_process(*args)
+    out, err = proc.communicate("".join(lines))
+    return proc.returncode, out, err
+
+
+def head_then_close(stdin_path: str | os.PathLike, *args: str, n: int = 5) -> tuple[list[str], str, int]:
+    """``dualpose ARGS < stdin_path`` whose reader takes ``n`` lines and goes away (as ``| head -n`` does): the
+    lines read, the child's stderr and its exit status."""
+    with open(stdin_path) as f:
+        proc = dualpose_process(*args, stdin=f)
+        head = [proc.stdout.readline() for _ in range(n)]
+        proc.stdout.close()
+        err = proc.stderr.read()
+        code = proc.wait()
+    return head, err, code
+
+
 class LineReader:
     """Lines of a child's stdout read straight from the pipe (no read-ahead buffer to hide them from ``select``);
     fails (rather than hangs) when no line comes, i.e. when the child did not flush it."""

@@ -8,7 +8,7 @@ import subprocess
 
 import numpy as np
 import pytest
-from _pipes import LineReader, dualpose_process
+from _pipes import LineReader, dualpose_process, head_then_close, run_lines
 
 from dualpose.cli.main import main
 from dualpose.estimation.ahrs import estimate_orientation
@@ -49,9 +49,7 @@ def dualpose_stream(*args: str, stdin=subprocess.PIPE) -> subprocess.Popen:
 
 
 def run_stream(lines: list[str], *args: str) -> tuple[int, str, str]:
-    proc = dualpose_stream(*args)
-    out, err = proc.communicate("".join(lines))
-    return proc.returncode, out, err
+    return run_lines(lines, "ahrs", "--stream", *args)
 
 
 def stream_reference(t, gyr, acc, mag, rate, n_rest) -> np.ndarray:
@@ -181,12 +179,7 @@ def test_reader_closing_early_exits_141_quietly(tmp_path):
     acc = np.array([0.0, 0.0, 9.81]) + rng.normal(scale=0.05, size=(n, 3))
     src = tmp_path / "imu.csv"
     src.write_text("".join(lines_of(t, gyr, acc)))
-    with open(src) as f:
-        proc = dualpose_stream("--rate", "100", "--no-mag", "--rest-seconds", "0", stdin=f)
-        head = [proc.stdout.readline() for _ in range(5)]
-        proc.stdout.close()  # the reader goes away, as `| head -5` does
-        err = proc.stderr.read()
-        code = proc.wait()
+    head, err, code = head_then_close(src, "ahrs", "--stream", "--rate", "100", "--no-mag", "--rest-seconds", "0")
     assert code == 141
     assert "Traceback" not in err and "BrokenPipeError" not in err and err == ""
     assert parse_output("".join(head)).shape == (5, 5)

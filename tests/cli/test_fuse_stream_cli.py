@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from _pipes import LineReader, dualpose_process
+from _pipes import LineReader, dualpose_process, head_then_close, run_lines
 
 from dualpose import sim
 from dualpose.cli.main import main
@@ -40,9 +40,7 @@ def parse_output(text: str) -> np.ndarray:
 
 
 def run_stream(lines: list[str], *args: str) -> tuple[int, str, str]:
-    proc = dualpose_process("fuse", "--stream", *args)
-    out, err = proc.communicate("".join(lines))
-    return proc.returncode, out, err
+    return run_lines(lines, "fuse", "--stream", *args)
 
 
 def reference(calibration: str, kind: str) -> np.ndarray:
@@ -167,12 +165,7 @@ def test_malformed_line_in_the_middle(calibration, bad, message):
 def test_reader_closing_early_exits_141_quietly(calibration, tmp_path):
     src = tmp_path / "lines.txt"
     src.write_text("".join(LINES) + "".join(_shifted_copies(40)))  # ~28000 lines: more than a pipe holds
-    with open(src) as f:
-        proc = dualpose_process("fuse", "--stream", "--calibration", calibration, stdin=f)
-        head = [proc.stdout.readline() for _ in range(5)]
-        proc.stdout.close()  # the reader goes away, as `| head -5` does
-        err = proc.stderr.read()
-        code = proc.wait()
+    head, err, code = head_then_close(src, "fuse", "--stream", "--calibration", calibration)
     assert code == 141 and err == ""
     assert parse_output("".join(head)).shape == (5, 8)
 

@@ -1,5 +1,6 @@
-"""Output locations checked before a command computes anything: ``--out DIR`` must be a directory, or creatable,
-and writable.
+"""Output of the commands: the aligned two-column tables they print (:func:`aligned_rows`), and the output locations
+checked before a command computes anything: ``--out DIR`` must be a directory, or creatable, and writable, and
+its files are not replaced without ``--force`` (:func:`output_files_problem`).
 
 Permission bits do not tell the whole story (root writes to a mode 0o555 directory; ``/proc`` and read-only mounts
 refuse everyone), so besides :func:`os.access` a temporary file is created and deleted in the directory (or in its
@@ -10,9 +11,16 @@ from __future__ import annotations
 
 import os
 import tempfile
+from collections.abc import Iterable
 from pathlib import Path
 
-__all__ = ["output_dir_problem"]
+__all__ = ["aligned_rows", "output_dir_problem", "output_files_problem"]
+
+
+def aligned_rows(rows: list[tuple[str, str]], indent: str = "") -> str:
+    """``rows`` of (label, value) as lines ``{indent}{label}  {value}``, the labels padded to the longest one."""
+    width = max(len(r[0]) for r in rows)
+    return "\n".join(f"{indent}{name:<{width}}  {value}" for name, value in rows)
 
 
 def _trial_write(directory: Path) -> str | None:
@@ -45,3 +53,16 @@ def output_dir_problem(path: str | os.PathLike) -> str | None:
         return f"{out}: cannot create the directory: {parent} is not a directory"
     problem = _trial_write(parent)
     return None if problem is None else f"{out}: cannot create the directory: {parent} is {problem}"
+
+
+def output_files_problem(path: str | os.PathLike, names: Iterable[str], force: bool) -> str | None:
+    """None when ``--out path`` can take the files ``names``: :func:`output_dir_problem` finds nothing and, unless
+    ``force``, none of them exists; otherwise the one-line message (``--out ...`` or ``FILE: file exists; ...``)."""
+    problem = output_dir_problem(path)
+    if problem is not None:
+        return f"--out {problem}"
+    if not force:
+        for name in names:
+            if (Path(path) / name).exists():
+                return f"{Path(path) / name}: file exists; use --force to replace it"
+    return None

@@ -35,7 +35,7 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import TextIO
 
-__all__ = ["Progress", "add_quiet_argument", "progress_bar"]
+__all__ = ["FractionSteps", "Progress", "add_quiet_argument", "progress_bar"]
 
 StepCallback = Callable[[int, int], None]
 
@@ -178,3 +178,20 @@ def progress_bar(total: int, desc: str) -> Iterator[object]:
             bar.close()
         return
     yield _PlainBar(total, desc)
+
+
+class FractionSteps:
+    """A ``progress(frac[, stage])`` callback (the completed fraction, 0..1, of a pipeline job) that advances
+    ``bar`` (from :func:`progress_bar`, or None for no output) in ``steps`` equal steps; ``stage`` becomes the
+    bar's postfix."""
+
+    def __init__(self, bar: object | None, steps: int) -> None:
+        self.bar, self.steps, self.done = bar, int(steps), 0
+
+    def __call__(self, frac: float, stage: str | None = None) -> None:
+        k = min(int(self.steps * min(max(frac, 0.0), 1.0) + 1e-9), self.steps)
+        if self.bar is not None and k > self.done:
+            if stage is not None:
+                self.bar.set_postfix_str(stage)
+            self.bar.update(k - self.done)
+            self.done = k

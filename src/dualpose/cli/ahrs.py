@@ -99,8 +99,6 @@ def run_stream(args: argparse.Namespace) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``dualpose ahrs``."""
-    import numpy as np
-
     if args.stream:
         return run_stream(args)
     if args.file is None:
@@ -111,9 +109,8 @@ def run(args: argparse.Namespace) -> int:
         return _usage_error("--rest-seconds is only used with --stream (a BROAD file marks its own static start)")
 
     from dualpose.estimation.ahrs import estimate_orientation
-    from dualpose.evaluation.orientation_errors import orientation_rmse
     from dualpose.io import load_broad
-    from dualpose.pipelines.ahrs_offline import smooth_broad_trial
+    from dualpose.pipelines.ahrs_offline import broad_scores, smooth_broad_trial
 
     try:
         trial = load_broad(args.file)
@@ -163,12 +160,11 @@ def run(args: argparse.Namespace) -> int:
     }
     if args.mag and result.mag_calibration is not None:
         out.update(result.mag_calibration.as_dict())
-    has_ref = bool(np.isfinite(trial.quat[trial.movement]).all(axis=1).any())
-    if args.offline and has_ref:
+    if not args.offline:
+        scores = broad_scores(result.quat, trial, use_mag=args.mag)
+    has_ref = scores is not None
+    if has_ref:
         out.update(scores)
-    elif has_ref:
-        score = orientation_rmse(result.quat, trial.quat, trial.movement, fit_heading_offset=not args.mag)
-        out.update(score.as_dict())
     else:
         out.update(total_rmse_deg=None, heading_rmse_deg=None, inclination_rmse_deg=None)
     if args.json:

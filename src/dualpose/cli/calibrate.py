@@ -53,6 +53,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 
 def _table(m: dict) -> str:
+    from dualpose.cli._output import aligned_rows
+
     rows = [
         (
             "camera-IMU rotation error [deg]",
@@ -67,8 +69,7 @@ def _table(m: dict) -> str:
         ),
         ("time offset, filter NIS [ms]", f"{m['time_offset_ms']:.2f}  (true {m['time_offset_injected_ms']:.2f})"),
     ]
-    width = max(len(r[0]) for r in rows)
-    return "\n".join(f"{name:<{width}}  {value}" for name, value in rows)
+    return aligned_rows(rows)
 
 
 def run(args: argparse.Namespace) -> int:

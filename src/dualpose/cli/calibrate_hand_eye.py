@@ -84,6 +84,8 @@ def _rows(rep) -> dict:
 
 
 def _table(m: dict) -> str:
+    from dualpose.cli._output import aligned_rows
+
     q, t, sq, st = m["rotation_xyzw"], m["translation_m"], m["rotation_sigma_deg"], m["translation_sigma_m"]
     rows = [
         ("rotation X (xyzw)", " ".join(f"{v:+.6f}" for v in q)),
@@ -98,8 +100,7 @@ def _table(m: dict) -> str:
         ("camera rows read / kept", f"{m['camera_rows']['read']} / {m['camera_rows']['kept']}"),
         ("body rows read / kept", f"{m['body_rows']['read']} / {m['body_rows']['kept']}"),
     ]
-    width = max(len(r[0]) for r in rows)
-    return "\n".join(f"{name:<{width}}  {value}" for name, value in rows)
+    return aligned_rows(rows)
 
 
 def run(args: argparse.Namespace) -> int:

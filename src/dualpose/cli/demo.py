@@ -14,9 +14,9 @@ from dualpose.cli._args import seed
 
 
 def _table(rows: list[tuple[str, str]]) -> None:
-    width = max(len(r[0]) for r in rows)
-    for name, value in rows:
-        print(f"  {name:<{width}}  {value}")
+    from dualpose.cli._output import aligned_rows
+
+    print(aligned_rows(rows, indent="  "))
 
 
 def run_demo(seed: int = 7) -> int:

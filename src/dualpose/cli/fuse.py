@@ -91,30 +91,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     return p
 
 
-def _table(m: dict) -> str:
-    def num(key: str, spec: str) -> str:
-        return "n/a (no ground truth)" if m[key] is None else format(m[key], spec)
-
-    if "smoothed" in m:
-        return _table_smoothed(m, num)
-    rows = [
-        ("data", m["data"]),
-        ("filter", m["filter"]),
-        ("ATE RMSE (SE(3)) [m]", num("ate_rmse_m", ".6f")),
-        ("orientation RMSE (SE(3)) [deg]", num("orientation_rmse_deg", ".4f")),
-        ("RPE RMSE (0.5 m) [m]", num("rpe_rmse_m", ".6f")),
-        ("position RMSE, unaligned [m]", num("position_rmse_unaligned_m", ".6f")),
-        ("orientation RMSE, unaligned [deg]", num("orientation_rmse_unaligned_deg", ".4f")),
-        ("NIS inside 95% band", f"{m['nis_fraction_inside']:.3f}"),
-        ("correspondences rejected", f"{m['n_rejected']} of {m['n_correspondences']}"),
-        ("real-time factor", f"{m['realtime_factor']:.1f}x"),
-    ]
-    width = max(len(r[0]) for r in rows)
-    return "\n".join(f"{name:<{width}}  {value}" for name, value in rows)
-
-
-#: rows of the filter-vs-smoother table: label, metrics key, format
-_SMOOTHED_ROWS = (
+#: rows of the summary tables scored against the ground truth: label, metrics key, format
+_ERROR_ROWS = (
     ("ATE RMSE (SE(3)) [m]", "ate_rmse_m", ".6f"),
     ("orientation RMSE (SE(3)) [deg]", "orientation_rmse_deg", ".4f"),
     ("RPE RMSE (0.5 m) [m]", "rpe_rmse_m", ".6f"),
@@ -123,12 +101,31 @@ _SMOOTHED_ROWS = (
 )
 
 
+def _table(m: dict) -> str:
+    from dualpose.cli._output import aligned_rows
+
+    def num(key: str, spec: str) -> str:
+        return "n/a (no ground truth)" if m[key] is None else format(m[key], spec)
+
+    if "smoothed" in m:
+        return _table_smoothed(m, num)
+    rows = [
+        ("data", m["data"]),
+        ("filter", m["filter"]),
+        *((label, num(key, fmt)) for label, key, fmt in _ERROR_ROWS),
+        ("NIS inside 95% band", f"{m['nis_fraction_inside']:.3f}"),
+        ("correspondences rejected", f"{m['n_rejected']} of {m['n_correspondences']}"),
+        ("real-time factor", f"{m['realtime_factor']:.1f}x"),
+    ]
+    return aligned_rows(rows)
+
+
 def _table_smoothed(m: dict, num) -> str:
     """The summary table with a filter and a smoother column (``--smooth``)."""
     s = m["smoothed"]
     rows = [("data", m["data"], ""), ("method", "filter", "RTS smoother")]
     rows += [
-        (label, num(key, fmt), "n/a" if s[key] is None else format(s[key], fmt)) for label, key, fmt in _SMOOTHED_ROWS
+        (label, num(key, fmt), "n/a" if s[key] is None else format(s[key], fmt)) for label, key, fmt in _ERROR_ROWS
     ]
     rows += [
         ("NIS inside 95% band", f"{m['nis_fraction_inside']:.3f}", ""),
@@ -207,7 +204,7 @@ def run(args: argparse.Namespace) -> int:
     """Entry point of ``dualpose fuse``."""
     from pathlib import Path
 
-    from dualpose.cli._output import output_dir_problem
+    from dualpose.cli._output import output_files_problem
 
     if args.stream:
         return run_stream(args)
@@ -221,16 +218,10 @@ def run(args: argparse.Namespace) -> int:
     paths: dict[str, Path] = {}
     if args.out:
         out = Path(args.out)
-        problem = output_dir_problem(out)
+        problem = output_files_problem(out, _output_files(args.smooth), args.force)
         if problem is not None:
-            print(f"dualpose fuse: error: --out {problem}", file=sys.stderr)
-            return 2
+            return _usage_error(problem)
         paths = {name: out / name for name in _output_files(args.smooth)}
-        if not args.force:
-            for path in paths.values():
-                if path.exists():
-                    print(f"dualpose fuse: error: {path}: file exists; use --force to replace it", file=sys.stderr)
-                    return 2
     result = _run_job(args)
     if result is None:
         return 1

@@ -80,7 +80,6 @@ def run(args: argparse.Namespace) -> int:
     """Entry point of ``dualpose register``."""
     import numpy as np
 
-    from dualpose.io.csv_points import CsvFormatError
     from dualpose.registration import register_pose, register_pose_ransac
 
     if not args.ransac and args.threshold is not None:
@@ -110,9 +109,7 @@ def run(args: argparse.Namespace) -> int:
             est, inliers = rob.pose, rob.inlier_mask
         else:
             est = register_pose(model, measured, scale=args.scale, **kw)
-    except CsvFormatError as exc:
-        return _fail(str(exc))
-    except ValueError as exc:
+    except ValueError as exc:  # CsvFormatError too
         return _fail(str(exc))
 
     out = {

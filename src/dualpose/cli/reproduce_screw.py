@@ -48,43 +48,14 @@ def add_target(targets: Any) -> argparse.ArgumentParser:
     return p
 
 
-class _Bar:
-    """Progress of one simulated run on the shared helper, in 10 % steps (``progress(frac)``)."""
-
-    def __init__(self, bar: Any) -> None:
-        self.bar, self.done = bar, 0
-
-    def __call__(self, frac: float) -> None:
-        k = min(int(10 * frac + 1e-9), 10)
-        if self.bar is not None and k > self.done:
-            self.bar.update(k - self.done)
-            self.done = k
-
-
 def _simulate(sc: Any, n: int, duration: float, label: str, show: bool) -> dict:
     from contextlib import nullcontext
 
-    from dualpose.cli._progress import progress_bar
+    from dualpose.cli._progress import FractionSteps, progress_bar
     from dualpose.pipelines.reproduce_screw_vector import simulate
 
-    with progress_bar(10, f"{_PROG}: {label}") if show else nullcontext() as bar:
-        return simulate(sc, n, duration, progress=_Bar(bar))
-
-
-def _summary(res: dict[str, Any]) -> dict[str, float]:
-    import numpy as np
-
-    t, pos, att = res["t"], res["position_error"], res["attitude_error"]
-    slope = float(np.dot(t, pos) / np.dot(t, t)) if np.dot(t, t) > 0 else 0.0
-    return {
-        "duration_s": float(t[-1]),
-        "attitude_error_final_rad": float(att[-1]),
-        "attitude_error_max_rad": float(att.max()),
-        "position_error_final_m": float(pos[-1]),
-        "position_error_max_m": float(pos.max()),
-        "position_error_growth_m_per_s": slope,
-        "rotvec_minus_screw_attitude_error_max_rad": float(np.abs(res["attitude_error_rotvec"] - att).max()),
-    }
+    with progress_bar(10, f"{_PROG}: {label}") if show else nullcontext() as bar:  # 10 % steps
+        return simulate(sc, n, duration, progress=FractionSteps(bar, 10))
 
 
 def _figures(out: Path, runs: dict[int, dict], long_run: dict | None) -> list[Path]:
@@ -150,8 +121,8 @@ def _table(summary: dict[str, Any]) -> str:
 def run_screw_vector(args: argparse.Namespace) -> int:
     from dataclasses import asdict
 
-    from dualpose.cli._output import output_dir_problem
-    from dualpose.pipelines.reproduce_screw_vector import Scenario
+    from dualpose.cli._output import output_files_problem
+    from dualpose.pipelines.reproduce_screw_vector import Scenario, summarize
 
     out: Path | None = args.out
     names = [f"screw_vector_{n}_sample.png" for n in args.samples]
@@ -165,13 +136,9 @@ def run_screw_vector(args: argparse.Namespace) -> int:
             print(f"{_PROG}: error: --out writes PNG figures, which need matplotlib: pip install 'dualpose[plot]'",
                   file=sys.stderr)  # fmt: skip
             return 2
-        problem = output_dir_problem(out)
+        problem = output_files_problem(out, names, args.force)
         if problem is not None:
-            print(f"{_PROG}: error: --out {problem}", file=sys.stderr)
-            return 2
-        clash = [n for n in names if (out / n).exists()]
-        if clash and not args.force:
-            print(f"{_PROG}: error: {out} already has {', '.join(clash)}; use --force to overwrite", file=sys.stderr)
+            print(f"{_PROG}: error: {problem}", file=sys.stderr)
             return 2
         out.mkdir(parents=True, exist_ok=True)
     sc = Scenario()
@@ -187,10 +154,10 @@ def run_screw_vector(args: argparse.Namespace) -> int:
             "h_s": sc.h,
             "note": "leader: classical coning (attitude only); follower: dual coning (a + eps d)",
         },
-        "runs": {f"{n}-sample": _summary(r) for n, r in runs.items()},
+        "runs": {f"{n}-sample": summarize(r) for n, r in runs.items()},
     }
     if long_run is not None:
-        summary["runs"]["3-sample long run"] = _summary(long_run)
+        summary["runs"]["3-sample long run"] = summarize(long_run)
     if out is not None:
         files = _figures(out, runs, long_run)
         (out / "summary.json").write_text(json.dumps(summary, indent=2))

@@ -25,21 +25,6 @@ def add_target(targets: argparse._SubParsersAction) -> argparse.ArgumentParser:
     return p
 
 
-class _Bar:
-    """``progress(frac, stage)`` of :func:`dualpose.pipelines.reproduce_walker1991.run` on the shared helper, in
-    5 % steps."""
-
-    def __init__(self, bar) -> None:
-        self.bar, self.done = bar, 0
-
-    def __call__(self, frac: float, stage: str) -> None:
-        k = min(int(20 * min(max(frac, 0.0), 1.0) + 1e-9), 20)
-        if k > self.done:
-            self.bar.set_postfix_str(stage)
-            self.bar.update(k - self.done)
-            self.done = k
-
-
 def markdown(res: dict) -> str:
     """The results as Markdown tables."""
     lines = [
@@ -127,25 +112,19 @@ def _plot(res: dict, path: Path) -> bool:
 
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``dualpose reproduce walker1991``."""
-    from dualpose.cli._output import output_dir_problem
-    from dualpose.cli._progress import progress_bar
+    from dualpose.cli._output import output_files_problem
+    from dualpose.cli._progress import FractionSteps, progress_bar
     from dualpose.pipelines import reproduce_walker1991 as walker1991
 
     out_dir = Path(args.out) if args.out else None
     names = ("walker1991.md", "walker1991.json", "walker1991.png")
     if out_dir is not None:
-        problem = output_dir_problem(out_dir)
+        problem = output_files_problem(out_dir, names, args.force)
         if problem is not None:
-            print(f"dualpose reproduce walker1991: error: --out {problem}", file=sys.stderr)
+            print(f"dualpose reproduce walker1991: error: {problem}", file=sys.stderr)
             return 2
-    if out_dir is not None and not args.force:
-        existing = [n for n in names if (out_dir / n).exists()]
-        if existing:
-            print(f"dualpose reproduce walker1991: error: {out_dir}/{existing[0]} exists (use --force to overwrite)",
-                  file=sys.stderr)  # fmt: skip
-            return 2
-    with progress_bar(20, "dualpose reproduce walker1991") as bar:
-        res = walker1991.run(quick=args.quick, progress=_Bar(bar))
+    with progress_bar(20, "dualpose reproduce walker1991") as bar:  # 5 % steps
+        res = walker1991.run(quick=args.quick, progress=FractionSteps(bar, 20))
     md = markdown(res)
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)

@@ -135,6 +135,11 @@ def umeyama_alignment(source: ArrayLike, target: ArrayLike, with_scale: bool = F
         (:func:`check_alignment_rank`: either point set standing still or collinear to its coordinates'
         precision, or a cross-covariance of rank < 2, so the rotation is not unique).
     """
+    return _umeyama(source, target, with_scale, ("source", "target"))
+
+
+def _umeyama(source: ArrayLike, target: ArrayLike, with_scale: bool, names: tuple[str, str]) -> Alignment:
+    """:func:`umeyama_alignment`; ``names`` label the point sets in the degeneracy messages."""
     x = np.asarray(source, dtype=np.float64)
     y = np.asarray(target, dtype=np.float64)
     if x.ndim != 2 or x.shape[1] != 3:
@@ -146,7 +151,7 @@ def umeyama_alignment(source: ArrayLike, target: ArrayLike, with_scale: bool = F
         raise ValueError(f"alignment needs at least 3 corresponding points; got {n}")
     if not (np.isfinite(x).all() and np.isfinite(y).all()):
         raise ValueError("source and target must be finite")
-    check_alignment_rank(x, y)
+    check_alignment_rank(x, y, names)
     fit = register_pose(x, y, method="svd", scale=with_scale)
     d = fit.singular_values
     if d[1] <= max(d[0], 1e-300) * 1e-12:
@@ -167,16 +172,12 @@ def align_positions(reference: ArrayLike, estimate: ArrayLike, method: AlignMeth
     """
     if method == "none":
         return Alignment(np.eye(3), np.zeros(3), 1.0, "none")
-    if method in ("se3", "sim3", "scale"):  # the messages name estimate and reference rather than source / target
-        est, ref = np.asarray(estimate, dtype=np.float64), np.asarray(reference, dtype=np.float64)
-        if est.ndim == 2 and est.shape[1:] == (3,) and ref.shape == est.shape and est.shape[0] >= 3:
-            if np.isfinite(est).all() and np.isfinite(ref).all():
-                check_alignment_rank(est, ref, ("estimate", "reference"))
+    names = ("estimate", "reference")  # the degeneracy messages name them rather than source / target
     if method == "scale":
-        return Alignment(np.eye(3), np.zeros(3), umeyama_alignment(estimate, reference, True).scale, "scale")
+        return Alignment(np.eye(3), np.zeros(3), _umeyama(estimate, reference, True, names).scale, "scale")
     if method not in ("se3", "sim3"):
         raise ValueError(f"method must be 'se3', 'sim3', 'scale' or 'none'; got {method!r}")
-    return umeyama_alignment(estimate, reference, with_scale=method == "sim3")
+    return _umeyama(estimate, reference, method == "sim3", names)
 
 
 def origin_alignment(

@@ -1,7 +1,7 @@
 """Rotation-vector and screw-vector (dual) update algorithms; attitude and pose integration; relative pose.
 
-Conventions (docs/inertial.md §1; docs/inertial.md)
-------------------------------------------
+Conventions (docs/inertial.md §1)
+---------------------------------
 * Attitude ``q = q_b^i`` (body to inertial), ``(..., 4)`` xyzw.  Body frame: ``q̇ = ½ q (x) ω^b`` and the update is
   ``q_{k+1} = q_k (x) exp(Φ_k/2)``.  Inertial frame: ``q̇ = ½ ω^i (x) q`` and ``q_{k+1} = exp(Φ_k/2) (x) q_k``;
   every cross-product term of the algorithm changes sign.

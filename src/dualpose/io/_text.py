@@ -22,6 +22,7 @@ __all__ = [
     "read_table",
     "split_fields",
     "read_float_table",
+    "read_pose_rows",
     "parse_float_columns",
     "parse_int_column",
     "open_for_writing",
@@ -196,6 +197,29 @@ def read_float_table(path: str | os.PathLike, ncols: int, delimiter: str | None,
         return data
     table = read_table(p, delimiter, (ncols, ncols), what)
     return parse_float_columns(table, slice(0, ncols), what)
+
+
+def first_line_delimiter(path: str) -> str | None:
+    """``","`` when the first data line of ``path`` has a comma before any comment, else None (whitespace)."""
+    with open(path, "rb") as f:
+        for raw in f:
+            line = raw.split(b"#", 1)[0].strip()
+            if line:
+                return "," if b"," in line else None
+    return None
+
+
+def read_pose_rows(path: str | os.PathLike, what: str) -> np.ndarray:
+    """The rows ``t x y z qx qy qz qw`` of a pose file (separator of its first data line), float64 (N, 8), in file
+    order; ``path:line: ...`` errors as :func:`read_float_table`'s, and for a zero quaternion."""
+    p = check_path(path)
+    delimiter = first_line_delimiter(p)
+    data = read_float_table(p, 8, delimiter, what)
+    q = data[:, 4:8]
+    if not np.einsum("ij,ij->i", q, q).all() and (zero := ~(q != 0.0).any(axis=1)).any():
+        table = read_table(p, delimiter, (8, 8), what)  # for the line number
+        raise table.error(int(np.argmax(zero)), "zero quaternion (qx qy qz qw all 0)")
+    return data
 
 
 def parse_float_columns(table: Table, columns: slice, what: str) -> np.ndarray:

@@ -15,6 +15,7 @@ import os
 import numpy as np
 
 import dualpose as dp
+from dualpose import _native
 from dualpose.io._text import check_path, open_for_writing, read_float_table, read_table
 from dualpose.types.trajectory import Trajectory
 
@@ -60,8 +61,10 @@ def read_kitti(path: str | os.PathLike, times: str | os.PathLike | None = None) 
 
 
 def _first_bad_rotation(r: np.ndarray) -> int:
+    """Index of the first matrix of ``r`` (n, 3, 3) that :func:`dualpose.quat_from_matrix` rejects (its criteria and
+    tolerance)."""
     g = np.abs(np.einsum("nki,nkj->nij", r, r) - np.eye(3)).max(axis=(1, 2))
-    bad = (g > 1e-5) | (np.linalg.det(r) <= 0)
+    bad = (g > _native.QUAT_FROM_MATRIX_ORTHOGONALITY_TOL) | (np.linalg.det(r) <= 0)
     return int(np.argmax(bad))
 
 

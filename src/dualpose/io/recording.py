@@ -37,6 +37,7 @@ from dualpose.types import (
     SensorSetup,
     Trajectory,
 )
+from dualpose.types.imu import STANDARD_GRAVITY
 from dualpose.types.trajectory import seconds_from_ns
 
 __all__ = [
@@ -391,6 +392,17 @@ def _imu_noise(imu_cfg: dict, rate: float) -> ImuNoise:
     )
 
 
+def _sensor_fields(top: dict, cam: dict) -> dict:
+    """The fields :class:`~dualpose.types.recording.Recording` and :class:`~dualpose.types.recording.SensorSetup`
+    share, from the checked top level and ``camera`` section: camera, extrinsic, pixel sigma, time offset, gravity."""
+    return {
+        "camera": CameraIntrinsics(cam["fx"], cam["fy"], cam["cx"], cam["cy"], cam["width"], cam["height"]),
+        "q_bc": cam["q_bc"], "p_bc": cam["p_bc"], "pixel_sigma": cam["pixel_sigma"],
+        "time_offset": cam.get("timeshift_cam_imu", 0.0),
+        "gravity": top.get("gravity", np.array([0.0, 0.0, -STANDARD_GRAVITY])),
+    }  # fmt: skip
+
+
 def read_sensor_setup(path: str | os.PathLike) -> SensorSetup:
     """Read the sensor set-up and the filter start of a sensor file (``dualpose fuse --stream --calibration``).
 
@@ -414,10 +426,8 @@ def read_sensor_setup(path: str | os.PathLike) -> SensorSetup:
     sig = math.radians(st.pop("attitude_sigma_deg", 0.5))
     try:
         return SensorSetup(
-            camera=CameraIntrinsics(cam["fx"], cam["fy"], cam["cx"], cam["cy"], cam["width"], cam["height"]),
-            q_bc=cam["q_bc"], p_bc=cam["p_bc"], pixel_sigma=cam["pixel_sigma"],
             imu_noise=_imu_noise(imu_cfg, imu_cfg["update_rate"]), start=FilterStart(**st, attitude_sigma=sig),
-            time_offset=cam.get("timeshift_cam_imu", 0.0), gravity=top.get("gravity", np.array([0.0, 0.0, -9.81])),
+            **_sensor_fields(top, cam),
         )  # fmt: skip
     except ValueError as exc:
         raise RecordingError(f"{sf.path}: {exc}") from None
@@ -456,13 +466,10 @@ def read_recording(path: str | os.PathLike):
             raise RecordingError(str(exc)) from None
 
     noise = _imu_noise(imu_cfg, imu_cfg.get("update_rate", 1.0 / float(np.median(np.diff(imu.stamps)))))
-    camera = CameraIntrinsics(cam["fx"], cam["fy"], cam["cx"], cam["cy"], cam["width"], cam["height"])
     frames = FrameCorrespondences(seconds_from_ns(frame_ns), offsets, pixels, points)
     try:  # Recording checks the values (IMU ranges, noise parameters, gravity): name the file they came from
         return Recording(
-            t=imu.stamps, gyro=imu.gyro, accel=imu.accel, frames=frames, camera=camera, q_bc=cam["q_bc"],
-            p_bc=cam["p_bc"], pixel_sigma=cam["pixel_sigma"], imu_noise=noise,
-            time_offset=cam.get("timeshift_cam_imu", 0.0), gravity=top.get("gravity", np.array([0.0, 0.0, -9.81])),
+            t=imu.stamps, gyro=imu.gyro, accel=imu.accel, frames=frames, imu_noise=noise, **_sensor_fields(top, cam),
             rest_seconds=top.get("rest_duration_s"), ground_truth=truth, stamps_ns=imu.stamps_ns, name=str(path),
         )  # fmt: skip
     except ValueError as exc:
@@ -570,8 +577,7 @@ def write_sensor_setup(path: str | os.PathLike, setup: SensorSetup, *, overwrite
     if not isinstance(setup, SensorSetup):
         raise TypeError(f"setup must be a dualpose.types.SensorSetup; got {type(setup).__name__}")
     st = setup.start
-    out = _setup_dict(setup, None)
-    out["imu"]["update_rate"] = float(setup.imu_noise.update_rate)
+    out = _setup_dict(setup, None)  # its "imu" section has update_rate, which a stream needs
     out["initial_state"] = {
         **{k: [float(v) for v in getattr(st, k)] for k in ("position", "quat", "velocity", "gyro_bias", "accel_bias")},
         "position_sigma": float(st.position_sigma), "velocity_sigma": float(st.velocity_sigma),

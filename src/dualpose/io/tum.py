@@ -12,7 +12,7 @@ import os
 
 import numpy as np
 
-from dualpose.io._text import check_path, open_for_writing, read_float_table, read_table
+from dualpose.io._text import check_path, open_for_writing, read_pose_rows
 from dualpose.types.trajectory import Trajectory
 
 __all__ = ["read_tum", "write_tum"]
@@ -36,23 +36,8 @@ def read_tum(path: str | os.PathLike) -> Trajectory:
         quaternion.
     """
     p = check_path(path)
-    delimiter = _delimiter(p)
-    data = read_float_table(p, 8, delimiter, _LAYOUT)
-    q = data[:, 4:8]
-    if not np.einsum("ij,ij->i", q, q).all() and (zero := ~(q != 0.0).any(axis=1)).any():
-        table = read_table(p, delimiter, (8, 8), _LAYOUT)  # for the line number
-        raise table.error(int(np.argmax(zero)), "zero quaternion (qx qy qz qw all 0)")
+    data = read_pose_rows(p, _LAYOUT)
     return Trajectory(data[:, 0], data[:, 1:4], data[:, 4:8], name=p)
-
-
-def _delimiter(path: str) -> str | None:
-    """``","`` when the first data line of ``path`` has a comma before any comment, else None (whitespace)."""
-    with open(path, "rb") as f:
-        for raw in f:
-            line = raw.split(b"#", 1)[0].strip()
-            if line:
-                return "," if b"," in line else None
-    return None
 
 
 def write_tum(path: str | os.PathLike, trajectory: Trajectory, *, overwrite: bool = False, header: bool = True) -> None:

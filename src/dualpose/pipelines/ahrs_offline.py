@@ -1,6 +1,7 @@
 """The offline AHRS on a BROAD trial: the RTS smoother (:mod:`dualpose.estimation.ahrs.smoother`) and the scores of
 the smoothed and the forward orientation with BROAD's metric; the job behind ``dualpose ahrs FILE --offline``
-(docs/broad.md, "Offline (smoothed)")."""
+(docs/broad.md, "Offline (smoothed)").  :func:`broad_scores` also scores the forward filter of ``dualpose ahrs
+FILE``."""
 
 from __future__ import annotations
 
@@ -10,7 +11,16 @@ from dualpose.estimation.ahrs.smoother import SmoothedOrientation, smooth_orient
 from dualpose.evaluation.orientation_errors import orientation_rmse
 from dualpose.io.broad import BroadTrial
 
-__all__ = ["smooth_broad_trial"]
+__all__ = ["broad_scores", "smooth_broad_trial"]
+
+
+def broad_scores(quat: np.ndarray, trial: BroadTrial, *, use_mag: bool = True) -> dict[str, float] | None:
+    """BROAD's total / heading / inclination RMSE (°) of ``quat`` (n, 4) xyzw IMU → ENU over the trial's movement
+    samples (:meth:`~dualpose.evaluation.orientation_errors.OrientationRmse.as_dict`); 6D (``use_mag`` False)
+    after one constant heading offset.  None when the trial has no reference on its movement samples."""
+    if not bool(np.isfinite(trial.quat[trial.movement]).all(axis=1).any()):
+        return None
+    return dict(orientation_rmse(quat, trial.quat, trial.movement, fit_heading_offset=not use_mag).as_dict())
 
 
 def smooth_broad_trial(
@@ -41,9 +51,9 @@ def smooth_broad_trial(
         trial.gyr, trial.acc, trial.mag if use_mag else None, trial.rate, use_mag=use_mag,
         n_rest=max(trial.static_start, 10), mag_calibration=mag_calibration,
     )  # fmt: skip
-    if not bool(np.isfinite(trial.quat[trial.movement]).all(axis=1).any()):
+    scores = broad_scores(s.quat, trial, use_mag=use_mag)
+    if scores is None:
         return s, None
-    scores = dict(orientation_rmse(s.quat, trial.quat, trial.movement, fit_heading_offset=not use_mag).as_dict())
-    fwd = orientation_rmse(s.forward.quat, trial.quat, trial.movement, fit_heading_offset=not use_mag)
-    scores.update({f"forward_{k}": v for k, v in fwd.as_dict().items()})
+    fwd = broad_scores(s.forward.quat, trial, use_mag=use_mag)
+    scores.update({f"forward_{k}": v for k, v in fwd.items()})
     return s, scores

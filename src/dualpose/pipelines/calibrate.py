@@ -22,6 +22,7 @@ from dualpose.estimation.eskf import ErrorStateEKF
 from dualpose.estimation.initialization import initial_state_from_run
 from dualpose.sim.calibration_scenarios import random_extrinsic, simulate_static_pose_set
 from dualpose.types import ImuNoise
+from dualpose.types.imu import STANDARD_GRAVITY
 
 __all__ = ["calibrate_run_time_offset", "calibrate_simulated_session", "static_session"]
 
@@ -134,7 +135,7 @@ def calibrate_simulated_session(
     rest = cal.static_period_from_run(run, 0.0, 0.9)
     grav = cal.scene_gravity(
         rest.specific_force, rest.q_wc, rot.q_bc, rest.specific_force_covariance, rest.attitude_covariance,
-        extrinsic_covariance=rot.covariance, accel_bias_covariance=bias_cov, magnitude=9.81,
+        extrinsic_covariance=rot.covariance, accel_bias_covariance=bias_cov, magnitude=STANDARD_GRAVITY,
     )  # fmt: skip
     report(1, "gravity")
     true_dir = run.gravity / np.linalg.norm(run.gravity)

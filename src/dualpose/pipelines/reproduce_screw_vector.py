@@ -27,7 +27,7 @@ import dualpose as dp
 from dualpose.inertial.integrate import integrate_attitude, integrate_pose, relative_pose
 from dualpose.inertial.motions import Coning
 
-__all__ = ["Scenario", "simulate"]
+__all__ = ["Scenario", "simulate", "summarize"]
 
 
 @dataclass(frozen=True)
@@ -110,3 +110,20 @@ def simulate(
         if progress is not None:
             progress(k / k_total)
     return {key: np.concatenate(v) for key, v in out.items()}
+
+
+def summarize(res: dict[str, np.ndarray]) -> dict[str, float]:
+    """The numbers ``dualpose reproduce screw-vector`` reports for one :func:`simulate` result: duration (s), final
+    and largest attitude error (rad) and position error (m), the position-error growth (m/s, least-squares slope
+    through the origin) and the largest difference of the rotation-vector and screw-vector attitude errors (rad)."""
+    t, pos, att = res["t"], res["position_error"], res["attitude_error"]
+    slope = float(np.dot(t, pos) / np.dot(t, t)) if np.dot(t, t) > 0 else 0.0
+    return {
+        "duration_s": float(t[-1]),
+        "attitude_error_final_rad": float(att[-1]),
+        "attitude_error_max_rad": float(att.max()),
+        "position_error_final_m": float(pos[-1]),
+        "position_error_max_m": float(pos.max()),
+        "position_error_growth_m_per_s": slope,
+        "rotvec_minus_screw_attitude_error_max_rad": float(np.abs(res["attitude_error_rotvec"] - att).max()),
+    }

@@ -30,7 +30,7 @@ import numpy as np
 
 from dualpose.io.broad import BroadTrial
 from dualpose.sim.camera_imu import observe_landmarks
-from dualpose.sim.motion import default_extrinsic
+from dualpose.sim.motion import default_extrinsic, extrinsic_arrays
 from dualpose.types import FrameCorrespondences, ImuNoise, PinholeCamera, Recording, Trajectory
 from dualpose.types.trajectory import interpolate_poses
 
@@ -153,7 +153,7 @@ def pseudo_vision(
     pose is interpolated (linear position, slerp) and observed by :func:`dualpose.sim.observe_landmarks`.
     """
     camera = PinholeCamera() if camera is None else camera
-    q_bc, p_bc = default_extrinsic() if extrinsic is None else extrinsic
+    q_bc, p_bc = extrinsic_arrays(extrinsic)
     t = trial.time
     ok = _finite_reference(trial)
     tf = np.arange(phase, t[-1], 1.0 / rate)

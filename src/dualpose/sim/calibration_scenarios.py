@@ -83,12 +83,10 @@ def simulate_static_poses(
     ``imu_noise`` turn-on sigmas) and shared by all poses, as in one calibration session; the bias random walk and
     white noise are independent per pose.
     """
-    q_bc, p_bc = motion.default_extrinsic() if extrinsic is None else extrinsic
-    q_bc = np.asarray(q_bc, float)
-    p_bc = np.asarray(p_bc, float)
-    q_wc, c_w = calibration_camera_poses(n_poses, seed if pose_seed is None else pose_seed, max_roll_deg)
-    q_wb = dp.quat_mul(q_wc, dp.quat_conj(q_bc))
-    p_wb = c_w - dp.quat_rotate(q_wb, p_bc)
+    q_bc, p_bc = motion.extrinsic_arrays(extrinsic)
+    q_wb, p_wb = motion.body_from_camera(
+        *calibration_camera_poses(n_poses, seed if pose_seed is None else pose_seed, max_roll_deg), q_bc, p_bc
+    )
     noise = simulate_kwargs.pop("imu_noise", None) or ImuNoise()
     rng = np.random.default_rng([seed, 2])
     bg = rng.normal(0.0, noise.gyroscope_initial_bias_sigma, 3)
@@ -167,13 +165,10 @@ def simulate_static_pose_set(
     seeded by ``seed``) serves all poses.  The accelerometer turn-on bias is drawn once from ``seed``.
     """
     noise = ImuNoise() if imu_noise is None else imu_noise
-    q_bc, p_bc = motion.default_extrinsic() if extrinsic is None else extrinsic
-    q_bc = np.asarray(q_bc, float)
-    p_bc = np.asarray(p_bc, float)
+    q_bc, p_bc = motion.extrinsic_arrays(extrinsic)
     q_wc, c_w = calibration_camera_poses(first_pose + n_poses, seed, max_roll_deg)
     q_wc, c_w = q_wc[first_pose:], c_w[first_pose:]
-    q_wb = dp.quat_mul(q_wc, dp.quat_conj(q_bc))
-    p_wb = c_w - dp.quat_rotate(q_wb, p_bc)
+    q_wb, p_wb = motion.body_from_camera(q_wc, c_w, q_bc, p_bc)
     ang = math.radians(gravity_misalignment_deg)
     gravity = STANDARD_GRAVITY * np.array([0.0, math.sin(ang), -math.cos(ang)])
     ba = np.random.default_rng([seed, 2]).normal(0.0, noise.accelerometer_initial_bias_sigma, 3)

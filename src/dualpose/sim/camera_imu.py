@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 import dualpose as dp
-from dualpose.sim.motion import SmoothMotion, default_extrinsic, eight_motion
+from dualpose.sim.motion import SmoothMotion, eight_motion, extrinsic_arrays
 from dualpose.types.camera import FrameCorrespondences, PinholeCamera, PinholeModel
 from dualpose.types.imu import STANDARD_GRAVITY, ImuNoise
 from dualpose.types.recording import Recording
@@ -149,7 +149,8 @@ def simulate(
         The true gravity ``g_w`` is ``[0, 0, −9.81]`` rotated by this angle about the world x axis (the scene
         model's vertical is then off by that angle).
     extrinsic : (q_bc, p_bc), optional
-        Defaults to :func:`default_extrinsic`; must match the one used to build the trajectory's camera view.
+        Defaults to :func:`~dualpose.sim.motion.default_extrinsic`; must match the one used to build the
+        trajectory's camera view.
     magnetometer_sigma : float, optional
         If given, a magnetometer ``m_b = R_wbᵀ m_w + noise`` (unit-norm-ish field) is simulated at the IMU rate.
     """
@@ -157,9 +158,7 @@ def simulate(
         raise ValueError(f"outlier_fraction must be in [0, 1); got {outlier_fraction}")
     imu_noise = ImuNoise() if imu_noise is None else imu_noise
     camera = PinholeCamera() if camera is None else camera
-    q_bc, p_bc = default_extrinsic() if extrinsic is None else extrinsic
-    q_bc = np.asarray(q_bc, float)
-    p_bc = np.asarray(p_bc, float)
+    q_bc, p_bc = extrinsic_arrays(extrinsic)
     rng = np.random.default_rng(seed)
     scene_rng = np.random.default_rng([seed, 1])
     landmarks = two_plane_landmarks(scene_rng, n_landmarks)

@@ -14,11 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 
 import dualpose as dp
+from dualpose.sim._imu_truth import FIELD_ENU, central_body_rate
+from dualpose.types.imu import STANDARD_GRAVITY
 
 __all__ = ["FIELD_ENU", "LaggedRecording", "tumbling_quat", "tumbling_body_rate", "lagged_recording"]
-
-#: the earth-frame field of the recordings, µT, ENU (north and down components)
-FIELD_ENU = np.array([0.0, 20.0, -44.0])
 
 
 def tumbling_quat(t: np.ndarray) -> np.ndarray:
@@ -37,11 +36,7 @@ def tumbling_quat(t: np.ndarray) -> np.ndarray:
 
 def tumbling_body_rate(t: np.ndarray) -> np.ndarray:
     """Body-frame angular rate, rad/s, shape (n, 3), of :func:`tumbling_quat` at the times ``t`` (s, shape (n,))."""
-    t = np.asarray(t, dtype=np.float64)
-    h = 1e-6
-    q = tumbling_quat(t)
-    dq = (tumbling_quat(t + h) - tumbling_quat(t - h)) / (2 * h)
-    return 2.0 * dp.quat_mul(dp.quat_conj(q), dq)[:, :3]
+    return central_body_rate(tumbling_quat, np.asarray(t, dtype=np.float64))
 
 
 @dataclass(frozen=True)
@@ -124,7 +119,7 @@ def lagged_recording(
     moving = t >= rest_seconds
     gyr = rate_tm[:, None] * tumbling_body_rate(tm) + rng.normal(0.0, 0.005, (t.size, 3))
     q = tumbling_quat(tm)
-    acc = dp.quat_rotate(dp.quat_conj(q), np.broadcast_to([0.0, 0.0, 9.81], (t.size, 3)))
+    acc = dp.quat_rotate(dp.quat_conj(q), np.broadcast_to([0.0, 0.0, STANDARD_GRAVITY], (t.size, 3)))
     acc = acc + rng.normal(0.0, 0.02, (t.size, 3))
     q_mag = tumbling_quat(_motion_time(t - rest_seconds - lag, ramp_seconds)[0])
     mag = dp.quat_rotate(dp.quat_conj(q_mag), np.broadcast_to(FIELD_ENU, (t.size, 3)))

@@ -128,13 +128,30 @@ def default_extrinsic() -> tuple[np.ndarray, np.ndarray]:
     return q, np.array([0.03, -0.012, 0.021])
 
 
-def _body_from_camera(q_wc: np.ndarray, c_w: np.ndarray, q_bc: np.ndarray, p_bc: np.ndarray):
+def extrinsic_arrays(extrinsic: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
+    """The extrinsic ``(q_bc (4,) xyzw, p_bc (3,) m)`` as float arrays; :func:`default_extrinsic` when None."""
+    q_bc, p_bc = default_extrinsic() if extrinsic is None else extrinsic
+    return np.asarray(q_bc, float), np.asarray(p_bc, float)
+
+
+def body_from_camera(
+    q_wc: np.ndarray, c_w: np.ndarray, q_bc: np.ndarray, p_bc: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Body poses ``(q_wb (..., 4) xyzw, p_wb (..., 3) m)`` of camera poses ``(q_wc (..., 4), c_w (..., 3))`` with
+    the extrinsic ``(q_bc, p_bc)`` (camera axes and centre in the body frame)."""
     q_wb = dp.quat_mul(q_wc, dp.quat_conj(q_bc))
     return q_wb, c_w - dp.quat_rotate(q_wb, p_bc)
 
 
 SCENE_TARGET = np.array([0.0, 0.35, 0.35])
 CAMERA_HOME = np.array([0.0, 1.45, 0.85])
+
+
+def _home_body_pose(extrinsic: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
+    """Body pose ``(q_wb, p_wb)`` whose camera (extrinsic, default :func:`default_extrinsic`) sits at
+    :data:`CAMERA_HOME` looking at :data:`SCENE_TARGET`: where the motions start."""
+    q_bc, p_bc = default_extrinsic() if extrinsic is None else extrinsic
+    return body_from_camera(look_at_quat(CAMERA_HOME, SCENE_TARGET), CAMERA_HOME, q_bc, p_bc)
 
 
 def eight_motion(
@@ -151,8 +168,7 @@ def eight_motion(
     so the body is at rest for ``static_before`` s (for static alignment), then moves with peak acceleration
     ≈ 3.9 m/s² and peak angular rate ≈ 1 rad/s (Hol: up to 4 m/s², 1 rad/s), then rests for ``static_after`` s.
     """
-    q_bc, p_bc = default_extrinsic() if extrinsic is None else extrinsic
-    q_wb0, p0 = _body_from_camera(look_at_quat(CAMERA_HOME, SCENE_TARGET), CAMERA_HOME, q_bc, p_bc)
+    q_wb0, p0 = _home_body_pose(extrinsic)
     # shape: x = a sin θ, z = b sin 2θ, y = d (cos 2θ − 1); scaled to the requested path length
     shape = np.array([[1.0, 0.0, 0.0], [0.0, 0.12, 0.5]])
     harm = np.array([1.0, 2.0])
@@ -195,8 +211,7 @@ def random_motion(
     metres and ``rotation_amplitude`` radians per term; the camera stays near the default home pose, facing the scene.
     """
     rng = np.random.default_rng(seed)
-    q_bc, p_bc = default_extrinsic() if extrinsic is None else extrinsic
-    q_wb0, p0 = _body_from_camera(look_at_quat(CAMERA_HOME, SCENE_TARGET), CAMERA_HOME, q_bc, p_bc)
+    q_wb0, p0 = _home_body_pose(extrinsic)
     omega0 = 2 * math.pi * 0.1
     harm_p = rng.uniform(1.0, max_frequency_hz / 0.1, n_terms)
     harm_r = rng.uniform(1.0, max_frequency_hz / 0.1, n_terms)

@@ -21,12 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 
 import dualpose as dp
+from dualpose.sim._imu_truth import FIELD_ENU, central_body_rate
+from dualpose.types.imu import STANDARD_GRAVITY
 
 __all__ = ["FIELD_ENU", "RestBreakRecording", "rest_break_recording"]
-
-#: the earth-frame field of the recordings, µT, ENU (north and down components)
-FIELD_ENU = np.array([0.0, 20.0, -44.0])
-GRAVITY = 9.81
 
 
 @dataclass(frozen=True)
@@ -153,19 +151,18 @@ def rest_break_recording(
     n = int(round(duration * rate))
     dt = 1.0 / rate
     t = np.arange(n) * dt
-    quat = dp.quat_from_rotvec(_rotvec(_motion_clock(t, segments, ramp)))
+
+    def quat_at(times: np.ndarray) -> np.ndarray:
+        return dp.quat_from_rotvec(_rotvec(_motion_clock(times, segments, ramp)))
+
+    u = _motion_clock(t, segments, ramp)
+    quat = dp.quat_from_rotvec(_rotvec(u))
     # body rate held over (t_{k−1}, t_k]: the analytic rate at the interval's middle
-    h = 1e-6
-    tm = t - 0.5 * dt
-    qa = dp.quat_from_rotvec(_rotvec(_motion_clock(tm - h, segments, ramp)))
-    qb = dp.quat_from_rotvec(_rotvec(_motion_clock(tm + h, segments, ramp)))
-    qc = dp.quat_from_rotvec(_rotvec(_motion_clock(tm, segments, ramp)))
-    qdot = (qb - qa) / (2.0 * h)
-    w = 2.0 * dp.quat_mul(dp.quat_conj(qc), qdot)[:, :3]
+    w = central_body_rate(quat_at, t - 0.5 * dt)
     moving = np.zeros(n, dtype=bool)
     for s, e in segments:
         moving |= (t >= s) & (t < e)
-    speed = np.gradient(_motion_clock(t, segments, ramp), dt)
+    speed = np.gradient(u, dt)
     b0 = rng.normal(scale=np.radians(0.5) / np.sqrt(3.0), size=3)
     direction = rng.normal(size=3)
     direction /= np.linalg.norm(direction)
@@ -179,7 +176,7 @@ def rest_break_recording(
     )
     conj = dp.quat_conj(quat)
     gyr = w + bias + rng.normal(scale=gyr_sigma, size=(n, 3))
-    acc = dp.quat_rotate(conj, a_lin + [0.0, 0.0, GRAVITY]) + rng.normal(scale=acc_sigma, size=(n, 3))
+    acc = dp.quat_rotate(conj, a_lin + [0.0, 0.0, STANDARD_GRAVITY]) + rng.normal(scale=acc_sigma, size=(n, 3))
     mag = dp.quat_rotate(conj, np.broadcast_to(FIELD_ENU, (n, 3))) + rng.normal(scale=mag_sigma, size=(n, 3))
     ends = segments[:-1, 1]
     breaks = np.stack([np.round(ends * rate), np.round((ends + pause) * rate)], axis=1).astype(np.int64)

@@ -20,7 +20,7 @@ from typing import Protocol
 import numpy as np
 
 from dualpose.types.camera import FrameCorrespondences, PinholeModel
-from dualpose.types.imu import ImuNoise
+from dualpose.types.imu import STANDARD_GRAVITY, ImuNoise
 from dualpose.types.trajectory import Trajectory
 
 __all__ = ["IMU_LIMITS", "NOISE_LIMITS", "FilterStart", "Recording", "RecordingWarning", "SensorRun", "SensorSetup"]
@@ -118,7 +118,7 @@ class Recording:
     pixel_sigma: float
     imu_noise: ImuNoise
     time_offset: float = 0.0
-    gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
+    gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -STANDARD_GRAVITY]))
     rest_seconds: float | None = None
     ground_truth: Trajectory | None = None
     stamps_ns: np.ndarray | None = None
@@ -213,8 +213,9 @@ class Recording:
         sel = self.t <= self.t[0] + (0.2 if rest is None else rest)
         f_w = quat_rotate(np.asarray(q_wb, dtype=np.float64), self.accel[sel].mean(axis=0))
         g = self.gravity
-        cos = float(-(f_w @ g) / (np.linalg.norm(f_w) * np.linalg.norm(g) + 1e-300))
-        angle = math.degrees(math.acos(min(max(cos, -1.0), 1.0)))
+        nf, ng = float(np.linalg.norm(f_w)), float(np.linalg.norm(g))
+        # atan2 (not acos): accurate at small angles; a zero specific force has no direction (90 deg, as cos = 0)
+        angle = math.degrees(math.atan2(float(np.linalg.norm(np.cross(f_w, g))), float(-(f_w @ g)))) if nf else 90.0
         where = self.name or "recording"
         if angle > 90.0:
             raise ValueError(
@@ -225,7 +226,6 @@ class Recording:
         if angle > max_angle_deg:
             warnings.warn(f"{where}: the specific force at rest is {angle:.1f} deg from -gravity {g.tolist()}: check "
                           "the gravity vector and the scene's vertical", RecordingWarning, stacklevel=2)  # fmt: skip
-        nf, ng = float(np.linalg.norm(f_w)), float(np.linalg.norm(g))
         if abs(nf - ng) > 0.05 * ng:
             warnings.warn(f"{where}: the specific force at rest is {nf:.3f} m/s² but |gravity| is {ng:.3f} m/s²: "
                           "check the accelerometer's unit (m/s², not g)", RecordingWarning, stacklevel=2)  # fmt: skip
@@ -313,7 +313,7 @@ class SensorSetup:
     imu_noise: ImuNoise
     start: FilterStart
     time_offset: float = 0.0
-    gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
+    gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -STANDARD_GRAVITY]))
 
     def __post_init__(self) -> None:
         _check_setup(self)
