@@ -232,3 +232,23 @@ def test_source_filter_unchanged():
     np.testing.assert_array_equal(filt.state, x)
     np.testing.assert_array_equal(filt.covariance, P)
     assert stream.samples == 2 and stream.time == 0.01
+
+
+@pytest.mark.parametrize("kind", ["eskf", "hol22"])
+def test_refuses_non_finite_samples_and_changes_nothing(kind):
+    """A NaN or infinite sample or correspondence is refused with a ValueError naming it, and the refused call leaves
+    the stream as it was: continuing gives the same states as a stream that never saw it."""
+    a, b = (STREAMS[kind](make_filter(kind)) for _ in range(2))
+    for s in (a, b):
+        s.update_imu(0.0, [0.0, 0.0, 0.0], [0.0, 0.0, 9.81])
+    with pytest.raises(ValueError, match="gyro must be finite"):
+        a.update_imu(0.01, np.array([np.nan, 0.0, 0.0]), [0.0, 0.0, 9.81])  # the native fast path
+    with pytest.raises(ValueError, match="accel must be finite"):
+        a.update_imu(0.01, [0.0, 0.0, 0.0], [0.0, np.inf, 9.81])
+    with pytest.raises(ValueError, match=r"gyro must be finite; row 1 is \[nan, 0.0, 0.0\]"):
+        a.update_batch([0.01, 0.02], [[0.0, 0.0, 0.0], [np.nan, 0.0, 0.0]], np.tile([0.0, 0.0, 9.81], (2, 1)))
+    with pytest.raises(ValueError, match="pixels and points must be finite"):
+        a.update_camera(0.015, np.array([[np.nan, 1.0]]), np.ones((1, 3)))
+    assert a.samples == b.samples == 1 and not a.pending_frames
+    np.testing.assert_array_equal(a.update_imu(0.01, [0.1, 0.0, 0.0], [0.0, 0.0, 9.81]),
+                                  b.update_imu(0.01, [0.1, 0.0, 0.0], [0.0, 0.0, 9.81]))

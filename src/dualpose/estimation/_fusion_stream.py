@@ -33,7 +33,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from dualpose import _native
-from dualpose.estimation._stream import saved_buffer, vec3
+from dualpose.estimation._stream import sample_block, saved_buffer, vec3
 from dualpose.estimation.interface import Estimator
 from dualpose.estimation.state import StateLayout
 
@@ -98,6 +98,8 @@ def _correspondences(pixels: Any, points: Any) -> tuple[np.ndarray, np.ndarray]:
         pts = pts.reshape(0, 3)
     if pix.ndim != 2 or pix.shape[1] != 2 or pts.shape != (len(pix), 3):
         raise ValueError(f"pixels must have shape (M, 2) and points (M, 3); got {pix.shape} and {pts.shape}")
+    if not (np.isfinite(pix).all() and np.isfinite(pts).all()):
+        raise ValueError("pixels and points must be finite (no NaN or infinity)")
     return np.ascontiguousarray(pix), np.ascontiguousarray(pts)
 
 
@@ -224,10 +226,8 @@ class FusionStream(abc.ABC):
         """
         t = np.ascontiguousarray(t, dtype=np.float64).reshape(-1)
         n = len(t)
-        gyro = np.ascontiguousarray(gyro, dtype=np.float64).reshape(-1, 3) if n else np.zeros((0, 3))
-        accel = np.ascontiguousarray(accel, dtype=np.float64).reshape(-1, 3) if n else np.zeros((0, 3))
-        if gyro.shape != (n, 3) or accel.shape != (n, 3):
-            raise ValueError(f"gyro and accel must have shape ({n}, 3); got {gyro.shape} and {accel.shape}")
+        gyro = sample_block(np.reshape(gyro, (-1, 3)) if n else np.zeros((0, 3)), "gyro", n)
+        accel = sample_block(np.reshape(accel, (-1, 3)) if n else np.zeros((0, 3)), "accel", n)
         last = self._last_imu_time()
         if n and (not np.isfinite(t).all() or not t[0] > last or np.any(np.diff(t) <= 0)):
             raise ValueError(f"t must be finite and increase strictly, after the last sample filtered ({last!r})")

@@ -8,6 +8,7 @@
 #include "eskf_args.hpp"
 
 #include <cstddef>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 
@@ -95,7 +96,7 @@ PyObject* check(PyObject*, PyObject* args) {
 // Three doubles from a 1-d float64 array of 3 elements (fast path, any stride: e.g. a row of a Fortran-ordered
 // (n, 3) array) or any sequence of 3 numbers; with none_ok, None gives zeros (an absent magnetometer in 6D);
 // ValueError naming `name` otherwise.
-inline bool read3(PyObject* o, const char* name, double* v, bool none_ok = false) {
+inline bool read3_any(PyObject* o, const char* name, double* v, bool none_ok) {
     if (PyArray_Check(o)) {
         auto* a = reinterpret_cast<PyArrayObject*>(o);
         if (PyArray_TYPE(a) == NPY_DOUBLE && PyArray_NDIM(a) == 1 && PyArray_DIM(a, 0) == 3 && PyArray_ISALIGNED(a) &&
@@ -125,6 +126,17 @@ inline bool read3(PyObject* o, const char* name, double* v, bool none_ok = false
         }
     }
     Py_DECREF(seq);
+    return true;
+}
+
+// read3_any, and ValueError naming `name` when a value is NaN or infinite (a filter fed one would carry NaN from
+// then on without a word).
+inline bool read3(PyObject* o, const char* name, double* v, bool none_ok = false) {
+    if (!read3_any(o, name, v, none_ok)) return false;
+    if (!(std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]))) {
+        PyErr_Format(PyExc_ValueError, "%s must be finite (no NaN or infinity)", name);
+        return false;
+    }
     return true;
 }
 

@@ -200,6 +200,25 @@ def test_bad_samples_raise_naming_them():
     assert r.samples == 0
 
 
+@pytest.mark.parametrize("n_rest", [0, 20], ids=["filter", "rest period"])
+def test_non_finite_samples_are_refused_and_change_nothing(n_rest):
+    """NaN or infinity in a sample is refused with a ValueError naming the argument -- on the compiled per-sample path,
+    in the rest period and in a block -- and the refused call leaves the stream as it was."""
+    a, b = AhrsStream(RATE, n_rest=n_rest), AhrsStream(RATE, n_rest=n_rest)
+    for s in (a, b):
+        s.update_imu(0.0, [0.0, 0.0, 0.0], [0.0, 0.0, 9.8], [0.0, 20.0, -40.0])
+    with pytest.raises(ValueError, match="gyro must be finite"):
+        a.update_imu(0.01, np.array([np.nan, 0.0, 0.0]), [0.0, 0.0, 9.8], [0.0, 20.0, -40.0])
+    with pytest.raises(ValueError, match="mag must be finite"):
+        a.update_imu(0.01, [0.0, 0.0, 0.0], [0.0, 0.0, 9.8], [np.inf, 20.0, -40.0])
+    with pytest.raises(ValueError, match=r"accel must be finite; row 1 is \[0.0, nan, 9.8\]"):
+        a.update_batch([0.01, 0.02], np.zeros((2, 3)), [[0.0, 0.0, 9.8], [0.0, np.nan, 9.8]],
+                       np.tile([0.0, 20.0, -40.0], (2, 1)))  # fmt: skip
+    assert a.samples == b.samples == 1
+    args = (0.01, [0.1, 0.0, 0.0], [0.0, 0.0, 9.8], [0.0, 20.0, -40.0])
+    np.testing.assert_array_equal(a.update_imu(*args), b.update_imu(*args))
+
+
 def test_mag_time_offset_settings_are_checked():
     with pytest.raises(ValueError, match='mag_time_offset must be "online" or a number'):
         AhrsStream(RATE, mag_time_offset="estimate")  # the whole recording's estimate needs the future

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from dualpose import _native
-from dualpose.estimation._stream import saved_buffer, vec3
+from dualpose.estimation._stream import sample_block, saved_buffer, vec3
 from dualpose.estimation.ahrs.config import (
     AhrsConfig,
     AhrsNoise,
@@ -38,13 +38,6 @@ from dualpose.estimation.ahrs.config import (
 )
 
 __all__ = ["AhrsStream"]
-
-
-def _check_block(x: Any, name: str, n: int | None) -> np.ndarray:
-    a = np.ascontiguousarray(x, dtype=np.float64)
-    if a.ndim != 2 or a.shape[1] != 3 or (n is not None and a.shape[0] != n):
-        raise ValueError(f"{name} must have shape ({'n' if n is None else n}, 3); got {a.shape}")
-    return a
 
 
 class AhrsStream:
@@ -179,9 +172,10 @@ class AhrsStream:
             running mean directions so far).
         """
         if self._state is not None and t > self._t and (mag is not None or not self._use_mag):
+            q = _native.ahrs_stream_step(self._state, gyro, accel, mag)  # refuses a bad sample before any change
             self._t = t
             self._samples += 1
-            return _native.ahrs_stream_step(self._state, gyro, accel, mag)
+            return q
         self._check_sample(t, mag)
         k = self._n_pending
         pt, pg, pa, pm = self._pending
@@ -220,11 +214,11 @@ class AhrsStream:
         """
         t = np.ascontiguousarray(t, dtype=np.float64).reshape(-1)
         n = t.shape[0]
-        g = _check_block(gyro, "gyro", n)
-        a = _check_block(accel, "accel", n)
+        g = sample_block(gyro, "gyro", n)
+        a = sample_block(accel, "accel", n)
         if mag is None and self._use_mag:
             raise ValueError("mag is required in 9D (use_mag=True); pass use_mag=False for 6D")
-        m = _check_block(mag, "mag", n) if mag is not None else np.zeros((n, 3))
+        m = sample_block(mag, "mag", n) if mag is not None else np.zeros((n, 3))
         if n and (not t[0] > self._t or np.any(np.diff(t) <= 0)):
             raise ValueError("t must increase strictly (and start after the last sample filtered)")
         out_q = np.full((n, 4), np.nan)
