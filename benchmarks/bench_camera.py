@@ -23,8 +23,8 @@ import sys
 
 import cv2
 import numpy as np
-from _common import best_of_interleaved, emit
 
+from _common import best_of_interleaved, emit
 from dualpose.types import EquidistantCamera, RadTanCamera
 
 EUROC = RadTanCamera(458.654, 457.296, 367.215, 248.375, -0.28340811, 0.07395907, 0.00019359, 1.76187114e-05, 752, 480)
