@@ -55,6 +55,8 @@ UNDISTORT_TOLERANCE = 1e-12
 #: Newton's iterations before a point counts as not converged; a step below 1e-14 (normalised units / radians)
 #: ends the iteration for that point (``src/native/common/camera_models.hpp``)
 UNDISTORT_MAX_ITERATIONS = 50
+# outputs of the compiled inversion (src/native/types/cameras.cpp)
+_UNDISTORTED, _RAY, _IDEAL_PIXELS = 0, 1, 2
 
 
 def _points(points_c: object, name: str = "points_c") -> np.ndarray:
@@ -84,9 +86,10 @@ class DistortedCamera(PinholeModel):
     """What the distorted pinhole cameras share (the projection API); see the module docstring for the models.
 
     A subclass is a frozen dataclass with fields ``fx, fy, cx, cy, <4 distortion coefficients>, width, height``,
-    class attributes ``model`` (the name), ``DISTORTION_NAMES`` and ``_KERNELS`` (the prefix of its compiled
-    gufuncs in ``dualpose._native``, ``src/native/types/cameras.cpp``), and ``_limit()``, the bound of its
-    invertible region.  The per-point work runs in those kernels; this class checks the input and shapes the output.
+    class attributes ``model`` (the name), ``DISTORTION_NAMES``, ``_KERNELS`` (the prefix of its compiled
+    gufuncs in ``dualpose._native``, ``src/native/types/cameras.cpp``) and ``_MODEL_ID`` (its number for
+    ``_native.camera_invert``), and ``_limit()``, the bound of its invertible region.  The per-point work runs in
+    those kernels; this class checks the input and shapes the output.
     """
 
     model: ClassVar[str]
@@ -176,34 +179,24 @@ class DistortedCamera(PinholeModel):
         ValueError
             Without ``return_valid``, when any point is not invertible (how many, and the first index).
         """
-        a = _planar(xy_d, "xy_d", "distorted normalised x_d, y_d")
-        xy, valid = self._undistort(a)
-        return self._finish(xy, valid, return_valid, "xy_d")
+        return self._invert(_planar(xy_d, "xy_d", "distorted normalised x_d, y_d"), False, _UNDISTORTED, return_valid)
 
     def unproject(self, pixels: np.ndarray, *, return_valid: bool = False):
         """Undistorted normalised coordinates ``(X/Z, Y/Z)`` ``(..., 2)`` of ``pixels`` ``(..., 2)``; failure rules
         of :meth:`undistort` (naming ``pixels``)."""
-        xy, valid = self._undistort(self._distorted_from_pixels(pixels))
-        return self._finish(xy, valid, return_valid, "pixels")
+        return self._invert(_planar(pixels, "pixels", "u, v in pixels"), True, _UNDISTORTED, return_valid)
 
     def bearing(self, pixels: np.ndarray, *, return_valid: bool = False):
         """Unit rays ``(..., 3)`` in the camera frame through ``pixels`` ``(..., 2)``; failure rules of
         :meth:`undistort` (naming ``pixels``)."""
-        ray, valid = self._bearing(self._distorted_from_pixels(pixels))
-        return self._finish(ray, valid, return_valid, "pixels")
+        return self._invert(_planar(pixels, "pixels", "u, v in pixels"), True, _RAY, return_valid)
 
     def ideal_pixels(self, pixels: np.ndarray, *, return_valid: bool = False):
         """The pixels ``(..., 2)`` of the same rays in the undistorted pinhole camera :meth:`pinhole`
         (``K · unproject(pixels)``): what the pinhole-model filters consume.  Failure rules of :meth:`undistort`."""
-        xy, valid = self._undistort(self._distorted_from_pixels(pixels))
-        ideal = np.stack([self.fx * xy[..., 0] + self.cx, self.fy * xy[..., 1] + self.cy], axis=-1)
-        return self._finish(ideal, valid, return_valid, "pixels")
+        return self._invert(_planar(pixels, "pixels", "u, v in pixels"), True, _IDEAL_PIXELS, return_valid)
 
     # ------------------------------------------------------------------ helpers
-    def _distorted_from_pixels(self, pixels: object) -> np.ndarray:
-        p = _planar(pixels, "pixels", "u, v in pixels")
-        return np.stack([(p[..., 0] - self.cx) / self.fx, (p[..., 1] - self.cy) / self.fy], axis=-1)
-
     def _checked_points(self, points_c: object) -> np.ndarray:
         p = _points(points_c)
         bad = self._unprojectable(p)
@@ -214,27 +207,23 @@ class DistortedCamera(PinholeModel):
             )
         return p
 
-    def _undistort(self, xy_d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        with np.errstate(all="ignore"):  # a point where Newton meets a zero derivative is flagged, not warned about
-            xy, valid = self._kernel("undistort")(self._params, self._bound, xy_d)
-        return xy, valid.astype(bool)
-
-    def _bearing(self, xy_d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        xy, valid = self._undistort(xy_d)
-        ray = np.concatenate([xy, np.ones(xy.shape[:-1] + (1,))], axis=-1)
-        return ray / np.linalg.norm(ray, axis=-1, keepdims=True), valid
-
-    @staticmethod
-    def _finish(values: np.ndarray, valid: np.ndarray, return_valid: bool, name: str):
-        values = np.where(valid[..., None], values, np.nan)
+    def _invert(self, src: np.ndarray, from_pixels: bool, output: int, return_valid: bool):
+        """The compiled Newton inversion (``_native.camera_invert``) of ``src`` (..., 2): pixels or distorted
+        normalised coordinates, to undistorted normalised coordinates, unit rays or ideal pixels."""
+        flat = np.ascontiguousarray(src.reshape(-1, 2))
+        out = np.empty((len(flat), 3 if output == _RAY else 2))
+        valid = np.empty(len(flat), dtype=np.int64)
+        _native.camera_invert(self._MODEL_ID, int(from_pixels), output, self._params, self._bound, flat, out, valid)
+        out = out.reshape(src.shape[:-1] + out.shape[-1:])
+        ok = valid.astype(bool).reshape(src.shape[:-1])
         if return_valid:
-            return values, valid
-        if not valid.all():
+            return out, ok
+        if not ok.all():
             raise ValueError(
-                f"{name}: {_first_bad(~valid)} points are outside the invertible region of the distortion "
-                "(pass return_valid=True to get NaN and a mask instead)"
+                f"{'pixels' if from_pixels else 'xy_d'}: {_first_bad(~ok)} points are outside the invertible region "
+                "of the distortion (pass return_valid=True to get NaN and a mask instead)"
             )
-        return values
+        return out
 
 
 # ---------------------------------------------------------------------------------------------- radtan
@@ -281,6 +270,7 @@ class RadTanCamera(DistortedCamera):
     _PROJECTABLE: ClassVar[str] = "Z must be > 0"
 
     _KERNELS: ClassVar[str] = "radtan"
+    _MODEL_ID: ClassVar[int] = 0
 
     @property
     def max_radius2(self) -> float:
@@ -338,6 +328,7 @@ class EquidistantCamera(DistortedCamera):
     _PROJECTABLE: ClassVar[str] = "not on the optical axis at or behind the centre, X = Y = 0 with Z <= 0"
 
     _KERNELS: ClassVar[str] = "equi"
+    _MODEL_ID: ClassVar[int] = 1
 
     @property
     def max_angle(self) -> float:
@@ -350,11 +341,6 @@ class EquidistantCamera(DistortedCamera):
 
     def _unprojectable(self, p: np.ndarray) -> np.ndarray:
         return (p[..., 0] == 0.0) & (p[..., 1] == 0.0) & ~(p[..., 2] > 0.0)
-
-    def _bearing(self, xy_d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        with np.errstate(all="ignore"):
-            ray, valid = _native.equi_bearing(self._params, self._bound, xy_d)
-        return ray, valid.astype(bool)
 
 
 # ---------------------------------------------------------------------------------------------- factory
