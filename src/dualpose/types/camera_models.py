@@ -82,15 +82,22 @@ def _first_bad(bad: np.ndarray) -> str:
     return f"{int(bad.sum())} of {bad.size} (first at index {tuple(int(i) for i in idx)})"
 
 
+@dataclass(frozen=True)
 class DistortedCamera(PinholeModel):
     """What the distorted pinhole cameras share (the projection API); see the module docstring for the models.
 
-    A subclass is a frozen dataclass with fields ``fx, fy, cx, cy, <4 distortion coefficients>, width, height``,
+    A subclass is a frozen dataclass that adds the fields ``<4 distortion coefficients>, width, height`` to
+    ``fx, fy, cx, cy`` (pixels),
     class attributes ``model`` (the name), ``DISTORTION_NAMES``, ``_KERNELS`` (the prefix of its compiled
     gufuncs in ``dualpose._native``, ``src/native/types/cameras.cpp``) and ``_MODEL_ID`` (its number for
     ``_native.camera_invert``), and ``_limit()``, the bound of its invertible region.  The per-point work runs in
     those kernels; this class checks the input and shapes the output.
     """
+
+    fx: float
+    fy: float
+    cx: float
+    cy: float
 
     model: ClassVar[str]
     DISTORTION_NAMES: ClassVar[tuple[str, str, str, str]]
@@ -229,10 +236,11 @@ class DistortedCamera(PinholeModel):
 # ---------------------------------------------------------------------------------------------- radtan
 
 
-def _radial_limit_r2(k1: float, k2: float) -> float:
-    """The first r² > 0 where d/dr [r (1 + k1 r² + k2 r⁴)] = 1 + 3 k1 r² + 5 k2 r⁴ vanishes (inf if none)."""
-    roots = np.roots([5.0 * k2, 3.0 * k1, 1.0]) if (k1 or k2) else np.array([])
-    real = [float(s.real) for s in np.atleast_1d(roots) if abs(s.imag) <= 1e-12 * abs(s) and s.real > 0]
+def _first_positive_root(coefficients: list[float]) -> float:
+    """The smallest real root s > 0 of the polynomial (highest power first; inf if none)."""
+    c = np.trim_zeros(np.array(coefficients, dtype=np.float64), "f")
+    roots = np.roots(c) if len(c) > 1 else np.array([])
+    real = [float(r.real) for r in roots if abs(r.imag) <= 1e-12 * abs(r) and r.real > 0]
     return min(real, default=math.inf)
 
 
@@ -240,24 +248,10 @@ def _radial_limit_r2(k1: float, k2: float) -> float:
 class RadTanCamera(DistortedCamera):
     """Pinhole camera with radial–tangential distortion (OpenCV ``[k1, k2, p1, p2]``, Kalibr ``radtan``).
 
-    Attributes
-    ----------
-    fx, fy : float
-        Focal lengths, pixels (> 0).
-    cx, cy : float
-        Principal point, pixels.
-    k1, k2 : float
-        Radial coefficients.
-    p1, p2 : float
-        Tangential coefficients.
-    width, height : int
-        Image size, pixels.
+    ``fx, fy, cx, cy, width, height`` as in :class:`~dualpose.types.camera.CameraIntrinsics` (pixels); ``k1, k2``
+    the radial, ``p1, p2`` the tangential coefficients.
     """
 
-    fx: float
-    fy: float
-    cx: float
-    cy: float
     k1: float
     k2: float
     p1: float
@@ -278,7 +272,8 @@ class RadTanCamera(DistortedCamera):
         return self._bound
 
     def _limit(self) -> float:
-        return _radial_limit_r2(self.k1, self.k2)
+        # the first r² where d/dr [r (1 + k1 r² + k2 r⁴)] = 1 + 3 k1 r² + 5 k2 r⁴ vanishes
+        return _first_positive_root([5.0 * self.k2, 3.0 * self.k1, 1.0])
 
     def _unprojectable(self, p: np.ndarray) -> np.ndarray:
         return ~(p[..., 2] > 0.0)
@@ -287,35 +282,14 @@ class RadTanCamera(DistortedCamera):
 # ---------------------------------------------------------------------------------------------- equidistant
 
 
-def _equi_theta_limit(k: tuple[float, float, float, float]) -> float:
-    """The first θ in (0, π) where dθ_d/dθ vanishes (π if none)."""
-    k1, k2, k3, k4 = k
-    coeffs = np.trim_zeros([9.0 * k4, 7.0 * k3, 5.0 * k2, 3.0 * k1, 1.0], "f")
-    roots = np.roots(coeffs) if len(coeffs) > 1 else np.array([])
-    real = [math.sqrt(s.real) for s in np.atleast_1d(roots) if abs(s.imag) <= 1e-12 * abs(s) and s.real > 0]
-    return min([t for t in real if t < math.pi], default=math.pi)
-
-
 @dataclass(frozen=True)
 class EquidistantCamera(DistortedCamera):
     """Pinhole camera with equidistant fisheye distortion (Kannala–Brandt; OpenCV ``cv2.fisheye``, Kalibr ``equi``).
 
-    Attributes
-    ----------
-    fx, fy : float
-        Focal lengths, pixels (> 0).
-    cx, cy : float
-        Principal point, pixels.
-    k1, k2, k3, k4 : float
-        Coefficients of ``θ_d = θ (1 + k1 θ² + k2 θ⁴ + k3 θ⁶ + k4 θ⁸)``.
-    width, height : int
-        Image size, pixels.
+    ``fx, fy, cx, cy, width, height`` as in :class:`~dualpose.types.camera.CameraIntrinsics` (pixels); ``k1 .. k4``
+    the coefficients of ``θ_d = θ (1 + k1 θ² + k2 θ⁴ + k3 θ⁶ + k4 θ⁸)``.
     """
 
-    fx: float
-    fy: float
-    cx: float
-    cy: float
     k1: float
     k2: float
     k3: float
@@ -337,7 +311,9 @@ class EquidistantCamera(DistortedCamera):
         return self._bound
 
     def _limit(self) -> float:
-        return _equi_theta_limit(self.distortion)
+        # the first θ in (0, π) where dθ_d/dθ = 1 + 3 k1 θ² + 5 k2 θ⁴ + 7 k3 θ⁶ + 9 k4 θ⁸ vanishes, else π
+        s = _first_positive_root([9.0 * self.k4, 7.0 * self.k3, 5.0 * self.k2, 3.0 * self.k1, 1.0])
+        return min(math.sqrt(s), math.pi)
 
     def _unprojectable(self, p: np.ndarray) -> np.ndarray:
         return (p[..., 0] == 0.0) & (p[..., 1] == 0.0) & ~(p[..., 2] > 0.0)
