@@ -95,9 +95,9 @@ void rest_run(std::ptrdiff_t n, const double* gyr, const double* acc, const doub
 // The saved stream: one contiguous byte buffer [StreamHeader | Params | State | ring (ring_doubles(p) doubles)], so
 // that a byte copy saves it and restores it.  STREAM_VERSION changes whenever the layout does (2: the time offset's
 // parameters, state and rings, and n_ring in the header; 3: the accelerometer's own error in Params; 4: the rest
-// detector's parameters, state and ring).
+// detector's parameters, state and ring; 5: the rest-offset variance in Params and the spell count in State).
 constexpr std::uint64_t STREAM_MAGIC = 0x3153524841504455ULL;  // "UDPAHRS1" little-endian
-constexpr std::uint64_t STREAM_VERSION = 4;
+constexpr std::uint64_t STREAM_VERSION = 5;
 struct StreamHeader {
     std::uint64_t magic, version, size, n_win, n_ring;  // size: total bytes of the buffer; n_ring = ring_doubles
 };
