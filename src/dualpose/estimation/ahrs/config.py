@@ -150,6 +150,7 @@ class AhrsConfig:
     rest_window: float = 1.5
     rest_margin: float = 3.0
     rest_bias_sigma: float = REST_BIAS_SIGMA
+    acc_clip: float = 5.0
 
     def __post_init__(self) -> None:
         if self.noise is not None and not isinstance(self.noise, AhrsNoise):
@@ -161,7 +162,7 @@ class AhrsConfig:
                   ("update_interval", self.update_interval, True),
                   ("acc_scale_sigma", self.acc_scale_sigma, False), ("rest_window", self.rest_window, False),
                   ("rest_margin", self.rest_margin, True),
-                  ("rest_bias_sigma", self.rest_bias_sigma, False))  # fmt: skip
+                  ("rest_bias_sigma", self.rest_bias_sigma, False), ("acc_clip", self.acc_clip, False))  # fmt: skip
         for name, value, positive in checks:
             if not (math.isfinite(value) and (value > 0.0 if positive else value >= 0.0)):
                 kind = "a positive" if positive else "a non-negative"
@@ -492,6 +493,7 @@ def _set_rest_params(params: np.ndarray, rate: float, noise: AhrsNoise, c: AhrsC
     params[_native.AHRS_P_REST_GATE] = float(chi2.ppf(c.gate_probability, 3))
     params[_native.AHRS_P_REST_SKIP] = int(skip)
     params[_native.AHRS_P_REST_OFFSET_VAR] = c.rest_bias_sigma**2
+    params[_native.AHRS_P_ACC_CLIP] = c.acc_clip
 
 
 def _check_config(config: object) -> AhrsConfig:
