@@ -1,4 +1,4 @@
-"""The accelerometer's impulse clipping (docs/broad.md, "Accelerometer impulse clipping"): taps on a slowly rotating
+"""The accelerometer's impulse clipping (docs/broad.md, "Twelve trials", (b)): taps on a slowly rotating
 IMU (seeded, :mod:`dualpose.sim.rest_breaks` with impulses added to the accelerometer) are cut before the low-pass,
 so the inclination stays near that of the same recording without taps; without impulses nothing is clipped."""
 

@@ -129,6 +129,12 @@ class AhrsConfig:
         common to the whole spell: the residual rotation of a "still" object and the difference between the bias
         at rest and in motion (default :data:`REST_BIAS_SIGMA`, 0.02 °/s).  A spell of L quiet samples measures
         the bias to at best √(σ²/L + rest_bias_sigma²), however long the rest (0: to σ/√L).
+    acc_clip : float
+        Impulse clipping of the accelerometer (default 5; 0: off): a sample of the earth-frame specific force enters
+        the low-pass at most ``acc_clip`` times the running RMS (time constant 1 s, of the clipped values) of its
+        change from the low-pass's last output away from that output.  A tap or shock (milliseconds, up to tens of g)
+        is cut to that size; hand motion, whose acceleration builds up over tens of milliseconds, raises the RMS as
+        it comes and passes (docs/broad.md, "Twelve trials", (b)).
     acc_scale_sigma : float
         Relative error δ of the accelerometer (scale factor + axis misalignment; calibrated MEMS class, default
         0.5 %, as the gyroscope's): a specific force ≈ g is measured off by up to δ g.  So the lower bound
