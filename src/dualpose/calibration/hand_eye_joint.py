@@ -6,7 +6,10 @@ Pipeline (:func:`calibrate_hand_eye_streams`): (1) coarse ``τ`` from the angula
 from Daniilidis' dual-quaternion solution (Daniilidis, IJRR 1999) inside a least-median-of-squares sampler
 (outlier-robust, as ETH's RANSAC stage: Furrer et al., FSR 2017); (4) joint nonlinear least squares of ``X`` and
 ``τ`` on the rotation and translation loop residuals, each scaled by a robust estimate of its noise, alternated with
-χ² outlier rejection until the inlier set settles.  Uncertainties are first order, ``s² (JᵀJ)⁻¹`` at the solution.
+χ² outlier rejection until the inlier set settles; (5) on the settled pairs, the five classical closed forms
+(:mod:`~dualpose.registration.hand_eye_closed_form`) scored with the reported loop residuals, and a final joint
+refinement of ``X`` and ``τ`` started from the best of them that by construction ends no worse than it on either
+reported residual.  Uncertainties are first order, ``s² (JᵀJ)⁻¹`` at the solution.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ from dualpose.calibration.hand_eye_residual import pair_motions, pair_residuals,
 from dualpose.calibration.hand_eye_streams import CleaningReport, PoseStream, interpolate_stream, shift_stamps
 from dualpose.calibration.hand_eye_time import coarse_time_offset
 from dualpose.registration import HandEyeWarning, calibrate_hand_eye
+from dualpose.registration.hand_eye_closed_form import HAND_EYE_CLOSED_FORMS, hand_eye_translation
 
 __all__ = ["HandEyeStreamResult", "calibrate_hand_eye_streams"]
 
@@ -76,7 +80,12 @@ class HandEyeStreamResult:
     pairs_total : int
         Pairs with valid body poses at ``τ`` before outlier rejection.
     sigma_rotation, sigma_translation : float
-        Noise scales of the residual components (rad, m), the weights of the cost.
+        Per-component scales of the residuals (rad, m), the weights of the final cost: the RMS rotation angle and
+        translation norm of the best closed form on each, divided by ``√3``.
+    start_method : str
+        The closed form the final refinement started from (a key of
+        :data:`~dualpose.registration.hand_eye_closed_form.HAND_EYE_CLOSED_FORMS`), or ``"joint"`` when none of
+        them could be computed.
     covariance : ndarray (7, 7)
         First-order covariance of ``[δθ (rad, left perturbation of the rotation), t (m), τ (s)]``.
     rotation_sigma_deg : ndarray (3,), translation_sigma_m : ndarray (3,), time_offset_sigma : float
@@ -102,6 +111,7 @@ class HandEyeStreamResult:
     rotation_sigma_deg: np.ndarray
     translation_sigma_m: np.ndarray
     time_offset_sigma: float
+    start_method: str
     camera_report: CleaningReport | None = field(default=None)
     body_report: CleaningReport | None = field(default=None)
 
@@ -232,6 +242,9 @@ def calibrate_hand_eye_streams(
         qx, tx, tau, sol = _joint_fit(camera, body, i_all[inliers], j_all[inliers], qx, tx, tau, np.sqrt(s2r),
                                       np.sqrt(s2t), fix_time_offset, max_gap)  # fmt: skip
     i, j = i_all[inliers], j_all[inliers]
+    half_width = min(max(0.02, float(np.median(np.diff(body.stamps)))), margin)
+    qx, tx, tau, sol, sr, st, start = _refine_from_closed_form(camera, body, i, j, qx, tx, tau, fix_time_offset,
+                                                                max_gap, half_width)  # fmt: skip
     qa, ta, qb, tb, _ = pair_motions(camera, body, i, j, tau, max_gap)
     th2, t2 = squared_pair_residuals(qa, ta, qb, tb, qx, tx)
     cov = _covariance(sol, fix_time_offset)
@@ -244,14 +257,14 @@ def calibrate_hand_eye_streams(
         quat=qx, translation=tx, dualquat=x, matrix=dp.matrix_from_dualquat(x), time_offset=float(tau),
         coarse_time_offset=float(tau0), coarse_correlation=coarse_corr,
         rotation_rmse_deg=float(np.degrees(np.sqrt(th2.mean()))), translation_rmse_m=float(np.sqrt(t2.mean())),
-        pairs=np.column_stack([kept[i], kept[j]]), pairs_total=pairs_total, sigma_rotation=float(np.sqrt(s2r)),
-        sigma_translation=float(np.sqrt(s2t)), covariance=cov, rotation_sigma_deg=np.degrees(sd[:3]),
-        translation_sigma_m=sd[3:6], time_offset_sigma=float(sd[6]),
+        pairs=np.column_stack([kept[i], kept[j]]), pairs_total=pairs_total, sigma_rotation=sr, sigma_translation=st,
+        covariance=cov, rotation_sigma_deg=np.degrees(sd[:3]), translation_sigma_m=sd[3:6],
+        time_offset_sigma=float(sd[6]), start_method=start,
     )  # fmt: skip
 
 
-def _joint_fit(camera, body, i, j, qx0, tx0, tau0, sr, st, fix_tau, max_gap):
-    """Least squares of ``[δθ, t, dτ]`` on the normalized residuals ``[θ_ij/σ_r, t_ij/σ_t]`` of the pairs."""
+def _pair_residual_fun(camera, body, i, j, qx0, tau0, sr, st, fix_tau, max_gap):
+    """Residual vector ``[θ_ij/σ_r, t_ij/σ_t]`` (flattened) of the pairs as a function of ``z = [δθ, t, dτ]``."""
     qa, ta, _, _, _ = pair_motions(camera, body, i, j, tau0, max_gap)
 
     def fun(z: np.ndarray) -> np.ndarray:
@@ -261,6 +274,12 @@ def _joint_fit(camera, body, i, j, qx0, tx0, tau0, sr, st, fix_tau, max_gap):
         rv, te = pair_residuals(qa, ta, qb, tb, q, z[3:6])
         return np.hstack([rv / sr, te / st]).ravel()
 
+    return fun
+
+
+def _joint_fit(camera, body, i, j, qx0, tx0, tau0, sr, st, fix_tau, max_gap):
+    """Least squares of ``[δθ, t, dτ]`` on the normalized residuals ``[θ_ij/σ_r, t_ij/σ_t]`` of the pairs."""
+    fun = _pair_residual_fun(camera, body, i, j, qx0, tau0, sr, st, fix_tau, max_gap)
     sol = least_squares(fun, np.r_[0.0, 0.0, 0.0, tx0, 0.0], method="trf", x_scale=np.r_[[1e-2] * 6, 1e-3],
                         diff_step=1e-6, xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=100)  # fmt: skip
     q = dp.quat_canonical(dp.quat_mul(dp.quat_from_rotvec(sol.x[:3]), qx0))
@@ -268,6 +287,102 @@ def _joint_fit(camera, body, i, j, qx0, tx0, tau0, sr, st, fix_tau, max_gap):
     # re-express the solution about the new rotation so that the covariance's δθ is a left perturbation of it
     sol.x[:3] = 0.0
     return q, sol.x[3:6].copy(), tau, sol
+
+
+def _rms(fun, z: np.ndarray, sr: float, st: float) -> tuple[float, float]:
+    """RMS rotation angle (rad) and translation norm (m) of the pairs at ``z`` (``fun`` from _pair_residual_fun)."""
+    r = fun(z).reshape(2, -1, 3)
+    return float(np.sqrt(np.mean(np.sum(r[0] ** 2, 1)))) * sr, float(np.sqrt(np.mean(np.sum(r[1] ** 2, 1)))) * st
+
+
+def _closed_form_start(camera, body, i, j, qx_joint, tx_joint, tau, max_gap):
+    """The five closed forms on the pairs at ``τ`` scored with the reported residuals: ``(name, q, t, σ_r, σ_t)``.
+
+    Each translation is re-solved by least squares for its rotation (the optimum of the translation residual for that
+    rotation).  ``σ = RMS / √3`` per component from the best RMS of each residual over the closed forms; the start is
+    the closed form of least ``mean_ij(|θ_ij|²/σ_r² + |t_ij|²/σ_t²)``.
+    """
+    qa, ta, qb, tb, _ = pair_motions(camera, body, i, j, tau, max_gap)
+    a_dq, b_dq = dp.dualquat_from_qt(qb, tb), dp.dualquat_from_qt(qa, ta)  # A X = X B with A the body motions
+    cands = {}
+    for name, solve in HAND_EYE_CLOSED_FORMS.items():
+        try:
+            q, _ = solve(a_dq, b_dq)
+        except (ValueError, np.linalg.LinAlgError):
+            continue
+        cands[name] = (q, hand_eye_translation(a_dq, b_dq, q))
+    if not cands:
+        cands["joint"] = (qx_joint, tx_joint)
+    ms = {k: [float(np.mean(v)) for v in squared_pair_residuals(qa, ta, qb, tb, *c)] for k, c in cands.items()}
+    sr = max(float(np.sqrt(min(m[0] for m in ms.values()) / 3.0)), 1e-12)
+    st = max(float(np.sqrt(min(m[1] for m in ms.values()) / 3.0)), 1e-12)
+    start = min(ms, key=lambda k: ms[k][0] / sr**2 + ms[k][1] / st**2)
+    return start, *cands[start], sr, st
+
+
+def _scan_time_offset(camera, body, i, j, qx, tx, tau0, sr, st, half_width, max_gap):
+    """``τ`` of least cost on a grid ``τ₀ ± half_width`` at fixed ``X`` (0.25 ms steps).
+
+    With linear/SLERP interpolation of the body the cost is piecewise smooth in ``τ``, with a kink whenever a camera
+    stamp + ``τ`` crosses a body sample; when the two clocks tick at commensurate rates the kinks line up and the
+    cost has local minima one body interval apart, which a local refinement cannot leave.
+    """
+    qa, ta, _, _, _ = pair_motions(camera, body, i, j, tau0, max_gap)
+    grid = tau0 + np.arange(-half_width, half_width + 1e-9, 2.5e-4)
+    cost = np.full(len(grid), np.inf)
+    for k, tau in enumerate(grid):
+        _, _, qb, tb, ok = pair_motions(camera, body, i, j, tau, max_gap)
+        if ok.all():
+            th2, t2 = squared_pair_residuals(qa, ta, qb, tb, qx, tx)
+            cost[k] = float(np.mean(th2 / sr**2 + t2 / st**2))
+    return float(grid[int(np.argmin(cost))]) if np.isfinite(cost).any() else tau0
+
+
+def _refine_from_closed_form(camera, body, i, j, qx_joint, tx_joint, tau0, fix_tau, max_gap, half_width):
+    """Final ``X`` and ``τ`` on the settled pairs, never worse than the closed form it starts from.
+
+    (1) The best closed form at ``τ₀`` (:func:`_closed_form_start`); (2) unless ``τ`` is fixed, a grid scan of ``τ``
+    at that ``X`` (:func:`_scan_time_offset`) moves ``τ₀`` to the deepest minimum nearby, and the closed forms are
+    recomputed there; (3) ``[δθ, t, dτ]`` refined from the start on ``mean_ij(|θ_ij|²/σ_r² + |t_ij|²/σ_t²)``;
+    (4) if the refinement worsened either RMS residual, step back along the straight line in ``[δθ, t, dτ]`` to the
+    best point that worsens neither (the start itself at worst).  Returns ``qx, tx, τ, sol, σ_r, σ_t, start name``.
+    """
+    start, q0, t0, sr, st = _closed_form_start(camera, body, i, j, qx_joint, tx_joint, tau0, max_gap)
+    if not fix_tau:
+        tau_scan = _scan_time_offset(camera, body, i, j, q0, t0, tau0, sr, st, half_width, max_gap)
+        if tau_scan != tau0:
+            tau0 = tau_scan
+            start, q0, t0, sr, st = _closed_form_start(camera, body, i, j, q0, t0, tau0, max_gap)
+    fun = _pair_residual_fun(camera, body, i, j, q0, tau0, sr, st, fix_tau, max_gap)
+    z0 = np.r_[0.0, 0.0, 0.0, t0, 0.0]
+    sol = least_squares(fun, z0, method="trf", x_scale=np.r_[[1e-2] * 6, 1e-3], diff_step=1e-6, xtol=1e-12,
+                        ftol=1e-12, gtol=1e-12, max_nfev=200)  # fmt: skip
+    rot0, tr0 = _rms(fun, z0, sr, st)
+    best_z, best_cost = z0, rot0**2 / sr**2 + tr0**2 / st**2
+    z_full = sol.x
+    for step in 0.5 ** np.arange(8):
+        z = z_full if step == 1.0 else z0 + step * (sol.x - z0)
+        rot, tr = _rms(fun, z, sr, st)
+        cost = rot**2 / sr**2 + tr**2 / st**2
+        if rot <= rot0 and tr <= tr0 and cost < best_cost:
+            best_z, best_cost = z, cost
+    q = dp.quat_canonical(dp.quat_mul(dp.quat_from_rotvec(best_z[:3]), q0))
+    tau = tau0 + (0.0 if fix_tau else float(best_z[6]))
+    if best_z is not z_full:  # stepped back: the covariance at the point returned
+        sol.fun, sol.jac = fun(best_z), _jacobian(fun, best_z)
+    sol.x = best_z.copy()
+    sol.x[:3] = 0.0
+    return q, best_z[3:6].copy(), tau, sol, float(sr), float(st), start
+
+
+def _jacobian(fun, z: np.ndarray, h: float = 1e-6) -> np.ndarray:
+    """Central-difference Jacobian of ``fun`` at ``z``."""
+    cols = []
+    for k in range(len(z)):
+        e = np.zeros(len(z))
+        e[k] = h
+        cols.append((fun(z + e) - fun(z - e)) / (2 * h))
+    return np.column_stack(cols)
 
 
 def _covariance(sol, fix_tau: bool) -> np.ndarray:
