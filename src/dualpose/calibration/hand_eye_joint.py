@@ -18,7 +18,7 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares
+from scipy.optimize import least_squares, minimize
 
 import dualpose as dp
 from dualpose.calibration.hand_eye_residual import pair_motions, pair_residuals, select_pairs, squared_pair_residuals
@@ -32,6 +32,7 @@ __all__ = ["HandEyeStreamResult", "calibrate_hand_eye_streams"]
 _CHI2_3_MEDIAN = 2.365974  # median of χ²(3): robust scale of a 3-vector residual
 _CHI2_6_999 = 22.457744  # 0.999 quantile of χ²(6): inlier gate of the normalized 6-vector residual
 _CHI2_6_9999 = 27.855876  # 0.9999 quantile of χ²(6): gate of the per-pose target consistency
+_X_SCALE = np.r_[[1e-2] * 6, 1e-3]  # typical sizes of [δθ (rad), t (m), dτ (s)] for the optimisers
 
 
 def _consistent_poses(camera: PoseStream, body: PoseStream, qx, tx, tau: float, max_gap) -> np.ndarray:
@@ -86,6 +87,10 @@ class HandEyeStreamResult:
         The closed form the final refinement started from (a key of
         :data:`~dualpose.registration.hand_eye_closed_form.HAND_EYE_CLOSED_FORMS`), or ``"joint"`` when none of
         them could be computed.
+    start_rotation_rmse_deg, start_translation_rmse_m, start_time_offset : float
+        That start's RMS loop residuals on :attr:`pairs` (deg, m) at its time offset (s, same clock as
+        ``time_offset``); by construction ``rotation_rmse_deg <= start_rotation_rmse_deg`` and
+        ``translation_rmse_m <= start_translation_rmse_m``.
     covariance : ndarray (7, 7)
         First-order covariance of ``[δθ (rad, left perturbation of the rotation), t (m), τ (s)]``.
     rotation_sigma_deg : ndarray (3,), translation_sigma_m : ndarray (3,), time_offset_sigma : float
@@ -112,6 +117,9 @@ class HandEyeStreamResult:
     translation_sigma_m: np.ndarray
     time_offset_sigma: float
     start_method: str
+    start_rotation_rmse_deg: float
+    start_translation_rmse_m: float
+    start_time_offset: float
     camera_report: CleaningReport | None = field(default=None)
     body_report: CleaningReport | None = field(default=None)
 
@@ -243,10 +251,9 @@ def calibrate_hand_eye_streams(
                                       np.sqrt(s2t), fix_time_offset, max_gap)  # fmt: skip
     i, j = i_all[inliers], j_all[inliers]
     half_width = min(max(0.02, float(np.median(np.diff(body.stamps)))), margin)
-    qx, tx, tau, sol, sr, st, start = _refine_from_closed_form(camera, body, i, j, qx, tx, tau, fix_time_offset,
-                                                                max_gap, half_width)  # fmt: skip
-    qa, ta, qb, tb, _ = pair_motions(camera, body, i, j, tau, max_gap)
-    th2, t2 = squared_pair_residuals(qa, ta, qb, tb, qx, tx)
+    qx, tx, tau, sol, sr, st, (start, ms0, tau_start), (ms_r, ms_t) = _refine_from_closed_form(
+        camera, body, i, j, qx, tx, tau, fix_time_offset, max_gap, half_width
+    )
     cov = _covariance(sol, fix_time_offset)
     sd = np.sqrt(np.diag(cov))
     x = dp.dualquat_canonical(dp.dualquat_from_qt(qx, tx))
@@ -256,10 +263,12 @@ def calibrate_hand_eye_streams(
     return HandEyeStreamResult(
         quat=qx, translation=tx, dualquat=x, matrix=dp.matrix_from_dualquat(x), time_offset=float(tau),
         coarse_time_offset=float(tau0), coarse_correlation=coarse_corr,
-        rotation_rmse_deg=float(np.degrees(np.sqrt(th2.mean()))), translation_rmse_m=float(np.sqrt(t2.mean())),
+        rotation_rmse_deg=float(np.degrees(np.sqrt(ms_r))), translation_rmse_m=float(np.sqrt(ms_t)),
         pairs=np.column_stack([kept[i], kept[j]]), pairs_total=pairs_total, sigma_rotation=sr, sigma_translation=st,
         covariance=cov, rotation_sigma_deg=np.degrees(sd[:3]), translation_sigma_m=sd[3:6],
-        time_offset_sigma=float(sd[6]), start_method=start,
+        time_offset_sigma=float(sd[6]), start_method=start, start_rotation_rmse_deg=float(np.degrees(np.sqrt(ms0[0]))),
+        start_translation_rmse_m=float(np.sqrt(ms0[1])),
+        start_time_offset=float(time_offset) if fix_time_offset else tau_start + shift,
     )  # fmt: skip
 
 
@@ -287,12 +296,6 @@ def _joint_fit(camera, body, i, j, qx0, tx0, tau0, sr, st, fix_tau, max_gap):
     # re-express the solution about the new rotation so that the covariance's δθ is a left perturbation of it
     sol.x[:3] = 0.0
     return q, sol.x[3:6].copy(), tau, sol
-
-
-def _rms(fun, z: np.ndarray, sr: float, st: float) -> tuple[float, float]:
-    """RMS rotation angle (rad) and translation norm (m) of the pairs at ``z`` (``fun`` from _pair_residual_fun)."""
-    r = fun(z).reshape(2, -1, 3)
-    return float(np.sqrt(np.mean(np.sum(r[0] ** 2, 1)))) * sr, float(np.sqrt(np.mean(np.sum(r[1] ** 2, 1)))) * st
 
 
 def _closed_form_start(camera, body, i, j, qx_joint, tx_joint, tau, max_gap):
@@ -344,8 +347,11 @@ def _refine_from_closed_form(camera, body, i, j, qx_joint, tx_joint, tau0, fix_t
     (1) The best closed form at ``τ₀`` (:func:`_closed_form_start`); (2) unless ``τ`` is fixed, a grid scan of ``τ``
     at that ``X`` (:func:`_scan_time_offset`) moves ``τ₀`` to the deepest minimum nearby, and the closed forms are
     recomputed there; (3) ``[δθ, t, dτ]`` refined from the start on ``mean_ij(|θ_ij|²/σ_r² + |t_ij|²/σ_t²)``;
-    (4) if the refinement worsened either RMS residual, step back along the straight line in ``[δθ, t, dτ]`` to the
-    best point that worsens neither (the start itself at worst).  Returns ``qx, tx, τ, sol, σ_r, σ_t, start name``.
+    (4) if that worsened either RMS residual, the same cost minimised subject to neither mean square exceeding the
+    start's (:func:`_constrained_refinement`), and points on the straight line from the start to the free optimum;
+    (5) of these, the one of least cost that worsens neither residual (the start itself at worst), with both checked by
+    the same computation that reports them.  Returns ``qx, tx, τ, sol, σ_r, σ_t``, the start ``(name, (mean squared
+    angle rad², mean squared translation m²), τ)`` and the final mean squares.
     """
     start, q0, t0, sr, st = _closed_form_start(camera, body, i, j, qx_joint, tx_joint, tau0, max_gap)
     if not fix_tau:
@@ -354,25 +360,61 @@ def _refine_from_closed_form(camera, body, i, j, qx_joint, tx_joint, tau0, fix_t
             tau0 = tau_scan
             start, q0, t0, sr, st = _closed_form_start(camera, body, i, j, q0, t0, tau0, max_gap)
     fun = _pair_residual_fun(camera, body, i, j, q0, tau0, sr, st, fix_tau, max_gap)
+    qa, ta, _, _, _ = pair_motions(camera, body, i, j, tau0, max_gap)
+
+    def mean_squares(z: np.ndarray) -> tuple[float, float]:  # the reported residuals, computed as reported
+        q = dp.quat_canonical(dp.quat_mul(dp.quat_from_rotvec(z[:3]), q0))
+        _, _, qb, tb, _ = pair_motions(camera, body, i, j, tau0 + (0.0 if fix_tau else float(z[6])), max_gap)
+        th2, t2 = squared_pair_residuals(qa, ta, qb, tb, q, z[3:6])
+        return float(np.mean(th2)), float(np.mean(t2))
+
     z0 = np.r_[0.0, 0.0, 0.0, t0, 0.0]
-    sol = least_squares(fun, z0, method="trf", x_scale=np.r_[[1e-2] * 6, 1e-3], diff_step=1e-6, xtol=1e-12,
-                        ftol=1e-12, gtol=1e-12, max_nfev=200)  # fmt: skip
-    rot0, tr0 = _rms(fun, z0, sr, st)
-    best_z, best_cost = z0, rot0**2 / sr**2 + tr0**2 / st**2
-    z_full = sol.x
-    for step in 0.5 ** np.arange(8):
-        z = z_full if step == 1.0 else z0 + step * (sol.x - z0)
-        rot, tr = _rms(fun, z, sr, st)
-        cost = rot**2 / sr**2 + tr**2 / st**2
-        if rot <= rot0 and tr <= tr0 and cost < best_cost:
-            best_z, best_cost = z, cost
+    ms0 = mean_squares(z0)
+    sol = least_squares(fun, z0, method="trf", x_scale=_X_SCALE, diff_step=1e-6, xtol=1e-12, ftol=1e-12,
+                        gtol=1e-12, max_nfev=200)  # fmt: skip
+    cands = [sol.x]
+    ms = mean_squares(sol.x)
+    if ms[0] > ms0[0] or ms[1] > ms0[1]:  # the free optimum trades one residual for the other: constrain it
+        cands.append(_constrained_refinement(mean_squares, z0, ms0, sr, st, fix_tau))
+        cands += [z0 + step * (sol.x - z0) for step in 0.5 ** np.arange(1, 8)]
+    best_z, best_ms = z0, ms0
+    for z in cands:
+        ms = mean_squares(z)
+        better = ms[0] / sr**2 + ms[1] / st**2 < best_ms[0] / sr**2 + best_ms[1] / st**2
+        if ms[0] <= ms0[0] and ms[1] <= ms0[1] and better:
+            best_z, best_ms = z, ms
     q = dp.quat_canonical(dp.quat_mul(dp.quat_from_rotvec(best_z[:3]), q0))
     tau = tau0 + (0.0 if fix_tau else float(best_z[6]))
-    if best_z is not z_full:  # stepped back: the covariance at the point returned
+    if best_z is not sol.x:  # the covariance at the point returned
         sol.fun, sol.jac = fun(best_z), _jacobian(fun, best_z)
     sol.x = best_z.copy()
     sol.x[:3] = 0.0
-    return q, best_z[3:6].copy(), tau, sol, float(sr), float(st), start
+    return q, best_z[3:6].copy(), tau, sol, float(sr), float(st), (start, ms0, tau0), best_ms
+
+
+def _constrained_refinement(mean_squares, z0, ms0, sr, st, fix_tau):
+    """``z`` minimising ``ms_r/σ_r² + ms_t/σ_t²`` subject to ``ms_r <= ms_r(z0)`` and ``ms_t <= ms_t(z0)`` (SLSQP,
+    Kraft 1988, in the scaled variables ``z / x_scale``); ``z0`` when it fails."""
+    n = 6 if fix_tau else 7
+    scale = _X_SCALE[:n]
+    cache: dict[bytes, tuple[float, float]] = {}
+
+    def ev(u: np.ndarray) -> tuple[float, float]:
+        key = u.tobytes()
+        if key not in cache:
+            z = z0.copy()
+            z[:n] += u * scale
+            cache[key] = mean_squares(z)
+        return cache[key]
+
+    # a margin of 1e-9 keeps SLSQP's slight infeasibility at an active constraint (~1e-14) inside the feasible set
+    cons = [{"type": "ineq", "fun": lambda u: 1.0 - 1e-9 - ev(u)[0] / ms0[0]},
+            {"type": "ineq", "fun": lambda u: 1.0 - 1e-9 - ev(u)[1] / ms0[1]}]  # fmt: skip
+    res = minimize(lambda u: ev(u)[0] / sr**2 + ev(u)[1] / st**2, np.zeros(n), method="SLSQP", constraints=cons,
+                   options={"maxiter": 50, "ftol": 1e-12, "eps": 1e-6})  # fmt: skip
+    z = z0.copy()
+    z[:n] += res.x * scale
+    return z
 
 
 def _jacobian(fun, z: np.ndarray, h: float = 1e-6) -> np.ndarray:

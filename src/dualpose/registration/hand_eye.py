@@ -206,7 +206,7 @@ def calibrate_hand_eye(
     t[:, 3:, 1:4] = dp.so3_hat(ad + bd)
     t[:, 3:, 4] = ar - br
     t[:, 3:, 5:8] = dp.so3_hat(ar + br)
-    _, sv, vt = np.linalg.svd(t.reshape(6 * m, 8))
+    _, sv, vt = np.linalg.svd(t.reshape(6 * m, 8), full_matrices=False)
     v7, v8 = vt[6], vt[7]
     u1, w1, u2, w2 = v7[:4], v7[4:], v8[:4], v8[4:]
     # (4) λ1 v7 + λ2 v8 with s = λ1/λ2: s² u1·w1 + s (u1·w2 + u2·w1) + u2·w2 = 0
