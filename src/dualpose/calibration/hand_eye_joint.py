@@ -303,7 +303,7 @@ def _closed_form_start(camera, body, i, j, qx_joint, tx_joint, tau, max_gap):
 
     Each translation is re-solved by least squares for its rotation (the optimum of the translation residual for that
     rotation).  ``σ = RMS / √3`` per component from the best RMS of each residual over the closed forms; the start is
-    the closed form of least ``mean_ij(|θ_ij|²/σ_r² + |t_ij|²/σ_t²)``.
+    the closed form whose worse residual is nearest its best: least ``max(RMS_r/best_r, RMS_t/best_t)``.
     """
     qa, ta, qb, tb, _ = pair_motions(camera, body, i, j, tau, max_gap)
     a_dq, b_dq = dp.dualquat_from_qt(qb, tb), dp.dualquat_from_qt(qa, ta)  # A X = X B with A the body motions
@@ -319,7 +319,7 @@ def _closed_form_start(camera, body, i, j, qx_joint, tx_joint, tau, max_gap):
     ms = {k: [float(np.mean(v)) for v in squared_pair_residuals(qa, ta, qb, tb, *c)] for k, c in cands.items()}
     sr = max(float(np.sqrt(min(m[0] for m in ms.values()) / 3.0)), 1e-12)
     st = max(float(np.sqrt(min(m[1] for m in ms.values()) / 3.0)), 1e-12)
-    start = min(ms, key=lambda k: ms[k][0] / sr**2 + ms[k][1] / st**2)
+    start = min(ms, key=lambda k: (max(ms[k][0] / sr**2, ms[k][1] / st**2), ms[k][0] / sr**2 + ms[k][1] / st**2))
     return start, *cands[start], sr, st
 
 
@@ -346,12 +346,13 @@ def _refine_from_closed_form(camera, body, i, j, qx_joint, tx_joint, tau0, fix_t
 
     (1) The best closed form at ``τ₀`` (:func:`_closed_form_start`); (2) unless ``τ`` is fixed, a grid scan of ``τ``
     at that ``X`` (:func:`_scan_time_offset`) moves ``τ₀`` to the deepest minimum nearby, and the closed forms are
-    recomputed there; (3) ``[δθ, t, dτ]`` refined from the start on ``mean_ij(|θ_ij|²/σ_r² + |t_ij|²/σ_t²)``;
-    (4) if that worsened either RMS residual, the same cost minimised subject to neither mean square exceeding the
-    start's (:func:`_constrained_refinement`), and points on the straight line from the start to the free optimum;
-    (5) of these, the one of least cost that worsens neither residual (the start itself at worst), with both checked by
-    the same computation that reports them.  Returns ``qx, tx, τ, sol, σ_r, σ_t``, the start ``(name, (mean squared
-    angle rad², mean squared translation m²), τ)`` and the final mean squares.
+    recomputed there; (3) ``[δθ, t, dτ]`` refined from the start on ``mean_ij(|θ_ij|²/σ_r² + |t_ij|²/σ_t²)`` (free),
+    and the worse of the two residuals brought as near its best closed form as possible without worsening either
+    residual of the start (:func:`_minimax_refinement`); (4) of the start and these two, among those that worsen
+    neither residual of the start (the start itself at worst), the one whose worse residual is nearest its best closed
+    form, with both residuals checked by the same computation that reports them.  Returns ``qx, tx, τ, sol, σ_r,
+    σ_t``, the start ``(name, (mean squared angle rad², mean squared translation m²), τ)`` and the final mean
+    squares.
     """
     start, q0, t0, sr, st = _closed_form_start(camera, body, i, j, qx_joint, tx_joint, tau0, max_gap)
     if not fix_tau:
@@ -370,18 +371,18 @@ def _refine_from_closed_form(camera, body, i, j, qx_joint, tx_joint, tau0, fix_t
 
     z0 = np.r_[0.0, 0.0, 0.0, t0, 0.0]
     ms0 = mean_squares(z0)
+    ideal = _residual_optima(fun, mean_squares, z0, (3.0 * sr**2, 3.0 * st**2), fix_tau)
+
+    def key(ms: tuple[float, float]) -> tuple[float, float]:  # worst ratio to the optima, then the cost
+        return max(ms[0] / ideal[0], ms[1] / ideal[1]), ms[0] / ideal[0] + ms[1] / ideal[1]
+
     sol = least_squares(fun, z0, method="trf", x_scale=_X_SCALE, diff_step=1e-6, xtol=1e-12, ftol=1e-12,
                         gtol=1e-12, max_nfev=200)  # fmt: skip
-    cands = [sol.x]
-    ms = mean_squares(sol.x)
-    if ms[0] > ms0[0] or ms[1] > ms0[1]:  # the free optimum trades one residual for the other: constrain it
-        cands.append(_constrained_refinement(mean_squares, z0, ms0, sr, st, fix_tau))
-        cands += [z0 + step * (sol.x - z0) for step in 0.5 ** np.arange(1, 8)]
+    cands = [sol.x, _minimax_refinement(mean_squares, z0, ms0, ideal, fix_tau)]
     best_z, best_ms = z0, ms0
     for z in cands:
         ms = mean_squares(z)
-        better = ms[0] / sr**2 + ms[1] / st**2 < best_ms[0] / sr**2 + best_ms[1] / st**2
-        if ms[0] <= ms0[0] and ms[1] <= ms0[1] and better:
+        if ms[0] <= ms0[0] and ms[1] <= ms0[1] and key(ms) < key(best_ms):
             best_z, best_ms = z, ms
     q = dp.quat_canonical(dp.quat_mul(dp.quat_from_rotvec(best_z[:3]), q0))
     tau = tau0 + (0.0 if fix_tau else float(best_z[6]))
@@ -392,28 +393,60 @@ def _refine_from_closed_form(camera, body, i, j, qx_joint, tx_joint, tau0, fix_t
     return q, best_z[3:6].copy(), tau, sol, float(sr), float(st), (start, ms0, tau0), best_ms
 
 
-def _constrained_refinement(mean_squares, z0, ms0, sr, st, fix_tau):
-    """``z`` minimising ``ms_r/σ_r² + ms_t/σ_t²`` subject to ``ms_r <= ms_r(z0)`` and ``ms_t <= ms_t(z0)`` (SLSQP,
-    Kraft 1988, in the scaled variables ``z / x_scale``); ``z0`` when it fails."""
+def _residual_optima(fun, mean_squares, z0, closed_form_best, fix_tau):
+    """The least mean square of each residual alone over ``[δθ, t, dτ]`` (and that of the closed forms if lower).
+
+    The rotation residual does not depend on ``t``: it is minimised over ``[δθ, dτ]``, the translation residual over
+    all.  The two optima may lie at different ``τ`` and ``X``; no single solution need reach both.
+    """
+    n = 6 if fix_tau else 7
+    free = {"rotation": [0, 1, 2] + ([6] if n == 7 else []), "translation": list(range(n))}
+    out = list(closed_form_best)
+    for k, (name, idx) in enumerate(free.items()):
+        cols = slice(0, 3) if name == "rotation" else slice(3, 6)
+
+        def part(u, idx=idx, cols=cols):
+            z = z0.copy()
+            z[idx] = u
+            return fun(z).reshape(-1, 6)[:, cols].ravel()
+
+        sol = least_squares(part, z0[idx], method="trf", x_scale=_X_SCALE[idx], diff_step=1e-6, max_nfev=100)
+        z = z0.copy()
+        z[idx] = sol.x
+        out[k] = min(out[k], mean_squares(z)[k])
+    return out[0], out[1]
+
+
+def _minimax_refinement(mean_squares, z0, ms0, ideal, fix_tau):
+    """``z`` of least ``s`` with ``ms_r <= s·ideal_r``, ``ms_t <= s·ideal_t`` (the worse residual as near its optimum
+    as it can be), ``ms_r <= ms_r(z0)`` and ``ms_t <= ms_t(z0)`` (never worse than the start).
+
+    SLSQP (Kraft 1988) on ``[z / x_scale, s]`` from ``[0, s(z0)]``, which is feasible; ``z0`` if it fails.  A margin
+    of 1e-9 keeps SLSQP's slight infeasibility at active constraints (~1e-14) inside the feasible set; the caller
+    checks the result again with the reported residuals.
+    """
     n = 6 if fix_tau else 7
     scale = _X_SCALE[:n]
     cache: dict[bytes, tuple[float, float]] = {}
 
-    def ev(u: np.ndarray) -> tuple[float, float]:
-        key = u.tobytes()
-        if key not in cache:
+    def ev(v: np.ndarray) -> tuple[float, float]:
+        k = v[:n].tobytes()
+        if k not in cache:
             z = z0.copy()
-            z[:n] += u * scale
-            cache[key] = mean_squares(z)
-        return cache[key]
+            z[:n] += v[:n] * scale
+            cache[k] = mean_squares(z)
+        return cache[k]
 
-    # a margin of 1e-9 keeps SLSQP's slight infeasibility at an active constraint (~1e-14) inside the feasible set
-    cons = [{"type": "ineq", "fun": lambda u: 1.0 - 1e-9 - ev(u)[0] / ms0[0]},
-            {"type": "ineq", "fun": lambda u: 1.0 - 1e-9 - ev(u)[1] / ms0[1]}]  # fmt: skip
-    res = minimize(lambda u: ev(u)[0] / sr**2 + ev(u)[1] / st**2, np.zeros(n), method="SLSQP", constraints=cons,
-                   options={"maxiter": 50, "ftol": 1e-12, "eps": 1e-6})  # fmt: skip
+    m = 1.0 - 1e-9
+    cons = [{"type": "ineq", "fun": lambda v: m * v[n] - ev(v)[0] / ideal[0]},
+            {"type": "ineq", "fun": lambda v: m * v[n] - ev(v)[1] / ideal[1]},
+            {"type": "ineq", "fun": lambda v: m - ev(v)[0] / ms0[0]},
+            {"type": "ineq", "fun": lambda v: m - ev(v)[1] / ms0[1]}]  # fmt: skip
+    v0 = np.r_[np.zeros(n), max(ms0[0] / ideal[0], ms0[1] / ideal[1])]
+    res = minimize(lambda v: v[n], v0, method="SLSQP", constraints=cons,
+                   options={"maxiter": 60, "ftol": 1e-10, "eps": 1e-6})  # fmt: skip
     z = z0.copy()
-    z[:n] += res.x * scale
+    z[:n] += res.x[:n] * scale
     return z
 
 
