@@ -2,7 +2,7 @@
 hand-held rig with an offset of an hour, sparse noisy motion capture at commensurate rates) and on ETH's two real
 sets: dualpose against OpenCV's five closed forms, every method scored with the same loop residual on the same pairs.
 
-Run: ``PYTHONPATH=src .venv/bin/python benchmarks/bench_hand_eye_kinds.py [--seeds 1,2,3] [--markdown PATH [--force]]``.
+Run: ``PYTHONPATH=src .venv/bin/python benchmarks/bench_hand_eye_kinds.py [--seeds 1,2,3] [--markdown PATH]``.
 OpenCV (``calibrateHandEye``, poses thinned to 200 as in ``bench_hand_eye.py``) is run at dualpose's ``τ`` and, on the
 simulated sets, also at the true ``τ``; "best" is the smaller residual of the two.  "τ − scan min" is the distance
 of dualpose's ``τ`` to the minimum of the loop residual scanned at 0.5 ms over ±10 ms (``X`` re-fitted at each
@@ -12,19 +12,20 @@ of dualpose's ``τ`` to the minimum of the loop residual scanned at 0.5 ms over 
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
+from _common import emit
 from bench_hand_eye import DATASETS, OPENCV, opencv_x, score
 from dualpose.calibration import calibrate_hand_eye_streams, clean_pose_stream, loop_residual
 from dualpose.io.pose_csv import read_pose_csv
 from dualpose.sim import simulate_hand_eye
 
 OFFSETS = {"arm": 0.02, "handheld": 3600.3, "sparse": 0.02}
+DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "handeye"
 
 
 def _scan_min(cam, body, r) -> float:
@@ -56,14 +57,10 @@ def run_set(label: str, cam, body, tau_true: float | None) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", default=str(Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "handeye"))
     ap.add_argument("--seeds", default="1,2,3", help="comma-separated seeds of the simulated sets")
-    ap.add_argument("--markdown", metavar="PATH", help="also write the table as Markdown")
-    ap.add_argument("--force", action="store_true", help="overwrite an existing --markdown file")
+    ap.add_argument("--markdown", metavar="PATH", help="also write the table as Markdown (never overwritten)")
+    ap.add_argument("--data", default=str(DATA), help="directory of ETH's two real sets (skipped when missing)")
     args = ap.parse_args(argv)
-    if args.markdown and os.path.exists(args.markdown) and not args.force:
-        print(f"{args.markdown} exists; pass --force to overwrite", file=sys.stderr)
-        return 1
     head = ("| set | τ − true [ms] | τ − scan min [ms] | dualpose rot [deg] / trans [mm] | "
             + " | ".join(f"OpenCV {m}" for m in OPENCV)
             + " | rot / best | trans / best | start | pairs | seconds |")  # fmt: skip
@@ -83,12 +80,7 @@ def main(argv: list[str] | None = None) -> int:
             body, _ = clean_pose_stream(rec.body_stamps, rec.body_positions, rec.body_quats, "body")
             lines.append(run_set(f"sim {kind} (seed {seed})", cam, body, tau))
             print(lines[-1], flush=True)
-    text = "\n".join(lines)
-    print(text)
-    if args.markdown:
-        with open(args.markdown, "w") as fh:
-            fh.write(text + "\n")
-    return 0
+    return emit("\n".join(lines), args.markdown)
 
 
 if __name__ == "__main__":

@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import dualpose as dp
-from dualpose.registration.hand_eye import HandEyeWarning, _as_dualquats, calibrate_hand_eye
+from dualpose.registration.hand_eye import HandEyeWarning, calibrate_hand_eye, checked_motion_pairs
 
 __all__ = [
     "HAND_EYE_CLOSED_FORMS",
@@ -49,14 +49,7 @@ __all__ = [
 
 def _motions(A_motions: ArrayLike, B_motions: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Rotations (canonical quaternions, ``w >= 0``) and translations of the motions, after the shape checks."""
-    a = _as_dualquats(A_motions, "A_motions")
-    b = _as_dualquats(B_motions, "B_motions")
-    if a.shape != b.shape:
-        raise ValueError(f"A_motions and B_motions must have the same count; got {len(a)} and {len(b)}")
-    if len(a) < 2:
-        raise ValueError(f"need at least 2 motion pairs with non-parallel rotation axes; got {len(a)}")
-    if not (np.isfinite(a).all() and np.isfinite(b).all()):
-        raise ValueError("A_motions and B_motions must be finite")
+    a, b = checked_motion_pairs(A_motions, B_motions)
     qa, ta = dp.qt_from_dualquat(a)
     qb, tb = dp.qt_from_dualquat(b)
     return dp.quat_canonical(qa), ta, dp.quat_canonical(qb), tb
