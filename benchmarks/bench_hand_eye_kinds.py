@@ -2,7 +2,8 @@
 hand-held rig with an offset of an hour, sparse noisy motion capture at commensurate rates) and on ETH's two real
 sets: dualpose against OpenCV's five closed forms, every method scored with the same loop residual on the same pairs.
 
-Run: ``PYTHONPATH=src .venv/bin/python benchmarks/bench_hand_eye_kinds.py [--seeds 1,2,3] [--markdown PATH]``.
+Run: ``PYTHONPATH=src .venv/bin/python benchmarks/bench_hand_eye_kinds.py [--seeds 1,2,3] [--kinds arm,handheld,sparse]
+[--camera-scale S] [--data DIR] [--markdown PATH]``.
 OpenCV (``calibrateHandEye``, poses thinned to 200 as in ``bench_hand_eye.py``) is run at dualpose's ``τ`` and, on the
 simulated sets, also at the true ``τ``; "best" is the smaller residual of the two.  "τ − scan min" is the distance
 of dualpose's ``τ`` to the minimum of the loop residual scanned at 0.5 ms over ±10 ms (``X`` re-fitted at each
@@ -60,6 +61,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", default="1,2,3", help="comma-separated seeds of the simulated sets")
     ap.add_argument("--markdown", metavar="PATH", help="also write the table as Markdown (never overwritten)")
     ap.add_argument("--data", default=str(DATA), help="directory of ETH's two real sets (skipped when missing)")
+    ap.add_argument("--kinds", default=",".join(OFFSETS), help="simulated kinds (arm,handheld,sparse)")
+    ap.add_argument(
+        "--camera-scale",
+        type=float,
+        default=1.0,
+        help="scale the simulated camera positions (a scale error of VIO or of the target, e.g. 1.1)",
+    )
     args = ap.parse_args(argv)
     head = ("| set | τ − true [ms] | τ − scan min [ms] | dualpose rot [deg] / trans [mm] | "
             + " | ".join(f"OpenCV {m}" for m in OPENCV)
@@ -73,12 +81,13 @@ def main(argv: list[str] | None = None) -> int:
         body, _ = clean_pose_stream(*read_pose_csv(data / body_file), body_file)
         lines.append(run_set(name, cam, body, None))
         print(lines[-1], flush=True)
-    for kind, tau in OFFSETS.items():
+    for kind in args.kinds.split(","):
         for seed in (int(s) for s in args.seeds.split(",")):
-            rec = simulate_hand_eye(kind, seed, tau)
-            cam, _ = clean_pose_stream(rec.camera_stamps, rec.camera_positions, rec.camera_quats, "camera")
+            rec = simulate_hand_eye(kind, seed, OFFSETS[kind])
+            pos = args.camera_scale * rec.camera_positions
+            cam, _ = clean_pose_stream(rec.camera_stamps, pos, rec.camera_quats, "camera")
             body, _ = clean_pose_stream(rec.body_stamps, rec.body_positions, rec.body_quats, "body")
-            lines.append(run_set(f"sim {kind} (seed {seed})", cam, body, tau))
+            lines.append(run_set(f"sim {kind} (seed {seed})", cam, body, OFFSETS[kind]))
             print(lines[-1], flush=True)
     return emit("\n".join(lines), args.markdown)
 
