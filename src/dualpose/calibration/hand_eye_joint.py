@@ -247,8 +247,8 @@ def calibrate_hand_eye_streams(
         inliers = new
         if len(inliers) < 3:
             raise ValueError(f"only {len(inliers)} consistent motion pair(s); need at least 3")
-        qx, tx, tau, sol = _joint_fit(camera, body, i_all[inliers], j_all[inliers], qx, tx, tau, np.sqrt(s2r),
-                                      np.sqrt(s2t), fix_time_offset, max_gap)  # fmt: skip
+        qx, tx, tau = _joint_fit(camera, body, i_all[inliers], j_all[inliers], qx, tx, tau, np.sqrt(s2r),
+                                 np.sqrt(s2t), fix_time_offset, max_gap)  # fmt: skip
     i, j = i_all[inliers], j_all[inliers]
     half_width = min(max(0.02, float(np.median(np.diff(body.stamps)))), margin)
     qx, tx, tau, sol, sr, st, (start, ms0, tau_start), (ms_r, ms_t) = _refine_from_closed_form(
@@ -289,13 +289,10 @@ def _pair_residual_fun(camera, body, i, j, qx0, tau0, sr, st, fix_tau, max_gap):
 def _joint_fit(camera, body, i, j, qx0, tx0, tau0, sr, st, fix_tau, max_gap):
     """Least squares of ``[δθ, t, dτ]`` on the normalized residuals ``[θ_ij/σ_r, t_ij/σ_t]`` of the pairs."""
     fun = _pair_residual_fun(camera, body, i, j, qx0, tau0, sr, st, fix_tau, max_gap)
-    sol = least_squares(fun, np.r_[0.0, 0.0, 0.0, tx0, 0.0], method="trf", x_scale=np.r_[[1e-2] * 6, 1e-3],
-                        diff_step=1e-6, xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=100)  # fmt: skip
+    sol = least_squares(fun, np.r_[0.0, 0.0, 0.0, tx0, 0.0], method="trf", x_scale=_X_SCALE, diff_step=1e-6,
+                        xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=100)  # fmt: skip
     q = dp.quat_canonical(dp.quat_mul(dp.quat_from_rotvec(sol.x[:3]), qx0))
-    tau = tau0 + (0.0 if fix_tau else float(sol.x[6]))
-    # re-express the solution about the new rotation so that the covariance's δθ is a left perturbation of it
-    sol.x[:3] = 0.0
-    return q, sol.x[3:6].copy(), tau, sol
+    return q, sol.x[3:6].copy(), tau0 + (0.0 if fix_tau else float(sol.x[6]))
 
 
 def _closed_form_start(camera, body, i, j, qx_joint, tx_joint, tau, max_gap):
@@ -365,7 +362,9 @@ def _refine_from_closed_form(camera, body, i, j, qx_joint, tx_joint, tau0, fix_t
 
     def mean_squares(z: np.ndarray) -> tuple[float, float]:  # the reported residuals, computed as reported
         q = dp.quat_canonical(dp.quat_mul(dp.quat_from_rotvec(z[:3]), q0))
-        _, _, qb, tb, _ = pair_motions(camera, body, i, j, tau0 + (0.0 if fix_tau else float(z[6])), max_gap)
+        _, _, qb, tb, ok = pair_motions(camera, body, i, j, tau0 + (0.0 if fix_tau else float(z[6])), max_gap)
+        if not ok.all():  # a τ that leaves a body gap or the body stream is never chosen
+            return np.inf, np.inf
         th2, t2 = squared_pair_residuals(qa, ta, qb, tb, q, z[3:6])
         return float(np.mean(th2)), float(np.mean(t2))
 
