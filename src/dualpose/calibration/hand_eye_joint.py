@@ -7,9 +7,10 @@ from Daniilidis' dual-quaternion solution (Daniilidis, IJRR 1999) inside a least
 (outlier-robust, as ETH's RANSAC stage: Furrer et al., FSR 2017); (4) joint nonlinear least squares of ``X`` and
 ``τ`` on the rotation and translation loop residuals, each scaled by a robust estimate of its noise, alternated with
 χ² outlier rejection until the inlier set settles; (5) on the settled pairs, the five classical closed forms
-(:mod:`~dualpose.registration.hand_eye_closed_form`) scored with the reported loop residuals, and a final joint
-refinement of ``X`` and ``τ`` started from the best of them that by construction ends no worse than it on either
-reported residual.  Uncertainties are first order, ``s² (JᵀJ)⁻¹`` at the solution.
+(:mod:`~dualpose.registration.hand_eye_closed_form`) scored with the reported loop residuals, a grid scan of ``τ``
+(the residual has local minima in ``τ`` when the clocks tick at commensurate rates), and a final joint refinement of
+``X`` and ``τ`` started from the best closed form that by construction ends no worse than it on either reported
+residual.  Uncertainties are first order, ``s² (JᵀJ)⁻¹`` at the solution.
 """
 
 from __future__ import annotations
