@@ -10,12 +10,20 @@
 // per-element loop when every operand is a C-contiguous stack of cores (the usual large batch): a plain,
 // non-template function that the compiler vectorises across rows and that can be cloned per instruction set
 // (target_clones); it must compute exactly what F computes, row by row, and read a row before writing it.
+//
+// Every gufunc also gets a direct entry (Gufunc::direct, registered with register_direct): for inputs that need no
+// gufunc machinery -- exact float64 ndarrays, C-contiguous, aligned, native byte order, the core shapes, one
+// common leading shape (Python floats for scalar cores) -- it allocates the outputs and runs ROWS (or F row by row)
+// on them, so it returns what the gufunc returns bit for bit; other inputs are declined and take the gufunc.
+// dualpose._native.FastPath (algebra/fastpath.cpp) puts it in front of a public function.
 #pragma once
 
+#include "direct.hpp"
 #include "numpy_api.hpp"
 
 #include <algorithm>
 #include <array>
+#include <cfenv>
 #include <cstddef>
 #include <string>
 #include <tuple>
@@ -147,6 +155,121 @@ struct Gufunc<F, In<I...>, Out<O...>, ROWS> {
         run(args, dims[0], steps, std::index_sequence_for<I...>{}, std::index_sequence_for<O...>{});
     }
 
+    // The direct entry (see the top of this file): 1 with *result the output (a tuple for several), 0 when the
+    // inputs need the gufunc, when the computation raised a floating-point exception flag or, with nan_declines,
+    // when an output holds a NaN; -1 with a Python error set.
+    static int direct(PyObject* const* args, std::ptrdiff_t max_rows, bool nan_declines, PyObject** result) {
+        return direct_impl(args, max_rows, nan_declines, result, std::index_sequence_for<I...>{},
+                           std::index_sequence_for<O...>{});
+    }
+
+    template <std::size_t... Ii, std::size_t... Oi>
+    static int direct_impl(PyObject* const* args, npy_intp max_rows, bool nan_declines, PyObject** result,
+                           std::index_sequence<Ii...>, std::index_sequence<Oi...>) {
+        constexpr int core_ndim[nin] = {I::ndim...};
+        constexpr int core_rows[nin] = {I::rows...};
+        constexpr int core_cols[nin] = {I::cols...};
+        constexpr npy_intp core_size[nin] = {I::size...};
+        const double* in[nin];
+        npy_intp step[nin];  // doubles per row: the core size, 0 for a Python float (the same value every row)
+        double value[nin];
+        int lead_ndim = -1;
+        const npy_intp* lead = nullptr;
+        for (int j = 0; j < nin; ++j) {
+            PyObject* o = args[j];
+            if (core_ndim[j] == 0 && PyFloat_Check(o)) {
+                value[j] = PyFloat_AS_DOUBLE(o);
+                in[j] = &value[j];
+                step[j] = 0;
+                continue;
+            }
+            if (!PyArray_CheckExact(o)) return 0;
+            auto* a = reinterpret_cast<PyArrayObject*>(o);
+            if (PyArray_TYPE(a) != NPY_DOUBLE || !PyArray_ISCARRAY_RO(a) || !PyArray_ISNOTSWAPPED(a)) return 0;
+            const int nd = PyArray_NDIM(a) - core_ndim[j];
+            const npy_intp* d = PyArray_DIMS(a);
+            if (nd < 0) return 0;
+            if (core_ndim[j] >= 1 && d[nd] != core_rows[j]) return 0;
+            if (core_ndim[j] == 2 && d[nd + 1] != core_cols[j]) return 0;
+            if (lead_ndim < 0) {
+                lead_ndim = nd;
+                lead = d;
+            } else if (nd != lead_ndim || !std::equal(d, d + nd, lead)) {
+                return 0;  // broadcasting: the gufunc's job
+            }
+            in[j] = static_cast<const double*>(PyArray_DATA(a));
+            step[j] = core_size[j];
+        }
+        if (lead_ndim < 0) lead_ndim = 0;  // Python floats only
+        npy_intp n = 1;
+        for (int k = 0; k < lead_ndim; ++k) n *= lead[k];
+        if (max_rows >= 0 && n > max_rows) return 0;
+        constexpr int out_ndim[nout] = {O::ndim...};
+        constexpr int out_rows[nout] = {O::rows...};
+        constexpr int out_cols[nout] = {O::cols...};
+        constexpr npy_intp out_size[nout] = {O::size...};
+        PyObject* outs[nout] = {};
+        double* od[nout];
+        npy_intp dims[NPY_MAXDIMS];
+        if (lead_ndim + 2 > NPY_MAXDIMS) return 0;
+        std::copy(lead, lead + lead_ndim, dims);
+        for (int j = 0; j < nout; ++j) {
+            dims[lead_ndim] = out_rows[j];
+            dims[lead_ndim + 1] = out_cols[j];
+            outs[j] = PyArray_SimpleNew(lead_ndim + out_ndim[j], dims, NPY_DOUBLE);
+            if (outs[j] == nullptr) {
+                for (int k = 0; k < j; ++k) Py_DECREF(outs[k]);
+                return -1;
+            }
+            od[j] = static_cast<double*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(outs[j])));
+        }
+        bool full = true;  // every input a stack of n cores: the gufunc's contiguous loop (ROWS when there is one)
+        for (int j = 0; j < nin; ++j) full &= step[j] != 0;
+        // NumPy reports the floating-point exceptions a ufunc loop raises (np.errstate); a call that raises one is
+        // declined, so the gufunc recomputes it and reports them as before
+        constexpr int kFlags = FE_DIVBYZERO | FE_OVERFLOW | FE_INVALID | FE_UNDERFLOW;
+        std::feclearexcept(kFlags);
+        bool decline = false;
+        constexpr npy_intp kChunk = 1024;  // rows per NaN scan, while they are in cache
+        {
+            const bool nogil = n >= 4 * kChunk;
+            PyThreadState* ts = nogil ? PyEval_SaveThread() : nullptr;
+            for (npy_intp i0 = 0; i0 < n && !decline; i0 += kChunk) {
+                const npy_intp m = std::min(kChunk, n - i0);
+                bool done = false;
+                if constexpr (!std::is_same_v<decltype(ROWS), std::nullptr_t>) {
+                    if (full) {
+                        ROWS((in[Ii] + i0 * step[Ii])..., (od[Oi] + i0 * out_size[Oi])..., m);
+                        done = true;
+                    }
+                }
+                if (!done)
+                    for (npy_intp i = i0; i < i0 + m; ++i) F((in[Ii] + i * step[Ii])..., (od[Oi] + i * out_size[Oi])...);
+                if (nan_declines)
+                    for (int j = 0; j < nout && !decline; ++j)
+                        for (npy_intp k = i0 * out_size[j]; k < (i0 + m) * out_size[j]; ++k) decline |= od[j][k] != od[j][k];
+            }
+            decline |= std::fetestexcept(kFlags) != 0;
+            if (nogil) PyEval_RestoreThread(ts);
+        }
+        if (decline) {
+            for (int j = 0; j < nout; ++j) Py_DECREF(outs[j]);
+            return 0;
+        }
+        if constexpr (nout == 1) {
+            *result = PyArray_Return(reinterpret_cast<PyArrayObject*>(outs[0]));
+        } else {
+            PyObject* t = PyTuple_New(nout);
+            if (t == nullptr) {
+                for (int j = 0; j < nout; ++j) Py_DECREF(outs[j]);
+                return -1;
+            }
+            for (int j = 0; j < nout; ++j) PyTuple_SET_ITEM(t, j, PyArray_Return(reinterpret_cast<PyArrayObject*>(outs[j])));
+            *result = t;
+        }
+        return *result == nullptr ? -1 : 1;
+    }
+
     // The ufunc object (a new reference), or nullptr with a Python error set.
     static PyObject* create(const char* name, const char* doc) {
         static PyUFuncGenericFunction funcs[1] = {&loop};
@@ -164,6 +287,7 @@ template <class G>
 inline bool add_gufunc(PyObject* module, const char* name, const char* doc) {
     PyObject* u = G::create(name, doc);
     if (u == nullptr) return false;
+    if (!register_direct(u, &G::direct)) return Py_DECREF(u), false;
     return PyModule_AddObject(module, name, u) == 0 || (Py_DECREF(u), false);
 }
 

@@ -1,0 +1,197 @@
+// dualpose._native.FastPath: a public function with a direct native entry in front of it.
+//
+// FastPath(kernel, func, nan_declines=False, max_rows=-1, fixed=()) is called like ``func``.  A call with exactly
+// the kernel's inputs as positional arguments (``fixed`` appended: constant trailing inputs such as a frame flag) and
+// no keywords first goes to the gufunc's direct entry (common/gufunc.hpp, Gufunc::direct), which computes into fresh
+// arrays when the inputs need no conversion, broadcasting or striding and there are at most ``max_rows`` rows (no
+// limit when negative); with ``nan_declines`` a NaN in an output also declines (the function's own checks then
+// run).  Every declined call, and every other call, goes to ``func`` unchanged.  So ``func`` is the specification:
+// FastPath may be put in front of it only when, for such inputs, ``func`` returns exactly the kernel's outputs
+// (unless an output is NaN, with ``nan_declines``).
+//
+// The object reads as ``func``: __name__, __qualname__, __module__, __doc__ and any other attribute come from it,
+// __wrapped__ is it (inspect.signature follows it), and pickling stores a reference by name.
+#include "../common/direct.hpp"
+#include "../common/numpy_api.hpp"
+
+#include <structmember.h>
+
+#include <utility>
+#include <vector>
+
+namespace dualpose {
+
+namespace {
+
+std::vector<std::pair<PyObject*, DirectFn>>& registry() {
+    static std::vector<std::pair<PyObject*, DirectFn>> r;
+    return r;
+}
+
+constexpr int kMaxInputs = 12;
+
+struct FastPath {
+    PyObject_HEAD
+    vectorcallfunc vectorcall;
+    PyObject* func;
+    PyObject* kernel;
+    PyObject* fixed;  // tuple of constant trailing inputs
+    DirectFn direct;
+    Py_ssize_t nin;
+    Py_ssize_t max_rows;
+    bool nan_declines;
+};
+
+PyObject* fast_call(PyObject* self_, PyObject* const* args, size_t nargsf, PyObject* kwnames) {
+    auto* self = reinterpret_cast<FastPath*>(self_);
+    const Py_ssize_t n = PyVectorcall_NARGS(nargsf);
+    const Py_ssize_t nfixed = PyTuple_GET_SIZE(self->fixed);
+    if (kwnames == nullptr && n + nfixed == self->nin) {
+        PyObject* const* all = args;
+        PyObject* buf[kMaxInputs];
+        if (nfixed) {
+            for (Py_ssize_t j = 0; j < n; ++j) buf[j] = args[j];
+            for (Py_ssize_t j = 0; j < nfixed; ++j) buf[n + j] = PyTuple_GET_ITEM(self->fixed, j);
+            all = buf;
+        }
+        PyObject* result = nullptr;
+        const int s = self->direct(all, self->max_rows, self->nan_declines, &result);
+        if (s > 0) return result;
+        if (s < 0) return nullptr;
+    }
+    return PyObject_Vectorcall(self->func, args, nargsf, kwnames);
+}
+
+PyObject* fast_new(PyTypeObject* type, PyObject* args, PyObject* kwds) {
+    static const char* names[] = {"kernel", "func", "nan_declines", "max_rows", "fixed", nullptr};
+    PyObject *kernel, *func, *fixed = nullptr;
+    int nan_declines = 0;
+    Py_ssize_t max_rows = -1;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OO|pnO!:FastPath", const_cast<char**>(names), &kernel, &func,
+                                     &nan_declines, &max_rows, &PyTuple_Type, &fixed))
+        return nullptr;
+    DirectFn direct = nullptr;
+    for (const auto& [u, fn] : registry())
+        if (u == kernel) direct = fn;
+    if (direct == nullptr) {
+        PyErr_SetString(PyExc_TypeError, "FastPath: kernel must be a gufunc of dualpose._native");
+        return nullptr;
+    }
+    if (!PyCallable_Check(func)) {
+        PyErr_SetString(PyExc_TypeError, "FastPath: func must be callable");
+        return nullptr;
+    }
+    const int nin = reinterpret_cast<PyUFuncObject*>(kernel)->nin;
+    const Py_ssize_t nfixed = fixed ? PyTuple_GET_SIZE(fixed) : 0;
+    if (nin > kMaxInputs || nfixed >= nin) {
+        PyErr_SetString(PyExc_ValueError, "FastPath: fixed must leave at least one of the kernel's inputs");
+        return nullptr;
+    }
+    auto* self = reinterpret_cast<FastPath*>(type->tp_alloc(type, 0));
+    if (self == nullptr) return nullptr;
+    self->vectorcall = fast_call;
+    Py_INCREF(func);
+    self->func = func;
+    Py_INCREF(kernel);
+    self->kernel = kernel;
+    self->fixed = fixed ? (Py_INCREF(fixed), fixed) : PyTuple_New(0);
+    self->direct = direct;
+    self->nin = nin;
+    self->max_rows = max_rows;
+    self->nan_declines = nan_declines != 0;
+    if (self->fixed == nullptr) return Py_DECREF(self), nullptr;
+    return reinterpret_cast<PyObject*>(self);
+}
+
+int fast_traverse(PyObject* self_, visitproc visit, void* arg) {
+    auto* self = reinterpret_cast<FastPath*>(self_);
+    Py_VISIT(self->func);
+    Py_VISIT(self->kernel);
+    Py_VISIT(self->fixed);
+    return 0;
+}
+
+int fast_clear(PyObject* self_) {
+    auto* self = reinterpret_cast<FastPath*>(self_);
+    Py_CLEAR(self->func);
+    Py_CLEAR(self->kernel);
+    Py_CLEAR(self->fixed);
+    return 0;
+}
+
+void fast_dealloc(PyObject* self) {
+    PyObject_GC_UnTrack(self);
+    fast_clear(self);
+    Py_TYPE(self)->tp_free(self);
+}
+
+// Attributes not of FastPath itself come from the wrapped function.
+PyObject* fast_getattro(PyObject* self, PyObject* name) {
+    PyObject* r = PyObject_GenericGetAttr(self, name);
+    if (r != nullptr || !PyErr_ExceptionMatches(PyExc_AttributeError)) return r;
+    PyErr_Clear();
+    return PyObject_GetAttr(reinterpret_cast<FastPath*>(self)->func, name);
+}
+
+PyObject* from_func(PyObject* self, void* name) {
+    return PyObject_GetAttrString(reinterpret_cast<FastPath*>(self)->func, static_cast<const char*>(name));
+}
+
+PyObject* fast_repr(PyObject* self_) {
+    auto* self = reinterpret_cast<FastPath*>(self_);
+    PyObject* name = PyObject_GetAttrString(self->func, "__qualname__");
+    if (name == nullptr) return nullptr;
+    PyObject* r = PyUnicode_FromFormat("<function %S with a fast path>", name);
+    Py_DECREF(name);
+    return r;
+}
+
+// pickle and copy: a reference to the module attribute of the same name (as for a plain function)
+PyObject* fast_reduce(PyObject* self, PyObject*) { return from_func(self, const_cast<char*>("__qualname__")); }
+
+PyGetSetDef fast_getset[] = {
+    {"__name__", from_func, nullptr, nullptr, const_cast<char*>("__name__")},
+    {"__qualname__", from_func, nullptr, nullptr, const_cast<char*>("__qualname__")},
+    {"__module__", from_func, nullptr, nullptr, const_cast<char*>("__module__")},
+    {"__doc__", from_func, nullptr, nullptr, const_cast<char*>("__doc__")},
+    {nullptr, nullptr, nullptr, nullptr, nullptr}};
+
+PyMemberDef fast_members[] = {
+    {"__wrapped__", T_OBJECT_EX, offsetof(FastPath, func), READONLY, "The function called for every other input."},
+    {"kernel", T_OBJECT_EX, offsetof(FastPath, kernel), READONLY, "The gufunc whose direct entry is tried first."},
+    {nullptr, 0, 0, 0, nullptr}};
+
+PyMethodDef fast_methods[] = {{"__reduce__", fast_reduce, METH_NOARGS, nullptr}, {nullptr, nullptr, 0, nullptr}};
+
+PyTypeObject FastPathType = {PyVarObject_HEAD_INIT(nullptr, 0) "dualpose._native.FastPath"};
+
+}  // namespace
+
+bool register_direct(PyObject* ufunc, DirectFn fn) {
+    Py_INCREF(ufunc);
+    registry().emplace_back(ufunc, fn);
+    return true;
+}
+
+bool add_fast_path(PyObject* m) {
+    FastPathType.tp_basicsize = sizeof(FastPath);
+    FastPathType.tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC | Py_TPFLAGS_HAVE_VECTORCALL;
+    FastPathType.tp_doc = "FastPath(kernel, func, nan_declines=False, max_rows=-1, fixed=()): func with the direct "
+                          "native entry of the gufunc kernel in front of it (see algebra/fastpath.cpp).";
+    FastPathType.tp_new = fast_new;
+    FastPathType.tp_dealloc = fast_dealloc;
+    FastPathType.tp_traverse = fast_traverse;
+    FastPathType.tp_clear = fast_clear;
+    FastPathType.tp_vectorcall_offset = offsetof(FastPath, vectorcall);
+    FastPathType.tp_call = PyVectorcall_Call;
+    FastPathType.tp_getattro = fast_getattro;
+    FastPathType.tp_repr = fast_repr;
+    FastPathType.tp_getset = fast_getset;
+    FastPathType.tp_members = fast_members;
+    FastPathType.tp_methods = fast_methods;
+    if (PyType_Ready(&FastPathType) < 0) return false;
+    Py_INCREF(&FastPathType);
+    return PyModule_AddObject(m, "FastPath", reinterpret_cast<PyObject*>(&FastPathType)) == 0;
+}
+
+}  // namespace dualpose
