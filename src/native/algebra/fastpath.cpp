@@ -23,8 +23,8 @@ namespace dualpose {
 
 namespace {
 
-std::vector<std::pair<PyObject*, DirectFn>>& registry() {
-    static std::vector<std::pair<PyObject*, DirectFn>> r;
+std::vector<std::pair<PyObject*, DirectEntry>>& registry() {
+    static std::vector<std::pair<PyObject*, DirectEntry>> r;
     return r;
 }
 
@@ -70,10 +70,8 @@ PyObject* fast_new(PyTypeObject* type, PyObject* args, PyObject* kwds) {
     if (!PyArg_ParseTupleAndKeywords(args, kwds, "OO|pnO!:FastPath", const_cast<char**>(names), &kernel, &func,
                                      &nan_declines, &max_rows, &PyTuple_Type, &fixed))
         return nullptr;
-    DirectFn direct = nullptr;
-    for (const auto& [u, fn] : registry())
-        if (u == kernel) direct = fn;
-    if (direct == nullptr) {
+    const DirectEntry* e = find_direct(kernel);
+    if (e == nullptr) {
         PyErr_SetString(PyExc_TypeError, "FastPath: kernel must be a gufunc of dualpose._native");
         return nullptr;
     }
@@ -95,7 +93,7 @@ PyObject* fast_new(PyTypeObject* type, PyObject* args, PyObject* kwds) {
     Py_INCREF(kernel);
     self->kernel = kernel;
     self->fixed = fixed ? (Py_INCREF(fixed), fixed) : PyTuple_New(0);
-    self->direct = direct;
+    self->direct = e->direct;
     self->nin = nin;
     self->max_rows = max_rows;
     self->nan_declines = nan_declines != 0;
@@ -167,10 +165,16 @@ PyTypeObject FastPathType = {PyVarObject_HEAD_INIT(nullptr, 0) "dualpose._native
 
 }  // namespace
 
-bool register_direct(PyObject* ufunc, DirectFn fn) {
+bool register_direct(PyObject* ufunc, const DirectEntry& entry) {
     Py_INCREF(ufunc);
-    registry().emplace_back(ufunc, fn);
+    registry().emplace_back(ufunc, entry);
     return true;
+}
+
+const DirectEntry* find_direct(PyObject* ufunc) {
+    for (const auto& [u, e] : registry())
+        if (u == ufunc) return &e;
+    return nullptr;
 }
 
 bool add_fast_path(PyObject* m) {

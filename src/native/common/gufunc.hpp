@@ -23,7 +23,6 @@
 
 #include <algorithm>
 #include <array>
-#include <cfenv>
 #include <cstddef>
 #include <string>
 #include <tuple>
@@ -225,10 +224,7 @@ struct Gufunc<F, In<I...>, Out<O...>, ROWS> {
         }
         bool full = true;  // every input a stack of n cores: the gufunc's contiguous loop (ROWS when there is one)
         for (int j = 0; j < nin; ++j) full &= step[j] != 0;
-        // NumPy reports the floating-point exceptions a ufunc loop raises (np.errstate); a call that raises one is
-        // declined, so the gufunc recomputes it and reports them as before
-        constexpr int kFlags = FE_DIVBYZERO | FE_OVERFLOW | FE_INVALID | FE_UNDERFLOW;
-        std::feclearexcept(kFlags);
+        fp_flags_clear();  // a computation that raises a flag is declined (direct.hpp)
         bool decline = false;
         constexpr npy_intp kChunk = 1024;  // rows per NaN scan, while they are in cache
         {
@@ -249,7 +245,7 @@ struct Gufunc<F, In<I...>, Out<O...>, ROWS> {
                     for (int j = 0; j < nout && !decline; ++j)
                         for (npy_intp k = i0 * out_size[j]; k < (i0 + m) * out_size[j]; ++k) decline |= od[j][k] != od[j][k];
             }
-            decline |= std::fetestexcept(kFlags) != 0;
+            decline |= fp_flags_raised();
             if (nogil) PyEval_RestoreThread(ts);
         }
         if (decline) {
@@ -270,6 +266,24 @@ struct Gufunc<F, In<I...>, Out<O...>, ROWS> {
         return *result == nullptr ? -1 : 1;
     }
 
+    template <std::size_t... Ii, std::size_t... Oi>
+    static void row_impl(const double* const* in, double* const* out, std::index_sequence<Ii...>,
+                         std::index_sequence<Oi...>) {
+        F(in[Ii]..., out[Oi]...);
+    }
+    static void row(const double* const* in, double* const* out) {
+        row_impl(in, out, std::index_sequence_for<I...>{}, std::index_sequence_for<O...>{});
+    }
+
+    static DirectEntry entry() {
+        DirectEntry e{&direct, &row, nin, nout, {}, {}};
+        constexpr int is[] = {I::size...};
+        constexpr int os[] = {O::size...};
+        for (int j = 0; j < nin && j < 8; ++j) e.in_size[j] = is[j];
+        for (int j = 0; j < nout && j < 8; ++j) e.out_size[j] = os[j];
+        return e;
+    }
+
     // The ufunc object (a new reference), or nullptr with a Python error set.
     static PyObject* create(const char* name, const char* doc) {
         static PyUFuncGenericFunction funcs[1] = {&loop};
@@ -287,7 +301,7 @@ template <class G>
 inline bool add_gufunc(PyObject* module, const char* name, const char* doc) {
     PyObject* u = G::create(name, doc);
     if (u == nullptr) return false;
-    if (!register_direct(u, &G::direct)) return Py_DECREF(u), false;
+    if (!register_direct(u, G::entry())) return Py_DECREF(u), false;
     return PyModule_AddObject(module, name, u) == 0 || (Py_DECREF(u), false);
 }
 
