@@ -11,8 +11,8 @@ import pytest
 from scipy.spatial.transform import RigidTransform, Rotation, Slerp
 
 from dualpose.algebra import quat as fq
-from dualpose.algebra.dualquat import dualquat_mul as dq_mul
 from dualpose.algebra.classes import DualQuaternion, Quaternion
+from dualpose.algebra.dualquat import dualquat_mul as dq_mul
 
 TOL = 1e-12
 
