@@ -205,6 +205,6 @@ def test_reads_as_the_function() -> None:
     assert str(inspect.signature(f)) == str(inspect.signature(f.__wrapped__))
     assert f.__annotations__ == f.__wrapped__.__annotations__
     assert pickle.loads(pickle.dumps(f)) is f and copy.deepcopy(f) is f
-    assert "quat_mul" in repr(f)
+    assert "quat_mul" in repr(f) and inspect.isroutine(f)
     with pytest.raises(TypeError, match="kernel must be a gufunc"):
         _native.FastPath(np.add, f.__wrapped__)

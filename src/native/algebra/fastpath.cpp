@@ -10,7 +10,8 @@
 // (unless an output is NaN, with ``nan_declines``).
 //
 // The object reads as ``func``: __name__, __qualname__, __module__, __doc__ and any other attribute come from it,
-// __wrapped__ is it (inspect.signature follows it), and pickling stores a reference by name.
+// __wrapped__ is it (inspect.signature follows it), it binds as a method like a function (so inspect.isroutine and
+// pydoc take it for one), and pickling stores a reference by name.
 #include "../common/direct.hpp"
 #include "../common/numpy_api.hpp"
 
@@ -144,6 +145,15 @@ PyObject* fast_repr(PyObject* self_) {
     return r;
 }
 
+// As a function: bound when read through an instance (so inspect and pydoc treat it as a routine).
+PyObject* fast_descr_get(PyObject* self, PyObject* obj, PyObject*) {
+    if (obj == nullptr || obj == Py_None) {
+        Py_INCREF(self);
+        return self;
+    }
+    return PyMethod_New(self, obj);
+}
+
 // pickle and copy: a reference to the module attribute of the same name (as for a plain function)
 PyObject* fast_reduce(PyObject* self, PyObject*) { return from_func(self, const_cast<char*>("__qualname__")); }
 
@@ -190,6 +200,7 @@ bool add_fast_path(PyObject* m) {
     FastPathType.tp_call = PyVectorcall_Call;
     FastPathType.tp_getattro = fast_getattro;
     FastPathType.tp_repr = fast_repr;
+    FastPathType.tp_descr_get = fast_descr_get;
     FastPathType.tp_getset = fast_getset;
     FastPathType.tp_members = fast_members;
     FastPathType.tp_methods = fast_methods;
