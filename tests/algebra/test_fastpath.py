@@ -183,6 +183,70 @@ def test_routing() -> None:
     assert len(calls) == len(ineligible) + 1
 
 
+def test_routing_of_out() -> None:
+    calls: list[int] = []
+
+    def spy(*args, **kwargs):
+        calls.append(1)
+        return dp.quat_mul.__wrapped__(*args, **kwargs)
+
+    f = _native.FastPath(_native.quat_mul, spy, takes_out=True)
+    p, q = np.random.default_rng(2).normal(size=(2, 6, 4))
+    out = np.empty((6, 4))
+    assert f(p, q, out) is out and f(p, q, out=out) is out and type(f(p, q, out=None)) is np.ndarray
+    assert calls == []
+    want = dp.quat_mul.__wrapped__(p, q)
+    assert out.tobytes() == want.tobytes()
+    for o in (p, q[::-1].copy(order="F"), np.empty((6, 4), np.float32), np.empty((1, 6, 4)), np.empty((12, 4))[::2]):
+        try:
+            f(p, q, out=o)
+        except (TypeError, ValueError):
+            pass
+    assert len(calls) == 5  # in place over an input, Fortran order, float32, wrong shape, strided: the Python path
+
+
+OUT_KINDS = ["fresh", "input", "fortran", "float32", "shape", "none", "list"]
+
+
+@settings(max_examples=150, deadline=None)
+@given(k=st.sampled_from([f for f in FAST if "out" in inspect.signature(f).parameters]),
+       batch=st.sampled_from([(), (1,), (2,), (3, 2), (70,)]), kind=st.sampled_from(OUT_KINDS),
+       special=st.sampled_from(SPECIAL), keyword=st.booleans(), seed=st.integers(0, 2**32 - 1))
+def test_out_same_outcome_as_the_python_path(k, batch, kind, special, keyword, seed) -> None:
+    """``out=``: the same result, the same final contents of ``out`` and of the inputs, the same errors."""
+    rng = np.random.default_rng(seed)
+    args = [make_input(rng, c, batch) for c in core_shapes(k)]
+    n = int(np.prod(batch))
+    if special != "none" and n:
+        args[0].reshape(n, -1)[0] = {"zero": 0.0, "huge": 1e200, "nan": np.nan}[special]
+    width = {"quat_mul": 4, "dualquat_mul": 8}.get(k.__name__, 3)
+    shape = (*batch, width)
+
+    def make_out(a):
+        if kind == "input":
+            same = [x for x in a if x.shape == shape]
+            return same[0] if same else np.full(shape, 5.0)
+        return {"fresh": lambda: np.full(shape, 5.0), "fortran": lambda: np.asfortranarray(np.full(shape, 5.0)),
+                "float32": lambda: np.full(shape, 5.0, np.float32), "shape": lambda: np.full((*batch, width + 1), 5.0),
+                "none": lambda: None, "list": lambda: [0.0] * width}[kind]()
+
+    results = []
+    for f in (k, k.__wrapped__):
+        a = [x.copy() for x in args]
+        o = make_out(a)
+        r = outcome(lambda *x, f=f, o=o: f(*x, out=o) if keyword else f(*x, o), a)
+        results.append((r, a, o))
+    (got, a1, o1), (want, a2, o2) = results
+    if isinstance(got[0], np.ndarray) and o1 is not None and not isinstance(o1, list):
+        assert (got[0] is o1) == (want[0] is o2)
+    assert_same(got[0], want[0])
+    assert got[1] == want[1]
+    for x, y in zip(a1, a2, strict=True):
+        assert x.tobytes() == y.tobytes()
+    if isinstance(o1, np.ndarray):
+        assert o1.tobytes() == o2.tobytes()
+
+
 def test_nan_outputs_decline_only_where_asked() -> None:
     calls: list[int] = []
 

@@ -5,7 +5,7 @@ a call with exactly the kernel's inputs as positional arguments that need no con
 (float64 ndarrays, C-contiguous, of the core shapes and one common batch shape; Python floats for scalar inputs),
 computes the kernel's outputs directly into fresh arrays -- the same rows the gufunc computes, bit for bit, without
 NumPy's ufunc dispatch or the Python argument checks.  Every other call (array-likes, other dtypes, broadcasting,
-strided views, ``out=``, keywords) runs ``f`` itself, which stays the specification: errors and their messages are
+strided views, other keywords) runs ``f`` itself, which stays the specification: errors and their messages are
 ``f``'s.  The decorated object reads as ``f`` (name, docstring, ``inspect.signature`` through ``__wrapped__``,
 pickling by reference).
 
@@ -14,7 +14,10 @@ Options:
 * ``nan_declines=True`` for functions whose checks look at NaN outputs (a zero quaternion where a nonzero one is
   needed): a NaN in an output hands the call to ``f``, which raises or returns the same NaN;
 * ``max_rows``: the direct entry applies up to this many rows (``f`` takes a different path above it);
-* ``fixed``: constant trailing kernel inputs (the default frame flag of a function with a ``frame`` argument).
+* ``fixed``: constant trailing kernel inputs (the default frame flag of a function with a ``frame`` argument);
+* ``takes_out=True`` for functions with the parameter ``out`` (a preallocated result, as for NumPy ufuncs): a
+  C-contiguous float64 ``out`` of exactly the result's shape that shares no memory with an input is written
+  directly (others, e.g. in place over an input, take ``f``).
 
 Put it only in front of an ``f`` that, for such inputs, returns exactly the kernel's outputs.
 """
@@ -34,10 +37,10 @@ _F = TypeVar("_F", bound=Callable[..., Any])
 
 
 def fast_path(kernel: np.ufunc, *, nan_declines: bool = False, max_rows: int = -1,
-              fixed: tuple[float, ...] = ()) -> Callable[[_F], _F]:
+              fixed: tuple[float, ...] = (), takes_out: bool = False) -> Callable[[_F], _F]:
     """Decorator: put the direct entry of the gufunc ``kernel`` in front of the function (see the module text)."""
 
     def wrap(func: _F) -> _F:
-        return _native.FastPath(kernel, func, nan_declines, max_rows, fixed)  # type: ignore[return-value]
+        return _native.FastPath(kernel, func, nan_declines, max_rows, fixed, takes_out)  # type: ignore[return-value]
 
     return wrap

@@ -74,7 +74,7 @@ def dualquat_identity(shape: int | tuple[int, ...] = ()) -> np.ndarray:
     return identity_array(shape, 8)
 
 
-@fast_path(_native.dualquat_mul)
+@fast_path(_native.dualquat_mul, takes_out=True)
 def dualquat_mul(a: ArrayLike, b: ArrayLike, out: np.ndarray | None = None) -> np.ndarray:
     """Dual-quaternion product ``a (x) b = (a_r b_r, a_r b_d + a_d b_r)`` (Dantam 2014 eq. (79)).
 
@@ -249,7 +249,7 @@ def matrix_from_dualquat(s: ArrayLike) -> np.ndarray:
     return out
 
 
-@fast_path(_native.dualquat_transform, nan_declines=True)
+@fast_path(_native.dualquat_transform, nan_declines=True, takes_out=True)
 def dualquat_transform(s: ArrayLike, points: ArrayLike, out: np.ndarray | None = None) -> np.ndarray:
     """Transform points: ``p' = R p + t`` (Dantam 2014 eq. (95), evaluated in the implicit form (106)).
 

@@ -66,7 +66,7 @@ def quat_identity(shape: int | tuple[int, ...] = ()) -> np.ndarray:
     return identity_array(shape, 4)
 
 
-@fast_path(_native.quat_mul)
+@fast_path(_native.quat_mul, takes_out=True)
 def quat_mul(p: ArrayLike, q: ArrayLike, out: np.ndarray | None = None) -> np.ndarray:
     """Hamilton product ``p (x) q`` (Dantam 2014 eq. (11); Walker 1991 ``Q(p) q = W(q) p``).
 
@@ -197,7 +197,7 @@ def quat_pow(q: ArrayLike, t: ArrayLike) -> np.ndarray:
     return out
 
 
-@fast_path(_native.quat_rotate, nan_declines=True)
+@fast_path(_native.quat_rotate, nan_declines=True, takes_out=True)
 def quat_rotate(q: ArrayLike, v: ArrayLike, out: np.ndarray | None = None) -> np.ndarray:
     """Rotate vectors actively: ``v' = q (x) v (x) q*`` (Dantam 2014 eqs. (44)-(45)).
 

@@ -32,7 +32,7 @@ struct Facade {
 
 struct Product {
     PyTypeObject* type;
-    const DirectEntry* entry;
+    RowFn row;
     PyObject* func;
     int size;
 };
@@ -108,7 +108,7 @@ PyObject* multiply(PyObject* x, PyObject* y) {
         if (r == nullptr) return nullptr;
         fp_flags_clear();
         double* out[1] = {r->v};
-        p->entry->row(in, out);
+        p->row(in, out);
         if (!fp_flags_raised()) {
             r->n = p->size;
             return reinterpret_cast<PyObject*>(r);
@@ -144,10 +144,10 @@ PyObject* set_product(PyObject* cls, PyObject* args) {
         if (q.type == type) {
             Py_DECREF(q.func);
             Py_DECREF(cls);
-            q = {type, e, func, e->out_size[0]};
+            q = {type, e->row, func, e->out_size[0]};
             Py_RETURN_NONE;
         }
-    products().push_back({type, e, func, e->out_size[0]});
+    products().push_back({type, e->row, func, e->out_size[0]});
     Py_RETURN_NONE;
 }
 

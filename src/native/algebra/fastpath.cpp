@@ -1,11 +1,14 @@
 // dualpose._native.FastPath: a public function with a direct native entry in front of it.
 //
-// FastPath(kernel, func, nan_declines=False, max_rows=-1, fixed=()) is called like ``func``.  A call with exactly
-// the kernel's inputs as positional arguments (``fixed`` appended: constant trailing inputs such as a frame flag) and
-// no keywords first goes to the gufunc's direct entry (common/gufunc.hpp, Gufunc::direct), which computes into fresh
-// arrays when the inputs need no conversion, broadcasting or striding and there are at most ``max_rows`` rows (no
-// limit when negative); with ``nan_declines`` a NaN in an output also declines (the function's own checks then
-// run).  Every declined call, and every other call, goes to ``func`` unchanged.  So ``func`` is the specification:
+// FastPath(kernel, func, nan_declines=False, max_rows=-1, fixed=(), takes_out=False) is called like ``func``.  A
+// call with exactly the kernel's inputs as positional arguments (``fixed`` appended: constant trailing inputs such as
+// a frame flag) and no keywords -- or, with ``takes_out``, also an ``out`` array (positional after the inputs or the
+// keyword out) -- first goes to the gufunc's direct entry (common/gufunc.hpp, Gufunc::direct), which computes into
+// fresh arrays (or into ``out``) when the operands need no conversion, broadcasting or striding, ``out`` shares no
+// memory with an input, and there are at most ``max_rows`` rows (no limit when negative); with ``nan_declines`` a NaN
+// in an output also declines (the function's own checks then run; they see the same output values, so an ``out``
+// written before a decline ends as ``func`` leaves it).  Every declined call, and every other call, goes to ``func``
+// unchanged.  So ``func`` is the specification:
 // FastPath may be put in front of it only when, for such inputs, ``func`` returns exactly the kernel's outputs
 // (unless an output is NaN, with ``nan_declines``).
 //
@@ -41,22 +44,45 @@ struct FastPath {
     Py_ssize_t nin;
     Py_ssize_t max_rows;
     bool nan_declines;
+    bool takes_out;  // func has the parameter out (the kernel's one output, preallocated) after the inputs
 };
+
+// The preallocated output of a call with one argument beyond the inputs (positional, or the keyword out), else
+// nullptr; *ok is false when the call has any other form.
+PyObject* out_argument(const FastPath* self, PyObject* const* args, Py_ssize_t n, PyObject* kwnames, Py_ssize_t nuser,
+                       bool* ok) {
+    *ok = false;
+    if (!self->takes_out) return nullptr;
+    if (kwnames == nullptr) {
+        if (n != nuser + 1) return nullptr;
+    } else {
+        if (n != nuser || PyTuple_GET_SIZE(kwnames) != 1) return nullptr;
+        const int eq = PyUnicode_CompareWithASCIIString(PyTuple_GET_ITEM(kwnames, 0), "out");
+        if (eq != 0) return nullptr;
+    }
+    *ok = true;
+    PyObject* out = args[nuser];
+    return out == Py_None ? nullptr : out;
+}
 
 PyObject* fast_call(PyObject* self_, PyObject* const* args, size_t nargsf, PyObject* kwnames) {
     auto* self = reinterpret_cast<FastPath*>(self_);
     const Py_ssize_t n = PyVectorcall_NARGS(nargsf);
     const Py_ssize_t nfixed = PyTuple_GET_SIZE(self->fixed);
-    if (kwnames == nullptr && n + nfixed == self->nin) {
+    const Py_ssize_t nuser = self->nin - nfixed;
+    PyObject* out = nullptr;
+    bool ok = kwnames == nullptr && n == nuser;
+    if (!ok) out = out_argument(self, args, n, kwnames, nuser, &ok);
+    if (ok) {
         PyObject* const* all = args;
         PyObject* buf[kMaxInputs];
         if (nfixed) {
-            for (Py_ssize_t j = 0; j < n; ++j) buf[j] = args[j];
-            for (Py_ssize_t j = 0; j < nfixed; ++j) buf[n + j] = PyTuple_GET_ITEM(self->fixed, j);
+            for (Py_ssize_t j = 0; j < nuser; ++j) buf[j] = args[j];
+            for (Py_ssize_t j = 0; j < nfixed; ++j) buf[nuser + j] = PyTuple_GET_ITEM(self->fixed, j);
             all = buf;
         }
         PyObject* result = nullptr;
-        const int s = self->direct(all, self->max_rows, self->nan_declines, &result);
+        const int s = self->direct(all, out, self->max_rows, self->nan_declines, &result);
         if (s > 0) return result;
         if (s < 0) return nullptr;
     }
@@ -64,12 +90,12 @@ PyObject* fast_call(PyObject* self_, PyObject* const* args, size_t nargsf, PyObj
 }
 
 PyObject* fast_new(PyTypeObject* type, PyObject* args, PyObject* kwds) {
-    static const char* names[] = {"kernel", "func", "nan_declines", "max_rows", "fixed", nullptr};
+    static const char* names[] = {"kernel", "func", "nan_declines", "max_rows", "fixed", "takes_out", nullptr};
     PyObject *kernel, *func, *fixed = nullptr;
-    int nan_declines = 0;
+    int nan_declines = 0, takes_out = 0;
     Py_ssize_t max_rows = -1;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OO|pnO!:FastPath", const_cast<char**>(names), &kernel, &func,
-                                     &nan_declines, &max_rows, &PyTuple_Type, &fixed))
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OO|pnO!p:FastPath", const_cast<char**>(names), &kernel, &func,
+                                     &nan_declines, &max_rows, &PyTuple_Type, &fixed, &takes_out))
         return nullptr;
     const DirectEntry* e = find_direct(kernel);
     if (e == nullptr) {
@@ -98,6 +124,7 @@ PyObject* fast_new(PyTypeObject* type, PyObject* args, PyObject* kwds) {
     self->nin = nin;
     self->max_rows = max_rows;
     self->nan_declines = nan_declines != 0;
+    self->takes_out = takes_out != 0 && e->nout == 1 && nfixed == 0;
     if (self->fixed == nullptr) return Py_DECREF(self), nullptr;
     return reinterpret_cast<PyObject*>(self);
 }
@@ -190,7 +217,8 @@ const DirectEntry* find_direct(PyObject* ufunc) {
 bool add_fast_path(PyObject* m) {
     FastPathType.tp_basicsize = sizeof(FastPath);
     FastPathType.tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC | Py_TPFLAGS_HAVE_VECTORCALL;
-    FastPathType.tp_doc = "FastPath(kernel, func, nan_declines=False, max_rows=-1, fixed=()): func with the direct "
+    FastPathType.tp_doc = "FastPath(kernel, func, nan_declines=False, max_rows=-1, fixed=(), takes_out=False): func "
+                          "with the direct "
                           "native entry of the gufunc kernel in front of it (see algebra/fastpath.cpp).";
     FastPathType.tp_new = fast_new;
     FastPathType.tp_dealloc = fast_dealloc;

@@ -8,9 +8,10 @@
 
 namespace dualpose {
 
-// args: the kernel's nin inputs; max_rows < 0 for no limit.  Returns 1 with *result set, 0 to decline (the caller
-// takes the general path), -1 with a Python error set.
-using DirectFn = int (*)(PyObject* const* args, std::ptrdiff_t max_rows, bool nan_declines, PyObject** result);
+// args: the kernel's nin inputs; out: a preallocated output or nullptr (allocate); max_rows < 0 for no limit.
+// Returns 1 with *result set, 0 to decline (the caller takes the general path), -1 with a Python error set.
+using DirectFn = int (*)(PyObject* const* args, PyObject* out, std::ptrdiff_t max_rows, bool nan_declines,
+                         PyObject** result);
 // One row of the kernel on contiguous core buffers: in[j] the j-th input, out[j] the j-th output (not aliasing them).
 using RowFn = void (*)(const double* const* in, double* const* out);
 
@@ -23,7 +24,7 @@ struct DirectEntry {
 
 // Record the direct entry of a gufunc (keeps a reference to it); false with a Python error set.
 bool register_direct(PyObject* ufunc, const DirectEntry& entry);
-// The entry of a gufunc of dualpose._native, or nullptr.
+// The entry of a gufunc of dualpose._native, or nullptr (valid while no gufunc is registered: copy what you keep).
 const DirectEntry* find_direct(PyObject* ufunc);
 
 }  // namespace dualpose

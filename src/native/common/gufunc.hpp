@@ -157,14 +157,15 @@ struct Gufunc<F, In<I...>, Out<O...>, ROWS> {
     // The direct entry (see the top of this file): 1 with *result the output (a tuple for several), 0 when the
     // inputs need the gufunc, when the computation raised a floating-point exception flag or, with nan_declines,
     // when an output holds a NaN; -1 with a Python error set.
-    static int direct(PyObject* const* args, std::ptrdiff_t max_rows, bool nan_declines, PyObject** result) {
-        return direct_impl(args, max_rows, nan_declines, result, std::index_sequence_for<I...>{},
+    static int direct(PyObject* const* args, PyObject* out, std::ptrdiff_t max_rows, bool nan_declines,
+                      PyObject** result) {
+        return direct_impl(args, out, max_rows, nan_declines, result, std::index_sequence_for<I...>{},
                            std::index_sequence_for<O...>{});
     }
 
     template <std::size_t... Ii, std::size_t... Oi>
-    static int direct_impl(PyObject* const* args, npy_intp max_rows, bool nan_declines, PyObject** result,
-                           std::index_sequence<Ii...>, std::index_sequence<Oi...>) {
+    static int direct_impl(PyObject* const* args, PyObject* out, npy_intp max_rows, bool nan_declines,
+                           PyObject** result, std::index_sequence<Ii...>, std::index_sequence<Oi...>) {
         constexpr int core_ndim[nin] = {I::ndim...};
         constexpr int core_rows[nin] = {I::rows...};
         constexpr int core_cols[nin] = {I::cols...};
@@ -212,7 +213,29 @@ struct Gufunc<F, In<I...>, Out<O...>, ROWS> {
         npy_intp dims[NPY_MAXDIMS];
         if (lead_ndim + 2 > NPY_MAXDIMS) return 0;
         std::copy(lead, lead + lead_ndim, dims);
-        for (int j = 0; j < nout; ++j) {
+        if (out != nullptr) {
+            // a preallocated output: exactly the result's shape, C-contiguous, writeable, sharing no memory with an
+            // input (NumPy would work on copies of overlapping operands)
+            if (nout != 1 || !PyArray_CheckExact(out)) return 0;
+            auto* o = reinterpret_cast<PyArrayObject*>(out);
+            dims[lead_ndim] = out_rows[0];
+            dims[lead_ndim + 1] = out_cols[0];
+            if (PyArray_TYPE(o) != NPY_DOUBLE || !PyArray_ISCARRAY(o) || !PyArray_ISNOTSWAPPED(o) ||
+                PyArray_NDIM(o) != lead_ndim + out_ndim[0] ||
+                !std::equal(dims, dims + lead_ndim + out_ndim[0], PyArray_DIMS(o)))
+                return 0;
+            const char* lo = static_cast<const char*>(PyArray_DATA(o));
+            const char* hi = lo + PyArray_NBYTES(o);
+            for (int j = 0; j < nin; ++j) {
+                const char* a = reinterpret_cast<const char*>(in[j]);
+                const char* b = a + sizeof(double) * (step[j] ? n * step[j] : 1);
+                if (a < hi && lo < b) return 0;
+            }
+            Py_INCREF(out);
+            outs[0] = out;
+            od[0] = reinterpret_cast<double*>(PyArray_DATA(o));
+        }
+        for (int j = out != nullptr ? nout : 0; j < nout; ++j) {
             dims[lead_ndim] = out_rows[j];
             dims[lead_ndim + 1] = out_cols[j];
             outs[j] = PyArray_SimpleNew(lead_ndim + out_ndim[j], dims, NPY_DOUBLE);
@@ -253,7 +276,7 @@ struct Gufunc<F, In<I...>, Out<O...>, ROWS> {
             return 0;
         }
         if constexpr (nout == 1) {
-            *result = PyArray_Return(reinterpret_cast<PyArrayObject*>(outs[0]));
+            *result = out != nullptr ? outs[0] : PyArray_Return(reinterpret_cast<PyArrayObject*>(outs[0]));
         } else {
             PyObject* t = PyTuple_New(nout);
             if (t == nullptr) {
