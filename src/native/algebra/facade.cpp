@@ -203,9 +203,7 @@ bool add_facade(PyObject* m) {
     FacadeType.tp_getset = facade_getset;
     FacadeType.tp_methods = facade_methods;
     FacadeType.tp_as_number = &facade_number;
-    if (PyType_Ready(&FacadeType) < 0) return false;
-    Py_INCREF(&FacadeType);
-    return PyModule_AddObject(m, "Facade", reinterpret_cast<PyObject*>(&FacadeType)) == 0;
+    return add_type(m, &FacadeType, "Facade");
 }
 
 }  // namespace dualpose

@@ -218,8 +218,7 @@ bool add_fast_path(PyObject* m) {
     FastPathType.tp_basicsize = sizeof(FastPath);
     FastPathType.tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC | Py_TPFLAGS_HAVE_VECTORCALL;
     FastPathType.tp_doc = "FastPath(kernel, func, nan_declines=False, max_rows=-1, fixed=(), takes_out=False): func "
-                          "with the direct "
-                          "native entry of the gufunc kernel in front of it (see algebra/fastpath.cpp).";
+                          "with the direct native entry of the gufunc kernel in front of it (see algebra/fastpath.cpp).";
     FastPathType.tp_new = fast_new;
     FastPathType.tp_dealloc = fast_dealloc;
     FastPathType.tp_traverse = fast_traverse;
@@ -232,9 +231,7 @@ bool add_fast_path(PyObject* m) {
     FastPathType.tp_getset = fast_getset;
     FastPathType.tp_members = fast_members;
     FastPathType.tp_methods = fast_methods;
-    if (PyType_Ready(&FastPathType) < 0) return false;
-    Py_INCREF(&FastPathType);
-    return PyModule_AddObject(m, "FastPath", reinterpret_cast<PyObject*>(&FastPathType)) == 0;
+    return add_type(m, &FastPathType, "FastPath");
 }
 
 }  // namespace dualpose

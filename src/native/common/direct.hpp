@@ -27,6 +27,13 @@ bool register_direct(PyObject* ufunc, const DirectEntry& entry);
 // The entry of a gufunc of dualpose._native, or nullptr (valid while no gufunc is registered: copy what you keep).
 const DirectEntry* find_direct(PyObject* ufunc);
 
+// Ready a static type and add it to the module as `name`; false with a Python error set.
+inline bool add_type(PyObject* module, PyTypeObject* type, const char* name) {
+    if (PyType_Ready(type) < 0) return false;
+    Py_INCREF(type);
+    return PyModule_AddObject(module, name, reinterpret_cast<PyObject*>(type)) == 0 || (Py_DECREF(type), false);
+}
+
 }  // namespace dualpose
 
 // Floating-point exception flags around a direct computation (NumPy reports those a ufunc loop raises; a direct
