@@ -106,8 +106,8 @@ def test_same_outcome_as_the_python_path(k, batch, layout, special, which, seed)
         args[j] = np.round(3 * x).astype(np.int64)
     elif layout == "list":
         args[j] = x.tolist()
-    elif layout == "scalar_float" and cores[j] == () and not batch:
-        args[j] = float(x)
+    elif layout == "scalar_float" and cores[j] == ():  # one Python float for every row
+        args[j] = float(x.flat[0]) if x.size else 0.5
     elif layout == "bigendian":
         args[j] = x.astype(">f8")
     got, warned = outcome(f, args)
