@@ -77,7 +77,7 @@ def assert_same(a, b) -> None:
     assert a.tobytes() == b.tobytes()  # bit for bit, NaN payloads and signed zeros included
 
 
-LAYOUTS = ["c", "c", "strided", "broadcast", "float32", "int", "list", "scalar_float", "bigendian"]
+LAYOUTS = ["c", "c", "single", "strided", "broadcast", "float32", "int", "list", "scalar_float", "bigendian"]
 SPECIAL = ["none", "none", "zero", "huge", "nan"]
 
 
@@ -98,6 +98,8 @@ def test_same_outcome_as_the_python_path(k, batch, layout, special, which, seed)
     x = args[j]
     if layout == "strided":
         args[j] = np.repeat(x, 2, axis=-1)[..., ::2] if x.ndim else x
+    elif layout == "single" and n:  # one element with every row of the others
+        args[j] = x.reshape(n, *cores[j])[-1].copy()
     elif layout == "broadcast" and n:
         args[j] = x.reshape(-1, *x.shape[len(batch):])[:1].reshape((1,) * len(batch) + x.shape[len(batch):])
     elif layout == "float32" and special != "huge":
@@ -157,12 +159,14 @@ def test_routing() -> None:
 
     f = _native.FastPath(_native.quat_mul, spy)
     p, q = np.random.default_rng(1).normal(size=(2, 6, 4))
-    for a, b in [(p[0], q[0]), (p, q), (p.reshape(2, 3, 4), q.reshape(2, 3, 4)), (p[:0], q[:0])]:
+    for a, b in [(p[0], q[0]), (p, q), (p.reshape(2, 3, 4), q.reshape(2, 3, 4)), (p[:0], q[:0]), (p[0], q),
+                 (p.reshape(2, 3, 4), q[0])]:  # a single element goes with every row
         f(a, b)
     assert calls == []
     out = np.empty((6, 4))
     ineligible = [
-        ((p[0], q), {}),  # broadcasting
+        ((p[:1], q), {}),  # broadcasting over a length-1 axis
+        ((p.reshape(2, 3, 4)[:, :1], q.reshape(2, 3, 4)), {}),
         ((p[::2], q[:3]), {}),  # strided
         ((p.astype(np.float32), q), {}),
         ((p.tolist(), q), {}),

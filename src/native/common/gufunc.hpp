@@ -12,9 +12,10 @@
 // (target_clones); it must compute exactly what F computes, row by row, and read a row before writing it.
 //
 // Every gufunc also gets a direct entry (Gufunc::direct, registered with register_direct): for inputs that need no
-// gufunc machinery -- exact float64 ndarrays, C-contiguous, aligned, native byte order, the core shapes, one
-// common leading shape (Python floats for scalar cores) -- it allocates the outputs and runs ROWS (or F row by row)
-// on them, so it returns what the gufunc returns bit for bit; other inputs are declined and take the gufunc.
+// gufunc machinery -- exact float64 ndarrays, C-contiguous, aligned, native byte order, the core shapes, one common
+// leading shape (single elements and, for scalar cores, Python floats go with every row) -- it allocates the outputs
+// (or takes a preallocated one) and runs ROWS (or F row by row, as the gufunc's strided loop) on them, so it returns
+// what the gufunc returns bit for bit; other inputs are declined and take the gufunc.
 // dualpose._native.FastPath (algebra/fastpath.cpp) puts it in front of a public function.
 #pragma once
 
@@ -171,7 +172,7 @@ struct Gufunc<F, In<I...>, Out<O...>, ROWS> {
         constexpr int core_cols[nin] = {I::cols...};
         constexpr npy_intp core_size[nin] = {I::size...};
         const double* in[nin];
-        npy_intp step[nin];  // doubles per row: the core size, 0 for a Python float (the same value every row)
+        npy_intp step[nin];  // doubles per row: the core size; 0 for a single element or a Python float (every row)
         double value[nin];
         int lead_ndim = -1;
         const npy_intp* lead = nullptr;
@@ -191,16 +192,17 @@ struct Gufunc<F, In<I...>, Out<O...>, ROWS> {
             if (nd < 0) return 0;
             if (core_ndim[j] >= 1 && d[nd] != core_rows[j]) return 0;
             if (core_ndim[j] == 2 && d[nd + 1] != core_cols[j]) return 0;
+            in[j] = static_cast<const double*>(PyArray_DATA(a));
+            step[j] = nd == 0 ? 0 : core_size[j];  // a single element goes with every row (as the gufunc broadcasts)
+            if (nd == 0) continue;
             if (lead_ndim < 0) {
                 lead_ndim = nd;
                 lead = d;
             } else if (nd != lead_ndim || !std::equal(d, d + nd, lead)) {
-                return 0;  // broadcasting: the gufunc's job
+                return 0;  // other broadcasting: the gufunc's job
             }
-            in[j] = static_cast<const double*>(PyArray_DATA(a));
-            step[j] = core_size[j];
         }
-        if (lead_ndim < 0) lead_ndim = 0;  // Python floats only
+        if (lead_ndim < 0) lead_ndim = 0;  // single elements only
         npy_intp n = 1;
         for (int k = 0; k < lead_ndim; ++k) n *= lead[k];
         if (max_rows >= 0 && n > max_rows) return 0;
@@ -228,7 +230,7 @@ struct Gufunc<F, In<I...>, Out<O...>, ROWS> {
             const char* hi = lo + PyArray_NBYTES(o);
             for (int j = 0; j < nin; ++j) {
                 const char* a = reinterpret_cast<const char*>(in[j]);
-                const char* b = a + sizeof(double) * (step[j] ? n * step[j] : 1);
+                const char* b = a + sizeof(double) * (step[j] ? n * step[j] : core_size[j]);
                 if (a < hi && lo < b) return 0;
             }
             Py_INCREF(out);
@@ -245,8 +247,11 @@ struct Gufunc<F, In<I...>, Out<O...>, ROWS> {
             }
             od[j] = static_cast<double*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(outs[j])));
         }
-        bool full = true;  // every input a stack of n cores: the gufunc's contiguous loop (ROWS when there is one)
+        // every input a stack of n cores (or one row in all): the gufunc's contiguous loop (ROWS when there is one);
+        // else F row by row, as the gufunc's strided loop
+        bool full = true;
         for (int j = 0; j < nin; ++j) full &= step[j] != 0;
+        full |= n == 1;
         fp_flags_clear();  // a computation that raises a flag is declined (direct.hpp)
         bool decline = false;
         constexpr npy_intp kChunk = 1024;  // rows per NaN scan, while they are in cache
