@@ -265,7 +265,17 @@ struct Gufunc<F, In<I...>, Out<O...>, ROWS> {
         {
             const bool nogil = n >= 4 * kChunk;
             PyThreadState* ts = nogil ? PyEval_SaveThread() : nullptr;
-            for (npy_intp i0 = 0, m = 0; i0 < n && !decline; i0 += m) {
+            bool flagged = false;  // an int ROWS flags every row whose norm is zero or extreme (algebra/rows.hpp):
+                                   // with nan_declines its flag stands for the NaN scan
+            if constexpr (!std::is_same_v<decltype(ROWS), std::nullptr_t>) {
+                if constexpr (std::is_same_v<decltype(ROWS(in[Ii]..., od[Oi]..., n)), int>) {
+                    if (full && nan_declines) {
+                        decline = ROWS(in[Ii]..., od[Oi]..., n) != 0;
+                        flagged = true;
+                    }
+                }
+            }
+            for (npy_intp i0 = 0, m = 0; i0 < n && !decline && !flagged; i0 += m) {
                 m = nan_declines ? std::min(kChunk, n - i0) : n - i0;
                 bool done = false;
                 if constexpr (!std::is_same_v<decltype(ROWS), std::nullptr_t>) {
