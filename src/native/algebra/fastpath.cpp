@@ -3,12 +3,12 @@
 // FastPath(kernel, func, nan_declines=False, max_rows=-1, fixed=(), takes_out=False) is called like ``func``.  A
 // call with exactly the kernel's inputs as positional arguments (``fixed`` appended: constant trailing inputs such as
 // a frame flag) and no keywords -- or, with ``takes_out``, also an ``out`` array (positional after the inputs or the
-// keyword out) -- first goes to the gufunc's direct entry (common/gufunc.hpp, Gufunc::direct), which computes into
-// fresh arrays (or into ``out``) when the operands need no conversion, broadcasting or striding, ``out`` shares no
-// memory with an input, and there are at most ``max_rows`` rows (no limit when negative); with ``nan_declines`` a NaN
-// in an output also declines (the function's own checks then run; they see the same output values, so an ``out``
-// written before a decline ends as ``func`` leaves it).  Every declined call, and every other call, goes to ``func``
-// unchanged.  So ``func`` is the specification:
+// keyword out) -- first goes to the gufunc's direct entry (common/gufunc.hpp, Gufunc::direct).  It computes into
+// fresh arrays (or into ``out``) when the operands need no conversion and no broadcasting but of single elements,
+// ``out`` shares no memory with an input, and there are at most ``max_rows`` rows (no limit when negative).  With
+// ``nan_declines`` a NaN in an output (or the row loop's zero-or-extreme-norm flag) also declines: the function's own
+// checks then run on the same output values, so an ``out`` written before a decline ends as ``func`` leaves it.
+// Every declined call, and every other call, goes to ``func`` unchanged.  So ``func`` is the specification:
 // FastPath may be put in front of it only when, for such inputs, ``func`` returns exactly the kernel's outputs
 // (unless an output is NaN, with ``nan_declines``).
 //
