@@ -1,13 +1,13 @@
 """The direct native entry in front of the public algebra functions (:class:`dualpose._native.FastPath`).
 
 ``@fast_path(kernel)`` replaces a function ``f`` whose work is the gufunc ``kernel`` by a native callable that, for
-a call with exactly the kernel's inputs as positional arguments that need no conversion, broadcasting or striding
-(float64 ndarrays, C-contiguous, of the core shapes and one common batch shape; Python floats for scalar inputs),
-computes the kernel's outputs directly into fresh arrays -- the same rows the gufunc computes, bit for bit, without
-NumPy's ufunc dispatch or the Python argument checks.  Every other call (array-likes, other dtypes, broadcasting,
-strided views, other keywords) runs ``f`` itself, which stays the specification: errors and their messages are
-``f``'s.  The decorated object reads as ``f`` (name, docstring, ``inspect.signature`` through ``__wrapped__``,
-pickling by reference).
+a call with exactly the kernel's inputs as positional arguments that need no conversion or striding (float64
+ndarrays, C-contiguous, of the core shapes and one common batch shape, where a single element -- and, for a scalar
+input, a Python float -- goes with every row), computes the kernel's outputs directly into fresh arrays -- the same
+rows the gufunc computes, bit for bit, without NumPy's ufunc dispatch or the Python argument checks.  Every other
+call (array-likes, other dtypes, other broadcasting, strided views, other keywords) runs ``f`` itself, which stays
+the specification: errors and their messages are ``f``'s.  The decorated object reads as ``f`` (name, docstring,
+``inspect.signature`` through ``__wrapped__``, pickling by reference).
 
 Options:
 
