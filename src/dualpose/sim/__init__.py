@@ -4,6 +4,8 @@
 * :mod:`~dualpose.sim.camera_imu`: IMU samples and camera correspondences along a motion (:func:`simulate`,
   :func:`simulate_eight`), with exact truth; :func:`recording_from_simulation` turns a run into the
   :class:`~dualpose.types.Recording` the estimators and pipelines take.
+* :mod:`~dualpose.sim.feature_tracks`: the feature-track mode (unknown landmarks seen as tracks,
+  :func:`simulate_tracks`), for visual–inertial odometry.
 * :mod:`~dualpose.sim.calibration_scenarios`: static calibration poses and random extrinsics.
 * :mod:`~dualpose.sim.broad_vision`: pseudo-vision rendered along a real BROAD trial's reference motion.
 
@@ -20,6 +22,7 @@ from dualpose.sim.camera_imu import (
     simulate_eight,
     two_plane_landmarks,
 )
+from dualpose.sim.feature_tracks import simulate_tracks, track_recording
 from dualpose.sim.motion import (
     CAMERA_HOME,
     SCENE_TARGET,
@@ -46,4 +49,6 @@ __all__ = [
     "simulate",
     "simulate_eight",
     "two_plane_landmarks",
+    "simulate_tracks",
+    "track_recording",
 ]
