@@ -46,6 +46,7 @@ __all__ = ["MsckfVio", "MsckfOptions", "TrackUpdate", "VioResult"]
 
 _NE = ESKF_ERROR.dim
 _CE = MSCKF_CLONE_ERROR.dim
+_REST_GUARD = 0.2  # s, one window of detect_rest
 _POSE_ROWS = np.r_[np.arange(3) + ESKF_ERROR.offset("position"), np.arange(3) + ESKF_ERROR.offset("attitude")]
 
 
@@ -175,11 +176,15 @@ class MsckfVio(Estimator):
         """A filter started at the end of the rest period at the start of ``recording``, and the index of that IMU
         sample.  Rest length: ``rest_seconds`` or :func:`~dualpose.estimation.initialization.detect_rest`; attitude
         (yaw 0) and gyro bias from :func:`~dualpose.estimation.initialization.static_alignment`, zero velocity and
-        position, accelerometer bias 0 with its turn-on σ (at rest not separable from tilt)."""
+        position, accelerometer bias 0 with its turn-on σ (at rest not separable from tilt).  The rest detection
+        takes its noise level from the samples (a multirotor vibrates at rest), and the filter starts one detection
+        window (0.2 s) before the detected end, so that a slow start of the motion is inside the filter."""
         r = recording
         n = r.imu_noise
         if rest_seconds is None:
-            rest_seconds = detect_rest(r.t, r.gyro, r.accel, n.gyroscope_noise_density, n.accelerometer_noise_density)
+            rest_seconds = detect_rest(r.t, r.gyro, r.accel, n.gyroscope_noise_density, n.accelerometer_noise_density,
+                                       noise_from_samples=True)  # fmt: skip
+            rest_seconds -= _REST_GUARD
         k = int(np.searchsorted(r.t, r.t[0] + rest_seconds, side="right")) - 1
         k = max(k, 1)
         al = static_alignment(r.accel[: k + 1], r.gyro[: k + 1])
@@ -283,14 +288,12 @@ class MsckfVio(Estimator):
     # ------------------------------------------------------------------ the window
     def _clone(self, t: float) -> None:
         n = self.P.shape[0]
-        J = np.zeros((_CE, n))
-        J[np.arange(_CE), _POSE_ROWS] = 1.0
-        JP = J @ self.P
+        JP = self.P[_POSE_ROWS]  # J P with J selecting the pose rows [δp, δθ] of the IMU error
         P = np.empty((n + _CE, n + _CE))
         P[:n, :n] = self.P
         P[n:, :n] = JP
         P[:n, n:] = JP.T
-        P[n:, n:] = JP @ J.T
+        P[n:, n:] = JP[:, _POSE_ROWS]
         self.P = P
         c = np.r_[ESKF_STATE.get(self.x, "position"), ESKF_STATE.get(self.x, "quat")]
         self.clones = np.vstack([self.clones, c])
@@ -395,12 +398,9 @@ class MsckfVio(Estimator):
                                    P, self.feature_sigma, self._chi2, self._limits, H, r, status, nis)  # fmt: skip
         dof = 2 * count[enough] - 3
         accepted = status == 1
-        if m > 0:
-            H, r = H[:m], r[:m]
-            if m > n:  # compress (Mourikis & Roumeliotis 2007 §III-D): H = Q₁ T, r' = Q₁ᵀ r, same noise σ² I
-                Q, T = np.linalg.qr(H)
-                H, r = T, Q.T @ r
-            self._ekf_update(r, H, np.eye(len(r)) * self.feature_sigma**2)
+        if m > 0:  # one update of all accepted rows (QR-compressed in the kernel when m > n)
+            self.P = P
+            _native.msckf_update(self.x, self.clones, self.P, H[:m], r[:m], self.feature_sigma)
         return TrackUpdate(nis, int(dof[accepted].sum()), accepted, feature_dof=dof, status=status)
 
     # ------------------------------------------------------------------ a whole recording

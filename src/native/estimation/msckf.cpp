@@ -391,6 +391,137 @@ PyObject* py_features(PyObject*, PyObject* args) {
     return PyLong_FromSsize_t(rows);
 }
 
+
+// msckf_update(x (16,), clones (C, 7), P (n, n), H (m, n), r (m,), sigma) -> nis: the EKF update with r = H δx + e,
+// e ~ N(0, σ² I), of the IMU state and the clones, in place.  When m > n the rows are first compressed by a
+// Householder QR (H = Q T, r <- Q₁ᵀ r; Mourikis & Roumeliotis 2007 §III-D).  P <- P − P Hᵀ S⁻¹ H P (symmetrised),
+// then δx = P Hᵀ S⁻¹ r is injected (IMU: additive blocks, q ⊗ Exp(δθ); clones: p + δp, q ⊗ Exp(δθ)).  Returns the
+// NIS rᵀ S⁻¹ r, or raises numpy's LinAlgError if S is not positive definite.
+PyObject* py_update(PyObject*, PyObject* args) {
+    Array<double, 1, true> x, r;
+    Array<double, 2, true> clones, Pm, H;
+    double sigma;
+    if (!PyArg_ParseTuple(args, "O&O&O&O&O&d:msckf_update", convert<double, 1, true>, &x, convert<double, 2, true>,
+                          &clones, convert<double, 2, true>, &Pm, convert<double, 2, true>, &H,
+                          convert<double, 1, true>, &r, &sigma))
+        return nullptr;
+    const npy_intp nc = clones.shape[0], n = NE + 6 * nc;
+    npy_intp m = H.shape[0];
+    if (!shape_is("x", x, {NX}) || !shape_is("clones", clones, {-1, 7}) || !shape_is("P", Pm, {n, n}) ||
+        !shape_is("H", H, {-1, n}) || !shape_is("r", r, {m}))
+        return nullptr;
+    bool ok = true;
+    double nis = 0.0;
+    Py_BEGIN_ALLOW_THREADS;
+    double* h = H.data;
+    if (m > n) {  // Householder QR, in place: the top n rows become T, r the rotated residual
+        for (npy_intp k = 0; k < n; ++k) {
+            double norm = 0.0;
+            for (npy_intp i = k; i < m; ++i) norm += h[i * n + k] * h[i * n + k];
+            norm = std::sqrt(norm);
+            if (norm == 0.0) continue;
+            const double alpha = h[k * n + k] > 0 ? -norm : norm;
+            std::vector<double> v(m - k);
+            for (npy_intp i = k; i < m; ++i) v[i - k] = h[i * n + k];
+            v[0] -= alpha;
+            double vv = 0.0;
+            for (double e : v) vv += e * e;
+            if (vv == 0.0) continue;
+            for (npy_intp j = k; j < n; ++j) {
+                double d = 0.0;
+                for (npy_intp i = k; i < m; ++i) d += v[i - k] * h[i * n + j];
+                d *= 2.0 / vv;
+                for (npy_intp i = k; i < m; ++i) h[i * n + j] -= d * v[i - k];
+            }
+            double d = 0.0;
+            for (npy_intp i = k; i < m; ++i) d += v[i - k] * r[i];
+            d *= 2.0 / vv;
+            for (npy_intp i = k; i < m; ++i) r[i] -= d * v[i - k];
+        }
+        m = n;
+    }
+    // PHt (n, m) = P Hᵀ;  S = H P Hᵀ + σ² I
+    std::vector<double> PHt(n * m), S(m * m), L;
+    for (npy_intp i = 0; i < n; ++i)
+        for (npy_intp j = 0; j < m; ++j) {
+            const double* pr = Pm.row(i);
+            const double* hr = h + j * n;
+            double s = 0.0;
+            for (npy_intp k = 0; k < n; ++k) s += pr[k] * hr[k];
+            PHt[i * m + j] = s;
+        }
+    for (npy_intp i = 0; i < m; ++i)
+        for (npy_intp j = 0; j <= i; ++j) {
+            double s = 0.0;
+            for (npy_intp k = 0; k < n; ++k) s += h[i * n + k] * PHt[k * m + j];
+            if (i == j) s += sigma * sigma;
+            S[i * m + j] = S[j * m + i] = s;
+        }
+    // Cholesky S = L Lᵀ (lower, in place)
+    L = S;
+    for (npy_intp j = 0; j < m && ok; ++j) {
+        double d = L[j * m + j];
+        for (npy_intp k = 0; k < j; ++k) d -= L[j * m + k] * L[j * m + k];
+        if (!(d > 0.0)) {
+            ok = false;
+            break;
+        }
+        d = std::sqrt(d);
+        L[j * m + j] = d;
+        for (npy_intp i = j + 1; i < m; ++i) {
+            double s = L[i * m + j];
+            for (npy_intp k = 0; k < j; ++k) s -= L[i * m + k] * L[j * m + k];
+            L[i * m + j] = s / d;
+        }
+    }
+    if (ok) {
+        // W = L⁻¹ (H P) (m, n), y = L⁻¹ r: then P <- P − Wᵀ W, δx = Wᵀ y, NIS = yᵀ y
+        std::vector<double> W(m * n), y(r.data, r.data + m);
+        for (npy_intp j = 0; j < m; ++j)
+            for (npy_intp i = 0; i < n; ++i) W[j * n + i] = PHt[i * m + j];
+        for (npy_intp j = 0; j < m; ++j) {
+            const double d = L[j * m + j];
+            for (npy_intp k = 0; k < j; ++k) {
+                const double l = L[j * m + k];
+                if (l == 0.0) continue;
+                for (npy_intp i = 0; i < n; ++i) W[j * n + i] -= l * W[k * n + i];
+                y[j] -= l * y[k];
+            }
+            for (npy_intp i = 0; i < n; ++i) W[j * n + i] /= d;
+            y[j] /= d;
+        }
+        std::vector<double> dx(n, 0.0);
+        for (npy_intp j = 0; j < m; ++j) {
+            nis += y[j] * y[j];
+            for (npy_intp i = 0; i < n; ++i) dx[i] += W[j * n + i] * y[j];
+        }
+        for (npy_intp i = 0; i < n; ++i)
+            for (npy_intp k = i; k < n; ++k) {
+                double s = 0.0;
+                for (npy_intp j = 0; j < m; ++j) s += W[j * n + i] * W[j * n + k];
+                const double v = 0.5 * (Pm(i, k) + Pm(k, i)) - s;
+                Pm(i, k) = v;
+                Pm(k, i) = v;
+            }
+        for (int i = 0; i < 3; ++i) {
+            x[P + i] += dx[DP + i];
+            x[V + i] += dx[DV + i];
+            x[BG + i] += dx[DBG + i];
+            x[BA + i] += dx[DBA + i];
+        }
+        quat_mul_exp_inplace(x.data + Q, dx[DTH], dx[DTH + 1], dx[DTH + 2]);
+        for (npy_intp c = 0; c < nc; ++c) {
+            double* cl = clones.row(c);
+            const double* d = &dx[NE + 6 * c];
+            for (int i = 0; i < 3; ++i) cl[i] += d[i];
+            quat_mul_exp_inplace(cl + 3, d[3], d[4], d[5]);
+        }
+    }
+    Py_END_ALLOW_THREADS;
+    if (!ok) return raise_linalg_error("the innovation covariance is not positive definite");
+    return PyFloat_FromDouble(nis);
+}
+
 PyMethodDef methods[] = {
     {"msckf_propagate", py_propagate, METH_VARARGS,
      "msckf_propagate(x, P, Phi, gyro, accel, dt, gravity, noise, X): k ESKF prediction steps in place on x (16,) "
@@ -399,6 +530,9 @@ PyMethodDef methods[] = {
      "msckf_features(clones, clones_fej, q_bc, p_bc, offsets, obs_clone, obs_uv, P, sigma, chi2, limits, H, r, "
      "status, nis) -> rows: triangulate, linearise (FEJ), nullspace-project and gate every feature; the accepted "
      "rows stacked in H (R, n) and r (R,)."},
+    {"msckf_update", py_update, METH_VARARGS,
+     "msckf_update(x, clones, P, H, r, sigma) -> nis: EKF update (QR-compressed when H has more rows than columns) "
+     "of the IMU state x (16,), the clones (C, 7) and P (15 + 6C, 15 + 6C) in place, noise sigma² I."},
     {nullptr, nullptr, 0, nullptr},
 };
 
