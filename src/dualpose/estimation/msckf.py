@@ -327,8 +327,14 @@ class MsckfVio(Estimator):
         IKH = -K @ H
         IKH[np.diag_indices_from(IKH)] += 1.0
         P = IKH @ P @ IKH.T + K @ R @ K.T
+        dx = K @ r
+        self._inject(dx)
+        # reset Jacobian of the IMU attitude error (Solà 2017 eq. 285-287), as the error-state filter applies it
+        G = np.eye(len(dx))
+        att = ESKF_ERROR.slice("attitude")
+        G[att, att] -= dp.so3_hat(0.5 * ESKF_ERROR.get(dx[:_NE], "attitude"))
+        P = G @ P @ G.T
         self.P = 0.5 * (P + P.T)
-        self._inject(K @ r)
         return nis
 
     def _inject(self, dx: np.ndarray) -> None:

@@ -212,7 +212,7 @@ def write_track_csv(path: str | os.PathLike, tracks: FeatureTracks, *, overwrite
     t = np.repeat(tracks.t, tracks.counts)
     with open_for_writing(path, overwrite) as f:
         f.write("# coordinates: normalized\nt,track_id,u,v\n")
-        for a, i, (u, v) in zip(t, tracks.track_id, tracks.uv, strict=True):
+        for a, i, (u, v) in zip(t.tolist(), tracks.track_id.tolist(), tracks.uv.tolist(), strict=True):
             f.write(f"{a!r},{i},{u!r},{v!r}\n")
 
 

@@ -24,7 +24,8 @@ def track_recording(run: SimulatedRun, feature_sigma: float = 1e-3, seed: int = 
                     min_depth: float = 0.05) -> TrackRecording:  # fmt: skip
     """The :class:`~dualpose.types.TrackRecording` of ``run``: its IMU stream and every visible landmark of every
     frame as a feature track (module docstring); seeded noise.  ``TrackRecording.meta["landmark_ids"]`` (M,) keeps the
-    landmark of each observation (truth, for tests)."""
+    landmark of each observation (truth, for tests).  ``feature_sigma = 0`` gives exact tracks (the recording then
+    states σ = 1e-6 for a filter)."""
     rng = np.random.default_rng(seed)
     f = run.frames
     kin = run.motion.kinematics(f.t_true)
@@ -53,7 +54,7 @@ def track_recording(run: SimulatedRun, feature_sigma: float = 1e-3, seed: int = 
     tracks = FeatureTracks(f.t, np.asarray(offsets, np.int64), np.concatenate(ids_all), np.concatenate(uv_all))
     return TrackRecording(
         t=run.t, gyro=run.gyro, accel=run.accel, tracks=tracks, q_bc=run.q_bc, p_bc=run.p_bc,
-        imu_noise=run.imu_noise, feature_sigma=feature_sigma, time_offset=run.time_offset,
+        imu_noise=run.imu_noise, feature_sigma=max(feature_sigma, 1e-6), time_offset=run.time_offset,
         focal_length=float(cam.fx), meta={"landmark_ids": np.concatenate(lm_all)}, name="sim",
     )  # fmt: skip
 
