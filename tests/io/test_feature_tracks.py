@@ -109,3 +109,15 @@ def test_track_frame_checks_its_arguments() -> None:
         TrackFrame(0.0, [1, 2], np.zeros((3, 2)))
     with pytest.raises(ValueError, match="unique"):
         TrackFrame(0.0, [1, 1], np.zeros((2, 2)))
+
+
+def test_bulk_and_line_by_line_parses_agree(euroc_v101) -> None:
+    from dualpose.io.feature_tracks import _read_eqvio_checked
+
+    path, _ = euroc_v101
+    a, b = read_eqvio_csv(path), _read_eqvio_checked(path)
+    for name in ("t", "gyro", "accel", "q_bc", "p_bc"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    for name in ("t", "offsets", "track_id", "uv"):
+        np.testing.assert_array_equal(getattr(a.tracks, name), getattr(b.tracks, name))
+    assert a.meta == b.meta and a.feature_sigma == b.feature_sigma

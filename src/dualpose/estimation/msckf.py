@@ -295,16 +295,21 @@ class MsckfVio(Estimator):
         P[:n, n:] = JP.T
         P[n:, n:] = JP[:, _POSE_ROWS]
         self.P = P
-        c = np.r_[ESKF_STATE.get(self.x, "position"), ESKF_STATE.get(self.x, "quat")]
+        c = np.concatenate([ESKF_STATE.get(self.x, "position"), ESKF_STATE.get(self.x, "quat")])
         self.clones = np.vstack([self.clones, c])
         self.clones_fej = np.vstack([self.clones_fej, c])
-        self.clone_t = np.r_[self.clone_t, t]
-        self._clone_id = np.r_[self._clone_id, self._next_clone]
+        self.clone_t = np.append(self.clone_t, t)
+        self._clone_id = np.append(self._clone_id, self._next_clone)
         self._next_clone += 1
 
     def _drop_oldest_clone(self) -> None:
-        keep = np.r_[np.arange(_NE), np.arange(_NE + _CE, self.P.shape[0])]
-        self.P = np.ascontiguousarray(self.P[np.ix_(keep, keep)])
+        n = self.P.shape[0]
+        P = np.empty((n - _CE, n - _CE))
+        P[:_NE, :_NE] = self.P[:_NE, :_NE]
+        P[:_NE, _NE:] = self.P[:_NE, _NE + _CE :]
+        P[_NE:, :_NE] = self.P[_NE + _CE :, :_NE]
+        P[_NE:, _NE:] = self.P[_NE + _CE :, _NE + _CE :]
+        self.P = P
         gone = self._clone_id[0]
         self.clones, self.clones_fej = self.clones[1:], self.clones_fej[1:]
         self.clone_t, self._clone_id = self.clone_t[1:], self._clone_id[1:]
@@ -365,8 +370,8 @@ class MsckfVio(Estimator):
         self._clone(self.time)
         cid = self._clone_id[-1]
         lost = np.setdiff1d(self._ob_track, frame.track_id)
-        self._ob_track = np.r_[self._ob_track, frame.track_id]
-        self._ob_clone = np.r_[self._ob_clone, np.full(len(frame.track_id), cid)]
+        self._ob_track = np.concatenate([self._ob_track, frame.track_id])
+        self._ob_clone = np.concatenate([self._ob_clone, np.full(len(frame.track_id), cid)])
         self._ob_uv = np.vstack([self._ob_uv, frame.uv])
         full = len(self.clones) > o.max_clones
         use = lost
@@ -389,7 +394,8 @@ class MsckfVio(Estimator):
         if not enough.any():
             return empty
         sel = np.concatenate([order[s : s + c] for s, c in zip(start[enough], count[enough], strict=True)])
-        offsets = np.r_[0, np.cumsum(count[enough])].astype(np.int64)
+        offsets = np.zeros(int(enough.sum()) + 1, np.int64)
+        np.cumsum(count[enough], out=offsets[1:])
         obs_clone = np.searchsorted(self._clone_id, self._ob_clone[sel]).astype(np.int64)
         g = len(offsets) - 1
         n = self.P.shape[0]
@@ -431,7 +437,8 @@ class MsckfVio(Estimator):
             k1 = int(np.searchsorted(t, tf, side="right")) - 1  # last sample at or before the frame
             if k1 > k:
                 mid = 0.5 * (u[k:k1] + u[k + 1 : k1 + 1])
-                dts = np.diff(np.r_[self.time, t[k + 1 : k1 + 1]])
+                dts = np.diff(t[k : k1 + 1])
+                dts[0] = t[k + 1] - self.time
                 X[k + 1 : k1 + 1] = self._steps(mid[:, :3], mid[:, 3:], dts)
                 self.time, self._u, k = float(t[k1]), u[k1].copy(), k1
             if j == len(ft):

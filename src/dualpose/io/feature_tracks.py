@@ -48,14 +48,110 @@ def is_eqvio_csv(path: str | os.PathLike) -> bool:
         return False
 
 
-def read_eqvio_csv(path: str | os.PathLike) -> TrackRecording:
+def read_eqvio_csv(path: str | os.PathLike, _checked: bool = False) -> TrackRecording:
     """Read GTSAM's EqVIO replay CSV (module docstring) into a :class:`~dualpose.types.TrackRecording`.
 
     Times are ``t_abs`` minus the first row's ``t_abs`` (``TrackRecording.t0`` keeps it); ``q_bc``, ``p_bc`` from
     ``T_ci_*``; the IMU noise and feature σ from the ``eqf.*`` variances (module docstring), the IMU rate from the
     samples.  Raises ``ValueError`` naming the file and line of a malformed row, a missing meta key or
-    non-increasing stamps.
+    non-increasing stamps.  The rows are parsed in bulk; a file the bulk parse does not fully understand goes
+    through the line-by-line reader, which names the file and line of the problem.
     """
+    fast = None if _checked else _eqvio_fast(path)
+    if fast is None:  # something unusual: the line-by-line reader names the file and line of the problem
+        p, meta, imu, imu_lines, vis, vis_lines = _eqvio_checked(path)
+    else:
+        p, meta, imu, vis = fast
+        imu_lines = vis_lines = None
+
+    def meta_float(key: str, default: float | None = None) -> float:
+        if key not in meta:
+            if default is not None:
+                return default
+            raise ValueError(f"{p}: meta key {key!r} missing")
+        try:
+            v = float(meta[key])
+        except ValueError:
+            raise ValueError(f"{p}: meta {key} = {meta[key]!r} is not a number") from None
+        if not math.isfinite(v):
+            raise ValueError(f"{p}: meta {key} = {meta[key]!r} is not finite")
+        return v
+
+    t0 = float(imu[0, 0])
+    t_imu = imu[:, 0] - t0
+    bad = np.flatnonzero(np.diff(t_imu) <= 0)
+    if len(bad):
+        return _read_eqvio_checked(path) if imu_lines is None else _raise(
+            f"{p}:{imu_lines[bad[0] + 1]}: IMU stamps must be strictly increasing")
+    ft = vis[:, 0] - t0
+    back = np.flatnonzero(np.diff(ft) < 0)
+    if len(back):
+        return _read_eqvio_checked(path) if vis_lines is None else _raise(
+            f"{p}:{vis_lines[back[0] + 1]}: vision_feature rows must be in time order")
+    ids_f = vis[:, 1]
+    if np.any(ids_f != np.round(ids_f)):
+        if vis_lines is None:
+            return _read_eqvio_checked(path)
+        _raise(f"{p}:{vis_lines[int(np.argmax(ids_f != np.round(ids_f)))]}: landmark_id must be a whole number")
+    starts = np.flatnonzero(np.r_[True, np.diff(ft) > 0])
+    offsets = np.r_[starts, len(ft)].astype(np.int64)
+    tracks = FeatureTracks(ft[starts], offsets, ids_f.astype(np.int64), vis[:, 2:4])
+    q_bc = np.array([meta_float(f"T_ci_q{c}") for c in "xyzw"])
+    p_bc = np.array([meta_float(f"T_ci_t{c}") for c in "xyz"])
+    rate = 1.0 / float(np.median(np.diff(t_imu)))
+    noise = ImuNoise(
+        gyroscope_noise_density=math.sqrt(meta_float("eqf.input_var_gyr")),
+        gyroscope_random_walk=math.sqrt(meta_float("eqf.input_var_gyr_bias_walk")),
+        accelerometer_noise_density=math.sqrt(meta_float("eqf.input_var_acc")),
+        accelerometer_random_walk=math.sqrt(meta_float("eqf.input_var_acc_bias_walk")),
+        update_rate=rate,
+    )
+    focal = meta_float("camera_fx", float("nan"))
+    return TrackRecording(
+        t=t_imu, gyro=imu[:, 1:4], accel=imu[:, 4:7], tracks=tracks, q_bc=dp.quat_normalize(q_bc), p_bc=p_bc,
+        imu_noise=noise, feature_sigma=math.sqrt(meta_float("eqf.measurement_noise_variance_norm")),
+        focal_length=focal, t0=t0, meta=meta, name=os.path.basename(p),
+    )  # fmt: skip
+
+
+def _raise(message: str):
+    raise ValueError(message)
+
+
+def _read_eqvio_checked(path: str | os.PathLike) -> TrackRecording:
+    """:func:`read_eqvio_csv` through the line-by-line reader only (every error names file and line)."""
+    return read_eqvio_csv(path, _checked=True)
+
+
+def _eqvio_fast(path: str | os.PathLike):
+    """``(path, meta, imu (N, 7), vision (M, 4))`` parsed in bulk (numpy's C reader over the rows of each kind), or
+    None when anything is unusual (the caller then uses the line-by-line reader)."""
+    p = check_path(path)
+    try:
+        with open(p, encoding="utf-8-sig") as f:
+            lines = f.read().splitlines()
+        if not lines or lines[0].strip().replace(" ", "") != EQVIO_HEADER:
+            return None
+        body = lines[1:]
+        imu = [ln for ln in body if ln.startswith("imu,")]
+        vis = [ln for ln in body if ln.startswith("vision_feature,")]
+        meta_rows = [ln.split(",") for ln in body if ln.startswith("meta,")]
+        if len(imu) + len(vis) + len(meta_rows) != sum(1 for ln in body if ln.strip()) or not imu or not vis:
+            return None
+        meta = {r[20].strip(): r[21].strip() for r in meta_rows if len(r) == 22}
+        if len(meta) != len(meta_rows):
+            return None
+        a = np.loadtxt(imu, delimiter=",", usecols=(1, 6, 7, 8, 9, 10, 11), ndmin=2)
+        b = np.loadtxt(vis, delimiter=",", usecols=(1, 5, 18, 19), ndmin=2)
+    except (ValueError, OSError, UnicodeDecodeError):
+        return None
+    if not (np.isfinite(a).all() and np.isfinite(b).all()):
+        return None
+    return p, meta, a, b
+
+
+def _eqvio_checked(path: str | os.PathLike):
+    """The line-by-line parse of :func:`read_eqvio_csv` (errors name file and line)."""
     table = read_table(path, ",", (22, 22), EQVIO_HEADER)
     p = table.path
     if ",".join(table.rows[0]).replace(" ", "") == EQVIO_HEADER:
@@ -77,52 +173,7 @@ def read_eqvio_csv(path: str | os.PathLike) -> TrackRecording:
 
     imu, imu_lines = sub("imu", [1, 6, 7, 8, 9, 10, 11], "imu rows: t_abs, gx, gy, gz, ax, ay, az")
     vis, vis_lines = sub("vision_feature", [1, 5, 18, 19], "vision_feature rows: t_abs, landmark_id, u_norm, v_norm")
-
-    def meta_float(key: str, default: float | None = None) -> float:
-        if key not in meta:
-            if default is not None:
-                return default
-            raise ValueError(f"{p}: meta key {key!r} missing")
-        try:
-            v = float(meta[key])
-        except ValueError:
-            raise ValueError(f"{p}: meta {key} = {meta[key]!r} is not a number") from None
-        if not math.isfinite(v):
-            raise ValueError(f"{p}: meta {key} = {meta[key]!r} is not finite")
-        return v
-
-    t0 = float(imu[0, 0])
-    t_imu = imu[:, 0] - t0
-    bad = np.flatnonzero(np.diff(t_imu) <= 0)
-    if len(bad):
-        raise ValueError(f"{p}:{imu_lines[bad[0] + 1]}: IMU stamps must be strictly increasing")
-    ft = vis[:, 0] - t0
-    back = np.flatnonzero(np.diff(ft) < 0)
-    if len(back):
-        raise ValueError(f"{p}:{vis_lines[back[0] + 1]}: vision_feature rows must be in time order")
-    ids_f = vis[:, 1]
-    if np.any(ids_f != np.round(ids_f)):
-        k = int(np.argmax(ids_f != np.round(ids_f)))
-        raise ValueError(f"{p}:{vis_lines[k]}: landmark_id must be a whole number")
-    starts = np.flatnonzero(np.r_[True, np.diff(ft) > 0])
-    offsets = np.r_[starts, len(ft)].astype(np.int64)
-    tracks = FeatureTracks(ft[starts], offsets, ids_f.astype(np.int64), vis[:, 2:4])
-    q_bc = np.array([meta_float(f"T_ci_q{c}") for c in "xyzw"])
-    p_bc = np.array([meta_float(f"T_ci_t{c}") for c in "xyz"])
-    rate = 1.0 / float(np.median(np.diff(t_imu)))
-    noise = ImuNoise(
-        gyroscope_noise_density=math.sqrt(meta_float("eqf.input_var_gyr")),
-        gyroscope_random_walk=math.sqrt(meta_float("eqf.input_var_gyr_bias_walk")),
-        accelerometer_noise_density=math.sqrt(meta_float("eqf.input_var_acc")),
-        accelerometer_random_walk=math.sqrt(meta_float("eqf.input_var_acc_bias_walk")),
-        update_rate=rate,
-    )
-    focal = meta_float("camera_fx", float("nan"))
-    return TrackRecording(
-        t=t_imu, gyro=imu[:, 1:4], accel=imu[:, 4:7], tracks=tracks, q_bc=dp.quat_normalize(q_bc), p_bc=p_bc,
-        imu_noise=noise, feature_sigma=math.sqrt(meta_float("eqf.measurement_noise_variance_norm")),
-        focal_length=focal, t0=t0, meta=meta, name=os.path.basename(p),
-    )  # fmt: skip
+    return p, meta, imu, imu_lines, vis, vis_lines
 
 
 def _coordinates(comments: list[str], path: str) -> str | None:

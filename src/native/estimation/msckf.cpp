@@ -407,6 +407,7 @@ PyObject* py_update(PyObject*, PyObject* args) {
         return nullptr;
     const npy_intp nc = clones.shape[0], n = NE + 6 * nc;
     npy_intp m = H.shape[0];
+    const npy_intp m_all = m;
     if (!shape_is("x", x, {NX}) || !shape_is("clones", clones, {-1, 7}) || !shape_is("P", Pm, {n, n}) ||
         !shape_is("H", H, {-1, n}) || !shape_is("r", r, {m}))
         return nullptr;
@@ -414,46 +415,67 @@ PyObject* py_update(PyObject*, PyObject* args) {
     double nis = 0.0;
     Py_BEGIN_ALLOW_THREADS;
     double* h = H.data;
-    if (m > n) {  // Householder QR, in place: the top n rows become T, r the rotated residual
-        for (npy_intp k = 0; k < n; ++k) {
+    // the first column that can be nonzero: feature rows leave the IMU columns zero
+    npy_intp c0 = NE;
+    for (npy_intp i = 0; i < m && c0 > 0; ++i)
+        for (npy_intp k = 0; k < NE; ++k)
+            if (h[i * n + k] != 0.0) {
+                c0 = 0;
+                break;
+            }
+    if (m > n) {  // Householder QR on the transposed columns c0..n (contiguous), then T back into the top rows of H
+        const npy_intp nw = n - c0;
+        std::vector<double> Ht(nw * m), v(m);
+        for (npy_intp i = 0; i < m; ++i)
+            for (npy_intp j = 0; j < nw; ++j) Ht[j * m + i] = h[i * n + c0 + j];
+        for (npy_intp k = 0; k < nw; ++k) {
+            double* col = &Ht[k * m];
             double norm = 0.0;
-            for (npy_intp i = k; i < m; ++i) norm += h[i * n + k] * h[i * n + k];
+            for (npy_intp i = k; i < m; ++i) norm += col[i] * col[i];
             norm = std::sqrt(norm);
             if (norm == 0.0) continue;
-            const double alpha = h[k * n + k] > 0 ? -norm : norm;
-            std::vector<double> v(m - k);
-            for (npy_intp i = k; i < m; ++i) v[i - k] = h[i * n + k];
-            v[0] -= alpha;
+            const double alpha = col[k] > 0 ? -norm : norm;
+            for (npy_intp i = k; i < m; ++i) v[i] = col[i];
+            v[k] -= alpha;
             double vv = 0.0;
-            for (double e : v) vv += e * e;
+            for (npy_intp i = k; i < m; ++i) vv += v[i] * v[i];
             if (vv == 0.0) continue;
-            for (npy_intp j = k; j < n; ++j) {
+            const double beta = 2.0 / vv;
+            for (npy_intp j = k; j < nw; ++j) {
+                double* cj = &Ht[j * m];
                 double d = 0.0;
-                for (npy_intp i = k; i < m; ++i) d += v[i - k] * h[i * n + j];
-                d *= 2.0 / vv;
-                for (npy_intp i = k; i < m; ++i) h[i * n + j] -= d * v[i - k];
+                for (npy_intp i = k; i < m; ++i) d += v[i] * cj[i];
+                d *= beta;
+                for (npy_intp i = k; i < m; ++i) cj[i] -= d * v[i];
             }
             double d = 0.0;
-            for (npy_intp i = k; i < m; ++i) d += v[i - k] * r[i];
-            d *= 2.0 / vv;
-            for (npy_intp i = k; i < m; ++i) r[i] -= d * v[i - k];
+            for (npy_intp i = k; i < m; ++i) d += v[i] * r[i];
+            d *= beta;
+            for (npy_intp i = k; i < m; ++i) r[i] -= d * v[i];
         }
-        m = n;
+        m = nw;  // the rows below nw are zero in H: they carry no information
+        for (npy_intp i = 0; i < m; ++i) {
+            for (npy_intp k = 0; k < c0; ++k) h[i * n + k] = 0.0;
+            for (npy_intp j = 0; j < nw; ++j) h[i * n + c0 + j] = Ht[j * m_all + i];
+        }
     }
-    // PHt (n, m) = P Hᵀ;  S = H P Hᵀ + σ² I
-    std::vector<double> PHt(n * m), S(m * m), L;
-    for (npy_intp i = 0; i < n; ++i)
-        for (npy_intp j = 0; j < m; ++j) {
+    // HP (m, n) = H P (P symmetric: row i of P is its column i);  S = H P Hᵀ + σ² I
+    std::vector<double> W(m * n), S(m * m), L;
+    for (npy_intp j = 0; j < m; ++j) {
+        const double* hr = h + j * n;
+        for (npy_intp i = 0; i < n; ++i) {
             const double* pr = Pm.row(i);
-            const double* hr = h + j * n;
             double s = 0.0;
-            for (npy_intp k = 0; k < n; ++k) s += pr[k] * hr[k];
-            PHt[i * m + j] = s;
+            for (npy_intp k = c0; k < n; ++k) s += pr[k] * hr[k];
+            W[j * n + i] = s;
         }
+    }
     for (npy_intp i = 0; i < m; ++i)
         for (npy_intp j = 0; j <= i; ++j) {
             double s = 0.0;
-            for (npy_intp k = 0; k < n; ++k) s += h[i * n + k] * PHt[k * m + j];
+            const double* hr = h + i * n;
+            const double* wr = &W[j * n];
+            for (npy_intp k = c0; k < n; ++k) s += hr[k] * wr[k];
             if (i == j) s += sigma * sigma;
             S[i * m + j] = S[j * m + i] = s;
         }
@@ -476,9 +498,7 @@ PyObject* py_update(PyObject*, PyObject* args) {
     }
     if (ok) {
         // W = L⁻¹ (H P) (m, n), y = L⁻¹ r: then P <- P − Wᵀ W, δx = Wᵀ y, NIS = yᵀ y
-        std::vector<double> W(m * n), y(r.data, r.data + m);
-        for (npy_intp j = 0; j < m; ++j)
-            for (npy_intp i = 0; i < n; ++i) W[j * n + i] = PHt[i * m + j];
+        std::vector<double> y(r.data, r.data + m);
         for (npy_intp j = 0; j < m; ++j) {
             const double d = L[j * m + j];
             for (npy_intp k = 0; k < j; ++k) {
@@ -495,14 +515,17 @@ PyObject* py_update(PyObject*, PyObject* args) {
             nis += y[j] * y[j];
             for (npy_intp i = 0; i < n; ++i) dx[i] += W[j * n + i] * y[j];
         }
-        for (npy_intp i = 0; i < n; ++i)
-            for (npy_intp k = i; k < n; ++k) {
-                double s = 0.0;
-                for (npy_intp j = 0; j < m; ++j) s += W[j * n + i] * W[j * n + k];
-                const double v = 0.5 * (Pm(i, k) + Pm(k, i)) - s;
-                Pm(i, k) = v;
-                Pm(k, i) = v;
+        for (npy_intp j = 0; j < m; ++j) {  // P −= Wᵀ W, upper triangle, one row of W at a time
+            const double* w = &W[j * n];
+            for (npy_intp i = 0; i < n; ++i) {
+                const double wi = w[i];
+                if (wi == 0.0) continue;
+                double* pr = Pm.row(i);
+                for (npy_intp k = i; k < n; ++k) pr[k] -= wi * w[k];
             }
+        }
+        for (npy_intp i = 0; i < n; ++i)
+            for (npy_intp k = i + 1; k < n; ++k) Pm(k, i) = Pm(i, k);
         for (int i = 0; i < 3; ++i) {
             x[P + i] += dx[DP + i];
             x[V + i] += dx[DV + i];
