@@ -45,7 +45,8 @@ def eqvio_replay(csv: Path) -> tuple[Trajectory, float] | None:
         except ValueError:
             continue
     p = eqvio.EqVIOFilterParams()
-    names = {"attitudeProcessVariance": "eqf.process_var_attitude", "positionProcessVariance": "eqf.process_var_position",
+    names = {"attitudeProcessVariance": "eqf.process_var_attitude",
+             "positionProcessVariance": "eqf.process_var_position",
              "velocityProcessVariance": "eqf.process_var_velocity", "pointProcessVariance": "eqf.process_var_point",
              "cameraAttitudeProcessVariance": "eqf.process_var_cam_attitude",
              "cameraPositionProcessVariance": "eqf.process_var_cam_position",
