@@ -203,6 +203,63 @@ class MsckfVio(Estimator):
         f._u = np.r_[r.gyro[k], r.accel[k]]
         return f, k
 
+    # ------------------------------------------------------------------ savable state (streaming)
+    #: version of :meth:`state_dict`'s layout
+    STATE_VERSION = 1
+
+    def state_dict(self) -> dict[str, np.ndarray]:
+        """Everything the filter needs to continue, as arrays (``np.savez`` writes it): the IMU state and the held
+        sample, the window (clones, first estimates, times, ids), the window's feature observations, the full
+        covariance, the settings.  :meth:`from_state_dict` continues bit for bit (one sample / frame at a time)."""
+        o = self.options
+        return {
+            "version": np.array(self.STATE_VERSION), "x": self.x.copy(), "P": self.P.copy(), "u": self._u.copy(),
+            "time": np.array(np.nan if self.time is None else self.time), "clones": self.clones.copy(),
+            "clones_fej": self.clones_fej.copy(), "clone_t": self.clone_t.copy(), "clone_id": self._clone_id.copy(),
+            "next_clone": np.array(self._next_clone), "ob_track": self._ob_track.copy(),
+            "ob_clone": self._ob_clone.copy(), "ob_uv": self._ob_uv.copy(), "noise": self.noise.copy(),
+            "q_bc": self.q_bc.copy(), "p_bc": self.p_bc.copy(), "gravity": self.gravity.copy(),
+            "feature_sigma": np.array(self.feature_sigma), "camera_time_offset": np.array(self.camera_time_offset),
+            "options": np.array([o.max_clones, o.min_track, o.gate_probability, o.min_depth, o.max_depth,
+                                 o.min_parallax]),
+        }  # fmt: skip
+
+    @classmethod
+    def from_state_dict(cls, d) -> MsckfVio:
+        """The filter saved by :meth:`state_dict` (a dict or an ``np.load`` of its ``np.savez``); ``ValueError`` for
+        another layout version or missing entries."""
+        try:
+            if int(d["version"]) != cls.STATE_VERSION:
+                raise ValueError(f"saved MSCKF state has layout version {int(d['version'])}; this is "
+                                 f"{cls.STATE_VERSION}")  # fmt: skip
+            o = np.asarray(d["options"], dtype=np.float64)
+            opts = MsckfOptions(int(o[0]), int(o[1]), float(o[2]), float(o[3]), float(o[4]), float(o[5]))
+            noise = np.asarray(d["noise"], dtype=np.float64)
+            imu = ImuNoise(*np.sqrt(noise)[[0, 2, 1, 3]].tolist())
+            P = np.array(d["P"], dtype=np.float64)
+            f = cls(np.array(d["x"]), P[:_NE, :_NE], imu, d["q_bc"], d["p_bc"], float(d["feature_sigma"]),
+                    d["gravity"], float(d["camera_time_offset"]), opts)  # fmt: skip
+            f.noise = noise.copy()
+            f.x = np.array(d["x"], dtype=np.float64)
+            f.q_bc = np.array(d["q_bc"], dtype=np.float64)
+            f.P = np.ascontiguousarray(P)
+            f._u = np.array(d["u"], dtype=np.float64)
+            t = float(d["time"])
+            f.time = None if np.isnan(t) else t
+            f.clones = np.array(d["clones"], dtype=np.float64).reshape(-1, 7)
+            f.clones_fej = np.array(d["clones_fej"], dtype=np.float64).reshape(-1, 7)
+            f.clone_t = np.array(d["clone_t"], dtype=np.float64)
+            f._clone_id = np.array(d["clone_id"], dtype=np.int64)
+            f._next_clone = int(d["next_clone"])
+            f._ob_track = np.array(d["ob_track"], dtype=np.int64)
+            f._ob_clone = np.array(d["ob_clone"], dtype=np.int64)
+            f._ob_uv = np.array(d["ob_uv"], dtype=np.float64).reshape(-1, 2)
+        except KeyError as exc:
+            raise ValueError(f"saved MSCKF state lacks {exc}") from None
+        if f.P.shape != (_NE + _CE * len(f.clones),) * 2:
+            raise ValueError(f"saved MSCKF state: covariance {f.P.shape} does not match {len(f.clones)} clones")
+        return f
+
     # ------------------------------------------------------------------ the estimator interface
     @property
     def state(self) -> np.ndarray:
