@@ -36,6 +36,7 @@ from scipy.stats import chi2
 
 import dualpose as dp
 from dualpose import _native
+from dualpose.estimation.eskf import EskfStateAccessors
 from dualpose.estimation.initialization import detect_rest, static_alignment
 from dualpose.estimation.interface import Estimator, UpdateResult
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE, MSCKF_CLONE_ERROR
@@ -99,7 +100,7 @@ class VioResult:
     wall_time: float
 
 
-class MsckfVio(Estimator):
+class MsckfVio(EskfStateAccessors, Estimator):
     """MSCKF visual–inertial odometer over feature tracks (module docstring); an
     :class:`~dualpose.estimation.interface.Estimator` whose :attr:`state` / :attr:`covariance` are those of the
     IMU (the window is :attr:`clones` and :attr:`full_covariance`).
@@ -276,21 +277,6 @@ class MsckfVio(Estimator):
         """Covariance (15 + 6C, 15 + 6C) of the IMU error and the C clones' ``[δp, δθ]``, a copy."""
         return self.P.copy()
 
-    @property
-    def quat(self) -> np.ndarray:
-        """Orientation ``q_wb`` (4,) xyzw."""
-        return self.block("quat")
-
-    @property
-    def position(self) -> np.ndarray:
-        """IMU position in the world (3,), m."""
-        return self.block("position")
-
-    def attitude_covariance(self) -> np.ndarray:
-        """World-frame attitude error covariance (3, 3): ``R̂ P_θθ R̂ᵀ``."""
-        R = dp.matrix_from_quat(self.quat)
-        return R @ ESKF_ERROR.cov(self.covariance, "attitude") @ R.T
-
     def update(self, measurement) -> UpdateResult:
         """Fuse a :class:`~dualpose.types.TrackFrame` (feature tracks; the filter first propagates to its time), or
         any measurement of :meth:`Estimator.update` (``LinearMeasurement``, ``AttitudeFix``)."""
@@ -305,12 +291,6 @@ class MsckfVio(Estimator):
         H = np.zeros((len(residual), self.P.shape[0]))
         H[:, :_NE] = jacobian
         return UpdateResult(self._ekf_update(residual, H, covariance), len(residual), True)
-
-    def _attitude_model(self, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        r = dp.rotvec_from_quat(dp.quat_mul(quat, dp.quat_conj(self.quat)))
-        H = np.zeros((3, _NE))
-        H[:, ESKF_ERROR.slice("attitude")] = dp.so3_right_jacobian_inv(r) @ dp.matrix_from_quat(self.quat)
-        return r, H
 
     # ------------------------------------------------------------------ propagation
     def _steps(self, gyro: np.ndarray, accel: np.ndarray, dt: np.ndarray) -> np.ndarray:
