@@ -457,7 +457,8 @@ class MsckfVio(EskfStateAccessors, Estimator):
         """Filter ``recording`` from its IMU sample ``start`` (the filter taken to be at ``t[start]`` with that sample
         held), frame by frame: the IMU steps up to each frame in one native call (the signal linear between samples,
         the mean of consecutive samples per step, the held sample up to the frame time), then the frame update.
-        States before ``start`` are the start state."""
+        States before ``start`` are the start state; at an IMU stamp that is also a frame time the state after the
+        frame's update."""
         r = recording
         t, u = r.t, np.hstack([r.gyro, r.accel])
         n = len(t)
@@ -484,6 +485,8 @@ class MsckfVio(EskfStateAccessors, Estimator):
                 self._steps(self._u[None, :3], self._u[None, 3:], np.array([ft[j] - self.time]))
                 self.time = float(ft[j])
             res = self._frame_update(r.tracks.frame(j))
+            if self.time == t[k]:  # a frame at an IMU stamp: the output there is the state after the update
+                X[k] = self.x
             stats["used"] += int(np.sum(res.status == 1))
             stats["gated"] += int(np.sum(res.status == 0))
             stats["failed"] += int(np.sum(res.status == -1))
