@@ -26,8 +26,8 @@ def _clone_poses(rng: np.random.Generator, n: int) -> np.ndarray:
 
 
 def test_features_kernel_on_exact_geometry(rng: np.random.Generator) -> None:
-    """Exact observations of a point: zero residual after the nullspace projection, 2m − 3 rows, H orthogonal to
-    nothing it should not be -- the projected rows annihilate a common translation of all clones and the point."""
+    """Exact observations of a point: zero residual after the nullspace projection, 2m − 3 rows, and the projected
+    rows blind to a common translation of all clones (the point moves with them, so nothing is observed)."""
     C = 6
     clones = _clone_poses(rng, C)
     q_bc, p_bc = np.array([0.0, 0.0, 0.0, 1.0]), np.array([0.05, -0.02, 0.01])
@@ -154,6 +154,15 @@ def test_euroc_v101_from_rest(euroc_v101) -> None:
     assert 4.0 < m["rest_s"] < 5.2
     assert m["ate_rmse_4dof_m"] < 0.08 and m["orientation_rmse_4dof_deg"] < 2.0 and m["final_drift_percent"] < 1.5
     assert m["features_used"] > 5 * m["features_gated"]
+
+
+def test_options_are_checked() -> None:
+    from dualpose.estimation.msckf import MsckfOptions
+
+    with pytest.raises(ValueError, match="max_clones"):
+        MsckfOptions(max_clones=1)
+    with pytest.raises(ValueError, match="gate_probability"):
+        MsckfOptions(gate_probability=1.0)
 
 
 def test_saved_state_continues_bit_for_bit(tmp_path) -> None:

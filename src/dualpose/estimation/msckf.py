@@ -67,6 +67,17 @@ class MsckfOptions:
     max_depth: float = 60.0
     min_parallax: float = 0.01
 
+    def __post_init__(self) -> None:
+        if int(self.max_clones) != self.max_clones or self.max_clones < 2:
+            raise ValueError(f"max_clones must be a whole number >= 2; got {self.max_clones!r}")
+        if int(self.min_track) != self.min_track or self.min_track < 2:
+            raise ValueError(f"min_track must be a whole number >= 2; got {self.min_track!r}")
+        if not 0.0 < self.gate_probability < 1.0:
+            raise ValueError(f"gate_probability must be in (0, 1); got {self.gate_probability!r}")
+        if not 0.0 < self.min_depth < self.max_depth or not self.min_parallax >= 0.0:
+            raise ValueError("need 0 < min_depth < max_depth and min_parallax >= 0; got "
+                             f"{self.min_depth!r}, {self.max_depth!r}, {self.min_parallax!r}")  # fmt: skip
+
 
 @dataclass(frozen=True)
 class TrackUpdate(UpdateResult):
@@ -426,11 +437,11 @@ class MsckfVio(EskfStateAccessors, Estimator):
             return empty
         rows = np.flatnonzero(np.isin(self._ob_track, tracks))
         order = rows[np.argsort(self._ob_track[rows], kind="stable")]
-        ids, start, count = np.unique(self._ob_track[order], return_index=True, return_counts=True)
+        _, count = np.unique(self._ob_track[order], return_counts=True)
         enough = count >= self.options.min_track
         if not enough.any():
             return empty
-        sel = np.concatenate([order[s : s + c] for s, c in zip(start[enough], count[enough], strict=True)])
+        sel = order[np.repeat(enough, count)]  # the rows of the tracks long enough, grouped by track in time order
         offsets = np.zeros(int(enough.sum()) + 1, np.int64)
         np.cumsum(count[enough], out=offsets[1:])
         obs_clone = np.searchsorted(self._clone_id, self._ob_clone[sel]).astype(np.int64)
