@@ -30,8 +30,11 @@ PUBLISHED = {"ate_rmse_4dof_m": 0.0288, "ate_rmse_se3_m": 0.0259, "orientation_r
 
 
 def eqvio_replay(csv: Path) -> tuple[Trajectory, float] | None:
-    """GTSAM's EqVIO over the file: IMU predictions, one update per frame with the features in pixels (camera =
-    T_ci with the meta intrinsics, noise = the meta pixel variance).  None when gtsam is not installed."""
+    """GTSAM's EqVIO over the file as GTSAM's C++ ``EqVIOFilterExample`` replays it: the filter built from the
+    meta settings (state with the camera extrinsic ``T_ci``, initial covariance, process and input noise),
+    initialised from the first IMU sample, the IMU samples up to each frame, then one update with the frame's
+    normalised features (unit camera, noise = the normalised measurement variance); the position after every
+    frame.  None when gtsam is not installed."""
     try:
         import gtsam
         from gtsam_unstable import eqvio
@@ -45,47 +48,63 @@ def eqvio_replay(csv: Path) -> tuple[Trajectory, float] | None:
         except ValueError:
             continue
     p = eqvio.EqVIOFilterParams()
-    names = {"attitudeProcessVariance": "eqf.process_var_attitude",
-             "positionProcessVariance": "eqf.process_var_position",
-             "velocityProcessVariance": "eqf.process_var_velocity", "pointProcessVariance": "eqf.process_var_point",
-             "cameraAttitudeProcessVariance": "eqf.process_var_cam_attitude",
-             "cameraPositionProcessVariance": "eqf.process_var_cam_position",
-             "biasOmegaProcessVariance": "eqf.process_var_bias_omega",
-             "biasAccelProcessVariance": "eqf.process_var_bias_accel", "initialPointDepth": "eqf.initial_point_depth",
-             "initialPointVariance": "eqf.initial_point_variance", "featureRetention": "eqf.feature_retention",
-             "outlierThresholdAbs": "eqf.outlier_threshold_abs"}  # fmt: skip
-    for attr, key in names.items():
-        if key in m:
-            setattr(p, attr, m[key])
+    names = {"initialPointDepth": ["eqf.initial_point_depth"], "initialPointVariance": ["eqf.initial_point_variance"],
+             "outlierThresholdAbs": ["eqf.outlier_threshold_abs", "eqf.outlier_threshold_abs_norm"],
+             "featureRetention": ["eqf.feature_retention"], "biasOmegaProcessVariance": ["eqf.process_var_bias_omega"],
+             "biasAccelProcessVariance": ["eqf.process_var_bias_accel"],
+             "attitudeProcessVariance": ["eqf.process_var_attitude"],
+             "positionProcessVariance": ["eqf.process_var_position"],
+             "velocityProcessVariance": ["eqf.process_var_velocity"],
+             "cameraAttitudeProcessVariance": ["eqf.process_var_cam_attitude"],
+             "cameraPositionProcessVariance": ["eqf.process_var_cam_position"],
+             "pointProcessVariance": ["eqf.process_var_point"]}  # fmt: skip
+    for attr, keys in names.items():  # later keys override earlier ones, as the C++ example's setParam
+        for key in keys:
+            if key in m:
+                setattr(p, attr, m[key])
+    if hasattr(p, "measurementNoiseVariance"):
+        p.measurementNoiseVariance = m["eqf.measurement_noise_variance_norm"]
     Q = np.zeros((12, 12))
     for i, key in enumerate(("eqf.input_var_gyr", "eqf.input_var_acc", "eqf.input_var_gyr_bias_walk",
                              "eqf.input_var_acc_bias_walk")):  # fmt: skip
         Q[3 * i : 3 * i + 3, 3 * i : 3 * i + 3] = np.eye(3) * m[key]
     p.inputNoise = Q
-    f = eqvio.EqVIOFilter(p)
     q = [m[f"T_ci_q{c}"] for c in "wxyz"]
-    T_ci = gtsam.Pose3(gtsam.Rot3.Quaternion(*q), gtsam.Point3(m["T_ci_tx"], m["T_ci_ty"], m["T_ci_tz"]))
-    K = np.array([m["camera_fx"], m["camera_fy"], m["camera_cx"], m["camera_cy"]])
-    cam = gtsam.PinholeCameraCal3_S2(T_ci, gtsam.Cal3_S2(K[0], K[1], 0.0, K[2], K[3]))
-    var = m["eqf.measurement_noise_variance_px"]
+    xi0 = eqvio.State()
+    xi0.cameraOffset = gtsam.Pose3(gtsam.Rot3.Quaternion(*q), gtsam.Point3(m["T_ci_tx"], m["T_ci_ty"], m["T_ci_tz"]))
+    sigma0 = np.eye(xi0.dim())
+    for i, key in enumerate(("eqf.initial_var_bias_omega", "eqf.initial_var_bias_accel", "eqf.initial_var_attitude",
+                             "eqf.initial_var_position", "eqf.initial_var_velocity", "eqf.initial_var_cam_attitude",
+                             "eqf.initial_var_cam_position")):  # fmt: skip
+        sigma0[3 * i : 3 * i + 3, 3 * i : 3 * i + 3] *= m[key]
+    f = eqvio.EqVIOFilter(xi0, sigma0, [], p)
+    cam = gtsam.PinholeCameraCal3_S2(gtsam.Pose3(), gtsam.Cal3_S2(1.0, 1.0, 0.0, 0.0, 0.0))
+    var = m["eqf.measurement_noise_variance_norm"]
     tr = rec.tracks
     t0 = time.perf_counter()
     out_t, out_p = [], []
-    j = 0
+    imu = []
     for k in range(len(rec.t)):
         u = eqvio.IMUInput()
         u.stamp, u.gyr, u.acc = float(rec.t[k]), rec.gyro[k], rec.accel[k]
-        if not f.isInitialized():
-            f.initializeFromIMU(u)
-        if k > 0:
-            f.predict(u, float(rec.t[k] - rec.t[k - 1]))
-        while j < len(tr) and tr.t[j] <= rec.t[k] + 1e-9:
-            fr = tr.frame(j)
-            px = fr.uv * K[:2] + K[2:]
-            meas = {int(i): np.asarray(v) for i, v in zip(fr.track_id, px, strict=True)}
-            f.update(meas, cam, np.eye(2 * len(meas)) * var)
-            j += 1
-        out_t.append(rec.t[k] + rec.t0)
+        imu.append(u)
+    f.initializeFromIMU(imu[0])
+    now, k = float(rec.t[0]), 0
+    for j in range(len(tr)):  # the IMU samples up to the frame, each held until the next (or the frame), then update
+        tf = float(tr.t[j])
+        while k < len(imu) and rec.t[k] < tf:
+            end = min(float(rec.t[k + 1]) if k + 1 < len(imu) else tf, tf)
+            if end > now:
+                f.predict(imu[k], end - max(now, float(rec.t[k])))
+                now = end
+            if k + 1 < len(imu) and rec.t[k + 1] <= tf:
+                k += 1
+            else:
+                break
+        fr = tr.frame(j)
+        meas = {int(i): np.asarray(v) for i, v in zip(fr.track_id, fr.uv, strict=True)}
+        f.update(meas, cam, np.eye(2 * len(meas)) * var)
+        out_t.append(tf + rec.t0)
         out_p.append(np.asarray(f.position()).reshape(3))
     wall = time.perf_counter() - t0
     quats = np.tile([0.0, 0.0, 0.0, 1.0], (len(out_t), 1))
