@@ -30,3 +30,16 @@ def trial():
     from dualpose.io import load_broad
 
     return load_broad(BROAD_DIR / "06_undisturbed_fast_rotation_A.mat")
+
+
+#: 30 s of EuRoC V1_01_easy as GTSAM ships it, and its ground truth (GPL-3.0: read from here, never copied)
+EUROC_V101_DIR = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "euroc" / "v101_30s"
+
+
+@pytest.fixture(scope="session")
+def euroc_v101():
+    """``(eqvio csv path, ground-truth csv path)`` of the EuRoC V1_01 segment; skipped when the data are missing."""
+    csv, gt = EUROC_V101_DIR / "eqvio_processed_30s.csv", EUROC_V101_DIR / "groundtruth.csv"
+    if not (csv.is_file() and gt.is_file()):
+        pytest.skip("EuRoC v101_30s data directory missing")
+    return csv, gt

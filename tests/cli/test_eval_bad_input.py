@@ -100,7 +100,7 @@ def test_plot_never_overwrites_an_input_and_unknown_extensions_are_usage_errors(
     ("extra", "text"),
     [
         (["--t-start", "5", "--t-end", "5"], "--t-start (5.0) must be smaller than --t-end (5.0)"),
-        (["--n-align", "10", "--align", "none"], "--n-align applies to --align se3, sim3 or scale"),
+        (["--n-align", "10", "--align", "none"], "--n-align applies to --align se3, sim3, scale or posyaw"),
         (["--n-align", "10", "--align", "origin"], "no effect with --align origin"),
         (["--max-diff", "nan"], "--max-diff must be a finite number"),
     ],

@@ -22,7 +22,8 @@ from dualpose.estimation.interface import (
     LinearMeasurement,
     world_attitude_error,
 )
-from dualpose.estimation.state import AHRS_ERROR, HOL22_STATE
+from dualpose.estimation.msckf import MsckfVio
+from dualpose.estimation.state import AHRS_ERROR, ESKF_STATE, HOL22_STATE
 from dualpose.types import ImuNoise
 
 ATTITUDE_SIGMA = np.radians(0.5)  # of the attitude fixes
@@ -80,10 +81,24 @@ def _ahrs(run: sim.SimulatedRun, rng: np.random.Generator) -> Estimator:
     return AhrsFilter(q0, b0, P0, noise=noise, gyro_scale_sigma=0.0)
 
 
+def _msckf(run: sim.SimulatedRun, rng: np.random.Generator) -> Estimator:
+    """The MSCKF (feature tracks of an unknown scene) started as the error-state filter (zero biases: the simulator
+    draws the true ones from the prior); the laws use its IMU state and the interface's measurements (its
+    feature-track updates: tests/estimation/test_msckf.py)."""
+    tr = run.truth
+    P0 = initial_covariance(imu_noise=run.imu_noise)
+    e = rng.multivariate_normal(np.zeros(15), P0)
+    q0 = dp.quat_mul(tr["quat"][0], dp.quat_from_rotvec(e[6:9]))
+    x = ESKF_STATE.assemble(position=tr["position"][0] + e[0:3], velocity=tr["velocity"][0] + e[3:6], quat=q0,
+                            gyro_bias=np.zeros(3), accel_bias=np.zeros(3))  # fmt: skip
+    return MsckfVio(x, P0, run.imu_noise, run.q_bc, run.p_bc, feature_sigma=1e-3)
+
+
 FACTORIES: dict[str, Callable[[sim.SimulatedRun, np.random.Generator], Estimator]] = {
     "eskf": _eskf,
     "hol22": _hol22,
     "ahrs": _ahrs,
+    "msckf": _msckf,
 }
 
 

@@ -39,10 +39,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument("--est-times", metavar="FILE", help="stamps of a KITTI estimate, s (default: pose index)")
     p.add_argument(
         "--align",
-        choices=("se3", "sim3", "scale", "origin", "none"),
+        choices=("se3", "sim3", "scale", "origin", "posyaw", "none"),
         default="se3",
         help="alignment of the estimate: Umeyama rigid (se3, default), with scale (sim3), scale only (scale), "
-        "first poses made equal (origin), or none",
+        "first poses made equal (origin), position + yaw about z (posyaw, 4-DoF for VIO), or none",
     )
     p.add_argument("--n-align", type=int, metavar="N", help="estimate the alignment from the first N matched poses")
     p.add_argument("--max-diff", type=float, default=0.01, help="largest time difference to associate, s (0.01)")
@@ -106,7 +106,8 @@ def _usage_problem(args: argparse.Namespace) -> str | None:
         return f"--t-start ({args.t_start}) must be smaller than --t-end ({args.t_end})"
     if args.n_align is not None:
         if args.align in ("none", "origin"):
-            return f"--n-align applies to --align se3, sim3 or scale; it has no effect with --align {args.align}"
+            return (f"--n-align applies to --align se3, sim3, scale or posyaw; it has no effect with --align "
+                    f"{args.align}")  # fmt: skip
         if args.n_align < 3:
             return f"--n-align must be >= 3 (an alignment needs 3 points); got {args.n_align}"
     if args.plot:

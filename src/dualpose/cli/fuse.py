@@ -81,6 +81,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
                    "initial_state; see below)")  # fmt: skip
     p.add_argument("--out", metavar="DIR", help="write trajectory.tum, metrics.json and PNG figures into DIR")
     p.add_argument("--force", action="store_true", help="replace existing output files")
+    p.add_argument("--truth", metavar="FILE",
+                   help="ground-truth trajectory (TUM, EuRoC) to score feature-track (VIO) data against")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     p.add_argument(
         "--smooth",
@@ -211,6 +213,15 @@ def run(args: argparse.Namespace) -> int:
     if args.calibration is not None:
         return _usage_error("--calibration is only used with --stream (a recording has its own sensor file)")
 
+    if args.data is not None:
+        from dualpose.pipelines.vio import is_track_data
+
+        if is_track_data(args.data):  # feature tracks of an unknown scene: visual-inertial odometry (docs/vio.md)
+            from dualpose.cli._vio import run_vio_job
+
+            return run_vio_job(args)
+    if args.truth is not None:
+        return _usage_error("--truth is only used with feature-track data (docs/vio.md); recordings carry theirs")
     if args.smooth and args.filter != "eskf":
         print(f"dualpose fuse: error: --smooth needs --filter eskf (got {args.filter!r}): the RTS smoother runs "
               "over the error-state filter's stored nodes", file=sys.stderr)  # fmt: skip

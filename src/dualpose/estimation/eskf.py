@@ -30,6 +30,7 @@ from dualpose.types import CameraFrame, ImuNoise, PinholeCamera, SensorRun
 
 __all__ = [
     "BlockResult",
+    "EskfStateAccessors",
     "ErrorStateEKF",
     "EskfStream",
     "FilterNodes",
@@ -145,7 +146,51 @@ class FilterResult:
     nodes: FilterNodes | None = None
 
 
-class ErrorStateEKF(Estimator):
+class EskfStateAccessors:
+    """The named blocks of an error-state IMU state (:data:`~dualpose.estimation.state.ESKF_STATE` in ``self.x``,
+    the (15, 15) :attr:`covariance` over :data:`~dualpose.estimation.state.ESKF_ERROR`), the world-frame attitude
+    covariance and the attitude-fix model, shared by :class:`ErrorStateEKF` and
+    :class:`~dualpose.estimation.msckf.MsckfVio`."""
+
+    @property
+    def position(self) -> np.ndarray:
+        """Body position in the world frame (3,), m."""
+        return self.block("position")
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """Velocity in the world frame (3,), m/s."""
+        return self.block("velocity")
+
+    @property
+    def quat(self) -> np.ndarray:
+        """Orientation ``q_wb`` (4,) xyzw."""
+        return self.block("quat")
+
+    @property
+    def gyro_bias(self) -> np.ndarray:
+        """Gyroscope bias (3,), rad/s."""
+        return self.block("gyro_bias")
+
+    @property
+    def accel_bias(self) -> np.ndarray:
+        """Accelerometer bias (3,), m/s²."""
+        return self.block("accel_bias")
+
+    def attitude_covariance(self) -> np.ndarray:
+        """World-frame attitude error covariance (3, 3): ``R̂ P_θθ R̂ᵀ`` (the local error rotated to the world)."""
+        R = dp.matrix_from_quat(self.quat)
+        return R @ ESKF_ERROR.cov(self.covariance, "attitude") @ R.T
+
+    def _attitude_model(self, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        # ρ(δθ) = Log(q_m ⊗ (q̂ Exp(δθ))*) ≈ r − J_r⁻¹(r) R̂ δθ with r = Log(q_m ⊗ q̂*)
+        r = dp.rotvec_from_quat(dp.quat_mul(quat, dp.quat_conj(self.quat)))
+        H = np.zeros((3, ESKF_ERROR.dim))
+        H[:, ESKF_ERROR.slice("attitude")] = dp.so3_right_jacobian_inv(r) @ dp.matrix_from_quat(self.quat)
+        return r, H
+
+
+class ErrorStateEKF(EskfStateAccessors, Estimator):
     """Camera-IMU error-state EKF (Solà 2017); an :class:`~dualpose.estimation.interface.Estimator`.
 
     State :data:`~dualpose.estimation.state.ESKF_STATE` (16,), covariance over
@@ -260,46 +305,9 @@ class ErrorStateEKF(Estimator):
         """Error-state covariance (15, 15) (:data:`~dualpose.estimation.state.ESKF_ERROR`), a copy."""
         return self.P.copy()
 
-    @property
-    def position(self) -> np.ndarray:
-        """Body position in the world frame (3,), m."""
-        return self.block("position")
-
-    @property
-    def velocity(self) -> np.ndarray:
-        """Velocity in the world frame (3,), m/s."""
-        return self.block("velocity")
-
-    @property
-    def quat(self) -> np.ndarray:
-        """Orientation ``q_wb`` (4,) xyzw."""
-        return self.block("quat")
-
-    @property
-    def gyro_bias(self) -> np.ndarray:
-        """Gyroscope bias (3,), rad/s."""
-        return self.block("gyro_bias")
-
-    @property
-    def accel_bias(self) -> np.ndarray:
-        """Accelerometer bias (3,), m/s²."""
-        return self.block("accel_bias")
-
-    def attitude_covariance(self) -> np.ndarray:
-        """World-frame attitude error covariance (3, 3): ``R̂ P_θθ R̂ᵀ`` (the local error rotated to the world)."""
-        R = dp.matrix_from_quat(self.quat)
-        return R @ ESKF_ERROR.cov(self.P, "attitude") @ R.T
-
     def _update_linear(self, residual: np.ndarray, jacobian: np.ndarray, covariance: np.ndarray) -> UpdateResult:
         self._check_linear(residual, jacobian, covariance)
         return UpdateResult(self._update(residual, jacobian, covariance), len(residual), True)
-
-    def _attitude_model(self, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        # ρ(δθ) = Log(q_m ⊗ (q̂ Exp(δθ))*) ≈ r − J_r⁻¹(r) R̂ δθ with r = Log(q_m ⊗ q̂*)
-        r = dp.rotvec_from_quat(dp.quat_mul(quat, dp.quat_conj(self.quat)))
-        H = np.zeros((3, ESKF_ERROR.dim))
-        H[:, ESKF_ERROR.slice("attitude")] = dp.so3_right_jacobian_inv(r) @ dp.matrix_from_quat(self.quat)
-        return r, H
 
     def _update_camera(self, frame: CameraFrame) -> UpdateResult:
         accepted = self.update_camera(frame.t, frame.pixels, frame.points)

@@ -141,6 +141,7 @@ def detect_rest(
     accelerometer_noise_density: float,
     window_s: float = 0.2,
     threshold_sigma: float = 5.0,
+    noise_from_samples: bool = False,
 ) -> float:
     """Length (s) of the rest period at the start of an IMU stream, from the samples themselves.
 
@@ -148,7 +149,10 @@ def detect_rest(
     accelerometer reading differs from the first window's on some axis by more than ``threshold_sigma`` times the
     standard deviation of that difference under white noise alone (``σ_d = density · √(rate) · √(2 / m)`` for
     m samples per window), or whose sample standard deviation exceeds 3 × the white-noise one (vibration).
-    The first window is assumed to be at rest.
+    The first window is assumed to be at rest.  ``noise_from_samples``: for a platform that vibrates at rest (a
+    multirotor with its rotors spinning), the per-sample σ of each axis is the largest of the white-noise one and
+    the sample standard deviations of the first and the tested window, and the vibration test is skipped: the rest
+    ends when the window means move.
 
     Parameters
     ----------
@@ -172,8 +176,12 @@ def detect_rest(
         w = np.asarray(data, dtype=np.float64)[: nw * m].reshape(nw, m, 3)
         mean, std = w.mean(axis=1), w.std(axis=1)
         s_sample = max(sig, 1e-12) * np.sqrt(rate)
-        moving = np.any(np.abs(mean - mean[0]) > threshold_sigma * s_sample * np.sqrt(2.0 / m), axis=1)
-        moving |= np.any(std > 3.0 * s_sample, axis=1)
+        if noise_from_samples:
+            s_axis = np.maximum(s_sample, np.maximum(std[0], std))
+            moving = np.any(np.abs(mean - mean[0]) > threshold_sigma * s_axis * np.sqrt(2.0 / m), axis=1)
+        else:
+            moving = np.any(np.abs(mean - mean[0]) > threshold_sigma * s_sample * np.sqrt(2.0 / m), axis=1)
+            moving |= np.any(std > 3.0 * s_sample, axis=1)
         if moving.any():
             out = min(out, int(np.argmax(moving)))
     out = max(out, 1)

@@ -35,6 +35,8 @@ __all__ = [
     "HOL22_STATE",
     "AHRS_STATE",
     "AHRS_ERROR",
+    "MSCKF_CLONE",
+    "MSCKF_CLONE_ERROR",
 ]
 
 
@@ -168,3 +170,8 @@ HOL22_ACCEL_BIAS = HOL22_STATE.offset("accel_bias")
 AHRS_ERROR_DIM = AHRS_ERROR.dim
 AHRS_D_ATTITUDE = AHRS_ERROR.offset("attitude")
 AHRS_D_GYRO_BIAS = AHRS_ERROR.offset("gyro_bias")
+
+#: a clone of the IMU pose in the MSCKF window (:mod:`dualpose.estimation.msckf`): ``position`` p_wb (3) m, ``quat``
+#: q_wb (4) xyzw, and its error (local attitude error, as :data:`ESKF_ERROR`)
+MSCKF_CLONE = StateLayout("MSCKF clone", (("position", 3), ("quat", 4)))
+MSCKF_CLONE_ERROR = StateLayout("MSCKF clone error", (("position", 3), ("attitude", 3)))

@@ -18,10 +18,10 @@ from numpy.typing import ArrayLike
 import dualpose as dp
 from dualpose.registration import register_pose
 
-__all__ = ["Alignment", "umeyama_alignment", "align_positions", "origin_alignment", "AlignMethod",
-           "check_alignment_rank"]
+__all__ = ["Alignment", "umeyama_alignment", "align_positions", "origin_alignment", "posyaw_alignment",
+           "AlignMethod", "check_alignment_rank"]
 
-AlignMethod = Literal["se3", "sim3", "scale", "origin", "none"]
+AlignMethod = Literal["se3", "sim3", "scale", "origin", "posyaw", "none"]
 
 #: a point set is degenerate when its second principal spread is at most
 #: max(SPREAD_REL_MAGNITUDE * largest |coordinate|, SPREAD_REL_FIRST * first principal spread)
@@ -166,7 +166,8 @@ def _umeyama(source: ArrayLike, target: ArrayLike, with_scale: bool, names: tupl
 def align_positions(reference: ArrayLike, estimate: ArrayLike, method: AlignMethod = "se3") -> Alignment:
     """The alignment of ``estimate`` (N, 3) onto ``reference`` (N, 3) from positions alone.
 
-    ``method``: ``"se3"`` (Umeyama, rigid), ``"sim3"`` (Umeyama with scale), ``"scale"`` (only the Umeyama Sim(3)
+    ``method``: ``"se3"`` (Umeyama, rigid), ``"posyaw"`` (4-DoF: translation and a rotation about the world z
+    axis, :func:`posyaw_alignment`), ``"sim3"`` (Umeyama with scale), ``"scale"`` (only the Umeyama Sim(3)
     scale is applied, rotation and translation are left alone -- evo's ``--correct_scale`` without ``--align``) or
     ``"none"`` (identity).  ``"origin"`` needs orientations: use :func:`origin_alignment`.
     """
@@ -175,8 +176,10 @@ def align_positions(reference: ArrayLike, estimate: ArrayLike, method: AlignMeth
     names = ("estimate", "reference")  # the degeneracy messages name them rather than source / target
     if method == "scale":
         return Alignment(np.eye(3), np.zeros(3), _umeyama(estimate, reference, True, names).scale, "scale")
+    if method == "posyaw":
+        return posyaw_alignment(reference, estimate)
     if method not in ("se3", "sim3"):
-        raise ValueError(f"method must be 'se3', 'sim3', 'scale' or 'none'; got {method!r}")
+        raise ValueError(f"method must be 'se3', 'sim3', 'scale', 'posyaw' or 'none'; got {method!r}")
     return _umeyama(estimate, reference, method == "sim3", names)
 
 
@@ -203,3 +206,31 @@ def origin_alignment(
     q = dp.quat_mul(dp.quat_normalize(quat_ref), dp.quat_conj(dp.quat_normalize(quat_est)))
     rotation = dp.matrix_from_quat(q)
     return Alignment(rotation, p_ref - rotation @ p_est, 1.0, "origin")
+
+
+def posyaw_alignment(reference: ArrayLike, estimate: ArrayLike) -> Alignment:
+    """The 4-DoF alignment (translation and yaw about the world z axis) of ``estimate`` (N, 3) onto ``reference``
+    (N, 3), least squares over the positions -- the alignment rpg_trajectory_evaluation uses for visual–inertial
+    odometry (Zhang & Scaramuzza, "A tutorial on quantitative trajectory evaluation for visual(-inertial)
+    odometry", IROS 2018, §IV-B), whose roll and pitch are observable through gravity and must not be fitted.
+
+    Both frames must have z along gravity (up or down alike).  With centred points ``x`` (estimate) and ``y``
+    (reference), the yaw maximising ``Σ yᵀ R_z(ψ) x`` is ``ψ = atan2(Σ (x_x y_y − x_y y_x), Σ (x_x y_x + x_y y_y))``;
+    the translation is ``ȳ − R_z(ψ) x̄``.
+    """
+    y = np.asarray(reference, dtype=np.float64)
+    x = np.asarray(estimate, dtype=np.float64)
+    if x.ndim != 2 or x.shape[1] != 3 or y.shape != x.shape or len(x) < 2:
+        raise ValueError(f"reference and estimate must both have shape (N >= 2, 3); got {y.shape} and {x.shape}")
+    if not (np.isfinite(x).all() and np.isfinite(y).all()):
+        raise ValueError("positions must be finite")
+    xm, ym = x.mean(axis=0), y.mean(axis=0)
+    xc, yc = x - xm, y - ym
+    if np.hypot(xc[:, 0], xc[:, 1]).max() == 0.0 or np.hypot(yc[:, 0], yc[:, 1]).max() == 0.0:
+        raise ValueError("alignment is degenerate: the positions do not move horizontally, so the yaw is not "
+                         "determined; use --align none or origin")  # fmt: skip
+    cross = np.sum(xc[:, 0] * yc[:, 1] - xc[:, 1] * yc[:, 0])
+    psi = np.arctan2(cross, np.sum(xc[:, 0] * yc[:, 0] + xc[:, 1] * yc[:, 1]))
+    c, s = np.cos(psi), np.sin(psi)
+    R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    return Alignment(R, ym - R @ xm, 1.0, "posyaw")

@@ -4,6 +4,8 @@
 * :mod:`~dualpose.sim.camera_imu`: IMU samples and camera correspondences along a motion (:func:`simulate`,
   :func:`simulate_eight`), with exact truth; :func:`recording_from_simulation` turns a run into the
   :class:`~dualpose.types.Recording` the estimators and pipelines take.
+* :mod:`~dualpose.sim.feature_tracks`: the feature-track mode (unknown landmarks seen as tracks,
+  :func:`simulate_tracks`), for visual–inertial odometry.
 * :mod:`~dualpose.sim.calibration_scenarios`: static calibration poses and random extrinsics.
 * :mod:`~dualpose.sim.hand_eye_recordings`: seeded hand–eye pose-stream pairs (arm, hand-held rig, sparse motion
   capture) with known ``X`` and time offset (:func:`simulate_hand_eye`).
@@ -22,6 +24,7 @@ from dualpose.sim.camera_imu import (
     simulate_eight,
     two_plane_landmarks,
 )
+from dualpose.sim.feature_tracks import simulate_tracks, track_recording
 from dualpose.sim.hand_eye_recordings import HAND_EYE_KINDS, HandEyeRecording, simulate_hand_eye
 from dualpose.sim.motion import (
     CAMERA_HOME,
@@ -52,4 +55,6 @@ __all__ = [
     "simulate_eight",
     "simulate_hand_eye",
     "two_plane_landmarks",
+    "simulate_tracks",
+    "track_recording",
 ]

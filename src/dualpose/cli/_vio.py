@@ -1,0 +1,71 @@
+"""``dualpose fuse --data <feature tracks> [--truth FILE] [--out DIR]``: the visual–inertial odometry job
+(:func:`dualpose.pipelines.vio.run_vio`, docs/vio.md); prints a summary table or, with ``--json``, one JSON object.
+``--out DIR`` writes ``trajectory.tum`` (IMU pose in the gravity-aligned start frame, absolute seconds),
+``metrics.json`` and ``trajectory.png``; an existing file is replaced only with ``--force``.  Exit status 0, 2 on
+bad arguments or an output file that exists, 1 on a malformed input (the message names the file and line).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+
+def _table(m: dict) -> str:
+    from dualpose.cli._output import aligned_rows
+
+    rows = [("data", m["data"]), ("estimator", "MSCKF (unknown scene)"),
+            ("rest period [s]", f"{m['rest_s']:.2f}")]  # fmt: skip
+    if "ate_rmse_4dof_m" in m:
+        rows += [
+            ("ATE RMSE (4-DoF) [m]", f"{m['ate_rmse_4dof_m']:.4f}"),
+            ("orientation RMSE (4-DoF) [deg]", f"{m['orientation_rmse_4dof_deg']:.3f}"),
+            ("ATE RMSE (SE(3)) [m]", f"{m['ate_rmse_se3_m']:.4f}"),
+            ("final drift [% of path]", f"{m['final_drift_percent']:.3f} ({m['path_length_m']:.2f} m)"),
+        ]
+    rows += [("features used / gated / failed", f"{m['features_used']} / {m['features_gated']} / "
+              f"{m['features_failed']}"), ("real-time factor", f"{m['realtime_factor']:.0f}x")]  # fmt: skip
+    return aligned_rows(rows)
+
+
+def run_vio_job(args: argparse.Namespace) -> int:
+    """Run the VIO job for ``dualpose fuse`` (arguments of :mod:`dualpose.cli.fuse`)."""
+    from pathlib import Path
+
+    from dualpose.cli._output import output_files_problem
+    from dualpose.pipelines.vio import OUTPUT_FILES, run_vio, trajectory_figure
+
+    unused = [name for name, given in (("--smooth", args.smooth), ("--seed", args.seed is not None),
+                                       ("--filter", args.filter != "eskf")) if given]  # fmt: skip
+    if unused:
+        print(f"dualpose fuse: error: {', '.join(unused)}: not used with feature-track data (the MSCKF runs)",
+              file=sys.stderr)  # fmt: skip
+        return 2
+    paths = {}
+    if args.out:
+        out = Path(args.out)
+        problem = output_files_problem(out, OUTPUT_FILES, args.force)
+        if problem is not None:
+            print(f"dualpose fuse: error: {problem}", file=sys.stderr)
+            return 2
+        paths = {name: out / name for name in OUTPUT_FILES}
+    try:
+        run = run_vio(args.data, truth=args.truth)
+    except (ValueError, OSError) as exc:
+        print(f"dualpose fuse: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 1
+    if paths:
+        from dualpose.io import write_tum
+
+        out.mkdir(parents=True, exist_ok=True)
+        write_tum(paths["trajectory.tum"], run.estimate, overwrite=args.force)
+        paths["metrics.json"].write_text(json.dumps(run.metrics, indent=2) + "\n")
+        trajectory_figure(run, paths["trajectory.png"])
+    if args.json:
+        print(json.dumps({**run.metrics, **({"out": str(out)} if paths else {})}, indent=2))
+        return 0
+    print(_table(run.metrics))
+    if paths:
+        print(f"\nwritten to {out}: " + ", ".join(paths))
+    return 0

@@ -1,0 +1,512 @@
+"""Visual–inertial odometry from feature tracks: the multi-state-constraint Kalman filter (MSCKF; Mourikis &
+Roumeliotis, "A multi-state constraint Kalman filter for vision-aided inertial navigation", ICRA 2007), in the
+design of OpenVINS (Geneva et al., "OpenVINS: a research platform for visual-inertial estimation", ICRA 2020).
+
+State (docs/vio.md):
+
+* the IMU nominal state :data:`~dualpose.estimation.state.ESKF_STATE` (16,) ``[p_wb, v_w, q_wb (xyzw), b_g, b_a]``
+  with the error state :data:`~dualpose.estimation.state.ESKF_ERROR` (15,) of the error-state filter
+  (:mod:`dualpose.estimation.eskf`, Solà 2017; local attitude error ``q = q̂ ⊗ Exp(δθ)``), propagated by the same
+  native kernel (``msckf_propagate``, ``src/native/estimation/msckf.cpp``);
+* a sliding window of ``C ≤ max_clones`` clones of the IMU pose ``[p_wb (3), q_wb (4)]`` taken at the camera
+  times (stochastic cloning), each with a 6-dof error ``[δp, δθ]`` (:data:`MSCKF_CLONE_ERROR`); the full
+  covariance is ``(15 + 6C, 15 + 6C)``.
+
+No landmark enters the state.  A feature is used once, when its track ends or when its oldest observation would
+leave the window: it is triangulated from the window (linear midpoint, then Gauss–Newton on the inverse depth in
+its first camera), its reprojection residuals are linearised at the clones' *first estimates* (FEJ, Huang et al.
+2010: the values the clones had when they were taken, so that the linearisation keeps the four unobservable
+directions -- position and yaw -- unobservable), the feature Jacobian is removed by projecting onto its left
+nullspace (Givens rotations), and the ``2m − 3`` projected rows pass a per-feature χ² gate.  The accepted rows of
+all features of a frame are stacked, compressed by a QR decomposition when they outnumber the state, and fused in
+one EKF update (Joseph form).  All per-feature work is the native ``msckf_features``.
+
+The filter initialises itself from the rest period at the start (:meth:`MsckfVio.from_rest`): gravity direction
+and gyro bias from the static samples (:func:`~dualpose.estimation.initialization.static_alignment`), zero velocity,
+the world frame the gravity-aligned start frame (yaw 0, position 0).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.stats import chi2
+
+import dualpose as dp
+from dualpose import _native
+from dualpose.estimation.eskf import EskfStateAccessors
+from dualpose.estimation.initialization import detect_rest, static_alignment
+from dualpose.estimation.interface import Estimator, UpdateResult
+from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE, MSCKF_CLONE_ERROR
+from dualpose.types import CameraFrame, ImuNoise
+from dualpose.types.features import TrackFrame, TrackRecording
+
+__all__ = ["MsckfVio", "MsckfOptions", "TrackUpdate", "VioResult"]
+
+_NE = ESKF_ERROR.dim
+_CE = MSCKF_CLONE_ERROR.dim
+_REST_GUARD = 0.2  # s, one window of detect_rest
+_POSE_ROWS = np.r_[np.arange(3) + ESKF_ERROR.offset("position"), np.arange(3) + ESKF_ERROR.offset("attitude")]
+
+
+@dataclass(frozen=True)
+class MsckfOptions:
+    """Settings of :class:`MsckfVio` (one set of defaults, those of OpenVINS where it has one).
+
+    ``max_clones`` the window length (OpenVINS ``max_clones`` 11); ``min_track`` the fewest observations a feature
+    needs to be used; ``gate_probability`` of the per-feature χ² gate; ``min_depth``, ``max_depth`` (m) and
+    ``min_parallax`` (largest baseline over depth) the triangulation checks.
+    """
+
+    max_clones: int = 11
+    min_track: int = 3
+    gate_probability: float = 0.95
+    min_depth: float = 0.1
+    max_depth: float = 60.0
+    min_parallax: float = 0.01
+
+    def __post_init__(self) -> None:
+        if int(self.max_clones) != self.max_clones or self.max_clones < 2:
+            raise ValueError(f"max_clones must be a whole number >= 2; got {self.max_clones!r}")
+        if int(self.min_track) != self.min_track or self.min_track < 2:
+            raise ValueError(f"min_track must be a whole number >= 2; got {self.min_track!r}")
+        if not 0.0 < self.gate_probability < 1.0:
+            raise ValueError(f"gate_probability must be in (0, 1); got {self.gate_probability!r}")
+        if not 0.0 < self.min_depth < self.max_depth or not self.min_parallax >= 0.0:
+            raise ValueError("need 0 < min_depth < max_depth and min_parallax >= 0; got "
+                             f"{self.min_depth!r}, {self.max_depth!r}, {self.min_parallax!r}")  # fmt: skip
+
+
+@dataclass(frozen=True)
+class TrackUpdate(UpdateResult):
+    """:class:`~dualpose.estimation.interface.UpdateResult` of a feature-track frame: ``nis``, ``accepted`` per used
+    feature, ``feature_dof`` (G,) the degrees of freedom ``2m − 3`` of each (``dof`` is their sum over the accepted
+    ones), ``status`` (G,) 1 accepted, 0 gated out, −1 triangulation failed."""
+
+    feature_dof: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    status: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+
+
+@dataclass
+class VioResult:
+    """Output of :meth:`MsckfVio.run`: IMU-rate states ``t`` (N,) s, ``position`` (N, 3), ``velocity`` (N, 3),
+    ``quat`` (N, 4) ``q_wb``, ``gyro_bias``, ``accel_bias`` (N, 3) (constant at the start pose during the rest
+    period before ``t_start``); ``t_start`` the filter start (end of rest); feature statistics ``n_used``,
+    ``n_gated``, ``n_failed``; ``nis`` and ``nis_dof`` of the accepted features; ``wall_time`` of the filter, s."""
+
+    t: np.ndarray
+    position: np.ndarray
+    velocity: np.ndarray
+    quat: np.ndarray
+    gyro_bias: np.ndarray
+    accel_bias: np.ndarray
+    t_start: float
+    n_used: int
+    n_gated: int
+    n_failed: int
+    nis: np.ndarray
+    nis_dof: np.ndarray
+    wall_time: float
+
+
+class MsckfVio(EskfStateAccessors, Estimator):
+    """MSCKF visual–inertial odometer over feature tracks (module docstring); an
+    :class:`~dualpose.estimation.interface.Estimator` whose :attr:`state` / :attr:`covariance` are those of the
+    IMU (the window is :attr:`clones` and :attr:`full_covariance`).
+
+    Parameters
+    ----------
+    state : (16,) initial nominal IMU state (:data:`~dualpose.estimation.state.ESKF_STATE`).
+    covariance : (15, 15) its error covariance.
+    imu_noise : ImuNoise (continuous-time densities).
+    q_bc, p_bc : camera axes (xyzw) and camera centre (m) in the IMU frame.
+    feature_sigma : σ of a normalised image coordinate.
+    gravity : (3,) world gravity, m/s².  camera_time_offset : ``t_imu = t_cam + offset``, s.
+    options : MsckfOptions.
+    """
+
+    state_layout = ESKF_STATE
+    covariance_layout = ESKF_ERROR
+
+    def __init__(
+        self,
+        state: np.ndarray,
+        covariance: np.ndarray,
+        imu_noise: ImuNoise | None = None,
+        q_bc: np.ndarray = (0.0, 0.0, 0.0, 1.0),
+        p_bc: np.ndarray = (0.0, 0.0, 0.0),
+        feature_sigma: float = 1e-3,
+        gravity: np.ndarray = (0.0, 0.0, -9.81),
+        camera_time_offset: float = 0.0,
+        options: MsckfOptions | None = None,
+    ) -> None:
+        x = np.array(state, dtype=np.float64)
+        if x.shape != (ESKF_STATE.dim,) or not np.isfinite(x).all():
+            raise ValueError(f"state must be a finite ({ESKF_STATE.dim},) vector (ESKF_STATE); got shape {x.shape}")
+        q = ESKF_STATE.get(x, "quat")
+        if np.linalg.norm(q) == 0.0:
+            raise ValueError("the state's quaternion must be nonzero")
+        q /= np.linalg.norm(q)
+        P = np.array(covariance, dtype=np.float64)
+        if P.shape != (_NE, _NE) or not np.isfinite(P).all():
+            raise ValueError(f"covariance must be a finite ({_NE}, {_NE}) matrix; got shape {P.shape}")
+        if not (feature_sigma > 0):
+            raise ValueError(f"feature_sigma must be positive; got {feature_sigma!r}")
+        self.x = x
+        self.P = 0.5 * (P + P.T)
+        self.imu_noise = ImuNoise() if imu_noise is None else imu_noise
+        n = self.imu_noise
+        self.noise = np.array([n.gyroscope_noise_density**2, n.accelerometer_noise_density**2,
+                               n.gyroscope_random_walk**2, n.accelerometer_random_walk**2])  # fmt: skip
+        self.q_bc = dp.quat_normalize(np.asarray(q_bc, dtype=np.float64))
+        self.p_bc = np.asarray(p_bc, dtype=np.float64).reshape(3)
+        self.feature_sigma = float(feature_sigma)
+        self.gravity = np.asarray(gravity, dtype=np.float64).reshape(3)
+        self.camera_time_offset = float(camera_time_offset)
+        self.options = MsckfOptions() if options is None else options
+        o = self.options
+        self._chi2 = np.r_[np.inf, chi2.ppf(o.gate_probability, np.arange(1, 2 * o.max_clones + 8))]
+        self._limits = np.array([o.min_depth, o.max_depth, o.min_parallax])
+        self.time: float | None = None
+        self._u = np.zeros(6)
+        self.clones = np.zeros((0, 7))  # [p_wb, q_wb] per clone, oldest first
+        self.clones_fej = np.zeros((0, 7))
+        self.clone_t = np.zeros(0)
+        self._clone_id = np.zeros(0, np.int64)
+        self._next_clone = 0
+        self._ob_track = np.zeros(0, np.int64)  # the window's feature observations
+        self._ob_clone = np.zeros(0, np.int64)
+        self._ob_uv = np.zeros((0, 2))
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def from_rest(
+        cls, recording: TrackRecording, rest_seconds: float | None = None, options: MsckfOptions | None = None
+    ) -> tuple[MsckfVio, int]:
+        """A filter started at the end of the rest period at the start of ``recording``, and the index of that IMU
+        sample.  Rest length: ``rest_seconds`` or :func:`~dualpose.estimation.initialization.detect_rest`; attitude
+        (yaw 0) and gyro bias from :func:`~dualpose.estimation.initialization.static_alignment`, zero velocity and
+        position, accelerometer bias 0 with its turn-on σ (at rest not separable from tilt).  The rest detection
+        takes its noise level from the samples (a multirotor vibrates at rest), and the filter starts one detection
+        window (0.2 s) before the detected end, so that a slow start of the motion is inside the filter."""
+        r = recording
+        n = r.imu_noise
+        if rest_seconds is None:
+            rest_seconds = detect_rest(r.t, r.gyro, r.accel, n.gyroscope_noise_density, n.accelerometer_noise_density,
+                                       noise_from_samples=True)  # fmt: skip
+            rest_seconds -= _REST_GUARD
+        k = int(np.searchsorted(r.t, r.t[0] + rest_seconds, side="right")) - 1
+        k = max(k, 1)
+        al = static_alignment(r.accel[: k + 1], r.gyro[: k + 1])
+        x = ESKF_STATE.assemble(position=np.zeros(3), velocity=np.zeros(3), quat=al.q_wb, gyro_bias=al.gyro_bias,
+                                accel_bias=np.zeros(3))  # fmt: skip
+        t_rest = max(r.t[k] - r.t[0], 1e-3)
+        tilt = n.accelerometer_initial_bias_sigma / np.linalg.norm(al.specific_force)
+        P = np.diag(ESKF_ERROR.assemble(
+            position=np.full(3, 1e-3**2), velocity=np.full(3, 1e-2**2),
+            attitude=np.array([tilt**2, tilt**2, np.radians(0.1) ** 2]),
+            gyro_bias=np.full(3, n.gyroscope_noise_density**2 / t_rest + 1e-4**2),
+            accel_bias=np.full(3, n.accelerometer_initial_bias_sigma**2),
+        ))  # fmt: skip
+        f = cls(x, P, n, r.q_bc, r.p_bc, r.feature_sigma, camera_time_offset=r.time_offset, options=options)
+        f.time = float(r.t[k])
+        f._u = np.r_[r.gyro[k], r.accel[k]]
+        return f, k
+
+    # ------------------------------------------------------------------ savable state (streaming)
+    #: version of :meth:`state_dict`'s layout
+    STATE_VERSION = 1
+
+    def state_dict(self) -> dict[str, np.ndarray]:
+        """Everything the filter needs to continue, as arrays (``np.savez`` writes it): the IMU state and the held
+        sample, the window (clones, first estimates, times, ids), the window's feature observations, the full
+        covariance, the settings.  :meth:`from_state_dict` continues bit for bit (one sample / frame at a time)."""
+        o = self.options
+        return {
+            "version": np.array(self.STATE_VERSION), "x": self.x.copy(), "P": self.P.copy(), "u": self._u.copy(),
+            "time": np.array(np.nan if self.time is None else self.time), "clones": self.clones.copy(),
+            "clones_fej": self.clones_fej.copy(), "clone_t": self.clone_t.copy(), "clone_id": self._clone_id.copy(),
+            "next_clone": np.array(self._next_clone), "ob_track": self._ob_track.copy(),
+            "ob_clone": self._ob_clone.copy(), "ob_uv": self._ob_uv.copy(), "noise": self.noise.copy(),
+            "q_bc": self.q_bc.copy(), "p_bc": self.p_bc.copy(), "gravity": self.gravity.copy(),
+            "feature_sigma": np.array(self.feature_sigma), "camera_time_offset": np.array(self.camera_time_offset),
+            "options": np.array([o.max_clones, o.min_track, o.gate_probability, o.min_depth, o.max_depth,
+                                 o.min_parallax]),
+        }  # fmt: skip
+
+    @classmethod
+    def from_state_dict(cls, d) -> MsckfVio:
+        """The filter saved by :meth:`state_dict` (a dict or an ``np.load`` of its ``np.savez``); ``ValueError`` for
+        another layout version or missing entries."""
+        try:
+            if int(d["version"]) != cls.STATE_VERSION:
+                raise ValueError(f"saved MSCKF state has layout version {int(d['version'])}; this is "
+                                 f"{cls.STATE_VERSION}")  # fmt: skip
+            o = np.asarray(d["options"], dtype=np.float64)
+            opts = MsckfOptions(int(o[0]), int(o[1]), float(o[2]), float(o[3]), float(o[4]), float(o[5]))
+            noise = np.asarray(d["noise"], dtype=np.float64)
+            imu = ImuNoise(*np.sqrt(noise)[[0, 2, 1, 3]].tolist())
+            P = np.array(d["P"], dtype=np.float64)
+            f = cls(np.array(d["x"]), P[:_NE, :_NE], imu, d["q_bc"], d["p_bc"], float(d["feature_sigma"]),
+                    d["gravity"], float(d["camera_time_offset"]), opts)  # fmt: skip
+            f.noise = noise.copy()
+            f.x = np.array(d["x"], dtype=np.float64)
+            f.q_bc = np.array(d["q_bc"], dtype=np.float64)
+            f.P = np.ascontiguousarray(P)
+            f._u = np.array(d["u"], dtype=np.float64)
+            t = float(d["time"])
+            f.time = None if np.isnan(t) else t
+            f.clones = np.array(d["clones"], dtype=np.float64).reshape(-1, 7)
+            f.clones_fej = np.array(d["clones_fej"], dtype=np.float64).reshape(-1, 7)
+            f.clone_t = np.array(d["clone_t"], dtype=np.float64)
+            f._clone_id = np.array(d["clone_id"], dtype=np.int64)
+            f._next_clone = int(d["next_clone"])
+            f._ob_track = np.array(d["ob_track"], dtype=np.int64)
+            f._ob_clone = np.array(d["ob_clone"], dtype=np.int64)
+            f._ob_uv = np.array(d["ob_uv"], dtype=np.float64).reshape(-1, 2)
+        except KeyError as exc:
+            raise ValueError(f"saved MSCKF state lacks {exc}") from None
+        if f.P.shape != (_NE + _CE * len(f.clones),) * 2:
+            raise ValueError(f"saved MSCKF state: covariance {f.P.shape} does not match {len(f.clones)} clones")
+        return f
+
+    # ------------------------------------------------------------------ the estimator interface
+    @property
+    def state(self) -> np.ndarray:
+        """IMU nominal state (16,) (:data:`~dualpose.estimation.state.ESKF_STATE`), a copy."""
+        return self.x.copy()
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """IMU error covariance (15, 15), a copy (the window: :attr:`full_covariance`)."""
+        return self.P[:_NE, :_NE].copy()
+
+    @property
+    def full_covariance(self) -> np.ndarray:
+        """Covariance (15 + 6C, 15 + 6C) of the IMU error and the C clones' ``[δp, δθ]``, a copy."""
+        return self.P.copy()
+
+    def update(self, measurement) -> UpdateResult:
+        """Fuse a :class:`~dualpose.types.TrackFrame` (feature tracks; the filter first propagates to its time), or
+        any measurement of :meth:`Estimator.update` (``LinearMeasurement``, ``AttitudeFix``)."""
+        if isinstance(measurement, TrackFrame):
+            return self.update_tracks(measurement)
+        if isinstance(measurement, CameraFrame):
+            raise TypeError("MsckfVio has no model for a CameraFrame (known landmarks); give it TrackFrame tracks")
+        return super().update(measurement)
+
+    def _update_linear(self, residual: np.ndarray, jacobian: np.ndarray, covariance: np.ndarray) -> UpdateResult:
+        self._check_linear(residual, jacobian, covariance)
+        H = np.zeros((len(residual), self.P.shape[0]))
+        H[:, :_NE] = jacobian
+        return UpdateResult(self._ekf_update(residual, H, covariance), len(residual), True)
+
+    # ------------------------------------------------------------------ propagation
+    def _steps(self, gyro: np.ndarray, accel: np.ndarray, dt: np.ndarray) -> np.ndarray:
+        """Propagate over len(dt) steps of constant input; returns the states after every step (k, 16)."""
+        k = len(dt)
+        X = np.empty((k, ESKF_STATE.dim))
+        if k == 0:
+            return X
+        Pii = np.ascontiguousarray(self.P[:_NE, :_NE])
+        Phi = np.empty((_NE, _NE))
+        _native.msckf_propagate(self.x, Pii, Phi, np.ascontiguousarray(gyro), np.ascontiguousarray(accel),
+                                np.ascontiguousarray(dt, dtype=np.float64), self.gravity, self.noise, X)  # fmt: skip
+        self.P[:_NE, :_NE] = Pii
+        if self.P.shape[0] > _NE:
+            cross = Phi @ self.P[:_NE, _NE:]
+            self.P[:_NE, _NE:] = cross
+            self.P[_NE:, :_NE] = cross.T
+        return X
+
+    def propagate(self, t: float, gyro: np.ndarray, accel: np.ndarray, mag: np.ndarray | None = None) -> None:
+        """Feed the IMU sample taken at ``t`` (as :meth:`ErrorStateEKF.propagate
+        <dualpose.estimation.eskf.ErrorStateEKF.propagate>`: the mean of the held and the new sample over the
+        step, then the new one held).  ``mag`` is not used."""
+        u = np.r_[np.asarray(gyro, float).reshape(3), np.asarray(accel, float).reshape(3)]
+        dt = self._elapsed(t, f"IMU sample at t={t}")
+        if dt > 0:
+            mid = 0.5 * (self._u + u)
+            self._steps(mid[None, :3], mid[None, 3:], np.array([dt]))
+        self.time = float(t)
+        self._u = u
+
+    # ------------------------------------------------------------------ the window
+    def _clone(self, t: float) -> None:
+        n = self.P.shape[0]
+        JP = self.P[_POSE_ROWS]  # J P with J selecting the pose rows [δp, δθ] of the IMU error
+        P = np.empty((n + _CE, n + _CE))
+        P[:n, :n] = self.P
+        P[n:, :n] = JP
+        P[:n, n:] = JP.T
+        P[n:, n:] = JP[:, _POSE_ROWS]
+        self.P = P
+        c = np.concatenate([ESKF_STATE.get(self.x, "position"), ESKF_STATE.get(self.x, "quat")])
+        self.clones = np.vstack([self.clones, c])
+        self.clones_fej = np.vstack([self.clones_fej, c])
+        self.clone_t = np.append(self.clone_t, t)
+        self._clone_id = np.append(self._clone_id, self._next_clone)
+        self._next_clone += 1
+
+    def _drop_oldest_clone(self) -> None:
+        n = self.P.shape[0]
+        P = np.empty((n - _CE, n - _CE))
+        P[:_NE, :_NE] = self.P[:_NE, :_NE]
+        P[:_NE, _NE:] = self.P[:_NE, _NE + _CE :]
+        P[_NE:, :_NE] = self.P[_NE + _CE :, :_NE]
+        P[_NE:, _NE:] = self.P[_NE + _CE :, _NE + _CE :]
+        self.P = P
+        gone = self._clone_id[0]
+        self.clones, self.clones_fej = self.clones[1:], self.clones_fej[1:]
+        self.clone_t, self._clone_id = self.clone_t[1:], self._clone_id[1:]
+        self._keep_obs(self._ob_clone != gone)
+
+    def _keep_obs(self, keep: np.ndarray) -> None:
+        self._ob_track, self._ob_clone, self._ob_uv = self._ob_track[keep], self._ob_clone[keep], self._ob_uv[keep]
+
+    # ------------------------------------------------------------------ updates
+    def _ekf_update(self, r: np.ndarray, H: np.ndarray, R: np.ndarray) -> float:
+        """EKF update (Joseph form) of the whole state with ``r = H δx + e``, ``e ~ N(0, R)``; returns the NIS."""
+        P = self.P
+        PHt = P @ H.T
+        S = H @ PHt + R
+        S = 0.5 * (S + S.T)
+        cho = np.linalg.cholesky(S)
+        y = np.linalg.solve(cho, r)
+        nis = float(y @ y)
+        K = np.linalg.solve(cho.T, np.linalg.solve(cho, PHt.T)).T
+        IKH = -K @ H
+        IKH[np.diag_indices_from(IKH)] += 1.0
+        P = IKH @ P @ IKH.T + K @ R @ K.T
+        dx = K @ r
+        self._inject(dx)
+        # reset Jacobian of the IMU attitude error (Solà 2017 eq. 285-287), as the error-state filter applies it
+        G = np.eye(len(dx))
+        att = ESKF_ERROR.slice("attitude")
+        G[att, att] -= dp.so3_hat(0.5 * ESKF_ERROR.get(dx[:_NE], "attitude"))
+        P = G @ P @ G.T
+        self.P = 0.5 * (P + P.T)
+        return nis
+
+    def _inject(self, dx: np.ndarray) -> None:
+        x = self.x
+        for name in ("position", "velocity", "gyro_bias", "accel_bias"):
+            ESKF_STATE.get(x, name)[:] += ESKF_ERROR.get(dx[:_NE], name)
+        q = ESKF_STATE.get(x, "quat")
+        q[:] = dp.quat_normalize(dp.quat_mul(q, dp.quat_from_rotvec(ESKF_ERROR.get(dx[:_NE], "attitude"))))
+        if len(self.clones):
+            d = dx[_NE:].reshape(-1, _CE)
+            self.clones[:, :3] += MSCKF_CLONE_ERROR.get(d, "position")
+            self.clones[:, 3:] = dp.quat_normalize(
+                dp.quat_mul(self.clones[:, 3:], dp.quat_from_rotvec(MSCKF_CLONE_ERROR.get(d, "attitude")))
+            )
+
+    def update_tracks(self, frame: TrackFrame) -> TrackUpdate:
+        """Propagate to the frame (the last IMU sample held), clone the IMU pose, and update with every feature whose
+        track ended or whose oldest observation leaves the window; then drop the oldest clone if the window is
+        over ``max_clones``."""
+        t = self._frame_time(frame.t, self.camera_time_offset)
+        if t > self.time:
+            self._steps(self._u[None, :3], self._u[None, 3:], np.array([t - self.time]))
+            self.time = t
+        return self._frame_update(frame)
+
+    def _frame_update(self, frame: TrackFrame) -> TrackUpdate:
+        o = self.options
+        self._clone(self.time)
+        cid = self._clone_id[-1]
+        lost = np.setdiff1d(self._ob_track, frame.track_id)
+        self._ob_track = np.concatenate([self._ob_track, frame.track_id])
+        self._ob_clone = np.concatenate([self._ob_clone, np.full(len(frame.track_id), cid)])
+        self._ob_uv = np.vstack([self._ob_uv, frame.uv])
+        full = len(self.clones) > o.max_clones
+        use = lost
+        if full:
+            use = np.union1d(lost, self._ob_track[self._ob_clone == self._clone_id[0]])
+        result = self._features_update(use)
+        self._keep_obs(~np.isin(self._ob_track, use))
+        if full:
+            self._drop_oldest_clone()
+        return result
+
+    def _features_update(self, tracks: np.ndarray) -> TrackUpdate:
+        empty = TrackUpdate(np.zeros(0), 0, np.zeros(0, bool))
+        if len(tracks) == 0:
+            return empty
+        rows = np.flatnonzero(np.isin(self._ob_track, tracks))
+        order = rows[np.argsort(self._ob_track[rows], kind="stable")]
+        _, count = np.unique(self._ob_track[order], return_counts=True)
+        enough = count >= self.options.min_track
+        if not enough.any():
+            return empty
+        sel = order[np.repeat(enough, count)]  # the rows of the tracks long enough, grouped by track in time order
+        offsets = np.zeros(int(enough.sum()) + 1, np.int64)
+        np.cumsum(count[enough], out=offsets[1:])
+        obs_clone = np.searchsorted(self._clone_id, self._ob_clone[sel]).astype(np.int64)
+        g = len(offsets) - 1
+        n = self.P.shape[0]
+        cap = int(np.sum(2 * count[enough] - 3))
+        H = np.empty((cap, n))
+        r = np.empty(cap)
+        status = np.empty(g, np.int64)
+        nis = np.empty(g)
+        P = np.ascontiguousarray(self.P)
+        m = _native.msckf_features(np.ascontiguousarray(self.clones), np.ascontiguousarray(self.clones_fej),
+                                   self.q_bc, self.p_bc, offsets, obs_clone, np.ascontiguousarray(self._ob_uv[sel]),
+                                   P, self.feature_sigma, self._chi2, self._limits, H, r, status, nis)  # fmt: skip
+        dof = 2 * count[enough] - 3
+        accepted = status == 1
+        if m > 0:  # one update of all accepted rows (QR-compressed in the kernel when m > n)
+            self.P = P
+            _native.msckf_update(self.x, self.clones, self.P, H[:m], r[:m], self.feature_sigma)
+        return TrackUpdate(nis, int(dof[accepted].sum()), accepted, feature_dof=dof, status=status)
+
+    # ------------------------------------------------------------------ a whole recording
+    def run(self, recording: TrackRecording, start: int = 0) -> VioResult:
+        """Filter ``recording`` from its IMU sample ``start`` (the filter taken to be at ``t[start]`` with that sample
+        held), frame by frame: the IMU steps up to each frame in one native call (the signal linear between samples,
+        the mean of consecutive samples per step, the held sample up to the frame time), then the frame update.
+        States before ``start`` are the start state; at an IMU stamp that is also a frame time the state after the
+        frame's update."""
+        r = recording
+        t, u = r.t, np.hstack([r.gyro, r.accel])
+        n = len(t)
+        X = np.empty((n, ESKF_STATE.dim))
+        X[: start + 1] = self.x
+        ft = r.tracks.t + self.camera_time_offset
+        first = int(np.searchsorted(ft, t[start], side="right"))
+        k = start  # last IMU sample consumed
+        stats = {"used": 0, "gated": 0, "failed": 0}
+        nis_all, dof_all = [], []
+        t0 = time.perf_counter()
+        for j in range(first, len(ft) + 1):
+            tf = ft[j] if j < len(ft) else np.inf
+            k1 = int(np.searchsorted(t, tf, side="right")) - 1  # last sample at or before the frame
+            if k1 > k:
+                mid = 0.5 * (u[k:k1] + u[k + 1 : k1 + 1])
+                dts = np.diff(t[k : k1 + 1])
+                dts[0] = t[k + 1] - self.time
+                X[k + 1 : k1 + 1] = self._steps(mid[:, :3], mid[:, 3:], dts)
+                self.time, self._u, k = float(t[k1]), u[k1].copy(), k1
+            if j == len(ft):
+                break
+            if ft[j] > self.time:
+                self._steps(self._u[None, :3], self._u[None, 3:], np.array([ft[j] - self.time]))
+                self.time = float(ft[j])
+            res = self._frame_update(r.tracks.frame(j))
+            if self.time == t[k]:  # a frame at an IMU stamp: the output there is the state after the update
+                X[k] = self.x
+            stats["used"] += int(np.sum(res.status == 1))
+            stats["gated"] += int(np.sum(res.status == 0))
+            stats["failed"] += int(np.sum(res.status == -1))
+            nis_all.append(res.nis[res.status == 1])
+            dof_all.append(res.feature_dof[res.status == 1])
+        wall = time.perf_counter() - t0
+        blocks = {name: ESKF_STATE.get(X, name) for name in ESKF_STATE.names}
+        return VioResult(
+            t=t, **blocks, t_start=float(t[start]), n_used=stats["used"], n_gated=stats["gated"],
+            n_failed=stats["failed"], nis=np.concatenate(nis_all) if nis_all else np.zeros(0),
+            nis_dof=np.concatenate(dof_all) if dof_all else np.zeros(0, np.int64), wall_time=wall,
+        )  # fmt: skip

@@ -1,0 +1,566 @@
+// Kernels of the multi-state-constraint Kalman filter (Mourikis & Roumeliotis 2007; OpenVINS, Geneva et al. 2020),
+// used by dualpose.estimation.msckf:
+//
+//   msckf_propagate  the IMU error-state propagation of eskf_kernels.hpp over k steps, with the states at every
+//                    step and the product Φ of the step transitions (for the IMU–clone cross-covariance);
+//   msckf_features   per feature: Gauss–Newton triangulation on inverse depth in the anchor (first) camera, the
+//                    reprojection residuals and Jacobians at the clones' first estimates (FEJ), the left-nullspace
+//                    projection of the feature Jacobian by Givens rotations, and the χ² gate; the accepted rows
+//                    stacked for one EKF update.
+//
+// Layouts: IMU nominal x (16,) and error (15,) as eskf_layout.hpp; clone c = [p_wb (3), q_wb (4, xyzw)] of the IMU
+// pose, its error [δp (3), δθ (3)] (local: q = q̂ ⊗ Exp(δθ)) at columns 15 + 6c of the covariance.  Camera:
+// q_bc, p_bc (camera axes and centre in the IMU frame); observations are normalised coordinates (X/Z, Y/Z).
+#include "eskf_args.hpp"
+#include "eskf_kernels.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace dualpose {
+namespace {
+
+using namespace eskf;
+
+// y = Aᵀ v for row-major 3x3 A
+inline void mul_t3(const double* A, const double* v, double* y) {
+    for (int i = 0; i < 3; ++i) y[i] = A[i] * v[0] + A[3 + i] * v[1] + A[6 + i] * v[2];
+}
+inline void mul3(const double* A, const double* v, double* y) {
+    for (int i = 0; i < 3; ++i) y[i] = A[3 * i] * v[0] + A[3 * i + 1] * v[1] + A[3 * i + 2] * v[2];
+}
+// C = Aᵀ B (3x3)
+inline void mul_tn3(const double* A, const double* B, double* C) {
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) C[3 * i + j] = A[i] * B[j] + A[3 + i] * B[3 + j] + A[6 + i] * B[6 + j];
+}
+inline void mul33(const double* A, const double* B, double* C) {
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            C[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
+}
+
+// Solve the symmetric 3x3 system A x = b (Cramer); false when |det| is below tol · scale³.
+inline bool solve3(const double* A, const double* b, double* x) {
+    const double c00 = A[4] * A[8] - A[5] * A[7], c01 = A[5] * A[6] - A[3] * A[8], c02 = A[3] * A[7] - A[4] * A[6];
+    const double det = A[0] * c00 + A[1] * c01 + A[2] * c02;
+    const double scale = std::fabs(A[0]) + std::fabs(A[4]) + std::fabs(A[8]);
+    if (!(std::fabs(det) > 1e-14 * scale * scale * scale)) return false;
+    const double inv[9] = {c00, A[2] * A[7] - A[1] * A[8], A[1] * A[5] - A[2] * A[4],
+                           c01, A[0] * A[8] - A[2] * A[6], A[2] * A[3] - A[0] * A[5],
+                           c02, A[1] * A[6] - A[0] * A[7], A[0] * A[4] - A[1] * A[3]};
+    for (int i = 0; i < 3; ++i) x[i] = (inv[3 * i] * b[0] + inv[3 * i + 1] * b[1] + inv[3 * i + 2] * b[2]) / det;
+    return true;
+}
+
+struct CamPose {
+    double R[9];  // R_wc
+    double p[3];  // camera centre in the world
+};
+
+// Camera pose of an IMU clone [p_wb, q_wb] with the extrinsic R_bc, p_bc.
+inline CamPose camera_pose(const double* clone, const double* Rbc, const double* p_bc) {
+    double Rwb[9];
+    rotmat_xyzw(clone[3], clone[4], clone[5], clone[6], Rwb);
+    CamPose c;
+    mul33(Rwb, Rbc, c.R);
+    mul3(Rwb, p_bc, c.p);
+    for (int i = 0; i < 3; ++i) c.p[i] += clone[i];
+    return c;
+}
+
+// Triangulate one feature from m observations (clone indices ci, normalised uv) with camera poses cams: the linear
+// midpoint solution in the anchor camera (the first observation), refined by Gauss–Newton on the inverse-depth
+// parameters (α, β, ρ), p_A = [α, β, 1] / ρ.  Writes the world point; false when the geometry is degenerate
+// (depth outside [min_depth, max_depth], too little baseline, or no convergence).
+bool triangulate(const std::vector<CamPose>& cams, const std::int64_t* ci, const double* uv, std::int64_t m,
+                 double min_depth, double max_depth, double min_parallax, double* pw) {
+    const CamPose& A = cams[ci[0]];
+    std::vector<double> Rac(9 * m), pac(3 * m);  // pose of camera j in the anchor: R_Aj, p_Aj
+    double H[9] = {}, g[3] = {}, baseline = 0.0;
+    for (std::int64_t j = 0; j < m; ++j) {
+        const CamPose& C = cams[ci[j]];
+        double d[3] = {C.p[0] - A.p[0], C.p[1] - A.p[1], C.p[2] - A.p[2]};
+        mul_tn3(A.R, C.R, &Rac[9 * j]);
+        mul_t3(A.R, d, &pac[3 * j]);
+        baseline = std::max(baseline, std::sqrt(pac[3 * j] * pac[3 * j] + pac[3 * j + 1] * pac[3 * j + 1] +
+                                                pac[3 * j + 2] * pac[3 * j + 2]));
+        const double f[3] = {uv[2 * j], uv[2 * j + 1], 1.0};
+        double b[3];
+        mul3(&Rac[9 * j], f, b);
+        const double nb = std::sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+        for (double& v : b) v /= nb;
+        double M[9];
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c) M[3 * r + c] = (r == c ? 1.0 : 0.0) - b[r] * b[c];
+        for (int k = 0; k < 9; ++k) H[k] += M[k];
+        double Mp[3];
+        mul3(M, &pac[3 * j], Mp);
+        for (int k = 0; k < 3; ++k) g[k] += Mp[k];
+    }
+    double pA[3];
+    if (!solve3(H, g, pA) || !(pA[2] > min_depth) || !(pA[2] < max_depth)) return false;
+    if (baseline < min_parallax * pA[2]) return false;
+    double th[3] = {pA[0] / pA[2], pA[1] / pA[2], 1.0 / pA[2]};  // α, β, ρ
+    double lambda = 1e-3, cost = 0.0;
+    auto eval = [&](const double* t, double* JtJ, double* Jtr) {
+        double c = 0.0;
+        if (JtJ) std::fill(JtJ, JtJ + 9, 0.0), std::fill(Jtr, Jtr + 3, 0.0);
+        for (std::int64_t j = 0; j < m; ++j) {
+            const double* R = &Rac[9 * j];
+            const double q[3] = {t[0] - t[2] * pac[3 * j], t[1] - t[2] * pac[3 * j + 1], 1.0 - t[2] * pac[3 * j + 2]};
+            double h[3];
+            mul_t3(R, q, h);  // ρ · (the point in camera j)
+            if (!(h[2] > 0.0)) return -1.0;
+            const double iz = 1.0 / h[2];
+            const double r0 = uv[2 * j] - h[0] * iz, r1 = uv[2 * j + 1] - h[1] * iz;
+            c += r0 * r0 + r1 * r1;
+            if (!JtJ) continue;
+            // ∂h/∂(α, β, ρ) = Rᵀ [e1, e2, −p_Aj]
+            double dh[9];
+            for (int i = 0; i < 3; ++i) {
+                dh[3 * i] = R[i];
+                dh[3 * i + 1] = R[3 + i];
+                dh[3 * i + 2] = -(R[i] * pac[3 * j] + R[3 + i] * pac[3 * j + 1] + R[6 + i] * pac[3 * j + 2]);
+            }
+            double J[6];
+            for (int c2 = 0; c2 < 3; ++c2) {
+                J[c2] = iz * dh[c2] - h[0] * iz * iz * dh[6 + c2];
+                J[3 + c2] = iz * dh[3 + c2] - h[1] * iz * iz * dh[6 + c2];
+            }
+            for (int a = 0; a < 3; ++a) {
+                Jtr[a] += J[a] * r0 + J[3 + a] * r1;
+                for (int b = 0; b < 3; ++b) JtJ[3 * a + b] += J[a] * J[b] + J[3 + a] * J[3 + b];
+            }
+        }
+        return c;
+    };
+    double JtJ[9], Jtr[3];
+    cost = eval(th, JtJ, Jtr);
+    if (cost < 0.0) return false;
+    for (int it = 0; it < 20; ++it) {
+        double Hd[9];
+        std::copy(JtJ, JtJ + 9, Hd);
+        for (int k = 0; k < 3; ++k) Hd[4 * k] *= 1.0 + lambda;
+        double step[3];
+        if (!solve3(Hd, Jtr, step)) return false;
+        const double cand[3] = {th[0] + step[0], th[1] + step[1], th[2] + step[2]};
+        const double c2 = eval(cand, nullptr, nullptr);
+        if (c2 >= 0.0 && c2 <= cost) {
+            std::copy(cand, cand + 3, th);
+            const double dc = cost - c2;
+            cost = eval(th, JtJ, Jtr);
+            lambda = std::max(lambda / 10.0, 1e-10);
+            if (std::sqrt(step[0] * step[0] + step[1] * step[1] + step[2] * step[2]) < 1e-10 || dc < 1e-16) break;
+        } else {
+            lambda *= 10.0;
+            if (lambda > 1e8) break;
+        }
+    }
+    if (!(th[2] > 0.0)) return false;
+    const double depth = 1.0 / th[2];
+    if (!(depth > min_depth) || !(depth < max_depth) || baseline < min_parallax * depth) return false;
+    const double pa[3] = {th[0] * depth, th[1] * depth, depth};
+    mul3(A.R, pa, pw);
+    for (int i = 0; i < 3; ++i) pw[i] += A.p[i];
+    return true;
+}
+
+// msckf_propagate(x, P, Phi, gyro (k, 3), accel (k, 3), dt (k,), gravity, noise, X (k, 16)): k steps of the ESKF
+// prediction with constant input per step (eskf::predict_transition), in place on x (16,) and the IMU covariance
+// P (15, 15); Phi (15, 15) <- the product of the step transitions, X[i] the state after step i.
+PyObject* py_propagate(PyObject*, PyObject* args) {
+    Array<double, 1, true> x, X0;
+    Array<double, 2, true> Pm, Phi, X;
+    Array<double, 2> gyro, accel;
+    Array<double, 1> dt, gravity, noise;
+    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&O&O&:msckf_propagate", convert<double, 1, true>, &x,
+                          convert<double, 2, true>, &Pm, convert<double, 2, true>, &Phi, convert<double, 2>, &gyro,
+                          convert<double, 2>, &accel, convert<double, 1>, &dt, convert<double, 1>, &gravity,
+                          convert<double, 1>, &noise, convert<double, 2, true>, &X))
+        return nullptr;
+    const npy_intp k = dt.shape[0];
+    if (!shape_is("x", x, {NX}) || !shape_is("P", Pm, {NE, NE}) || !shape_is("Phi", Phi, {NE, NE}) ||
+        !shape_is("gyro", gyro, {k, 3}) || !shape_is("accel", accel, {k, 3}) || !shape_is("gravity", gravity, {3}) ||
+        !shape_is("noise", noise, {4}) || !shape_is("X", X, {k, NX}))
+        return nullptr;
+    double F[NE * NE], T[NE * NE];
+    std::fill(Phi.data, Phi.data + NE * NE, 0.0);
+    for (int i = 0; i < NE; ++i) Phi.data[i * (NE + 1)] = 1.0;
+    Py_BEGIN_ALLOW_THREADS;
+    for (npy_intp s = 0; s < k; ++s) {
+        predict_transition(x.data, Pm.data, gyro.row(s), accel.row(s), dt[s], gravity.data, noise.data, F);
+        mul_sparse_left<NE, NE, NE>(F, Phi.data, T);
+        std::copy(T, T + NE * NE, Phi.data);
+        std::copy(x.data, x.data + NX, X.row(s));
+    }
+    symmetrize<NE>(Pm.data);
+    Py_END_ALLOW_THREADS;
+    Py_RETURN_NONE;
+}
+
+// msckf_features(clones (C, 7), clones_fej (C, 7), q_bc, p_bc, offsets (G + 1,), obs_clone (M,), obs_uv (M, 2), P
+// (n, n), sigma, chi2 (D,), limits (3,) = [min_depth, max_depth, min_parallax], H (R, n), r (R,), status (G,),
+// nis (G,)) -> rows: the stacked nullspace-projected rows of the accepted features (status 1 accepted, 0 rejected
+// by the gate, -1 triangulation failed, -2 too few observations); chi2[d] the gate for d degrees of freedom.
+PyObject* py_features(PyObject*, PyObject* args) {
+    Array<double, 2> clones, fej, uv, Pm;
+    Array<double, 1> q_bc, p_bc, chi2, limits;
+    Array<std::int64_t, 1> offsets, oc;
+    Array<double, 2, true> Hout;
+    Array<double, 1, true> rout, nis;
+    Array<std::int64_t, 1, true> status;
+    double sigma;
+    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&O&dO&O&O&O&O&O&:msckf_features", convert<double, 2>, &clones,
+                          convert<double, 2>, &fej, convert<double, 1>, &q_bc, convert<double, 1>, &p_bc,
+                          convert<std::int64_t, 1>, &offsets, convert<std::int64_t, 1>, &oc, convert<double, 2>, &uv,
+                          convert<double, 2>, &Pm, &sigma, convert<double, 1>, &chi2, convert<double, 1>, &limits,
+                          convert<double, 2, true>, &Hout, convert<double, 1, true>, &rout,
+                          convert<std::int64_t, 1, true>, &status, convert<double, 1, true>, &nis))
+        return nullptr;
+    const npy_intp nc = clones.shape[0], n = Pm.shape[0], g = offsets.shape[0] - 1, m_all = oc.shape[0];
+    if (!shape_is("clones", clones, {-1, 7}) || !shape_is("clones_fej", fej, {nc, 7}) ||
+        !shape_is("q_bc", q_bc, {4}) || !shape_is("p_bc", p_bc, {3}) || !shape_is("obs_uv", uv, {m_all, 2}) ||
+        !shape_is("P", Pm, {NE + 6 * nc, NE + 6 * nc}) || !shape_is("limits", limits, {3}) ||
+        !shape_is("H", Hout, {-1, n}) || !shape_is("r", rout, {Hout.shape[0]}) || !shape_is("status", status, {g}) ||
+        !shape_is("nis", nis, {g}))
+        return nullptr;
+    for (npy_intp f = 0; f <= g; ++f)
+        if (offsets[f] < 0 || offsets[f] > m_all || (f < g && offsets[f] > offsets[f + 1])) {
+            PyErr_SetString(PyExc_ValueError, "offsets must be nondecreasing within [0, len(obs_clone)]");
+            return nullptr;
+        }
+    for (npy_intp j = 0; j < m_all; ++j)
+        if (oc[j] < 0 || oc[j] >= nc) {
+            PyErr_SetString(PyExc_ValueError, "obs_clone must index the clones");
+            return nullptr;
+        }
+    const npy_intp rows_cap = Hout.shape[0];
+    npy_intp rows = 0;
+    Py_BEGIN_ALLOW_THREADS;
+    double Rbc[9];
+    rotmat_xyzw(q_bc[0], q_bc[1], q_bc[2], q_bc[3], Rbc);
+    std::vector<CamPose> cams(nc);
+    std::vector<double> Rwb_fej(9 * nc), Rwb(9 * nc);
+    for (npy_intp c = 0; c < nc; ++c) {
+        cams[c] = camera_pose(clones.row(c), Rbc, p_bc.data);
+        const double* q = fej.row(c) + 3;
+        rotmat_xyzw(q[0], q[1], q[2], q[3], &Rwb_fej[9 * c]);
+        const double* q2 = clones.row(c) + 3;
+        rotmat_xyzw(q2[0], q2[1], q2[2], q2[3], &Rwb[9 * c]);
+    }
+    std::vector<double> Hx, Hf, res, H0, HP, S;
+    std::vector<int> piv;
+    const double s2 = sigma * sigma;
+    for (npy_intp f = 0; f < g; ++f) {
+        const npy_intp a = offsets[f], m = offsets[f + 1] - a;
+        nis[f] = NAN;
+        if (m < 2) {
+            status[f] = -2;
+            continue;
+        }
+        double pw[3];
+        if (!triangulate(cams, oc.data + a, uv.data + 2 * a, m, limits[0], limits[1], limits[2], pw)) {
+            status[f] = -1;
+            continue;
+        }
+        const npy_intp nr = 2 * m;
+        Hx.assign(nr * n, 0.0);
+        Hf.assign(nr * 3, 0.0);
+        res.assign(nr, 0.0);
+        bool ok = true;
+        for (npy_intp j = 0; j < m && ok; ++j) {
+            const npy_intp c = oc[a + j];
+            // residual at the current estimate
+            const double* cl = clones.row(c);
+            double d[3] = {pw[0] - cl[0], pw[1] - cl[1], pw[2] - cl[2]}, pb[3], pc[3];
+            mul_t3(&Rwb[9 * c], d, pb);
+            for (int i = 0; i < 3; ++i) pb[i] -= p_bc[i];
+            mul_t3(Rbc, pb, pc);
+            if (!(pc[2] > 0.0)) {
+                ok = false;
+                break;
+            }
+            res[2 * j] = uv(a + j, 0) - pc[0] / pc[2];
+            res[2 * j + 1] = uv(a + j, 1) - pc[1] / pc[2];
+            // Jacobians at the first estimate of the clone
+            const double* fe = fej.row(c);
+            const double* Rf = &Rwb_fej[9 * c];
+            for (int i = 0; i < 3; ++i) d[i] = pw[i] - fe[i];
+            mul_t3(Rf, d, pb);
+            double pbc[3] = {pb[0] - p_bc[0], pb[1] - p_bc[1], pb[2] - p_bc[2]};
+            mul_t3(Rbc, pbc, pc);
+            if (!(pc[2] > 0.0)) {
+                ok = false;
+                break;
+            }
+            const double iz = 1.0 / pc[2];
+            const double Jp[6] = {iz, 0.0, -pc[0] * iz * iz, 0.0, iz, -pc[1] * iz * iz};
+            double JB[6], JW[6];  // ∂z/∂p_b = Jp R_bcᵀ, ∂z/∂p_w = JB R_wbᵀ
+            for (int i = 0; i < 2; ++i)
+                for (int k = 0; k < 3; ++k) {
+                    JB[3 * i + k] = Jp[3 * i] * Rbc[3 * k] + Jp[3 * i + 1] * Rbc[3 * k + 1] + Jp[3 * i + 2] * Rbc[3 * k + 2];
+                }
+            for (int i = 0; i < 2; ++i)
+                for (int k = 0; k < 3; ++k)
+                    JW[3 * i + k] = JB[3 * i] * Rf[3 * k] + JB[3 * i + 1] * Rf[3 * k + 1] + JB[3 * i + 2] * Rf[3 * k + 2];
+            for (int i = 0; i < 2; ++i) {
+                double* hx = &Hx[(2 * j + i) * n + NE + 6 * c];
+                const double* jb = JB + 3 * i;
+                for (int k = 0; k < 3; ++k) {
+                    hx[k] = -JW[3 * i + k];
+                    Hf[(2 * j + i) * 3 + k] = JW[3 * i + k];
+                }
+                hx[3] = jb[1] * pb[2] - jb[2] * pb[1];  // ∂p_b/∂δθ = [p_b]×
+                hx[4] = jb[2] * pb[0] - jb[0] * pb[2];
+                hx[5] = jb[0] * pb[1] - jb[1] * pb[0];
+            }
+        }
+        if (!ok) {
+            status[f] = -1;
+            continue;
+        }
+        // left-nullspace projection: Givens rotations zero H_f below its diagonal, applied to H_x and r alike
+        for (int c = 0; c < 3; ++c)
+            for (npy_intp k = nr - 1; k > c; --k) {
+                const double aa = Hf[(k - 1) * 3 + c], bb = Hf[k * 3 + c];
+                if (bb == 0.0) continue;
+                const double rr = std::hypot(aa, bb), cs = aa / rr, sn = bb / rr;
+                for (int cc = c; cc < 3; ++cc) {
+                    const double u = Hf[(k - 1) * 3 + cc], v = Hf[k * 3 + cc];
+                    Hf[(k - 1) * 3 + cc] = cs * u + sn * v;
+                    Hf[k * 3 + cc] = -sn * u + cs * v;
+                }
+                double* h1 = &Hx[(k - 1) * n];
+                double* h2 = &Hx[k * n];
+                for (npy_intp cc = NE; cc < n; ++cc) {
+                    const double u = h1[cc], v = h2[cc];
+                    h1[cc] = cs * u + sn * v;
+                    h2[cc] = -sn * u + cs * v;
+                }
+                const double u = res[k - 1], v = res[k];
+                res[k - 1] = cs * u + sn * v;
+                res[k] = -sn * u + cs * v;
+            }
+        const npy_intp dof = nr - 3;
+        if (dof < 1) {
+            status[f] = -2;
+            continue;
+        }
+        const double* h0 = &Hx[3 * n];
+        const double* r0 = &res[3];
+        // χ² gate: S = H0 P H0ᵀ + σ² I
+        HP.assign(dof * n, 0.0);
+        for (npy_intp i = 0; i < dof; ++i)
+            for (npy_intp k = NE; k < n; ++k) {
+                const double h = h0[i * n + k];
+                if (h == 0.0) continue;
+                const double* prow = Pm.row(k);
+                double* o = &HP[i * n];
+                for (npy_intp jj = 0; jj < n; ++jj) o[jj] += h * prow[jj];
+            }
+        S.assign(dof * dof, 0.0);
+        for (npy_intp i = 0; i < dof; ++i)
+            for (npy_intp jj = 0; jj < dof; ++jj) {
+                double s = 0.0;
+                for (npy_intp k = NE; k < n; ++k) s += HP[i * n + k] * h0[jj * n + k];
+                S[i * dof + jj] = s + (i == jj ? s2 : 0.0);
+            }
+        piv.assign(dof, 0);
+        std::vector<double> y(r0, r0 + dof);
+        if (!lu_factor<0>(S.data(), static_cast<int>(dof), piv.data())) {
+            status[f] = -1;
+            continue;
+        }
+        lu_solve<0, 1>(S.data(), piv.data(), static_cast<int>(dof), y.data(), 1);
+        double q = 0.0;
+        for (npy_intp i = 0; i < dof; ++i) q += r0[i] * y[i];
+        nis[f] = q;
+        const double gate = dof < chi2.shape[0] ? chi2[dof] : chi2[chi2.shape[0] - 1];
+        if (!(q <= gate) || rows + dof > rows_cap) {
+            status[f] = 0;
+            continue;
+        }
+        status[f] = 1;
+        std::copy(h0, h0 + dof * n, Hout.row(rows));
+        std::copy(r0, r0 + dof, rout.data + rows);
+        rows += dof;
+    }
+    Py_END_ALLOW_THREADS;
+    return PyLong_FromSsize_t(rows);
+}
+
+
+// msckf_update(x (16,), clones (C, 7), P (n, n), H (m, n), r (m,), sigma) -> nis: the EKF update with r = H δx + e,
+// e ~ N(0, σ² I), of the IMU state and the clones, in place.  When m > n the rows are first compressed by a
+// Householder QR (H = Q T, r <- Q₁ᵀ r; Mourikis & Roumeliotis 2007 §III-D).  P <- P − P Hᵀ S⁻¹ H P (symmetrised),
+// then δx = P Hᵀ S⁻¹ r is injected (IMU: additive blocks, q ⊗ Exp(δθ); clones: p + δp, q ⊗ Exp(δθ)).  Returns the
+// NIS rᵀ S⁻¹ r, or raises numpy's LinAlgError if S is not positive definite.
+PyObject* py_update(PyObject*, PyObject* args) {
+    Array<double, 1, true> x, r;
+    Array<double, 2, true> clones, Pm, H;
+    double sigma;
+    if (!PyArg_ParseTuple(args, "O&O&O&O&O&d:msckf_update", convert<double, 1, true>, &x, convert<double, 2, true>,
+                          &clones, convert<double, 2, true>, &Pm, convert<double, 2, true>, &H,
+                          convert<double, 1, true>, &r, &sigma))
+        return nullptr;
+    const npy_intp nc = clones.shape[0], n = NE + 6 * nc;
+    npy_intp m = H.shape[0];
+    const npy_intp m_all = m;
+    if (!shape_is("x", x, {NX}) || !shape_is("clones", clones, {-1, 7}) || !shape_is("P", Pm, {n, n}) ||
+        !shape_is("H", H, {-1, n}) || !shape_is("r", r, {m}))
+        return nullptr;
+    bool ok = true;
+    double nis = 0.0;
+    Py_BEGIN_ALLOW_THREADS;
+    double* h = H.data;
+    // the first column that can be nonzero: feature rows leave the IMU columns zero
+    npy_intp c0 = NE;
+    for (npy_intp i = 0; i < m && c0 > 0; ++i)
+        for (npy_intp k = 0; k < NE; ++k)
+            if (h[i * n + k] != 0.0) {
+                c0 = 0;
+                break;
+            }
+    if (m > n) {  // Householder QR on the transposed columns c0..n (contiguous), then T back into the top rows of H
+        const npy_intp nw = n - c0;
+        std::vector<double> Ht(nw * m), v(m);
+        for (npy_intp i = 0; i < m; ++i)
+            for (npy_intp j = 0; j < nw; ++j) Ht[j * m + i] = h[i * n + c0 + j];
+        for (npy_intp k = 0; k < nw; ++k) {
+            double* col = &Ht[k * m];
+            double norm = 0.0;
+            for (npy_intp i = k; i < m; ++i) norm += col[i] * col[i];
+            norm = std::sqrt(norm);
+            if (norm == 0.0) continue;
+            const double alpha = col[k] > 0 ? -norm : norm;
+            for (npy_intp i = k; i < m; ++i) v[i] = col[i];
+            v[k] -= alpha;
+            double vv = 0.0;
+            for (npy_intp i = k; i < m; ++i) vv += v[i] * v[i];
+            if (vv == 0.0) continue;
+            const double beta = 2.0 / vv;
+            for (npy_intp j = k; j < nw; ++j) {
+                double* cj = &Ht[j * m];
+                double d = 0.0;
+                for (npy_intp i = k; i < m; ++i) d += v[i] * cj[i];
+                d *= beta;
+                for (npy_intp i = k; i < m; ++i) cj[i] -= d * v[i];
+            }
+            double d = 0.0;
+            for (npy_intp i = k; i < m; ++i) d += v[i] * r[i];
+            d *= beta;
+            for (npy_intp i = k; i < m; ++i) r[i] -= d * v[i];
+        }
+        m = nw;  // the rows below nw are zero in H: they carry no information
+        for (npy_intp i = 0; i < m; ++i) {
+            for (npy_intp k = 0; k < c0; ++k) h[i * n + k] = 0.0;
+            for (npy_intp j = 0; j < nw; ++j) h[i * n + c0 + j] = Ht[j * m_all + i];
+        }
+    }
+    // HP (m, n) = H P (P symmetric: row i of P is its column i);  S = H P Hᵀ + σ² I
+    std::vector<double> W(m * n), S(m * m), L;
+    for (npy_intp j = 0; j < m; ++j) {
+        const double* hr = h + j * n;
+        for (npy_intp i = 0; i < n; ++i) {
+            const double* pr = Pm.row(i);
+            double s = 0.0;
+            for (npy_intp k = c0; k < n; ++k) s += pr[k] * hr[k];
+            W[j * n + i] = s;
+        }
+    }
+    for (npy_intp i = 0; i < m; ++i)
+        for (npy_intp j = 0; j <= i; ++j) {
+            double s = 0.0;
+            const double* hr = h + i * n;
+            const double* wr = &W[j * n];
+            for (npy_intp k = c0; k < n; ++k) s += hr[k] * wr[k];
+            if (i == j) s += sigma * sigma;
+            S[i * m + j] = S[j * m + i] = s;
+        }
+    // Cholesky S = L Lᵀ (lower, in place)
+    L = S;
+    for (npy_intp j = 0; j < m && ok; ++j) {
+        double d = L[j * m + j];
+        for (npy_intp k = 0; k < j; ++k) d -= L[j * m + k] * L[j * m + k];
+        if (!(d > 0.0)) {
+            ok = false;
+            break;
+        }
+        d = std::sqrt(d);
+        L[j * m + j] = d;
+        for (npy_intp i = j + 1; i < m; ++i) {
+            double s = L[i * m + j];
+            for (npy_intp k = 0; k < j; ++k) s -= L[i * m + k] * L[j * m + k];
+            L[i * m + j] = s / d;
+        }
+    }
+    if (ok) {
+        // W = L⁻¹ (H P) (m, n), y = L⁻¹ r: then P <- P − Wᵀ W, δx = Wᵀ y, NIS = yᵀ y
+        std::vector<double> y(r.data, r.data + m);
+        for (npy_intp j = 0; j < m; ++j) {
+            const double d = L[j * m + j];
+            for (npy_intp k = 0; k < j; ++k) {
+                const double l = L[j * m + k];
+                if (l == 0.0) continue;
+                for (npy_intp i = 0; i < n; ++i) W[j * n + i] -= l * W[k * n + i];
+                y[j] -= l * y[k];
+            }
+            for (npy_intp i = 0; i < n; ++i) W[j * n + i] /= d;
+            y[j] /= d;
+        }
+        std::vector<double> dx(n, 0.0);
+        for (npy_intp j = 0; j < m; ++j) {
+            nis += y[j] * y[j];
+            for (npy_intp i = 0; i < n; ++i) dx[i] += W[j * n + i] * y[j];
+        }
+        for (npy_intp j = 0; j < m; ++j) {  // P −= Wᵀ W, upper triangle, one row of W at a time
+            const double* w = &W[j * n];
+            for (npy_intp i = 0; i < n; ++i) {
+                const double wi = w[i];
+                if (wi == 0.0) continue;
+                double* pr = Pm.row(i);
+                for (npy_intp k = i; k < n; ++k) pr[k] -= wi * w[k];
+            }
+        }
+        for (npy_intp i = 0; i < n; ++i)
+            for (npy_intp k = i + 1; k < n; ++k) Pm(k, i) = Pm(i, k);
+        for (int i = 0; i < 3; ++i) {
+            x[P + i] += dx[DP + i];
+            x[V + i] += dx[DV + i];
+            x[BG + i] += dx[DBG + i];
+            x[BA + i] += dx[DBA + i];
+        }
+        quat_mul_exp_inplace(x.data + Q, dx[DTH], dx[DTH + 1], dx[DTH + 2]);
+        for (npy_intp c = 0; c < nc; ++c) {
+            double* cl = clones.row(c);
+            const double* d = &dx[NE + 6 * c];
+            for (int i = 0; i < 3; ++i) cl[i] += d[i];
+            quat_mul_exp_inplace(cl + 3, d[3], d[4], d[5]);
+        }
+    }
+    Py_END_ALLOW_THREADS;
+    if (!ok) return raise_linalg_error("the innovation covariance is not positive definite");
+    return PyFloat_FromDouble(nis);
+}
+
+PyMethodDef methods[] = {
+    {"msckf_propagate", py_propagate, METH_VARARGS,
+     "msckf_propagate(x, P, Phi, gyro, accel, dt, gravity, noise, X): k ESKF prediction steps in place on x (16,) "
+     "and P (15, 15); Phi (15, 15) the product of the step transitions, X (k, 16) the state after every step."},
+    {"msckf_features", py_features, METH_VARARGS,
+     "msckf_features(clones, clones_fej, q_bc, p_bc, offsets, obs_clone, obs_uv, P, sigma, chi2, limits, H, r, "
+     "status, nis) -> rows: triangulate, linearise (FEJ), nullspace-project and gate every feature; the accepted "
+     "rows stacked in H (R, n) and r (R,)."},
+    {"msckf_update", py_update, METH_VARARGS,
+     "msckf_update(x, clones, P, H, r, sigma) -> nis: EKF update (QR-compressed when H has more rows than columns) "
+     "of the IMU state x (16,), the clones (C, 7) and P (15 + 6C, 15 + 6C) in place, noise sigma² I."},
+    {nullptr, nullptr, 0, nullptr},
+};
+
+}  // namespace
+
+bool add_msckf(PyObject* m) { return PyModule_AddFunctions(m, methods) == 0; }
+
+}  // namespace dualpose
