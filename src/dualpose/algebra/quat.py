@@ -290,7 +290,7 @@ def quat_from_matrix(matrix: ArrayLike) -> np.ndarray:
 
     Shepperd's method (Walker 1991 eqs. (21)-(24) made stable by branching on the largest of the trace and the
     diagonal), then normalized.  Exact for 180° rotations.  A nearly orthogonal matrix (as files rounded to 6-7
-    digits and other libraries give) maps to a quaternion within O(|RᵀR − I|) of its nearest rotation.
+    digits and other libraries give) maps to a quaternion within ``O(|RᵀR − I|)`` of its nearest rotation.
 
     Raises
     ------
