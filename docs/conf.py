@@ -20,7 +20,6 @@ release = version = dualpose.__version__
 
 extensions = [
     "sphinx.ext.autodoc",
-    "sphinx.ext.autosummary",
     "sphinx.ext.intersphinx",
     "sphinx.ext.mathjax",
     "sphinx.ext.viewcode",
@@ -49,12 +48,11 @@ nitpicky = True
 # private dualpose names (a private base class, a TypeVar ``_B``) in signatures have no page to link to
 nitpick_ignore_regex = [(r"py:class", r"dualpose(\.\w+)*\._\w+(\.\w+)*")]
 
-# --- autodoc, autosummary, numpydoc ----------------------------------------------------------------------------
+# --- autodoc, numpydoc ----------------------------------------------------------------------------
 autodoc_typehints = "signature"
 autodoc_member_order = "bysource"
 autodoc_preserve_defaults = True
 autodoc_type_aliases = {"ArrayLike": "numpy.typing.ArrayLike", "NDArray": "numpy.typing.NDArray"}
-autosummary_generate = False
 python_use_unqualified_type_names = True
 add_module_names = False
 
@@ -92,6 +90,8 @@ sphinx_gallery_conf = {
     "remove_config_comments": True,
     "show_memory": False,
     "reference_url": {"dualpose": None},
+    # link dp.quat_mul in the examples to dualpose.algebra.quat.quat_mul, where it is documented
+    "prefer_full_module": {r"dualpose"},
     "doc_module": ("dualpose",),
     "backreferences_dir": None,
     "min_reported_time": 0,

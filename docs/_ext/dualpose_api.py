@@ -87,9 +87,34 @@ def _data_entry(modname: str, name: str, obj: object, attr_docs: dict) -> str:
     return f".. py:data:: {name}\n{shown}"
 
 
-def _relative(name: str, modname: str) -> str:
-    """``name`` relative to ``modname`` when it lies below it (autosummary refuses the current module's prefix)."""
-    return name[len(modname) + 1:] if name.startswith(modname + ".") else name
+def _summary(obj: object, attr_docs: dict | None = None, name: str = "") -> str:
+    """The first paragraph of an object's docstring on one line (a ufunc's after its signature line)."""
+    import numpy as np
+
+    if attr_docs is not None and ("", name) in attr_docs:
+        doc = "\n".join(attr_docs["", name])
+    elif isinstance(obj, np.ufunc):
+        doc = (obj.__doc__ or "").split("\n\n", 1)[-1]
+    elif inspect.ismodule(obj) or inspect.isclass(obj) or callable(obj):
+        doc = inspect.getdoc(obj) or ""
+    else:
+        doc = ""
+    return " ".join(doc.strip().split("\n\n", 1)[0].split())
+
+
+def _table(rows: list[tuple[str, str]]) -> list[str]:
+    """A two-column summary table (a reference, the summary); autosummary would cut summaries at "eq."."""
+    out = [".. list-table::\n   :widths: 30 70\n   :class: dualpose-summary\n"]
+    out += [f"   * - {ref}\n     - {text or ' '}" for ref, text in rows]
+    return [*out, ""]
+
+
+def _role(obj: object) -> str:
+    if inspect.ismodule(obj):
+        return "mod"
+    if inspect.isclass(obj):
+        return "class"
+    return "func" if callable(obj) else "data"
 
 
 def _defined_below(obj: object, modname: str, documented: set[str]) -> str | None:
@@ -123,26 +148,21 @@ def module_page(modname: str, documented: set[str]) -> str:
         if where is None and hasattr(mod, "__path__") and not isinstance(obj, np.ufunc):
             where = _defined_below(obj, modname, documented)
         if where and where != modname and where in documented:
-            elsewhere.append(f"~{_relative(f'{where}.{name}', modname)}")
+            elsewhere.append((f"{where}.{name}", obj))
         else:
             own.append((name, obj))
     lines = [_title(modname), CONVENTIONS, f".. automodule:: {modname}\n   :no-members:\n"]
     children = sorted(m for m in documented if m.rpartition(".")[0] == modname)
     children += [m for m in submodules if m not in children]
     if children:
-        lines += [".. rubric:: Modules\n", ".. autosummary::\n", *[f"   {_relative(m, modname)}" for m in children],
-                  ""]
+        rows = [(f":mod:`{m}`", _summary(importlib.import_module(m))) for m in children]
+        lines += [".. rubric:: Modules\n", *_table(rows)]
     if elsewhere:
-        lines += [".. rubric:: Re-exported here\n", ".. autosummary::\n   :nosignatures:\n",
-                  *[f"   {n}" for n in elsewhere], ""]
-    ufuncs = [(n, o) for n, o in own if isinstance(o, np.ufunc)]
-    if ufuncs:  # autosummary cannot import a ufunc: a table of its own
-        lines += [".. rubric:: NumPy ufuncs\n", ".. list-table::\n   :widths: 20 80\n",
-                  *[f"   * - :func:`{n}`\n     - {(o.__doc__ or '').split(chr(10) * 2, 1)[-1].splitlines()[0]}"
-                    for n, o in ufuncs], ""]
-    if len(own) > len(ufuncs):
-        lines += [".. rubric:: Summary\n", ".. autosummary::\n   :nosignatures:\n",
-                  *[f"   {n}" for n, o in own if not isinstance(o, np.ufunc)], ""]
+        rows = [(f":{_role(o)}:`~{target}`", _summary(o)) for target, o in elsewhere]
+        lines += [".. rubric:: Re-exported here (documented where they are defined)\n", *_table(rows)]
+    if own:
+        rows = [(f":{_role(o)}:`{n}`", _summary(o, attr_docs, n)) for n, o in own]
+        lines += [".. rubric:: Summary\n", *_table(rows)]
         for kind, test in (("Classes", inspect.isclass), ("Functions", callable), ("Data", lambda o: True)):
             group = [(n, o) for n, o in own if test(o)]
             own = [(n, o) for n, o in own if not test(o)]
@@ -176,7 +196,8 @@ def index_page(modules: list[str]) -> str:
         ".. toctree::\n   :hidden:\n\n" + "\n".join(f"   {m}" for m in modules) + "\n",
     ]
     for top, mods in groups.items():
-        lines += [_title(f"``{top}``", "-"), ".. autosummary::\n", *[f"   {m}" for m in mods], ""]
+        rows = [(f":mod:`{m}`", _summary(importlib.import_module(m))) for m in mods]
+        lines += [_title(f"``{top}``", "-"), *_table(rows)]
     return "\n".join(lines)
 
 
