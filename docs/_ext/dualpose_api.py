@@ -413,6 +413,17 @@ def _api_objects() -> dict[str, object]:
     return _CACHE
 
 
+def register_reexports(app, env) -> list[str]:
+    """``env-updated``: every re-exported name (``dualpose.quat_mul``, ``dualpose.registration.register_pose``) as an
+    alias of the entry where the object is documented, so that references and the gallery's code links find it."""
+    py = env.domains["py"]
+    for name, obj in _api_objects().items():
+        target = _canonical_name(obj, name) or _documented_constant(obj, name)
+        if target and target != name and target in py.objects and name not in py.objects:
+            py.objects[name] = py.objects[target]._replace(aliased=True)
+    return []
+
+
 def resolve_dualpose_reference(app, env, node, contnode):
     """``missing-reference``: resolve a Python reference to a dualpose object named by a re-export or bare name."""
     if node.get("refdomain") != "py":
@@ -462,6 +473,7 @@ def setup(app):
     TypeAliasForwardRef.__repr__ = _name_of_alias
     app.connect("builder-inited", generate_api)
     app.connect("missing-reference", resolve_dualpose_reference)
+    app.connect("env-updated", register_reexports)
     app.connect("autodoc-process-bases", public_bases)
     app.connect("autodoc-process-signature", factory_defaults)
     return {"parallel_read_safe": True, "parallel_write_safe": True}
