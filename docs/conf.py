@@ -111,7 +111,7 @@ html_theme_options = {
     "show_toc_level": 2,
     "navigation_with_keys": False,
     # the gallery's pages without the right-hand column: their code needs the width
-    "secondary_sidebar_items": {"**": ["page-toc"], "auto_examples/*": []},
+    "secondary_sidebar_items": {"*": ["page-toc"], "api/*": ["page-toc"], "auto_examples/*": []},
     "footer_start": ["copyright"],
     "footer_end": ["sphinx-version"],
 }

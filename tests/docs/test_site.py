@@ -32,11 +32,8 @@ def _require_sphinx() -> None:
         pytest.skip(f"the docs extra is not installed ({e.name}); pip install -e '.[docs]'")
 
 
-@pytest.fixture(scope="module")
-def site(tmp_path_factory) -> Path:
-    """The HTML site built from a copy of docs/ (fails on any warning)."""
-    _require_sphinx()
-    root = tmp_path_factory.mktemp("site")
+def build_site(root: Path) -> Path:
+    """Build the HTML site from a copy of docs/ under ``root`` (fails on any warning); the output directory."""
     src = root / "docs"
     shutil.copytree(DOCS, src, ignore=lambda d, names: [n for n in names if Path(d) == DOCS and n in GENERATED])
     out = root / "html"
@@ -47,7 +44,8 @@ def site(tmp_path_factory) -> Path:
     return out
 
 
-def test_every_public_module_has_an_api_page(site: Path) -> None:
+def check_api_pages(site: Path) -> None:
+    """Every public module has a page with the conventions box; functions, links to numpy and re-exports."""
     sys.path.insert(0, str(DOCS / "_ext"))
     try:
         from dualpose_api import public_modules
@@ -62,9 +60,6 @@ def test_every_public_module_has_an_api_page(site: Path) -> None:
         page = site / "api" / f"{m}.html"
         assert page.is_file(), f"no API page for {m}"
         assert "Layouts, units and frames" in page.read_text(encoding="utf-8"), f"{m}: conventions box missing"
-
-
-def test_api_pages_document_functions_with_their_docstrings(site: Path) -> None:
     quat = (site / "api" / "dualpose.algebra.quat.html").read_text(encoding="utf-8")
     assert 'id="dualpose.algebra.quat.quat_mul"' in quat
     assert "Hamilton product" in quat
@@ -75,15 +70,22 @@ def test_api_pages_document_functions_with_their_docstrings(site: Path) -> None:
     assert "dualpose.registration.estimate.html#dualpose.registration.estimate.register_pose" in package
 
 
-def test_gallery_renders_at_least_eight_examples_with_figures(site: Path) -> None:
+def check_gallery(site: Path) -> None:
+    """At least eight examples, each with a rendered figure and code linked to the API pages."""
     pages = sorted((site / "auto_examples").glob("plot_*.html"))
     assert len(pages) >= 8
     for page in pages:
         html = page.read_text(encoding="utf-8")
         assert re.search(r'<img[^>]+src="\.\./_images/sphx_glr_plot_', html), f"{page.name}: no rendered figure"
+        assert 'href="../api/dualpose.' in html, f"{page.name}: no link from the code to the API reference"
 
 
-def test_markdown_pages_are_in_the_site(site: Path) -> None:
+def test_site_builds_without_warnings_and_is_complete(tmp_path: Path) -> None:
+    """One build (the slow part, ~30 s of CPU) checked for the API pages, the gallery and the Markdown pages."""
+    _require_sphinx()
+    site = build_site(tmp_path)
+    check_api_pages(site)
+    check_gallery(site)
     for name in ("getting-started", "conventions", "architecture", "accuracy", "fusion", "broad", "metrics"):
         assert (site / f"{name}.html").is_file(), name
 
