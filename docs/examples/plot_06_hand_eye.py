@@ -97,6 +97,8 @@ ax.set(
     ylabel="median error (10 draws)",
     title="Hand–eye error against the number of stations",
 )
+ax.set_xticks(counts, [str(c) for c in counts])
+ax.xaxis.set_minor_locator(plt.NullLocator())
 ax.legend()
 ax.grid(True, which="both", alpha=0.3)
 plt.show()
