@@ -234,8 +234,8 @@ _MPL = "https://matplotlib.org/stable/"
 #: project -> (base URL, [(name, role, relative URI[, title])]) of the outside names the docs refer to
 EXTERNAL: dict[str, tuple[str, list[tuple[str, ...]]]] = {
     "python": (_PY, [
-        *[(n, "py:class", f"library/functions.html#{n}") for n in
-          ("float", "int", "bool", "str", "bytes", "tuple", "list", "dict", "set", "object", "type", "slice")],
+        *[(n, "py:class", f"library/functions.html#{n}") for n in ("float", "int", "bool", "object", "type", "slice")],
+        *[(n, "py:class", f"library/stdtypes.html#{n}") for n in ("str", "bytes", "tuple", "list", "dict", "set")],
         *[(n, "py:exception", f"library/exceptions.html#{n}") for n in
           ("ValueError", "TypeError", "RuntimeError", "OSError", "FileNotFoundError", "FileExistsError",
            "KeyError", "IndexError", "UserWarning", "RuntimeWarning", "Warning", "EOFError")],
