@@ -41,6 +41,7 @@ exclude_patterns = [
     "auto_examples/*.zip",
     "auto_examples/*.md5",
     "auto_examples/*.json",
+    "sg_execution_times.rst",
     # the raw output of benchmarks/bench_hand_eye.py; docs/hand-eye.md holds the same tables
     "hand-eye-table.md",
 ]
@@ -95,6 +96,7 @@ sphinx_gallery_conf = {
     "doc_module": ("dualpose",),
     "backreferences_dir": None,
     "min_reported_time": 0,
+    "write_computation_times": False,
     "abort_on_example_error": True,
     "matplotlib_animations": False,
     "plot_gallery": os.environ.get("DUALPOSE_DOCS_GALLERY", "True"),
