@@ -192,12 +192,46 @@ def index_page(modules: list[str]) -> str:
         "Every public module of ``dualpose``, generated from its docstrings.  The folders are layers that import only "
         "downwards (:doc:`/architecture`); ``import dualpose`` gives the algebra, the other folders load when "
         "imported (``import dualpose.registration as reg``).\n",
+        "The command line, every subcommand and option: :doc:`cli`.\n",
         CONVENTIONS,
-        ".. toctree::\n   :hidden:\n\n" + "\n".join(f"   {m}" for m in modules) + "\n",
+        ".. toctree::\n   :hidden:\n\n   cli\n" + "\n".join(f"   {m}" for m in modules) + "\n",
     ]
     for top, mods in groups.items():
         rows = [(f":mod:`{m}`", _summary(importlib.import_module(m))) for m in mods]
         lines += [_title(f"``{top}``", "-"), *_table(rows)]
+    return "\n".join(lines)
+
+
+def cli_page() -> str:
+    """The ``dualpose`` command's help, every subcommand (and theirs) in turn, from the parser itself."""
+    import argparse
+
+    from dualpose.cli.main import build_parser
+
+    def sections(parser: argparse.ArgumentParser, level: str) -> list[str]:
+        help_text = "\n".join(f"   {line}".rstrip() for line in parser.format_help().splitlines())
+        out = [_title(parser.prog, level), ".. code-block:: text\n", help_text, ""]
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for sub in action.choices.values():
+                    out += sections(sub, "-" if parser.prog == "dualpose" else "~")
+        return out
+
+    saved = os.environ.get("COLUMNS")
+    os.environ["COLUMNS"] = "80"  # argparse wraps to the terminal: one width for every build
+    try:
+        parser = build_parser()
+        lines = [
+            _title("Command line"),
+            "The ``dualpose`` command and every subcommand's options, generated from the command's own parser "
+            "(``dualpose.cli`` parses and prints; the work is done by the functions of the API reference).\n",
+            *sections(parser, "-"),
+        ]
+    finally:
+        if saved is None:
+            del os.environ["COLUMNS"]
+        else:
+            os.environ["COLUMNS"] = saved
     return "\n".join(lines)
 
 
@@ -217,6 +251,7 @@ def generate_api(app) -> None:
     documented = set(modules)
     pages = {f"{m}.rst": module_page(m, documented) for m in modules}
     pages["index.rst"] = index_page(modules)
+    pages["cli.rst"] = cli_page()
     for name, text in pages.items():
         write_if_changed(out / name, text)
     for stale in out.glob("*.rst"):

@@ -88,6 +88,8 @@ def test_site_builds_without_warnings_and_is_complete(tmp_path: Path) -> None:
     check_gallery(site)
     for name in ("getting-started", "conventions", "architecture", "accuracy", "fusion", "broad", "metrics"):
         assert (site / f"{name}.html").is_file(), name
+    cli = (site / "api" / "cli.html").read_text(encoding="utf-8")
+    assert "usage: dualpose eval" in cli and "usage: dualpose calibrate hand-eye" in cli
 
 
 def _python_blocks(path: Path) -> list[str]:
