@@ -69,7 +69,10 @@ def _ufunc_entry(qualified: str, obj) -> str:
 def _class_entry(modname: str, name: str, cls: type) -> str:
     """A class with its members, also those it inherits from dualpose bases (private bases are not documented)."""
     foreign = [b for b in cls.__mro__[1:] if not b.__module__.startswith("dualpose")]
-    options = "   :members:\n   :show-inheritance:\n"
+    bases = list(cls.__bases__)
+    public_bases(None, "", cls, None, bases)
+    # "Bases: object" says nothing: the line is shown for classes with a real base only
+    options = "   :members:\n" + ("   :show-inheritance:\n" if [b for b in bases if b is not object] else "")
     if any(b.__module__.startswith("dualpose") for b in cls.__mro__[1:]):
         options += f"   :inherited-members: {', '.join(b.__name__ for b in foreign)}\n"
     return f".. autoclass:: {modname}.{name}\n{options}"
