@@ -552,6 +552,8 @@ def markdown(rows: list[Row], n: int, bare: float, cmd: str, notes: list[str], l
     m = machine()
     v = pz.versions()
     parts = [
+        "# Speed against the peers",
+        "",
         f"Command: `{cmd}`  ",
         f"N = {n:,} elements per batched operation; one process; single-threaded kernels.  ",
         f"Machine: {m['cpu']}, nproc = {m['nproc']}; Python {m['python']}; {m['platform']}.  ",

@@ -203,7 +203,9 @@ def quat_exp_derivative(q: ArrayLike, qdot: ArrayLike) -> np.ndarray:
 
 @fast_path(_native.quat_exp_jacobian)
 def quat_exp_jacobian(q: ArrayLike) -> np.ndarray:
-    """Jacobian of the quaternion exponential (Dantam 2014 eq. (22)) at ``q = [v, w]``::
+    """Jacobian of the quaternion exponential (Dantam 2014 eq. (22)) at ``q = [v, w]``.
+
+    In block form::
 
         ∂e^q/∂q = e^w [[sinc(φ) I + dsinc(φ) v vᵀ,  sinc(φ) v],
                        [−sinc(φ) vᵀ,                cos φ   ]],     φ = |v|

@@ -173,6 +173,16 @@ def dualquat_from_qt(q: ArrayLike, t: ArrayLike) -> np.ndarray:
     -------
     ndarray, shape (..., 8)
         Unit dual quaternions of ``p -> R(q) p + t``.
+
+    Examples
+    --------
+    >>> import numpy as np, dualpose as dp
+    >>> T = dp.dualquat_from_qt(dp.quat_from_rotvec([0.0, 0.0, np.pi / 2]), [1.0, 2.0, 3.0])
+    >>> T.shape
+    (8,)
+    >>> q, t = dp.qt_from_dualquat(T)
+    >>> t.round(12) + 0.0
+    array([1., 2., 3.])
     """
     q = as_array(q, "q", 4)
     t = as_array(t, "t", 3)
@@ -267,6 +277,15 @@ def dualquat_transform(s: ArrayLike, points: ArrayLike, out: np.ndarray | None =
     -------
     ndarray, shape (..., 3)
         Points in world coordinates.
+
+    Examples
+    --------
+    A quarter turn about z followed by the translation ``[1, 2, 3]``:
+
+    >>> import numpy as np, dualpose as dp
+    >>> T = dp.dualquat_from_qt(dp.quat_from_rotvec([0.0, 0.0, np.pi / 2]), [1.0, 2.0, 3.0])
+    >>> dp.dualquat_transform(T, [1.0, 0.0, 0.0]).round(12) + 0.0
+    array([1., 3., 3.])
     """
     s = as_array(s, "s", 8)
     p = as_array(points, "points", 3)
@@ -406,6 +425,20 @@ def dualquat_sclerp(s0: ArrayLike, s1: ArrayLike, t: ArrayLike) -> np.ndarray:
     ndarray, shape (..., 8)
         Unit dual quaternions: constant-velocity screw motion (rotation about and translation along one fixed
         axis) from ``s0`` to ``s1``.
+
+    Examples
+    --------
+    ``t`` broadcasts: three poses along the screw from the identity to ``T``, and their translations:
+
+    >>> import numpy as np, dualpose as dp
+    >>> T = dp.dualquat_from_qt(dp.quat_from_rotvec([0.0, 0.0, np.pi / 2]), [1.0, 2.0, 3.0])
+    >>> path = dp.dualquat_sclerp(dp.dualquat_identity(), T, [0.0, 0.5, 1.0])
+    >>> path.shape
+    (3, 8)
+    >>> dp.qt_from_dualquat(path)[1].round(6) + 0.0
+    array([[0.      , 0.      , 0.      ],
+           [0.914214, 0.792893, 1.5     ],
+           [1.      , 2.      , 3.      ]])
     """
     s0 = as_array(s0, "s0", 8)
     s1 = as_array(s1, "s1", 8)

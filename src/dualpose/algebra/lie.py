@@ -11,7 +11,7 @@ Layouts
   :mod:`dualpose.algebra.quat`), translations as ``(..., 3)``.
 
 Jacobian conventions (Barfoot 2017, *State Estimation for Robotics*, §7.1.5 and §7.2.5; Solà et al. 2018)
------------------------------------------------------------------------------------------------------
+---------------------------------------------------------------------------------------------------------
 For small ``δ``::
 
     exp((ξ + δ)^) ≈ exp((J_l(ξ) δ)^) exp(ξ^)       (left Jacobian: perturbation in the space/world frame)

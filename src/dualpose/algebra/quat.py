@@ -81,6 +81,15 @@ def quat_mul(p: ArrayLike, q: ArrayLike, out: np.ndarray | None = None) -> np.nd
     -------
     ndarray, shape (..., 4)
         The product, xyzw.  For unit quaternions, rotating by the result is rotating by ``q`` then by ``p``.
+
+    Examples
+    --------
+    Two quarter turns about z make a half turn:
+
+    >>> import numpy as np, dualpose as dp
+    >>> q = dp.quat_from_rotvec([0.0, 0.0, np.pi / 2])
+    >>> dp.quat_mul(q, q).round(12) + 0.0
+    array([0., 0., 1., 0.])
     """
     p = as_array(p, "p", 4)
     q = as_array(q, "q", 4)
@@ -214,6 +223,17 @@ def quat_rotate(q: ArrayLike, v: ArrayLike, out: np.ndarray | None = None) -> np
     -------
     ndarray, shape (..., 3)
         ``R(q) v``.
+
+    Examples
+    --------
+    A quarter turn about z takes x to y; one rotation broadcasts over many vectors:
+
+    >>> import numpy as np, dualpose as dp
+    >>> q = dp.quat_from_rotvec([0.0, 0.0, np.pi / 2])
+    >>> dp.quat_rotate(q, [1.0, 0.0, 0.0]).round(12) + 0.0
+    array([0., 1., 0.])
+    >>> dp.quat_rotate(q, np.eye(3)).shape
+    (3, 3)
     """
     q = as_array(q, "q", 4)
     v = as_array(v, "v", 3)
@@ -241,6 +261,13 @@ def quat_from_rotvec(rotvec: ArrayLike) -> np.ndarray:
     -------
     ndarray, shape (..., 4)
         Unit quaternions, xyzw.  Tiny angles keep full relative accuracy (no flush to zero).
+
+    Examples
+    --------
+    >>> import numpy as np, dualpose as dp
+    >>> dp.quat_from_rotvec([[0.0, 0.0, 0.0], [np.pi, 0.0, 0.0]]).round(12) + 0.0
+    array([[0., 0., 0., 1.],
+           [1., 0., 0., 0.]])
     """
     v = as_array(rotvec, "rotvec", 3)
     return _native.quat_from_rotvec(v)
@@ -306,7 +333,7 @@ def quat_from_matrix(matrix: ArrayLike) -> np.ndarray:
 
     Shepperd's method (Walker 1991 eqs. (21)-(24) made stable by branching on the largest of the trace and the
     diagonal), then normalized.  Exact for 180° rotations.  A nearly orthogonal matrix (as files rounded to 6-7
-    digits and other libraries give) maps to a quaternion within O(|RᵀR − I|) of its nearest rotation.
+    digits and other libraries give) maps to a quaternion within ``O(|RᵀR − I|)`` of its nearest rotation.
 
     Raises
     ------

@@ -91,7 +91,7 @@ def scene_gravity(
     attitude_covariance : (K, 3, 3) or (3, 3), optional
         PnP camera-frame attitude covariance of each period, rad².
     extrinsic_covariance : (3, 3), optional
-        ``Cov(ε)`` of ``q_bc`` (e.g. :attr:`ExtrinsicRotation.covariance`), rad².
+        ``Cov(ε)`` of ``q_bc`` (e.g. the ``covariance`` of :class:`ExtrinsicRotation`), rad².
     accel_bias_covariance : (3, 3), optional
         Uncertainty of the accelerometer bias left in ``specific_force``, m²/s⁴ (common to all periods).
     nominal_down : (3,)

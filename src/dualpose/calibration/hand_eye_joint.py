@@ -89,7 +89,7 @@ class HandEyeStreamResult:
         :data:`~dualpose.registration.hand_eye_closed_form.HAND_EYE_CLOSED_FORMS`), or ``"joint"`` when none of
         them could be computed.
     start_rotation_rmse_deg, start_translation_rmse_m, start_time_offset : float
-        That start's RMS loop residuals on :attr:`pairs` (deg, m) at its time offset (s, same clock as
+        That start's RMS loop residuals on ``pairs`` (deg, m) at its time offset (s, same clock as
         ``time_offset``); by construction ``rotation_rmse_deg <= start_rotation_rmse_deg`` and
         ``translation_rmse_m <= start_translation_rmse_m``.
     covariance : ndarray (7, 7)

@@ -2,11 +2,11 @@
 objective decision whether the data support it.
 
 A magnetometer in a homogeneous static field ``m_e`` with hard-iron offset ``b`` and soft-iron distortion reads
-``m = A⁻¹ Rᵀ m_e + b``; the calibrated field ``A (m − b)`` then has a constant magnitude whatever the orientation:
+``m = A⁻¹ Rᵀ m_e + b``; the calibrated field ``A (m − b)`` then has a constant magnitude whatever the orientation::
 
     |A (m − b)|² = (m − b)ᵀ M (m − b) = r²,   M = AᵀA = I + D                                       (1)
 
-Expanding (1) gives an equation linear in the parameters (``v = M b``, ``c = r² − bᵀ M b``)
+Expanding (1) gives an equation linear in the parameters (``v = M b``, ``c = r² − bᵀ M b``)::
 
     mᵀm = −mᵀ D m + 2 mᵀ v + c                                                                         (2)
 

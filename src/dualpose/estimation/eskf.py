@@ -481,7 +481,7 @@ def _report(nis: np.ndarray, accepted: np.ndarray, gate: float) -> InnovationRep
 
 class EskfStream(FusionStream):
     """:class:`ErrorStateEKF` one sample / frame at a time, bit for bit its :meth:`~ErrorStateEKF.run`
-    (docs/fusion.md "Streaming"; the queue, blocks and saved state: :mod:`dualpose.estimation._fusion_stream`).
+    (docs/fusion.md "Streaming"; the queue, blocks and saved state: ``dualpose.estimation._fusion_stream``).
 
     Parameters
     ----------
@@ -500,7 +500,9 @@ class EskfStream(FusionStream):
 
     _kind = "eskf"
     _filter_type = ErrorStateEKF
+    #: the layout of :attr:`state`
     state_layout = ESKF_STATE
+    #: the size of the square :attr:`covariance` (the error state's dimension)
     covariance_dim = 15
     #: version of the saved state's byte layout (``STREAM_VERSION`` in ``src/native/estimation/eskf_run.hpp``)
     LAYOUT_VERSION = _native.ESKF_STREAM_VERSION

@@ -218,7 +218,7 @@ class Hol22EKF(Estimator):
 
     def tangent_covariance(self) -> np.ndarray:
         """Covariance (21, 21) with the quaternion block replaced by the world-frame attitude error (3,): ``T P Tᵀ``
-        with ``T`` the identity on every other block and :meth:`_attitude_jacobian` on ``q^{be}`` (the 22-state
+        with ``T`` the identity on every other block and ``_attitude_jacobian`` on ``q^{be}`` (the 22-state
         covariance is singular along the unit quaternion after each renormalisation)."""
         L = HOL22_STATE
         rows = []
@@ -408,7 +408,7 @@ class Hol22EKF(Estimator):
 
 class Hol22Stream(FusionStream):
     """:class:`Hol22EKF` one sample / frame at a time, bit for bit its :meth:`~Hol22EKF.run` (docs/fusion.md
-    "Streaming"; the queue, blocks and saved state: :mod:`dualpose.estimation._fusion_stream`).
+    "Streaming"; the queue, blocks and saved state: ``dualpose.estimation._fusion_stream``).
 
     Parameters
     ----------
@@ -418,7 +418,9 @@ class Hol22Stream(FusionStream):
 
     _kind = "hol22"
     _filter_type = Hol22EKF
+    #: the layout of :attr:`state`
     state_layout = HOL22_STATE
+    #: the size of the square :attr:`covariance`
     covariance_dim = 22
     #: version of the saved state's byte layout (``STREAM_VERSION`` in ``src/native/estimation/hol22_run.hpp``)
     LAYOUT_VERSION = _native.HOL22_STREAM_VERSION

@@ -41,7 +41,7 @@ __all__ = [
 
 
 class StateLayout:
-    """Contiguous named blocks of a vector of length :attr:`dim`.
+    """Contiguous named blocks of a vector of length ``dim``.
 
     Parameters
     ----------

@@ -45,7 +45,7 @@ __all__ = [
     "MAX_COORDINATE",
 ]
 
-#: largest accepted |position coordinate|, metres: squared distances of larger ones overflow float64 (~1.8e308)
+#: largest accepted ``|position coordinate|``, metres: squared distances of larger ones overflow float64 (~1.8e308)
 MAX_COORDINATE = 1e150
 #: largest fraction of poses that may share their stamp with a different pose (warned about) before it is refused
 MAX_SHARED_STAMPS = 0.05
@@ -67,7 +67,7 @@ def prepare_trajectory(trajectory: Trajectory, name: str) -> Trajectory:
       count zero-length RPE pairs.
     - The same stamp with different poses is warned about, naming the stamp, and kept (the association sees
       them all, as evo does): real files have a few (stamps printed to 1 ms: TUM's ``fr2_desk`` ground truth has
-      one, the EuRoC V1_02 estimate four).  When more than :data:`MAX_SHARED_STAMPS` (5 %) of the poses share a
+      one, the EuRoC V1_02 estimate four).  When more than ``MAX_SHARED_STAMPS`` (5 %) of the poses share a
       stamp with a different pose, or every stamp is the same, the stamps do not identify the poses and it raises
       ``ValueError`` naming the first such stamp.
     - Coordinates beyond :data:`MAX_COORDINATE` (1e150 m) raise ``ValueError`` (their squares overflow).

@@ -69,6 +69,7 @@ class OrientationRmse:
     scored_samples: int
 
     def as_dict(self) -> dict[str, float]:
+        """The five fields by name (for JSON)."""
         return asdict(self)
 
 

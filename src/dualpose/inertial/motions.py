@@ -55,7 +55,7 @@ def _check_frame(frame: str) -> bool:
 
 
 class Motion(abc.ABC):
-    """Base class: subclasses give :meth:`pose` and :meth:`twist`; increments come from quadrature."""
+    """Base class: subclasses give ``pose(t)`` and ``twist(t)``; increments come from quadrature."""
 
     nodes: int = 8
 
@@ -78,7 +78,7 @@ class Motion(abc.ABC):
     def dual_increments(self, t0: float, h: float, n: int, frame: Frame = "body") -> np.ndarray:
         """``∫ [ω, v] dt`` over ``[t0 + j h, t0 + (j+1) h]``, j = 0..n−1: shape (n, 6) (rad, m).
 
-        Gauss–Legendre quadrature with :attr:`nodes` points per sub-interval.
+        Gauss–Legendre quadrature with ``nodes`` points per sub-interval.
         """
         edges = sample_times(t0, h, n)
         x, w = np.polynomial.legendre.leggauss(self.nodes)

@@ -20,9 +20,9 @@ file field     unit       meaning
 
 Refused (ValueError naming the file and the field, docs/broad.md): a file that is not a readable MATLAB file, a
 missing required field, no samples, a ``sampling_rate`` that is not a finite positive number, IMU values above any
-sensor's range (|gyr| > 1000 rad/s, |acc| > 10⁴ m/s², |mag| > 10⁴ µT: corrupt samples), and a reference quaternion
-that is neither unit nor NaN (e.g. an all-zero ``opt_quat``).  NaN IMU samples are kept as they are (the AHRS
-and :func:`dualpose.sim.broad_vision.recording_from_broad` refuse them, naming the field).
+sensor's range (``|gyr| > 1000`` rad/s, ``|acc| > 10⁴`` m/s², ``|mag| > 10⁴`` µT: corrupt samples), and a
+reference quaternion that is neither unit nor NaN (e.g. an all-zero ``opt_quat``).  NaN IMU samples are kept as
+they are (the AHRS and :func:`dualpose.sim.broad_vision.recording_from_broad` refuse them, naming the field).
 """
 
 from __future__ import annotations

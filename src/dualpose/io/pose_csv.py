@@ -4,7 +4,7 @@ One pose per line: ``t`` in seconds (any clock, e.g. Unix epoch), ``x y z`` the 
 the reference frame (metres), ``qx qy qz qw`` its orientation sensor -> reference, Hamilton, scalar last.  Lines
 starting with ``#`` and blank lines are skipped.  The separator is taken from the first data line: a comma if it
 has one (before any ``#`` comment), otherwise runs of whitespace.  The rows are read as TUM files are
-(:func:`dualpose.io._text.read_pose_rows`).  Rows are returned in file order, unsorted and with any duplicates: cleaning
+(``dualpose.io._text.read_pose_rows``).  Rows are returned in file order, unsorted and with any duplicates: cleaning
 is the caller's job (``dualpose.calibration.clean_pose_stream``).
 """
 

@@ -82,7 +82,7 @@ def static_session(
     progress: Callable[[int], None] | None = None,
 ) -> dict[str, np.ndarray]:
     """``poses`` simulated static poses (:func:`dualpose.sim.calibration_scenarios.simulate_static_pose_set`) summarised
-    by :func:`dualpose.calibration.static_periods`, in chunks of :data:`_CHUNK` poses; ``progress(n)`` is called
+    by :func:`dualpose.calibration.static_periods`, in chunks of ``_CHUNK`` poses; ``progress(n)`` is called
     with the number of poses done after each chunk.  Returns the stacked arrays of
     :func:`dualpose.calibration.stack_static_periods`."""
     parts = []
@@ -108,7 +108,7 @@ def calibrate_simulated_session(
     """The session of ``dualpose calibrate`` (module docstring); returns the metrics dictionary the command prints.
 
     ``progress(n, stage)``, if given, is called as work is done: ``n`` static poses solved (stage "static poses"),
-    then one step each for "gravity" and "time offset" (:func:`session_steps` counts them).
+    then one step each for "gravity" and "time offset" (``session_steps`` counts them).
 
     Raises
     ------

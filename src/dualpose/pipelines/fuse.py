@@ -91,7 +91,7 @@ class FuseResult:
         ``position_rmse_unaligned_m`` and ``orientation_rmse_unaligned_deg`` (in the recording's world frame, no
         alignment -- the SE(3) alignment fitted to the positions adds attitude error), the innovation
         summary and the full evaluation statistics under ``evaluation``.  Without ground truth the metrics in
-        :data:`TRUTH_METRICS` and ``evaluation`` are None.
+        ``TRUTH_METRICS`` and ``evaluation`` are None.
     position_error : ndarray, shape (K, 3), or None
         Estimate minus truth at the matched poses, world frame, m (no alignment).
     orientation_error_deg : ndarray, shape (K,), or None
@@ -206,7 +206,7 @@ def run_fuse(
         evaluate).
     smooth : bool
         Also run the RTS smoother over the filtered run (``filter="eskf"`` only) and report its metrics under
-        ``metrics["smoothed"]`` (see :func:`_smoothed_metrics`).
+        ``metrics["smoothed"]`` (see ``_smoothed_metrics``).
 
     Returns
     -------

@@ -21,8 +21,10 @@ __all__ = ["PoseBatch", "register_pose_batch"]
 class PoseBatch:
     """Result of :func:`register_pose_batch`: ``B`` transforms model -> measured, ``p̃ ≈ s R p⁰ + t``.
 
-    Attributes (arrays over the batch axis)
-    ----------------------------------------
+    The attributes are arrays over the batch axis.
+
+    Attributes
+    ----------
     quat : ndarray (B, 4)
         Rotations, xyzw, ``w >= 0``.
     translation : ndarray (B, 3)

@@ -415,6 +415,16 @@ def register_pose(
         fewer correspondences than needed to fix a rotation (3 points, 1 point + 2 directions, 2 points + 1
         direction, or 2 directions).  Degenerate geometry (collinear, coincident points) is not an error: see
         ``PoseEstimate.degeneracy``.
+
+    Examples
+    --------
+    >>> import numpy as np, dualpose as dp
+    >>> from dualpose.registration import register_pose
+    >>> model = np.random.default_rng(0).normal(size=(5, 3))
+    >>> q = dp.quat_from_rotvec([0.1, 0.2, 0.3])
+    >>> est = register_pose(model, dp.quat_rotate(q, model) + [1.0, 0.0, 0.0])
+    >>> bool(np.allclose(est.quat, q)), est.translation.round(12) + 0.0
+    (True, array([1., 0., 0.]))
     """
     code = method_code(method)
     if _plain_points(model_points, measured_points) and (

@@ -61,7 +61,7 @@ ACCELEROMETER_RANDOM_WALK = 3.0e-3
 #: the reference: of the factors {1, 3, 10, 30, 100}, the one whose lowest camera-NIS coverage over the seven trials
 #: is closest to the nominal 95 % (0.945; ×10 and ×100 give 0.934); the sweep is tabulated in docs/broad-pose.md
 NOISE_INFLATION = 30.0
-#: m/s², accelerometer turn-on bias σ (consumer MEMS: ~0.1 m/s²; BROAD's static |a| is 9.82–9.91 m/s²)
+#: m/s², accelerometer turn-on bias σ (consumer MEMS: ~0.1 m/s²; BROAD's static ``|a|`` is 9.82–9.91 m/s²)
 ACCELEROMETER_INITIAL_BIAS_SIGMA = 0.1
 #: s, the IMU stamps lag the optical reference: the gyro stamped t measured the rotation the reference shows at
 #: t − 4.1 ms (least-squares fit of the gyro to the reference's angular rate over 0.25 ms steps: 4.0–4.25 ms in all

@@ -31,7 +31,7 @@ __all__ = [
 
 
 def static_motion(q_wb: np.ndarray, p_wb: np.ndarray, duration: float) -> motion.SmoothMotion:
-    """A :class:`~dualpose.motion.SmoothMotion` at rest at body pose ``(q_wb (4,) xyzw, p_wb (3,) m)``."""
+    """A :class:`~dualpose.sim.motion.SmoothMotion` at rest at body pose ``(q_wb (4,) xyzw, p_wb (3,) m)``."""
     z = np.zeros((1, 3))
     return motion.SmoothMotion(
         p0=np.asarray(p_wb, float), q0=np.asarray(q_wb, float), pos_amp=z, pos_harm=np.ones(1), pos_phase=z,
@@ -74,11 +74,11 @@ def simulate_static_poses(
     pose_seed: int | None = None,
     **simulate_kwargs,
 ) -> list[camera_imu.SimulatedRun]:
-    """One :class:`~dualpose.camera_imu.SimulatedRun` at rest per pose of :func:`calibration_camera_poses`.
+    """One :class:`~dualpose.sim.camera_imu.SimulatedRun` at rest per pose of :func:`calibration_camera_poses`.
 
     Each lasts ``duration`` s.  Poses are seeded by ``pose_seed`` (default ``seed``), sensor noise by
     ``seed * 1000 + k``: a fixed ``pose_seed`` and varying ``seed`` is a Monte-Carlo run over one geometry.
-    ``simulate_kwargs`` go to :func:`dualpose.camera_imu.simulate` (e.g. ``imu_noise``, ``pixel_sigma``,
+    ``simulate_kwargs`` go to :func:`dualpose.sim.camera_imu.simulate` (e.g. ``imu_noise``, ``pixel_sigma``,
     ``gravity_misalignment_deg``).  The IMU's turn-on biases are drawn once (seeded by ``seed``, with the
     ``imu_noise`` turn-on sigmas) and shared by all poses, as in one calibration session; the bias random walk and
     white noise are independent per pose.

@@ -131,7 +131,8 @@ def simulate(
     motion : SmoothMotion
         Body (IMU) motion; its ``duration`` sets the run length.
     imu_noise : ImuNoise, optional
-        Defaults to :class:`ImuNoise()` (Xsens-MTx-like); ``ImuNoise().scaled(0)`` is noise- and bias-free.
+        Defaults to ``ImuNoise()`` (:class:`~dualpose.types.imu.ImuNoise`, Xsens-MTx-like);
+        ``ImuNoise().scaled(0)`` is noise- and bias-free.
     camera_rate, camera_phase : float
         Frames are captured at IMU-clock times ``camera_phase + k / camera_rate`` (Hz, s); the phase need not align
         with the IMU samples.

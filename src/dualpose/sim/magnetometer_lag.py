@@ -1,7 +1,7 @@
 """An analytic tumbling IMU recording whose magnetometer lags the gyroscope by a known time (for time-offset tests).
 
 The body orientation is an analytic function of time (a rotation vector made of sinusoids of ~1 rad at 0.2-0.9 Hz:
-|ω| up to ~5 rad/s, like hand-held fast rotation), so the magnetometer can be sampled exactly at ``t − lag`` and the
+``|ω|`` up to ~5 rad/s, like hand-held fast rotation), so the magnetometer can be sampled exactly at ``t − lag`` and the
 gyroscope's body rate is the analytic ``2 q* ⊗ q̇`` (central difference with a 1 µs step, error ~1e-10 rad/s): the
 truth does not depend on any estimator's model.  Used by ``tests/calibration/test_sensor_time_offset.py`` and
 ``benchmarks/bench_mag_lag_online.py`` (docs/broad.md, "Magnetometer–gyroscope time offset").

@@ -5,7 +5,7 @@ The shape of BROAD's "slow rotation with three breaks of 10 seconds" trials (Lai
 then segments of slow rotation separated by breaks in which the IMU is still.  The orientation is an analytic
 function of a *motion clock* ``u(t)`` that advances at speed 1 inside a segment, ramps up and down smoothly over
 ``ramp`` seconds at its ends (``u̇ = sin²``) and stands still in the breaks: ``q(t) = Exp(φ(u(t)))`` with ``φ`` a sum
-of sinusoids (rotation vector of ~1–2 rad at 0.03–0.05 Hz: |ω| up to ~25 °/s).  The gyroscope reads the body rate
+of sinusoids (rotation vector of ~1–2 rad at 0.03–0.05 Hz: ``|ω|`` up to ~25 °/s).  The gyroscope reads the body rate
 ``2 Im(q* ⊗ q̇)`` at the middle of each sampling interval (central difference with a 1 µs step), which is the rate
 that, held over the interval, carries ``q_{k−1}`` to ``q_k`` to second order; in the breaks it is exactly zero.
 The gyroscope bias is ``b0 + drift · t / duration`` plus a random walk of density ``bias_walk`` (MEMS class, the

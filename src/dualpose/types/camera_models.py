@@ -50,7 +50,7 @@ __all__ = [
     "CAMERA_MODEL_NAMES",
 ]
 
-#: largest accepted residual of an undistorted point, in distorted normalised units (|distort(x) - x_d|, max norm)
+#: largest accepted residual of an undistorted point, in distorted normalised units (``|distort(x) - x_d|``, max norm)
 UNDISTORT_TOLERANCE = 1e-12
 #: Newton's iterations before a point counts as not converged; a step below 1e-14 (normalised units / radians)
 #: ends the iteration for that point (``src/native/common/camera_models.hpp``)

@@ -16,6 +16,7 @@ from dualpose import _native
 __all__ = [
     "MEMS_GYRO_BIAS_RANDOM_WALK",
     "MEMS_GYRO_TURN_ON_BIAS",
+    "REST_BIAS_SIGMA",
     "AhrsNoise",
     "AhrsConfig",
     "RestStatistics",

@@ -1,10 +1,10 @@
 """Offline AHRS: a Rauch–Tung–Striebel smoother over the error-state model of :mod:`dualpose.estimation.ahrs`.
 
-The forward pass is the AHRS itself (the same compiled per-sample step, :func:`~dualpose.estimation.ahrs.
-estimate_orientation`); the backward pass (Rauch, Tung & Striebel 1965; Särkkä 2013, "Bayesian Filtering and
-Smoothing", §8, Thm 8.2) runs over the stored filtered states ``x_{k|k}, P_{k|k}``, the predictions
-``x_{k+1|k}, P_{k+1|k}`` and the transitions ``F_k = [[I, −R̂_k dt], [0, I]]`` of the global attitude error
-``q = Exp(δθ) ⊗ q̂`` (Solà 2017, §5 and §7):
+The forward pass is the AHRS itself (the same compiled per-sample step,
+:func:`~dualpose.estimation.ahrs.estimate_orientation`); the backward pass (Rauch, Tung & Striebel 1965; Särkkä
+2013, "Bayesian Filtering and Smoothing", §8, Thm 8.2) runs over the stored filtered states ``x_{k|k}, P_{k|k}``,
+the predictions ``x_{k+1|k}, P_{k+1|k}`` and the transitions ``F_k = [[I, −R̂_k dt], [0, I]]`` of the global attitude
+error ``q = Exp(δθ) ⊗ q̂`` (Solà 2017, §5 and §7):
 
 * ``μ = x^s_{k+1} ⊖ x_{k+1|k} = [Log(q^s_{k+1} ⊗ q_{k+1|k}*), b^s_{k+1} − b_{k+1|k}]``;
 * ``G_k = P_{k|k} F_kᵀ P_{k+1|k}⁻¹`` (a linear solve), ``δ = G_k μ``,
