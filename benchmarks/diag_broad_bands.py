@@ -50,7 +50,7 @@ def band_rms(e: np.ndarray, mask: np.ndarray, rate: float) -> tuple[float, list[
     spec = np.fft.rfft(x, axis=0)
     f = np.fft.rfftfreq(len(x), 1.0 / rate)
     out = []
-    for lo, hi in zip(EDGES[:-1], EDGES[1:]):
+    for lo, hi in zip(EDGES[:-1], EDGES[1:], strict=True):
         part = np.fft.irfft(np.where(((f >= lo) & (f < hi))[:, None], spec, 0.0), n=len(x), axis=0)[mask]
         out.append(float(np.sqrt(np.mean(np.sum(part**2, axis=1)))))
     return float(np.sqrt(np.mean(np.sum(e[mask] ** 2, axis=1)))), out
@@ -69,7 +69,7 @@ def main() -> int:
         print(f"no BROAD file for trial(s) {', '.join(missing)} in {DATA}", file=sys.stderr)
         return 1
     head = " | ".join(f"{lo:.2g}–{hi:.2g} Hz" if np.isfinite(hi) else f"> {lo:.2g} Hz" for lo, hi in
-                      zip(EDGES[:-1], EDGES[1:]))  # fmt: skip
+                      zip(EDGES[:-1], EDGES[1:], strict=True))  # fmt: skip
     lines = [f"| trial | method | inclination (°) | {head} |", "|---|---|---:|" + "---:|" * (len(EDGES) - 1)]
     for k in args.trials:
         t = load_broad(files[k])
