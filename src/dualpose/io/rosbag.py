@@ -53,6 +53,7 @@ import numpy as np
 
 import dualpose as dp
 from dualpose.io._text import check_path
+from dualpose.io.broad import BroadTrial
 from dualpose.io.euroc import ImuData
 from dualpose.types.trajectory import Trajectory, interpolate_poses, seconds_from_ns
 
@@ -66,6 +67,7 @@ __all__ = [
     "read_bag_trajectory",
     "read_bag_imu",
     "read_bag_magnetic_field",
+    "read_bag_imu_trial",
     "write_trajectory_bag",
 ]
 
@@ -377,9 +379,7 @@ def _xyz(v) -> list[float]:
     return [v.x, v.y, v.z]
 
 
-def _read_records(
-    bag: _Bag, conns: list, msgtype: str, where: str, parse
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _read_records(bag: _Bag, conns: list, msgtype: str, where: str, parse) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Receive ns (N,), header ns (N,) and the parsed values (N, k) of all messages of ``conns``."""
     recv, head, vals = [], [], []
     first = None
@@ -547,6 +547,63 @@ def read_bag_magnetic_field(
     ns = _stamps(recv, head, stamps, str(src), True)
     _finite(vals, src, "magnetic_field")
     return ns, vals
+
+
+def read_bag_imu_trial(
+    source: str | os.PathLike | BagSource,
+    mag_source: str | os.PathLike | BagSource | None = None,
+    *,
+    stamps: Stamps = "header",
+    rest_seconds: float = 1.0,
+) -> BroadTrial:
+    """An IMU topic (and a magnetometer topic) of a bag as the :class:`~dualpose.io.broad.BroadTrial` the AHRS
+    (``dualpose ahrs``) runs on, without a reference orientation.
+
+    Parameters
+    ----------
+    source : str, path-like or BagSource
+        ``BAG:/topic`` of ``sensor_msgs/Imu`` messages (:func:`read_bag_imu`).
+    mag_source : str, path-like, BagSource or None
+        ``BAG:/topic`` (or ``/topic`` of the same bag) of ``sensor_msgs/MagneticField`` messages; linearly
+        interpolated at the IMU stamps and converted from tesla to µT.  IMU samples outside the magnetometer's time
+        span are dropped.  None: a 6D trial (``has_mag`` False, ``mag`` NaN).
+    stamps : {"header", "receive"}
+        As :func:`read_bag_trajectory`.
+    rest_seconds : float
+        The leading seconds at rest that initialise the filter: the samples before are the trial's static start
+        (``movement`` False), the rest its movement phase.
+
+    Returns
+    -------
+    BroadTrial
+        ``rate`` = 1 / median IMU sample interval (Hz); ``gyr`` rad/s, ``acc`` m/s², ``mag`` µT in IMU axes;
+        ``quat`` and ``pos`` NaN (no reference); ``name`` the source text.
+    """
+    if not (isinstance(rest_seconds, (int, float)) and np.isfinite(rest_seconds) and rest_seconds >= 0):
+        raise ValueError(f"rest_seconds must be a finite number >= 0; got {rest_seconds!r}")
+    src = _source(source)
+    imu = read_bag_imu(src, stamps=stamps)
+    ns, gyr, acc = imu.stamps_ns, imu.gyro, imu.accel
+    mag = np.full_like(gyr, np.nan)
+    if mag_source is not None:
+        if isinstance(mag_source, str) and mag_source.startswith("/"):
+            mag_source = BagSource(src.path, mag_source)
+        msrc = _source(mag_source)
+        mns, field = read_bag_magnetic_field(msrc, stamps=stamps)
+        keep = (ns >= mns[0]) & (ns <= mns[-1])
+        if keep.sum() < 2:
+            raise BagError(f"{msrc}: the magnetometer messages do not overlap the IMU messages of {src} in time")
+        ns, gyr, acc = ns[keep], gyr[keep], acc[keep]
+        t, tm = (ns - ns[0]) * 1e-9, (mns - ns[0]) * 1e-9
+        mag = np.stack([np.interp(t, tm, field[:, i]) for i in range(3)], axis=1) * 1e6
+    t = (ns - ns[0]) * 1e-9
+    rate = 1.0 / float(np.median(np.diff(t)))
+    n = ns.shape[0]
+    return BroadTrial(
+        name=str(src), rate=rate, gyr=gyr, acc=acc, mag=mag, quat=np.full((n, 4), np.nan), pos=np.full((n, 3), np.nan),
+        movement=t >= rest_seconds, info=f"IMU from {src}" + (f", magnetometer {mag_source}" if mag_source else ""),
+        has_mag=mag_source is not None,
+    )  # fmt: skip
 
 
 def _finite(vals: np.ndarray, src: BagSource, what: str) -> None:
