@@ -86,7 +86,7 @@ _MAG = "sensor_msgs/msg/MagneticField"
 _TRAJECTORY_TYPES = (_POSE, _POSE_COV, _TRANSFORM, _ODOMETRY)
 
 #: messages parsed per block (bounds the temporary memory next to the output arrays)
-_BLOCK = 1 << 16
+_BLOCK = 1 << 14
 
 
 class BagError(ValueError):
@@ -380,23 +380,41 @@ def _xyz(v) -> list[float]:
 
 
 def _read_records(bag: _Bag, conns: list, msgtype: str, where: str, parse) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Receive ns (N,), header ns (N,) and the parsed values (N, k) of all messages of ``conns``."""
-    recv, head, vals = [], [], []
+    """Receive ns (N,), header ns (N,) and the parsed values (N, k) of all messages of ``conns``.
+
+    The outputs are allocated once from the bag's message counts and filled block by block (peak memory: the
+    outputs and one block); a count the bag got wrong only costs a copy."""
+    total = sum(max(int(getattr(c, "msgcount", 0) or 0), 0) for c in conns)
+    recv = np.empty(total, np.int64)
+    head = np.empty(total, np.int64)
+    vals: np.ndarray | None = None
+    extra: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     first = None
+    n = 0
     for times, raws in bag.blocks(conns):
         buf, starts, ends = _raw_block(raws)
         if first is None:
             first = raws[0]
         f = _Fields(buf, starts, ends, bag.is2, where, msgtype.replace("/msg/", "/"))
         stamps, values = parse(f)
-        recv.append(times)
-        head.append(stamps)
-        vals.append(values)
-        del raws, buf
-    if first is None:
+        del raws, buf, f
+        if vals is None:
+            vals = np.empty((total, values.shape[1]))
+        m = min(len(times), max(total - n, 0))
+        recv[n : n + m], head[n : n + m], vals[n : n + m] = times[:m], stamps[:m], values[:m]
+        if m < len(times):
+            extra.append((times[m:], stamps[m:], values[m:]))
+        n += len(times)
+    if first is None or vals is None:
         raise BagError(f"{where}: the topic has no messages")
-    _check_first(bag, first, msgtype, np.concatenate([[head[0][0]], vals[0][0]]), where)
-    return _cat(recv), _cat(head), _cat(vals)
+    if n < total:
+        recv, head, vals = recv[:n], head[:n], vals[:n]
+    if extra:
+        recv = np.concatenate([recv, *(e[0] for e in extra)])
+        head = np.concatenate([head, *(e[1] for e in extra)])
+        vals = np.concatenate([vals, *(e[2] for e in extra)])
+    _check_first(bag, first, msgtype, np.concatenate([[head[0]], vals[0]]), where)
+    return recv, head, vals
 
 
 def _cat(parts: list[np.ndarray]) -> np.ndarray:
