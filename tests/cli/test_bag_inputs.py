@@ -118,3 +118,21 @@ def test_ahrs_on_an_imu_bag(tmp_path, capsys):
     assert main(["ahrs", f"{bag}:/mag", "--no-mag"]) == 1
     assert "message type sensor_msgs/MagneticField does not hold IMU samples" in capsys.readouterr().err
     assert main(["ahrs", str(tmp_path / "x.mat"), "--mag-topic", "/mag"]) == 2
+
+
+def test_fuse_out_bag_writes_the_estimate(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["fuse", "--out", str(out), "--out-bag", "mcap", "--json"]) == 0
+    capsys.readouterr()
+    from dualpose.io import read_tum
+    from dualpose.io.rosbag import read_bag_trajectory
+
+    tum = read_tum(out / "trajectory.tum")
+    bag = read_bag_trajectory(f"{out / 'trajectory.mcap'}:/dualpose/pose")
+    np.testing.assert_array_equal(bag.positions, tum.positions)
+    np.testing.assert_array_equal(bag.quats, tum.quats)
+    np.testing.assert_allclose(bag.stamps, tum.stamps, atol=1e-9)
+    assert main(["fuse", "--out", str(out), "--out-bag", "mcap"]) == 2  # never replaced without --force
+    assert "file exists" in capsys.readouterr().err
+    assert main(["fuse", "--out-bag", "bag"]) == 2
+    assert "--out-bag writes into the --out directory" in capsys.readouterr().err
