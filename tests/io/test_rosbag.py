@@ -224,10 +224,63 @@ def test_errors_name_bag_and_topic(mixed_bag):
 
 
 def test_not_a_bag(tmp_path):
-    bad = tmp_path / "broken.bag"
-    bad.write_bytes(b"#ROSBAG V2.0\nthis is not a bag")
-    with pytest.raises(BagError, match=r"broken\.bag: cannot read the bag"):
-        read_bag_trajectory(f"{bad}:/x")
+    for name, data, message in (
+        ("broken.bag", b"#ROSBAG V2.0\nthis is not a bag", r"broken\.bag: no bag header record"),
+        ("old.bag", b"#ROSBAG V1.2\n", r"old\.bag: not a ROS 1 bag of format 2\.0"),
+        ("empty.bag", b"", r"empty\.bag: not a ROS 1 bag"),
+        ("broken.mcap", b"not an mcap file at all", r"broken\.mcap: cannot read the bag"),
+    ):
+        (tmp_path / name).write_bytes(data)
+        with pytest.raises(BagError, match=message):
+            read_bag_trajectory(f"{tmp_path / name}:/x")
+
+
+@pytest.mark.parametrize("compression", ["bz2", "lz4"])
+def test_compressed_ros1_chunks_and_two_connections_on_one_topic(tmp_path, rng, compression):
+    """ROS 1 chunks compressed with bz2 / lz4, small chunks, and two connections (publishers) on one topic whose
+    messages interleave in time: the poses in receive-time order, as rosbags' reader gives them."""
+    from rosbags.rosbag1 import Writer
+
+    m = _Msgs(True)
+    path = tmp_path / f"c_{compression}.bag"
+    n = 300
+    vals = _values(rng, n)
+    recv = T0 + rng.permutation(n).astype(np.int64) * 1000
+    writer = Writer(path)
+    writer.set_compression(getattr(Writer.CompressionFormat, compression.upper()))
+    writer.chunk_threshold = 2000  # many chunks
+    with writer:
+        a = writer.add_connection("/pose", "geometry_msgs/msg/PoseStamped", typestore=m.store, callerid="/a")
+        b = writer.add_connection("/pose", "geometry_msgs/msg/PoseStamped", typestore=m.store, callerid="/b")
+        for k in np.argsort(recv):
+            msg = m.make("geometry_msgs/msg/PoseStamped", recv[k], "w" * (k % 3), vals[k])
+            writer.write(a if k % 2 else b, int(recv[k]), m.serialize(msg, "geometry_msgs/msg/PoseStamped"))
+    ref = deserialized(path, "/pose")
+    tr = read_bag_trajectory(f"{path}:/pose", stamps="receive")
+    np.testing.assert_array_equal(tr.stamps_ns, [t for t, _ in ref])
+    np.testing.assert_array_equal(tr.positions[:, 0], [msg.pose.position.x for _, msg in ref])
+    np.testing.assert_array_equal(tr.quats[:, 3], [msg.pose.orientation.w for _, msg in ref])
+    np.testing.assert_array_equal(tr.stamps_ns, np.sort(recv))
+
+
+def test_a_type_with_the_standard_name_but_another_layout_is_refused(tmp_path):
+    """A ROS 1 connection whose definition (md5sum) is not the standard geometry_msgs/PoseStamped's is refused
+    rather than misread, even when its messages are long enough to parse; a too short one is refused too."""
+    from rosbags.rosbag1 import Writer
+
+    text = "std_msgs/Header header\nfloat64[7] x"
+    path = tmp_path / "odd.bag"
+    with Writer(path) as writer:
+        msgdef = text + "\n" + "=" * 80 + "\nMSG: std_msgs/Header\nuint32 seq\ntime stamp\nstring frame_id\n"
+        conn = writer.add_connection("/pose", "geometry_msgs/msg/PoseStamped", msgdef=msgdef, md5sum="0" * 32)
+        writer.write(conn, T0, bytes(4 + 8 + 4 + 56))
+        short = writer.add_connection("/short", "geometry_msgs/msg/PoseStamped", msgdef=msgdef, md5sum="0" * 32)
+        writer.write(short, T0, bytes(4 + 8 + 4 + 4))
+    with pytest.raises(BagError, match=r"odd\.bag:/pose: the geometry_msgs/PoseStamped messages do not have the "
+                                       r"standard layout \(md5sum 0{32}"):  # fmt: skip
+        read_bag_trajectory(f"{path}:/pose")
+    with pytest.raises(BagError, match=r"odd\.bag:/short: message 0 is shorter than a geometry_msgs/PoseStamped"):
+        read_bag_trajectory(f"{path}:/short")
 
 
 def test_parse_bag_source(tmp_path):

@@ -187,7 +187,12 @@ def _rosbags():
 
 
 class _Bag:
-    """An open bag (rosbags' AnyReader) with the error messages of this module."""
+    """An open ROS 2 bag (rosbags' AnyReader) with the error messages of this module."""
+
+    def __new__(cls, path: Path):
+        if cls is _Bag and path.suffix.lower() == ".bag" and path.is_file():
+            return object.__new__(_Ros1Bag)
+        return object.__new__(cls)
 
     def __init__(self, path: Path) -> None:
         AnyReader, AnyReaderError = _rosbags()
@@ -221,7 +226,7 @@ class _Bag:
         ``types``."""
         if topic is None:
             raise BagError(f"{self.path}: name the topic of the {what}: {self.path}:/TOPIC; {self.listing()}")
-        conns = [c for c in self.reader.connections if c.topic == topic]
+        conns = [c for c in self.all_connections() if c.topic == topic]
         if not conns:
             raise BagError(f"{self.path}: no topic {topic}; {self.listing()}")
         bad = sorted({c.msgtype for c in conns} - set(types))
@@ -233,8 +238,12 @@ class _Bag:
             )
         return conns
 
+    def all_connections(self) -> list:
+        return list(self.reader.connections)
+
     def blocks(self, conns: list):
-        """(receive ns, raw messages) of ``conns`` in bag order, in blocks of at most ``_BLOCK`` messages."""
+        """(receive ns, buffer, starts, ends, first raw message) of ``conns`` in bag order, in blocks of at most
+        ``_BLOCK`` messages: message k of a block is ``buffer[starts[k]:ends[k]]``."""
         gen = self.reader.messages(connections=conns)
         while True:
             batch = list(islice(gen, _BLOCK))
@@ -242,7 +251,200 @@ class _Bag:
                 return
             _, times, raws = zip(*batch, strict=True)
             del batch
-            yield np.fromiter(times, np.int64, len(times)), raws
+            sizes = np.fromiter(map(len, raws), np.int64, len(raws))
+            ends = np.cumsum(sizes)
+            buf = np.frombuffer(b"".join(raws), np.uint8)
+            yield np.fromiter(times, np.int64, len(times)), buf, ends - sizes, ends, raws[0]
+
+    def verify(self, conns: list, msgtype: str, first: bytes, values: np.ndarray, where: str) -> None:
+        """Compare the values parsed from the first message with rosbags' own deserializer."""
+        _check_first(self.reader.deserialize(first, msgtype), msgtype, values, where)
+
+
+@dataclass(frozen=True)
+class _Conn1:
+    """A connection of a ROS 1 bag (its connection record)."""
+
+    id: int
+    topic: str
+    msgtype: str
+    md5sum: str
+    msgcount: int
+
+
+_INDEX_ENTRY = np.dtype([("sec", "<u4"), ("nsec", "<u4"), ("offset", "<u4")])
+
+
+class _Ros1Bag(_Bag):
+    """An open ROS 1 bag (format 2.0) read with NumPy: the connection and chunk-info records at the index position,
+    then per chunk its index-data records (fixed-size ``time, offset`` entries: NumPy arrays) and the chunk's
+    message records at those offsets.  No per-message Python object; compression none, bz2 or lz4 (rosbags'
+    dependencies).  Record layout: the ROS bag format 2.0 (wiki.ros.org/Bags/Format/2.0)."""
+
+    def __init__(self, path: Path) -> None:
+        _rosbags()
+        self.path = path
+        self.is2 = False
+        try:
+            self.file = open(path, "rb")
+        except OSError as exc:
+            raise BagError(f"{path}: cannot read the bag ({exc.strerror or exc})") from None
+        try:
+            self._read_index()
+        except BagError:
+            self.file.close()
+            raise
+        except (OSError, ValueError, KeyError, IndexError) as exc:
+            self.file.close()
+            raise BagError(f"{path}: cannot read the bag ({exc})") from None
+
+    def __exit__(self, *exc: object) -> None:
+        self.file.close()
+
+    def _record(self) -> tuple[dict[str, bytes], int, int]:
+        """The header fields of the record at the file position, its data position and length (data not read)."""
+        head = self.file.read(4)
+        if len(head) < 4:
+            raise BagError(f"{self.path}: truncated bag (a record expected at byte {self.file.tell() - len(head)})")
+        raw = self.file.read(int.from_bytes(head, "little"))
+        fields, i = {}, 0
+        while i + 4 <= len(raw):
+            n = int.from_bytes(raw[i : i + 4], "little")
+            key, _, value = raw[i + 4 : i + 4 + n].partition(b"=")
+            fields[key.decode("ascii", "replace")] = value
+            i += 4 + n
+        size = int.from_bytes(self.file.read(4), "little")
+        return fields, self.file.tell(), size
+
+    def _data(self, pos: int, size: int) -> bytes:
+        self.file.seek(pos)
+        data = self.file.read(size)
+        if len(data) != size:
+            raise BagError(f"{self.path}: truncated bag (record data at byte {pos})")
+        return data
+
+    def _read_index(self) -> None:
+        if self.file.read(13) != b"#ROSBAG V2.0\n":
+            raise BagError(f"{self.path}: not a ROS 1 bag of format 2.0 (no '#ROSBAG V2.0' line)")
+        head, _, _ = self._record()
+        if head.get("op") != b"\x03":
+            raise BagError(f"{self.path}: no bag header record")
+        index_pos = int.from_bytes(head["index_pos"], "little")
+        n_conns = int.from_bytes(head["conn_count"], "little")
+        n_chunks = int.from_bytes(head["chunk_count"], "little")
+        if index_pos == 0:
+            raise BagError(f"{self.path}: the bag has no index (not closed properly): run 'rosbag reindex' on it")
+        self.file.seek(index_pos)
+        conns: dict[int, tuple[str, str, str]] = {}
+        self.chunks: list[tuple[int, dict[int, int]]] = []
+        for _ in range(n_conns + n_chunks):
+            head, pos, size = self._record()
+            data = self._data(pos, size)
+            if head.get("op") == b"\x07":
+                info, i = {}, 0
+                while i + 4 <= len(data):
+                    n = int.from_bytes(data[i : i + 4], "little")
+                    key, _, value = data[i + 4 : i + 4 + n].partition(b"=")
+                    info[key.decode("ascii", "replace")] = value
+                    i += 4 + n
+                msgtype = info["type"].decode()
+                if "/msg/" not in msgtype:
+                    msgtype = msgtype.replace("/", "/msg/", 1)
+                cid = int.from_bytes(head["conn"], "little")
+                conns[cid] = (head["topic"].decode(), msgtype, info["md5sum"].decode())
+            elif head.get("op") == b"\x06":
+                counts = np.frombuffer(data, "<u4").reshape(-1, 2)
+                self.chunks.append((int.from_bytes(head["chunk_pos"], "little"), dict(counts.tolist())))
+            else:
+                self.file.seek(pos + size)
+        totals: dict[int, int] = {}
+        for _, counts in self.chunks:
+            for cid, n in counts.items():
+                totals[cid] = totals.get(cid, 0) + n
+        self.conns = [_Conn1(cid, t, m, h, totals.get(cid, 0)) for cid, (t, m, h) in sorted(conns.items())]
+
+    def all_connections(self) -> list:
+        return list(self.conns)
+
+    def topics(self) -> dict[str, str]:
+        return dict(sorted({c.topic: c.msgtype for c in self.conns}.items()))
+
+    def blocks(self, conns: list):
+        """(receive ns, chunk buffer, starts, ends, None) of the messages of ``conns`` chunk by chunk."""
+        ids = {c.id for c in conns}
+        for chunk_pos, counts in self.chunks:
+            if not ids & counts.keys():
+                continue
+            self.file.seek(chunk_pos)
+            head, pos, size = self._record()
+            if head.get("op") != b"\x05":
+                raise BagError(f"{self.path}: no chunk record at byte {chunk_pos}")
+            compression = head.get("compression", b"none").decode()
+            entries = []
+            self.file.seek(pos + size)
+            for _ in range(len(counts)):
+                ihead, ipos, isize = self._record()
+                if ihead.get("op") != b"\x04":
+                    raise BagError(f"{self.path}: no index-data record after the chunk at byte {chunk_pos}")
+                cid = int.from_bytes(ihead["conn"], "little")
+                if cid in ids:
+                    entries.append(np.frombuffer(self._data(ipos, isize), _INDEX_ENTRY))
+                    self.file.seek(ipos + isize)
+                else:
+                    self.file.seek(ipos + isize)
+            data = self._data(pos, size)
+            if compression == "bz2":
+                import bz2
+
+                data = bz2.decompress(data)
+            elif compression == "lz4":
+                from lz4.frame import decompress
+
+                data = decompress(data)
+            elif compression != "none":
+                raise BagError(f"{self.path}: chunk compression {compression!r} (known: none, bz2, lz4)")
+            index = np.concatenate(entries) if len(entries) > 1 else entries[0]
+            recv = index["sec"].astype(np.int64) * 1_000_000_000 + index["nsec"]
+            if len(entries) > 1:
+                order = np.argsort(recv, kind="stable")
+                index, recv = index[order], recv[order]
+            buf = np.frombuffer(data, np.uint8)
+            off = index["offset"].astype(np.int64)
+            header_len = _u32_at(buf, off, self.path)
+            data_at = off + 4 + header_len
+            size_msg = _u32_at(buf, data_at, self.path)
+            starts = data_at + 4
+            ends = starts + size_msg
+            if ends.max(initial=0) > buf.shape[0]:
+                raise BagError(f"{self.path}: a message record runs past its chunk (byte {chunk_pos}): corrupt bag")
+            yield recv, buf, starts, ends, None
+
+    def verify(self, conns: list, msgtype: str, first: bytes | None, values: np.ndarray, where: str) -> None:
+        """The connections' md5 sums (of the message definitions) must be the standard type's."""
+        want = _ros1_md5(msgtype)
+        bad = [c for c in conns if c.md5sum != want]
+        if bad:
+            raise BagError(f"{where}: the {msgtype.replace('/msg/', '/')} messages do not have the standard layout "
+                           f"(md5sum {bad[0].md5sum}, the standard definition's is {want}); not read")  # fmt: skip
+
+
+def _u32_at(buf: np.ndarray, pos: np.ndarray, path: Path) -> np.ndarray:
+    """The little-endian uint32 at byte ``pos[i]`` of ``buf``, int64 (n,)."""
+    if pos.shape[0] and (pos.min() < 0 or pos.max() + 4 > buf.shape[0]):
+        raise BagError(f"{path}: an index entry points outside its chunk: corrupt bag")
+    return np.ascontiguousarray(buf[pos[:, None] + np.arange(4)]).view("<u4")[:, 0].astype(np.int64)
+
+
+def _ros1_md5(msgtype: str) -> str:
+    """md5sum of the standard ROS 1 definition of ``msgtype`` (rosbags' Noetic type store)."""
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    if msgtype not in store.types and msgtype in _TF:
+        from rosbags.typesys import get_types_from_msg
+
+        store.register(get_types_from_msg("geometry_msgs/TransformStamped[] transforms", msgtype))
+    return store.generate_msgdef(msgtype)[1]
 
 
 def bag_topics(path: str | os.PathLike) -> dict[str, str]:
@@ -268,8 +470,7 @@ class _Fields:
         self.origin = starts + 4 if cdr else starts
         self.pos = self.origin.copy()
         n = starts.shape[0]
-        size = ends - starts
-        self.uniform = n > 0 and bool((size == size[0]).all()) and buf.shape[0] == n * int(size[0])
+        self.uniform = n > 1 and bool((np.diff(starts) == starts[1] - starts[0]).all())
         if cdr and n:
             self._check(self.origin)
             little = self.take(starts + 1, 1)[:, 0] & 1
@@ -298,11 +499,14 @@ class _Fields:
             self.pos = self.origin + (self.pos - self.origin + size - 1) // size * size
 
     def take(self, pos: np.ndarray, nbytes: int) -> np.ndarray:
-        """Bytes ``pos[i]:pos[i] + nbytes`` of every message, uint8 (n, nbytes)."""
-        if self.uniform and pos.shape[0] and bool((pos - self.starts == pos[0] - self.starts[0]).all()):
-            size = int(self.ends[0] - self.starts[0])
-            d = int(pos[0] - self.starts[0])
-            return self.buf.reshape(-1, size)[:, d : d + nbytes]
+        """Bytes ``pos[i]:pos[i] + nbytes`` of every message, uint8 (n, nbytes): a strided view of the buffer when
+        the offsets are evenly spaced (messages of one layout, back to back or in equal records), else gathered."""
+        n = pos.shape[0]
+        if self.uniform and n > 1:
+            step = int(pos[1] - pos[0])
+            if step > 0 and bool((np.diff(pos) == step).all()):
+                view = self.buf[int(pos[0]) : int(pos[-1]) + nbytes]
+                return np.lib.stride_tricks.as_strided(view, (n, nbytes), (step, 1), writeable=False)
         return self.buf[pos[:, None] + np.arange(nbytes)]
 
     def read(self, dtype: str, count: int = 1) -> np.ndarray:
@@ -338,13 +542,6 @@ class _Fields:
         return sec * 1_000_000_000 + nsec
 
 
-def _raw_block(raws: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    sizes = np.fromiter(map(len, raws), np.int64, len(raws))
-    ends = np.cumsum(sizes)
-    buf = np.frombuffer(b"".join(raws), np.uint8)
-    return buf, ends - sizes, ends
-
-
 def _pose_fields(f: _Fields, msgtype: str) -> tuple[np.ndarray, np.ndarray]:
     """Header stamps (n,) ns and the 7 pose values ``x y z qx qy qz qw`` (n, 7) of trajectory messages."""
     stamps = f.header()
@@ -353,9 +550,8 @@ def _pose_fields(f: _Fields, msgtype: str) -> tuple[np.ndarray, np.ndarray]:
     return stamps, f.read("<f8", 7)
 
 
-def _check_first(bag: _Bag, raw: bytes, msgtype: str, values: np.ndarray, where: str) -> None:
-    """Compare the values parsed from the first message with rosbags' own deserializer."""
-    msg = bag.reader.deserialize(raw, msgtype)
+def _check_first(msg: object, msgtype: str, values: np.ndarray, where: str) -> None:
+    """Compare the values parsed from the first message (stamp ns, then the fields) with rosbags' message."""
     if msgtype == _IMU:
         ref = [*_xyz(msg.angular_velocity), *_xyz(msg.linear_acceleration)]
     elif msgtype == _MAG:
@@ -391,13 +587,12 @@ def _read_records(bag: _Bag, conns: list, msgtype: str, where: str, parse) -> tu
     extra: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     first = None
     n = 0
-    for times, raws in bag.blocks(conns):
-        buf, starts, ends = _raw_block(raws)
-        if first is None:
-            first = raws[0]
+    for times, buf, starts, ends, raw in bag.blocks(conns):
+        if n == 0:
+            first = raw
         f = _Fields(buf, starts, ends, bag.is2, where, msgtype.replace("/msg/", "/"))
         stamps, values = parse(f)
-        del raws, buf, f
+        del buf, f
         if vals is None:
             vals = np.empty((total, values.shape[1]))
         m = min(len(times), max(total - n, 0))
@@ -405,7 +600,7 @@ def _read_records(bag: _Bag, conns: list, msgtype: str, where: str, parse) -> tu
         if m < len(times):
             extra.append((times[m:], stamps[m:], values[m:]))
         n += len(times)
-    if first is None or vals is None:
+    if vals is None:
         raise BagError(f"{where}: the topic has no messages")
     if n < total:
         recv, head, vals = recv[:n], head[:n], vals[:n]
@@ -413,7 +608,10 @@ def _read_records(bag: _Bag, conns: list, msgtype: str, where: str, parse) -> tu
         recv = np.concatenate([recv, *(e[0] for e in extra)])
         head = np.concatenate([head, *(e[1] for e in extra)])
         vals = np.concatenate([vals, *(e[2] for e in extra)])
-    _check_first(bag, first, msgtype, np.concatenate([[head[0]], vals[0]]), where)
+    bag.verify(conns, msgtype, first, np.concatenate([[head[0]], vals[0]]), where)
+    if (np.diff(recv) < 0).any():  # chunks out of time order: bag order is receive-time order, as rosbags'
+        order = np.argsort(recv, kind="stable")
+        recv, head, vals = recv[order], head[order], vals[order]
     return recv, head, vals
 
 
@@ -638,8 +836,7 @@ def _tf_records(bag: _Bag, conns: list, where: str):
     and child frame ids (indices into the returned names), and the 7 values ``x y z qx qy qz qw``."""
     recv, head, offs, vals = [], [], [], []
     bufs: list[np.ndarray] = []
-    for times, raws in bag.blocks(conns):
-        buf, starts, ends = _raw_block(raws)
+    for times, buf, starts, ends, _ in bag.blocks(conns):
         f = _Fields(buf, starts, ends, bag.is2, where, "tf2_msgs/TFMessage")
         count = f.read("<u4")[:, 0].astype(np.int64)
         for k in range(int(count.max(initial=0))):
@@ -698,7 +895,7 @@ def _tf_chain(src: BagSource, stamps: str, strict: bool) -> tuple[np.ndarray, np
     where = str(src)
     with _Bag(src.path) as bag:
         types = bag.topics()
-        conns = [c for c in bag.reader.connections if c.topic in ("/tf", "/tf_static")]
+        conns = [c for c in bag.all_connections() if c.topic in ("/tf", "/tf_static")]
         if not conns:
             raise BagError(f"{src.path}: no /tf or /tf_static topic; {bag.listing()}")
         bad = sorted({c.msgtype for c in conns} - set(_TF))
