@@ -4,8 +4,9 @@ Camera-IMU recordings for ``dualpose fuse --data`` (:mod:`dualpose.io.recording`
 :func:`write_recording`; their sensor set-up with a filter start for ``dualpose fuse --stream --calibration``:
 :func:`read_sensor_setup`, :func:`write_sensor_setup`.  Point CSV files for ``dualpose register``:
 :mod:`dualpose.io.csv_points`.
-Pose streams ``t, x, y, z, qx, qy, qz, qw`` for ``dualpose calibrate hand-eye``: :func:`read_pose_csv`.  Import
-explicitly; ``import dualpose`` does not load this.
+Pose streams ``t, x, y, z, qx, qy, qz, qw`` for ``dualpose calibrate hand-eye``: :func:`read_pose_csv`.  ROS 1 and
+ROS 2 bags (``FILE.bag:/topic``, read by :func:`read_trajectory` and the IMU readers too): :mod:`dualpose.io.rosbag`
+(needs ``rosbags``, the extra ``dualpose[ros]``).  Import explicitly; ``import dualpose`` does not load this.
 
 Quaternions are returned xyzw (scalar last) whatever the file stores; EuRoC nanosecond timestamps are kept exact as
 int64.  Writers never replace an existing file unless ``overwrite=True``.

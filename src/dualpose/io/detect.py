@@ -100,11 +100,11 @@ def read_trajectory(
     ``ValueError``.
     """
     fmt = detect_format(path) if fmt is None else fmt
-    if fmt == "rosbag" and times is None:
-        return read_bag_trajectory(path, stamps=bag_time)
-    check_path(path)
     if times is not None and fmt != "kitti":
         raise ValueError(f"{path}: a times file is only used with KITTI pose files; this is {fmt}")
+    if fmt == "rosbag":
+        return read_bag_trajectory(path, stamps=bag_time)
+    check_path(path)
     if fmt == "tum":
         return read_tum(path)
     if fmt == "kitti":
