@@ -306,13 +306,7 @@ class _Ros1Bag(_Bag):
         head = self.file.read(4)
         if len(head) < 4:
             raise BagError(f"{self.path}: truncated bag (a record expected at byte {self.file.tell() - len(head)})")
-        raw = self.file.read(int.from_bytes(head, "little"))
-        fields, i = {}, 0
-        while i + 4 <= len(raw):
-            n = int.from_bytes(raw[i : i + 4], "little")
-            key, _, value = raw[i + 4 : i + 4 + n].partition(b"=")
-            fields[key.decode("ascii", "replace")] = value
-            i += 4 + n
+        fields = _header_fields(self.file.read(int.from_bytes(head, "little")))
         size = int.from_bytes(self.file.read(4), "little")
         return fields, self.file.tell(), size
 
@@ -341,12 +335,7 @@ class _Ros1Bag(_Bag):
             head, pos, size = self._record()
             data = self._data(pos, size)
             if head.get("op") == b"\x07":
-                info, i = {}, 0
-                while i + 4 <= len(data):
-                    n = int.from_bytes(data[i : i + 4], "little")
-                    key, _, value = data[i + 4 : i + 4 + n].partition(b"=")
-                    info[key.decode("ascii", "replace")] = value
-                    i += 4 + n
+                info = _header_fields(data)
                 msgtype = info["type"].decode()
                 if "/msg/" not in msgtype:
                     msgtype = msgtype.replace("/", "/msg/", 1)
@@ -426,6 +415,17 @@ class _Ros1Bag(_Bag):
         if bad:
             raise BagError(f"{where}: the {msgtype.replace('/msg/', '/')} messages do not have the standard layout "
                            f"(md5sum {bad[0].md5sum}, the standard definition's is {want}); not read")  # fmt: skip
+
+
+def _header_fields(raw: bytes) -> dict[str, bytes]:
+    """The ``name=value`` fields of a ROS 1 record header (each a uint32 length, then the bytes)."""
+    fields, i = {}, 0
+    while i + 4 <= len(raw):
+        n = int.from_bytes(raw[i : i + 4], "little")
+        key, _, value = raw[i + 4 : i + 4 + n].partition(b"=")
+        fields[key.decode("ascii", "replace")] = value
+        i += 4 + n
+    return fields
 
 
 def _u32_at(buf: np.ndarray, pos: np.ndarray, path: Path) -> np.ndarray:
