@@ -64,7 +64,7 @@ def test_eval_on_bags_equals_eval_on_tum_files(tmp_path, rng, capsys):
 
 
 def test_hand_eye_on_bags_equals_hand_eye_on_csv(tmp_path, capsys):
-    rec = handeye_sim.simulate(0.0123, 5, duration=30.0)
+    rec = handeye_sim.simulate(0.0123, 5, duration=12.0)
     handeye_sim.write_rows(tmp_path / "cam.csv", rec.camera, ", ")
     handeye_sim.write_rows(tmp_path / "body.csv", rec.body, " ")
     for name, rows, suffix in (("cam", rec.camera, ".db3"), ("body", rec.body, ".bag")):
