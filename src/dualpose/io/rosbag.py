@@ -26,12 +26,16 @@ Quaternions are ``geometry_msgs/Quaternion`` ``x y z w``: dualpose's xyzw (scala
 the messages' ``header.stamp`` (``stamps="header"``, default) or the times the bag recorded them
 (``stamps="receive"``), as exact int64 nanoseconds (``stamps_ns``) and float seconds.
 
-Speed: the messages are never turned into Python message objects.  The raw serialized bytes of a block of
-messages are joined into one buffer and the fields are read with NumPy at offsets computed for all messages at once
-(ROS 1 serialization: packed little-endian; ROS 2 CDR: little-endian with each primitive aligned to its size from
-the end of the 4-byte encapsulation header).  Strings (``frame_id``) make the offsets differ between messages;
-they are followed message by message, vectorised.  The first message of every topic is also decoded by rosbags'
-own deserializer and compared, so a message type whose layout differs from the standard one is refused.
+Speed: the messages are never turned into Python message objects.  ROS 1 bags are read from their chunk index
+(connection and chunk-info records, then per chunk the fixed-size index entries ``time, offset`` as NumPy arrays and
+the message records at those offsets; ROS bag format 2.0, chunks uncompressed, bz2 or lz4).  ROS 2 bags go through
+rosbags' reader, which yields each message's raw bytes; those of a block of messages are joined into one buffer.
+Either way the fields are read with NumPy at offsets computed for all messages at once (ROS 1 serialization: packed
+little-endian; ROS 2 CDR: little-endian with each primitive aligned to its size from the end of the 4-byte
+encapsulation header).  Strings (``frame_id``) make the offsets differ between messages; they are followed for all
+messages at once.  The layout is checked: a ROS 1 connection's md5sum must be the standard definition's, and the
+first ROS 2 message is also decoded by rosbags' own deserializer and compared, so a message type whose layout differs
+from the standard one is refused.
 
 Every problem is a :class:`BagError` (a ValueError) naming the bag and the topic: a missing topic (the message lists
 the bag's topics and types), a message type that does not carry what was asked for, header stamps that are not
