@@ -331,3 +331,21 @@ def test_recording_reads_imu_and_ground_truth_from_bags(tmp_path):
 
     with pytest.raises(RecordingError, match=r"run\.bag: no topic /imu; topics in the bag: /imu0 \(sensor_msgs/Imu\)"):
         read_recording(out)
+
+
+def test_ros2_bag_directory(tmp_path, rng):
+    """A ROS 2 bag directory (metadata.yaml and its storage files), as ros2 bag record writes it."""
+    from rosbags.rosbag2 import StoragePlugin
+    from rosbags.rosbag2 import Writer as Writer2
+
+    m = _Msgs(False)
+    vals = _values(rng, 20)
+    ns = T0 + np.arange(20) * 1_000_000
+    with Writer2(tmp_path / "rec", version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        conn = writer.add_connection("/odom", "nav_msgs/msg/Odometry", typestore=m.store)
+        for t, v in zip(ns.tolist(), vals, strict=True):
+            writer.write(conn, t, m.serialize(m.make("nav_msgs/msg/Odometry", t, "odom", v), "nav_msgs/msg/Odometry"))
+    tr = read_bag_trajectory(f"{tmp_path / 'rec'}:/odom")
+    np.testing.assert_array_equal(tr.positions, vals[:, :3])
+    np.testing.assert_array_equal(tr.stamps_ns, ns)
+    assert bag_topics(tmp_path / "rec") == {"/odom": "nav_msgs/msg/Odometry"}
