@@ -193,11 +193,6 @@ def _rosbags():
 class _Bag:
     """An open ROS 2 bag (rosbags' AnyReader) with the error messages of this module."""
 
-    def __new__(cls, path: Path):
-        if cls is _Bag and path.suffix.lower() == ".bag" and path.is_file():
-            return object.__new__(_Ros1Bag)
-        return object.__new__(cls)
-
     def __init__(self, path: Path) -> None:
         AnyReader, AnyReaderError = _rosbags()
         self.path = path
@@ -421,6 +416,13 @@ class _Ros1Bag(_Bag):
                            f"(md5sum {bad[0].md5sum}, the standard definition's is {want}); not read")  # fmt: skip
 
 
+def _open_bag(path: Path) -> _Bag:
+    """The bag at ``path``: a ROS 1 ``.bag`` file read from its chunk index, anything else through rosbags."""
+    if path.suffix.lower() == ".bag" and path.is_file():
+        return _Ros1Bag(path)
+    return _Bag(path)
+
+
 def _header_fields(raw: bytes) -> dict[str, bytes]:
     """The ``name=value`` fields of a ROS 1 record header (each a uint32 length, then the bytes)."""
     fields, i = {}, 0
@@ -454,7 +456,7 @@ def _ros1_md5(msgtype: str) -> str:
 def bag_topics(path: str | os.PathLike) -> dict[str, str]:
     """The topics of a bag and their message types (``"geometry_msgs/msg/PoseStamped"``), sorted by topic."""
     src = parse_bag_source(path) if isinstance(path, str) else None
-    with _Bag(src.path if src is not None else Path(os.fspath(path))) as bag:
+    with _open_bag(src.path if src is not None else Path(os.fspath(path))) as bag:
         return bag.topics()
 
 
@@ -686,7 +688,7 @@ def read_bag_trajectory(
     if src.parent is not None:
         ns, pos, quat = _tf_chain(src, stamps, strict)
     else:
-        with _Bag(src.path) as bag:
+        with _open_bag(src.path) as bag:
             conns = bag.connections(src.topic, _TRAJECTORY_TYPES, "poses")
             if len({c.msgtype for c in conns}) != 1:
                 raise BagError(f"{src}: the topic mixes message types {sorted({c.msgtype for c in conns})}")
@@ -720,7 +722,7 @@ def read_bag_imu(source: str | os.PathLike | BagSource, *, stamps: Stamps = "hea
         As :func:`read_bag_trajectory`; also fewer than two messages or non-finite values.
     """
     src = _source(source)
-    with _Bag(src.path) as bag:
+    with _open_bag(src.path) as bag:
         conns = bag.connections(src.topic, (_IMU,), "IMU samples")
 
         def parse(f: _Fields) -> tuple[np.ndarray, np.ndarray]:
@@ -757,7 +759,7 @@ def read_bag_magnetic_field(
         As :func:`read_bag_imu`.
     """
     src = _source(source)
-    with _Bag(src.path) as bag:
+    with _open_bag(src.path) as bag:
         conns = bag.connections(src.topic, (_MAG,), "a magnetic field")
 
         def parse(f: _Fields) -> tuple[np.ndarray, np.ndarray]:
@@ -897,7 +899,7 @@ def _tf_chain(src: BagSource, stamps: str, strict: bool) -> tuple[np.ndarray, np
     if stamps not in ("header", "receive"):
         raise ValueError(f"stamps must be 'header' or 'receive'; got {stamps!r}")
     where = str(src)
-    with _Bag(src.path) as bag:
+    with _open_bag(src.path) as bag:
         types = bag.topics()
         conns = [c for c in bag.all_connections() if c.topic in ("/tf", "/tf_static")]
         if not conns:
