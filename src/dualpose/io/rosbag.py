@@ -580,7 +580,7 @@ def _tf_chain(src: BagSource, stamps: str, strict: bool) -> tuple[np.ndarray, np
             pe = -dp.quat_rotate(qe, pe)
         q, p = _compose(q, p, qe, pe)
     if strict:
-        _stamps(t_ns, t_ns, "header", where, True)
+        _stamps(t_ns, t_ns, stamps, where, True)
     return t_ns, p, q
 
 
