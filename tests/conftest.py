@@ -1,13 +1,14 @@
-"""Shared test settings: seeded randomness, a hypothesis profile sized for CI, and the BROAD trial the data tests
-share."""
+"""Shared test settings: seeded randomness, a hypothesis profile sized for CI, the real-data directories
+(:mod:`realdata`: the full recordings beside the checkout or the cuts in ``tests/data/``) and the BROAD trial the data
+tests share."""
 
 from __future__ import annotations
-
-from pathlib import Path
 
 import numpy as np
 import pytest
 from hypothesis import settings
+
+from realdata import data_dir
 
 settings.register_profile("ci", max_examples=150, deadline=None, derandomize=True)
 settings.load_profile("ci")
@@ -18,13 +19,21 @@ def rng() -> np.random.Generator:
     return np.random.default_rng(20261122)
 
 
-#: the BROAD trials beside the checkout (``<repo>/../shared/data/broad``)
-BROAD_DIR = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "broad"
+#: the BROAD trials beside the checkout (``<repo>/../shared/data/broad``), else their cuts in ``tests/data/broad``
+BROAD_DIR = data_dir("broad")
+
+
+@pytest.fixture(scope="session")
+def real_data():
+    """:func:`realdata.data_dir`: ``real_data("handeye")`` is the full recordings' directory or the shipped cut,
+    ``real_data("broad", full=True)`` the full one only."""
+    return data_dir
 
 
 @pytest.fixture(scope="session")
 def trial():
-    """BROAD trial 06 (fast rotation), loaded once; skipped when the data directory is missing."""
+    """BROAD trial 06 (fast rotation; the full trial, or its cut in a plain clone), loaded once; skipped when
+    neither is there."""
     if not BROAD_DIR.is_dir():
         pytest.skip("BROAD data directory missing")
     from dualpose.io import load_broad

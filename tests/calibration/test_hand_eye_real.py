@@ -1,9 +1,8 @@
 """ETH's real hand-eye recordings: residual RMSE against OpenCV's five methods at the same τ on the same pairs, and τ
-at the minimum of the loop residual.  Skipped when ``<repo>/../shared/data/handeye`` is missing."""
+at the minimum of the loop residual.  On ``<repo>/../shared/data/handeye``, or on the 25 s cuts in
+``tests/data/handeye`` without it."""
 
 from __future__ import annotations
-
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,10 +10,11 @@ from handeye_sim import OPENCV_METHODS, loop_rmse, opencv_hand_eye
 
 from dualpose.calibration import calibrate_hand_eye_streams, clean_pose_stream, loop_residual
 from dualpose.io.pose_csv import read_pose_csv
+from realdata import data_dir
 
 cv2 = pytest.importorskip("cv2")
 
-DATA = Path(__file__).parents[2] / ".." / "shared" / "data" / "handeye"
+DATA = data_dir("handeye")
 SETS = {
     "prime_sense_1": ("prime_sense_1_camera_in_target.csv", "prime_sense_1_marker_in_vicon.csv"),
     "robot_arm_real": ("robot_arm_real_camera_in_target.csv", "robot_arm_real_hand_in_base.csv"),
@@ -31,10 +31,14 @@ def test_real_dataset_against_opencv_and_loop_minimum(name):
     rot, trans = loop_rmse(cam, body, r.pairs, r.time_offset, r.quat, r.translation)
     assert rot == pytest.approx(r.rotation_rmse_deg) and trans == pytest.approx(r.translation_rmse_m)
     tau = r.time_offset
+    full = DATA == data_dir("handeye", full=True)
     cv = [loop_rmse(cam, body, r.pairs, tau, *opencv_hand_eye(cam, body, r.pairs, tau, m)) for m in OPENCV_METHODS]
-    assert rot <= 1.02 * min(c[0] for c in cv) and trans <= 1.02 * min(c[1] for c in cv)
+    # the target holds on the whole recordings; the 25 s cuts in tests/data keep the earlier 5 % margin
+    tol = 1.02 if full else 1.05
+    assert rot <= tol * min(c[0] for c in cv) and trans <= tol * min(c[1] for c in cv)
     assert r.rotation_rmse_deg <= r.start_rotation_rmse_deg and r.translation_rmse_m <= r.start_translation_rmse_m
-    assert r.pairs_used > 0.7 * r.pairs_total > 500
+    # the whole recordings give > 500 valid pairs, the 25 s cuts in tests/data > 250
+    assert r.pairs_used > 0.7 * r.pairs_total > (500 if full else 250)
     # dense scan of the loop residual, X re-fitted at every τ
     i, j = r.pairs.T
     taus = r.time_offset + np.arange(-20, 21) * 1e-3

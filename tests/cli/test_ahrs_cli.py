@@ -3,14 +3,16 @@
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import pytest
 
 from dualpose.cli.main import main
+from realdata import data_dir, require_full
 
-BROAD = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "broad"
+BROAD = data_dir("broad")
 TRIAL = BROAD / "24_disturbed_tapping_A.mat"
+#: the whole trial (not the cut in tests/data): its still period after the movement, the calibration decision
+FULL = data_dir("broad", full=True).is_dir()
 KEYS = ("total_rmse_deg", "heading_rmse_deg", "inclination_rmse_deg", "us_per_sample")
 
 
@@ -31,7 +33,9 @@ def test_json_keys(flag, capsys):
     assert out["total_rmse_deg"] < 1.768  # BROAD's published Madgwick result on this trial
     assert (out["heading_offset_deg"] != 0.0) == (flag == "--no-mag")
     # the rest detector sees the trial's still period after the movement (none inside it; docs/broad.md)
-    assert out["rest_samples"] > 5000 and 0 < out["rest_updates"] <= out["rest_samples"]
+    assert 0 <= out["rest_updates"] <= out["rest_samples"]
+    if FULL:
+        assert out["rest_samples"] > 5000 and out["rest_updates"] > 0
     if flag == "--mag":  # estimated from gyro + mag only; BROAD's magnetometer lags by ~11 ms in every trial
         assert isinstance(out["mag_time_offset_ms"], float) and 5.0 < out["mag_time_offset_ms"] < 20.0
         assert out["mag_calibration_applied"] is False  # off unless --mag-calibration
@@ -43,6 +47,7 @@ def test_json_keys(flag, capsys):
 def test_mag_calibration_flag_reports_the_decision(capsys):
     """With --mag-calibration the self-calibration decision and its parameters are reported (trial 24: the
     symmetric soft-iron model passes the rule, docs/broad.md)."""
+    require_full("broad", "the calibration decision on the whole trial 24")
     assert main(["ahrs", str(TRIAL), "--mag-calibration", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["mag_calibration_applied"] is True
@@ -88,7 +93,8 @@ def test_offline_json_scores_the_smoother_next_to_the_filter(flag, capsys):
 
 def test_offline_with_calibration_and_table(capsys):
     assert main(["ahrs", str(TRIAL), "--offline", "--mag-calibration", "--json"]) == 0
-    assert json.loads(capsys.readouterr().out)["mag_calibration_applied"] is True
+    applied = json.loads(capsys.readouterr().out)["mag_calibration_applied"]
+    assert applied is True if FULL else isinstance(applied, bool)  # the whole trial passes the rule
     assert main(["ahrs", str(TRIAL), "--offline"]) == 0
     text = capsys.readouterr().out
     assert "offline: RTS smoother" in text and "forward filter" in text and "smoother time" in text

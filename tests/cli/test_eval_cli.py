@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,8 +10,9 @@ import pytest
 from dualpose.cli.main import main
 from dualpose.evaluation.metrics import evaluate
 from dualpose.io import read_trajectory
+from realdata import data_dir
 
-DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "tum"
+DATA = data_dir("tum")
 
 
 @pytest.fixture(scope="module")

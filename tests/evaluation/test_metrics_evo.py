@@ -15,13 +15,14 @@ import pytest
 
 from dualpose.evaluation.metrics import associate, evaluate, rpe_pairs
 from dualpose.io import read_trajectory
+from realdata import data_dir
 
 evo_metrics = pytest.importorskip("evo.core.metrics")
 evo_sync = pytest.importorskip("evo.core.sync")
 evo_filters = pytest.importorskip("evo.core.filters")
 evo_files = pytest.importorskip("evo.tools.file_interface")
 
-DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "tum"
+DATA = data_dir("tum")
 PAIRS = {
     "fr2_desk": ("fr2_desk_groundtruth.txt", "fr2_desk_ORB.txt"),
     "V102": ("V102_groundtruth.csv", "V102.txt"),

@@ -8,8 +8,9 @@ from scipy.io import loadmat
 
 import dualpose as dp
 from dualpose.io import load_broad
+from realdata import data_dir
 
-BROAD = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "broad"
+BROAD = data_dir("broad")
 TRIAL = BROAD / "06_undisturbed_fast_rotation_A.mat"
 
 

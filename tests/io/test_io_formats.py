@@ -20,8 +20,9 @@ from dualpose.io import (
     write_euroc_imu,
     write_tum,
 )
+from realdata import data_dir
 
-DATA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "tum"
+DATA = data_dir("tum")
 
 
 @pytest.fixture(scope="module")

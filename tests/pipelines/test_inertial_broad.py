@@ -1,14 +1,14 @@
 """Real gyro data (docs/inertial.md §7): noise and bias dominate the algorithm choice."""
 
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from dualpose.io import load_broad
 from dualpose.pipelines.inertial_broad import ALGORITHMS, window_errors
+from realdata import data_dir
 
-BROAD = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "broad"
+BROAD = data_dir("broad", full=True)
 
 
 def test_algorithm_spread_is_far_below_the_error():

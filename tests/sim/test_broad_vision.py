@@ -3,8 +3,6 @@ on the IMU clock, noise from the static start, and the recording the fusion pipe
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -12,8 +10,9 @@ import dualpose as dp
 from dualpose import sim
 from dualpose.sim import broad_vision as bv
 from dualpose.types import PinholeCamera
+from realdata import data_dir
 
-BROAD = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "broad"
+BROAD = data_dir("broad")
 TRIAL = BROAD / "06_undisturbed_fast_rotation_A.mat"
 
 

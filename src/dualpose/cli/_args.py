@@ -10,7 +10,7 @@ import argparse
 import math
 from collections.abc import Callable
 
-__all__ = ["SEED_MAX", "float_in", "int_in", "seed"]
+__all__ = ["SEED_MAX", "add_bag_time_argument", "float_in", "int_in", "seed"]
 
 #: largest accepted ``--seed`` (numpy's generators take any non-negative integer; this keeps seeds printable)
 SEED_MAX = 2**63 - 1
@@ -54,3 +54,10 @@ def int_in(lo: int, hi: int) -> Callable[[str], int]:
 
 #: ``--seed``: a non-negative integer (numpy's ``default_rng`` refuses negative seeds)
 seed = int_in(0, SEED_MAX)
+
+
+def add_bag_time_argument(p: argparse.ArgumentParser) -> None:
+    """``--bag-time header|receive``: the stamps of inputs read from ROS bag topics (``FILE.bag:/topic``)."""
+    p.add_argument("--bag-time", choices=("header", "receive"), default="header",
+                   help="stamps of inputs read from a ROS bag topic (FILE.bag:/topic, FILE.bag:/tf:PARENT:CHILD; "
+                   ".db3 and .mcap too): the messages' header stamps (default) or the bag's receive times")  # fmt: skip

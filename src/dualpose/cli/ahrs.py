@@ -23,7 +23,7 @@ import argparse
 import json
 import sys
 
-from dualpose.cli._args import float_in
+from dualpose.cli._args import add_bag_time_argument, float_in
 from dualpose.cli._stream import write_flushed
 
 _STREAM_HELP = """\
@@ -54,13 +54,18 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         epilog=_STREAM_HELP,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("file", nargs="?", help="BROAD trial file (.mat); not with --stream")
+    p.add_argument("file", nargs="?", help="BROAD trial file (.mat), or a sensor_msgs/Imu topic of a ROS bag "
+                   "FILE.bag:/topic (.db3, .mcap too; no reference: nothing scored); not with --stream")  # fmt: skip
+    p.add_argument("--mag-topic", metavar="TOPIC",
+                   help="with a bag: its sensor_msgs/MagneticField topic (9D); without it a bag runs 6D")  # fmt: skip
+    add_bag_time_argument(p)
     p.add_argument("--stream", action="store_true",
                    help="read IMU sample lines from stdin, write one orientation line per sample (see below)")
     p.add_argument("--rate", type=float_in(0.0, 1e9, lo_open=True), metavar="HZ",
                    help="sampling rate of the streamed samples, Hz (required with --stream)")
     p.add_argument("--rest-seconds", type=float_in(0.0, 1e6), default=None, metavar="S",
-                   help="with --stream: leading seconds at rest that initialise the filter (default 1; 0: none)")
+                   help="with --stream or a bag: leading seconds at rest that initialise the filter (default 1; "
+                   "0: none)")  # fmt: skip
     p.add_argument("--mag", dest="mag", action=argparse.BooleanOptionalAction, default=True,
                    help="use the magnetometer (9D, default) or not (--no-mag: 6D)")
     p.add_argument("--offline", action="store_true",
@@ -105,15 +110,26 @@ def run(args: argparse.Namespace) -> int:
         return _usage_error("a BROAD trial file, or --stream to read IMU samples from standard input")
     if args.rate is not None:
         return _usage_error("--rate is only used with --stream (a BROAD file has its own rate)")
-    if args.rest_seconds is not None:
-        return _usage_error("--rest-seconds is only used with --stream (a BROAD file marks its own static start)")
+    from dualpose.io.rosbag import is_bag_source, read_bag_imu_trial
+
+    bag = is_bag_source(args.file)
+    if args.rest_seconds is not None and not bag:
+        return _usage_error("--rest-seconds is only used with --stream or a bag (a BROAD file marks its own static "
+                            "start)")  # fmt: skip
+    if args.mag_topic is not None and not bag:
+        return _usage_error("--mag-topic names a topic of the bag: only with a bag FILE.bag:/topic")
 
     from dualpose.estimation.ahrs import estimate_orientation
     from dualpose.io import load_broad
     from dualpose.pipelines.ahrs_offline import broad_scores, smooth_broad_trial
 
     try:
-        trial = load_broad(args.file)
+        if bag:
+            rest = 1.0 if args.rest_seconds is None else args.rest_seconds
+            trial = read_bag_imu_trial(args.file, args.mag_topic if args.mag else None, stamps=args.bag_time,
+                                       rest_seconds=rest)  # fmt: skip
+        else:
+            trial = load_broad(args.file)
     except (OSError, ValueError, ImportError) as exc:
         msg = str(exc)
         if args.file not in msg:
@@ -121,8 +137,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"dualpose ahrs: error: {msg}", file=sys.stderr)
         return 1
     if args.mag and not trial.has_mag:
-        print(f"dualpose ahrs: error: {args.file}: no field imu_mag (magnetometer): use --no-mag for 6D",
-              file=sys.stderr)  # fmt: skip
+        what = "no --mag-topic (magnetometer)" if bag else "no field imu_mag (magnetometer)"
+        print(f"dualpose ahrs: error: {args.file}: {what}: use --no-mag for 6D", file=sys.stderr)
         return 1
     calibrate = bool(args.mag_calibration)
     smoothed = scores = None

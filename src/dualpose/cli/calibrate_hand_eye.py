@@ -15,6 +15,8 @@ import json
 import math
 import sys
 
+from dualpose.cli._args import add_bag_time_argument
+
 PROG = "dualpose calibrate hand-eye"
 
 
@@ -28,8 +30,10 @@ def add_subparser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentPa
             "clocks from a camera-in-target pose file and a body pose file (lines 't, x, y, z, qx, qy, qz, qw')."
         ),
     )
-    p.add_argument("camera", metavar="CAMERA.csv", help="camera poses in the calibration-target frame")
-    p.add_argument("body", metavar="BODY.csv", help="body (marker/hand) poses in its reference frame")
+    p.add_argument("camera", metavar="CAMERA.csv", help="camera poses in the calibration-target frame (or a ROS bag "
+                   "topic FILE.bag:/topic, FILE.bag:/tf:TARGET:CAMERA)")  # fmt: skip
+    p.add_argument("body", metavar="BODY.csv", help="body (marker/hand) poses in its reference frame (or a bag topic)")
+    add_bag_time_argument(p)
     p.add_argument("--time-offset", type=float, default=None, metavar="S",
                    help="start value of τ (s) instead of the rate correlation")  # fmt: skip
     p.add_argument("--fix-time-offset", action="store_true", help="keep τ at --time-offset")
@@ -53,10 +57,10 @@ def _usage_error(args: argparse.Namespace) -> str | None:
 def run_hand_eye(args: argparse.Namespace) -> dict:
     """Read, clean and calibrate; returns the dictionary printed with ``--json``."""
     from dualpose.calibration import calibrate_hand_eye_streams, clean_pose_stream
-    from dualpose.io.pose_csv import read_pose_csv
+    from dualpose.io.pose_csv import read_pose_stream
 
-    camera, cam_rep = clean_pose_stream(*read_pose_csv(args.camera), args.camera, min_rows=3)
-    body, body_rep = clean_pose_stream(*read_pose_csv(args.body), args.body, min_rows=2)
+    camera, cam_rep = clean_pose_stream(*read_pose_stream(args.camera, bag_time=args.bag_time), args.camera, min_rows=3)
+    body, body_rep = clean_pose_stream(*read_pose_stream(args.body, bag_time=args.bag_time), args.body, min_rows=2)
     r = calibrate_hand_eye_streams(
         camera, body, time_offset=args.time_offset, fix_time_offset=args.fix_time_offset,
         min_pair_angle=math.radians(args.min_pair_angle), max_pair_dt=args.max_pair_dt, seed=args.seed,
@@ -119,7 +123,7 @@ def run(args: argparse.Namespace) -> int:
         return 2
     try:
         m = run_hand_eye(args)
-    except (OSError, ValueError) as exc:
+    except (OSError, ValueError, ImportError) as exc:
         print(f"{PROG}: error: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}", file=sys.stderr)
         return 1
     print(json.dumps(m) if args.hand_eye_json else _table(m))

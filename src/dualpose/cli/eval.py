@@ -15,6 +15,7 @@ import os
 import sys
 import warnings
 
+from dualpose.cli._args import add_bag_time_argument
 from dualpose.cli._progress import Progress, add_quiet_argument
 
 _STAGES = ("read reference", "read estimate", "associate, align, ATE, RPE", "plot")
@@ -24,7 +25,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     """Register ``dualpose eval``."""
     p = subparsers.add_parser(
         "eval",
-        help="ATE / RPE / orientation error of an estimated trajectory (TUM, KITTI or EuRoC files)",
+        help="ATE / RPE / orientation error of an estimated trajectory (TUM, KITTI, EuRoC files or ROS bag topics)",
         description=(
             "Associate the poses by timestamp, align the estimate to the reference (Umeyama), and print statistics "
             "of the absolute trajectory error (ATE), the orientation error and the relative pose error (RPE). "
@@ -33,8 +34,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
             "otherwise pose i is at i seconds."
         ),
     )
-    p.add_argument("reference", help="reference trajectory: TUM file, KITTI pose file or EuRoC ground-truth CSV")
-    p.add_argument("estimate", help="estimated trajectory: TUM file, KITTI pose file or EuRoC ground-truth CSV")
+    p.add_argument("reference", help="reference trajectory: TUM file, KITTI pose file, EuRoC ground-truth CSV or a "
+                   "ROS bag topic FILE.bag:/topic or FILE.bag:/tf:PARENT:CHILD (.db3, .mcap too)")  # fmt: skip
+    p.add_argument("estimate", help="estimated trajectory: as the reference")
     p.add_argument("--ref-times", metavar="FILE", help="stamps of a KITTI reference, s (default: pose index)")
     p.add_argument("--est-times", metavar="FILE", help="stamps of a KITTI estimate, s (default: pose index)")
     p.add_argument(
@@ -65,6 +67,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         "(.png, .pdf, .svg, ...)",
     )
     p.add_argument("--force", action="store_true", help="replace an existing --plot file (never an input file)")
+    add_bag_time_argument(p)
     add_quiet_argument(p)
     return p
 
@@ -144,10 +147,10 @@ def run(args: argparse.Namespace) -> int:
         try:
             with progress.stage("read reference"):
                 fmt_ref = detect_format(args.reference)
-                reference = read_trajectory(args.reference, fmt_ref, times=args.ref_times)
+                reference = read_trajectory(args.reference, fmt_ref, args.ref_times, bag_time=args.bag_time)
             with progress.stage("read estimate"):
                 fmt_est = detect_format(args.estimate)
-                estimate = read_trajectory(args.estimate, fmt_est, times=args.est_times)
+                estimate = read_trajectory(args.estimate, fmt_est, args.est_times, bag_time=args.bag_time)
             with progress.stage("associate, align, ATE, RPE"):
                 ev = evaluate(
                     reference,
@@ -163,7 +166,7 @@ def run(args: argparse.Namespace) -> int:
                     t_start=args.t_start,
                     t_end=args.t_end,
                 )
-        except (OSError, ValueError) as exc:
+        except (OSError, ValueError, ImportError) as exc:
             return _error(exc, 1)
         finally:
             for w in caught:

@@ -80,6 +80,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
                    help="with --stream: sensor set-up and filter start (a sensor file with imu.update_rate and "
                    "initial_state; see below)")  # fmt: skip
     p.add_argument("--out", metavar="DIR", help="write trajectory.tum, metrics.json and PNG figures into DIR")
+    p.add_argument("--out-bag", choices=("bag", "db3", "mcap"), metavar="FORMAT",
+                   help="with --out: also write the estimate as DIR/trajectory.FORMAT, a ROS bag (bag: ROS 1; db3, "
+                   "mcap: ROS 2) of geometry_msgs/PoseStamped on /dualpose/pose in frame world")  # fmt: skip
     p.add_argument("--force", action="store_true", help="replace existing output files")
     p.add_argument("--truth", metavar="FILE",
                    help="ground-truth trajectory (TUM, EuRoC) to score feature-track (VIO) data against")  # fmt: skip
@@ -188,7 +191,7 @@ def run_stream(args: argparse.Namespace) -> int:
         return _usage_error("--stream needs the sensor set-up and filter start: --calibration FILE")
     used = [name for name, given in (("--data", args.data is not None), ("--seed", args.seed is not None),
                                      ("--out", args.out), ("--force", args.force), ("--json", args.json),
-                                     ("--smooth", args.smooth)) if given]  # fmt: skip
+                                     ("--smooth", args.smooth), ("--out-bag", args.out_bag)) if given]  # fmt: skip
     if used:
         return _usage_error(f"{', '.join(used)}: not used with --stream (it reads standard input)")
     from dualpose.io.recording import RecordingError
@@ -227,12 +230,15 @@ def run(args: argparse.Namespace) -> int:
               "over the error-state filter's stored nodes", file=sys.stderr)  # fmt: skip
         return 2
     paths: dict[str, Path] = {}
+    if args.out_bag and not args.out:
+        return _usage_error("--out-bag writes into the --out directory: give --out DIR")
     if args.out:
         out = Path(args.out)
-        problem = output_files_problem(out, _output_files(args.smooth), args.force)
+        names = _output_files(args.smooth) + ((f"trajectory.{args.out_bag}",) if args.out_bag else ())
+        problem = output_files_problem(out, names, args.force)
         if problem is not None:
             return _usage_error(problem)
-        paths = {name: out / name for name in _output_files(args.smooth)}
+        paths = {name: out / name for name in names}
     result = _run_job(args)
     if result is None:
         return 1
@@ -245,6 +251,11 @@ def run(args: argparse.Namespace) -> int:
         write_tum(paths["trajectory.tum"], result.estimate, overwrite=args.force)
         if result.smoothed is not None:
             write_tum(paths["trajectory_smoothed.tum"], result.smoothed, overwrite=args.force)
+        if args.out_bag:
+            from dualpose.io.rosbag import write_trajectory_bag
+
+            bag = paths[f"trajectory.{args.out_bag}"]
+            write_trajectory_bag(bag, result.estimate, "/dualpose/pose", "world", overwrite=args.force)
         paths["metrics.json"].write_text(json.dumps(metrics, indent=2) + "\n")
         fuse_figures(result, paths["top_view.png"], paths["errors.png"], paths["nis.png"])
     if args.json:

@@ -6,8 +6,9 @@ Camera-IMU recordings for ``dualpose fuse --data`` (:mod:`dualpose.io.recording`
 :mod:`dualpose.io.csv_points`.
 Calibration-target corner files (:func:`read_target_detections`) and rig sensor files in YAML, ``sensors.yaml`` or
 Kalibr ``camchain.yaml`` (:func:`read_rig_sensors`).
-Pose streams ``t, x, y, z, qx, qy, qz, qw`` for ``dualpose calibrate hand-eye``: :func:`read_pose_csv`.  Import
-explicitly; ``import dualpose`` does not load this.
+Pose streams ``t, x, y, z, qx, qy, qz, qw`` for ``dualpose calibrate hand-eye``: :func:`read_pose_csv`.  ROS 1 and
+ROS 2 bags (``FILE.bag:/topic``, read by :func:`read_trajectory` and the IMU readers too): :mod:`dualpose.io.rosbag`
+(needs ``rosbags``, the extra ``dualpose[ros]``).  Import explicitly; ``import dualpose`` does not load this.
 
 Quaternions are returned xyzw (scalar last) whatever the file stores; EuRoC nanosecond timestamps are kept exact as
 int64.  Writers never replace an existing file unless ``overwrite=True``.

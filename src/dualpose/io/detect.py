@@ -9,23 +9,27 @@ from typing import Literal
 from dualpose.io._text import check_path
 from dualpose.io.euroc import read_euroc_groundtruth
 from dualpose.io.kitti import read_kitti
+from dualpose.io.rosbag import is_bag_source, read_bag_trajectory
 from dualpose.io.tum import read_tum
 from dualpose.types.trajectory import Trajectory
 
 __all__ = ["detect_format", "read_trajectory"]
 
-Format = Literal["tum", "kitti", "euroc_groundtruth", "euroc_imu"]
+Format = Literal["tum", "kitti", "euroc_groundtruth", "euroc_imu", "rosbag"]
 
 #: what the detection knows, for the error message
 _FORMATS = (
     "TUM ('t tx ty tz qx qy qz qw': 8 numbers separated by whitespace or commas), "
     "KITTI (12 numbers 'r11 r12 r13 tx r21 ... tz' of a 3x4 [R|t]), "
-    "EuRoC ground-truth CSV (integer ns stamp, then 7 or 16 numbers) and EuRoC IMU CSV (integer ns stamp, then 6)"
+    "EuRoC ground-truth CSV (integer ns stamp, then 7 or 16 numbers), EuRoC IMU CSV (integer ns stamp, then 6) "
+    "and a topic of a ROS bag (BAG:/topic or BAG:/tf:PARENT:CHILD; BAG a .bag, .db3 or .mcap)"
 )
 
 
 def detect_format(path: str | os.PathLike) -> Format:
-    """Tell a TUM trajectory, a KITTI pose file, an EuRoC ground-truth CSV and an EuRoC IMU CSV apart.
+    """Tell a TUM trajectory, a KITTI pose file, an EuRoC ground-truth CSV, an EuRoC IMU CSV and a ROS bag apart.
+
+    A bag source ``BAG:/topic`` (:func:`dualpose.io.rosbag.parse_bag_source`) is ``"rosbag"`` without opening it.
 
     A header comment decides (``q_RS_w``/``p_RS_R`` -> EuRoC ground truth, ``w_RS_S`` and ``a_RS_S`` -> EuRoC IMU,
     the fields ``tx ty tz qx qy qz qw`` -> TUM);
@@ -42,6 +46,8 @@ def detect_format(path: str | os.PathLike) -> Format:
         ``path:line: ...`` when the first data line fits none of the formats (the message lists them), or the
         file has no data.
     """
+    if is_bag_source(path):
+        return "rosbag"
     p = check_path(path)
     with open(p, encoding="utf-8-sig", errors="replace") as f:
         head = list(islice(f, 200))
@@ -76,19 +82,29 @@ def detect_format(path: str | os.PathLike) -> Format:
 
 
 def read_trajectory(
-    path: str | os.PathLike, fmt: Format | None = None, times: str | os.PathLike | None = None
+    path: str | os.PathLike,
+    fmt: Format | None = None,
+    times: str | os.PathLike | None = None,
+    *,
+    bag_time: Literal["header", "receive"] = "header",
 ) -> Trajectory:
-    """Read a trajectory from a TUM, KITTI or EuRoC ground-truth file, detecting the format unless ``fmt`` is given.
+    """Read a trajectory from a TUM, KITTI or EuRoC ground-truth file or a ROS bag topic, detecting the format unless
+    ``fmt`` is given.
+
+    A bag source ``BAG:/topic`` or ``BAG:/tf:PARENT:CHILD`` is read by :func:`dualpose.io.rosbag.read_bag_trajectory`
+    with ``stamps=bag_time`` (the messages' header stamps, or the bag's receive times).
 
     ``times``: the stamps file of a KITTI pose file (one number of seconds per line); without it KITTI poses get
     their index as the stamp in seconds.  Given for another format it raises ``ValueError`` (those files carry
     their stamps).  Returns a :class:`~dualpose.io.Trajectory` (quaternions xyzw).  An EuRoC IMU file raises
     ``ValueError``.
     """
-    check_path(path)
     fmt = detect_format(path) if fmt is None else fmt
     if times is not None and fmt != "kitti":
         raise ValueError(f"{path}: a times file is only used with KITTI pose files; this is {fmt}")
+    if fmt == "rosbag":
+        return read_bag_trajectory(path, stamps=bag_time)
+    check_path(path)
     if fmt == "tum":
         return read_tum(path)
     if fmt == "kitti":
@@ -97,4 +113,4 @@ def read_trajectory(
         return read_euroc_groundtruth(path)
     if fmt == "euroc_imu":
         raise ValueError(f"{path}: is an EuRoC IMU file (angular rate and acceleration), not a trajectory")
-    raise ValueError(f"fmt must be 'tum', 'kitti', 'euroc_groundtruth' or None; got {fmt!r}")
+    raise ValueError(f"fmt must be 'tum', 'kitti', 'euroc_groundtruth', 'rosbag' or None; got {fmt!r}")

@@ -11,12 +11,14 @@ is the caller's job (``dualpose.calibration.clean_pose_stream``).
 from __future__ import annotations
 
 import os
+from typing import Literal
 
 import numpy as np
 
 from dualpose.io._text import read_pose_rows
+from dualpose.io.rosbag import is_bag_source, read_bag_trajectory
 
-__all__ = ["read_pose_csv"]
+__all__ = ["read_pose_csv", "read_pose_stream"]
 
 _LAYOUT = "t, x, y, z, qx, qy, qz, qw"
 
@@ -50,3 +52,15 @@ def read_pose_csv(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.n
         raise FileNotFoundError(f"{p}: no such file")
     data = read_pose_rows(p, _LAYOUT)
     return data[:, 0].copy(), data[:, 1:4].copy(), data[:, 4:8].copy()
+
+
+def read_pose_stream(
+    path: str | os.PathLike, *, bag_time: Literal["header", "receive"] = "header"
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`read_pose_csv`, or the poses of a ROS bag topic ``BAG:/topic`` / ``BAG:/tf:PARENT:CHILD``
+    (:func:`dualpose.io.rosbag.read_bag_trajectory` with ``stamps=bag_time``), in the same layout and, like the
+    file's rows, in bag order with any duplicate stamps (float seconds from the exact nanoseconds)."""
+    if is_bag_source(path):
+        tr = read_bag_trajectory(path, stamps=bag_time, strict=False)
+        return tr.stamps, tr.positions, tr.quats
+    return read_pose_csv(path)

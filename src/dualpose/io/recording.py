@@ -28,6 +28,7 @@ import numpy as np
 from dualpose.io._text import check_path, open_for_writing, parse_float_columns, parse_int_column, read_table
 from dualpose.io.detect import read_trajectory
 from dualpose.io.euroc import ImuData, read_euroc_imu, write_euroc_groundtruth, write_euroc_imu
+from dualpose.io.rosbag import is_bag_source, read_bag_imu
 from dualpose.types import (
     CameraIntrinsics,
     FilterStart,
@@ -84,9 +85,10 @@ _IMU_KEYS = {
     "update_rate": (False, "pos", "Hz (default: from the IMU stamps)"),
 }
 _FILES_KEYS = {
-    "imu": (False, "str", "IMU file (default imu.csv)"),
+    "imu": (False, "str", "IMU file (default imu.csv), or a sensor_msgs/Imu topic of a ROS bag: BAG:/topic"),
     "correspondences": (False, "str", "correspondence file (default correspondences.csv)"),
-    "groundtruth": (False, "str", "ground truth, EuRoC CSV or TUM (optional)"),
+    "groundtruth": (False, "str", "ground truth, EuRoC CSV or TUM, or a bag topic BAG:/topic (optional)"),
+    "bag_time": (False, "str", "stamps of bag topics: 'header' (default) or 'receive' (the bag's times)"),
 }
 _TOP_KEYS = {
     "format": (False, "str", f"'{FORMAT_NAME}'"),
@@ -283,9 +285,11 @@ def _ns_from_decimal_seconds(table, column: int) -> np.ndarray:
     return out
 
 
-def read_imu(path: str | os.PathLike) -> ImuData:
+def read_imu(path: str | os.PathLike, *, bag_time: str = "header") -> ImuData:
     """Read an IMU file: an EuRoC CSV (comma-separated, integer ns stamps) or a whitespace-separated text file
-    ``t wx wy wz ax ay az`` with ``t`` in seconds (the TUM style).  Stamps must be strictly increasing.
+    ``t wx wy wz ax ay az`` with ``t`` in seconds (the TUM style), or the ``sensor_msgs/Imu`` topic of a ROS bag
+    ``BAG:/topic`` (:func:`dualpose.io.rosbag.read_bag_imu` with ``stamps=bag_time``, ``"header"`` or
+    ``"receive"``).  Stamps must be strictly increasing.
 
     Raises
     ------
@@ -293,6 +297,13 @@ def read_imu(path: str | os.PathLike) -> ImuData:
         ``path:line: ...`` for a malformed row or a stamp out of order.
     """
     p = str(path)
+    if is_bag_source(path):
+        try:
+            return read_bag_imu(path, stamps=bag_time)
+        except FileNotFoundError as exc:
+            raise RecordingError(f"{p}: IMU bag not found ({exc})") from None
+        except (ValueError, ImportError) as exc:
+            raise RecordingError(str(exc)) from None
     try:
         with open(p, encoding="utf-8-sig") as f:
             first = next((s.strip() for s in f if s.strip() and not s.strip().startswith("#")), "")
@@ -452,17 +463,20 @@ def read_recording(path: str | os.PathLike):
     top, cam, imu_cfg = _setup_sections(sf)
     files = {**_DEFAULT_FILES, **sf.section(top.get("files", {}), "files.", _FILES_KEYS)}
     base = sf.path.parent
+    bag_time = files.get("bag_time", "header")
+    if bag_time not in ("header", "receive"):
+        raise sf.error("files.bag_time", f"must be 'header' or 'receive'; got {bag_time!r}")
 
-    imu = read_imu(base / files["imu"])
+    imu = read_imu(str(base / files["imu"]), bag_time=bag_time)
     frame_ns, offsets, pixels, points = read_correspondences(base / files["correspondences"])
     truth = None
     if "groundtruth" in files:
         gt_path = base / files["groundtruth"]
         try:
-            truth = read_trajectory(gt_path)
+            truth = read_trajectory(str(gt_path), bag_time=bag_time)
         except FileNotFoundError:
             raise RecordingError(f"{gt_path}: ground-truth file not found (named in {sf.path})") from None
-        except ValueError as exc:
+        except (ValueError, ImportError) as exc:
             raise RecordingError(str(exc)) from None
 
     noise = _imu_noise(imu_cfg, imu_cfg.get("update_rate", 1.0 / float(np.median(np.diff(imu.stamps)))))

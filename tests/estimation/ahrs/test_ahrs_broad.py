@@ -16,8 +16,6 @@ kept as a strict expected failure so that the gap stays visible and an improveme
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -26,8 +24,9 @@ from dualpose.calibration.sensor_time_offset import estimate_sensor_time_offset
 from dualpose.estimation.ahrs import estimate_orientation
 from dualpose.evaluation.orientation_errors import orientation_rmse
 from dualpose.io import load_broad
+from realdata import data_dir
 
-BROAD = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "broad"
+BROAD = data_dir("broad", full=True)
 MADGWICK_012 = {
     "01_undisturbed_slow_rotation_A": 2.310,
     "06_undisturbed_fast_rotation_A": 2.307,

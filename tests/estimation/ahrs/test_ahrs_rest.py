@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import math
 import pickle
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,8 +17,9 @@ from dualpose.estimation.ahrs.stream import AhrsStream
 from dualpose.evaluation.orientation_errors import orientation_rmse
 from dualpose.io import load_broad
 from dualpose.sim.rest_breaks import rest_break_recording
+from realdata import data_dir
 
-BROAD = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "broad"
+BROAD = data_dir("broad")
 WINDOW_S = AhrsConfig().rest_window
 
 

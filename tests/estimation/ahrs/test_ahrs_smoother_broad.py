@@ -9,16 +9,15 @@ offline VQF's and lower on most trials, with the same settings for every trial.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from dualpose.estimation.ahrs.smoother import smooth_orientation
 from dualpose.evaluation.orientation_errors import orientation_rmse
 from dualpose.io import load_broad
+from realdata import data_dir
 
-BROAD = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "broad"
+BROAD = data_dir("broad", full=True)
 OFFLINE_VQF_9D = {
     "01_undisturbed_slow_rotation_A": 3.372,
     "06_undisturbed_fast_rotation_A": 4.108,

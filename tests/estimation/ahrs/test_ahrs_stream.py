@@ -5,7 +5,6 @@ after the rest period -- and a saved state continues exactly; on a synthetic rec
 from __future__ import annotations
 
 import pickle
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,8 +14,9 @@ from dualpose import _native
 from dualpose.estimation.ahrs import AhrsConfig, estimate_orientation, rest_statistics
 from dualpose.estimation.ahrs.stream import AhrsStream
 from dualpose.io import load_broad
+from realdata import data_dir
 
-BROAD = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "broad"
+BROAD = data_dir("broad")
 BROAD_TRIAL = "24_disturbed_tapping_A"  # disturbed: the gates and the adaptive noise are exercised
 RATE = 100.0
 
