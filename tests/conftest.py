@@ -42,7 +42,7 @@ def trial():
 
 
 #: 30 s of EuRoC V1_01_easy as GTSAM ships it, and its ground truth (GPL-3.0: read from here, never copied)
-EUROC_V101_DIR = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "euroc" / "v101_30s"
+EUROC_V101_DIR = data_dir("euroc/v101_30s", full=True)
 
 
 @pytest.fixture(scope="session")

@@ -10,8 +10,9 @@ import pytest
 
 from dualpose.io import RecordingError, read_rig_sensors, read_target_detections
 from dualpose.types import EquidistantCamera, FrameCorrespondences, RadTanCamera
+from realdata import data_dir
 
-EUROC = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "euroc" / "imu_april"
+EUROC = data_dir("euroc/imu_april", full=True)
 
 
 @pytest.fixture(scope="module")

@@ -148,7 +148,7 @@ class FilterResult:
 
 class EskfStateAccessors:
     """The named blocks of an error-state IMU state (:data:`~dualpose.estimation.state.ESKF_STATE` in ``self.x``,
-    the (15, 15) :attr:`covariance` over :data:`~dualpose.estimation.state.ESKF_ERROR`), the world-frame attitude
+    the (15, 15) ``covariance`` over :data:`~dualpose.estimation.state.ESKF_ERROR`), the world-frame attitude
     covariance and the attitude-fix model, shared by :class:`ErrorStateEKF` and
     :class:`~dualpose.estimation.msckf.MsckfVio`."""
 

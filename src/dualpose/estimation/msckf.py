@@ -113,8 +113,8 @@ class VioResult:
 
 class MsckfVio(EskfStateAccessors, Estimator):
     """MSCKF visual–inertial odometer over feature tracks (module docstring); an
-    :class:`~dualpose.estimation.interface.Estimator` whose :attr:`state` / :attr:`covariance` are those of the
-    IMU (the window is :attr:`clones` and :attr:`full_covariance`).
+    :class:`~dualpose.estimation.interface.Estimator` whose ``state`` / ``covariance`` are those of the
+    IMU (the window is ``clones`` and ``full_covariance``).
 
     Parameters
     ----------

@@ -20,12 +20,16 @@ from dualpose.types.camera_models import (
     RadTanCamera,
     camera_from_parameters,
 )
+from dualpose.types.features import FeatureTracks, TrackFrame, TrackRecording
 from dualpose.types.imu import STANDARD_GRAVITY, ImuNoise
 from dualpose.types.recording import FilterStart, Recording, SensorRun, SensorSetup
 from dualpose.types.target import RigSensors, TargetDetections
 from dualpose.types.trajectory import Trajectory, seconds_from_ns
 
 __all__ = [
+    "FeatureTracks",
+    "TrackFrame",
+    "TrackRecording",
     "STANDARD_GRAVITY",
     "CameraFrame",
     "CameraIntrinsics",
