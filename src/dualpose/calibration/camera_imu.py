@@ -17,7 +17,8 @@ al. 2013, but in discrete time):
   bias (0 ± 0.1 rad/s, 0 ± 1 m/s²) that only fixes the scale of the problem.
 
 It is solved by Levenberg–Marquardt on the sparse normal equations (block Jacobians assembled with NumPy; the
-reprojection blocks are summed per frame with batched matrix products; ``scipy.sparse.linalg.splu``).  Between
+reprojection blocks are summed per frame with batched matrix products; the block-tridiagonal frame part is
+factored by the block Cholesky recursion and the globals by their Schur complement).  Between
 passes the frame states are re-anchored at ``t_k + τ`` and the IMU re-preintegrated at the current biases.
 
 Start from no prior: per-frame PnP on the undistorted corners (:func:`dualpose.registration.pnp.solve_pnp_batch`),
@@ -36,7 +37,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.linalg import splu
 
 import dualpose as dp
 from dualpose.calibration._preintegration import Preintegrated, imu_factors, preintegrate
@@ -214,12 +214,21 @@ class _Problem:
         self.camera = camera
         self.noise = noise
         self.gmag = gmag
-        self.knot = np.arange(n) if bias_model == "random_walk" else np.zeros(n, dtype=np.int64)
+        rw = bias_model == "random_walk"
+        self.knot = np.arange(n) if rw else np.zeros(n, dtype=np.int64)
         self.K = int(self.knot.max()) + 1
-        kt = np.array([t_frames[self.knot == k].mean() for k in range(self.K)]) if self.K == 1 else t_frames
-        self.knot_t = np.atleast_1d(kt)
-        self.nvar = 9 * n + 6 * self.K + _NG
-        self.gbase = 9 * n + 6 * self.K
+        self.knot_t = t_frames.copy() if rw else np.array([t_frames.mean()])
+        # variable layout: a band of per-frame blocks [φ, p, v (, bias knot)] in time order, then the border
+        # (the constant bias if any, and the globals [ε, p_bc, τ, δg]), so the normal matrix is banded + border
+        stride = 15 if rw else 9
+        self.stride = stride
+        self.nb = stride * n
+        self.node_off = stride * np.arange(n)
+        self.knot_off = self.node_off + 9 if rw else np.array([self.nb])
+        self.gbase = self.nb + (0 if rw else 6)
+        self.nvar = self.gbase + _NG
+        self.node_idx = self.node_off[:, None] + np.arange(9)
+        self.knot_idx = self.knot_off[:, None] + np.arange(6)
         self.sigma_px = 1.0
         self.huber = 1.5  # in σ
 
@@ -266,13 +275,12 @@ class _Problem:
         self.relinearize()
 
     def retract(self, delta):
-        n, K, gb = self.N, self.K, self.gbase
-        dn = delta[: 9 * n].reshape(n, 9)
+        dn = delta[self.node_idx]
         self.R = self.R @ dp.so3_exp(dn[:, 0:3])
         self.p = self.p + dn[:, 3:6]
         self.v = self.v + dn[:, 6:9]
-        self.bias = self.bias + delta[9 * n : gb].reshape(K, 6)
-        dg = delta[gb:]
+        self.bias = self.bias + delta[self.knot_idx]
+        dg = delta[self.gbase :]
         self.R_bc = dp.so3_exp(dg[0:3]) @ self.R_bc
         self.p_bc = self.p_bc + dg[3:6]
         self.tau = self.tau + dg[6]
@@ -327,7 +335,7 @@ class _Problem:
         return float(np.sum(rw**2) + np.sum(rb**2) + np.sum(rp**2))
 
     def normal_equations(self):
-        """Sparse ``H = JᵀWJ`` (csc), gradient ``JᵀWr`` and the cost at the current state."""
+        """``H = JᵀWJ`` as :class:`_Normal` (band + border), the gradient ``JᵀWr`` and the cost."""
         n, K, gb = self.N, self.K, self.gbase
         rows, cols, vals = [], [], []
         grad = np.zeros(self.nvar)
@@ -360,45 +368,118 @@ class _Problem:
         sw = np.sqrt(w) / self.sigma_px
         Jw = (J * sw[..., None, None]).reshape(n, -1, 16)
         rw = (r * sw[..., None]).reshape(n, -1)
-        idx = np.concatenate([9 * np.arange(n)[:, None] + np.arange(9), np.broadcast_to(gb + np.arange(7), (n, 7))],
-                             axis=1)  # fmt: skip
+        idx = np.concatenate([self.node_idx, np.broadcast_to(gb + np.arange(7), (n, 7))], axis=1)
         add(idx, Jw, rw)
         # IMU factors: 9 × 26 over [node i, node j, bias knot of i, δg]
         rI, JI = self.imu_whitened(True)
-        i = np.arange(n - 1)
-        kb = 9 * n + 6 * self.knot[:-1]
-        idx = np.concatenate([9 * i[:, None] + np.arange(9), 9 * (i + 1)[:, None] + np.arange(9),
-                              kb[:, None] + np.arange(6), np.broadcast_to(gb + np.arange(7, 9), (n - 1, 2))], axis=1)  # fmt: skip
+        gidx = np.broadcast_to(gb + np.arange(7, 9), (n - 1, 2))
+        idx = np.concatenate([self.node_idx[:-1], self.node_idx[1:], self.knot_idx[self.knot[:-1]], gidx], axis=1)
         add(idx, JI, rI)
         # bias random walk and prior
         if K > 1:
             k = np.arange(K - 1)
             rb = np.diff(self.bias, axis=0) * self.rw_scale
             diag = self.rw_scale[:, :, None] * np.eye(6)
-            add(9 * n + 6 * k[:, None] + np.arange(12), np.concatenate([-diag, diag], axis=2), rb)
+            add(np.concatenate([self.knot_idx[k], self.knot_idx[k + 1]], axis=1), np.concatenate([-diag, diag], axis=2), rb)
         else:
             rb = np.zeros((0, 6))
         rp = self.bias[0] / _BIAS_PRIOR
-        add((9 * n + np.arange(6))[None, :], np.diag(1.0 / _BIAS_PRIOR)[None], rp[None])
+        add(self.knot_idx[:1], np.diag(1.0 / _BIAS_PRIOR)[None], rp[None])
         H = sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                          shape=(self.nvar, self.nvar)).tocsc()  # fmt: skip
+                          shape=(self.nvar, self.nvar)).tocsr().tocoo()  # fmt: skip
         cost = c_cam + float(np.sum(rI**2) + np.sum(rb**2) + np.sum(rp**2))
-        return H, grad, cost
+        return _Normal(H, self.nb, self.stride), grad, cost
+
+
+class _Normal:
+    """Normal matrix ``[[A, B], [Bᵀ, C]]``: ``A`` (nb, nb) block tridiagonal (the per-frame blocks of size ``s`` in
+    time order: diagonal blocks ``D`` (N, s, s), super-diagonal ``U`` (N − 1, s, s)) and a dense border ``B``
+    (nb, m), ``C`` (m, m).  ``A`` is factored by the block Cholesky recursion (one small dense step per frame)."""
+
+    def __init__(self, H: sp.coo_matrix, nb: int, s: int):
+        r, c, v = H.row, H.col, H.data
+        n = nb // s
+        self.s = s
+        self.D = np.zeros((n, s, s))
+        self.U = np.zeros((max(n - 1, 0), s, s))
+        inb = (r < nb) & (c < nb)
+        br, bc = r // s, c // s
+        sel = inb & (br == bc)
+        self.D[br[sel], r[sel] % s, c[sel] % s] = v[sel]
+        sel = inb & (bc == br + 1)
+        self.U[br[sel], r[sel] % s, c[sel] % s] = v[sel]
+        m = H.shape[0] - nb
+        self.B = np.zeros((nb, m))
+        sel = (r < nb) & (c >= nb)
+        self.B[r[sel], c[sel] - nb] = v[sel]
+        self.C = np.zeros((m, m))
+        sel = (r >= nb) & (c >= nb)
+        self.C[r[sel] - nb, c[sel] - nb] = v[sel]
+
+    def _factor_band(self, lam: float):
+        n = len(self.D)
+        Linv = np.empty_like(self.D)
+        Lsub = np.empty_like(self.U)
+        d = self.D[0] + lam * np.diag(np.diag(self.D[0]))
+        for i in range(n):  # block Cholesky: A = L Lᵀ, L block lower bidiagonal
+            Linv[i] = np.linalg.inv(np.linalg.cholesky(d))
+            if i + 1 < n:
+                Lsub[i] = self.U[i].T @ Linv[i].T
+                d = self.D[i + 1] + lam * np.diag(np.diag(self.D[i + 1])) - Lsub[i] @ Lsub[i].T
+        return Linv, Lsub
+
+    def _solve_band(self, F, b: np.ndarray) -> np.ndarray:
+        Linv, Lsub = F
+        n, s = len(Linv), self.s
+        bb = b.reshape((n, s) + b.shape[1:])
+        y = np.empty_like(bb)
+        y[0] = Linv[0] @ bb[0]
+        for i in range(1, n):
+            y[i] = Linv[i] @ (bb[i] - Lsub[i - 1] @ y[i - 1])
+        x = np.empty_like(bb)
+        x[-1] = Linv[-1].T @ y[-1]
+        for i in range(n - 2, -1, -1):
+            x[i] = Linv[i].T @ (y[i] - Lsub[i].T @ x[i + 1])
+        return x.reshape(b.shape)
+
+    def factor(self, lam: float = 0.0):
+        """Factor of the band (damped by ``1 + lam`` on the diagonal), ``A⁻¹B`` and the border's Schur complement."""
+        F = self._factor_band(lam)
+        XB = self._solve_band(F, self.B)
+        S = self.C + lam * np.diag(np.diag(self.C)) - self.B.T @ XB
+        return F, XB, S
+
+    def solve(self, g: np.ndarray, lam: float) -> np.ndarray:
+        """``−(H + λ diag H)⁻¹ g``."""
+        nb = len(self.B)
+        F, XB, S = self.factor(lam)
+        x0 = self._solve_band(F, g[:nb])
+        db = -np.linalg.solve(S, g[nb:] - self.B.T @ x0)
+        return np.concatenate([-x0 - XB @ db, db])
+
+    def covariance(self, band_combinations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``H⁻¹`` of the border (m, m) and of the linear combinations ``cᵀ x_band`` (columns of
+        ``band_combinations`` (nb, q)), (q, q)."""
+        F, XB, S = self.factor(0.0)
+        Sinv = np.linalg.inv(S)
+        if band_combinations.shape[1] == 0:
+            return Sinv, np.zeros((0, 0))
+        y = self._solve_band(F, band_combinations)
+        w = self.B.T @ y
+        return Sinv, band_combinations.T @ y + w.T @ Sinv @ w
 
 
 def _levenberg_marquardt(prob: _Problem, max_iterations: int, tol: float = 1e-7) -> int:
-    """LM on the current model; returns the accepted steps."""
+    """LM (Marquardt's diagonal damping) on the current model; returns the accepted steps."""
     lam = 1e-5
     accepted = 0
     H, g, cost = prob.normal_equations()
     for _ in range(max_iterations):
-        diag = H.diagonal()
         step_ok = False
         for _try in range(8):
-            A = H + sp.diags(lam * np.maximum(diag, 1e-9))
             try:
-                delta = -splu(A.tocsc()).solve(g)
-            except RuntimeError:
+                delta = H.solve(g, lam)
+            except np.linalg.LinAlgError:
                 lam *= 10
                 continue
             saved = prob.state()
@@ -536,17 +617,18 @@ def calibrate_camera_imu(
 
     # covariance of the globals (and the bias means) from the information at the solution
     H, _, _ = prob.normal_equations()
-    lu = splu(H.tocsc())
-    n, K, gb = prob.N, prob.K, prob.gbase
-    E = np.zeros((prob.nvar, _NG + 6))
-    E[gb : gb + _NG, :_NG] = np.eye(_NG)
-    for c in range(6):
-        E[9 * n + c : gb : 6, _NG + c] = 1.0 / K
-    X = lu.solve(E)
-    C = E.T @ X
-    C = 0.5 * (C + C.T)
-    cov_g = C[:_NG, :_NG]
-    std_all = np.sqrt(np.maximum(np.diag(C), 0.0))
+    n, K = prob.N, prob.K
+    comb = np.zeros((prob.nb, 6 if K > 1 else 0))
+    for c in range(comb.shape[1]):
+        comb[prob.knot_idx[:, c], c] = 1.0 / K
+    try:
+        c_border, c_mean = H.covariance(comb)
+    except np.linalg.LinAlgError:
+        c_border, c_mean = np.full((prob.nvar - prob.nb,) * 2, np.nan), np.full((comb.shape[1],) * 2, np.nan)
+    cov_g = c_border[-_NG:, -_NG:]
+    cov_g = 0.5 * (cov_g + cov_g.T)
+    c_bias = c_mean if K > 1 else c_border[:6, :6]
+    std_all = np.sqrt(np.maximum(np.concatenate([np.diag(cov_g), np.diag(c_bias)]), 0.0))
 
     r, use, _ = prob.reprojection(False)
     inl = prob.inlier & use
