@@ -373,14 +373,16 @@ class _Problem:
         # IMU factors: 9 × 26 over [node i, node j, bias knot of i, δg]
         rI, JI = self.imu_whitened(True)
         gidx = np.broadcast_to(gb + np.arange(7, 9), (n - 1, 2))
-        idx = np.concatenate([self.node_idx[:-1], self.node_idx[1:], self.knot_idx[self.knot[:-1]], gidx], axis=1)
+        kidx = self.knot_idx[self.knot[:-1]]
+        idx = np.concatenate([self.node_idx[:-1], self.node_idx[1:], kidx, gidx], axis=1)
         add(idx, JI, rI)
         # bias random walk and prior
         if K > 1:
             k = np.arange(K - 1)
             rb = np.diff(self.bias, axis=0) * self.rw_scale
             diag = self.rw_scale[:, :, None] * np.eye(6)
-            add(np.concatenate([self.knot_idx[k], self.knot_idx[k + 1]], axis=1), np.concatenate([-diag, diag], axis=2), rb)
+            pair = np.concatenate([self.knot_idx[k], self.knot_idx[k + 1]], axis=1)
+            add(pair, np.concatenate([-diag, diag], axis=2), rb)
         else:
             rb = np.zeros((0, 6))
         rp = self.bias[0] / _BIAS_PRIOR
@@ -644,8 +646,9 @@ def calibrate_camera_imu(
     tr_std = np.sqrt(np.maximum(lam[order], 0.0))
     warnings = []
     if tr_std[0] > 0.005:
-        warnings.append(f"translation poorly excited: std {1e3 * tr_std[0]:.1f} mm along "
-                        f"{np.round(vec[:, order[0]], 3).tolist()} (rotate the rig more about several axes)")  # fmt: skip
+        worst = np.round(vec[:, order[0]], 3).tolist()
+        warnings.append(f"translation poorly excited: std {1e3 * tr_std[0]:.1f} mm along {worst} (rotate the rig "
+                        "more, about several axes)")  # fmt: skip
     if math.sqrt(ct[3, 3]) > 0.002:
         warnings.append(f"time offset poorly excited: std {1e3 * math.sqrt(ct[3, 3]):.2f} ms")
     if lam[order[-1]] <= 0 or not np.all(np.isfinite(cov_g)):
