@@ -291,10 +291,9 @@ class _Problem:
         d = self.tau - self.tau_ref
         E = dp.so3_exp(self.omega * d)
         Rt = np.swapaxes(self.R, 1, 2)
-        y = np.einsum("nij,nmj->nmi", Rt, self.pts - (self.p + self.v * d)[:, None, :])
-        xb = np.einsum("nji,nmj->nmi", E, y)
-        Rbc_t = self.R_bc.T
-        xc = (xb - self.p_bc) @ Rbc_t.T
+        y = (self.pts - (self.p + self.v * d)[:, None, :]) @ self.R  # R_nᵀ (X − p(t)), batched (N, M, 3)
+        xb = y @ E  # Eᵀ y
+        xc = (xb - self.p_bc) @ self.R_bc  # R_bcᵀ (x_b − p_bc)
         front = xc[..., 2] > 1e-3
         xc_safe = np.where(front[..., None], xc, np.array([0.0, 0.0, 1.0]))
         if jac:
@@ -353,18 +352,21 @@ class _Problem:
         d = self.tau - self.tau_ref
         Rbc_t = self.R_bc.T
         A = Rbc_t @ np.swapaxes(E, 1, 2)  # (N, 3, 3): d x_c / d x_b ∘ Eᵀ
-        DA = np.einsum("nmij,njk->nmik", D, A)
-        J = np.empty(D.shape[:2] + (2, 16))
-        J[..., 0:3] = DA @ dp.so3_hat(y)
-        DART = np.einsum("nmij,njk->nmik", DA, Rt)
+        m = D.shape[1]
+        D2 = D.reshape(n, 2 * m, 3)
+        DA = D2 @ A  # row-vector products as batched (2M × 3)(3 × 3) matrices
+        DART = (DA @ Rt).reshape(n, m, 2, 3)
+        DA = DA.reshape(n, m, 2, 3)
+        DB = (D2 @ Rbc_t).reshape(n, m, 2, 3)
+        J = np.empty((n, m, 2, 16))
+        J[..., 0:3] = np.cross(DA, y[:, :, None, :])  # aᵀ [y]× = (a × y)ᵀ
         J[..., 3:6] = -DART
         J[..., 6:9] = -DART * d
-        DB = D @ Rbc_t
-        J[..., 9:12] = DB @ dp.so3_hat(xb - self.p_bc)
+        J[..., 9:12] = np.cross(DB, (xb - self.p_bc)[:, :, None, :])
         J[..., 12:15] = -DB
         vb = np.einsum("nij,nj->ni", Rt, self.v)
         dxb_dtau = np.cross(xb, self.omega[:, None, :]) - np.einsum("nji,nj->ni", E, vb)[:, None, :]
-        J[..., 15] = np.einsum("nmij,nmj->nmi", DB, dxb_dtau)
+        J[..., 15] = np.sum(DB * dxb_dtau[:, :, None, :], axis=-1)
         sw = np.sqrt(w) / self.sigma_px
         Jw = (J * sw[..., None, None]).reshape(n, -1, 16)
         rw = (r * sw[..., None]).reshape(n, -1)
