@@ -31,6 +31,7 @@ Results and the IMU-model discussion: docs/euroc.md.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -91,6 +92,9 @@ class CameraImuCalibration:
         Post-hoc fit ``ω_meas ≈ M ω + b`` over the frame intervals (``M − I``: scale factors on the diagonal,
         axis misalignment off it); ``accel_misalignment`` likewise from the velocity increments.
     frames_used : int.  iterations : int (LM steps accepted).  runtime_s : float.
+    camera_parameters : ndarray (8,)
+        The camera's ``parameters`` used (refined with ``estimate_intrinsics``; ``camera_parameters_std`` then their
+        σ, else empty).
     initial : dict
         The starting values (gyro/camera rate registration): ``q_bc``, ``time_offset``, ``gyro_bias``.
     """
@@ -116,6 +120,8 @@ class CameraImuCalibration:
     bias_t: np.ndarray
     bias_track: np.ndarray
     initial: dict = field(default_factory=dict)
+    camera_parameters: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    camera_parameters_std: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def rotation_matrix(self) -> np.ndarray:
@@ -198,7 +204,8 @@ def _initial_poses(frames, keep, camera, min_corners):
 class _Problem:
     """The batch: fixed data, current state, residuals/normal equations (module docstring)."""
 
-    def __init__(self, imu_t, gyro, accel, t_frames, offsets, pixels, points, camera, noise, gmag, bias_model):
+    def __init__(self, imu_t, gyro, accel, t_frames, offsets, pixels, points, camera, noise, gmag, bias_model,
+                 intrinsics=False):  # fmt: skip
         self.imu_t, self.gyro, self.accel = imu_t, gyro, accel
         self.t = t_frames  # (N,) camera stamps of the nodes, s
         n = len(t_frames)
@@ -226,7 +233,8 @@ class _Problem:
         self.node_off = stride * np.arange(n)
         self.knot_off = self.node_off + 9 if rw else np.array([self.nb])
         self.gbase = self.nb + (0 if rw else 6)
-        self.nvar = self.gbase + _NG
+        self.n_intr = 8 if intrinsics else 0  # fx, fy, cx, cy and the 4 distortion coefficients, after δg
+        self.nvar = self.gbase + _NG + self.n_intr
         self.node_idx = self.node_off[:, None] + np.arange(9)
         self.knot_idx = self.knot_off[:, None] + np.arange(6)
         self.sigma_px = 1.0
@@ -241,10 +249,10 @@ class _Problem:
 
     def state(self):
         return (self.R.copy(), self.p.copy(), self.v.copy(), self.bias.copy(), self.R_bc.copy(), self.p_bc.copy(),
-                self.tau, self.g.copy())  # fmt: skip
+                self.tau, self.g.copy(), self.camera)  # fmt: skip
 
     def restore(self, s):
-        self.R, self.p, self.v, self.bias, self.R_bc, self.p_bc, self.tau, self.g = s
+        self.R, self.p, self.v, self.bias, self.R_bc, self.p_bc, self.tau, self.g, self.camera = s
 
     def relinearize(self):
         """Node times ``t + τ_ref``, body rates there and the preintegration at the current biases."""
@@ -285,6 +293,8 @@ class _Problem:
         self.p_bc = self.p_bc + dg[3:6]
         self.tau = self.tau + dg[6]
         self.g = dp.so3_exp(_tangent_basis(self.g) @ dg[7:9]) @ self.g
+        if self.n_intr:
+            self.camera = _with_parameters(self.camera, self.camera.parameters + dg[_NG:])
 
     # ----- residuals -----------------------------------------------------------------------------------------
     def reprojection(self, jac):
@@ -302,7 +312,7 @@ class _Problem:
             pred, D = self.camera.project(xc_safe), None
         r = pred - self.pix
         use = self.inlier & front
-        return r, use, (D, E, Rt, y, xb) if jac else None
+        return r, use, (D, E, Rt, y, xb, xc_safe) if jac else None
 
     def robust(self, r, use):
         s = np.linalg.norm(r, axis=-1) / self.sigma_px
@@ -347,7 +357,7 @@ class _Problem:
             np.add.at(grad, idx.ravel(), np.einsum("bri,br->bi", Jw, rw).ravel())
 
         # reprojection: per corner 2 × 16 over [φ, p, v of its node, ε, p_bc, τ]
-        r, use, (D, E, Rt, y, xb) = self.reprojection(True)
+        r, use, (D, E, Rt, y, xb, xc_safe) = self.reprojection(True)
         c_cam, w = self.robust(r, use)
         d = self.tau - self.tau_ref
         Rbc_t = self.R_bc.T
@@ -358,7 +368,8 @@ class _Problem:
         DART = (DA @ Rt).reshape(n, m, 2, 3)
         DA = DA.reshape(n, m, 2, 3)
         DB = (D2 @ Rbc_t).reshape(n, m, 2, 3)
-        J = np.empty((n, m, 2, 16))
+        nc = 16 + self.n_intr
+        J = np.empty((n, m, 2, nc))
         J[..., 0:3] = np.cross(DA, y[:, :, None, :])  # aᵀ [y]× = (a × y)ᵀ
         J[..., 3:6] = -DART
         J[..., 6:9] = -DART * d
@@ -367,10 +378,13 @@ class _Problem:
         vb = np.einsum("nij,nj->ni", Rt, self.v)
         dxb_dtau = np.cross(xb, self.omega[:, None, :]) - np.einsum("nji,nj->ni", E, vb)[:, None, :]
         J[..., 15] = np.sum(DB * dxb_dtau[:, :, None, :], axis=-1)
+        if self.n_intr:
+            J[..., 16:] = self.camera.intrinsics_jacobian(xc_safe)
         sw = np.sqrt(w) / self.sigma_px
-        Jw = (J * sw[..., None, None]).reshape(n, -1, 16)
+        Jw = (J * sw[..., None, None]).reshape(n, -1, nc)
         rw = (r * sw[..., None]).reshape(n, -1)
-        idx = np.concatenate([self.node_idx, np.broadcast_to(gb + np.arange(7), (n, 7))], axis=1)
+        glob = np.concatenate([gb + np.arange(7), gb + _NG + np.arange(self.n_intr)])
+        idx = np.concatenate([self.node_idx, np.broadcast_to(glob, (n, len(glob)))], axis=1)
         add(idx, Jw, rw)
         # IMU factors: 9 × 26 over [node i, node j, bias knot of i, δg]
         rI, JI = self.imu_whitened(True)
@@ -473,6 +487,12 @@ class _Normal:
         return Sinv, band_combinations.T @ y + w.T @ Sinv @ w
 
 
+def _with_parameters(camera, params: np.ndarray):
+    """The same camera model with ``parameters`` (fx, fy, cx, cy, 4 distortion coefficients) replaced."""
+    names = ("fx", "fy", "cx", "cy", *camera.DISTORTION_NAMES)
+    return dataclasses.replace(camera, **{k: float(v) for k, v in zip(names, params, strict=True)})
+
+
 def _levenberg_marquardt(prob: _Problem, max_iterations: int, tol: float = 1e-7) -> int:
     """LM (Marquardt's diagonal damping) on the current model; returns the accepted steps."""
     lam = 1e-5
@@ -527,6 +547,7 @@ def calibrate_camera_imu(
     reject_sigmas: float = 5.0,
     passes: int = 3,
     max_iterations: int = 30,
+    estimate_intrinsics: bool = False,
 ) -> CameraImuCalibration:
     """Calibrate the camera–IMU extrinsic, time offset, IMU biases and target gravity from one recording.
 
@@ -553,6 +574,9 @@ def calibrate_camera_imu(
         Corners whose residual exceeds this many pixel σ after a pass are rejected in the next.
     passes, max_iterations : int
         Outer passes (σ re-estimate, rejection, re-anchoring) and LM steps per pass.
+    estimate_intrinsics : bool
+        Also refine the camera's 8 parameters (``camera.parameters``: fx, fy, cx, cy and the distortion) from the
+        same corners (off by default: the intrinsics are taken as calibrated).
 
     Raises
     ------
@@ -596,7 +620,7 @@ def calibrate_camera_imu(
     sub = np.concatenate([[0], np.cumsum(counts[used])])
     rows = np.concatenate([np.arange(frames.offsets[k], frames.offsets[k + 1]) for k in used])
     prob = _Problem(imu_t, gyro, accel, t_used, sub, frames.pixels[rows], frames.points[rows], camera, imu_noise,
-                    float(gravity_magnitude), bias_model)  # fmt: skip
+                    float(gravity_magnitude), bias_model, estimate_intrinsics)  # fmt: skip
     bias = np.zeros((prob.K, 6))
     bias[:, :3] = coarse.gyro_bias
     # gravity from the telescoped velocity change: Σ (v_j − v_i) = g T + Σ R_i Δv_ij
@@ -629,7 +653,9 @@ def calibrate_camera_imu(
         c_border, c_mean = H.covariance(comb)
     except np.linalg.LinAlgError:
         c_border, c_mean = np.full((prob.nvar - prob.nb,) * 2, np.nan), np.full((comb.shape[1],) * 2, np.nan)
-    cov_g = c_border[-_NG:, -_NG:]
+    og = prob.gbase - prob.nb
+    cov_g = c_border[og : og + _NG, og : og + _NG]
+    cov_intr = c_border[og + _NG :, og + _NG :]
     cov_g = 0.5 * (cov_g + cov_g.T)
     c_bias = c_mean if K > 1 else c_border[:6, :6]
     std_all = np.sqrt(np.maximum(np.concatenate([np.diag(cov_g), np.diag(c_bias)]), 0.0))
@@ -703,4 +729,6 @@ def calibrate_camera_imu(
         iterations=iterations, runtime_s=time.perf_counter() - start, bias_t=prob.knot_t + prob.tau_ref,
         bias_track=prob.bias.copy(),
         initial={"q_bc": coarse.q_bc, "time_offset": tau0, "gyro_bias": coarse.gyro_bias},
+        camera_parameters=np.asarray(prob.camera.parameters, dtype=np.float64),
+        camera_parameters_std=np.sqrt(np.maximum(np.diag(cov_intr), 0.0)) if prob.n_intr else np.zeros(0),
     )  # fmt: skip
