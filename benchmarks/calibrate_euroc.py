@@ -18,27 +18,9 @@ import numpy as np
 import dualpose as dp
 from _common import emit
 from dualpose.io import read_rig_sensors
-from dualpose.pipelines.calibrate_camera_imu import calibrate_camera_imu_files
+from dualpose.pipelines.calibrate_camera_imu import EUROC_KALIBR_T_BS, calibrate_camera_imu_files, pose_matrix
 
 DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "euroc" / "imu_april"
-
-#: EuRoC's Kalibr T_BS (camera pose in the IMU frame), row-major (Burri et al. 2016, mav0/camX/sensor.yaml)
-KALIBR = {
-    "cam0": [0.0148655429818, -0.999880929698, 0.00414029679422, -0.0216401454975, 0.999557249008, 0.0149672133247,
-             0.025715529948, -0.064676986768, -0.0257744366974, 0.00375618835797, 0.999660727178, 0.00981073058949,
-             0, 0, 0, 1],
-    "cam1": [0.0125552670891, -0.999755099723, 0.0182237714554, -0.0198435579556, 0.999598781151, 0.0130119051815,
-             0.0251588363115, 0.0453689425024, -0.0253898008918, 0.0179005838253, 0.999517347078, 0.00786212447038,
-             0, 0, 0, 1],
-}  # fmt: skip
-
-
-def _T(m: dict) -> np.ndarray:
-    T = np.eye(4)
-    T[:3, :3] = dp.matrix_from_quat(np.array(m["rotation_xyzw"]))
-    T[:3, 3] = m["translation_m"]
-    return T
-
 
 def _angle_deg(R: np.ndarray) -> float:
     return math.degrees(float(np.linalg.norm(dp.so3_log(R))))
@@ -58,7 +40,7 @@ def tables(bias_model: str) -> str:
            "reprojection RMS [px] | frames used | corners rejected | runtime [s] |",
            "|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
     for cam, m in res.items():
-        T, Tk = _T(m), np.array(KALIBR[cam]).reshape(4, 4)
+        T, Tk = pose_matrix(m), EUROC_KALIBR_T_BS[cam]
         dt = 1e3 * (T[:3, 3] - Tk[:3, 3])
         out.append(
             f"| {cam} | {_angle_deg(Tk[:3, :3].T @ T[:3, :3]):.3f} | {_vec(dt)} | {np.linalg.norm(dt):.2f} | "
@@ -67,7 +49,7 @@ def tables(bias_model: str) -> str:
             f"{m['outliers']['corners_rejected']} / {m['outliers']['corners_total']} | {m['runtime_s']:.1f} |"
         )
     stereo = read_rig_sensors(DATA / "sensors.yaml").T_cam0_cam1
-    est = np.linalg.inv(_T(res["cam0"])) @ _T(res["cam1"])
+    est = np.linalg.inv(pose_matrix(res["cam0"])) @ pose_matrix(res["cam1"])
     d = 1e3 * (est[:3, 3] - stereo[:3, 3])
     rv = np.degrees(dp.so3_log(est[:3, :3] @ stereo[:3, :3].T))
     out += ["", "| composition `T_b_c0⁻¹ T_b_c1` vs sensors.yaml `T_cam0_cam1` | value |", "|---|---|",

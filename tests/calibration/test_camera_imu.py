@@ -19,17 +19,6 @@ from dualpose.types.imu import ImuNoise
 
 EUROC = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "euroc" / "imu_april"
 
-#: EuRoC's Kalibr extrinsics T_BS (camera pose in the IMU frame), mav0/cam0|cam1/sensor.yaml (Burri et al. 2016)
-KALIBR = {
-    "cam0": [0.0148655429818, -0.999880929698, 0.00414029679422, -0.0216401454975, 0.999557249008, 0.0149672133247,
-             0.025715529948, -0.064676986768, -0.0257744366974, 0.00375618835797, 0.999660727178, 0.00981073058949,
-             0, 0, 0, 1],
-    "cam1": [0.0125552670891, -0.999755099723, 0.0182237714554, -0.0198435579556, 0.999598781151, 0.0130119051815,
-             0.0251588363115, 0.0453689425024, -0.0253898008918, 0.0179005838253, 0.999517347078, 0.00786212447038,
-             0, 0, 0, 1],
-}  # fmt: skip
-
-
 def _simulated(seed: int, pixel_sigma: float = 0.3, time_offset: float = 0.004):
     """The eight-shaped run at 200 Hz with its pinhole pixels re-projected through a radial–tangential camera."""
     cam = RadTanCamera(213.3, 213.3, 160.0, 120.0, -0.2, 0.05, 1e-3, -1e-3, 320, 240)
@@ -104,28 +93,22 @@ def euroc_cut():
             for c in ("cam0", "cam1")}  # fmt: skip
 
 
-def _T(m: dict) -> np.ndarray:
-    T = np.eye(4)
-    T[:3, :3] = dp.matrix_from_quat(np.array(m["rotation_xyzw"]))
-    T[:3, 3] = m["translation_m"]
-    return T
-
-
 def _angle_deg(R: np.ndarray) -> float:
     return float(np.degrees(np.linalg.norm(dp.so3_log(R))))
 
 
 def test_euroc_cut_against_kalibr_and_stereo(euroc_cut):
     from dualpose.io import read_rig_sensors
+    from dualpose.pipelines.calibrate_camera_imu import EUROC_KALIBR_T_BS, pose_matrix
 
     for cam, m in euroc_cut.items():
-        T = _T(m)
-        Tk = np.array(KALIBR[cam]).reshape(4, 4)
+        T = pose_matrix(m)
+        Tk = EUROC_KALIBR_T_BS[cam]
         assert _angle_deg(Tk[:3, :3].T @ T[:3, :3]) < 0.3, cam
         assert np.linalg.norm(T[:3, 3] - Tk[:3, 3]) < 0.015, cam
         assert abs(m["time_offset_s"]) < 0.002, cam
         assert m["reprojection_rms_px"] < 0.6, cam
     stereo = read_rig_sensors(EUROC / "sensors.yaml").T_cam0_cam1
-    est = np.linalg.inv(_T(euroc_cut["cam0"])) @ _T(euroc_cut["cam1"])
+    est = np.linalg.inv(pose_matrix(euroc_cut["cam0"])) @ pose_matrix(euroc_cut["cam1"])
     assert _angle_deg(stereo[:3, :3].T @ est[:3, :3]) < 0.1
     assert np.linalg.norm(est[:3, 3] - stereo[:3, 3]) < 0.01
