@@ -58,7 +58,12 @@ def calibration_summary(res: CameraImuCalibration, camera: str) -> dict:
     """The JSON-ready dictionary of a :class:`CameraImuCalibration` (all values plain floats, lists, dicts)."""
     o = res.outliers
     e = res.excitation
-    return {
+    axes = {}
+    if res.imu_axes:
+        axes = {"gyro_axes_matrix": [_floats(r) for r in res.imu_axes[0]],
+                "accel_axes_matrix": [_floats(r) for r in res.imu_axes[1]],
+                "imu_axes_std": _floats(res.imu_axes_std)}  # fmt: skip
+    return axes | {
         "camera": camera,
         "rotation_xyzw": _floats(res.q_bc),
         "translation_m": _floats(res.p_bc),
@@ -97,6 +102,7 @@ def calibration_summary(res: CameraImuCalibration, camera: str) -> dict:
         "warnings": list(e["warnings"]),
         "gyro_misalignment": [_floats(r) for r in res.gyro_misalignment],
         "accel_misalignment": [_floats(r) for r in res.accel_misalignment],
+        "imu_model": "scale_misalignment" if res.imu_axes else "calibrated",
         "iterations": int(res.iterations),
         "runtime_s": float(res.runtime_s),
     }
@@ -110,11 +116,12 @@ def calibrate_camera_imu_files(
     bias_model: str = "random_walk",
     min_frames: int = 40,
     frame_window: tuple[float, float] | None = None,
+    imu_model: str = "calibrated",
 ) -> dict:
     """Read the three files and calibrate ``camera`` against the IMU; returns :func:`calibration_summary`.
 
     ``frame_window`` (start, end) in seconds from the first IMU sample keeps only the frames and IMU samples inside
-    it (a cut of the recording).
+    it (a cut of the recording).  ``imu_model``: as :func:`~dualpose.calibration.camera_imu.calibrate_camera_imu`.
 
     Raises
     ------
@@ -152,5 +159,5 @@ def calibrate_camera_imu_files(
     frames = FrameCorrespondences(frame_t, offsets, pixels, points)
     g = rig.gravity_magnitude if math.isfinite(rig.gravity_magnitude) else STANDARD_GRAVITY
     res = calibrate_camera_imu(imu_t, gyro, accel, frames, cam, rig.imu_noise, gravity_magnitude=g,
-                               bias_model=bias_model, min_frames=min_frames)  # fmt: skip
+                               bias_model=bias_model, min_frames=min_frames, imu_model=imu_model)  # fmt: skip
     return calibration_summary(res, camera)
