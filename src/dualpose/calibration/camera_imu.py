@@ -37,7 +37,6 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
 
 import dualpose as dp
 from dualpose.calibration._preintegration import (
@@ -158,6 +157,13 @@ def _tangent_basis(g: np.ndarray) -> np.ndarray:
     e1 = np.cross(u, a)
     e1 /= np.linalg.norm(e1)
     return np.column_stack([e1, np.cross(u, e1)])
+
+
+def _cross_into(out: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
+    """``out[...] = a × b`` on the last axis (broadcast), without :func:`numpy.cross`'s axis handling."""
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
 
 
 def _interp3(t: np.ndarray, x: np.ndarray, tq: np.ndarray) -> np.ndarray:
@@ -388,7 +394,7 @@ class _Problem:
             rows.append(np.broadcast_to(idx[:, :, None], H.shape).ravel())
             cols.append(np.broadcast_to(idx[:, None, :], H.shape).ravel())
             vals.append(H.ravel())
-            np.add.at(grad, idx.ravel(), np.einsum("bri,br->bi", Jw, rw).ravel())
+            grad[:] += np.bincount(idx.ravel(), np.einsum("bri,br->bi", Jw, rw).ravel(), minlength=len(grad))
 
         # reprojection: per corner 2 × 16 over [φ, p, v of its node, ε, p_bc, τ]
         r, use, (D, E, Rt, y, xb, xc_safe) = self.reprojection(True)
@@ -404,10 +410,10 @@ class _Problem:
         DB = (D2 @ Rbc_t).reshape(n, m, 2, 3)
         nc = 16 + self.n_intr
         J = np.empty((n, m, 2, nc))
-        J[..., 0:3] = np.cross(DA, y[:, :, None, :])  # aᵀ [y]× = (a × y)ᵀ
+        _cross_into(J[..., 0:3], DA, y[:, :, None, :])  # aᵀ [y]× = (a × y)ᵀ
         J[..., 3:6] = -DART
         J[..., 6:9] = -DART * d
-        J[..., 9:12] = np.cross(DB, (xb - self.p_bc)[:, :, None, :])
+        _cross_into(J[..., 9:12], DB, (xb - self.p_bc)[:, :, None, :])
         J[..., 12:15] = -DB
         vb = np.einsum("nij,nj->ni", Rt, self.v)
         dxb_dtau = np.cross(xb, self.omega[:, None, :]) - np.einsum("nji,nj->ni", E, vb)[:, None, :]
@@ -440,10 +446,9 @@ class _Problem:
         ra = self.theta / _AXES_PRIOR
         if self.n_axes:
             add((gb + _NG + np.arange(self.n_axes))[None], np.eye(self.n_axes)[None] / _AXES_PRIOR, ra[None])
-        H = sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                          shape=(self.nvar, self.nvar)).tocsr().tocoo()  # fmt: skip
+        H = _Normal(np.concatenate(rows), np.concatenate(cols), np.concatenate(vals), self.nvar, self.nb, self.stride)
         cost = c_cam + float(np.sum(rI**2) + np.sum(rb**2) + np.sum(rp**2) + np.sum(ra**2))
-        return _Normal(H, self.nb, self.stride), grad, cost
+        return H, grad, cost
 
 
 class _Normal:
@@ -451,25 +456,22 @@ class _Normal:
     time order: diagonal blocks ``D`` (N, s, s), super-diagonal ``U`` (N − 1, s, s)) and a dense border ``B``
     (nb, m), ``C`` (m, m).  ``A`` is factored by the block Cholesky recursion (one small dense step per frame)."""
 
-    def __init__(self, H: sp.coo_matrix, nb: int, s: int):
-        r, c, v = H.row, H.col, H.data
+    def __init__(self, r: np.ndarray, c: np.ndarray, v: np.ndarray, nvar: int, nb: int, s: int):
+        """Sum the entries ``H[r, c] += v`` (duplicates add up) into the blocks (``bincount`` per target)."""
         n = nb // s
+        m = nvar - nb
         self.s = s
-        self.D = np.zeros((n, s, s))
-        self.U = np.zeros((max(n - 1, 0), s, s))
         inb = (r < nb) & (c < nb)
         br, bc = r // s, c // s
-        sel = inb & (br == bc)
-        self.D[br[sel], r[sel] % s, c[sel] % s] = v[sel]
-        sel = inb & (bc == br + 1)
-        self.U[br[sel], r[sel] % s, c[sel] % s] = v[sel]
-        m = H.shape[0] - nb
-        self.B = np.zeros((nb, m))
-        sel = (r < nb) & (c >= nb)
-        self.B[r[sel], c[sel] - nb] = v[sel]
-        self.C = np.zeros((m, m))
-        sel = (r >= nb) & (c >= nb)
-        self.C[r[sel] - nb, c[sel] - nb] = v[sel]
+        lin = br * (s * s) + (r % s) * s + c % s
+
+        def summed(sel, index, size):
+            return np.bincount(index[sel], v[sel], minlength=size)
+
+        self.D = summed(inb & (br == bc), lin, n * s * s).reshape(n, s, s)
+        self.U = summed(inb & (bc == br + 1), lin, max(n - 1, 0) * s * s).reshape(max(n - 1, 0), s, s)
+        self.B = summed((r < nb) & (c >= nb), r * m + (c - nb), nb * m).reshape(nb, m)
+        self.C = summed((r >= nb) & (c >= nb), (r - nb) * m + (c - nb), m * m).reshape(m, m)
 
     def _factor_band(self, lam: float):
         n = len(self.D)
