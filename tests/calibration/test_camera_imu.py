@@ -36,7 +36,8 @@ def _simulated(seed: int, pixel_sigma: float = 0.3, time_offset: float = 0.004):
 @pytest.fixture(scope="module")
 def simulated():
     run, cam, noise, frames = _simulated(1)
-    return run, calibrate_camera_imu(run.t, run.gyro, run.accel, frames, cam, noise, min_frames=20)
+    return run, calibrate_camera_imu(run.t, run.gyro, run.accel, frames, cam, noise, min_frames=20,
+                                     imu_model="calibrated")  # fmt: skip
 
 
 def test_simulated_rig_recovered_within_predicted_sigma(simulated):
@@ -61,7 +62,8 @@ def test_simulated_rig_recovered_within_predicted_sigma(simulated):
 def test_constant_bias_model_agrees(simulated):
     run, rw = simulated
     _, cam, noise, frames = _simulated(1)
-    const = calibrate_camera_imu(run.t, run.gyro, run.accel, frames, cam, noise, min_frames=20, bias_model="constant")
+    const = calibrate_camera_imu(run.t, run.gyro, run.accel, frames, cam, noise, min_frames=20, bias_model="constant",
+                                 imu_model="calibrated")  # fmt: skip
     assert const.bias_track.shape == (1, 6)
     assert np.degrees(dp.quat_angle(const.q_bc, rw.q_bc)) < 3 * np.max(rw.std["rotation_deg"])
     assert np.all(np.abs(const.p_bc - rw.p_bc) < 3 * rw.std["translation_m"] + 1e-4)
@@ -82,8 +84,8 @@ def test_imu_axis_model_recovers_misaligned_imu():
     pixels = cam.project(xyz) + np.random.default_rng(7).normal(0.0, 0.05, (len(xyz), 2))
     frames = FrameCorrespondences(f.t, f.offsets, pixels, f.points)
     args = (run.t, run.gyro @ Mg.T, run.accel @ Ma.T, frames, cam, noise)
-    plain = calibrate_camera_imu(*args, min_frames=20)
-    res = calibrate_camera_imu(*args, min_frames=20, imu_model="scale_misalignment")
+    plain = calibrate_camera_imu(*args, min_frames=20, imu_model="calibrated")
+    res = calibrate_camera_imu(*args, min_frames=20)
     sym = res.imu_axes[0] - Mg
     err = np.concatenate([np.diag(sym), sym[0, 1:], sym[1, 2:], (res.imu_axes[1] - Ma).ravel()])
     assert np.all(np.abs(err) < 4 * res.imu_axes_std)

@@ -587,7 +587,7 @@ def calibrate_camera_imu(
     passes: int = 3,
     max_iterations: int = 30,
     estimate_intrinsics: bool = False,
-    imu_model: str = "calibrated",
+    imu_model: str = "scale_misalignment",
 ) -> CameraImuCalibration:
     """Calibrate the camera–IMU extrinsic, time offset, IMU biases and target gravity from one recording.
 
@@ -617,9 +617,10 @@ def calibrate_camera_imu(
     estimate_intrinsics : bool
         Also refine the camera's 8 parameters (``camera.parameters``: fx, fy, cx, cy and the distortion) from the
         same corners (off by default: the intrinsics are taken as calibrated).
-    imu_model : ``"calibrated"`` (white noise + bias random walk) or ``"scale_misalignment"``: also a symmetric
-        3 × 3 gyro and a full 3 × 3 accelerometer axis model, ``ω̃ = M_g (ω + b_g)``, ``f̃ = M_a (f + b_a)``
-        (scale factors, non-orthogonality; the accelerometer's rotation relative to the gyro).
+    imu_model : ``"scale_misalignment"`` (default): white noise, bias random walk and a symmetric 3 × 3 gyro and a
+        full 3 × 3 accelerometer axis model, ``ω̃ = M_g (ω + b_g)``, ``f̃ = M_a (f + b_a)`` (scale factors,
+        non-orthogonality, the accelerometer's rotation relative to the gyro); ``"calibrated"``: without the axis
+        models (``M = I``).
 
     Raises
     ------

@@ -33,9 +33,9 @@ def add_subparser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentPa
     p.add_argument("--camera", default="cam0", help="camera name in SENSORS.yaml (cam0)")
     p.add_argument("--bias-model", choices=("random_walk", "constant"), default="random_walk",
                    help="IMU biases: a random walk with a knot per frame, or constant (random_walk)")  # fmt: skip
-    p.add_argument("--imu-model", choices=("calibrated", "scale_misalignment"), default="calibrated",
-                   help="calibrated: white noise + bias random walk; scale_misalignment: also the gyro and "
-                   "accelerometer axis matrices (calibrated)")  # fmt: skip
+    p.add_argument("--imu-model", choices=("calibrated", "scale_misalignment"), default="scale_misalignment",
+                   help="IMU model: white noise + bias random walk (calibrated), and also the gyro and accelerometer "
+                   "axis matrices (scale_misalignment, the default)")  # fmt: skip
     p.add_argument("--min-frames", type=int, default=40, metavar="N", help="refuse with fewer usable frames (40)")
     p.add_argument("--window", type=float, nargs=2, default=None, metavar=("START", "END"),
                    help="use only the frames between START and END s after the first IMU sample")  # fmt: skip

@@ -116,7 +116,7 @@ def calibrate_camera_imu_files(
     bias_model: str = "random_walk",
     min_frames: int = 40,
     frame_window: tuple[float, float] | None = None,
-    imu_model: str = "calibrated",
+    imu_model: str = "scale_misalignment",
 ) -> dict:
     """Read the three files and calibrate ``camera`` against the IMU; returns :func:`calibration_summary`.
 
