@@ -3,8 +3,8 @@ compared with EuRoC's published Kalibr extrinsics (Burri et al. 2016, mav0/cam0|
 composed (``T_cam0_cam1 = T_b_c0⁻¹ T_b_c1``), with the stereo extrinsic of sensors.yaml.
 
 Run ``nice .venv/bin/python benchmarks/calibrate_euroc.py [--imu-models scale_misalignment calibrated]
-[--bias-models random_walk constant] [--markdown PATH]`` (one full calibration per camera and model pair, ≈ 20–90 s
-each on 2 shared cores).
+[--bias-models random_walk constant] [--noise-scales 1 3 10] [--markdown PATH]`` (one full calibration per camera
+and model pair, ≈ 20–90 s each on 2 shared cores).
 """
 
 from __future__ import annotations
@@ -31,13 +31,14 @@ def _vec(v, scale: float = 1.0, fmt: str = "{:+.2f}") -> str:
     return " ".join(fmt.format(scale * x) for x in v)
 
 
-def tables(imu_model: str, bias_model: str) -> str:
+def tables(imu_model: str, bias_model: str, noise_scale: float = 1.0) -> str:
     res = {}
     for cam in ("cam0", "cam1"):
         res[cam] = calibrate_camera_imu_files(str(DATA / "imu0.csv"), str(DATA / f"{cam}_aprilgrid.csv"),
-                                              str(DATA / "sensors.yaml"), cam, bias_model,
-                                              imu_model=imu_model)  # fmt: skip
-    out = [f"#### IMU model `{imu_model}`, bias model `{bias_model}`", "",
+                                              str(DATA / "sensors.yaml"), cam, bias_model, imu_model=imu_model,
+                                              imu_noise_scale=noise_scale)  # fmt: skip
+    scale = "" if noise_scale == 1.0 else f", IMU noise × {noise_scale:g}"
+    out = [f"#### IMU model `{imu_model}`, bias model `{bias_model}`{scale}", "",
            "| camera | rotation vs Kalibr [deg] | translation − Kalibr [mm] (x y z) | ‖·‖ [mm] | τ [ms] | "
            "reprojection RMS [px] | frames used | corners rejected | runtime [s] |",
            "|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
@@ -84,12 +85,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--imu-models", nargs="+", choices=("scale_misalignment", "calibrated"),
                     default=["scale_misalignment"])
     ap.add_argument("--bias-models", nargs="+", choices=("random_walk", "constant"), default=["random_walk"])
+    ap.add_argument("--noise-scales", nargs="+", type=float, default=[1.0],
+                    help="multiply the IMU noise of sensors.yaml (sensitivity study)")
     ap.add_argument("--markdown", default=None, help="also write the tables to this file (never overwritten)")
     args = ap.parse_args(argv)
     if not DATA.is_dir():
         print(f"EuRoC imu_april data missing ({DATA})", file=sys.stderr)
         return 1
-    text = "\n\n".join(tables(i, b) for i in args.imu_models for b in args.bias_models)
+    text = "\n\n".join(tables(i, b, f) for i in args.imu_models for b in args.bias_models for f in args.noise_scales)
     return emit(text, args.markdown)
 
 

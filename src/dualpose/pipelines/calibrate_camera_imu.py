@@ -117,11 +117,14 @@ def calibrate_camera_imu_files(
     min_frames: int = 40,
     frame_window: tuple[float, float] | None = None,
     imu_model: str = "scale_misalignment",
+    imu_noise_scale: float = 1.0,
 ) -> dict:
     """Read the three files and calibrate ``camera`` against the IMU; returns :func:`calibration_summary`.
 
     ``frame_window`` (start, end) in seconds from the first IMU sample keeps only the frames and IMU samples inside
     it (a cut of the recording).  ``imu_model``: as :func:`~dualpose.calibration.camera_imu.calibrate_camera_imu`.
+    ``imu_noise_scale`` multiplies every IMU noise density and random walk of the sensor file (a sensitivity
+    study: docs/euroc.md).
 
     Raises
     ------
@@ -158,6 +161,9 @@ def calibrate_camera_imu_files(
         raise ValueError(f"no time overlap between the IMU ({imu_path}) and the detections ({detections_path})")
     frames = FrameCorrespondences(frame_t, offsets, pixels, points)
     g = rig.gravity_magnitude if math.isfinite(rig.gravity_magnitude) else STANDARD_GRAVITY
-    res = calibrate_camera_imu(imu_t, gyro, accel, frames, cam, rig.imu_noise, gravity_magnitude=g,
+    if not imu_noise_scale > 0:
+        raise ValueError(f"imu_noise_scale must be > 0; got {imu_noise_scale}")
+    noise = rig.imu_noise.scaled(imu_noise_scale)
+    res = calibrate_camera_imu(imu_t, gyro, accel, frames, cam, noise, gravity_magnitude=g,
                                bias_model=bias_model, min_frames=min_frames, imu_model=imu_model)  # fmt: skip
     return calibration_summary(res, camera)
