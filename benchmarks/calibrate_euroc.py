@@ -71,12 +71,18 @@ def tables(imu_model: str, bias_model: str, noise_scale: float = 1.0) -> str:
             f"{_vec(m['gravity_target'], fmt='{:+.4f}')} ({s['gravity_target_deg']:.4f}) | "
             f"{m['imu_chi2_per_dof']:.2f} |"
         )
-    out += ["", "| camera | post-hoc gyro `M − I` [‰] (rows) | post-hoc accelerometer `M − I` [‰] (rows) |",
-            "|---|---|---|"]  # fmt: skip
+    out += ["", "| camera | axis matrices | gyro `M − I` [‰] (rows) | accelerometer `M − I` [‰] (rows) |",
+            "|---|---|---|---|"]  # fmt: skip
     for cam, m in res.items():
-        g = "; ".join(_vec(r, 1e3, "{:+.2f}") for r in m["gyro_misalignment"])
-        a = "; ".join(_vec(r, 1e3, "{:+.2f}") for r in m["accel_misalignment"])
-        out.append(f"| {cam} | {g} | {a} |")
+        rows = [("post-hoc fit", m["gyro_misalignment"], m["accel_misalignment"])]
+        if "gyro_axes_matrix" in m:
+            eye = np.eye(3)
+            rows.append((f"in the batch (σ ≤ {1e3 * max(m['imu_axes_std']):.2f} ‰)",
+                         np.array(m["gyro_axes_matrix"]) - eye, np.array(m["accel_axes_matrix"]) - eye))  # fmt: skip
+        for name, g, a in rows:
+            gs = "; ".join(_vec(r, 1e3, "{:+.2f}") for r in g)
+            acc = "; ".join(_vec(r, 1e3, "{:+.2f}") for r in a)
+            out.append(f"| {cam} | {name} | {gs} | {acc} |")
     return "\n".join(out)
 
 
