@@ -6,8 +6,8 @@ constant pair), the camera pose in the body frame (``R_bc``, ``p_bc``: ``x_b = R
 ``τ`` (a frame stamped ``t`` by the camera was taken at IMU time ``t + τ``), the direction of gravity in the
 target frame (2 dof; its magnitude is given) and, with the default IMU model, the axis models of the gyro
 (symmetric 3 × 3: scale factors and non-orthogonality) and of the accelerometer (full 3 × 3), applied to the
-measurements as ``(I − Δ) y`` and carried through the preintegration like the biases.  The cost (a maximum a-posteriori batch, as in Kalibr, Furgale et
-al. 2013, but in discrete time):
+measurements as ``(I − Δ) y`` and carried through the preintegration like the biases.  The cost (a maximum
+a-posteriori batch, as in Kalibr, Furgale et al. 2013, but in discrete time):
 
 * every target corner's reprojection residual through the distorted camera model (intrinsics fixed), the body
   pose taken at ``t_k + τ`` by a first-order shift of the frame's state, ``R(t_k + τ) = R_k Exp(ω_k δ)``,
