@@ -3,6 +3,7 @@ Jacobians, the guarded series on the optical axis, and the failure modes."""
 
 from __future__ import annotations
 
+import camera_reference as ref
 import cv2
 import mpmath
 import numpy as np
@@ -222,3 +223,61 @@ def test_construction_checks_and_factory():
     with pytest.raises(ValueError, match="distortion must have 4 values"):
         camera_from_parameters("radtan", [1, 1, 0, 0], [0, 0, 0], 4, 4)
     assert TUMVI.distortion == (TUMVI.k1, TUMVI.k2, TUMVI.k3, TUMVI.k4) and TUMVI.model == "equi"
+
+
+@pytest.mark.parametrize("cam", CAMERAS, ids=["radtan", "equi"])
+def test_compiled_kernels_equal_the_numpy_statement(cam, rng):
+    """The compiled per-point kernels against the whole-array NumPy statement of the same equations
+    (tests/types/camera_reference.py) to 1e-12 relative, over the image, on the axis and near the invertible edge."""
+    px = np.concatenate([_pixel_grid(cam, 31), rng.uniform(0, [cam.width, cam.height], (500, 2)), [[cam.cx, cam.cy]]])
+    xy_d = np.stack([(px[:, 0] - cam.cx) / cam.fx, (px[:, 1] - cam.cy) / cam.fy], -1)
+    p8 = cam.parameters
+    limit = cam.max_radius2 if cam.model == "radtan" else cam.max_angle
+    if cam.model == "radtan":
+        xy_ref, valid_ref = ref.radtan_undistort(p8[4:], limit, xy_d)
+        rays_ref = np.c_[xy_ref, np.ones(len(xy_ref))]
+        rays_ref /= np.linalg.norm(rays_ref, axis=1, keepdims=True)
+    else:
+        xy_ref, valid_ref = ref.equi_undistort(p8[4:], limit, xy_d)
+        rays_ref, bearing_valid = ref.equi_bearing(p8[4:], limit, xy_d)
+        assert bearing_valid.all()
+    rays = cam.bearing(px)
+    np.testing.assert_allclose(rays, rays_ref, rtol=1e-12, atol=1e-15)
+    xy, valid = cam.undistort(xy_d, return_valid=True)
+    np.testing.assert_array_equal(valid, valid_ref)
+    np.testing.assert_allclose(xy[valid], xy_ref[valid], rtol=1e-12, atol=1e-15)
+    points = rays * rng.uniform(0.2, 5.0, (len(rays), 1))
+    points = np.concatenate([points, [[0.0, 0.0, 1.0], [1e-200, -1e-200, 2.0]]])
+    px_ref, j_ref, jp_ref = ref.project(cam.model, p8, points)
+    got, j = cam.project_jacobian(points)
+    np.testing.assert_allclose(got, px_ref, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(cam.project(points), px_ref, rtol=1e-12, atol=0)
+    scale = np.abs(j_ref).max(axis=(-1, -2), keepdims=True)
+    np.testing.assert_allclose(j / scale, j_ref / scale, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(cam.intrinsics_jacobian(points), jp_ref, rtol=1e-12, atol=1e-12)
+    front = points[:, 2] > 0.05
+    xy_u = points[front, :2] / points[front, 2:]
+    if cam.model == "radtan":
+        d_ref, dj_ref, _ = ref.radtan_distort(p8[4:], xy_u[:, 0], xy_u[:, 1])
+    else:
+        d_ref, dj3, _ = ref.equi_point(p8[4:], np.c_[xy_u, np.ones(len(xy_u))])
+        dj_ref = dj3[..., :2]
+    np.testing.assert_allclose(cam.distort(xy_u), d_ref, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(cam.distort_jacobian(xy_u), dj_ref, rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("cam", CAMERAS, ids=["radtan", "equi"])
+@given(st.floats(-1.0, 1.0), st.floats(-1.0, 1.0))
+def test_undistort_inverts_distort(cam, a, b):
+    """undistort(distort(xy)) = xy inside the invertible region (a disc reaching 0.95 of its bound)."""
+    bound = np.sqrt(cam.max_radius2) if cam.model == "radtan" else np.tan(min(cam.max_angle, 1.45))
+    xy = np.array([a, b]) * min(bound * 0.95, 1.5) / np.sqrt(2)
+    np.testing.assert_allclose(cam.undistort(cam.distort(xy)), xy, rtol=1e-11, atol=1e-13)
+
+
+@given(st.floats(0.05, 1.0), st.floats(-np.pi, np.pi), st.floats(1.6, 2.6))
+def test_equidistant_jacobian_beyond_90_degrees(rho_scale, phi, theta):
+    """The fisheye Jacobian also for rays behind the image plane (θ > 90°, Z < 0)."""
+    p = 2.0 * np.array([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)]) * rho_scale
+    _, j = TUMVI.project_jacobian(p)
+    np.testing.assert_allclose(j, _central(TUMVI.project, p, 1e-6), rtol=1e-6, atol=1e-4)

@@ -38,7 +38,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from dualpose.algebra.series import atan2c, sinc
+from dualpose import _native
 from dualpose.types.camera import CameraIntrinsics, PinholeModel
 
 __all__ = [
@@ -52,10 +52,11 @@ __all__ = [
 
 #: largest accepted residual of an undistorted point, in distorted normalised units (|distort(x) - x_d|, max norm)
 UNDISTORT_TOLERANCE = 1e-12
-#: Newton's iterations before a point counts as not converged
+#: Newton's iterations before a point counts as not converged; a step below 1e-14 (normalised units / radians)
+#: ends the iteration for that point (``src/native/common/camera_models.hpp``)
 UNDISTORT_MAX_ITERATIONS = 50
-#: a Newton step below this (normalised units / radians) ends the iteration for that point
-_STEP_DONE = 1e-14
+# outputs of the compiled inversion (src/native/types/cameras.cpp)
+_UNDISTORTED, _RAY, _IDEAL_PIXELS = 0, 1, 2
 
 
 def _points(points_c: object, name: str = "points_c") -> np.ndarray:
@@ -81,16 +82,27 @@ def _first_bad(bad: np.ndarray) -> str:
     return f"{int(bad.sum())} of {bad.size} (first at index {tuple(int(i) for i in idx)})"
 
 
+@dataclass(frozen=True)
 class DistortedCamera(PinholeModel):
     """What the distorted pinhole cameras share (the projection API); see the module docstring for the models.
 
-    A subclass is a frozen dataclass with fields ``fx, fy, cx, cy, <4 distortion coefficients>, width, height``,
-    class attributes ``model`` (the name) and ``DISTORTION_NAMES``, and implements ``_distorted_normalised``,
-    ``_distort`` and ``_undistort``.
+    A subclass is a frozen dataclass that adds the fields ``<4 distortion coefficients>, width, height`` to
+    ``fx, fy, cx, cy`` (pixels),
+    class attributes ``model`` (the name), ``DISTORTION_NAMES``, ``_KERNELS`` (the prefix of its compiled
+    gufuncs in ``dualpose._native``, ``src/native/types/cameras.cpp``) and ``_MODEL_ID`` (its number for
+    ``_native.camera_invert``), and ``_limit()``, the bound of its invertible region.  The per-point work runs in
+    those kernels; this class checks the input and shapes the output.
     """
+
+    fx: float
+    fy: float
+    cx: float
+    cy: float
 
     model: ClassVar[str]
     DISTORTION_NAMES: ClassVar[tuple[str, str, str, str]]
+    _KERNELS: ClassVar[str]
+    _PROJECTABLE: ClassVar[str]
 
     def __post_init__(self) -> None:
         for name in ("fx", "fy", "cx", "cy", *self.DISTORTION_NAMES):
@@ -106,6 +118,11 @@ class DistortedCamera(PinholeModel):
             if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or v <= 0:
                 raise ValueError(f"{name} must be a positive whole number of pixels; got {v!r}")
             object.__setattr__(self, name, int(v))
+        object.__setattr__(self, "_params", np.array([self.fx, self.fy, self.cx, self.cy, *self.distortion]))
+        object.__setattr__(self, "_bound", self._limit())
+
+    def _kernel(self, name: str) -> np.ufunc:
+        return getattr(_native, f"{self._KERNELS}_{name}")
 
     # ------------------------------------------------------------------ parameters
     @property
@@ -116,7 +133,7 @@ class DistortedCamera(PinholeModel):
     @property
     def parameters(self) -> np.ndarray:
         """``[fx, fy, cx, cy, d1, d2, d3, d4]``, shape (8,): the order of :meth:`intrinsics_jacobian`'s columns."""
-        return np.array([self.fx, self.fy, self.cx, self.cy, *self.distortion])
+        return self._params.copy()
 
     def pinhole(self) -> CameraIntrinsics:
         """The undistorted pinhole camera with the same ``fx, fy, cx, cy, width, height``."""
@@ -132,34 +149,25 @@ class DistortedCamera(PinholeModel):
             Shape not ``(..., 3)``, non-finite values, or points the model cannot project (radtan: Z <= 0;
             equi: on the optical axis behind or at the centre, ``X = Y = 0, Z <= 0``), naming ``points_c``.
         """
-        xd, _, _ = self._distorted_normalised(self._checked_points(points_c), False)
-        return self._to_pixels(xd)
+        return self._kernel("project")(self._params, self._checked_points(points_c))
 
     def project_jacobian(self, points_c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Pixels ``(..., 2)`` and their derivative with respect to the camera-frame point, ``(..., 2, 3)``
         (pixels per metre; rows ``u, v``, columns ``X, Y, Z``).  Same input rules as :meth:`project`."""
-        xd, j, _ = self._distorted_normalised(self._checked_points(points_c), True)
-        return self._to_pixels(xd), j * np.array([self.fx, self.fy])[:, None]
+        return self._kernel("project_jacobian")(self._params, self._checked_points(points_c))
 
     def intrinsics_jacobian(self, points_c: np.ndarray) -> np.ndarray:
         """Derivative of the pixels of ``points_c`` ``(..., 3)`` with respect to :attr:`parameters`
         ``(fx, fy, cx, cy, d1, d2, d3, d4)``, shape ``(..., 2, 8)`` (rows ``u, v``)."""
-        xd, _, jk = self._distorted_normalised(self._checked_points(points_c), True)
-        out = np.zeros(xd.shape[:-1] + (2, 8))
-        out[..., 0, 0] = xd[..., 0]
-        out[..., 1, 1] = xd[..., 1]
-        out[..., 0, 2] = 1.0
-        out[..., 1, 3] = 1.0
-        out[..., :, 4:] = jk * np.array([self.fx, self.fy])[:, None]
-        return out
+        return self._kernel("intrinsics_jacobian")(self._params, self._checked_points(points_c))
 
     def distort(self, xy: np.ndarray) -> np.ndarray:
         """Distorted normalised coordinates ``(..., 2)`` of undistorted normalised ``xy = (X/Z, Y/Z)`` ``(..., 2)``."""
-        return self._distort(_planar(xy, "xy", "undistorted normalised x, y"), False)[0]
+        return self._kernel("distort")(self._params, _planar(xy, "xy", "undistorted normalised x, y"))[0]
 
     def distort_jacobian(self, xy: np.ndarray) -> np.ndarray:
         """``d distort(xy) / d xy``, shape ``(..., 2, 2)`` (rows ``x_d, y_d``, columns ``x, y``)."""
-        return self._distort(_planar(xy, "xy", "undistorted normalised x, y"), True)[1]
+        return self._kernel("distort")(self._params, _planar(xy, "xy", "undistorted normalised x, y"))[1]
 
     # ------------------------------------------------------------------ inverse
     def undistort(self, xy_d: np.ndarray, *, return_valid: bool = False):
@@ -178,37 +186,24 @@ class DistortedCamera(PinholeModel):
         ValueError
             Without ``return_valid``, when any point is not invertible (how many, and the first index).
         """
-        a = _planar(xy_d, "xy_d", "distorted normalised x_d, y_d")
-        xy, valid = self._undistort(a)
-        return self._finish(xy, valid, return_valid, "xy_d")
+        return self._invert(_planar(xy_d, "xy_d", "distorted normalised x_d, y_d"), False, _UNDISTORTED, return_valid)
 
     def unproject(self, pixels: np.ndarray, *, return_valid: bool = False):
         """Undistorted normalised coordinates ``(X/Z, Y/Z)`` ``(..., 2)`` of ``pixels`` ``(..., 2)``; failure rules
         of :meth:`undistort` (naming ``pixels``)."""
-        xy, valid = self._undistort(self._distorted_from_pixels(pixels))
-        return self._finish(xy, valid, return_valid, "pixels")
+        return self._invert(_planar(pixels, "pixels", "u, v in pixels"), True, _UNDISTORTED, return_valid)
 
     def bearing(self, pixels: np.ndarray, *, return_valid: bool = False):
         """Unit rays ``(..., 3)`` in the camera frame through ``pixels`` ``(..., 2)``; failure rules of
         :meth:`undistort` (naming ``pixels``)."""
-        ray, valid = self._bearing(self._distorted_from_pixels(pixels))
-        return self._finish(ray, valid, return_valid, "pixels")
+        return self._invert(_planar(pixels, "pixels", "u, v in pixels"), True, _RAY, return_valid)
 
     def ideal_pixels(self, pixels: np.ndarray, *, return_valid: bool = False):
         """The pixels ``(..., 2)`` of the same rays in the undistorted pinhole camera :meth:`pinhole`
         (``K · unproject(pixels)``): what the pinhole-model filters consume.  Failure rules of :meth:`undistort`."""
-        xy, valid = self._undistort(self._distorted_from_pixels(pixels))
-        ideal = np.stack([self.fx * xy[..., 0] + self.cx, self.fy * xy[..., 1] + self.cy], axis=-1)
-        return self._finish(ideal, valid, return_valid, "pixels")
+        return self._invert(_planar(pixels, "pixels", "u, v in pixels"), True, _IDEAL_PIXELS, return_valid)
 
     # ------------------------------------------------------------------ helpers
-    def _to_pixels(self, xd: np.ndarray) -> np.ndarray:
-        return np.stack([self.fx * xd[..., 0] + self.cx, self.fy * xd[..., 1] + self.cy], axis=-1)
-
-    def _distorted_from_pixels(self, pixels: object) -> np.ndarray:
-        p = _planar(pixels, "pixels", "u, v in pixels")
-        return np.stack([(p[..., 0] - self.cx) / self.fx, (p[..., 1] - self.cy) / self.fy], axis=-1)
-
     def _checked_points(self, points_c: object) -> np.ndarray:
         p = _points(points_c)
         bad = self._unprojectable(p)
@@ -219,61 +214,33 @@ class DistortedCamera(PinholeModel):
             )
         return p
 
-    def _bearing(self, xy_d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        xy, valid = self._undistort(xy_d)
-        ray = np.concatenate([xy, np.ones(xy.shape[:-1] + (1,))], axis=-1)
-        return ray / np.linalg.norm(ray, axis=-1, keepdims=True), valid
-
-    @staticmethod
-    def _finish(values: np.ndarray, valid: np.ndarray, return_valid: bool, name: str):
-        values = np.where(valid[..., None], values, np.nan)
+    def _invert(self, src: np.ndarray, from_pixels: bool, output: int, return_valid: bool):
+        """The compiled Newton inversion (``_native.camera_invert``) of ``src`` (..., 2): pixels or distorted
+        normalised coordinates, to undistorted normalised coordinates, unit rays or ideal pixels."""
+        flat = np.ascontiguousarray(src.reshape(-1, 2))
+        out = np.empty((len(flat), 3 if output == _RAY else 2))
+        valid = np.empty(len(flat), dtype=np.int64)
+        _native.camera_invert(self._MODEL_ID, int(from_pixels), output, self._params, self._bound, flat, out, valid)
+        out = out.reshape(src.shape[:-1] + out.shape[-1:])
+        ok = valid.astype(bool).reshape(src.shape[:-1])
         if return_valid:
-            return values, valid
-        if not valid.all():
+            return out, ok
+        if not ok.all():
             raise ValueError(
-                f"{name}: {_first_bad(~valid)} points are outside the invertible region of the distortion "
-                "(pass return_valid=True to get NaN and a mask instead)"
+                f"{'pixels' if from_pixels else 'xy_d'}: {_first_bad(~ok)} points are outside the invertible region "
+                "of the distortion (pass return_valid=True to get NaN and a mask instead)"
             )
-        return values
+        return out
 
 
 # ---------------------------------------------------------------------------------------------- radtan
 
 
-def _radtan_terms(k: tuple[float, float, float, float], x: np.ndarray, y: np.ndarray, jac: bool):
-    """Distorted normalised (x_d, y_d) of (x, y); with ``jac`` also d/d(x, y) (..., 2, 2) and d/d(k1, k2, p1, p2)
-    (..., 2, 4)."""
-    k1, k2, p1, p2 = k
-    x2, y2, xy = x * x, y * y, x * y
-    r2 = x2 + y2
-    radial = 1.0 + r2 * (k1 + k2 * r2)
-    xd = x * radial + 2.0 * p1 * xy + p2 * (r2 + 2.0 * x2)
-    yd = y * radial + p1 * (r2 + 2.0 * y2) + 2.0 * p2 * xy
-    out = np.stack([xd, yd], axis=-1)
-    if not jac:
-        return out, None, None
-    dr = 2.0 * (k1 + 2.0 * k2 * r2)  # d radial / d(r²) times 2
-    j = np.empty(x.shape + (2, 2))
-    j[..., 0, 0] = radial + x2 * dr + 2.0 * p1 * y + 6.0 * p2 * x
-    j[..., 0, 1] = xy * dr + 2.0 * p1 * x + 2.0 * p2 * y
-    j[..., 1, 0] = j[..., 0, 1]
-    j[..., 1, 1] = radial + y2 * dr + 6.0 * p1 * y + 2.0 * p2 * x
-    jk = np.empty(x.shape + (2, 4))
-    jk[..., 0, 0] = x * r2
-    jk[..., 0, 1] = x * r2 * r2
-    jk[..., 0, 2] = 2.0 * xy
-    jk[..., 0, 3] = r2 + 2.0 * x2
-    jk[..., 1, 0] = y * r2
-    jk[..., 1, 1] = y * r2 * r2
-    jk[..., 1, 2] = r2 + 2.0 * y2
-    jk[..., 1, 3] = 2.0 * xy
-    return out, j, jk
-
-
-def _radial_limit_r2(k1: float, k2: float) -> float:
-    """The first r² > 0 where d/dr [r (1 + k1 r² + k2 r⁴)] = 1 + 3 k1 r² + 5 k2 r⁴ vanishes (inf if none)."""
-    roots = np.roots([5.0 * k2, 3.0 * k1, 1.0]) if (k1 or k2) else np.array([])
-    real = [float(s.real) for s in np.atleast_1d(roots) if abs(s.imag) <= 1e-12 * abs(s) and s.real > 0]
+def _first_positive_root(coefficients: list[float]) -> float:
+    """The smallest real root s > 0 of the polynomial (highest power first; inf if none)."""
+    c = np.trim_zeros(np.array(coefficients, dtype=np.float64), "f")
+    roots = np.roots(c) if len(c) > 1 else np.array([])
+    real = [float(r.real) for r in roots if abs(r.imag) <= 1e-12 * abs(r) and r.real > 0]
     return min(real, default=math.inf)
 
 
@@ -281,24 +248,10 @@ def _radial_limit_r2(k1: float, k2: float) -> float:
 class RadTanCamera(DistortedCamera):
     """Pinhole camera with radial–tangential distortion (OpenCV ``[k1, k2, p1, p2]``, Kalibr ``radtan``).
 
-    Attributes
-    ----------
-    fx, fy : float
-        Focal lengths, pixels (> 0).
-    cx, cy : float
-        Principal point, pixels.
-    k1, k2 : float
-        Radial coefficients.
-    p1, p2 : float
-        Tangential coefficients.
-    width, height : int
-        Image size, pixels.
+    ``fx, fy, cx, cy, width, height`` as in :class:`~dualpose.types.camera.CameraIntrinsics` (pixels); ``k1, k2``
+    the radial, ``p1, p2`` the tangential coefficients.
     """
 
-    fx: float
-    fy: float
-    cx: float
-    cy: float
     k1: float
     k2: float
     p1: float
@@ -310,130 +263,33 @@ class RadTanCamera(DistortedCamera):
     DISTORTION_NAMES: ClassVar[tuple[str, str, str, str]] = ("k1", "k2", "p1", "p2")
     _PROJECTABLE: ClassVar[str] = "Z must be > 0"
 
+    _KERNELS: ClassVar[str] = "radtan"
+    _MODEL_ID: ClassVar[int] = 0
+
     @property
     def max_radius2(self) -> float:
         """Largest undistorted ``r² = x² + y²`` of the invertible region (inf when the radial part is monotone)."""
-        return _radial_limit_r2(self.k1, self.k2)
+        return self._bound
+
+    def _limit(self) -> float:
+        # the first r² where d/dr [r (1 + k1 r² + k2 r⁴)] = 1 + 3 k1 r² + 5 k2 r⁴ vanishes
+        return _first_positive_root([5.0 * self.k2, 3.0 * self.k1, 1.0])
 
     def _unprojectable(self, p: np.ndarray) -> np.ndarray:
         return ~(p[..., 2] > 0.0)
 
-    def _distort(self, xy: np.ndarray, jac: bool):
-        out, j, _ = _radtan_terms(self.distortion, xy[..., 0], xy[..., 1], jac)
-        return out, j
-
-    def _distorted_normalised(self, p: np.ndarray, jac: bool):
-        iz = 1.0 / p[..., 2]
-        x, y = p[..., 0] * iz, p[..., 1] * iz
-        xd, j, jk = _radtan_terms(self.distortion, x, y, jac)
-        if not jac:
-            return xd, None, None
-        # d(x, y)/dP = [[1/Z, 0, -x/Z], [0, 1/Z, -y/Z]]
-        j3 = np.empty(x.shape + (2, 3))
-        j3[..., :, 0] = j[..., :, 0] * iz[..., None]
-        j3[..., :, 1] = j[..., :, 1] * iz[..., None]
-        j3[..., :, 2] = -(j[..., :, 0] * x[..., None] + j[..., :, 1] * y[..., None]) * iz[..., None]
-        return xd, j3, jk
-
-    def _undistort(self, xy_d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        k = self.distortion
-        x, y = xy_d[..., 0].copy(), xy_d[..., 1].copy()
-        active = np.ones(x.shape, dtype=bool)
-        for _ in range(UNDISTORT_MAX_ITERATIONS):
-            if not active.any():
-                break
-            xa, ya = x[active], y[active]
-            d, j, _ = _radtan_terms(k, xa, ya, True)
-            ex, ey = d[..., 0] - xy_d[..., 0][active], d[..., 1] - xy_d[..., 1][active]
-            det = j[..., 0, 0] * j[..., 1, 1] - j[..., 0, 1] * j[..., 1, 0]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                sx = (j[..., 1, 1] * ex - j[..., 0, 1] * ey) / det
-                sy = (j[..., 0, 0] * ey - j[..., 1, 0] * ex) / det
-            x[active], y[active] = xa - sx, ya - sy
-            done = ~(np.maximum(np.abs(sx), np.abs(sy)) > _STEP_DONE)  # NaN steps end too (and fail the checks)
-            idx = np.flatnonzero(active.ravel())
-            active.ravel()[idx[done]] = False
-        d, j, _ = _radtan_terms(k, x, y, True)
-        resid = np.maximum(np.abs(d[..., 0] - xy_d[..., 0]), np.abs(d[..., 1] - xy_d[..., 1]))
-        det = j[..., 0, 0] * j[..., 1, 1] - j[..., 0, 1] * j[..., 1, 0]
-        valid = (resid <= UNDISTORT_TOLERANCE) & (det > 0) & (x * x + y * y < self.max_radius2)
-        return np.stack([x, y], axis=-1), valid
-
 
 # ---------------------------------------------------------------------------------------------- equidistant
-
-
-def _equi_poly(k: tuple[float, float, float, float], t2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``θ_d/θ = 1 + k1 θ² + k2 θ⁴ + k3 θ⁶ + k4 θ⁸`` and ``dθ_d/dθ = 1 + 3 k1 θ² + ... + 9 k4 θ⁸`` at ``θ² = t2``."""
-    k1, k2, k3, k4 = k
-    poly = 1.0 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4)))
-    dpoly = 1.0 + t2 * (3.0 * k1 + t2 * (5.0 * k2 + t2 * (7.0 * k3 + t2 * 9.0 * k4)))
-    return poly, dpoly
-
-
-def _equi_terms(k: tuple[float, float, float, float], X, Y, Z, jac: bool):
-    """``θ_d (X, Y)/ρ`` (..., 2); with ``jac`` also d/d(X, Y, Z) (..., 2, 3) and d/d(k1..k4) (..., 2, 4)."""
-    rho = np.hypot(X, Y)
-    a = atan2c(rho, Z)  # θ / ρ, guarded at ρ = 0
-    theta = rho * a
-    t2 = theta * theta
-    poly, dpoly = _equi_poly(k, t2)
-    s = a * poly  # θ_d / ρ
-    out = np.stack([X * s, Y * s], axis=-1)
-    if not jac:
-        return out, None, None
-    q = rho * rho + Z * Z
-    # d s/dρ · ρ = θ_d'(θ) Z/q - s: (u, v) = s (X, Y), so d/d(X, Y) = s I + c n nᵀ with n = (X, Y)/ρ
-    c = dpoly * Z / q - s
-    with np.errstate(divide="ignore", invalid="ignore"):
-        nx = np.where(rho > 0, X / rho, 0.0)
-        ny = np.where(rho > 0, Y / rho, 0.0)
-    dz = -dpoly / q  # ds/dZ
-    j = np.empty(np.shape(s) + (2, 3))
-    j[..., 0, 0] = s + c * nx * nx
-    j[..., 0, 1] = c * nx * ny
-    j[..., 1, 0] = j[..., 0, 1]
-    j[..., 1, 1] = s + c * ny * ny
-    j[..., 0, 2] = X * dz
-    j[..., 1, 2] = Y * dz
-    jk = np.empty(np.shape(s) + (2, 4))
-    power = a * t2  # θ^(2i+1)/ρ
-    for i in range(4):
-        jk[..., 0, i] = X * power
-        jk[..., 1, i] = Y * power
-        power = power * t2
-    return out, j, jk
-
-
-def _equi_theta_limit(k: tuple[float, float, float, float]) -> float:
-    """The first θ in (0, π) where dθ_d/dθ vanishes (π if none)."""
-    k1, k2, k3, k4 = k
-    coeffs = np.trim_zeros([9.0 * k4, 7.0 * k3, 5.0 * k2, 3.0 * k1, 1.0], "f")
-    roots = np.roots(coeffs) if len(coeffs) > 1 else np.array([])
-    real = [math.sqrt(s.real) for s in np.atleast_1d(roots) if abs(s.imag) <= 1e-12 * abs(s) and s.real > 0]
-    return min([t for t in real if t < math.pi], default=math.pi)
 
 
 @dataclass(frozen=True)
 class EquidistantCamera(DistortedCamera):
     """Pinhole camera with equidistant fisheye distortion (Kannala–Brandt; OpenCV ``cv2.fisheye``, Kalibr ``equi``).
 
-    Attributes
-    ----------
-    fx, fy : float
-        Focal lengths, pixels (> 0).
-    cx, cy : float
-        Principal point, pixels.
-    k1, k2, k3, k4 : float
-        Coefficients of ``θ_d = θ (1 + k1 θ² + k2 θ⁴ + k3 θ⁶ + k4 θ⁸)``.
-    width, height : int
-        Image size, pixels.
+    ``fx, fy, cx, cy, width, height`` as in :class:`~dualpose.types.camera.CameraIntrinsics` (pixels); ``k1 .. k4``
+    the coefficients of ``θ_d = θ (1 + k1 θ² + k2 θ⁴ + k3 θ⁶ + k4 θ⁸)``.
     """
 
-    fx: float
-    fy: float
-    cx: float
-    cy: float
     k1: float
     k2: float
     k3: float
@@ -445,57 +301,22 @@ class EquidistantCamera(DistortedCamera):
     DISTORTION_NAMES: ClassVar[tuple[str, str, str, str]] = ("k1", "k2", "k3", "k4")
     _PROJECTABLE: ClassVar[str] = "not on the optical axis at or behind the centre, X = Y = 0 with Z <= 0"
 
+    _KERNELS: ClassVar[str] = "equi"
+    _MODEL_ID: ClassVar[int] = 1
+
     @property
     def max_angle(self) -> float:
         """Largest ray angle θ from the optical axis (radians) of the invertible region: the first zero of
         ``dθ_d/dθ``, or π."""
-        return _equi_theta_limit(self.distortion)
+        return self._bound
+
+    def _limit(self) -> float:
+        # the first θ in (0, π) where dθ_d/dθ = 1 + 3 k1 θ² + 5 k2 θ⁴ + 7 k3 θ⁶ + 9 k4 θ⁸ vanishes, else π
+        s = _first_positive_root([9.0 * self.k4, 7.0 * self.k3, 5.0 * self.k2, 3.0 * self.k1, 1.0])
+        return min(math.sqrt(s), math.pi)
 
     def _unprojectable(self, p: np.ndarray) -> np.ndarray:
         return (p[..., 0] == 0.0) & (p[..., 1] == 0.0) & ~(p[..., 2] > 0.0)
-
-    def _distort(self, xy: np.ndarray, jac: bool):
-        out, j, _ = _equi_terms(self.distortion, xy[..., 0], xy[..., 1], np.ones(xy.shape[:-1]), jac)
-        return out, (None if j is None else j[..., :2])
-
-    def _distorted_normalised(self, p: np.ndarray, jac: bool):
-        return _equi_terms(self.distortion, p[..., 0], p[..., 1], p[..., 2], jac)
-
-    def _theta(self, xy_d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """θ of distorted normalised points (Newton on θ_d(θ) = |xy_d|), ``θ_d/θ`` there, and validity."""
-        k = self.distortion
-        rd = np.hypot(xy_d[..., 0], xy_d[..., 1])
-        limit = self.max_angle
-        theta = np.array(np.minimum(rd, limit))
-        active = np.ones(rd.shape, dtype=bool)
-        for _ in range(UNDISTORT_MAX_ITERATIONS):
-            if not active.any():
-                break
-            t = theta[active]
-            poly, dpoly = _equi_poly(k, t * t)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                step = (t * poly - rd[active]) / dpoly
-            t_new = np.clip(t - step, 0.0, limit)
-            theta[active] = t_new
-            done = ~(np.abs(step) > _STEP_DONE)
-            idx = np.flatnonzero(active.ravel())
-            active.ravel()[idx[done]] = False
-        poly, _ = _equi_poly(k, theta * theta)
-        valid = (np.abs(theta * poly - rd) <= UNDISTORT_TOLERANCE) & (theta < limit)
-        return theta, poly, valid
-
-    def _undistort(self, xy_d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        theta, poly, valid = self._theta(xy_d)
-        valid &= theta < 0.5 * math.pi
-        # (x, y) = tan θ · n = xy_d · (tan θ / θ) / (θ_d / θ), with tan θ/θ = sinc θ / cos θ
-        with np.errstate(divide="ignore", invalid="ignore"):
-            f = sinc(theta) / (np.cos(theta) * poly)
-        return xy_d * f[..., None], valid
-
-    def _bearing(self, xy_d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        theta, poly, valid = self._theta(xy_d)
-        f = sinc(theta) / poly  # sin θ / θ_d, so f · xy_d = sin θ · n
-        return np.concatenate([xy_d * f[..., None], np.cos(theta)[..., None]], axis=-1), valid
 
 
 # ---------------------------------------------------------------------------------------------- factory
