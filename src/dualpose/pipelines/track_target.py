@@ -1,0 +1,477 @@
+"""Tracking a camera–IMU rig against a calibration target: ``dualpose fuse --data DIR --camera cam0
+--calibration CALIB.json`` on a target recording (EuRoC ``imu_april`` layout, :mod:`dualpose.io.target_recording`);
+docs/fusion.md, "Tracking on EuRoC imu_april".
+
+The world frame is the **target frame**; the output is the IMU's pose in it.  Nothing about the motion is assumed
+and no ground truth is used:
+
+* **Measurements.** The measured (distorted) corners of the chosen camera are converted to the pixels of the same
+  rays in the undistorted pinhole camera with the same ``fx, fy, cx, cy`` (``camera.ideal_pixels``), so the
+  pinhole-model filters (ESKF, Hol22) apply unchanged.  Their noise σ (one number per run, as the filters take) is
+  the calibration's reprojection RMS (measured pixels) times the RMS over the image of the undistortion's pixel
+  scale (:func:`ideal_pixel_sigma`): undistortion stretches the image edges, and the noise with it.
+* **Sensors.** Extrinsic and clock offset from the calibration file; IMU noise from the rig's ``sensors.yaml`` as
+  stated (not tuned); initial biases from the calibration file where it states them, otherwise estimated at start-up.
+* **Start-up** (:func:`startup`, Hol's gravity alignment for a moving sensor): the camera's PnP poses over the first
+  :data:`STARTUP_SECONDS` of frames and the IMU between them give the gyro bias, the direction of gravity in the
+  target frame, the velocities and the accelerometer bias by linear least squares
+  (:func:`dualpose.estimation.initialization.align_with_camera_poses`); the filter starts at the first frame of the
+  window with its PnP pose (and covariance), the aligned velocity and the biases.  Gravity is *estimated*, never
+  taken from the calibration file (its ``gravity_target`` is only compared: ``startup.gravity_angle_to_calibration_deg``).
+* **Reference and scoring** (when the directory has another camera's detections, :func:`score_run`): the other
+  camera's per-frame PnP (refined through its lens model) on frames with reprojection RMS < 0.7 px and >= 30 corners,
+  mapped to the IMU with a *given* extrinsic of that camera (EuRoC's published one for cam1 by default,
+  :data:`EUROC_T_BS`): independent of the tracked camera's measurements and of the filter.  Scored: position and
+  rotation RMSE in the target frame (no alignment), the tracked camera's own per-frame PnP measured the same way, and
+  the error inside camera outages (``outages``: the tracked camera's detections deleted over given windows).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+import dualpose as dp
+from dualpose.estimation import initialization
+from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
+from dualpose.evaluation.target_reference import (
+    CameraPoses,
+    body_trajectory,
+    camera_poses,
+    errors_against,
+    reference_trajectory,
+)
+from dualpose.io.recording import RecordingError
+from dualpose.io.target_recording import TargetRecording, read_camera_imu_calibration, read_target_recording
+from dualpose.pipelines.fuse import FILTERS, FuseResult
+from dualpose.registration.pnp import PnPResult
+from dualpose.types import Recording, Trajectory
+from dualpose.types.calibration import CameraImuCalibration
+from dualpose.types.target import TargetDetections
+
+__all__ = [
+    "EUROC_T_BS",
+    "STARTUP_SECONDS",
+    "StartUp",
+    "TrackSetup",
+    "ideal_pixel_sigma",
+    "prepare_track",
+    "run_track",
+    "score_run",
+    "startup",
+]
+
+#: length of the start-up window (s of camera frames from the first usable one): long enough for the hand-held
+#: rotation to separate gravity from the accelerometer bias, short against the run
+STARTUP_SECONDS = 10.0
+#: frames used in the start-up alignment need this many corners
+STARTUP_MIN_CORNERS = 10
+
+#: EuRoC's published camera poses in the IMU frame (Burri et al. 2016, mav0/camN/sensor.yaml ``T_BS``, Kalibr),
+#: row-major 4 x 4: ``x_imu = T x_cam`` -- the extrinsic the *reference* camera is mapped with
+EUROC_T_BS = {
+    "cam0": (0.0148655429818, -0.999880929698, 0.00414029679422, -0.0216401454975, 0.999557249008, 0.0149672133247,
+             0.025715529948, -0.064676986768, -0.0257744366974, 0.00375618835797, 0.999660727178, 0.00981073058949,
+             0.0, 0.0, 0.0, 1.0),
+    "cam1": (0.0125552670891, -0.999755099723, 0.0182237714554, -0.0198435579556, 0.999598781151, 0.0130119051815,
+             0.0251588363115, 0.0453689425024, -0.0253898008918, 0.0179005838253, 0.999517347078, 0.00786212447038,
+             0.0, 0.0, 0.0, 1.0),
+}  # fmt: skip
+
+
+def extrinsic_from_matrix(T: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+    """``(q_bc (4,) xyzw, p_bc (3,) m)`` of a row-major 4 x 4 pose of the camera in the body frame."""
+    M = np.asarray(T, dtype=np.float64).reshape(4, 4)
+    return dp.quat_from_matrix(M[:3, :3]), M[:3, 3].copy()
+
+
+def ideal_pixel_sigma(camera, sigma_px: float, grid: tuple[int, int] = (32, 20)) -> float:
+    """The noise σ of ideal (undistorted pinhole) pixels for measured-pixel noise ``sigma_px``.
+
+    The ideal pixel of a measured pixel ``m`` is ``K · undistort(K⁻¹ m)``; its Jacobian is
+    ``J = diag(fx, fy) · (∂distort/∂xy)⁻¹ · diag(1/fx, 1/fy)`` and isotropic noise σ becomes ``σ J Jᵀ``.  One σ per run
+    (the filters take one): ``sigma_px`` times the RMS over a ``grid`` of pixels covering the image of
+    ``sqrt(‖J‖_F² / 2)`` (1 for a pinhole; about 1.3 for EuRoC's cameras, 1.0 at the centre, 1.7 in the corners).
+    Depends on the camera model only, so a stream can compute it before its first frame.
+    """
+    u = (np.arange(grid[0]) + 0.5) * camera.width / grid[0]
+    v = (np.arange(grid[1]) + 0.5) * camera.height / grid[1]
+    pix = np.stack(np.meshgrid(u, v), axis=-1).reshape(-1, 2)
+    xy, ok = camera.unproject(pix, return_valid=True)
+    Jd = camera.distort_jacobian(xy[ok])
+    f = np.array([camera.fx, camera.fy])
+    J = np.linalg.inv(Jd) * f[:, None] / f[None, :]
+    scale2 = np.einsum("nij,nij->n", J, J) / 2.0
+    return float(sigma_px * np.sqrt(scale2.mean()))
+
+
+@dataclass
+class StartUp:
+    """Where the filter starts (:func:`startup`).
+
+    ``x`` (16,) :data:`~dualpose.estimation.state.ESKF_STATE` and ``P`` (15, 15) over ``ESKF_ERROR`` at IMU sample
+    ``imu_index``; ``alignment`` the :class:`~dualpose.estimation.initialization.CameraImuAlignment`; ``frames``
+    (K,) the detection frames used; ``gyro_bias_from`` / ``accel_bias_from`` "calibration" or "start-up".
+    """
+
+    x: np.ndarray
+    P: np.ndarray
+    imu_index: int
+    alignment: initialization.CameraImuAlignment
+    frames: np.ndarray
+    gyro_bias_from: str
+    accel_bias_from: str
+
+    def summary(self, calibration: CameraImuCalibration) -> dict:
+        """JSON-ready start-up report (gravity, its σ and magnitude check, biases, angle to the calibration's)."""
+        a = self.alignment
+        out = {
+            "frames": int(len(self.frames)),
+            "gravity_target": a.gravity.tolist(),
+            "gravity_sigma_deg": a.gravity_sigma_deg,
+            "gravity_estimated_magnitude": float(np.linalg.norm(a.gravity_estimated)),
+            "gyro_bias": a.gyro_bias.tolist(),
+            "gyro_bias_from": self.gyro_bias_from,
+            "accel_bias": a.accel_bias.tolist(),
+            "accel_bias_from": self.accel_bias_from,
+            "alignment_residual_rms": a.residual_rms,
+            "gravity_angle_to_calibration_deg": None,
+        }
+        g = calibration.gravity_target
+        if g is not None and np.linalg.norm(g) > 0:
+            c = float(np.linalg.norm(np.cross(a.gravity, g)))
+            out["gravity_angle_to_calibration_deg"] = math.degrees(math.atan2(c, float(a.gravity @ g)))
+        return out
+
+
+@dataclass
+class TrackSetup:
+    """Everything :func:`run_track` runs on: the filter's ``recording`` (ideal pixels, gravity from the start-up,
+    IMU from the start sample), its ``start``, the ``source`` recording as read, the ``calibration``, the tracked
+    ``camera`` name and the detections it was given (``detections``, after any outage deletion)."""
+
+    recording: Recording
+    start: StartUp
+    source: TargetRecording
+    calibration: CameraImuCalibration
+    camera: str
+    detections: TargetDetections
+    cache: dict = field(default_factory=dict, repr=False)
+
+
+def _mean_sigma(cov: np.ndarray) -> np.ndarray:
+    return np.sqrt(np.trace(cov, axis1=-2, axis2=-1) / 3.0)
+
+
+def startup(
+    t: np.ndarray, gyro: np.ndarray, accel: np.ndarray, det: TargetDetections, camera, calibration: CameraImuCalibration,
+    imu_noise, gravity_magnitude: float,
+) -> StartUp:
+    """The filter start from the first :data:`STARTUP_SECONDS` of frames (module docstring).
+
+    Parameters
+    ----------
+    t, gyro, accel : the IMU (s on the IMU clock, rad/s, m/s², body frame), at least up to the end of the window.
+    det : the tracked camera's detections (raw pixels); camera : its lens model.
+    calibration : extrinsic, clock offset, optional biases.
+    imu_noise : ImuNoise.  gravity_magnitude : m/s².
+
+    Raises
+    ------
+    ValueError
+        Fewer than 3 usable frames in the window, or an alignment that is not determined.
+    """
+    tau = calibration.time_offset_s
+    t_frames = det.t + tau
+    usable = (det.counts >= STARTUP_MIN_CORNERS) & (t_frames >= t[0]) & (t_frames <= t[-1])
+    if not usable.any():
+        raise ValueError(f"no frame with >= {STARTUP_MIN_CORNERS} corners within the IMU's time span")
+    t0 = t_frames[np.argmax(usable)]
+    window = usable & (t_frames <= t0 + STARTUP_SECONDS)
+    poses = camera_poses(det.select(window), camera, STARTUP_MIN_CORNERS)
+    good = poses.rms_px <= 3.0 * np.median(poses.rms_px)  # blurred frames: a robust cut of the start-up poses
+    if good.sum() < 3:
+        raise ValueError(f"only {int(good.sum())} usable frames in the start-up window of {STARTUP_SECONDS:g} s")
+    q_bc, p_bc = calibration.rotation_xyzw, calibration.translation_m
+    body = body_trajectory(poses, q_bc, p_bc, tau, mask=good)
+    cov_body = [initialization.body_pose_from_camera(
+        PnPResult(poses.q_wc[i], poses.c_w[i], poses.covariance[i], float(poses.rms_px[i]), 0), q_bc, p_bc)[2]
+        for i in np.flatnonzero(good)]  # fmt: skip
+    cov_body = np.array(cov_body)
+    n = imu_noise
+    al = initialization.align_with_camera_poses(
+        t, gyro, accel, body.stamps, body.positions, body.quats, gravity_magnitude,
+        position_sigma=float(np.median(_mean_sigma(cov_body[:, :3, :3]))),
+        attitude_sigma=float(np.median(_mean_sigma(cov_body[:, 3:, 3:]))),
+        accelerometer_noise_density=n.accelerometer_noise_density,
+        gyro_bias=calibration.gyro_bias, accel_bias=calibration.accel_bias,
+    )  # fmt: skip
+    k0 = int(np.searchsorted(t, body.stamps[0] - 1e-6))
+    x = ESKF_STATE.assemble(position=body.positions[0], velocity=al.velocity[0], quat=body.quats[0],
+                            gyro_bias=al.gyro_bias, accel_bias=al.accel_bias)  # fmt: skip
+    E = ESKF_ERROR
+    P = np.zeros((E.dim, E.dim))
+    pose = [E.slice("position"), E.slice("attitude")]
+    for i, a in enumerate(pose):
+        for j, b in enumerate(pose):
+            P[a, b] = cov_body[0][3 * i : 3 * i + 3, 3 * j : 3 * j + 3]
+    E.cov(P, "velocity")[:] = np.eye(3) * max(float(al.velocity_sigma[0]), 1e-3) ** 2
+    span = float(body.stamps[-1] - body.stamps[0])
+    att = float(np.median(_mean_sigma(cov_body[:, 3:, 3:])))
+    bg_sigma = math.sqrt(2.0) * att / span if calibration.gyro_bias is None else n.gyroscope_initial_bias_sigma
+    ba_sigma = al.accel_bias_sigma if calibration.accel_bias is None else n.accelerometer_initial_bias_sigma
+    E.cov(P, "gyro_bias")[:] = np.eye(3) * max(bg_sigma, 1e-5) ** 2
+    E.cov(P, "accel_bias")[:] = np.eye(3) * max(ba_sigma, 1e-3) ** 2
+    return StartUp(
+        x=x, P=P, imu_index=k0, alignment=al, frames=np.flatnonzero(window)[poses.frame[good]],
+        gyro_bias_from="start-up" if calibration.gyro_bias is None else "calibration",
+        accel_bias_from="start-up" if calibration.accel_bias is None else "calibration",
+    )  # fmt: skip
+
+
+def _frames_outside(det: TargetDetections, outages: Sequence[tuple[float, float]], t_first: float) -> np.ndarray:
+    """Mask (F,) of the frames outside every outage window (s from ``t_first``, start inclusive, end exclusive)."""
+    keep = np.ones(len(det), bool)
+    rel = det.t - t_first
+    for a, b in outages:
+        if not (math.isfinite(a) and math.isfinite(b) and b > a):
+            raise ValueError(f"outage windows must be (start, end) seconds with end > start; got {(a, b)!r}")
+        keep &= ~((rel >= a) & (rel < b))
+    return keep
+
+
+def prepare_track(
+    data: str | os.PathLike | TargetRecording,
+    calibration: str | os.PathLike | CameraImuCalibration,
+    camera: str = "cam0",
+    outages: Sequence[tuple[float, float]] = (),
+) -> TrackSetup:
+    """Read a target recording and a calibration and set the filter up (module docstring).
+
+    Parameters
+    ----------
+    data : target-recording directory or a :class:`~dualpose.io.target_recording.TargetRecording`.
+    calibration : calibration JSON or a :class:`~dualpose.types.calibration.CameraImuCalibration`.
+    camera : the tracked camera (must be in ``sensors.yaml`` and have its detections in the directory).
+    outages : (start, end) windows, seconds from the first IMU sample, whose frames of ``camera`` are deleted.
+
+    Raises
+    ------
+    RecordingError
+        Unreadable or inconsistent inputs (file and line, the available cameras, a calibration of another camera).
+    """
+    src = data if isinstance(data, TargetRecording) else read_target_recording(data)
+    cal = calibration if isinstance(calibration, CameraImuCalibration) else read_camera_imu_calibration(calibration)
+    if camera not in src.detections:
+        raise RecordingError(f"{src.path}: no detections of camera {camera!r}; available: {', '.join(src.detections)}")
+    if cal.camera != camera:
+        raise RecordingError(f"the calibration is of camera {cal.camera!r}, but --camera is {camera!r}")
+    rig = src.rig
+    if rig.imu_noise is None:
+        raise RecordingError(f"{rig.path}: no IMU noise densities (imu0) in the sensor file")
+    model = rig.camera(camera)
+    imu = src.imu
+    det = src.detections[camera]
+    det = det.select(_frames_outside(det, outages, float(imu.stamps[0])))
+    g_mag = rig.gravity_magnitude if math.isfinite(rig.gravity_magnitude) else 9.81
+    noise = replace(rig.imu_noise, update_rate=rig.imu_rate) if math.isfinite(rig.imu_rate) else rig.imu_noise
+    try:
+        st = startup(imu.stamps, imu.gyro, imu.accel, det, model, cal, noise, g_mag)
+    except ValueError as exc:
+        raise RecordingError(f"{src.path}: cannot start the filter: {exc}") from None
+    k0 = st.imu_index
+    frames = det.correspondences(model)
+    keep = frames.t + cal.time_offset_s > imu.stamps[k0]  # the start frame's corners gave the start pose
+    sub = det.select(keep)
+    frames = sub.correspondences(model)
+    rec = Recording(
+        t=imu.stamps[k0:], gyro=imu.gyro[k0:], accel=imu.accel[k0:], frames=frames, camera=model.pinhole(),
+        q_bc=cal.rotation_xyzw, p_bc=cal.translation_m,
+        pixel_sigma=ideal_pixel_sigma(model, cal.reprojection_rms_px), imu_noise=noise,
+        time_offset=cal.time_offset_s, gravity=st.alignment.gravity, stamps_ns=imu.stamps_ns[k0:],
+        name=f"{src.path} ({camera})",
+    )  # fmt: skip
+    return TrackSetup(recording=rec, start=st, source=src, calibration=cal, camera=camera, detections=det)
+
+
+def run_track(
+    setup: TrackSetup,
+    filter: str = "eskf",
+    reference_camera: str | None = None,
+    outages: Sequence[tuple[float, float]] = (),
+    progress: Callable[[int, int, str], None] | None = None,
+) -> FuseResult:
+    """Run ``filter`` on a :func:`prepare_track` set-up and score it against the other camera's reference.
+
+    Parameters
+    ----------
+    setup : TrackSetup (its detections already without the ``outages`` frames).
+    filter : {"eskf", "hol22"}.
+    reference_camera : the camera whose PnP is the reference (default: the first other camera with detections and a
+        published extrinsic in :data:`EUROC_T_BS`); no reference when there is none.
+    outages : the windows deleted in :func:`prepare_track`, to report the errors inside them.
+    progress : called as ``progress(done, total, stage)``.
+
+    Returns
+    -------
+    FuseResult
+        ``truth`` the reference (at the frames the estimate covers), errors against it, and ``metrics`` with the
+        start-up, the NIS, the real-time factor and :func:`score_run`'s scores (``reference``: None without one).
+    """
+    if filter not in FILTERS:
+        raise ValueError(f"filter must be one of {tuple(FILTERS)}; got {filter!r}")
+    stages = ("filter", "score")
+
+    def step(k: int) -> None:
+        if progress is not None:
+            progress(k + 1, len(stages), stages[k])
+
+    rec, st = setup.recording, setup.start
+    no_frames = (np.zeros(0), np.zeros(1, np.int64), np.zeros((0, 2)), np.zeros((0, 3)))
+    FILTERS[filter](rec, st.x, st.P).run(rec.t[:2], rec.gyro[:2], rec.accel[:2], *no_frames)  # load the kernel
+    est = FILTERS[filter](rec, st.x, st.P)
+    res = est.run_recording(rec)
+    cov = est.covariance_layout
+    pos_cov = cov.cov(res.covariance, "position")
+    ori_sigma = None
+    if "attitude" in cov.names:
+        ori_sigma = np.degrees(np.sqrt(np.trace(cov.cov(res.covariance, "attitude"), axis1=1, axis2=2)))
+    step(0)
+    estimate = Trajectory(res.t, res.position, res.quat, rec.stamps_ns, name=f"dualpose fuse --filter {filter}")
+    rep = res.innovation
+    metrics = {
+        "data": setup.source.path,
+        "camera": setup.camera,
+        "filter": filter,
+        "duration_s": rec.duration,
+        "imu_samples": int(len(rec.t)),
+        "camera_frames": int(len(rec.frames)),
+        "pixel_sigma_ideal_px": rec.pixel_sigma,
+        "filter_wall_time_s": float(res.wall_time),
+        "realtime_factor": rec.duration / float(res.wall_time),
+        **rep.summary(),
+        "startup": st.summary(setup.calibration),
+    }
+    scores = score_run(setup, estimate, pos_cov, reference_camera, outages)
+    metrics.update(scores.pop("metrics"))
+    step(1)
+    return FuseResult(
+        estimate=estimate, metrics=metrics, position_sigma=np.sqrt(np.maximum(np.diagonal(pos_cov, axis1=1, axis2=2), 0)),
+        orientation_sigma_deg=ori_sigma, nis=np.asarray(rep.nis), nis_accepted=np.asarray(rep.accepted, dtype=bool),
+        nis_bounds=(float(rep.bounds[0]), float(rep.bounds[1])), **scores,
+    )  # fmt: skip
+
+
+def _reference_camera(setup: TrackSetup, name: str | None) -> str | None:
+    if name is not None:
+        if name not in setup.source.detections:
+            raise RecordingError(f"{setup.source.path}: no detections of reference camera {name!r}; available: "
+                                 f"{', '.join(setup.source.detections)}")  # fmt: skip
+        if name not in EUROC_T_BS:
+            raise RecordingError(f"no published extrinsic for reference camera {name!r} (known: {', '.join(EUROC_T_BS)})")
+        return name
+    others = [c for c in setup.source.detections if c != setup.camera and c in EUROC_T_BS]
+    return others[0] if others else None
+
+
+def score_run(
+    setup: TrackSetup,
+    estimate: Trajectory,
+    position_covariance: np.ndarray | None = None,
+    reference_camera: str | None = None,
+    outages: Sequence[tuple[float, float]] = (),
+) -> dict:
+    """Scores of ``estimate`` (body poses in the target frame at the IMU times) against the reference camera.
+
+    Returns ``{"metrics": {...}, "truth": ..., "position_error": ..., "orientation_error_deg": ...,
+    "error_index": ...}`` (the :class:`~dualpose.pipelines.fuse.FuseResult` fields; None without a reference).
+    ``metrics``: ``reference`` (camera, frames, its median reprojection RMS), ``position_rmse_m``,
+    ``rotation_rmse_deg``, ``camera_pnp`` (the tracked camera's per-frame PnP through the calibration's extrinsic,
+    scored at the same reference frames), ``nees_position`` (mean of ``eᵀ (P_filter + P_reference)⁻¹ e`` over the
+    reference frames, 3 dof), ``outages`` (per window: frames, position RMSE and maximum, rotation RMSE and maximum).
+    """
+    none = {"truth": None, "position_error": None, "orientation_error_deg": None, "error_index": None}
+    ref_cam = _reference_camera(setup, reference_camera)
+    keys = ("reference", "position_rmse_m", "rotation_rmse_deg", "camera_pnp", "nees_position", "outages")
+    if ref_cam is None:
+        return {"metrics": dict.fromkeys(keys), **none}
+    src = setup.source
+    q1, p1 = extrinsic_from_matrix(EUROC_T_BS[ref_cam])
+    if ("reference", ref_cam) not in setup.cache:  # the per-frame PnP of both cameras, once per set-up
+        setup.cache["reference", ref_cam] = reference_trajectory(src.detections[ref_cam], src.rig.camera(ref_cam), q1, p1)
+        setup.cache["own"] = camera_poses(src.detections[setup.camera], src.rig.camera(setup.camera))
+    ref, kept = setup.cache["reference", ref_cam]
+    own = setup.cache["own"]
+    err = errors_against(ref, estimate)
+    cal = setup.calibration
+    pnp = errors_against(ref, body_trajectory(own, cal.rotation_xyzw, cal.translation_m, cal.time_offset_s),
+                         max_gap=1e-6)  # fmt: skip
+    t0 = float(src.imu.stamps[0])
+    # NEES of the position against the reference, with the reference's own covariance (camera centre + lever arm)
+    row = np.clip(np.searchsorted(estimate.stamps, err.estimate.stamps - 1e-6), 0, len(estimate) - 1)
+    nees = None
+    if position_covariance is not None and len(err.index):
+        _, _, cref = _reference_position_covariance(kept, q1, p1)
+        S = position_covariance[row] + cref[err.index]
+        e = err.position
+        nees = float(np.mean(np.einsum("ni,ni->n", e, np.linalg.solve(S, e[..., None])[..., 0])))
+    windows = []
+    for a, b in outages:
+        rel = err.estimate.stamps - t0
+        w = err.within((rel >= a) & (rel < b))
+        dist = np.linalg.norm(w.position, axis=1)
+        windows.append({
+            "start_s": float(a), "end_s": float(b), "frames": int(len(w.index)),
+            "position_rmse_m": w.position_rmse_m, "position_max_m": float(dist.max()) if len(dist) else None,
+            "rotation_rmse_deg": w.rotation_rmse_deg,
+            "rotation_max_deg": float(w.rotation_deg.max()) if len(w.index) else None,
+        })  # fmt: skip
+    metrics = {
+        "reference": {"camera": ref_cam, "frames": int(len(ref)), "frames_scored": int(len(err.index)),
+                      "median_rms_px": float(np.median(kept.rms_px))},
+        "position_rmse_m": err.position_rmse_m,
+        "rotation_rmse_deg": err.rotation_rmse_deg,
+        "camera_pnp": {"frames": int(len(pnp.index)), "position_rmse_m": pnp.position_rmse_m,
+                       "rotation_rmse_deg": pnp.rotation_rmse_deg},
+        "nees_position": nees,
+        "outages": windows,
+    }  # fmt: skip
+    return {
+        "metrics": metrics, "truth": ref.take(err.index), "position_error": err.position,
+        "orientation_error_deg": err.rotation_deg, "error_index": row,
+    }  # fmt: skip
+
+
+def _reference_position_covariance(poses: CameraPoses, q_bc: np.ndarray, p_bc: np.ndarray):
+    """Body position covariance (P, 3, 3) of reference poses: ``δp = δc + R_wb [p_bc]× R_bc δθ_c``."""
+    R_bc = dp.matrix_from_quat(q_bc)
+    q_wb = dp.quat_mul(poses.q_wc, dp.quat_conj(q_bc))
+    R_wb = dp.matrix_from_quat(q_wb)
+    J = np.zeros((len(poses.t), 3, 6))
+    J[:, :, 0:3] = R_wb @ dp.so3_hat(p_bc) @ R_bc
+    J[:, :, 3:6] = np.eye(3)
+    return q_wb, R_wb, J @ poses.covariance @ J.swapaxes(1, 2)
+
+
+def imu_only(setup: TrackSetup, seconds: Sequence[float] = (1.0, 5.0)) -> dict:
+    """The filter's start propagated with the IMU alone (no frame): position and rotation RMSE against the reference
+    over the first ``seconds`` after the start, for comparison with the tracked run."""
+    rec = setup.recording
+    blind = replace(rec, frames=setup.detections.select(np.zeros(len(setup.detections), bool)).correspondences())
+    res = FILTERS["eskf"](blind, setup.start.x, setup.start.P).run_recording(blind)
+    est = Trajectory(res.t, res.position, res.quat, rec.stamps_ns)
+    sc = score_run(setup, est)
+    out = {}
+    if sc["truth"] is None:
+        return dict.fromkeys((f"{s:g}s" for s in seconds))
+    rel = sc["truth"].stamps - rec.t[0]
+    for s in seconds:
+        m = rel <= s
+        e, r = sc["position_error"][m], sc["orientation_error_deg"][m]
+        out[f"{s:g}s"] = {"position_rmse_m": float(np.sqrt(np.mean(np.sum(e**2, axis=1)))) if m.any() else None,
+                          "rotation_rmse_deg": float(np.sqrt(np.mean(r**2))) if m.any() else None}  # fmt: skip
+    return out
