@@ -326,7 +326,10 @@ def align_with_camera_poses(
        ``attitude_sigma`` × |β_k|) — the linear alignment of visual-inertial odometry (Qin, Li & Shen, VINS-Mono,
        IEEE T-RO 2018, §V-B), here with metric camera poses and the accelerometer bias.
 
-    The filter uses ``gravity_magnitude`` along the estimated direction.
+    The first solve leaves the magnitude of ``g`` free (``gravity_estimated``: a check of the accelerometer's
+    scale); the result then fixes it to ``gravity_magnitude`` and re-solves with the direction's two tangent-plane
+    components as unknowns (relinearised four times), so the velocities and the accelerometer bias are consistent
+    with the gravity the filter uses.
 
     Parameters
     ----------
@@ -400,27 +403,40 @@ def align_with_camera_poses(
         raise ValueError("the camera-IMU alignment is not determined by these frames (too little motion or rotation "
                          "to separate gravity, velocities and the accelerometer bias)")  # fmt: skip
     x = np.linalg.solve(N, Aw.T @ yw)
-    res = yw - Aw @ x
-    dof = max(len(yw) - n, 1)
+    g_est = x[3 * K : 3 * K + 3].copy()
+    # gravity of known magnitude: g = |g| (u + B δ) with δ in the tangent plane of u (2 unknowns instead of 3;
+    # VINS-Mono's gravity refinement), a few relinearisations
+    G = float(gravity_magnitude)
+    u = g_est / np.linalg.norm(g_est)
+    cols = np.r_[np.arange(3 * K), np.arange(3 * K + 3, n)]
+    gcols = slice(3 * K, 3 * K + 3)
+    for _ in range(4):
+        a0 = np.cross(u, np.eye(3)[int(np.argmin(np.abs(u)))])
+        B = np.stack([a0 / np.linalg.norm(a0), np.cross(u, a0 / np.linalg.norm(a0))], axis=1)  # (3, 2)
+        Ar = np.concatenate([Aw[:, cols[: 3 * K]], Aw[:, gcols] @ (G * B), Aw[:, cols[3 * K :]]], axis=1)
+        yr = yw - Aw[:, gcols] @ (G * u)
+        Nr = Ar.T @ Ar
+        xr = np.linalg.solve(Nr, Ar.T @ yr)
+        u = u + B @ xr[3 * K : 3 * K + 2]
+        u /= np.linalg.norm(u)
+    res = yr - Ar @ xr
+    dof = max(len(yr) - len(xr), 1)
     scale = max(float(res @ res) / dof, 1.0)  # inflate the covariance when the residuals exceed the stated sigmas
-    C = np.linalg.inv(N) * scale
-    g_est = x[3 * K : 3 * K + 3]
-    ng = float(np.linalg.norm(g_est))
-    u = g_est / ng
-    Pu = (np.eye(3) - np.outer(u, u)) / ng
-    Cg = Pu @ C[3 * K : 3 * K + 3, 3 * K : 3 * K + 3] @ Pu.T
+    C = np.linalg.inv(Nr) * scale
+    Cd = C[3 * K : 3 * K + 2, 3 * K : 3 * K + 2]
     if est_ba:
-        ba = x[3 * K + 3 :]
-    ba_sigma = float(np.sqrt(np.mean(np.diag(C[3 * K + 3 :, 3 * K + 3 :])))) if est_ba else 0.0
+        ba = xr[3 * K + 2 :]
+    ba_sigma = float(np.sqrt(np.mean(np.diag(C[3 * K + 2 :, 3 * K + 2 :])))) if est_ba else 0.0
     vcov = np.diagonal(C[: 3 * K, : 3 * K]).reshape(K, 3)
+    x = xr
     return CameraImuAlignment(
-        gravity=float(gravity_magnitude) * u,
+        gravity=G * u,
         gravity_estimated=g_est,
-        gravity_sigma_deg=float(np.degrees(np.sqrt(np.trace(Cg)))),
+        gravity_sigma_deg=float(np.degrees(np.sqrt(np.trace(Cd)))),
         velocity=x[: 3 * K].reshape(K, 3),
         velocity_sigma=np.sqrt(vcov.mean(axis=1)),
         gyro_bias=bg,
         accel_bias=ba,
         accel_bias_sigma=ba_sigma,
-        residual_rms=float(np.sqrt(float(res @ res) / len(yw))),
+        residual_rms=float(np.sqrt(float(res @ res) / len(yr))),
     )

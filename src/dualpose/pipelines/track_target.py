@@ -48,7 +48,8 @@ from dualpose.evaluation.target_reference import (
 from dualpose.io.recording import RecordingError
 from dualpose.io.target_recording import TargetRecording, read_camera_imu_calibration, read_target_recording
 from dualpose.pipelines.fuse import FILTERS, FuseResult
-from dualpose.registration.pnp import PnPResult
+from dualpose.estimation.eskf import InnovationReport
+from dualpose.registration.pnp import PnPResult, solve_pnp_ransac
 from dualpose.types import Recording, Trajectory
 from dualpose.types.calibration import CameraImuCalibration
 from dualpose.types.target import TargetDetections
@@ -298,6 +299,150 @@ def prepare_track(
     return TrackSetup(recording=rec, start=st, source=src, calibration=cal, camera=camera, detections=det)
 
 
+#: a frame with at least this many correspondences of which the χ² gate accepted fewer than half means the filter
+#: has lost the target (after a long outage its prediction is outside the gate): it is re-locked on that frame
+RELOCK_MIN_CORNERS = 20
+RELOCK_MIN_ACCEPTED = 0.5
+#: velocity 1σ after a re-lock (m/s): what the filter carried through the outage is not trusted
+RELOCK_VELOCITY_SIGMA = 1.0
+
+
+def relock_start(
+    state: dict, gyro: np.ndarray, dt: float, pixels: np.ndarray, points: np.ndarray, rec: Recording
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """The error-state start ``(x (16,), P (15, 15))`` that re-locks a filter on a frame it rejected.
+
+    ``state``: the filter's ``position``, ``velocity``, ``quat`` (q_wb), ``gyro_bias``, ``accel_bias`` and their
+    bias covariances ``gyro_bias_cov``, ``accel_bias_cov`` (3, 3) at the IMU sample the frame was filtered at, ``dt``
+    (s) after the frame.  Pose: the frame's PnP (seeded RANSAC + Gauss–Newton on its ideal pixels, covariance for the
+    recording's pixel σ) mapped to the body, its attitude carried over ``dt`` with the bias-corrected ``gyro`` (3,);
+    velocity and biases: the filter's, the velocity with 1σ :data:`RELOCK_VELOCITY_SIGMA`; no cross-covariances.
+    None when the PnP fails.
+    """
+    try:
+        pnp, inliers = solve_pnp_ransac(pixels, points, rec.camera.matrix, pixel_sigma=rec.pixel_sigma)
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    if inliers.sum() < RELOCK_MIN_CORNERS:
+        return None
+    p, q, cov = initialization.body_pose_from_camera(pnp, rec.q_bc, rec.p_bc)
+    q = dp.quat_mul(q, dp.quat_from_rotvec((np.asarray(gyro) - state["gyro_bias"]) * dt))
+    x = ESKF_STATE.assemble(position=p, velocity=state["velocity"], quat=q, gyro_bias=state["gyro_bias"],
+                            accel_bias=state["accel_bias"])  # fmt: skip
+    E = ESKF_ERROR
+    P = np.zeros((E.dim, E.dim))
+    pose = [E.slice("position"), E.slice("attitude")]
+    for i, a in enumerate(pose):
+        for j, b in enumerate(pose):
+            P[a, b] = cov[3 * i : 3 * i + 3, 3 * j : 3 * j + 3]
+    E.cov(P, "velocity")[:] = np.eye(3) * RELOCK_VELOCITY_SIGMA**2
+    E.cov(P, "gyro_bias")[:] = state["gyro_bias_cov"]
+    E.cov(P, "accel_bias")[:] = state["accel_bias_cov"]
+    return x, P
+
+
+def lost_frame(counts: np.ndarray, accepted: np.ndarray) -> np.ndarray:
+    """Mask of the frames (counts (F,) correspondences, ``accepted`` the per-correspondence flags in frame order)
+    on which the filter has lost the target (:data:`RELOCK_MIN_CORNERS`, :data:`RELOCK_MIN_ACCEPTED`)."""
+    offsets = np.concatenate([[0], np.cumsum(counts)])
+    n_acc = np.add.reduceat(np.r_[accepted.astype(np.int64), 0], offsets[:-1]) if len(counts) else np.zeros(0)
+    n_acc = np.where(counts > 0, n_acc, 0)
+    return (counts >= RELOCK_MIN_CORNERS) & (n_acc < RELOCK_MIN_ACCEPTED * counts)
+
+
+@dataclass
+class TrackedRun:
+    """The filtered run with its re-locks: states at the IMU times (``t`` (N,), ``position``, ``velocity`` (N, 3),
+    ``quat`` (N, 4) q_wb, ``position_cov`` (N, 3, 3), ``attitude_sigma_deg`` (N,) or None), the per-correspondence
+    ``nis`` / ``accepted`` in processing order, ``relocks`` (the IMU times of the re-locks), ``wall_time`` (s, all
+    filter runs)."""
+
+    t: np.ndarray
+    position: np.ndarray
+    velocity: np.ndarray
+    quat: np.ndarray
+    position_cov: np.ndarray
+    attitude_sigma_deg: np.ndarray | None
+    nis: np.ndarray
+    accepted: np.ndarray
+    bounds: tuple[float, float]
+    gate: float
+    relocks: list
+    wall_time: float
+
+
+def _state_at(res, layout, i: int) -> dict:
+    P = res.covariance[i]
+    return {
+        "position": res.position[i], "velocity": res.velocity[i], "quat": res.quat[i],
+        "gyro_bias": res.gyro_bias[i], "accel_bias": res.accel_bias[i],
+        "gyro_bias_cov": layout.cov(P, "gyro_bias").copy(), "accel_bias_cov": layout.cov(P, "accel_bias").copy(),
+    }  # fmt: skip
+
+
+def run_relocking(rec: Recording, x: np.ndarray, P: np.ndarray, filter: str = "eskf") -> TrackedRun:
+    """Run ``filter`` from ``(x, P)`` over ``rec`` and re-lock it (:func:`relock_start`) on every frame it loses
+    (:func:`lost_frame`): the run is filtered up to the IMU sample where the lost frame was filtered, and a new filter
+    continues from that sample with the re-locked start (frames after that sample only).  The streaming run
+    (:class:`TrackStream`) makes the same decisions on the same numbers."""
+    factory = FILTERS[filter]
+    f = rec.frames
+    t_cam = f.t + rec.time_offset
+    k = 0
+    parts, nis, acc, relocks = [], [], [], []
+    wall = 0.0
+    start = (x, P)
+    while True:
+        sel = t_cam > rec.t[k] if k > 0 else np.ones(len(f), bool)
+        sub_frames = _frames_subset(f, sel)
+        est = factory(rec, *start)
+        res = est.run(rec.t[k:], rec.gyro[k:], rec.accel[k:], sub_frames.t, sub_frames.offsets, sub_frames.pixels,
+                      sub_frames.points)  # fmt: skip
+        wall += float(res.wall_time)
+        st = sub_frames.t + rec.time_offset
+        done = st <= rec.t[-1]
+        lost = lost_frame(sub_frames.counts, np.asarray(res.innovation.accepted, bool)) & done
+        end = len(rec.t) - k
+        relock = None
+        for j in np.flatnonzero(lost):
+            kk = int(np.searchsorted(rec.t[k:], st[j] - 0.0, side="left"))
+            pix, pts = sub_frames.frame(int(j))
+            new = relock_start(_state_at(res, est.covariance_layout, kk), rec.gyro[k + kk], rec.t[k + kk] - st[j],
+                               pix, pts, rec)  # fmt: skip
+            if new is not None:
+                relock, end = new, kk + 1
+                break
+        n_corr = int(sub_frames.offsets[np.searchsorted(st, rec.t[k + end - 1], side="right")])
+        parts.append((res, est.covariance_layout, end))
+        nis.append(np.asarray(res.innovation.nis)[:n_corr])
+        acc.append(np.asarray(res.innovation.accepted, bool)[:n_corr])
+        if relock is None:
+            break
+        relocks.append(float(rec.t[k + end - 1]))
+        k = k + end - 1
+        start = relock
+        parts[-1] = (res, est.covariance_layout, end - 1)  # the re-lock sample is the next part's first row
+    rows = lambda name: np.concatenate([getattr(r, name)[:e] for r, _, e in parts])  # noqa: E731
+    pos_cov = np.concatenate([L.cov(r.covariance[:e], "position") for r, L, e in parts])
+    att = None
+    if all("attitude" in L.names for _, L, _ in parts):
+        att = np.concatenate([np.degrees(np.sqrt(np.trace(L.cov(r.covariance[:e], "attitude"), axis1=1, axis2=2)))
+                              for r, L, e in parts])  # fmt: skip
+    rep = parts[0][0].innovation
+    return TrackedRun(
+        t=rows("t"), position=rows("position"), velocity=rows("velocity"), quat=rows("quat"), position_cov=pos_cov,
+        attitude_sigma_deg=att, nis=np.concatenate(nis), accepted=np.concatenate(acc), bounds=rep.bounds,
+        gate=rep.gate, relocks=relocks, wall_time=wall,
+    )  # fmt: skip
+
+
+def _frames_subset(f, mask: np.ndarray):
+    counts = f.counts[mask]
+    rows = np.repeat(mask, f.counts)
+    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    return type(f)(f.t[mask], offsets, f.pixels[rows], f.points[rows])
+
+
 def run_track(
     setup: TrackSetup,
     filter: str = "eskf",
@@ -333,16 +478,10 @@ def run_track(
     rec, st = setup.recording, setup.start
     no_frames = (np.zeros(0), np.zeros(1, np.int64), np.zeros((0, 2)), np.zeros((0, 3)))
     FILTERS[filter](rec, st.x, st.P).run(rec.t[:2], rec.gyro[:2], rec.accel[:2], *no_frames)  # load the kernel
-    est = FILTERS[filter](rec, st.x, st.P)
-    res = est.run_recording(rec)
-    cov = est.covariance_layout
-    pos_cov = cov.cov(res.covariance, "position")
-    ori_sigma = None
-    if "attitude" in cov.names:
-        ori_sigma = np.degrees(np.sqrt(np.trace(cov.cov(res.covariance, "attitude"), axis1=1, axis2=2)))
+    tr = run_relocking(rec, st.x, st.P, filter)
     step(0)
-    estimate = Trajectory(res.t, res.position, res.quat, rec.stamps_ns, name=f"dualpose fuse --filter {filter}")
-    rep = res.innovation
+    estimate = Trajectory(tr.t, tr.position, tr.quat, rec.stamps_ns, name=f"dualpose fuse --filter {filter}")
+    rep = InnovationReport(tr.nis, tr.accepted, 2, tr.bounds, tr.gate)
     metrics = {
         "data": setup.source.path,
         "camera": setup.camera,
@@ -351,11 +490,15 @@ def run_track(
         "imu_samples": int(len(rec.t)),
         "camera_frames": int(len(rec.frames)),
         "pixel_sigma_ideal_px": rec.pixel_sigma,
-        "filter_wall_time_s": float(res.wall_time),
-        "realtime_factor": rec.duration / float(res.wall_time),
+        "filter_wall_time_s": tr.wall_time,
+        "realtime_factor": rec.duration / tr.wall_time,
         **rep.summary(),
+        "relocks": len(tr.relocks),
+        "relock_times_s": [t - float(rec.t[0]) for t in tr.relocks],
         "startup": st.summary(setup.calibration),
     }
+    pos_cov = tr.position_cov
+    ori_sigma = tr.attitude_sigma_deg
     scores = score_run(setup, estimate, pos_cov, reference_camera, outages)
     metrics.update(scores.pop("metrics"))
     step(1)
