@@ -4,6 +4,8 @@ Camera-IMU recordings for ``dualpose fuse --data`` (:mod:`dualpose.io.recording`
 :func:`write_recording`; their sensor set-up with a filter start for ``dualpose fuse --stream --calibration``:
 :func:`read_sensor_setup`, :func:`write_sensor_setup`.  Point CSV files for ``dualpose register``:
 :mod:`dualpose.io.csv_points`.
+Calibration-target corner files (:func:`read_target_detections`) and rig sensor files in YAML, ``sensors.yaml`` or
+Kalibr ``camchain.yaml`` (:func:`read_rig_sensors`).
 Pose streams ``t, x, y, z, qx, qy, qz, qw`` for ``dualpose calibrate hand-eye``: :func:`read_pose_csv`.  Import
 explicitly; ``import dualpose`` does not load this.
 
@@ -23,7 +25,10 @@ from dualpose.io.recording import (
     write_recording,
     write_sensor_setup,
 )
+from dualpose.io.sensors_yaml import read_rig_sensors
+from dualpose.io.target_detections import read_target_detections
 from dualpose.io.tum import read_tum, write_tum
+from dualpose.types.target import RigSensors, TargetDetections
 from dualpose.types.trajectory import Trajectory, seconds_from_ns
 
 __all__ = [
@@ -47,4 +52,8 @@ __all__ = [
     "write_recording",
     "read_sensor_setup",
     "write_sensor_setup",
+    "TargetDetections",
+    "read_target_detections",
+    "RigSensors",
+    "read_rig_sensors",
 ]

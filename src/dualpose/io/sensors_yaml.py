@@ -1,0 +1,256 @@
+"""Camera-rig sensor files in YAML: the ``sensors.yaml`` layout and Kalibr's ``camchain.yaml`` (Furgale et al. 2013).
+
+``sensors.yaml``::
+
+    target: {type: aprilgrid, tag_rows: 6, tag_cols: 6, tag_size_m: 0.088, tag_spacing_ratio: 0.3}
+    imu0: {rate_hz: 200.0, gyroscope_noise_density: ..., gyroscope_random_walk: ...,
+           accelerometer_noise_density: ..., accelerometer_random_walk: ..., gravity_m_s2: 9.81}
+    cam0:
+      resolution: [752, 480]
+      rate_hz: 20.0
+      camera_model: pinhole
+      intrinsics_fx_fy_cx_cy: [fx, fy, cx, cy]
+      distortion_model: radial-tangential          # or equidistant (any name camera_from_parameters accepts)
+      distortion_k1_k2_p1_p2: [k1, k2, p1, p2]     # equidistant: distortion_k1_k2_k3_k4
+    T_cam0_cam1: {data: [16 numbers, row-major]}   # x_cam0 = T x_cam1 (any T_camA_camB)
+
+Kalibr ``camchain.yaml`` (cameras ``cam0``, ``cam1``, ...)::
+
+    cam0:
+      camera_model: pinhole
+      intrinsics: [fu, fv, pu, pv]
+      distortion_model: radtan                     # or equidistant
+      distortion_coeffs: [k1, k2, r1, r2]
+      resolution: [752, 480]
+      T_cam_imu: [[...], [...], [...], [...]]      # x_cam = T x_imu
+      timeshift_cam_imu: 0.0
+    cam1:
+      ...
+      T_cn_cnm1: [[...], ...]                      # x_cam1 = T x_cam0
+
+Noise terms are Kalibr's continuous-time densities (:class:`~dualpose.types.imu.ImuNoise`).  Every error names the
+file and the line of the offending (or, for a missing key, the enclosing) entry.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+
+import numpy as np
+import yaml
+
+from dualpose.io._text import check_path
+from dualpose.io.recording import RecordingError
+from dualpose.types.camera_models import CAMERA_MODEL_NAMES, camera_from_parameters
+from dualpose.types.imu import ImuNoise
+from dualpose.types.target import RigSensors
+
+__all__ = ["read_rig_sensors"]
+
+_CAMERA_KEY = re.compile(r"^cam\d+$")
+_PAIR_KEY = re.compile(r"^T_(cam\d+)_(cam\d+)$")
+_NOISE_KEYS = (
+    "gyroscope_noise_density",
+    "gyroscope_random_walk",
+    "accelerometer_noise_density",
+    "accelerometer_random_walk",
+)
+
+
+class _Doc:
+    """The parsed YAML with the node tree, so that errors can name the line of a key."""
+
+    def __init__(self, path: str) -> None:
+        self.path = path
+        try:
+            with open(path, encoding="utf-8-sig") as f:
+                text = f.read()
+        except UnicodeDecodeError as exc:
+            raise RecordingError(f"{path}: not a UTF-8 text file ({exc})") from None
+        try:
+            self.node = yaml.compose(text, Loader=yaml.SafeLoader)
+            self.data = yaml.safe_load(text)
+        except yaml.YAMLError as exc:
+            mark = getattr(exc, "problem_mark", None)
+            where = f":{mark.line + 1}" if mark is not None else ""
+            raise RecordingError(f"{path}{where}: YAML syntax error: {getattr(exc, 'problem', None) or exc}") from None
+        if not isinstance(self.data, dict):
+            raise RecordingError(f"{path}:1: the sensor file must hold a mapping at the top level")
+
+    def line(self, keys: tuple) -> int:
+        """1-based line of the entry at ``keys`` (the deepest one that exists)."""
+        node, line = self.node, 1
+        for key in keys:
+            if not isinstance(node, yaml.MappingNode):
+                break
+            for k, v in node.value:
+                if k.value == str(key):
+                    node, line = v, k.start_mark.line + 1
+                    break
+            else:
+                break
+        return line
+
+    def error(self, keys: tuple, message: str) -> RecordingError:
+        return RecordingError(f"{self.path}:{self.line(keys)}: {'.'.join(map(str, keys))}: {message}")
+
+    def get(self, keys: tuple, kind: str, required: bool = True, default=None):
+        """The value at ``keys`` checked as ``kind``: "map", "number", "int", "numbers:N", "matrix4", "str"."""
+        value = self.data
+        for key in keys:
+            if not isinstance(value, dict) or key not in value:
+                if required:
+                    raise self.error(keys, "missing")
+                return default
+            value = value[key]
+        return self.check(keys, value, kind)
+
+    def check(self, keys: tuple, value, kind: str):
+        if kind == "map":
+            if not isinstance(value, dict):
+                raise self.error(keys, f"must be a mapping; got {type(value).__name__}")
+            return value
+        if kind == "str":
+            if not isinstance(value, str):
+                raise self.error(keys, f"must be a string; got {value!r}")
+            return value
+        if kind in ("number", "int"):
+            value = _yaml11_number(value)
+            ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+            if not ok or (kind == "int" and (not isinstance(value, int) or value <= 0)):
+                what = "a positive integer" if kind == "int" else "a finite number"
+                raise self.error(keys, f"must be {what}; got {value!r}")
+            return value
+        if kind.startswith("numbers:"):
+            n = int(kind.split(":")[1])
+            a = self._array(keys, value)
+            if a.shape != (n,):
+                raise self.error(keys, f"must be a list of {n} numbers; got shape {a.shape}")
+            return a
+        if kind == "matrix4":
+            if isinstance(value, dict) and "data" in value:
+                keys, value = keys + ("data",), value["data"]
+            a = self._array(keys, value)
+            if a.shape == (16,):
+                a = a.reshape(4, 4)
+            if a.shape != (4, 4):
+                raise self.error(keys, f"must be a 4x4 matrix (4 rows or 16 numbers, row-major); got shape {a.shape}")
+            if not np.allclose(a[3], [0, 0, 0, 1]) or not np.allclose(a[:3, :3] @ a[:3, :3].T, np.eye(3), atol=1e-6):
+                raise self.error(keys, "must be a rigid transform (orthonormal rotation, last row 0 0 0 1)")
+            return a
+        raise AssertionError(kind)  # pragma: no cover
+
+    def _array(self, keys: tuple, value) -> np.ndarray:
+        if isinstance(value, list):
+            value = [[_yaml11_number(v) for v in r] if isinstance(r, list) else _yaml11_number(r) for r in value]
+        flat = value if isinstance(value, list) else [value]
+        if any(isinstance(v, (str, bool)) for v in flat):
+            raise self.error(keys, f"must hold numbers; got {value!r}")
+        try:
+            a = np.array(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise self.error(keys, f"must hold numbers; got {value!r}") from None
+        if not np.isfinite(a).all():
+            raise self.error(keys, "must hold finite numbers")
+        return a
+
+
+def _yaml11_number(value):
+    """A number written without a decimal point in an exponent (``1e-4``), which YAML 1.1 (PyYAML) reads as a
+    string, as the float it denotes; anything else unchanged."""
+    if isinstance(value, str):
+        try:
+            return float(value) if re.fullmatch(r"\s*[-+]?\d+(\.\d*)?[eE][-+]?\d+\s*", value) else value
+        except ValueError:  # pragma: no cover - the pattern is a float literal
+            return value
+    return value
+
+
+def _camera(doc: _Doc, name: str):
+    cam = doc.get((name,), "map")
+    kalibr = "intrinsics" in cam
+    model_key = "distortion_model"
+    model = doc.get((name, model_key), "str")
+    if model.strip().lower() not in CAMERA_MODEL_NAMES:
+        accepted = sorted(CAMERA_MODEL_NAMES)
+        raise doc.error((name, model_key), f"unknown distortion model {model!r}; accepted: {accepted}")
+    projection = doc.get((name, "camera_model"), "str", required=False, default="pinhole")
+    if projection.strip().lower() != "pinhole":
+        raise doc.error((name, "camera_model"), f"only the pinhole projection is supported; got {projection!r}")
+    if kalibr:
+        intr = doc.get((name, "intrinsics"), "numbers:4")
+        dist = doc.get((name, "distortion_coeffs"), "numbers:4")
+    else:
+        intr = doc.get((name, "intrinsics_fx_fy_cx_cy"), "numbers:4")
+        dkey = next((k for k in cam if str(k).startswith("distortion_k")), "distortion_k1_k2_p1_p2")
+        dist = doc.get((name, dkey), "numbers:4")
+    res = doc.get((name, "resolution"), "numbers:2")
+    if not (res == np.round(res)).all() or (res <= 0).any():
+        raise doc.error((name, "resolution"), f"must be two positive whole numbers of pixels; got {res.tolist()}")
+    try:
+        return camera_from_parameters(model, intr, dist, int(res[0]), int(res[1]))
+    except ValueError as exc:
+        raise doc.error((name,), str(exc)) from None
+
+
+def read_rig_sensors(path: str | os.PathLike) -> RigSensors:
+    """Read a rig's sensor file, ``sensors.yaml`` or Kalibr ``camchain.yaml`` layout (module docstring).
+
+    Returns
+    -------
+    RigSensors
+        Cameras (``RadTanCamera`` / ``EquidistantCamera``) by name in file order; ``imu_noise`` None and
+        ``imu_rate`` / ``gravity_magnitude`` NaN when the file has no ``imu0`` section (camchain).
+
+    Raises
+    ------
+    FileNotFoundError
+        When the file does not exist.
+    RecordingError
+        ``path:line: ...`` for a YAML syntax error, a missing or malformed key, an unknown distortion model.
+    """
+    p = check_path(path)
+    doc = _Doc(p)
+    names = [k for k in doc.data if isinstance(k, str) and _CAMERA_KEY.match(k)]
+    if not names:
+        raise RecordingError(f"{p}:1: no camera sections (cam0, cam1, ...)")
+    cameras = {n: _camera(doc, n) for n in names}
+    rates = {n: float(doc.get((n, "rate_hz"), "number", required=False, default=math.nan)) for n in names}
+    extrinsics: dict = {}
+    for key in doc.data:
+        m = _PAIR_KEY.match(str(key))
+        if m:
+            for cam in m.groups():
+                if cam not in cameras:
+                    raise doc.error((key,), f"names camera {cam!r}, which the file does not define")
+            extrinsics[m.groups()] = doc.get((key,), "matrix4")
+    t_cam_imu, shifts = {}, {}
+    for i, n in enumerate(names):
+        if "T_cam_imu" in doc.data[n]:
+            t_cam_imu[n] = doc.get((n, "T_cam_imu"), "matrix4")
+        if "timeshift_cam_imu" in doc.data[n]:
+            shifts[n] = float(doc.get((n, "timeshift_cam_imu"), "number"))
+        if "T_cn_cnm1" in doc.data[n]:
+            if i == 0:
+                raise doc.error((n, "T_cn_cnm1"), "the first camera has no previous camera")
+            extrinsics[(n, names[i - 1])] = doc.get((n, "T_cn_cnm1"), "matrix4")
+    noise, rate, gravity = None, math.nan, math.nan
+    if "imu0" in doc.data:
+        doc.get(("imu0",), "map")
+        rate = float(doc.get(("imu0", "rate_hz"), "number", required=False, default=math.nan))
+        if "update_rate" in doc.data["imu0"]:
+            rate = float(doc.get(("imu0", "update_rate"), "number"))
+        values = {k: float(doc.get(("imu0", k), "number")) for k in _NOISE_KEYS}
+        for k, v in values.items():
+            if v < 0:
+                raise doc.error(("imu0", k), f"must be >= 0; got {v}")
+        default = ImuNoise()
+        noise = ImuNoise(**values, update_rate=rate if math.isfinite(rate) else default.update_rate)
+        gravity = float(doc.get(("imu0", "gravity_m_s2"), "number", required=False, default=math.nan))
+    target = dict(doc.get(("target",), "map", required=False, default={}))
+    return RigSensors(
+        cameras=cameras, camera_rates=rates, imu_noise=noise, imu_rate=rate, gravity_magnitude=gravity,
+        camera_extrinsics=extrinsics, T_cam_imu=t_cam_imu, time_offsets=shifts, target=target, path=p,
+    )  # fmt: skip

@@ -1,0 +1,141 @@
+"""Calibration-target corner files (AprilGrid / checkerboard detections, one file per camera).
+
+Layout (comma-separated, ``#`` comment or header lines, blank lines skipped)::
+
+    timestamp [ns], u [px], v [px], X [m], Y [m], Z [m], tag_id, corner_idx
+
+one row per detected corner: the measured (distorted) pixel and the corner's position in the target frame.  A
+frame without detections is one row holding only its timestamp (the other fields absent or all empty,
+``t,,,,,,,``).  The rows of one frame are contiguous and the
+frames strictly increasing in time.  Timestamps are kept exactly as int64 nanoseconds.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from dualpose import _native
+from dualpose.io._text import check_path
+from dualpose.io.recording import RecordingError
+from dualpose.types.target import TargetDetections
+from dualpose.types.trajectory import seconds_from_ns
+
+__all__ = ["read_target_detections", "TARGET_LAYOUT"]
+
+TARGET_LAYOUT = "timestamp [ns], u [px], v [px], X [m], Y [m], Z [m], tag_id, corner_idx"
+
+
+def _parse_numbers(path: str, rest: list[str], linenos: list[int]) -> np.ndarray:
+    """The 7 numbers after the timestamp of each corner row (float64 (M, 7)); errors name the file and line."""
+    out = np.empty((len(rest), 7))
+    if rest:
+        buf = np.frombuffer(("\n".join(rest) + "\n").encode("ascii", "replace"), dtype=np.uint8)
+        status, _, row = _native.io_parse_block(buf, 0, 7, True, out, 0)
+        if status == 0 and row == len(rest):
+            if np.isfinite(out).all():
+                return out
+    for k, s in enumerate(rest):  # slow path: find the first bad row
+        fields = [f.strip() for f in s.split(",")]
+        if len(fields) != 7:
+            raise RecordingError(
+                f"{path}:{linenos[k]}: expected 8 fields ({TARGET_LAYOUT}) or only the timestamp, "
+                f"found {len(fields) + 1}"
+            )
+        try:
+            values = [float(f) for f in fields]
+        except ValueError:
+            raise RecordingError(f"{path}:{linenos[k]}: not a number in {s!r} ({TARGET_LAYOUT})") from None
+        if not all(np.isfinite(values)):
+            raise RecordingError(f"{path}:{linenos[k]}: non-finite value in {s!r}")
+        out[k] = values
+    return out
+
+
+def read_target_detections(path: str | os.PathLike) -> TargetDetections:
+    """Read a target-corner file (layout in the module docstring) into a
+    :class:`~dualpose.types.target.TargetDetections`.
+
+    Raises
+    ------
+    FileNotFoundError
+        When the file does not exist.
+    RecordingError
+        ``path:line: ...`` for a row with neither 8 fields nor only a timestamp, a non-integer timestamp, a
+        non-number, a non-integer tag or corner index, a timestamp earlier than the row before (frames out of order
+        or not contiguous), a timestamp-only row inside a frame with corners, or a file without rows.
+    """
+    p = check_path(path)
+    with open(p, "rb") as f:
+        raw = f.read()
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise RecordingError(f"{p}: not a UTF-8 text file ({exc})") from None
+    stamps: list[str] = []
+    linenos: list[int] = []
+    rest: list[str] = []
+    rest_rows: list[int] = []
+    for i, line in enumerate(text.splitlines(), start=1):
+        s = line.split("#", 1)[0].strip() if "#" in line else line.strip()
+        if not s:
+            continue
+        head, _, tail = s.partition(",")
+        if tail.replace(",", "").strip():  # "t" or "t,,,,,,," (all fields empty) is a frame without detections
+            rest_rows.append(len(stamps))
+            rest.append(tail)
+        stamps.append(head.strip())
+        linenos.append(i)
+    if not stamps:
+        raise RecordingError(f"{p}: no data rows (expected {TARGET_LAYOUT})")
+    try:
+        ns = np.array(stamps).astype(np.int64)
+    except (ValueError, OverflowError):
+        for k, v in enumerate(stamps):
+            try:
+                if not -(2**63) <= int(v) < 2**63:
+                    raise ValueError
+            except ValueError:
+                raise RecordingError(f"{p}:{linenos[k]}: timestamp [ns] {v!r} is not an int64 integer") from None
+        raise  # pragma: no cover
+    numbers = _parse_numbers(p, rest, [linenos[k] for k in rest_rows])
+    has_corner = np.zeros(len(ns), dtype=bool)
+    has_corner[rest_rows] = True
+    back = np.flatnonzero(np.diff(ns) < 0)
+    if back.size:
+        k = int(back[0]) + 1
+        raise RecordingError(
+            f"{p}:{linenos[k]}: timestamp {ns[k]} is earlier than the row before ({ns[k - 1]}); frames must be in "
+            "time order with the rows of a frame contiguous"
+        )
+    first = np.concatenate([[True], ns[1:] != ns[:-1]])  # the first row of each frame
+    frame_of_row = np.cumsum(first) - 1
+    n_frames = int(frame_of_row[-1]) + 1
+    corners_per_frame = np.bincount(frame_of_row, weights=has_corner, minlength=n_frames).astype(np.int64)
+    rows_per_frame = np.bincount(frame_of_row, minlength=n_frames)
+    mixed = (~has_corner) & (corners_per_frame[frame_of_row] > 0)
+    if mixed.any():
+        k = int(np.argmax(mixed))
+        raise RecordingError(f"{p}:{linenos[k]}: a timestamp-only row (no detection) in a frame that has corners")
+    dup = (corners_per_frame == 0) & (rows_per_frame > 1)
+    if dup.any():
+        k = int(np.argmax(first & dup[frame_of_row])) + 1
+        raise RecordingError(f"{p}:{linenos[k]}: repeated timestamp-only row for one frame")
+    ids = numbers[:, 5:7]
+    bad = (ids != np.round(ids)).any(axis=1) | (np.abs(ids) > 2**53).any(axis=1)
+    if bad.any():
+        k = rest_rows[int(np.argmax(bad))]
+        raise RecordingError(f"{p}:{linenos[k]}: tag_id and corner_idx must be whole numbers")
+    stamps_ns = ns[first]
+    offsets = np.concatenate([[0], np.cumsum(corners_per_frame)]).astype(np.int64)
+    return TargetDetections(
+        stamps_ns=stamps_ns,
+        t=seconds_from_ns(stamps_ns),
+        offsets=offsets,
+        pixels=np.ascontiguousarray(numbers[:, 0:2]),
+        points=np.ascontiguousarray(numbers[:, 2:5]),
+        tag_id=ids[:, 0].astype(np.int64),
+        corner_id=ids[:, 1].astype(np.int64),
+        path=p,
+    )

@@ -1,0 +1,404 @@
+"""Pinhole cameras with lens distortion: radial–tangential ("radtan") and equidistant ("equi", Kannala–Brandt).
+
+Frames and units as in :mod:`dualpose.types.camera`: camera frame ``c`` with z along the optical axis, x right,
+y down (metres); pixels ``(u, v)`` from the top-left image corner.  Every method takes float64 arrays with the
+components on the last axis and broadcasts over the leading axes.
+
+Normalised coordinates are ``(x, y) = (X/Z, Y/Z)``; *distorted* normalised coordinates ``(x_d, y_d)`` map to pixels
+by ``u = fx x_d + cx``, ``v = fy y_d + cy``.
+
+* ``radtan`` (Brown–Conrady as in OpenCV ``cv2.projectPoints`` with ``distCoeffs = [k1, k2, p1, p2]`` and Kalibr's
+  ``pinhole-radtan``), with ``r² = x² + y²``::
+
+      x_d = x (1 + k1 r² + k2 r⁴) + 2 p1 x y + p2 (r² + 2 x²)
+      y_d = y (1 + k1 r² + k2 r⁴) + p1 (r² + 2 y²) + 2 p2 x y
+
+* ``equi`` (Kannala & Brandt 2006, OpenCV ``cv2.fisheye``, Kalibr ``pinhole-equi``), with ``ρ = √(X² + Y²)``,
+  ``θ = atan2(ρ, Z)`` the angle from the optical axis::
+
+      θ_d = θ (1 + k1 θ² + k2 θ⁴ + k3 θ⁶ + k4 θ⁸),   (x_d, y_d) = θ_d (X, Y) / ρ
+
+  ``θ_d / ρ = atan2c(ρ, Z) (1 + k1 θ² + ...)`` goes through the guarded series
+  :func:`dualpose.algebra.series.atan2c`, so the optical axis (ρ = 0) is exact.  The equidistant model projects any
+  point off the negative optical axis (also Z <= 0, for lenses beyond 180°).
+
+Inverse (undistortion): Newton's method on the 2 × 2 distortion Jacobian (radtan), on ``θ_d(θ) = |(x_d, y_d)|``
+(equi, radially symmetric), to a residual below :data:`UNDISTORT_TOLERANCE`.  A point is *invertible* when Newton
+converges there on the branch that starts at the image centre: radtan needs ``r`` below the first zero of the
+radial derivative ``d/dr [r (1 + k1 r² + k2 r⁴)]`` and a positive Jacobian determinant; equi needs ``θ`` below the
+first zero of ``dθ_d/dθ`` (and below π/2 for normalised coordinates, which do not exist beyond).  Points outside
+raise a ``ValueError`` (or, with ``return_valid=True``, come back as NaN with ``valid`` False).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from dualpose import _native
+from dualpose.types.camera import CameraIntrinsics, PinholeModel
+
+__all__ = [
+    "UNDISTORT_TOLERANCE",
+    "DistortedCamera",
+    "RadTanCamera",
+    "EquidistantCamera",
+    "camera_from_parameters",
+    "CAMERA_MODEL_NAMES",
+]
+
+#: largest accepted residual of an undistorted point, in distorted normalised units (|distort(x) - x_d|, max norm)
+UNDISTORT_TOLERANCE = 1e-12
+#: Newton's iterations before a point counts as not converged; a step below 1e-14 (normalised units / radians)
+#: ends the iteration for that point (``src/native/common/camera_models.hpp``)
+UNDISTORT_MAX_ITERATIONS = 50
+
+
+def _points(points_c: object, name: str = "points_c") -> np.ndarray:
+    p = np.asarray(points_c, dtype=np.float64)
+    if p.shape[-1:] != (3,):
+        raise ValueError(f"{name} must have shape (..., 3) (camera-frame X, Y, Z in metres); got {p.shape}")
+    if not np.isfinite(p).all():
+        raise ValueError(f"{name} must be finite")
+    return p
+
+
+def _planar(xy: object, name: str, what: str) -> np.ndarray:
+    a = np.asarray(xy, dtype=np.float64)
+    if a.shape[-1:] != (2,):
+        raise ValueError(f"{name} must have shape (..., 2) ({what}); got {a.shape}")
+    if not np.isfinite(a).all():
+        raise ValueError(f"{name} must be finite")
+    return a
+
+
+def _first_bad(bad: np.ndarray) -> str:
+    idx = np.unravel_index(int(np.argmax(bad)), bad.shape)
+    return f"{int(bad.sum())} of {bad.size} (first at index {tuple(int(i) for i in idx)})"
+
+
+class DistortedCamera(PinholeModel):
+    """What the distorted pinhole cameras share (the projection API); see the module docstring for the models.
+
+    A subclass is a frozen dataclass with fields ``fx, fy, cx, cy, <4 distortion coefficients>, width, height``,
+    class attributes ``model`` (the name), ``DISTORTION_NAMES`` and ``_KERNELS`` (the prefix of its compiled
+    gufuncs in ``dualpose._native``, ``src/native/types/cameras.cpp``), and ``_limit()``, the bound of its
+    invertible region.  The per-point work runs in those kernels; this class checks the input and shapes the output.
+    """
+
+    model: ClassVar[str]
+    DISTORTION_NAMES: ClassVar[tuple[str, str, str, str]]
+    _KERNELS: ClassVar[str]
+    _PROJECTABLE: ClassVar[str]
+
+    def __post_init__(self) -> None:
+        for name in ("fx", "fy", "cx", "cy", *self.DISTORTION_NAMES):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) or not math.isfinite(v):
+                raise ValueError(f"{name} must be a finite number; got {v!r}")
+            object.__setattr__(self, name, float(v))
+        for name in ("fx", "fy"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0 pixels; got {getattr(self, name)!r}")
+        for name in ("width", "height"):
+            v = getattr(self, name)
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or v <= 0:
+                raise ValueError(f"{name} must be a positive whole number of pixels; got {v!r}")
+            object.__setattr__(self, name, int(v))
+        object.__setattr__(self, "_params", np.array([self.fx, self.fy, self.cx, self.cy, *self.distortion]))
+        object.__setattr__(self, "_bound", self._limit())
+
+    def _kernel(self, name: str) -> np.ufunc:
+        return getattr(_native, f"{self._KERNELS}_{name}")
+
+    # ------------------------------------------------------------------ parameters
+    @property
+    def distortion(self) -> tuple[float, float, float, float]:
+        """The four distortion coefficients, in the order of ``DISTORTION_NAMES``."""
+        return tuple(getattr(self, n) for n in self.DISTORTION_NAMES)  # type: ignore[return-value]
+
+    @property
+    def parameters(self) -> np.ndarray:
+        """``[fx, fy, cx, cy, d1, d2, d3, d4]``, shape (8,): the order of :meth:`intrinsics_jacobian`'s columns."""
+        return self._params.copy()
+
+    def pinhole(self) -> CameraIntrinsics:
+        """The undistorted pinhole camera with the same ``fx, fy, cx, cy, width, height``."""
+        return CameraIntrinsics(self.fx, self.fy, self.cx, self.cy, self.width, self.height)
+
+    # ------------------------------------------------------------------ projection
+    def project(self, points_c: np.ndarray) -> np.ndarray:
+        """Pixels ``(..., 2)`` of camera-frame points ``points_c`` ``(..., 3)`` (metres).
+
+        Raises
+        ------
+        ValueError
+            Shape not ``(..., 3)``, non-finite values, or points the model cannot project (radtan: Z <= 0;
+            equi: on the optical axis behind or at the centre, ``X = Y = 0, Z <= 0``), naming ``points_c``.
+        """
+        return self._kernel("project")(self._params, self._checked_points(points_c))
+
+    def project_jacobian(self, points_c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Pixels ``(..., 2)`` and their derivative with respect to the camera-frame point, ``(..., 2, 3)``
+        (pixels per metre; rows ``u, v``, columns ``X, Y, Z``).  Same input rules as :meth:`project`."""
+        return self._kernel("project_jacobian")(self._params, self._checked_points(points_c))
+
+    def intrinsics_jacobian(self, points_c: np.ndarray) -> np.ndarray:
+        """Derivative of the pixels of ``points_c`` ``(..., 3)`` with respect to :attr:`parameters`
+        ``(fx, fy, cx, cy, d1, d2, d3, d4)``, shape ``(..., 2, 8)`` (rows ``u, v``)."""
+        return self._kernel("intrinsics_jacobian")(self._params, self._checked_points(points_c))
+
+    def distort(self, xy: np.ndarray) -> np.ndarray:
+        """Distorted normalised coordinates ``(..., 2)`` of undistorted normalised ``xy = (X/Z, Y/Z)`` ``(..., 2)``."""
+        return self._kernel("distort")(self._params, _planar(xy, "xy", "undistorted normalised x, y"))[0]
+
+    def distort_jacobian(self, xy: np.ndarray) -> np.ndarray:
+        """``d distort(xy) / d xy``, shape ``(..., 2, 2)`` (rows ``x_d, y_d``, columns ``x, y``)."""
+        return self._kernel("distort")(self._params, _planar(xy, "xy", "undistorted normalised x, y"))[1]
+
+    # ------------------------------------------------------------------ inverse
+    def undistort(self, xy_d: np.ndarray, *, return_valid: bool = False):
+        """Undistorted normalised coordinates ``(..., 2)`` of distorted normalised ``xy_d`` ``(..., 2)`` (the inverse
+        of :meth:`distort`, by Newton's method to a residual below :data:`UNDISTORT_TOLERANCE`).
+
+        Returns
+        -------
+        xy : ndarray (..., 2)
+        valid : ndarray of bool (...)
+            Only with ``return_valid=True``: False where the point is outside the invertible region (module
+            docstring) or Newton did not converge; ``xy`` is NaN there.
+
+        Raises
+        ------
+        ValueError
+            Without ``return_valid``, when any point is not invertible (how many, and the first index).
+        """
+        a = _planar(xy_d, "xy_d", "distorted normalised x_d, y_d")
+        xy, valid = self._undistort(a)
+        return self._finish(xy, valid, return_valid, "xy_d")
+
+    def unproject(self, pixels: np.ndarray, *, return_valid: bool = False):
+        """Undistorted normalised coordinates ``(X/Z, Y/Z)`` ``(..., 2)`` of ``pixels`` ``(..., 2)``; failure rules
+        of :meth:`undistort` (naming ``pixels``)."""
+        xy, valid = self._undistort(self._distorted_from_pixels(pixels))
+        return self._finish(xy, valid, return_valid, "pixels")
+
+    def bearing(self, pixels: np.ndarray, *, return_valid: bool = False):
+        """Unit rays ``(..., 3)`` in the camera frame through ``pixels`` ``(..., 2)``; failure rules of
+        :meth:`undistort` (naming ``pixels``)."""
+        ray, valid = self._bearing(self._distorted_from_pixels(pixels))
+        return self._finish(ray, valid, return_valid, "pixels")
+
+    def ideal_pixels(self, pixels: np.ndarray, *, return_valid: bool = False):
+        """The pixels ``(..., 2)`` of the same rays in the undistorted pinhole camera :meth:`pinhole`
+        (``K · unproject(pixels)``): what the pinhole-model filters consume.  Failure rules of :meth:`undistort`."""
+        xy, valid = self._undistort(self._distorted_from_pixels(pixels))
+        ideal = np.stack([self.fx * xy[..., 0] + self.cx, self.fy * xy[..., 1] + self.cy], axis=-1)
+        return self._finish(ideal, valid, return_valid, "pixels")
+
+    # ------------------------------------------------------------------ helpers
+    def _distorted_from_pixels(self, pixels: object) -> np.ndarray:
+        p = _planar(pixels, "pixels", "u, v in pixels")
+        return np.stack([(p[..., 0] - self.cx) / self.fx, (p[..., 1] - self.cy) / self.fy], axis=-1)
+
+    def _checked_points(self, points_c: object) -> np.ndarray:
+        p = _points(points_c)
+        bad = self._unprojectable(p)
+        if bad.any():
+            raise ValueError(
+                f"points_c: {_first_bad(bad)} points cannot be projected by the {self.model} model "
+                f"({self._PROJECTABLE})"
+            )
+        return p
+
+    def _undistort(self, xy_d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        with np.errstate(all="ignore"):  # a point where Newton meets a zero derivative is flagged, not warned about
+            xy, valid = self._kernel("undistort")(self._params, self._bound, xy_d)
+        return xy, valid.astype(bool)
+
+    def _bearing(self, xy_d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        xy, valid = self._undistort(xy_d)
+        ray = np.concatenate([xy, np.ones(xy.shape[:-1] + (1,))], axis=-1)
+        return ray / np.linalg.norm(ray, axis=-1, keepdims=True), valid
+
+    @staticmethod
+    def _finish(values: np.ndarray, valid: np.ndarray, return_valid: bool, name: str):
+        values = np.where(valid[..., None], values, np.nan)
+        if return_valid:
+            return values, valid
+        if not valid.all():
+            raise ValueError(
+                f"{name}: {_first_bad(~valid)} points are outside the invertible region of the distortion "
+                "(pass return_valid=True to get NaN and a mask instead)"
+            )
+        return values
+
+
+# ---------------------------------------------------------------------------------------------- radtan
+
+
+def _radial_limit_r2(k1: float, k2: float) -> float:
+    """The first r² > 0 where d/dr [r (1 + k1 r² + k2 r⁴)] = 1 + 3 k1 r² + 5 k2 r⁴ vanishes (inf if none)."""
+    roots = np.roots([5.0 * k2, 3.0 * k1, 1.0]) if (k1 or k2) else np.array([])
+    real = [float(s.real) for s in np.atleast_1d(roots) if abs(s.imag) <= 1e-12 * abs(s) and s.real > 0]
+    return min(real, default=math.inf)
+
+
+@dataclass(frozen=True)
+class RadTanCamera(DistortedCamera):
+    """Pinhole camera with radial–tangential distortion (OpenCV ``[k1, k2, p1, p2]``, Kalibr ``radtan``).
+
+    Attributes
+    ----------
+    fx, fy : float
+        Focal lengths, pixels (> 0).
+    cx, cy : float
+        Principal point, pixels.
+    k1, k2 : float
+        Radial coefficients.
+    p1, p2 : float
+        Tangential coefficients.
+    width, height : int
+        Image size, pixels.
+    """
+
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    k1: float
+    k2: float
+    p1: float
+    p2: float
+    width: int
+    height: int
+
+    model: ClassVar[str] = "radtan"
+    DISTORTION_NAMES: ClassVar[tuple[str, str, str, str]] = ("k1", "k2", "p1", "p2")
+    _PROJECTABLE: ClassVar[str] = "Z must be > 0"
+
+    _KERNELS: ClassVar[str] = "radtan"
+
+    @property
+    def max_radius2(self) -> float:
+        """Largest undistorted ``r² = x² + y²`` of the invertible region (inf when the radial part is monotone)."""
+        return self._bound
+
+    def _limit(self) -> float:
+        return _radial_limit_r2(self.k1, self.k2)
+
+    def _unprojectable(self, p: np.ndarray) -> np.ndarray:
+        return ~(p[..., 2] > 0.0)
+
+
+# ---------------------------------------------------------------------------------------------- equidistant
+
+
+def _equi_theta_limit(k: tuple[float, float, float, float]) -> float:
+    """The first θ in (0, π) where dθ_d/dθ vanishes (π if none)."""
+    k1, k2, k3, k4 = k
+    coeffs = np.trim_zeros([9.0 * k4, 7.0 * k3, 5.0 * k2, 3.0 * k1, 1.0], "f")
+    roots = np.roots(coeffs) if len(coeffs) > 1 else np.array([])
+    real = [math.sqrt(s.real) for s in np.atleast_1d(roots) if abs(s.imag) <= 1e-12 * abs(s) and s.real > 0]
+    return min([t for t in real if t < math.pi], default=math.pi)
+
+
+@dataclass(frozen=True)
+class EquidistantCamera(DistortedCamera):
+    """Pinhole camera with equidistant fisheye distortion (Kannala–Brandt; OpenCV ``cv2.fisheye``, Kalibr ``equi``).
+
+    Attributes
+    ----------
+    fx, fy : float
+        Focal lengths, pixels (> 0).
+    cx, cy : float
+        Principal point, pixels.
+    k1, k2, k3, k4 : float
+        Coefficients of ``θ_d = θ (1 + k1 θ² + k2 θ⁴ + k3 θ⁶ + k4 θ⁸)``.
+    width, height : int
+        Image size, pixels.
+    """
+
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    k1: float
+    k2: float
+    k3: float
+    k4: float
+    width: int
+    height: int
+
+    model: ClassVar[str] = "equi"
+    DISTORTION_NAMES: ClassVar[tuple[str, str, str, str]] = ("k1", "k2", "k3", "k4")
+    _PROJECTABLE: ClassVar[str] = "not on the optical axis at or behind the centre, X = Y = 0 with Z <= 0"
+
+    _KERNELS: ClassVar[str] = "equi"
+
+    @property
+    def max_angle(self) -> float:
+        """Largest ray angle θ from the optical axis (radians) of the invertible region: the first zero of
+        ``dθ_d/dθ``, or π."""
+        return self._bound
+
+    def _limit(self) -> float:
+        return _equi_theta_limit(self.distortion)
+
+    def _unprojectable(self, p: np.ndarray) -> np.ndarray:
+        return (p[..., 0] == 0.0) & (p[..., 1] == 0.0) & ~(p[..., 2] > 0.0)
+
+    def _bearing(self, xy_d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        with np.errstate(all="ignore"):
+            ray, valid = _native.equi_bearing(self._params, self._bound, xy_d)
+        return ray, valid.astype(bool)
+
+
+# ---------------------------------------------------------------------------------------------- factory
+
+#: accepted model names (lower case) -> camera class
+CAMERA_MODEL_NAMES: dict[str, type[DistortedCamera]] = {
+    "radtan": RadTanCamera,
+    "radial-tangential": RadTanCamera,
+    "pinhole-radtan": RadTanCamera,
+    "equi": EquidistantCamera,
+    "equidistant": EquidistantCamera,
+    "fisheye": EquidistantCamera,
+    "kannala-brandt": EquidistantCamera,
+    "pinhole-equi": EquidistantCamera,
+}
+
+
+def camera_from_parameters(
+    model: str, intrinsics, distortion, width: int, height: int
+) -> RadTanCamera | EquidistantCamera:
+    """A distorted camera from a calibration file's fields.
+
+    Parameters
+    ----------
+    model : str
+        ``"radtan"`` / ``"radial-tangential"`` / ``"pinhole-radtan"`` or ``"equi"`` / ``"equidistant"`` /
+        ``"fisheye"`` / ``"kannala-brandt"`` / ``"pinhole-equi"`` (case-insensitive).
+    intrinsics : sequence of 4 floats
+        ``fx, fy, cx, cy`` in pixels.
+    distortion : sequence of 4 floats
+        ``k1, k2, p1, p2`` (radtan) or ``k1, k2, k3, k4`` (equi).
+    width, height : int
+        Image size, pixels.
+    """
+    if not isinstance(model, str) or model.strip().lower() not in CAMERA_MODEL_NAMES:
+        raise ValueError(f"model must be one of {sorted(CAMERA_MODEL_NAMES)}; got {model!r}")
+    cls = CAMERA_MODEL_NAMES[model.strip().lower()]
+    values = {}
+    for name, seq, n in (("intrinsics", intrinsics, 4), ("distortion", distortion, 4)):
+        try:
+            a = [float(v) for v in seq]
+        except (TypeError, ValueError):
+            raise ValueError(f"{name} must be a sequence of {n} numbers; got {seq!r}") from None
+        if len(a) != n:
+            raise ValueError(f"{name} must have {n} values for the {cls.model} model; got {len(a)}")
+        values[name] = a
+    return cls(*values["intrinsics"], *values["distortion"], width, height)  # type: ignore[call-arg]
