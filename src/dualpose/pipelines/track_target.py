@@ -618,3 +618,192 @@ def imu_only(setup: TrackSetup, seconds: Sequence[float] = (1.0, 5.0)) -> dict:
         out[f"{s:g}s"] = {"position_rmse_m": float(np.sqrt(np.mean(np.sum(e**2, axis=1)))) if m.any() else None,
                           "rotation_rmse_deg": float(np.sqrt(np.mean(r**2))) if m.any() else None}  # fmt: skip
     return out
+
+
+class TrackStream:
+    """:func:`run_track`'s filter on a stream of lines (``dualpose fuse --stream --sensors sensors.yaml --camera cam0
+    --calibration CALIB.json``): the same start-up, filter and re-locks, so the pose lines are the batch run's states
+    bit for bit.
+
+    Input lines as :func:`dualpose.pipelines.fuse_stream.parse_fusion_line` (``imu, t, gx, gy, gz, ax, ay, az`` and
+    ``cam, t, n, u1, v1, X1, Y1, Z1, ...``) with the camera's **measured (distorted) pixels** and the corners in the
+    target frame; the stream converts them with the camera model (a camera front end pipes its detections as they
+    are).  The first :data:`STARTUP_SECONDS` of frames are buffered for the start-up alignment (:func:`startup`): the
+    first pose line -- for the IMU sample at the first frame of the window -- is written when the IMU passes the end of
+    the window (or at the end of the input), then one line per IMU line as it arrives.
+
+    Parameters
+    ----------
+    rig : RigSensors.  camera : the tracked camera's name.  calibration : CameraImuCalibration.
+    filter : {"eskf", "hol22"}.
+    """
+
+    def __init__(self, rig, camera: str, calibration: CameraImuCalibration, filter: str = "eskf") -> None:
+        if filter not in FILTERS:
+            raise ValueError(f"filter must be one of {tuple(FILTERS)}; got {filter!r}")
+        if rig.imu_noise is None:
+            raise ValueError(f"{rig.path}: no IMU noise densities (imu0) in the sensor file")
+        if calibration.camera != camera:
+            raise ValueError(f"the calibration is of camera {calibration.camera!r}, but --camera is {camera!r}")
+        self.model = rig.camera(camera)
+        self.calibration = calibration
+        self.filter = filter
+        self.noise = replace(rig.imu_noise, update_rate=rig.imu_rate) if math.isfinite(rig.imu_rate) else rig.imu_noise
+        self.gravity_magnitude = rig.gravity_magnitude if math.isfinite(rig.gravity_magnitude) else 9.81
+        self.pixel_sigma = ideal_pixel_sigma(self.model, calibration.reprojection_rms_px)
+        self._imu: list[tuple[float, list, list]] = []
+        self._cams: list[tuple[float, np.ndarray, np.ndarray]] = []
+        self._t_first: float | None = None  # IMU time of the first usable frame
+        self._stream = None
+        self._setup = None
+        self._frames: list = []  # (FrameUpdate, ideal pixels, points) queued in the current stream
+        self.relocks: list[float] = []  # IMU times of the re-locks
+        self.start: StartUp | None = None
+
+    def _sensor_setup(self):
+        from dualpose.types import FilterStart, SensorSetup
+
+        cal = self.calibration
+        return SensorSetup(camera=self.model.pinhole(), q_bc=cal.rotation_xyzw, p_bc=cal.translation_m,
+                           pixel_sigma=self.pixel_sigma, imu_noise=self.noise, start=FilterStart(np.zeros(3),
+                           np.array([0.0, 0.0, 0.0, 1.0])), time_offset=cal.time_offset_s,
+                           gravity=self.start.alignment.gravity)  # fmt: skip
+
+    def _new_stream(self, x: np.ndarray, P: np.ndarray):
+        from dualpose.estimation.eskf import EskfStream
+        from dualpose.estimation.hol22 import Hol22Stream
+
+        f = FILTERS[self.filter](self._setup, x, P)
+        return EskfStream(f) if self.filter == "eskf" else Hol22Stream(f)
+
+    def _pose(self, t: float, x: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+        L = self._stream.state_layout
+        if "quat_be" in L.names:
+            return t, L.get(x, "position"), dp.quat_conj(L.get(x, "quat_be"))
+        return t, L.get(x, "position"), L.get(x, "quat")
+
+    def _state_now(self) -> dict:
+        L = self._stream.state_layout
+        C = self._stream.covariance
+        x = self._stream.state
+        q = dp.quat_conj(L.get(x, "quat_be")) if "quat_be" in L.names else L.get(x, "quat")
+        cl = L if "quat_be" in L.names else ESKF_ERROR  # Hol22: covariance over its state; ESKF: over its error
+        return {"position": L.get(x, "position"), "velocity": L.get(x, "velocity"), "quat": q,
+                "gyro_bias": L.get(x, "gyro_bias"), "accel_bias": L.get(x, "accel_bias"),
+                "gyro_bias_cov": cl.cov(C, "gyro_bias").copy(), "accel_bias_cov": cl.cov(C, "accel_bias").copy()}  # fmt: skip
+
+    def _camera(self, t: float, raw: np.ndarray, points: np.ndarray) -> None:
+        ideal = self.model.ideal_pixels(raw) if len(raw) else np.zeros((0, 2))
+        fu = self._stream.update_camera(t, ideal, points)
+        self._frames.append((fu, ideal, points))
+
+    def _imu_step(self, t: float, g, a) -> tuple[float, np.ndarray, np.ndarray]:
+        x = self._stream.update_imu(t, g, a)
+        done = [item for item in self._frames if item[0].status != "pending"]
+        self._frames = [item for item in self._frames if item[0].status == "pending"]
+        for fu, ideal, points in done:
+            if fu.status != "done" or not len(ideal):
+                continue
+            lost = lost_frame(np.array([len(ideal)]), fu.accepted)
+            if not lost[0]:
+                continue
+            rec = self._setup_rec
+            new = relock_start(self._state_now(), np.asarray(g, dtype=np.float64), t - fu.t, ideal, points, rec)
+            if new is None:
+                continue
+            pending = self._frames
+            self._stream = self._new_stream(*new)
+            x = self._stream.update_imu(t, g, a)  # the re-lock sample is the new filter's first
+            self._frames = []
+            for f2, ideal2, points2 in pending:
+                fu2 = self._stream.update_camera(f2.t - self.calibration.time_offset_s, ideal2, points2)
+                self._frames.append((fu2, ideal2, points2))
+            self.relocks.append(t)
+            break
+        return self._pose(t, x)
+
+    def _begin(self) -> list:
+        """Run the start-up on the buffered inputs and filter them; the poses from the start sample on."""
+        from dualpose.types.target import TargetDetections
+
+        t = np.array([r[0] for r in self._imu])
+        g = np.array([r[1] for r in self._imu], dtype=np.float64).reshape(-1, 3)
+        a = np.array([r[2] for r in self._imu], dtype=np.float64).reshape(-1, 3)
+        ft = np.array([c[0] for c in self._cams])
+        counts = np.array([len(c[1]) for c in self._cams], dtype=np.int64)
+        offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        pix = np.concatenate([c[1] for c in self._cams]) if counts.sum() else np.zeros((0, 2))
+        pts = np.concatenate([c[2] for c in self._cams]) if counts.sum() else np.zeros((0, 3))
+        m = len(pix)
+        det = TargetDetections(np.round(ft * 1e9).astype(np.int64), ft, offsets, pix, pts, np.zeros(m, np.int64),
+                               np.zeros(m, np.int64))  # fmt: skip
+        self.start = startup(t, g, a, det, self.model, self.calibration, self.noise, self.gravity_magnitude)
+        self._setup = self._sensor_setup()
+        self._setup_rec = _RelockSensors(self._setup)
+        self._stream = self._new_stream(self.start.x, self.start.P)
+        k0 = self.start.imu_index
+        tau = self.calibration.time_offset_s
+        items = [(float(t[k]), 1, ("imu", k)) for k in range(k0, len(t))]
+        items += [(float(ft[j] + tau), 0, ("cam", j)) for j in range(len(ft)) if ft[j] + tau > t[k0]]
+        items.sort(key=lambda it: it[:2])
+        out = []
+        for _, _, (kind, i) in items:
+            if kind == "imu":
+                out.append(self._imu_step(float(t[i]), self._imu[i][1], self._imu[i][2]))
+            else:
+                self._camera(float(ft[i]), self._cams[i][1], self._cams[i][2])
+        self._imu, self._cams = [], []
+        return out
+
+    def update(self, kind: str, t: float, a, b) -> list:
+        """One input (``"imu", t, gyro, accel`` or ``"cam", t, raw pixels (n, 2), points (n, 3)``); returns the
+        ``(t, position (3,), q_wb (4,))`` poses it completes (none while the start-up window is read)."""
+        if self._stream is not None:
+            if kind == "cam":
+                self._camera(t, np.asarray(a, dtype=np.float64).reshape(-1, 2), np.asarray(b, dtype=np.float64))
+                return []
+            return [self._imu_step(t, a, b)]
+        if kind == "cam":
+            raw = np.asarray(a, dtype=np.float64).reshape(-1, 2)
+            self._cams.append((t, raw, np.asarray(b, dtype=np.float64).reshape(-1, 3)))
+            if self._t_first is None and len(raw) >= STARTUP_MIN_CORNERS and self._imu and \
+                    t + self.calibration.time_offset_s >= self._imu[0][0]:
+                self._t_first = t + self.calibration.time_offset_s
+            return []
+        self._imu.append((t, list(a), list(b)))
+        if self._t_first is not None and t > self._t_first + STARTUP_SECONDS:
+            return self._begin()
+        return []
+
+    def finish(self) -> list:
+        """At the end of the input: the start-up on what was read if it has not run yet (and its poses)."""
+        return self._begin() if self._stream is None and self._imu else []
+
+
+class _RelockSensors:
+    """What :func:`relock_start` reads from a recording (``camera``, ``pixel_sigma``, ``q_bc``, ``p_bc``), from a
+    sensor set-up."""
+
+    def __init__(self, setup) -> None:
+        self.camera, self.pixel_sigma, self.q_bc, self.p_bc = setup.camera, setup.pixel_sigma, setup.q_bc, setup.p_bc
+
+
+def stream_track_lines(lines, stream: TrackStream, source: str = "stdin"):
+    """:func:`dualpose.pipelines.fuse_stream.stream_fusion_lines` for a :class:`TrackStream`: yields one
+    ``t, px, py, pz, qx, qy, qz, qw`` line per IMU line from the start sample on (module docstring of
+    :class:`TrackStream`); ``ValueError("{source} line N: ...")`` for a malformed line."""
+    from dualpose.pipelines._lines import format_numbers
+    from dualpose.pipelines.fuse_stream import parse_fusion_line
+
+    for lineno, line in enumerate(lines, start=1):
+        try:
+            item = parse_fusion_line(line)
+            if item is None:
+                continue
+            poses = stream.update(*item)
+        except ValueError as exc:
+            raise ValueError(f"{source} line {lineno}: {exc}") from None
+        for t, p, q in poses:
+            yield format_numbers([t, *p.tolist(), *q.tolist()])
+    for t, p, q in stream.finish():
+        yield format_numbers([t, *p.tolist(), *q.tolist()])
