@@ -75,10 +75,13 @@ class TargetRecording:
 
 
 def is_target_recording(path: str | os.PathLike) -> bool:
-    """True when ``path`` is a directory with ``sensors.yaml``, ``imu0.csv`` and at least one ``camN_aprilgrid.csv``."""
+    """True when ``path`` is a directory in this layout: it holds a ``camN_aprilgrid.csv``, or both ``imu0.csv`` and
+    ``sensors.yaml`` (:func:`read_target_recording` then names whatever else is missing)."""
     p = Path(path)
-    if not p.is_dir() or not (p / SENSORS_YAML).is_file() or not (p / IMU_FILE).is_file():
+    if not p.is_dir():
         return False
+    if (p / SENSORS_YAML).is_file() and (p / IMU_FILE).is_file():
+        return True
     return any(_DETECTIONS.match(f.name) for f in p.iterdir())
 
 

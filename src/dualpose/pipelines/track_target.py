@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 import os
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -48,9 +49,12 @@ from dualpose.evaluation.target_reference import (
 from dualpose.io.recording import RecordingError
 from dualpose.io.target_recording import TargetRecording, read_camera_imu_calibration, read_target_recording
 from dualpose.pipelines.fuse import FILTERS, FuseResult
-from dualpose.estimation.eskf import InnovationReport
+from scipy.stats import chi2
+
+from dualpose.estimation.eskf import EskfStream, InnovationReport
+from dualpose.estimation.hol22 import Hol22Stream
 from dualpose.registration.pnp import PnPResult, solve_pnp_ransac
-from dualpose.types import Recording, Trajectory
+from dualpose.types import FilterStart, Recording, SensorSetup, Trajectory
 from dualpose.types.calibration import CameraImuCalibration
 from dualpose.types.target import TargetDetections
 
@@ -371,76 +375,100 @@ class TrackedRun:
     wall_time: float
 
 
-def _state_at(res, layout, i: int) -> dict:
-    P = res.covariance[i]
-    return {
-        "position": res.position[i], "velocity": res.velocity[i], "quat": res.quat[i],
-        "gyro_bias": res.gyro_bias[i], "accel_bias": res.accel_bias[i],
-        "gyro_bias_cov": layout.cov(P, "gyro_bias").copy(), "accel_bias_cov": layout.cov(P, "accel_bias").copy(),
-    }  # fmt: skip
+def _new_stream(filter: str, sensors, x: np.ndarray, P: np.ndarray):
+    """The streaming filter (:class:`~dualpose.estimation.eskf.EskfStream` / ``Hol22Stream``) of ``filter`` for
+    ``sensors`` (a Recording or SensorSetup) started from the error-state ``(x, P)``."""
+    f = FILTERS[filter](sensors, x, P)
+    return EskfStream(f) if filter == "eskf" else Hol22Stream(f)
+
+
+def _stream_state(stream) -> dict:
+    """The current state of a stream in the error-state filter's terms (for :func:`relock_start`)."""
+    L = stream.state_layout
+    C = stream.covariance
+    x = stream.state
+    hol = "quat_be" in L.names
+    cl = L if hol else ESKF_ERROR  # Hol22: covariance over its state; ESKF: over its error state
+    q = dp.quat_conj(L.get(x, "quat_be")) if hol else L.get(x, "quat")
+    return {"position": L.get(x, "position"), "velocity": L.get(x, "velocity"), "quat": q,
+            "gyro_bias": L.get(x, "gyro_bias"), "accel_bias": L.get(x, "accel_bias"),
+            "gyro_bias_cov": cl.cov(C, "gyro_bias").copy(), "accel_bias_cov": cl.cov(C, "accel_bias").copy()}  # fmt: skip
+
+
+def _relocked(stream, done: list, t: float, gyro, accel, sensors, filter: str):
+    """After the IMU sample ``(t, gyro, accel)``: the first of the frames ``done`` (FrameUpdates filtered at it, in
+    order) that the filter lost and that re-locks gives a new stream, started from :func:`relock_start` and fed
+    that sample as its first; None when no frame does.  The batch run and :class:`TrackStream` both call this."""
+    for fu in done:
+        n = len(fu.pixels)
+        if fu.status != "done" or not n or not lost_frame(np.array([n]), fu.accepted)[0]:
+            continue
+        new = relock_start(_stream_state(stream), np.asarray(gyro, dtype=np.float64), t - fu.t, fu.pixels, fu.points,
+                           sensors)  # fmt: skip
+        if new is None:
+            continue
+        fresh = _new_stream(filter, sensors, *new)
+        fresh.update_imu(t, gyro, accel)
+        return fresh
+    return None
 
 
 def run_relocking(rec: Recording, x: np.ndarray, P: np.ndarray, filter: str = "eskf") -> TrackedRun:
-    """Run ``filter`` from ``(x, P)`` over ``rec`` and re-lock it (:func:`relock_start`) on every frame it loses
-    (:func:`lost_frame`): the run is filtered up to the IMU sample where the lost frame was filtered, and a new filter
-    continues from that sample with the re-locked start (frames after that sample only).  The streaming run
-    (:class:`TrackStream`) makes the same decisions on the same numbers."""
-    factory = FILTERS[filter]
+    """Run ``filter`` from ``(x, P)`` over ``rec`` and re-lock it on every frame it loses (:func:`lost_frame`,
+    :func:`relock_start`): the streaming filter fed in compiled blocks, one block per IMU sample that filters frames
+    (:meth:`~dualpose.estimation.eskf.EskfStream.update_batch`), so that after each such sample the frames are checked
+    and, on a loss, a new filter continues from that sample -- exactly what :class:`TrackStream` does line by line
+    (the streams equal the batch filters bit for bit, docs/fusion.md "Streaming")."""
     f = rec.frames
-    t_cam = f.t + rec.time_offset
-    k = 0
-    parts, nis, acc, relocks = [], [], [], []
+    t, gyro, accel = rec.t, rec.gyro, rec.accel
+    n = len(t)
+    k_of = np.searchsorted(t, f.t + rec.time_offset, side="left")  # the IMU sample each frame is filtered at
+    stream = _new_stream(filter, rec, x, P)
+    hol = "quat_be" in stream.state_layout.names
+    cov_layout = stream.state_layout if hol else ESKF_ERROR
+    X, C, nis, acc, relocks = [], [], [], [], []
+    i = 0
     wall = 0.0
-    start = (x, P)
-    while True:
-        sel = t_cam > rec.t[k] if k > 0 else np.ones(len(f), bool)
-        sub_frames = _frames_subset(f, sel)
-        est = factory(rec, *start)
-        res = est.run(rec.t[k:], rec.gyro[k:], rec.accel[k:], sub_frames.t, sub_frames.offsets, sub_frames.pixels,
-                      sub_frames.points)  # fmt: skip
-        wall += float(res.wall_time)
-        st = sub_frames.t + rec.time_offset
-        done = st <= rec.t[-1]
-        lost = lost_frame(sub_frames.counts, np.asarray(res.innovation.accepted, bool)) & done
-        end = len(rec.t) - k
-        relock = None
-        for j in np.flatnonzero(lost):
-            kk = int(np.searchsorted(rec.t[k:], st[j] - 0.0, side="left"))
-            pix, pts = sub_frames.frame(int(j))
-            new = relock_start(_state_at(res, est.covariance_layout, kk), rec.gyro[k + kk], rec.t[k + kk] - st[j],
-                               pix, pts, rec)  # fmt: skip
-            if new is not None:
-                relock, end = new, kk + 1
-                break
-        n_corr = int(sub_frames.offsets[np.searchsorted(st, rec.t[k + end - 1], side="right")])
-        parts.append((res, est.covariance_layout, end))
-        nis.append(np.asarray(res.innovation.nis)[:n_corr])
-        acc.append(np.asarray(res.innovation.accepted, bool)[:n_corr])
-        if relock is None:
+    groups = np.flatnonzero(np.diff(np.r_[-1, k_of]) != 0)  # first frame of each run of equal k_of
+    bounds = np.r_[groups, len(k_of)]
+    for g0, g1 in zip(bounds[:-1], bounds[1:]):
+        k = int(k_of[g0])
+        if k >= n:
             break
-        relocks.append(float(rec.t[k + end - 1]))
-        k = k + end - 1
-        start = relock
-        parts[-1] = (res, est.covariance_layout, end - 1)  # the re-lock sample is the next part's first row
-    rows = lambda name: np.concatenate([getattr(r, name)[:e] for r, _, e in parts])  # noqa: E731
-    pos_cov = np.concatenate([L.cov(r.covariance[:e], "position") for r, L, e in parts])
-    att = None
-    if all("attitude" in L.names for _, L, _ in parts):
-        att = np.concatenate([np.degrees(np.sqrt(np.trace(L.cov(r.covariance[:e], "attitude"), axis1=1, axis2=2)))
-                              for r, L, e in parts])  # fmt: skip
-    rep = parts[0][0].innovation
+        o = f.offsets
+        t0 = time.perf_counter()
+        blk = stream.update_batch(t[i : k + 1], gyro[i : k + 1], accel[i : k + 1], f.t[g0:g1], o[g0 : g1 + 1] - o[g0],
+                                  f.pixels[o[g0] : o[g1]], f.points[o[g0] : o[g1]], covariance=True)  # fmt: skip
+        fresh = _relocked(stream, blk.frames, float(t[k]), gyro[k], accel[k], rec, filter)
+        wall += time.perf_counter() - t0
+        if fresh is not None:
+            stream = fresh
+            blk.states[-1] = stream.state
+            blk.covariance[-1] = stream.covariance
+            relocks.append(float(t[k]))
+        X.append(blk.states)
+        C.append(blk.covariance)
+        for fu in blk.frames:
+            nis.append(fu.nis)
+            acc.append(fu.accepted)
+        i = k + 1
+    if i < n:
+        t0 = time.perf_counter()
+        blk = stream.update_batch(t[i:], gyro[i:], accel[i:], covariance=True)
+        wall += time.perf_counter() - t0
+        X.append(blk.states)
+        C.append(blk.covariance)
+    X, C = np.concatenate(X), np.concatenate(C)
+    L = stream.state_layout
+    quat = dp.quat_conj(L.get(X, "quat_be")) if hol else L.get(X, "quat")
+    att = None if hol else np.degrees(np.sqrt(np.trace(cov_layout.cov(C, "attitude"), axis1=1, axis2=2)))
+    bounds_nis = (float(chi2.ppf(0.025, 2)), float(chi2.ppf(0.975, 2)))
     return TrackedRun(
-        t=rows("t"), position=rows("position"), velocity=rows("velocity"), quat=rows("quat"), position_cov=pos_cov,
-        attitude_sigma_deg=att, nis=np.concatenate(nis), accepted=np.concatenate(acc), bounds=rep.bounds,
-        gate=rep.gate, relocks=relocks, wall_time=wall,
+        t=t.copy(), position=L.get(X, "position"), velocity=L.get(X, "velocity"), quat=quat,
+        position_cov=cov_layout.cov(C, "position"), attitude_sigma_deg=att,
+        nis=np.concatenate(nis) if nis else np.zeros(0), accepted=np.concatenate(acc) if acc else np.zeros(0, bool),
+        bounds=bounds_nis, gate=float(chi2.ppf(0.999, 2)), relocks=relocks, wall_time=wall,
     )  # fmt: skip
-
-
-def _frames_subset(f, mask: np.ndarray):
-    counts = f.counts[mask]
-    rows = np.repeat(mask, f.counts)
-    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-    return type(f)(f.t[mask], offsets, f.pixels[rows], f.points[rows])
 
 
 def run_track(
@@ -656,25 +684,16 @@ class TrackStream:
         self._t_first: float | None = None  # IMU time of the first usable frame
         self._stream = None
         self._setup = None
-        self._frames: list = []  # (FrameUpdate, ideal pixels, points) queued in the current stream
+        self._frames: list = []  # (FrameUpdate, camera stamp) queued in the current stream
         self.relocks: list[float] = []  # IMU times of the re-locks
         self.start: StartUp | None = None
 
     def _sensor_setup(self):
-        from dualpose.types import FilterStart, SensorSetup
-
         cal = self.calibration
         return SensorSetup(camera=self.model.pinhole(), q_bc=cal.rotation_xyzw, p_bc=cal.translation_m,
                            pixel_sigma=self.pixel_sigma, imu_noise=self.noise, start=FilterStart(np.zeros(3),
                            np.array([0.0, 0.0, 0.0, 1.0])), time_offset=cal.time_offset_s,
                            gravity=self.start.alignment.gravity)  # fmt: skip
-
-    def _new_stream(self, x: np.ndarray, P: np.ndarray):
-        from dualpose.estimation.eskf import EskfStream
-        from dualpose.estimation.hol22 import Hol22Stream
-
-        f = FILTERS[self.filter](self._setup, x, P)
-        return EskfStream(f) if self.filter == "eskf" else Hol22Stream(f)
 
     def _pose(self, t: float, x: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         L = self._stream.state_layout
@@ -682,44 +701,22 @@ class TrackStream:
             return t, L.get(x, "position"), dp.quat_conj(L.get(x, "quat_be"))
         return t, L.get(x, "position"), L.get(x, "quat")
 
-    def _state_now(self) -> dict:
-        L = self._stream.state_layout
-        C = self._stream.covariance
-        x = self._stream.state
-        q = dp.quat_conj(L.get(x, "quat_be")) if "quat_be" in L.names else L.get(x, "quat")
-        cl = L if "quat_be" in L.names else ESKF_ERROR  # Hol22: covariance over its state; ESKF: over its error
-        return {"position": L.get(x, "position"), "velocity": L.get(x, "velocity"), "quat": q,
-                "gyro_bias": L.get(x, "gyro_bias"), "accel_bias": L.get(x, "accel_bias"),
-                "gyro_bias_cov": cl.cov(C, "gyro_bias").copy(), "accel_bias_cov": cl.cov(C, "accel_bias").copy()}  # fmt: skip
-
     def _camera(self, t: float, raw: np.ndarray, points: np.ndarray) -> None:
         ideal = self.model.ideal_pixels(raw) if len(raw) else np.zeros((0, 2))
-        fu = self._stream.update_camera(t, ideal, points)
-        self._frames.append((fu, ideal, points))
+        self._frames.append((self._stream.update_camera(t, ideal, points), t))
 
     def _imu_step(self, t: float, g, a) -> tuple[float, np.ndarray, np.ndarray]:
         x = self._stream.update_imu(t, g, a)
-        done = [item for item in self._frames if item[0].status != "pending"]
-        self._frames = [item for item in self._frames if item[0].status == "pending"]
-        for fu, ideal, points in done:
-            if fu.status != "done" or not len(ideal):
-                continue
-            lost = lost_frame(np.array([len(ideal)]), fu.accepted)
-            if not lost[0]:
-                continue
-            rec = self._setup_rec
-            new = relock_start(self._state_now(), np.asarray(g, dtype=np.float64), t - fu.t, ideal, points, rec)
-            if new is None:
-                continue
-            pending = self._frames
-            self._stream = self._new_stream(*new)
-            x = self._stream.update_imu(t, g, a)  # the re-lock sample is the new filter's first
-            self._frames = []
-            for f2, ideal2, points2 in pending:
-                fu2 = self._stream.update_camera(f2.t - self.calibration.time_offset_s, ideal2, points2)
-                self._frames.append((fu2, ideal2, points2))
+        done = [fu for fu, _ in self._frames if fu.status != "pending"]
+        pending = [(fu, tc) for fu, tc in self._frames if fu.status == "pending"]
+        self._frames = pending
+        fresh = _relocked(self._stream, done, t, np.asarray(g, dtype=np.float64), np.asarray(a, dtype=np.float64),
+                          self._setup, self.filter)  # fmt: skip
+        if fresh is not None:
+            self._stream = fresh
+            x = fresh.state
+            self._frames = [(fresh.update_camera(tc, fu.pixels, fu.points), tc) for fu, tc in pending]
             self.relocks.append(t)
-            break
         return self._pose(t, x)
 
     def _begin(self) -> list:
@@ -739,8 +736,7 @@ class TrackStream:
                                np.zeros(m, np.int64))  # fmt: skip
         self.start = startup(t, g, a, det, self.model, self.calibration, self.noise, self.gravity_magnitude)
         self._setup = self._sensor_setup()
-        self._setup_rec = _RelockSensors(self._setup)
-        self._stream = self._new_stream(self.start.x, self.start.P)
+        self._stream = _new_stream(self.filter, self._setup, self.start.x, self.start.P)
         k0 = self.start.imu_index
         tau = self.calibration.time_offset_s
         items = [(float(t[k]), 1, ("imu", k)) for k in range(k0, len(t))]
@@ -778,14 +774,6 @@ class TrackStream:
     def finish(self) -> list:
         """At the end of the input: the start-up on what was read if it has not run yet (and its poses)."""
         return self._begin() if self._stream is None and self._imu else []
-
-
-class _RelockSensors:
-    """What :func:`relock_start` reads from a recording (``camera``, ``pixel_sigma``, ``q_bc``, ``p_bc``), from a
-    sensor set-up."""
-
-    def __init__(self, setup) -> None:
-        self.camera, self.pixel_sigma, self.q_bc, self.p_bc = setup.camera, setup.pixel_sigma, setup.q_bc, setup.p_bc
 
 
 def stream_track_lines(lines, stream: TrackStream, source: str = "stdin"):
