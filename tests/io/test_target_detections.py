@@ -55,6 +55,32 @@ def test_euroc_aprilgrid_files(euroc_dir, cam):
         assert span == pytest.approx(1.2, abs=0.06)
 
 
+@pytest.mark.parametrize("variant", ["plain", "crlf-bom", "comment"])
+def test_array_and_line_readers_agree(euroc_dir, tmp_path, variant):
+    """The whole-array parse of the plain layout and the line-by-line reader give the same rows (the first 3000
+    lines of cam0, with empty frames spliced in; a trailing comment sends the file to the line reader)."""
+    from dualpose.io import target_detections as td
+
+    lines = (euroc_dir / "cam0_aprilgrid.csv").read_text().splitlines()[:3000]
+    stamp = [int(s.split(",")[0]) for s in lines[1:]]
+    k = 1 + next(i for i in range(1200, len(stamp)) if stamp[i] != stamp[i - 1])  # first row of a frame
+    lines.insert(k, f"{stamp[k - 2] + 1},,,,,,,")  # an empty frame between two frames
+    lines.append(f"{stamp[-1] + 1}")  # a timestamp-only row, the short form
+    if variant == "comment":
+        lines[5] += "  # trailing comment"
+    text = "\r\n".join(lines) if variant == "crlf-bom" else "\n".join(lines) + "\n"
+    p = tmp_path / "c.csv"
+    p.write_bytes((b"\xef\xbb\xbf" if variant == "crlf-bom" else b"") + text.encode())
+    raw = p.read_bytes()
+    fast = td._rows_fast(raw)
+    assert (fast is None) == (variant == "comment")
+    slow = td._rows_lines(str(p), raw)
+    for a, b in zip(fast or slow, slow, strict=True):
+        np.testing.assert_array_equal(a, b)
+    det = read_target_detections(p)
+    assert (det.counts == 0).sum() == 2 and det.offsets[-1] == 2999
+
+
 def test_euroc_corrections_and_select(euroc_dir):
     rig = read_rig_sensors(euroc_dir / "sensors.yaml")
     det = read_target_detections(euroc_dir / "cam0_aprilgrid.csv")

@@ -53,22 +53,75 @@ def _parse_numbers(path: str, rest: list[str], linenos: list[int]) -> np.ndarray
     return out
 
 
-def read_target_detections(path: str | os.PathLike) -> TargetDetections:
-    """Read a target-corner file (layout in the module docstring) into a
-    :class:`~dualpose.types.target.TargetDetections`.
+#: byte classes of the fast path: 0 other printable ASCII, 1 newline, 2 comma, 3 blank or '#', 4 carriage return,
+#: 5 anything else (non-ASCII, other control bytes)
+_BYTE_CLASS = np.full(256, 5, dtype=np.uint8)
+_BYTE_CLASS[32:127] = 0
+_BYTE_CLASS[[10, 44, 32, 9, 35, 13]] = [1, 2, 3, 3, 3, 4]
 
-    Raises
-    ------
-    FileNotFoundError
-        When the file does not exist.
-    RecordingError
-        ``path:line: ...`` for a row with neither 8 fields nor only a timestamp, a non-integer timestamp, a
-        non-number, a non-integer tag or corner index, a timestamp earlier than the row before (frames out of order
-        or not contiguous), a timestamp-only row inside a frame with corners, or a file without rows.
-    """
-    p = check_path(path)
-    with open(p, "rb") as f:
-        raw = f.read()
+
+def _rows_fast(raw: bytes):
+    """``(stamps_ns (R,), has_corner (R,), numbers (M, 7), linenos (R,))`` of the data rows, parsed on whole arrays
+    (the numbers by the native table kernel of ``io._text``), or None for anything but the plain layout (ASCII,
+    ``\\n`` or CRLF line ends, ``#`` only in whole-line comments, no blanks in data rows, unsigned timestamps below
+    9e18, 0 or 7 commas per data row); the line-by-line reader takes those."""
+    buf = np.frombuffer(raw, dtype=np.uint8)
+    if raw.startswith(b"\xef\xbb\xbf"):
+        buf = buf[3:]
+    if buf.size == 0:
+        return None
+    cls = _BYTE_CLASS[buf]
+    if cls.max() >= 4:
+        cr = cls == 4
+        if cr[-1] or not (buf[1:][cr[:-1]] == 10).all() or (cls == 5).any():
+            return None
+        buf, cls = buf[~cr], cls[~cr]
+    if buf[-1] != 10:
+        buf = np.concatenate([buf, np.array([10], dtype=np.uint8)])
+        cls = np.concatenate([cls, np.array([1], dtype=np.uint8)])
+    ends = np.flatnonzero(cls == 1)
+    starts = np.concatenate([[0], ends[:-1] + 1])
+    nonempty = ends > starts
+    comment = np.zeros(len(starts), dtype=bool)
+    comment[nonempty] = buf[starts[nonempty]] == 35
+    data = nonempty & ~comment
+    if not data.any():
+        return None
+    special = np.flatnonzero(cls == 3)
+    if not comment[np.searchsorted(ends, special)].all():
+        return None
+    commas = np.flatnonzero(cls == 2)
+    before = np.searchsorted(commas, ends)  # commas before each line's end
+    ncomma = np.diff(before, prepend=0)[data]
+    if not ((ncomma == 0) | (ncomma == 7)).all():
+        return None
+    first_of_line = np.concatenate([[0], before[:-1]])[data]
+    starts, ends = starts[data], ends[data]
+    first_comma = np.where(ncomma > 0, commas[np.minimum(first_of_line, len(commas) - 1)], ends)
+    width = first_comma - starts
+    if width.min() < 1 or width.max() > 19 or (buf[starts[width == 19]] > ord("8")).any():  # int64 holds 19 digits
+        return None
+    ns = np.zeros(len(starts), dtype=np.int64)
+    for c in range(int(width.max())):
+        inside = c < width
+        digit = buf[np.where(inside, starts + c, 0)].astype(np.int64) - 48
+        if ((digit < 0) | (digit > 9))[inside].any():
+            return None
+        ns = np.where(inside, ns * 10 + digit, ns)
+    has_corner = (ncomma == 7) & (ends - first_comma > 7)
+    # the whole rows go to the table kernel with 8 columns; timestamp-only rows become comments for it
+    table = buf.copy()
+    table[starts[~has_corner]] = 35
+    numbers = np.empty((int(has_corner.sum()), 8))
+    if len(numbers):
+        status, _, row = _native.io_parse_block(table, 0, 8, True, numbers, 0)
+        if status != 0 or row != len(numbers) or not np.isfinite(numbers).all():
+            return None
+    return ns, has_corner, numbers[:, 1:], np.flatnonzero(data) + 1
+
+
+def _rows_lines(p: str, raw: bytes):
+    """What :func:`_rows_fast` returns, line by line, with ``path:line`` errors for anything malformed."""
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
@@ -102,6 +155,29 @@ def read_target_detections(path: str | os.PathLike) -> TargetDetections:
     numbers = _parse_numbers(p, rest, [linenos[k] for k in rest_rows])
     has_corner = np.zeros(len(ns), dtype=bool)
     has_corner[rest_rows] = True
+    return ns, has_corner, numbers, np.array(linenos)
+
+
+def read_target_detections(path: str | os.PathLike) -> TargetDetections:
+    """Read a target-corner file (layout in the module docstring) into a
+    :class:`~dualpose.types.target.TargetDetections` (180 000 rows in about 0.1 s: the plain layout is parsed on
+    whole arrays, anything else line by line).
+
+    Raises
+    ------
+    FileNotFoundError
+        When the file does not exist.
+    RecordingError
+        ``path:line: ...`` for a row with neither 8 fields nor only a timestamp, a non-integer timestamp, a
+        non-number, a non-integer tag or corner index, a timestamp earlier than the row before (frames out of order
+        or not contiguous), a timestamp-only row inside a frame with corners, or a file without rows.
+    """
+    p = check_path(path)
+    with open(p, "rb") as f:
+        raw = f.read()
+    rows = _rows_fast(raw)
+    ns, has_corner, numbers, linenos = rows if rows is not None else _rows_lines(p, raw)
+    rest_rows = np.flatnonzero(has_corner)
     back = np.flatnonzero(np.diff(ns) < 0)
     if back.size:
         k = int(back[0]) + 1

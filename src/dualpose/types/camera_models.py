@@ -55,6 +55,8 @@ UNDISTORT_TOLERANCE = 1e-12
 #: Newton's iterations before a point counts as not converged; a step below 1e-14 (normalised units / radians)
 #: ends the iteration for that point (``src/native/common/camera_models.hpp``)
 UNDISTORT_MAX_ITERATIONS = 50
+# outputs of the compiled inversion (src/native/types/cameras.cpp)
+_UNDISTORTED, _RAY, _IDEAL_PIXELS = 0, 1, 2
 
 
 def _points(points_c: object, name: str = "points_c") -> np.ndarray:
@@ -80,14 +82,22 @@ def _first_bad(bad: np.ndarray) -> str:
     return f"{int(bad.sum())} of {bad.size} (first at index {tuple(int(i) for i in idx)})"
 
 
+@dataclass(frozen=True)
 class DistortedCamera(PinholeModel):
     """What the distorted pinhole cameras share (the projection API); see the module docstring for the models.
 
-    A subclass is a frozen dataclass with fields ``fx, fy, cx, cy, <4 distortion coefficients>, width, height``,
-    class attributes ``model`` (the name), ``DISTORTION_NAMES`` and ``_KERNELS`` (the prefix of its compiled
-    gufuncs in ``dualpose._native``, ``src/native/types/cameras.cpp``), and ``_limit()``, the bound of its
-    invertible region.  The per-point work runs in those kernels; this class checks the input and shapes the output.
+    A subclass is a frozen dataclass that adds the fields ``<4 distortion coefficients>, width, height`` to
+    ``fx, fy, cx, cy`` (pixels),
+    class attributes ``model`` (the name), ``DISTORTION_NAMES``, ``_KERNELS`` (the prefix of its compiled
+    gufuncs in ``dualpose._native``, ``src/native/types/cameras.cpp``) and ``_MODEL_ID`` (its number for
+    ``_native.camera_invert``), and ``_limit()``, the bound of its invertible region.  The per-point work runs in
+    those kernels; this class checks the input and shapes the output.
     """
+
+    fx: float
+    fy: float
+    cx: float
+    cy: float
 
     model: ClassVar[str]
     DISTORTION_NAMES: ClassVar[tuple[str, str, str, str]]
@@ -176,34 +186,24 @@ class DistortedCamera(PinholeModel):
         ValueError
             Without ``return_valid``, when any point is not invertible (how many, and the first index).
         """
-        a = _planar(xy_d, "xy_d", "distorted normalised x_d, y_d")
-        xy, valid = self._undistort(a)
-        return self._finish(xy, valid, return_valid, "xy_d")
+        return self._invert(_planar(xy_d, "xy_d", "distorted normalised x_d, y_d"), False, _UNDISTORTED, return_valid)
 
     def unproject(self, pixels: np.ndarray, *, return_valid: bool = False):
         """Undistorted normalised coordinates ``(X/Z, Y/Z)`` ``(..., 2)`` of ``pixels`` ``(..., 2)``; failure rules
         of :meth:`undistort` (naming ``pixels``)."""
-        xy, valid = self._undistort(self._distorted_from_pixels(pixels))
-        return self._finish(xy, valid, return_valid, "pixels")
+        return self._invert(_planar(pixels, "pixels", "u, v in pixels"), True, _UNDISTORTED, return_valid)
 
     def bearing(self, pixels: np.ndarray, *, return_valid: bool = False):
         """Unit rays ``(..., 3)`` in the camera frame through ``pixels`` ``(..., 2)``; failure rules of
         :meth:`undistort` (naming ``pixels``)."""
-        ray, valid = self._bearing(self._distorted_from_pixels(pixels))
-        return self._finish(ray, valid, return_valid, "pixels")
+        return self._invert(_planar(pixels, "pixels", "u, v in pixels"), True, _RAY, return_valid)
 
     def ideal_pixels(self, pixels: np.ndarray, *, return_valid: bool = False):
         """The pixels ``(..., 2)`` of the same rays in the undistorted pinhole camera :meth:`pinhole`
         (``K · unproject(pixels)``): what the pinhole-model filters consume.  Failure rules of :meth:`undistort`."""
-        xy, valid = self._undistort(self._distorted_from_pixels(pixels))
-        ideal = np.stack([self.fx * xy[..., 0] + self.cx, self.fy * xy[..., 1] + self.cy], axis=-1)
-        return self._finish(ideal, valid, return_valid, "pixels")
+        return self._invert(_planar(pixels, "pixels", "u, v in pixels"), True, _IDEAL_PIXELS, return_valid)
 
     # ------------------------------------------------------------------ helpers
-    def _distorted_from_pixels(self, pixels: object) -> np.ndarray:
-        p = _planar(pixels, "pixels", "u, v in pixels")
-        return np.stack([(p[..., 0] - self.cx) / self.fx, (p[..., 1] - self.cy) / self.fy], axis=-1)
-
     def _checked_points(self, points_c: object) -> np.ndarray:
         p = _points(points_c)
         bad = self._unprojectable(p)
@@ -214,36 +214,33 @@ class DistortedCamera(PinholeModel):
             )
         return p
 
-    def _undistort(self, xy_d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        with np.errstate(all="ignore"):  # a point where Newton meets a zero derivative is flagged, not warned about
-            xy, valid = self._kernel("undistort")(self._params, self._bound, xy_d)
-        return xy, valid.astype(bool)
-
-    def _bearing(self, xy_d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        xy, valid = self._undistort(xy_d)
-        ray = np.concatenate([xy, np.ones(xy.shape[:-1] + (1,))], axis=-1)
-        return ray / np.linalg.norm(ray, axis=-1, keepdims=True), valid
-
-    @staticmethod
-    def _finish(values: np.ndarray, valid: np.ndarray, return_valid: bool, name: str):
-        values = np.where(valid[..., None], values, np.nan)
+    def _invert(self, src: np.ndarray, from_pixels: bool, output: int, return_valid: bool):
+        """The compiled Newton inversion (``_native.camera_invert``) of ``src`` (..., 2): pixels or distorted
+        normalised coordinates, to undistorted normalised coordinates, unit rays or ideal pixels."""
+        flat = np.ascontiguousarray(src.reshape(-1, 2))
+        out = np.empty((len(flat), 3 if output == _RAY else 2))
+        valid = np.empty(len(flat), dtype=np.int64)
+        _native.camera_invert(self._MODEL_ID, int(from_pixels), output, self._params, self._bound, flat, out, valid)
+        out = out.reshape(src.shape[:-1] + out.shape[-1:])
+        ok = valid.astype(bool).reshape(src.shape[:-1])
         if return_valid:
-            return values, valid
-        if not valid.all():
+            return out, ok
+        if not ok.all():
             raise ValueError(
-                f"{name}: {_first_bad(~valid)} points are outside the invertible region of the distortion "
-                "(pass return_valid=True to get NaN and a mask instead)"
+                f"{'pixels' if from_pixels else 'xy_d'}: {_first_bad(~ok)} points are outside the invertible region "
+                "of the distortion (pass return_valid=True to get NaN and a mask instead)"
             )
-        return values
+        return out
 
 
 # ---------------------------------------------------------------------------------------------- radtan
 
 
-def _radial_limit_r2(k1: float, k2: float) -> float:
-    """The first r² > 0 where d/dr [r (1 + k1 r² + k2 r⁴)] = 1 + 3 k1 r² + 5 k2 r⁴ vanishes (inf if none)."""
-    roots = np.roots([5.0 * k2, 3.0 * k1, 1.0]) if (k1 or k2) else np.array([])
-    real = [float(s.real) for s in np.atleast_1d(roots) if abs(s.imag) <= 1e-12 * abs(s) and s.real > 0]
+def _first_positive_root(coefficients: list[float]) -> float:
+    """The smallest real root s > 0 of the polynomial (highest power first; inf if none)."""
+    c = np.trim_zeros(np.array(coefficients, dtype=np.float64), "f")
+    roots = np.roots(c) if len(c) > 1 else np.array([])
+    real = [float(r.real) for r in roots if abs(r.imag) <= 1e-12 * abs(r) and r.real > 0]
     return min(real, default=math.inf)
 
 
@@ -251,24 +248,10 @@ def _radial_limit_r2(k1: float, k2: float) -> float:
 class RadTanCamera(DistortedCamera):
     """Pinhole camera with radial–tangential distortion (OpenCV ``[k1, k2, p1, p2]``, Kalibr ``radtan``).
 
-    Attributes
-    ----------
-    fx, fy : float
-        Focal lengths, pixels (> 0).
-    cx, cy : float
-        Principal point, pixels.
-    k1, k2 : float
-        Radial coefficients.
-    p1, p2 : float
-        Tangential coefficients.
-    width, height : int
-        Image size, pixels.
+    ``fx, fy, cx, cy, width, height`` as in :class:`~dualpose.types.camera.CameraIntrinsics` (pixels); ``k1, k2``
+    the radial, ``p1, p2`` the tangential coefficients.
     """
 
-    fx: float
-    fy: float
-    cx: float
-    cy: float
     k1: float
     k2: float
     p1: float
@@ -281,6 +264,7 @@ class RadTanCamera(DistortedCamera):
     _PROJECTABLE: ClassVar[str] = "Z must be > 0"
 
     _KERNELS: ClassVar[str] = "radtan"
+    _MODEL_ID: ClassVar[int] = 0
 
     @property
     def max_radius2(self) -> float:
@@ -288,7 +272,8 @@ class RadTanCamera(DistortedCamera):
         return self._bound
 
     def _limit(self) -> float:
-        return _radial_limit_r2(self.k1, self.k2)
+        # the first r² where d/dr [r (1 + k1 r² + k2 r⁴)] = 1 + 3 k1 r² + 5 k2 r⁴ vanishes
+        return _first_positive_root([5.0 * self.k2, 3.0 * self.k1, 1.0])
 
     def _unprojectable(self, p: np.ndarray) -> np.ndarray:
         return ~(p[..., 2] > 0.0)
@@ -297,35 +282,14 @@ class RadTanCamera(DistortedCamera):
 # ---------------------------------------------------------------------------------------------- equidistant
 
 
-def _equi_theta_limit(k: tuple[float, float, float, float]) -> float:
-    """The first θ in (0, π) where dθ_d/dθ vanishes (π if none)."""
-    k1, k2, k3, k4 = k
-    coeffs = np.trim_zeros([9.0 * k4, 7.0 * k3, 5.0 * k2, 3.0 * k1, 1.0], "f")
-    roots = np.roots(coeffs) if len(coeffs) > 1 else np.array([])
-    real = [math.sqrt(s.real) for s in np.atleast_1d(roots) if abs(s.imag) <= 1e-12 * abs(s) and s.real > 0]
-    return min([t for t in real if t < math.pi], default=math.pi)
-
-
 @dataclass(frozen=True)
 class EquidistantCamera(DistortedCamera):
     """Pinhole camera with equidistant fisheye distortion (Kannala–Brandt; OpenCV ``cv2.fisheye``, Kalibr ``equi``).
 
-    Attributes
-    ----------
-    fx, fy : float
-        Focal lengths, pixels (> 0).
-    cx, cy : float
-        Principal point, pixels.
-    k1, k2, k3, k4 : float
-        Coefficients of ``θ_d = θ (1 + k1 θ² + k2 θ⁴ + k3 θ⁶ + k4 θ⁸)``.
-    width, height : int
-        Image size, pixels.
+    ``fx, fy, cx, cy, width, height`` as in :class:`~dualpose.types.camera.CameraIntrinsics` (pixels); ``k1 .. k4``
+    the coefficients of ``θ_d = θ (1 + k1 θ² + k2 θ⁴ + k3 θ⁶ + k4 θ⁸)``.
     """
 
-    fx: float
-    fy: float
-    cx: float
-    cy: float
     k1: float
     k2: float
     k3: float
@@ -338,6 +302,7 @@ class EquidistantCamera(DistortedCamera):
     _PROJECTABLE: ClassVar[str] = "not on the optical axis at or behind the centre, X = Y = 0 with Z <= 0"
 
     _KERNELS: ClassVar[str] = "equi"
+    _MODEL_ID: ClassVar[int] = 1
 
     @property
     def max_angle(self) -> float:
@@ -346,15 +311,12 @@ class EquidistantCamera(DistortedCamera):
         return self._bound
 
     def _limit(self) -> float:
-        return _equi_theta_limit(self.distortion)
+        # the first θ in (0, π) where dθ_d/dθ = 1 + 3 k1 θ² + 5 k2 θ⁴ + 7 k3 θ⁶ + 9 k4 θ⁸ vanishes, else π
+        s = _first_positive_root([9.0 * self.k4, 7.0 * self.k3, 5.0 * self.k2, 3.0 * self.k1, 1.0])
+        return min(math.sqrt(s), math.pi)
 
     def _unprojectable(self, p: np.ndarray) -> np.ndarray:
         return (p[..., 0] == 0.0) & (p[..., 1] == 0.0) & ~(p[..., 2] > 0.0)
-
-    def _bearing(self, xy_d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        with np.errstate(all="ignore"):
-            ray, valid = _native.equi_bearing(self._params, self._bound, xy_d)
-        return ray, valid.astype(bool)
 
 
 # ---------------------------------------------------------------------------------------------- factory

@@ -65,27 +65,26 @@ inline void radtan_point(const double* d, const double* P, double* o, double* J3
     }
 }
 
-// Undistorted normalised xy of distorted normalised xd by Newton's method on the 2x2 Jacobian; returns whether it is
-// valid: converged to kUndistortTolerance with a positive Jacobian determinant and r² < max_r2.
-inline bool radtan_undistort(const double* d, double max_r2, const double* xd, double* xy) {
-    double x = xd[0], y = xd[1];
+// One Newton step on the 2x2 Jacobian towards distort(x, y) = xd; returns the step's size (max norm; NaN at a
+// singular Jacobian).
+inline double radtan_newton_step(const double* d, const double* xd, double& x, double& y) {
     double o[2], J[4];
-    for (int it = 0; it < kUndistortMaxIterations; ++it) {
-        radtan_distort(d, x, y, o, J, nullptr);
-        const double ex = o[0] - xd[0], ey = o[1] - xd[1];
-        const double det = J[0] * J[3] - J[1] * J[2];
-        const double sx = (J[3] * ex - J[1] * ey) / det;
-        const double sy = (J[0] * ey - J[2] * ex) / det;
-        x -= sx;
-        y -= sy;
-        if (!(std::max(std::fabs(sx), std::fabs(sy)) > kStepDone)) break;  // NaN ends too (and fails below)
-    }
+    radtan_distort(d, x, y, o, J, nullptr);
+    const double ex = o[0] - xd[0], ey = o[1] - xd[1];
+    const double det = J[0] * J[3] - J[1] * J[2];
+    const double sx = (J[3] * ex - J[1] * ey) / det;
+    const double sy = (J[0] * ey - J[2] * ex) / det;
+    x -= sx;
+    y -= sy;
+    return std::max(std::fabs(sx), std::fabs(sy));
+}
+
+// Whether (x, y) undistorts xd: residual within kUndistortTolerance, positive Jacobian determinant, r² < max_r2.
+inline bool radtan_inverse_valid(const double* d, double max_r2, const double* xd, double x, double y) {
+    double o[2], J[4];
     radtan_distort(d, x, y, o, J, nullptr);
     const double resid = std::max(std::fabs(o[0] - xd[0]), std::fabs(o[1] - xd[1]));
-    const double det = J[0] * J[3] - J[1] * J[2];
-    xy[0] = x;
-    xy[1] = y;
-    return resid <= kUndistortTolerance && det > 0.0 && x * x + y * y < max_r2;
+    return resid <= kUndistortTolerance && J[0] * J[3] - J[1] * J[2] > 0.0 && x * x + y * y < max_r2;
 }
 
 // ---------------------------------------------------------------------------------------------- equidistant
@@ -132,44 +131,78 @@ inline void equi_point(const double* k, double X, double Y, double Z, double* o,
     }
 }
 
-// θ of the distorted normalised point xd (Newton on θ_d(θ) = |xd|, clamped to [0, max_theta]); *poly = θ_d/θ
-// there; returns whether it converged to kUndistortTolerance below max_theta.
-inline bool equi_theta(const double* k, double max_theta, const double* xd, double* theta_out, double* poly_out) {
-    const double rd = std::hypot(xd[0], xd[1]);
-    double theta = std::min(rd, max_theta);
+// One Newton step on θ_d(θ) = rd, clamped to [0, max_theta]; returns the step's size.
+inline double equi_newton_step(const double* k, double max_theta, double rd, double& theta) {
     double poly, dpoly;
-    for (int it = 0; it < kUndistortMaxIterations; ++it) {
-        equi_poly(k, theta * theta, &poly, &dpoly);
-        const double step = (theta * poly - rd) / dpoly;
-        theta = std::min(std::max(theta - step, 0.0), max_theta);
-        if (!(std::fabs(step) > kStepDone)) break;
-    }
     equi_poly(k, theta * theta, &poly, &dpoly);
-    *theta_out = theta;
-    *poly_out = poly;
-    return std::fabs(theta * poly - rd) <= kUndistortTolerance && theta < max_theta;
+    const double step = (theta * poly - rd) / dpoly;
+    theta = std::min(std::max(theta - step, 0.0), max_theta);
+    return std::fabs(step);
 }
 
-// Undistorted normalised xy = tan θ n = xd (sinc θ / cos θ)/(θ_d/θ); valid below max_theta and π/2.
-inline bool equi_undistort(const double* k, double max_theta, const double* xd, double* xy) {
-    double theta, poly;
-    bool ok = equi_theta(k, max_theta, xd, &theta, &poly);
-    ok = ok && theta < 0.5 * kPi;
+// Whether θ solves θ_d(θ) = rd within kUndistortTolerance below max_theta; *poly = θ_d/θ at θ.
+inline bool equi_inverse_valid(const double* k, double max_theta, double rd, double theta, double* poly) {
+    double dpoly;
+    equi_poly(k, theta * theta, poly, &dpoly);
+    return std::fabs(theta * *poly - rd) <= kUndistortTolerance && theta < max_theta;
+}
+
+// Undistorted normalised xy = tan θ n = xd (sinc θ / cos θ)/(θ_d/θ) of xd at θ.
+inline void equi_undistorted_from_theta(double theta, double poly, const double* xd, double* xy) {
     const double f = sinc(theta) / (std::cos(theta) * poly);
     xy[0] = xd[0] * f;
     xy[1] = xd[1] * f;
-    return ok;
 }
 
-// Unit ray (sin θ n, cos θ) of the distorted normalised point xd; valid below max_theta.
-inline bool equi_bearing(const double* k, double max_theta, const double* xd, double* ray) {
-    double theta, poly;
-    const bool ok = equi_theta(k, max_theta, xd, &theta, &poly);
+// Unit ray (sin θ n, cos θ) = (xd sinc θ/(θ_d/θ), cos θ) of xd at θ.
+inline void equi_ray_from_theta(double theta, double poly, const double* xd, double* ray) {
     const double f = sinc(theta) / poly;
     ray[0] = xd[0] * f;
     ray[1] = xd[1] * f;
     ray[2] = std::cos(theta);
-    return ok;
+}
+
+// ---------------------------------------------------------------------------------------------- inversion
+
+// Points inverted together: their Newton iterations are independent, so the CPU overlaps them.
+constexpr int kBlock = 8;
+
+// Runs step(j) for the m <= kBlock points of a block in lockstep, each point until its own step is below kStepDone
+// (a NaN step ends it too) or kUndistortMaxIterations: point for point the iteration of a single-point loop.
+template <class Step>
+inline void newton_block(int m, Step step) {
+    bool active[kBlock];
+    for (int j = 0; j < m; ++j) active[j] = true;
+    for (int it = 0; it < kUndistortMaxIterations; ++it) {
+        bool any = false;
+        for (int j = 0; j < m; ++j) {
+            if (!active[j]) continue;
+            active[j] = step(j) > kStepDone;
+            any |= active[j];
+        }
+        if (!any) break;
+    }
+}
+
+// Undistorted normalised xy[j] of distorted normalised xd[j] (j < m): Newton from xy = xd; ok[j] radtan_inverse_valid.
+inline void radtan_undistort_block(const double* d, double max_r2, const double (*xd)[2], int m, double (*xy)[2],
+                                   bool* ok) {
+    for (int j = 0; j < m; ++j) xy[j][0] = xd[j][0], xy[j][1] = xd[j][1];
+    newton_block(m, [&](int j) { return radtan_newton_step(d, xd[j], xy[j][0], xy[j][1]); });
+    for (int j = 0; j < m; ++j) ok[j] = radtan_inverse_valid(d, max_r2, xd[j], xy[j][0], xy[j][1]);
+}
+
+// θ[j] of distorted normalised xd[j] (j < m): Newton on θ_d(θ) = |xd| from θ = min(|xd|, max_theta); poly[j] = θ_d/θ
+// there; ok[j] equi_inverse_valid.
+inline void equi_theta_block(const double* k, double max_theta, const double (*xd)[2], int m, double* theta,
+                             double* poly, bool* ok) {
+    double rd[kBlock];
+    for (int j = 0; j < m; ++j) {
+        rd[j] = std::hypot(xd[j][0], xd[j][1]);
+        theta[j] = std::min(rd[j], max_theta);
+    }
+    newton_block(m, [&](int j) { return equi_newton_step(k, max_theta, rd[j], theta[j]); });
+    for (int j = 0; j < m; ++j) ok[j] = equi_inverse_valid(k, max_theta, rd[j], theta[j], &poly[j]);
 }
 
 }  // namespace camera

@@ -1,9 +1,13 @@
-// The distorted cameras (common/camera_models.hpp) as NumPy gufuncs for dualpose.types.camera_models: projection,
-// its Jacobians, distortion and Newton undistortion, one point per core, broadcasting over any leading axes.
-// Parameters (8) = {fx, fy, cx, cy, d1, d2, d3, d4}; ``limit`` () the invertible region's bound (radtan: largest
-// undistorted r²; equi: largest θ); ``valid`` () 1.0 or 0.0.
+// The distorted cameras (common/camera_models.hpp) for dualpose.types.camera_models: projection, its Jacobians and
+// distortion as NumPy gufuncs (one point per core, broadcasting over any leading axes), and the Newton inversion
+// (undistortion, rays, ideal pixels) as one function over a C-contiguous (M, 2) array, points in blocks of
+// camera::kBlock.  Parameters (8) = {fx, fy, cx, cy, d1, d2, d3, d4}.
+#include "../common/args.hpp"
 #include "../common/camera_models.hpp"
 #include "../common/gufunc.hpp"
+
+#include <cmath>
+#include <cstdint>
 
 namespace dualpose {
 
@@ -61,9 +65,6 @@ void radtan_distort_k(const double* p, const double* xy, double* o, double* J) {
     radtan_distort(p + 4, xy[0], xy[1], o, J, nullptr);
 }
 
-void radtan_undistort_k(const double* p, const double* limit, const double* xd, double* xy, double* valid) {
-    valid[0] = radtan_undistort(p + 4, limit[0], xd, xy) ? 1.0 : 0.0;
-}
 
 // ------------------------------------------------------------------ equidistant
 void equi_project_k(const double* p, const double* P, double* px) {
@@ -94,15 +95,84 @@ void equi_distort_k(const double* p, const double* xy, double* o, double* J) {
     J[3] = J3[4];
 }
 
-void equi_undistort_k(const double* p, const double* limit, const double* xd, double* xy, double* valid) {
-    valid[0] = equi_undistort(p + 4, limit[0], xd, xy) ? 1.0 : 0.0;
-}
 
-void equi_bearing_k(const double* p, const double* limit, const double* xd, double* ray, double* valid) {
-    valid[0] = equi_bearing(p + 4, limit[0], xd, ray) ? 1.0 : 0.0;
-}
 
 using P8 = V<8>;
+
+enum Model : int { RADTAN = 0, EQUI = 1 };
+enum Output : int { UNDISTORTED = 0, RAY = 1, IDEAL_PIXELS = 2 };
+
+// camera_invert(model, from_pixels, output, params, limit, src, out, valid): see camera_methods.
+PyObject* camera_invert(PyObject*, PyObject* args) {
+    int model, from_pixels, output;
+    double limit;
+    Array<double, 1> p;
+    Array<double, 2> src;
+    Array<double, 2, true> out;
+    Array<std::int64_t, 1, true> valid;
+    if (!PyArg_ParseTuple(args, "iiiO&dO&O&O&", &model, &from_pixels, &output, convert<double, 1>, &p, &limit,
+                          convert<double, 2>, &src, convert<double, 2, true>, &out,
+                          convert<std::int64_t, 1, true>, &valid))
+        return nullptr;
+    const npy_intp n = src.shape[0];
+    const npy_intp width = output == RAY ? 3 : 2;
+    if (p.shape[0] != 8 || src.shape[1] != 2 || out.shape[0] != n || out.shape[1] != width || valid.shape[0] != n ||
+        (model != RADTAN && model != EQUI) || output < UNDISTORTED || output > IDEAL_PIXELS) {
+        PyErr_SetString(PyExc_ValueError, "camera_invert: params (8,), src (M, 2), out (M, 2 or 3 for rays), valid (M,)");
+        return nullptr;
+    }
+    const double fx = p[0], fy = p[1], cx = p[2], cy = p[3];
+    const double* d = p.data + 4;
+    NPY_BEGIN_ALLOW_THREADS;
+    for (npy_intp i0 = 0; i0 < n; i0 += kBlock) {
+        const int m = static_cast<int>(std::min<npy_intp>(kBlock, n - i0));
+        double xd[kBlock][2], xy[kBlock][2], theta[kBlock], poly[kBlock];
+        bool ok[kBlock];
+        for (int j = 0; j < m; ++j) {
+            const double* s = src.row(i0 + j);
+            xd[j][0] = from_pixels ? (s[0] - cx) / fx : s[0];
+            xd[j][1] = from_pixels ? (s[1] - cy) / fy : s[1];
+        }
+        if (model == RADTAN) {
+            radtan_undistort_block(d, limit, xd, m, xy, ok);
+        } else {
+            equi_theta_block(d, limit, xd, m, theta, poly, ok);
+        }
+        for (int j = 0; j < m; ++j) {
+            double* o = out.row(i0 + j);
+            if (model == EQUI && output == RAY) {
+                equi_ray_from_theta(theta[j], poly[j], xd[j], o);
+            } else {
+                if (model == EQUI) {
+                    equi_undistorted_from_theta(theta[j], poly[j], xd[j], xy[j]);
+                    ok[j] = ok[j] && theta[j] < 0.5 * kPi;  // normalised coordinates end at 90 degrees
+                }
+                if (output == RAY) {
+                    const double norm = std::sqrt(xy[j][0] * xy[j][0] + xy[j][1] * xy[j][1] + 1.0);
+                    o[0] = xy[j][0] / norm, o[1] = xy[j][1] / norm, o[2] = 1.0 / norm;
+                } else if (output == IDEAL_PIXELS) {
+                    o[0] = fx * xy[j][0] + cx, o[1] = fy * xy[j][1] + cy;
+                } else {
+                    o[0] = xy[j][0], o[1] = xy[j][1];
+                }
+            }
+            valid[i0 + j] = ok[j];
+            if (!ok[j])
+                for (npy_intp c = 0; c < width; ++c) o[c] = kNaN;
+        }
+    }
+    NPY_END_ALLOW_THREADS;
+    Py_RETURN_NONE;
+}
+
+PyMethodDef camera_methods[] = {
+    {"camera_invert", camera_invert, METH_VARARGS,
+     "camera_invert(model, from_pixels, output, params, limit, src, out, valid): Newton inversion of the distortion "
+     "of each row of src (M, 2) C-contiguous float64: pixels (from_pixels 1) or distorted normalised coordinates; "
+     "model 0 radtan (limit: largest undistorted r**2), 1 equi (limit: largest theta); output 0 undistorted "
+     "normalised (out (M, 2)), 1 unit rays (out (M, 3)), 2 ideal pinhole pixels (out (M, 2)); valid (M,) int64 1 "
+     "where the point is invertible (out NaN elsewhere)."},
+    {nullptr, nullptr, 0, nullptr}};
 
 }  // namespace
 
@@ -115,8 +185,6 @@ bool add_camera_gufuncs(PyObject* m) {
                m, "radtan_intrinsics_jacobian", "(params, point) -> d pixels / d params (radtan).") &&
            add_gufunc<Gufunc<radtan_distort_k, In<P8, V<2>>, Out<V<2>, M<2, 2>>>>(
                m, "radtan_distort", "(params, xy) -> distorted xy, d distorted / d xy (radtan).") &&
-           add_gufunc<Gufunc<radtan_undistort_k, In<P8, S, V<2>>, Out<V<2>, S>>>(
-               m, "radtan_undistort", "(params, max_r2, xy_d) -> xy, valid (radtan, Newton).") &&
            add_gufunc<Gufunc<equi_project_k, In<P8, V<3>>, Out<V<2>>>>(
                m, "equi_project", "(params, point) -> pixels of the equidistant camera.") &&
            add_gufunc<Gufunc<equi_project_jac_k, In<P8, V<3>>, Out<V<2>, M<2, 3>>>>(
@@ -125,10 +193,7 @@ bool add_camera_gufuncs(PyObject* m) {
                m, "equi_intrinsics_jacobian", "(params, point) -> d pixels / d params (equi).") &&
            add_gufunc<Gufunc<equi_distort_k, In<P8, V<2>>, Out<V<2>, M<2, 2>>>>(
                m, "equi_distort", "(params, xy) -> distorted xy, d distorted / d xy (equi).") &&
-           add_gufunc<Gufunc<equi_undistort_k, In<P8, S, V<2>>, Out<V<2>, S>>>(
-               m, "equi_undistort", "(params, max_theta, xy_d) -> xy, valid (equi, Newton on theta).") &&
-           add_gufunc<Gufunc<equi_bearing_k, In<P8, S, V<2>>, Out<V<3>, S>>>(
-               m, "equi_bearing", "(params, max_theta, xy_d) -> unit ray, valid (equi, Newton on theta).");
+           PyModule_AddFunctions(m, camera_methods) == 0;
 }
 
 }  // namespace dualpose
