@@ -3,6 +3,7 @@ share."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -30,3 +31,20 @@ def trial():
     from dualpose.io import load_broad
 
     return load_broad(BROAD_DIR / "06_undisturbed_fast_rotation_A.mat")
+
+
+#: EuRoC's imu_april target recording beside the checkout (``<repo>/../shared/data/euroc/imu_april``;
+#: ``DUALPOSE_SHARED_DATA`` names another ``shared/data`` directory)
+EUROC_APRIL_DIR = (
+    Path(os.environ.get("DUALPOSE_SHARED_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data"))
+    / "euroc"
+    / "imu_april"
+)
+
+
+@pytest.fixture(scope="session")
+def euroc_april() -> Path:
+    """The imu_april directory (imu0.csv, cam0/cam1_aprilgrid.csv, sensors.yaml); skipped when it is missing."""
+    if not (EUROC_APRIL_DIR / "cam0_aprilgrid.csv").is_file():
+        pytest.skip(f"EuRoC imu_april data missing ({EUROC_APRIL_DIR})")
+    return EUROC_APRIL_DIR

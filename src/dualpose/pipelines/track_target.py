@@ -31,7 +31,7 @@ from __future__ import annotations
 import math
 import os
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -477,6 +477,7 @@ def run_track(
     reference_camera: str | None = None,
     outages: Sequence[tuple[float, float]] = (),
     progress: Callable[[int, int, str], None] | None = None,
+    reference_extrinsics: Mapping[str, Sequence[float]] = EUROC_T_BS,
 ) -> FuseResult:
     """Run ``filter`` on a :func:`prepare_track` set-up and score it against the other camera's reference.
 
@@ -484,10 +485,12 @@ def run_track(
     ----------
     setup : TrackSetup (its detections already without the ``outages`` frames).
     filter : {"eskf", "hol22"}.
-    reference_camera : the camera whose PnP is the reference (default: the first other camera with detections and a
-        published extrinsic in :data:`EUROC_T_BS`); no reference when there is none.
+    reference_camera : the camera whose PnP is the reference (default: the first other camera with detections and an
+        extrinsic in ``reference_extrinsics``); no reference when there is none.
     outages : the windows deleted in :func:`prepare_track`, to report the errors inside them.
     progress : called as ``progress(done, total, stage)``.
+    reference_extrinsics : camera name -> row-major 4 x 4 pose of that camera in the IMU frame, for the reference
+        (default EuRoC's published ones, :data:`EUROC_T_BS`); never the tracked camera's calibration.
 
     Returns
     -------
@@ -527,7 +530,7 @@ def run_track(
     }
     pos_cov = tr.position_cov
     ori_sigma = tr.attitude_sigma_deg
-    scores = score_run(setup, estimate, pos_cov, reference_camera, outages)
+    scores = score_run(setup, estimate, pos_cov, reference_camera, outages, reference_extrinsics)
     metrics.update(scores.pop("metrics"))
     step(1)
     return FuseResult(
@@ -537,15 +540,15 @@ def run_track(
     )  # fmt: skip
 
 
-def _reference_camera(setup: TrackSetup, name: str | None) -> str | None:
+def _reference_camera(setup: TrackSetup, name: str | None, extrinsics: Mapping) -> str | None:
     if name is not None:
         if name not in setup.source.detections:
             raise RecordingError(f"{setup.source.path}: no detections of reference camera {name!r}; available: "
                                  f"{', '.join(setup.source.detections)}")  # fmt: skip
-        if name not in EUROC_T_BS:
-            raise RecordingError(f"no published extrinsic for reference camera {name!r} (known: {', '.join(EUROC_T_BS)})")
+        if name not in extrinsics:
+            raise RecordingError(f"no extrinsic for reference camera {name!r} (known: {', '.join(extrinsics)})")
         return name
-    others = [c for c in setup.source.detections if c != setup.camera and c in EUROC_T_BS]
+    others = [c for c in setup.source.detections if c != setup.camera and c in extrinsics]
     return others[0] if others else None
 
 
@@ -555,6 +558,7 @@ def score_run(
     position_covariance: np.ndarray | None = None,
     reference_camera: str | None = None,
     outages: Sequence[tuple[float, float]] = (),
+    reference_extrinsics: Mapping[str, Sequence[float]] = EUROC_T_BS,
 ) -> dict:
     """Scores of ``estimate`` (body poses in the target frame at the IMU times) against the reference camera.
 
@@ -566,12 +570,12 @@ def score_run(
     reference frames, 3 dof), ``outages`` (per window: frames, position RMSE and maximum, rotation RMSE and maximum).
     """
     none = {"truth": None, "position_error": None, "orientation_error_deg": None, "error_index": None}
-    ref_cam = _reference_camera(setup, reference_camera)
+    ref_cam = _reference_camera(setup, reference_camera, reference_extrinsics)
     keys = ("reference", "position_rmse_m", "rotation_rmse_deg", "camera_pnp", "nees_position", "outages")
     if ref_cam is None:
         return {"metrics": dict.fromkeys(keys), **none}
     src = setup.source
-    q1, p1 = extrinsic_from_matrix(EUROC_T_BS[ref_cam])
+    q1, p1 = extrinsic_from_matrix(reference_extrinsics[ref_cam])
     if ("reference", ref_cam) not in setup.cache:  # the per-frame PnP of both cameras, once per set-up
         setup.cache["reference", ref_cam] = reference_trajectory(src.detections[ref_cam], src.rig.camera(ref_cam), q1, p1)
         setup.cache["own"] = camera_poses(src.detections[setup.camera], src.rig.camera(setup.camera))
@@ -628,14 +632,15 @@ def _reference_position_covariance(poses: CameraPoses, q_bc: np.ndarray, p_bc: n
     return q_wb, R_wb, J @ poses.covariance @ J.swapaxes(1, 2)
 
 
-def imu_only(setup: TrackSetup, seconds: Sequence[float] = (1.0, 5.0)) -> dict:
+def imu_only(setup: TrackSetup, seconds: Sequence[float] = (1.0, 5.0),
+             reference_extrinsics: Mapping[str, Sequence[float]] = EUROC_T_BS) -> dict:
     """The filter's start propagated with the IMU alone (no frame): position and rotation RMSE against the reference
     over the first ``seconds`` after the start, for comparison with the tracked run."""
     rec = setup.recording
     blind = replace(rec, frames=setup.detections.select(np.zeros(len(setup.detections), bool)).correspondences())
     res = FILTERS["eskf"](blind, setup.start.x, setup.start.P).run_recording(blind)
     est = Trajectory(res.t, res.position, res.quat, rec.stamps_ns)
-    sc = score_run(setup, est)
+    sc = score_run(setup, est, reference_extrinsics=reference_extrinsics)
     out = {}
     if sc["truth"] is None:
         return dict.fromkeys((f"{s:g}s" for s in seconds))
