@@ -52,8 +52,9 @@ def simulated_target_recording(seed: int = 0, pixel_sigma: float = 0.3, referenc
         offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
         fns = np.round(f.t * 1e9).astype(np.int64)
         m = int(offsets[-1])
+        ids = np.zeros(m, np.int64)
         detections[name] = TargetDetections(fns, seconds_from_ns(fns), offsets, np.concatenate(pix),
-                                            np.concatenate(pts), np.zeros(m, np.int64), np.zeros(m, np.int64))  # fmt: skip
+                                            np.concatenate(pts), ids, ids.copy())  # fmt: skip
     rig = RigSensors(cameras={n: CAMERA for n in cams}, camera_rates={n: 20.0 for n in cams},
                      imu_noise=run.imu_noise, imu_rate=run.imu_noise.update_rate,
                      gravity_magnitude=float(np.linalg.norm(run.gravity)), camera_extrinsics={})  # fmt: skip

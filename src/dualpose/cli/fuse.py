@@ -361,7 +361,6 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from dualpose.cli._output import output_files_problem
-
     from dualpose.io.target_recording import is_target_recording
 
     if args.stream:

@@ -11,6 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import sparse
+from scipy.sparse.linalg import splu
 
 import dualpose as dp
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
@@ -233,8 +235,8 @@ class CameraImuAlignment:
         1σ of the gravity direction (root of the tangent-plane covariance trace), degrees.
     velocity : ndarray, shape (K, 3)
         Body velocity in the scene frame at each frame time, m/s.
-    velocity_sigma : ndarray, shape (K,)
-        1σ per axis (root of the mean diagonal) of each velocity, m/s.
+    velocity_sigma : float
+        1σ per axis (root of the mean diagonal) of the first frame's velocity, m/s.
     gyro_bias, accel_bias : ndarray, shape (3,)
         rad/s, m/s² (as given, or estimated).
     accel_bias_sigma : float
@@ -247,7 +249,7 @@ class CameraImuAlignment:
     gravity_estimated: np.ndarray
     gravity_sigma_deg: float
     velocity: np.ndarray
-    velocity_sigma: np.ndarray
+    velocity_sigma: float
     gyro_bias: np.ndarray
     accel_bias: np.ndarray
     accel_bias_sigma: float
@@ -396,45 +398,56 @@ def align_with_camera_poses(
     s_pos = np.sqrt(2.0) * position_sigma
     s_vel = np.sqrt(accelerometer_noise_density**2 * D + (attitude_sigma * np.linalg.norm(be, axis=1)) ** 2)
     w = np.concatenate([np.full((m, 3), 1.0 / s_pos), np.repeat(1.0 / s_vel[:, None], 3, axis=1)], axis=1)
-    Aw = (A * w[:, :, None]).reshape(-1, n)
+    Aw = sparse.csc_matrix((A * w[:, :, None]).reshape(-1, n))  # each row: two velocities and the global unknowns
     yw = (y * w).reshape(-1)
-    N = Aw.T @ Aw
-    if np.linalg.cond(N) > 1e14:
-        raise ValueError("the camera-IMU alignment is not determined by these frames (too little motion or rotation "
-                         "to separate gravity, velocities and the accelerometer bias)")  # fmt: skip
-    x = np.linalg.solve(N, Aw.T @ yw)
+    undetermined = ValueError("the camera-IMU alignment is not determined by these frames (too little motion or "
+                              "rotation to separate gravity, velocities and the accelerometer bias)")  # fmt: skip
+    try:
+        x = splu((Aw.T @ Aw).tocsc()).solve(Aw.T @ yw)
+    except RuntimeError:
+        raise undetermined from None
     g_est = x[3 * K : 3 * K + 3].copy()
+    if not np.isfinite(x).all() or not np.linalg.norm(g_est) > 0:
+        raise undetermined
     # gravity of known magnitude: g = |g| (u + B δ) with δ in the tangent plane of u (2 unknowns instead of 3;
     # VINS-Mono's gravity refinement), a few relinearisations
     G = float(gravity_magnitude)
     u = g_est / np.linalg.norm(g_est)
-    cols = np.r_[np.arange(3 * K), np.arange(3 * K + 3, n)]
-    gcols = slice(3 * K, 3 * K + 3)
+    Av, Ag, Ab = Aw[:, : 3 * K], Aw[:, 3 * K : 3 * K + 3], Aw[:, 3 * K + 3 :]
     for _ in range(4):
         a0 = np.cross(u, np.eye(3)[int(np.argmin(np.abs(u)))])
-        B = np.stack([a0 / np.linalg.norm(a0), np.cross(u, a0 / np.linalg.norm(a0))], axis=1)  # (3, 2)
-        Ar = np.concatenate([Aw[:, cols[: 3 * K]], Aw[:, gcols] @ (G * B), Aw[:, cols[3 * K :]]], axis=1)
-        yr = yw - Aw[:, gcols] @ (G * u)
-        Nr = Ar.T @ Ar
-        xr = np.linalg.solve(Nr, Ar.T @ yr)
+        a0 /= np.linalg.norm(a0)
+        B = np.stack([a0, np.cross(u, a0)], axis=1)  # (3, 2)
+        Ar = sparse.hstack([Av, sparse.csc_matrix(Ag @ (G * B)), Ab]).tocsc()
+        yr = yw - Ag @ (G * u)
+        try:
+            lu = splu((Ar.T @ Ar).tocsc())
+        except RuntimeError:
+            raise undetermined from None
+        xr = lu.solve(Ar.T @ yr)
         u = u + B @ xr[3 * K : 3 * K + 2]
         u /= np.linalg.norm(u)
     res = yr - Ar @ xr
-    dof = max(len(yr) - len(xr), 1)
+    nr = Ar.shape[1]
+    dof = max(len(yr) - nr, 1)
     scale = max(float(res @ res) / dof, 1.0)  # inflate the covariance when the residuals exceed the stated sigmas
-    C = np.linalg.inv(Nr) * scale
-    Cd = C[3 * K : 3 * K + 2, 3 * K : 3 * K + 2]
+    want = np.r_[0, 1, 2, np.arange(3 * K, nr)]  # v_0, δ, b_a: the covariance columns needed
+    E = np.zeros((nr, len(want)))
+    E[want, np.arange(len(want))] = 1.0
+    C = lu.solve(E)[want] * scale
+    Cd = C[3:5, 3:5]
+    ba_sigma = float(np.sqrt(np.mean(np.diag(C[5:, 5:])))) if est_ba else 0.0
+    if not (np.isfinite(C).all() and np.sqrt(np.trace(Cd)) < np.radians(5.0) and ba_sigma < 1.0):
+        raise undetermined
     if est_ba:
         ba = xr[3 * K + 2 :]
-    ba_sigma = float(np.sqrt(np.mean(np.diag(C[3 * K + 2 :, 3 * K + 2 :])))) if est_ba else 0.0
-    vcov = np.diagonal(C[: 3 * K, : 3 * K]).reshape(K, 3)
     x = xr
     return CameraImuAlignment(
         gravity=G * u,
         gravity_estimated=g_est,
         gravity_sigma_deg=float(np.degrees(np.sqrt(np.trace(Cd)))),
         velocity=x[: 3 * K].reshape(K, 3),
-        velocity_sigma=np.sqrt(vcov.mean(axis=1)),
+        velocity_sigma=float(np.sqrt(np.trace(C[:3, :3]) / 3.0)),
         gyro_bias=bg,
         accel_bias=ba,
         accel_bias_sigma=ba_sigma,

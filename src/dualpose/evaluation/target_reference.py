@@ -172,7 +172,8 @@ class ErrorsAgainst:
     def within(self, mask: np.ndarray) -> ErrorsAgainst:
         """The errors at the matched rows where ``mask`` (K,) is true."""
         m = np.asarray(mask, bool)
-        return ErrorsAgainst(self.index[m], self.position[m], self.rotation_deg[m], self.estimate.take(np.flatnonzero(m)))
+        est = self.estimate.take(np.flatnonzero(m))
+        return ErrorsAgainst(self.index[m], self.position[m], self.rotation_deg[m], est)
 
 
 def errors_against(reference: Trajectory, estimate: Trajectory, max_gap: float | None = None) -> ErrorsAgainst:
@@ -193,7 +194,8 @@ def errors_against(reference: Trajectory, estimate: Trajectory, max_gap: float |
     ok = exact_hi | exact_lo | inside
     idx = np.flatnonzero(ok)
     jj = j[idx]
-    a = np.where(exact_lo[idx], 0.0, np.where(exact_hi[idx], 1.0, (tr[idx] - lo[idx]) / np.maximum(hi[idx] - lo[idx], 1e-300)))
+    frac = (tr[idx] - lo[idx]) / np.maximum(hi[idx] - lo[idx], 1e-300)
+    a = np.where(exact_lo[idx], 0.0, np.where(exact_hi[idx], 1.0, frac))
     p = (1 - a)[:, None] * estimate.positions[jj - 1] + a[:, None] * estimate.positions[jj]
     q = dp.quat_slerp(estimate.quats[jj - 1], estimate.quats[jj], a) if len(idx) else np.zeros((0, 4))
     q = q.reshape(-1, 4)

@@ -17,7 +17,8 @@ and no ground truth is used:
   target frame, the velocities and the accelerometer bias by linear least squares
   (:func:`dualpose.estimation.initialization.align_with_camera_poses`); the filter starts at the first frame of the
   window with its PnP pose (and covariance), the aligned velocity and the biases.  Gravity is *estimated*, never
-  taken from the calibration file (its ``gravity_target`` is only compared: ``startup.gravity_angle_to_calibration_deg``).
+  taken from the calibration file (its ``gravity_target`` is only compared:
+  ``startup.gravity_angle_to_calibration_deg``).
 * **Reference and scoring** (when the directory has another camera's detections, :func:`score_run`): the other
   camera's per-frame PnP (refined through its lens model) on frames with reprojection RMS < 0.7 px and >= 30 corners,
   mapped to the IMU with a *given* extrinsic of that camera (EuRoC's published one for cam1 by default,
@@ -35,9 +36,12 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from scipy.stats import chi2
 
 import dualpose as dp
 from dualpose.estimation import initialization
+from dualpose.estimation.eskf import EskfStream, InnovationReport
+from dualpose.estimation.hol22 import Hol22Stream
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
 from dualpose.evaluation.target_reference import (
     CameraPoses,
@@ -49,10 +53,6 @@ from dualpose.evaluation.target_reference import (
 from dualpose.io.recording import RecordingError
 from dualpose.io.target_recording import TargetRecording, read_camera_imu_calibration, read_target_recording
 from dualpose.pipelines.fuse import FILTERS, FuseResult
-from scipy.stats import chi2
-
-from dualpose.estimation.eskf import EskfStream, InnovationReport
-from dualpose.estimation.hol22 import Hol22Stream
 from dualpose.registration.pnp import PnPResult, solve_pnp_ransac
 from dualpose.types import FilterStart, Recording, SensorSetup, Trajectory
 from dualpose.types.calibration import CameraImuCalibration
@@ -173,7 +173,8 @@ def _mean_sigma(cov: np.ndarray) -> np.ndarray:
 
 
 def startup(
-    t: np.ndarray, gyro: np.ndarray, accel: np.ndarray, det: TargetDetections, camera, calibration: CameraImuCalibration,
+    t: np.ndarray, gyro: np.ndarray, accel: np.ndarray, det: TargetDetections, camera,
+    calibration: CameraImuCalibration,
     imu_noise, gravity_magnitude: float,
 ) -> StartUp:
     """The filter start from the first :data:`STARTUP_SECONDS` of frames (module docstring).
@@ -224,7 +225,7 @@ def startup(
     for i, a in enumerate(pose):
         for j, b in enumerate(pose):
             P[a, b] = cov_body[0][3 * i : 3 * i + 3, 3 * j : 3 * j + 3]
-    E.cov(P, "velocity")[:] = np.eye(3) * max(float(al.velocity_sigma[0]), 1e-3) ** 2
+    E.cov(P, "velocity")[:] = np.eye(3) * max(al.velocity_sigma, 1e-3) ** 2
     span = float(body.stamps[-1] - body.stamps[0])
     att = float(np.median(_mean_sigma(cov_body[:, 3:, 3:])))
     bg_sigma = math.sqrt(2.0) * att / span if calibration.gyro_bias is None else n.gyroscope_initial_bias_sigma
@@ -392,7 +393,8 @@ def _stream_state(stream) -> dict:
     q = dp.quat_conj(L.get(x, "quat_be")) if hol else L.get(x, "quat")
     return {"position": L.get(x, "position"), "velocity": L.get(x, "velocity"), "quat": q,
             "gyro_bias": L.get(x, "gyro_bias"), "accel_bias": L.get(x, "accel_bias"),
-            "gyro_bias_cov": cl.cov(C, "gyro_bias").copy(), "accel_bias_cov": cl.cov(C, "accel_bias").copy()}  # fmt: skip
+            "gyro_bias_cov": cl.cov(C, "gyro_bias").copy(),
+            "accel_bias_cov": cl.cov(C, "accel_bias").copy()}  # fmt: skip
 
 
 def _relocked(stream, done: list, t: float, gyro, accel, sensors, filter: str):
@@ -431,7 +433,7 @@ def run_relocking(rec: Recording, x: np.ndarray, P: np.ndarray, filter: str = "e
     wall = 0.0
     groups = np.flatnonzero(np.diff(np.r_[-1, k_of]) != 0)  # first frame of each run of equal k_of
     bounds = np.r_[groups, len(k_of)]
-    for g0, g1 in zip(bounds[:-1], bounds[1:]):
+    for g0, g1 in zip(bounds[:-1], bounds[1:], strict=True):
         k = int(k_of[g0])
         if k >= n:
             break
@@ -534,7 +536,8 @@ def run_track(
     metrics.update(scores.pop("metrics"))
     step(1)
     return FuseResult(
-        estimate=estimate, metrics=metrics, position_sigma=np.sqrt(np.maximum(np.diagonal(pos_cov, axis1=1, axis2=2), 0)),
+        estimate=estimate, metrics=metrics,
+        position_sigma=np.sqrt(np.maximum(np.diagonal(pos_cov, axis1=1, axis2=2), 0)),
         orientation_sigma_deg=ori_sigma, nis=np.asarray(rep.nis), nis_accepted=np.asarray(rep.accepted, dtype=bool),
         nis_bounds=(float(rep.bounds[0]), float(rep.bounds[1])), **scores,
     )  # fmt: skip
@@ -577,7 +580,8 @@ def score_run(
     src = setup.source
     q1, p1 = extrinsic_from_matrix(reference_extrinsics[ref_cam])
     if ("reference", ref_cam) not in setup.cache:  # the per-frame PnP of both cameras, once per set-up
-        setup.cache["reference", ref_cam] = reference_trajectory(src.detections[ref_cam], src.rig.camera(ref_cam), q1, p1)
+        ref_det, ref_model = src.detections[ref_cam], src.rig.camera(ref_cam)
+        setup.cache["reference", ref_cam] = reference_trajectory(ref_det, ref_model, q1, p1)
         setup.cache["own"] = camera_poses(src.detections[setup.camera], src.rig.camera(setup.camera))
     ref, kept = setup.cache["reference", ref_cam]
     own = setup.cache["own"]
@@ -643,7 +647,7 @@ def imu_only(setup: TrackSetup, seconds: Sequence[float] = (1.0, 5.0),
     sc = score_run(setup, est, reference_extrinsics=reference_extrinsics)
     out = {}
     if sc["truth"] is None:
-        return dict.fromkeys((f"{s:g}s" for s in seconds))
+        return dict.fromkeys(f"{s:g}s" for s in seconds)
     rel = sc["truth"].stamps - rec.t[0]
     for s in seconds:
         m = rel <= s
