@@ -3,12 +3,15 @@ radial-tangential camera), as :func:`dualpose.io.target_recording.read_target_re
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 import dualpose as dp
 from dualpose import sim
 from dualpose.io.euroc import ImuData
 from dualpose.io.target_recording import TargetRecording
+from dualpose.pipelines._lines import format_numbers
 from dualpose.sim.camera_imu import camera_points
 from dualpose.types import RadTanCamera, Trajectory
 from dualpose.types.calibration import CameraImuCalibration
@@ -64,3 +67,58 @@ def simulated_target_recording(seed: int = 0, pixel_sigma: float = 0.3, referenc
     M[:3, :3] = dp.matrix_from_quat(run.q_bc)
     M[:3, 3] = p1
     return TargetRecording(imu=imu, detections=detections, rig=rig, path="sim"), cal, truth, {"cam1": M.ravel()}
+
+
+def write_target_directory(directory, recording: TargetRecording) -> None:
+    """Write ``recording`` in the imu_april layout: ``imu0.csv``, ``camN_aprilgrid.csv``, ``sensors.yaml``."""
+    from pathlib import Path
+
+    from dualpose.io.euroc import write_euroc_imu
+
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    write_euroc_imu(d / "imu0.csv", recording.imu)
+    for name, det in recording.detections.items():
+        rows = ["#timestamp [ns],u [px],v [px],X [m],Y [m],Z [m],tag_id,corner_idx"]
+        for k in range(len(det)):
+            a, b = det.offsets[k], det.offsets[k + 1]
+            if a == b:
+                rows.append(f"{det.stamps_ns[k]}")
+            for i in range(a, b):
+                nums = ",".join(map(repr, [*det.pixels[i].tolist(), *det.points[i].tolist()]))
+                rows.append(f"{det.stamps_ns[k]},{nums},{det.tag_id[i]},{det.corner_id[i]}")
+        (d / f"{name}_aprilgrid.csv").write_text("\n".join(rows) + "\n")
+    n = recording.rig.imu_noise
+    lines = [
+        f"imu0: {{rate_hz: {float(recording.rig.imu_rate)!r}, gyroscope_noise_density: "
+        f"{float(n.gyroscope_noise_density)!r}, gyroscope_random_walk: {float(n.gyroscope_random_walk)!r}, "
+        f"accelerometer_noise_density: {float(n.accelerometer_noise_density)!r}, accelerometer_random_walk: "
+        f"{float(n.accelerometer_random_walk)!r}, gravity_m_s2: {float(recording.rig.gravity_magnitude)!r}}}"
+    ]
+    for name, cam in recording.rig.cameras.items():
+        lines += [
+            f"{name}:",
+            f"  resolution: [{cam.width}, {cam.height}]",
+            "  rate_hz: 20.0",
+            "  camera_model: pinhole",
+            f"  intrinsics_fx_fy_cx_cy: [{cam.fx!r}, {cam.fy!r}, {cam.cx!r}, {cam.cy!r}]",
+            "  distortion_model: radial-tangential",
+            f"  distortion_k1_k2_p1_p2: [{cam.k1!r}, {cam.k2!r}, {cam.p1!r}, {cam.p2!r}]",
+        ]
+    (d / "sensors.yaml").write_text("\n".join(lines) + "\n")
+
+
+def stream_lines(src, cal, t_end: float = math.inf) -> list[str]:
+    """The recording as stream lines (measured pixels), in time order on the IMU clock."""
+    imu = src.imu
+    det = src.detections[cal.camera]
+    items = [(float(imu.stamps[k]), 1, "imu, " + format_numbers([imu.stamps[k], *imu.gyro[k], *imu.accel[k]]))
+             for k in range(len(imu.stamps)) if imu.stamps[k] < t_end]  # fmt: skip
+    for j in range(len(det)):
+        if det.t[j] >= t_end:
+            continue
+        pix, pts = det.frame(j)
+        tail = ", " + format_numbers(np.hstack([pix, pts]).ravel()) if len(pix) else "\n"
+        items.append((float(det.t[j] + cal.time_offset_s), 0, f"cam, {float(det.t[j])!r}, {len(pix)}{tail}"))
+    items.sort(key=lambda it: it[:2])
+    return [it[2] for it in items]

@@ -9,13 +9,12 @@ import math
 
 import numpy as np
 import pytest
-from _target_sim import CAMERA, simulated_target_recording
+from _target_sim import CAMERA, simulated_target_recording, stream_lines
 
 import dualpose as dp
 from dualpose.estimation.initialization import align_with_camera_poses
 from dualpose.evaluation.target_reference import errors_against
 from dualpose.io.target_recording import read_target_recording
-from dualpose.pipelines._lines import format_numbers
 from dualpose.pipelines.track_target import (
     EUROC_T_BS,
     TrackStream,
@@ -96,26 +95,10 @@ def test_batch_and_stream_give_the_same_poses_bit_for_bit_on_the_simulation(simu
     src, cal, _, _ = simulated
     for name in ("eskf", "hol22"):
         tr = run_relocking(simulated_setup.recording, simulated_setup.start.x, simulated_setup.start.P, name)
-        lines = _lines(src, cal)
+        lines = stream_lines(src, cal)
         out = list(stream_track_lines(lines, TrackStream(src.rig, "cam0", cal, name)))
         got = np.array([[float(v) for v in line.split(",")] for line in out])
         np.testing.assert_array_equal(got, np.column_stack([tr.t, tr.position, tr.quat]))
-
-
-def _lines(src, cal, t_end: float = math.inf) -> list[str]:
-    """The recording as stream lines (measured pixels), in time order on the IMU clock."""
-    imu = src.imu
-    det = src.detections[cal.camera]
-    items = [(float(imu.stamps[k]), 1, "imu, " + format_numbers([imu.stamps[k], *imu.gyro[k], *imu.accel[k]]))
-             for k in range(len(imu.stamps)) if imu.stamps[k] < t_end]  # fmt: skip
-    for j in range(len(det)):
-        if det.t[j] >= t_end:
-            continue
-        pix, pts = det.frame(j)
-        tail = ", " + format_numbers(np.hstack([pix, pts]).ravel()) if len(pix) else "\n"
-        items.append((float(det.t[j] + cal.time_offset_s), 0, f"cam, {float(det.t[j])!r}, {len(pix)}{tail}"))
-    items.sort(key=lambda it: it[:2])
-    return [it[2] for it in items]
 
 
 def test_ideal_pixel_sigma_is_one_for_a_pinhole_and_grows_with_barrel_distortion():
@@ -205,7 +188,7 @@ def test_april_batch_and_stream_agree_bit_for_bit_on_a_cut(april, published_cali
     cut = dataclasses.replace(april, imu=cut_imu, detections={"cam0": det.select(det.t < t_end)})
     setup = prepare_track(cut, published_calibration, "cam0")
     tr = run_relocking(setup.recording, setup.start.x, setup.start.P, "eskf")
-    out = list(stream_track_lines(_lines(cut, published_calibration), TrackStream(april.rig, "cam0",
+    out = list(stream_track_lines(stream_lines(cut, published_calibration), TrackStream(april.rig, "cam0",
                                                                                    published_calibration)))  # fmt: skip
     got = np.array([[float(v) for v in line.split(",")] for line in out])
     np.testing.assert_array_equal(got, np.column_stack([tr.t, tr.position, tr.quat]))
