@@ -8,7 +8,8 @@ error-state filter's NIS, with the estimated gravity).  Prints a table (or one J
 Nothing is written to disk.
 
 ``dualpose calibrate hand-eye CAMERA.csv BODY.csv`` (:mod:`dualpose.cli.calibrate_hand_eye`) calibrates a camera
-against a motion-capture marker or a robot hand from two recorded pose files.
+against a motion-capture marker or a robot hand from two recorded pose files; ``dualpose calibrate camera-imu``
+(:mod:`dualpose.cli.calibrate_camera_imu`) calibrates a camera against its IMU from a calibration-target recording.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import argparse
 import json
 import sys
 
-from dualpose.cli import calibrate_hand_eye
+from dualpose.cli import calibrate_camera_imu, calibrate_hand_eye
 from dualpose.cli._args import float_in, int_in, seed
 
 #: bounds of the numeric options: the session's poses, the scene tilt (deg) and the injected offset (ms)
@@ -46,9 +47,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument("--time-offset", type=float_in(-MAX_OFFSET_MS, MAX_OFFSET_MS), default=15.0, metavar="MS",
                    help=f"t_imu - t_cam, ms (15; |MS| <= {MAX_OFFSET_MS:g}: the rate matching searches +-100 ms)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
-    sub = p.add_subparsers(dest="calibrate_command", required=False, metavar="{hand-eye}",
+    sub = p.add_subparsers(dest="calibrate_command", required=False, metavar="{hand-eye,camera-imu}",
                            help="calibrate from recorded files (without it: the simulated session)")  # fmt: skip
     calibrate_hand_eye.add_subparser(sub)
+    calibrate_camera_imu.add_subparser(sub)
     return p
 
 
@@ -75,6 +77,8 @@ def _table(m: dict) -> str:
 def run(args: argparse.Namespace) -> int:
     if getattr(args, "calibrate_command", None) == "hand-eye":
         return calibrate_hand_eye.run(args)
+    if getattr(args, "calibrate_command", None) == "camera-imu":
+        return calibrate_camera_imu.run(args)
     from dualpose.cli._progress import progress_bar
     from dualpose.pipelines.calibrate import calibrate_simulated_session, session_steps
 

@@ -1,0 +1,706 @@
+"""Camera–IMU calibration against a known target: extrinsic, time offset, biases and gravity in one batch.
+
+The unknowns are the IMU state at every usable camera frame ``k`` (orientation ``R_wb,k``, position ``p_k`` and
+velocity ``v_k`` in the target frame ``w``), the IMU biases (a random walk with one knot per frame, or one
+constant pair), the camera pose in the body frame (``R_bc``, ``p_bc``: ``x_b = R_bc x_c + p_bc``), the time offset
+``τ`` (a frame stamped ``t`` by the camera was taken at IMU time ``t + τ``) and the direction of gravity in the
+target frame (2 dof; its magnitude is given).  The cost (a maximum a-posteriori batch, as in Kalibr, Furgale et
+al. 2013, but in discrete time):
+
+* every target corner's reprojection residual through the distorted camera model (intrinsics fixed), the body
+  pose taken at ``t_k + τ`` by a first-order shift of the frame's state, ``R(t_k + τ) = R_k Exp(ω_k δ)``,
+  ``p(t_k + τ) = p_k + v_k δ`` with ``δ = τ − τ_ref`` (Li & Mourikis 2014, IJRR 33(7); Qin & Shen 2018, IROS),
+  with a Huber loss (IRLS weights) and the pixel σ re-estimated robustly (MAD) between passes;
+* IMU preintegration factors between consecutive frames (Forster et al. 2017, :mod:`._preintegration`), bias
+  corrected to first order, with the white-noise densities of the IMU;
+* bias random-walk factors ``b_k+1 − b_k ~ N(0, σ_rw² Δt)`` (or one constant bias), and a weak prior on the first
+  bias (0 ± 0.1 rad/s, 0 ± 1 m/s²) that only fixes the scale of the problem.
+
+It is solved by Levenberg–Marquardt on the sparse normal equations (block Jacobians assembled with NumPy; the
+reprojection blocks are summed per frame with batched matrix products; the block-tridiagonal frame part is
+factored by the block Cholesky recursion and the globals by their Schur complement).  Between
+passes the frame states are re-anchored at ``t_k + τ`` and the IMU re-preintegrated at the current biases.
+
+Start from no prior: per-frame PnP on the undistorted corners (:func:`dualpose.registration.pnp.solve_pnp_batch`),
+rotation and coarse ``τ`` from gyro vs camera rotation rates (:func:`~dualpose.calibration.estimate_time_offset`
+without an extrinsic), translation zero, velocities by finite differences, gravity from the velocity change
+telescoped over the recording.  Covariance: the inverse of the Gauss–Newton information at the solution (the
+per-corner noise is the estimated pixel σ; temporally correlated corner errors make it optimistic).
+Results and the IMU-model discussion: docs/euroc.md.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+import dualpose as dp
+from dualpose.calibration._preintegration import Preintegrated, imu_factors, preintegrate
+from dualpose.calibration.time_offset import estimate_time_offset, gyro_mean_rates
+from dualpose.registration.pnp import solve_pnp, solve_pnp_batch
+from dualpose.types.camera import FrameCorrespondences
+from dualpose.types.imu import STANDARD_GRAVITY, ImuNoise
+
+__all__ = ["CameraImuCalibration", "calibrate_camera_imu"]
+
+#: global unknowns after the frame states and bias knots: δε (3, body frame), δp_bc (3), δτ, δg (2)
+_NG = 9
+_BIAS_PRIOR = np.array([0.1, 0.1, 0.1, 1.0, 1.0, 1.0])  # rad/s, m/s²: only fixes the scale
+
+
+@dataclass
+class CameraImuCalibration:
+    """Result of :func:`calibrate_camera_imu`.
+
+    Attributes
+    ----------
+    q_bc : ndarray (4,)
+        Camera→body rotation xyzw (the camera axes in the IMU frame).
+    p_bc : ndarray (3,)
+        Camera centre in the IMU frame, m (``x_imu = R_bc x_cam + p_bc``).
+    time_offset : float
+        ``τ`` s: a frame stamped ``t`` by the camera was taken at IMU time ``t + τ``.
+    gyro_bias, accel_bias : ndarray (3,)
+        Mean of the bias track over the frames (rad/s, m/s²; equal to the constant bias with
+        ``bias_model="constant"``).
+    bias_t : ndarray (K,)
+        Times of the bias knots (IMU clock, the input's time origin), s.  ``bias_track`` (K, 6): gyro, accel biases.
+    gravity_target : ndarray (3,)
+        Gravity in the target frame, m/s².
+    std : dict
+        First-order standard deviations: ``rotation_deg`` (3,) about the body x, y, z axes (``R̂_bc = Exp(ε)
+        R_bc``), ``translation_m`` (3,), ``time_offset_s``, ``gyro_bias`` (3,), ``accel_bias`` (3,) (of the track
+        mean), ``gravity_target_deg`` (RMS angle of the direction).
+    covariance : ndarray (9, 9)
+        Covariance of ``[ε (3), p_bc (3), τ, δg (2)]`` (rad, m, s, rad; ``gravity_basis`` spans δg).
+    reprojection_rms_px : float
+        RMS of the corner residuals (both axes) of the inlier corners, px.  ``pixel_sigma`` the robust (MAD) σ, px.
+    imu_chi2_per_dof : float
+        Mean ``rᵀ Σ⁻¹ r / 9`` of the preintegration factors (≈ 1 when the IMU noise densities fit).
+    outliers : dict
+        Frames not used (``no_detections``, ``too_few_corners``, ``pnp_failed``: camera stamps) and corners
+        rejected (count and fraction; residual above ``reject_sigmas`` σ).
+    excitation : dict
+        Eigen-directions of the marginal covariance of ``[p_bc, τ]``: ``translation_std_m`` (3,) along the
+        ``translation_directions`` (3, 3 rows, worst first), ``time_offset_std_s``, and ``warnings``.
+    gyro_misalignment : ndarray (3, 3)
+        Post-hoc fit ``ω_meas ≈ M ω + b`` over the frame intervals (``M − I``: scale factors on the diagonal,
+        axis misalignment off it); ``accel_misalignment`` likewise from the velocity increments.
+    frames_used : int.  iterations : int (LM steps accepted).  runtime_s : float.
+    initial : dict
+        The starting values (gyro/camera rate registration): ``q_bc``, ``time_offset``, ``gyro_bias``.
+    """
+
+    q_bc: np.ndarray
+    p_bc: np.ndarray
+    time_offset: float
+    gyro_bias: np.ndarray
+    accel_bias: np.ndarray
+    gravity_target: np.ndarray
+    std: dict
+    covariance: np.ndarray
+    reprojection_rms_px: float
+    pixel_sigma: float
+    imu_chi2_per_dof: float
+    outliers: dict
+    excitation: dict
+    gyro_misalignment: np.ndarray
+    accel_misalignment: np.ndarray
+    frames_used: int
+    iterations: int
+    runtime_s: float
+    bias_t: np.ndarray
+    bias_track: np.ndarray
+    initial: dict = field(default_factory=dict)
+
+    @property
+    def rotation_matrix(self) -> np.ndarray:
+        """``R_bc`` (3, 3)."""
+        return dp.matrix_from_quat(self.q_bc)
+
+    @property
+    def matrix(self) -> np.ndarray:
+        """The camera pose in the IMU frame, ``T_bc`` (4, 4) (Kalibr/EuRoC ``T_BS``)."""
+        T = np.eye(4)
+        T[:3, :3] = self.rotation_matrix
+        T[:3, 3] = self.p_bc
+        return T
+
+
+def _tangent_basis(g: np.ndarray) -> np.ndarray:
+    """Two unit vectors (3, 2) orthogonal to ``g`` and to each other."""
+    u = g / np.linalg.norm(g)
+    a = np.array([1.0, 0.0, 0.0]) if abs(u[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(u, a)
+    e1 /= np.linalg.norm(e1)
+    return np.column_stack([e1, np.cross(u, e1)])
+
+
+def _interp3(t: np.ndarray, x: np.ndarray, tq: np.ndarray) -> np.ndarray:
+    return np.column_stack([np.interp(tq, t, x[:, c]) for c in range(3)])
+
+
+def _check_inputs(imu_t, gyro, accel, frames, camera):
+    imu_t = np.asarray(imu_t, dtype=np.float64)
+    if imu_t.ndim != 1 or len(imu_t) < 10 or not np.all(np.isfinite(imu_t)) or np.any(np.diff(imu_t) <= 0):
+        raise ValueError(f"imu_t must be a finite strictly increasing array of shape (N,), N >= 10; got {imu_t.shape}")
+    out = []
+    for name, x in (("gyro", gyro), ("accel", accel)):
+        a = np.asarray(x, dtype=np.float64)
+        if a.shape != (len(imu_t), 3) or not np.all(np.isfinite(a)):
+            raise ValueError(f"{name} must be finite with shape ({len(imu_t)}, 3); got {a.shape}")
+        out.append(a)
+    if not isinstance(frames, FrameCorrespondences):
+        raise TypeError(f"frames must be a FrameCorrespondences; got {type(frames).__name__}")
+    for attr in ("project_jacobian", "ideal_pixels", "fx", "fy", "cx", "cy"):
+        if not hasattr(camera, attr):
+            raise TypeError(f"camera must provide {attr!r} (a camera model of dualpose.types); got {type(camera)}")
+    return imu_t, out[0], out[1]
+
+
+def _initial_poses(frames, keep, camera, min_corners):
+    """PnP on the undistorted corners of the frames ``keep`` (indices); returns ``R_wc`` (F, 3, 3), ``c_w`` (F, 3),
+    the PnP RMS (F,) (NaN where it failed)."""
+    K = np.array([[camera.fx, 0.0, camera.cx], [0.0, camera.fy, camera.cy], [0.0, 0.0, 1.0]])
+    counts = frames.counts[keep]
+    m = int(counts.max())
+    b = len(keep)
+    pix = np.zeros((b, m, 2))
+    pts = np.zeros((b, m, 3))
+    valid = np.arange(m)[None, :] < counts[:, None]
+    rows = frames.offsets[keep][:, None] + np.arange(m)[None, :]
+    rows = np.where(valid, rows, frames.offsets[keep][:, None])
+    pix[:] = camera.ideal_pixels(frames.pixels[rows])
+    pts[:] = frames.points[rows]
+    R = np.full((b, 3, 3), np.nan)
+    c = np.full((b, 3), np.nan)
+    rms = np.full(b, np.nan)
+    try:
+        res = solve_pnp_batch(pix, pts, valid, K, threshold_px=10.0)
+        R[:] = dp.matrix_from_quat(res.q_wc)
+        c[:] = res.c_w
+        rms[:] = res.rms_px
+    except (ValueError, np.linalg.LinAlgError):
+        for i in range(b):  # the batch refused a frame (too few inliers): one frame at a time
+            try:
+                r1 = solve_pnp(pix[i, valid[i]], pts[i, valid[i]], K)
+            except (ValueError, np.linalg.LinAlgError):
+                continue
+            R[i], c[i], rms[i] = dp.matrix_from_quat(r1.q_wc), r1.c_w, r1.rms_px
+    ok = np.isfinite(rms) & (counts >= min_corners)
+    return R, c, rms, ok
+
+
+class _Problem:
+    """The batch: fixed data, current state, residuals/normal equations (module docstring)."""
+
+    def __init__(self, imu_t, gyro, accel, t_frames, offsets, pixels, points, camera, noise, gmag, bias_model):
+        self.imu_t, self.gyro, self.accel = imu_t, gyro, accel
+        self.t = t_frames  # (N,) camera stamps of the nodes, s
+        n = len(t_frames)
+        self.N = n
+        counts = np.diff(offsets)
+        m = int(counts.max())
+        self.valid0 = np.arange(m)[None, :] < counts[:, None]
+        rows = np.where(self.valid0, offsets[:-1, None] + np.arange(m)[None, :], offsets[:-1, None])
+        self.rows = rows
+        self.pix = pixels[rows]
+        self.pts = points[rows]
+        self.inlier = self.valid0.copy()
+        self.camera = camera
+        self.noise = noise
+        self.gmag = gmag
+        rw = bias_model == "random_walk"
+        self.knot = np.arange(n) if rw else np.zeros(n, dtype=np.int64)
+        self.K = int(self.knot.max()) + 1
+        self.knot_t = t_frames.copy() if rw else np.array([t_frames.mean()])
+        # variable layout: a band of per-frame blocks [φ, p, v (, bias knot)] in time order, then the border
+        # (the constant bias if any, and the globals [ε, p_bc, τ, δg]), so the normal matrix is banded + border
+        stride = 15 if rw else 9
+        self.stride = stride
+        self.nb = stride * n
+        self.node_off = stride * np.arange(n)
+        self.knot_off = self.node_off + 9 if rw else np.array([self.nb])
+        self.gbase = self.nb + (0 if rw else 6)
+        self.nvar = self.gbase + _NG
+        self.node_idx = self.node_off[:, None] + np.arange(9)
+        self.knot_idx = self.knot_off[:, None] + np.arange(6)
+        self.sigma_px = 1.0
+        self.huber = 1.5  # in σ
+
+    # ----- state ---------------------------------------------------------------------------------------------
+    def set_state(self, R, p, v, bias, R_bc, p_bc, tau, g, tau_ref):
+        self.R, self.p, self.v, self.bias = R, p, v, bias
+        self.R_bc, self.p_bc, self.tau, self.g = R_bc, p_bc, tau, g
+        self.tau_ref = tau_ref
+        self.relinearize()
+
+    def state(self):
+        return (self.R.copy(), self.p.copy(), self.v.copy(), self.bias.copy(), self.R_bc.copy(), self.p_bc.copy(),
+                self.tau, self.g.copy())  # fmt: skip
+
+    def restore(self, s):
+        self.R, self.p, self.v, self.bias, self.R_bc, self.p_bc, self.tau, self.g = s
+
+    def relinearize(self):
+        """Node times ``t + τ_ref``, body rates there and the preintegration at the current biases."""
+        self.s = self.t + self.tau_ref
+        bn = self.bias[self.knot]
+        self.omega = _interp3(self.imu_t, self.gyro, self.s) - bn[:, :3]
+        n = self.noise
+        self.pre: Preintegrated = preintegrate(
+            self.imu_t, self.gyro, self.accel, self.s, bn[:-1, :3], bn[:-1, 3:],
+            n.gyroscope_noise_density, n.accelerometer_noise_density,
+        )  # fmt: skip
+        L = np.linalg.cholesky(np.linalg.inv(self.pre.covariance))  # Σ⁻¹ = L Lᵀ
+        self.imu_whiten = np.swapaxes(L, 1, 2)
+        dt_knot = np.diff(self.knot_t)
+        rw = np.array([n.gyroscope_random_walk] * 3 + [n.accelerometer_random_walk] * 3)
+        self.rw_scale = 1.0 / (rw[None, :] * np.sqrt(np.maximum(dt_knot, 1e-9))[:, None])
+
+    def reanchor(self):
+        """Move the node times to ``t + τ`` (first-order shift of each state) and re-preintegrate."""
+        d = self.tau - self.tau_ref
+        bn = self.bias[self.knot]
+        f = _interp3(self.imu_t, self.accel, self.s) - bn[:, 3:]
+        acc_w = np.einsum("kij,kj->ki", self.R, f) + self.g
+        self.p = self.p + self.v * d + 0.5 * acc_w * d * d
+        self.v = self.v + acc_w * d
+        self.R = self.R @ dp.so3_exp(self.omega * d)
+        self.tau_ref = self.tau
+        self.relinearize()
+
+    def retract(self, delta):
+        dn = delta[self.node_idx]
+        self.R = self.R @ dp.so3_exp(dn[:, 0:3])
+        self.p = self.p + dn[:, 3:6]
+        self.v = self.v + dn[:, 6:9]
+        self.bias = self.bias + delta[self.knot_idx]
+        dg = delta[self.gbase :]
+        self.R_bc = dp.so3_exp(dg[0:3]) @ self.R_bc
+        self.p_bc = self.p_bc + dg[3:6]
+        self.tau = self.tau + dg[6]
+        self.g = dp.so3_exp(_tangent_basis(self.g) @ dg[7:9]) @ self.g
+
+    # ----- residuals -----------------------------------------------------------------------------------------
+    def reprojection(self, jac):
+        d = self.tau - self.tau_ref
+        E = dp.so3_exp(self.omega * d)
+        Rt = np.swapaxes(self.R, 1, 2)
+        y = (self.pts - (self.p + self.v * d)[:, None, :]) @ self.R  # R_nᵀ (X − p(t)), batched (N, M, 3)
+        xb = y @ E  # Eᵀ y
+        xc = (xb - self.p_bc) @ self.R_bc  # R_bcᵀ (x_b − p_bc)
+        front = xc[..., 2] > 1e-3
+        xc_safe = np.where(front[..., None], xc, np.array([0.0, 0.0, 1.0]))
+        if jac:
+            pred, D = self.camera.project_jacobian(xc_safe)
+        else:
+            pred, D = self.camera.project(xc_safe), None
+        r = pred - self.pix
+        use = self.inlier & front
+        return r, use, (D, E, Rt, y, xb) if jac else None
+
+    def robust(self, r, use):
+        s = np.linalg.norm(r, axis=-1) / self.sigma_px
+        c = self.huber
+        rho = np.where(s <= c, s * s, 2 * c * s - c * c)
+        w = np.where(s <= c, 1.0, c / np.maximum(s, 1e-300)) * use
+        return float(np.sum(rho * use)), w
+
+    def cost(self):
+        r, use, _ = self.reprojection(False)
+        c_cam = self.robust(r, use)[0]
+        return c_cam + self._imu_cost()
+
+    def _imu_args(self):
+        bk = self.bias[self.knot]
+        return (self.pre, self.R[:-1], self.p[:-1], self.v[:-1], self.R[1:], self.p[1:], self.v[1:], bk[:-1, :3],
+                bk[:-1, 3:], self.g, _tangent_basis(self.g))  # fmt: skip
+
+    def imu_whitened(self, jac):
+        r, J = imu_factors(*self._imu_args(), jacobians=jac)
+        rw = np.einsum("kij,kj->ki", self.imu_whiten, r)
+        Jw = self.imu_whiten @ J if jac else None
+        return rw, Jw
+
+    def _imu_cost(self):
+        rw = self.imu_whitened(False)[0]
+        rb = np.diff(self.bias, axis=0) * self.rw_scale
+        rp = self.bias[0] / _BIAS_PRIOR
+        return float(np.sum(rw**2) + np.sum(rb**2) + np.sum(rp**2))
+
+    def normal_equations(self):
+        """``H = JᵀWJ`` as :class:`_Normal` (band + border), the gradient ``JᵀWr`` and the cost."""
+        n, K, gb = self.N, self.K, self.gbase
+        rows, cols, vals = [], [], []
+        grad = np.zeros(self.nvar)
+
+        def add(idx, Jw, rw):
+            H = np.swapaxes(Jw, 1, 2) @ Jw
+            rows.append(np.broadcast_to(idx[:, :, None], H.shape).ravel())
+            cols.append(np.broadcast_to(idx[:, None, :], H.shape).ravel())
+            vals.append(H.ravel())
+            np.add.at(grad, idx.ravel(), np.einsum("bri,br->bi", Jw, rw).ravel())
+
+        # reprojection: per corner 2 × 16 over [φ, p, v of its node, ε, p_bc, τ]
+        r, use, (D, E, Rt, y, xb) = self.reprojection(True)
+        c_cam, w = self.robust(r, use)
+        d = self.tau - self.tau_ref
+        Rbc_t = self.R_bc.T
+        A = Rbc_t @ np.swapaxes(E, 1, 2)  # (N, 3, 3): d x_c / d x_b ∘ Eᵀ
+        m = D.shape[1]
+        D2 = D.reshape(n, 2 * m, 3)
+        DA = D2 @ A  # row-vector products as batched (2M × 3)(3 × 3) matrices
+        DART = (DA @ Rt).reshape(n, m, 2, 3)
+        DA = DA.reshape(n, m, 2, 3)
+        DB = (D2 @ Rbc_t).reshape(n, m, 2, 3)
+        J = np.empty((n, m, 2, 16))
+        J[..., 0:3] = np.cross(DA, y[:, :, None, :])  # aᵀ [y]× = (a × y)ᵀ
+        J[..., 3:6] = -DART
+        J[..., 6:9] = -DART * d
+        J[..., 9:12] = np.cross(DB, (xb - self.p_bc)[:, :, None, :])
+        J[..., 12:15] = -DB
+        vb = np.einsum("nij,nj->ni", Rt, self.v)
+        dxb_dtau = np.cross(xb, self.omega[:, None, :]) - np.einsum("nji,nj->ni", E, vb)[:, None, :]
+        J[..., 15] = np.sum(DB * dxb_dtau[:, :, None, :], axis=-1)
+        sw = np.sqrt(w) / self.sigma_px
+        Jw = (J * sw[..., None, None]).reshape(n, -1, 16)
+        rw = (r * sw[..., None]).reshape(n, -1)
+        idx = np.concatenate([self.node_idx, np.broadcast_to(gb + np.arange(7), (n, 7))], axis=1)
+        add(idx, Jw, rw)
+        # IMU factors: 9 × 26 over [node i, node j, bias knot of i, δg]
+        rI, JI = self.imu_whitened(True)
+        gidx = np.broadcast_to(gb + np.arange(7, 9), (n - 1, 2))
+        kidx = self.knot_idx[self.knot[:-1]]
+        idx = np.concatenate([self.node_idx[:-1], self.node_idx[1:], kidx, gidx], axis=1)
+        add(idx, JI, rI)
+        # bias random walk and prior
+        if K > 1:
+            k = np.arange(K - 1)
+            rb = np.diff(self.bias, axis=0) * self.rw_scale
+            diag = self.rw_scale[:, :, None] * np.eye(6)
+            pair = np.concatenate([self.knot_idx[k], self.knot_idx[k + 1]], axis=1)
+            add(pair, np.concatenate([-diag, diag], axis=2), rb)
+        else:
+            rb = np.zeros((0, 6))
+        rp = self.bias[0] / _BIAS_PRIOR
+        add(self.knot_idx[:1], np.diag(1.0 / _BIAS_PRIOR)[None], rp[None])
+        H = sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                          shape=(self.nvar, self.nvar)).tocsr().tocoo()  # fmt: skip
+        cost = c_cam + float(np.sum(rI**2) + np.sum(rb**2) + np.sum(rp**2))
+        return _Normal(H, self.nb, self.stride), grad, cost
+
+
+class _Normal:
+    """Normal matrix ``[[A, B], [Bᵀ, C]]``: ``A`` (nb, nb) block tridiagonal (the per-frame blocks of size ``s`` in
+    time order: diagonal blocks ``D`` (N, s, s), super-diagonal ``U`` (N − 1, s, s)) and a dense border ``B``
+    (nb, m), ``C`` (m, m).  ``A`` is factored by the block Cholesky recursion (one small dense step per frame)."""
+
+    def __init__(self, H: sp.coo_matrix, nb: int, s: int):
+        r, c, v = H.row, H.col, H.data
+        n = nb // s
+        self.s = s
+        self.D = np.zeros((n, s, s))
+        self.U = np.zeros((max(n - 1, 0), s, s))
+        inb = (r < nb) & (c < nb)
+        br, bc = r // s, c // s
+        sel = inb & (br == bc)
+        self.D[br[sel], r[sel] % s, c[sel] % s] = v[sel]
+        sel = inb & (bc == br + 1)
+        self.U[br[sel], r[sel] % s, c[sel] % s] = v[sel]
+        m = H.shape[0] - nb
+        self.B = np.zeros((nb, m))
+        sel = (r < nb) & (c >= nb)
+        self.B[r[sel], c[sel] - nb] = v[sel]
+        self.C = np.zeros((m, m))
+        sel = (r >= nb) & (c >= nb)
+        self.C[r[sel] - nb, c[sel] - nb] = v[sel]
+
+    def _factor_band(self, lam: float):
+        n = len(self.D)
+        Linv = np.empty_like(self.D)
+        Lsub = np.empty_like(self.U)
+        d = self.D[0] + lam * np.diag(np.diag(self.D[0]))
+        for i in range(n):  # block Cholesky: A = L Lᵀ, L block lower bidiagonal
+            Linv[i] = np.linalg.inv(np.linalg.cholesky(d))
+            if i + 1 < n:
+                Lsub[i] = self.U[i].T @ Linv[i].T
+                d = self.D[i + 1] + lam * np.diag(np.diag(self.D[i + 1])) - Lsub[i] @ Lsub[i].T
+        return Linv, Lsub
+
+    def _solve_band(self, F, b: np.ndarray) -> np.ndarray:
+        Linv, Lsub = F
+        n, s = len(Linv), self.s
+        bb = b.reshape((n, s) + b.shape[1:])
+        y = np.empty_like(bb)
+        y[0] = Linv[0] @ bb[0]
+        for i in range(1, n):
+            y[i] = Linv[i] @ (bb[i] - Lsub[i - 1] @ y[i - 1])
+        x = np.empty_like(bb)
+        x[-1] = Linv[-1].T @ y[-1]
+        for i in range(n - 2, -1, -1):
+            x[i] = Linv[i].T @ (y[i] - Lsub[i].T @ x[i + 1])
+        return x.reshape(b.shape)
+
+    def factor(self, lam: float = 0.0):
+        """Factor of the band (damped by ``1 + lam`` on the diagonal), ``A⁻¹B`` and the border's Schur complement."""
+        F = self._factor_band(lam)
+        XB = self._solve_band(F, self.B)
+        S = self.C + lam * np.diag(np.diag(self.C)) - self.B.T @ XB
+        return F, XB, S
+
+    def solve(self, g: np.ndarray, lam: float) -> np.ndarray:
+        """``−(H + λ diag H)⁻¹ g``."""
+        nb = len(self.B)
+        F, XB, S = self.factor(lam)
+        x0 = self._solve_band(F, g[:nb])
+        db = -np.linalg.solve(S, g[nb:] - self.B.T @ x0)
+        return np.concatenate([-x0 - XB @ db, db])
+
+    def covariance(self, band_combinations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``H⁻¹`` of the border (m, m) and of the linear combinations ``cᵀ x_band`` (columns of
+        ``band_combinations`` (nb, q)), (q, q)."""
+        F, XB, S = self.factor(0.0)
+        Sinv = np.linalg.inv(S)
+        if band_combinations.shape[1] == 0:
+            return Sinv, np.zeros((0, 0))
+        y = self._solve_band(F, band_combinations)
+        w = self.B.T @ y
+        return Sinv, band_combinations.T @ y + w.T @ Sinv @ w
+
+
+def _levenberg_marquardt(prob: _Problem, max_iterations: int, tol: float = 1e-7) -> int:
+    """LM (Marquardt's diagonal damping) on the current model; returns the accepted steps."""
+    lam = 1e-5
+    accepted = 0
+    H, g, cost = prob.normal_equations()
+    for _ in range(max_iterations):
+        step_ok = False
+        for _try in range(8):
+            try:
+                delta = H.solve(g, lam)
+            except np.linalg.LinAlgError:
+                lam *= 10
+                continue
+            saved = prob.state()
+            prob.retract(delta)
+            new = prob.cost()
+            if np.isfinite(new) and new < cost:
+                step_ok = True
+                lam = max(lam / 3.0, 1e-9)
+                break
+            prob.restore(saved)
+            lam *= 8.0
+        if not step_ok:
+            break
+        accepted += 1
+        rel = (cost - new) / max(cost, 1e-300)
+        H, g, cost = prob.normal_equations()
+        if rel < tol:
+            break
+    return accepted
+
+
+def _fit_misalignment(x_true: np.ndarray, x_meas: np.ndarray) -> np.ndarray:
+    """Least-squares ``x_meas ≈ M x_true + b`` (rows); returns ``M − I`` (3, 3)."""
+    A = np.column_stack([x_true, np.ones(len(x_true))])
+    coef = np.linalg.lstsq(A, x_meas, rcond=None)[0]
+    return coef[:3].T - np.eye(3)
+
+
+def calibrate_camera_imu(
+    imu_t: np.ndarray,
+    gyro: np.ndarray,
+    accel: np.ndarray,
+    frames: FrameCorrespondences,
+    camera,
+    imu_noise: ImuNoise,
+    gravity_magnitude: float = STANDARD_GRAVITY,
+    bias_model: str = "random_walk",
+    min_corners: int = 8,
+    min_frames: int = 40,
+    max_offset: float = 0.1,
+    reject_sigmas: float = 5.0,
+    passes: int = 3,
+    max_iterations: int = 30,
+) -> CameraImuCalibration:
+    """Calibrate the camera–IMU extrinsic, time offset, IMU biases and target gravity from one recording.
+
+    Parameters
+    ----------
+    imu_t : (S,) IMU times, s.  gyro : (S, 3) rad/s.  accel : (S, 3) m/s² (specific force), body frame.
+    frames : FrameCorrespondences
+        Target corners per camera frame: stamps ``t`` (F,) in the IMU's time unit and origin (camera clock), raw
+        distorted ``pixels`` (M, 2) and their target-frame ``points`` (M, 3), m.
+    camera : a camera model of :mod:`dualpose.types` with ``project``, ``project_jacobian`` and ``ideal_pixels``
+        (intrinsics and distortion are held fixed).
+    imu_noise : ImuNoise
+        White-noise densities and bias random walks (Kalibr ``imu.yaml`` units).
+    gravity_magnitude : float
+        m/s²; only the direction is estimated.
+    bias_model : ``"random_walk"`` (one knot per frame) or ``"constant"``.
+    min_corners : int
+        Frames with fewer corners are not used (PnP start and the 6-dof frame state need them).
+    min_frames : int
+        Refuse with fewer usable frames.
+    max_offset : float
+        ``|τ|`` searched by the rate correlation, s.
+    reject_sigmas : float
+        Corners whose residual exceeds this many pixel σ after a pass are rejected in the next.
+    passes, max_iterations : int
+        Outer passes (σ re-estimate, rejection, re-anchoring) and LM steps per pass.
+
+    Raises
+    ------
+    ValueError
+        Bad shapes, no time overlap between the IMU and the frames, fewer than ``min_frames`` usable frames.
+    TypeError
+        ``frames`` or ``camera`` of the wrong kind.
+    """
+    start = time.perf_counter()
+    imu_t, gyro, accel = _check_inputs(imu_t, gyro, accel, frames, camera)
+    if bias_model not in ("random_walk", "constant"):
+        raise ValueError(f"bias_model must be 'random_walk' or 'constant'; got {bias_model!r}")
+    ft = np.asarray(frames.t, dtype=np.float64)
+    inside = (ft - max_offset > imu_t[0]) & (ft + max_offset < imu_t[-1])
+    if not inside.any():
+        raise ValueError(f"no time overlap: frames span [{ft.min():.3f}, {ft.max():.3f}] s, the IMU "
+                         f"[{imu_t[0]:.3f}, {imu_t[-1]:.3f}] s (same clock and origin expected)")  # fmt: skip
+    counts = frames.counts
+    no_det = counts == 0
+    few = (counts > 0) & (counts < min_corners)
+    cand = np.flatnonzero(inside & ~no_det & ~few)
+    if len(cand) < min_frames:
+        raise ValueError(f"only {len(cand)} frames with >= {min_corners} corners inside the IMU record; need "
+                         f"{min_frames}")  # fmt: skip
+    R_wc, c_w, pnp_rms, ok = _initial_poses(frames, cand, camera, min_corners)
+    pnp_failed = cand[~ok]
+    used = cand[ok]
+    R_wc, c_w = R_wc[ok], c_w[ok]
+    if len(used) < min_frames:
+        raise ValueError(f"only {len(used)} frames with a PnP pose; need {min_frames}")
+    t_used = ft[used]
+
+    # rotation, coarse τ and gyro bias from the rates (no extrinsic given)
+    coarse = estimate_time_offset(imu_t, gyro, t_used, dp.quat_from_matrix(R_wc), None, max_offset=max_offset)
+    R_bc = dp.matrix_from_quat(coarse.q_bc)
+    tau0 = float(coarse.offset)
+    R_wb = R_wc @ R_bc.T
+    p_wb = c_w.copy()  # translation starts at zero
+    v_wb = np.column_stack([np.gradient(p_wb[:, c], t_used) for c in range(3)])
+
+    sub = np.concatenate([[0], np.cumsum(counts[used])])
+    rows = np.concatenate([np.arange(frames.offsets[k], frames.offsets[k + 1]) for k in used])
+    prob = _Problem(imu_t, gyro, accel, t_used, sub, frames.pixels[rows], frames.points[rows], camera, imu_noise,
+                    float(gravity_magnitude), bias_model)  # fmt: skip
+    bias = np.zeros((prob.K, 6))
+    bias[:, :3] = coarse.gyro_bias
+    # gravity from the telescoped velocity change: Σ (v_j − v_i) = g T + Σ R_i Δv_ij
+    pre0 = preintegrate(imu_t, gyro, accel, t_used + tau0, np.broadcast_to(coarse.gyro_bias, (len(used) - 1, 3)),
+                        np.zeros((len(used) - 1, 3)), 0.0, 0.0)  # fmt: skip
+    g_sum = v_wb[-1] - v_wb[0] - np.einsum("kij,kj->i", R_wb[:-1], pre0.dv)
+    g0 = g_sum / np.linalg.norm(g_sum) * gravity_magnitude
+    pix_sigma0 = float(np.nanmedian(pnp_rms[ok]))
+    prob.sigma_px = max(pix_sigma0, 0.05)
+    prob.set_state(R_wb, p_wb, v_wb, bias, R_bc, np.zeros(3), tau0, g0, tau0)
+
+    # first: a pass with the lever arm and velocities settling (everything free), then re-weighting passes
+    iterations = 0
+    for _pass in range(passes):
+        iterations += _levenberg_marquardt(prob, max_iterations)
+        r, use, _ = prob.reprojection(False)
+        rn = np.linalg.norm(r, axis=-1)
+        prob.sigma_px = max(1.4826 * float(np.median(np.abs(r[prob.inlier & use]))), 1e-3)
+        prob.inlier = prob.valid0 & (rn < reject_sigmas * prob.sigma_px)
+        prob.reanchor()
+    iterations += _levenberg_marquardt(prob, max_iterations)
+
+    # covariance of the globals (and the bias means) from the information at the solution
+    H, _, _ = prob.normal_equations()
+    n, K = prob.N, prob.K
+    comb = np.zeros((prob.nb, 6 if K > 1 else 0))
+    for c in range(comb.shape[1]):
+        comb[prob.knot_idx[:, c], c] = 1.0 / K
+    try:
+        c_border, c_mean = H.covariance(comb)
+    except np.linalg.LinAlgError:
+        c_border, c_mean = np.full((prob.nvar - prob.nb,) * 2, np.nan), np.full((comb.shape[1],) * 2, np.nan)
+    cov_g = c_border[-_NG:, -_NG:]
+    cov_g = 0.5 * (cov_g + cov_g.T)
+    c_bias = c_mean if K > 1 else c_border[:6, :6]
+    std_all = np.sqrt(np.maximum(np.concatenate([np.diag(cov_g), np.diag(c_bias)]), 0.0))
+
+    r, use, _ = prob.reprojection(False)
+    inl = prob.inlier & use
+    rms = float(np.sqrt(np.mean(r[inl] ** 2)))
+    rI = prob.imu_whitened(False)[0]
+    chi2 = float(np.mean(np.sum(rI**2, axis=1)) / 9.0)
+    n_rej = int(np.sum(prob.valid0 & ~prob.inlier))
+
+    # excitation: eigen-directions of Cov([p_bc, τ])
+    ct = cov_g[3:7, 3:7]
+    lam, vec = np.linalg.eigh(cov_g[3:6, 3:6])
+    order = np.argsort(lam)[::-1]
+    tr_std = np.sqrt(np.maximum(lam[order], 0.0))
+    warnings = []
+    if tr_std[0] > 0.005:
+        worst = np.round(vec[:, order[0]], 3).tolist()
+        warnings.append(f"translation poorly excited: std {1e3 * tr_std[0]:.1f} mm along {worst} (rotate the rig "
+                        "more, about several axes)")  # fmt: skip
+    if math.sqrt(ct[3, 3]) > 0.002:
+        warnings.append(f"time offset poorly excited: std {1e3 * math.sqrt(ct[3, 3]):.2f} ms")
+    if lam[order[-1]] <= 0 or not np.all(np.isfinite(cov_g)):
+        warnings.append("information matrix not positive definite: some parameters are unobservable")
+
+    # post-hoc IMU axis model: mean gyro over each interval vs the estimated mean body rate
+    s = prob.s
+    rel = np.swapaxes(prob.R[:-1], 1, 2) @ prob.R[1:]
+    dt = np.diff(s)
+    w_est = dp.so3_log(rel) / dt[:, None]
+    w_meas = gyro_mean_rates(imu_t, gyro, s[:-1], s[1:])
+    short = dt < 0.2
+    gyro_M = _fit_misalignment(w_est[short], w_meas[short])
+    bk = prob.bias[prob.knot]
+    dv_true = np.einsum("kji,kj->ki", prob.R[:-1], prob.v[1:] - prob.v[:-1] - prob.g * dt[:, None])
+    pre_nb = preintegrate(imu_t, gyro, accel, s, bk[:-1, :3], np.zeros((n - 1, 3)), 0.0, 0.0)
+    acc_M = _fit_misalignment(dv_true[short] / dt[short, None], pre_nb.dv[short] / dt[short, None])
+
+    q_bc = dp.quat_from_matrix(prob.R_bc)
+    std = {
+        "rotation_deg": np.degrees(std_all[0:3]),
+        "translation_m": std_all[3:6],
+        "time_offset_s": float(std_all[6]),
+        "gyro_bias": std_all[_NG : _NG + 3],
+        "accel_bias": std_all[_NG + 3 : _NG + 6],
+        "gravity_target_deg": float(np.degrees(math.sqrt(max(cov_g[7, 7] + cov_g[8, 8], 0.0)))),
+    }
+    outliers = {
+        "frames_total": int(len(ft)),
+        "no_detections": ft[no_det].tolist(),
+        "too_few_corners": ft[few].tolist(),
+        "outside_imu": ft[~inside & ~no_det].tolist(),
+        "pnp_failed": ft[pnp_failed].tolist(),
+        "corners_total": int(prob.valid0.sum()),
+        "corners_rejected": n_rej,
+        "corners_rejected_fraction": n_rej / max(int(prob.valid0.sum()), 1),
+        "reject_threshold_px": reject_sigmas * prob.sigma_px,
+    }
+    excitation = {
+        "translation_std_m": tr_std,
+        "translation_directions": vec[:, order].T,
+        "time_offset_std_s": float(math.sqrt(max(ct[3, 3], 0.0))),
+        "warnings": warnings,
+    }
+    return CameraImuCalibration(
+        q_bc=q_bc, p_bc=prob.p_bc.copy(), time_offset=float(prob.tau), gyro_bias=prob.bias[:, :3].mean(axis=0),
+        accel_bias=prob.bias[:, 3:].mean(axis=0), gravity_target=prob.g.copy(), std=std, covariance=cov_g,
+        reprojection_rms_px=rms, pixel_sigma=prob.sigma_px, imu_chi2_per_dof=chi2, outliers=outliers,
+        excitation=excitation, gyro_misalignment=gyro_M, accel_misalignment=acc_M, frames_used=n,
+        iterations=iterations, runtime_s=time.perf_counter() - start, bias_t=prob.knot_t + prob.tau_ref,
+        bias_track=prob.bias.copy(),
+        initial={"q_bc": coarse.q_bc, "time_offset": tau0, "gyro_bias": coarse.gyro_bias},
+    )  # fmt: skip

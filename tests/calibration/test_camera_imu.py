@@ -1,0 +1,131 @@
+"""Camera–IMU batch calibration (:mod:`dualpose.calibration.camera_imu`): recovery of a simulated rig with a
+distorted camera within the predicted σ, input refusals, and the EuRoC imu_april recording against EuRoC's
+published Kalibr extrinsics (Burri et al. 2016) on a cut of the recording (the full run:
+benchmarks/calibrate_euroc.py)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import dualpose as dp
+from dualpose import sim
+from dualpose.calibration.camera_imu import calibrate_camera_imu
+from dualpose.types.camera import FrameCorrespondences
+from dualpose.types.camera_models import RadTanCamera
+from dualpose.types.imu import ImuNoise
+
+EUROC = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "euroc" / "imu_april"
+
+#: EuRoC's Kalibr extrinsics T_BS (camera pose in the IMU frame), mav0/cam0|cam1/sensor.yaml (Burri et al. 2016)
+KALIBR = {
+    "cam0": [0.0148655429818, -0.999880929698, 0.00414029679422, -0.0216401454975, 0.999557249008, 0.0149672133247,
+             0.025715529948, -0.064676986768, -0.0257744366974, 0.00375618835797, 0.999660727178, 0.00981073058949,
+             0, 0, 0, 1],
+    "cam1": [0.0125552670891, -0.999755099723, 0.0182237714554, -0.0198435579556, 0.999598781151, 0.0130119051815,
+             0.0251588363115, 0.0453689425024, -0.0253898008918, 0.0179005838253, 0.999517347078, 0.00786212447038,
+             0, 0, 0, 1],
+}  # fmt: skip
+
+
+def _simulated(seed: int, pixel_sigma: float = 0.3, time_offset: float = 0.004):
+    """The eight-shaped run at 200 Hz with its pinhole pixels re-projected through a radial–tangential camera."""
+    cam = RadTanCamera(213.3, 213.3, 160.0, 120.0, -0.2, 0.05, 1e-3, -1e-3, 320, 240)
+    noise = ImuNoise(update_rate=200.0)
+    run = sim.simulate(sim.eight_motion(), seed=seed, imu_noise=noise, camera_rate=20, pixel_sigma=0.0,
+                       landmarks_per_frame=40, time_offset=time_offset)  # fmt: skip
+    f = run.frames
+    K = run.camera.matrix
+    xyz = np.column_stack([(f.pixels - K[:2, 2]) / np.diag(K)[:2], np.ones(len(f.pixels))])
+    rng = np.random.default_rng(seed + 100)
+    pixels = cam.project(xyz) + rng.normal(0.0, pixel_sigma, (len(xyz), 2))
+    return run, cam, noise, FrameCorrespondences(f.t, f.offsets, pixels, f.points)
+
+
+@pytest.fixture(scope="module")
+def simulated():
+    run, cam, noise, frames = _simulated(1)
+    return run, calibrate_camera_imu(run.t, run.gyro, run.accel, frames, cam, noise, min_frames=20)
+
+
+def test_simulated_rig_recovered_within_predicted_sigma(simulated):
+    run, res = simulated
+    cov = res.covariance
+    # rotation error in the body frame: R̂ = Exp(ε) R_true
+    eps = dp.so3_log(res.rotation_matrix @ dp.matrix_from_quat(run.q_bc).T)
+    assert float(eps @ np.linalg.solve(cov[:3, :3], eps)) < 16.3  # χ²(3) 99.9 %
+    dt = res.p_bc - run.p_bc
+    assert float(dt @ np.linalg.solve(cov[3:6, 3:6], dt)) < 16.3
+    assert abs(res.time_offset - run.time_offset) < 4 * res.std["time_offset_s"]
+    g_err = np.degrees(np.arctan2(np.linalg.norm(np.cross(res.gravity_target, run.gravity)),
+                                  res.gravity_target @ run.gravity))  # fmt: skip
+    assert g_err < 4 * res.std["gravity_target_deg"]
+    assert np.all(np.abs(res.gyro_bias - run.truth["gyro_bias"].mean(axis=0)) < 4 * res.std["gyro_bias"])
+    assert abs(np.linalg.norm(res.gravity_target) - 9.81) < 1e-9
+    assert res.reprojection_rms_px == pytest.approx(0.3, rel=0.1)
+    # the batch improves on the rate-correlation start
+    assert np.degrees(dp.quat_angle(res.q_bc, run.q_bc)) < np.degrees(dp.quat_angle(res.initial["q_bc"], run.q_bc))
+
+
+def test_constant_bias_model_agrees(simulated):
+    run, rw = simulated
+    _, cam, noise, frames = _simulated(1)
+    const = calibrate_camera_imu(run.t, run.gyro, run.accel, frames, cam, noise, min_frames=20, bias_model="constant")
+    assert const.bias_track.shape == (1, 6)
+    assert np.degrees(dp.quat_angle(const.q_bc, rw.q_bc)) < 3 * np.max(rw.std["rotation_deg"])
+    assert np.all(np.abs(const.p_bc - rw.p_bc) < 3 * rw.std["translation_m"] + 1e-4)
+
+
+def test_refusals():
+    run, cam, noise, frames = _simulated(2)
+    with pytest.raises(ValueError, match="bias_model"):
+        calibrate_camera_imu(run.t, run.gyro, run.accel, frames, cam, noise, bias_model="spline")
+    late = FrameCorrespondences(frames.t + 1000.0, frames.offsets, frames.pixels, frames.points)
+    with pytest.raises(ValueError, match="no time overlap"):
+        calibrate_camera_imu(run.t, run.gyro, run.accel, late, cam, noise)
+    with pytest.raises(ValueError, match="frames with >= 8 corners"):
+        calibrate_camera_imu(run.t, run.gyro, run.accel, frames, cam, noise, min_frames=10_000)
+    with pytest.raises(ValueError, match="gyro must be finite"):
+        calibrate_camera_imu(run.t, run.gyro[:-1], run.accel, frames, cam, noise)
+    with pytest.raises(TypeError, match="frames must be a FrameCorrespondences"):
+        calibrate_camera_imu(run.t, run.gyro, run.accel, (frames.t, frames.pixels), cam, noise)
+
+
+@pytest.fixture(scope="module")
+def euroc_cut():
+    if not EUROC.is_dir():
+        pytest.skip(f"EuRoC imu_april data missing ({EUROC})")
+    from dualpose.pipelines.calibrate_camera_imu import calibrate_camera_imu_files
+
+    return {c: calibrate_camera_imu_files(str(EUROC / "imu0.csv"), str(EUROC / f"{c}_aprilgrid.csv"),
+                                          str(EUROC / "sensors.yaml"), c, frame_window=(10.0, 25.0))
+            for c in ("cam0", "cam1")}  # fmt: skip
+
+
+def _T(m: dict) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3] = dp.matrix_from_quat(np.array(m["rotation_xyzw"]))
+    T[:3, 3] = m["translation_m"]
+    return T
+
+
+def _angle_deg(R: np.ndarray) -> float:
+    return float(np.degrees(np.linalg.norm(dp.so3_log(R))))
+
+
+def test_euroc_cut_against_kalibr_and_stereo(euroc_cut):
+    from dualpose.io import read_rig_sensors
+
+    for cam, m in euroc_cut.items():
+        T = _T(m)
+        Tk = np.array(KALIBR[cam]).reshape(4, 4)
+        assert _angle_deg(Tk[:3, :3].T @ T[:3, :3]) < 0.3, cam
+        assert np.linalg.norm(T[:3, 3] - Tk[:3, 3]) < 0.015, cam
+        assert abs(m["time_offset_s"]) < 0.002, cam
+        assert m["reprojection_rms_px"] < 0.6, cam
+    stereo = read_rig_sensors(EUROC / "sensors.yaml").T_cam0_cam1
+    est = np.linalg.inv(_T(euroc_cut["cam0"])) @ _T(euroc_cut["cam1"])
+    assert _angle_deg(stereo[:3, :3].T @ est[:3, :3]) < 0.1
+    assert np.linalg.norm(est[:3, 3] - stereo[:3, 3]) < 0.01

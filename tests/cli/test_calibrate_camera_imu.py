@@ -1,0 +1,68 @@
+"""``dualpose calibrate camera-imu``: refusals with exit codes (2 usage, 1 input) and the JSON keys the tracking
+job reads, on a cut of the EuRoC imu_april recording (skipped when the data is absent)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from dualpose.cli.main import main
+
+EUROC = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "euroc" / "imu_april"
+
+KEYS = {"camera", "rotation_xyzw", "translation_m", "time_offset_s", "reprojection_rms_px", "gyro_bias", "accel_bias",
+        "gravity_target", "std", "outliers", "excitation", "warnings"}  # fmt: skip
+STD_KEYS = {"rotation_deg", "translation_m", "time_offset_s", "gyro_bias", "accel_bias", "gravity_target_deg"}
+
+
+@pytest.fixture(scope="module")
+def euroc() -> Path:
+    if not EUROC.is_dir():
+        pytest.skip(f"EuRoC imu_april data missing ({EUROC})")
+    return EUROC
+
+
+def _args(d: Path, *extra: str) -> list[str]:
+    return ["calibrate", "camera-imu", str(d / "imu0.csv"), str(d / "cam0_aprilgrid.csv"), "--sensors",
+            str(d / "sensors.yaml"), *extra]  # fmt: skip
+
+
+def test_json_keys_on_a_cut(euroc, capsys):
+    assert main(_args(euroc, "--window", "30", "40", "--json")) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert KEYS <= set(out)
+    assert STD_KEYS <= set(out["std"])
+    assert out["camera"] == "cam0"
+    assert len(out["rotation_xyzw"]) == 4 and len(out["translation_m"]) == 3
+    assert len(out["std"]["rotation_deg"]) == 3 and out["std"]["time_offset_s"] > 0
+    assert abs(out["time_offset_s"]) < 0.002
+    assert out["outliers"]["frames_total"] > 150
+
+
+def test_usage_errors_exit_2(euroc, capsys):
+    assert main(_args(euroc, "--camera", "cam7")) == 2
+    assert "unknown camera 'cam7'" in capsys.readouterr().err
+    assert main(_args(euroc, "--window", "5", "1")) == 2
+    assert "--window" in capsys.readouterr().err
+    assert main(_args(euroc, "--min-frames", "3")) == 2
+    with pytest.raises(SystemExit) as exc:
+        main(["calibrate", "camera-imu", str(euroc / "imu0.csv"), str(euroc / "cam0_aprilgrid.csv")])
+    assert exc.value.code == 2
+
+
+def test_input_errors_exit_1(euroc, tmp_path, capsys):
+    assert main(_args(euroc, "--window", "1000", "1010")) == 1
+    assert "no time overlap" in capsys.readouterr().err
+    assert main(_args(euroc, "--window", "30", "31")) == 1
+    assert "frames with >= 8 corners" in capsys.readouterr().err
+    yaml = (euroc / "sensors.yaml").read_text().replace("radial-tangential", "equidistant", 1)
+    (tmp_path / "sensors.yaml").write_text(yaml)
+    args = ["calibrate", "camera-imu", str(euroc / "imu0.csv"), str(euroc / "cam0_aprilgrid.csv"), "--sensors",
+            str(tmp_path / "sensors.yaml")]  # fmt: skip
+    assert main(args) == 1
+    assert "not supported" in capsys.readouterr().err
+    assert main(["calibrate", "camera-imu", str(tmp_path / "missing.csv"), str(euroc / "cam0_aprilgrid.csv"),
+                 "--sensors", str(euroc / "sensors.yaml")]) == 1  # fmt: skip
+    assert "missing.csv" in capsys.readouterr().err
