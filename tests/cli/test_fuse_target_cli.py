@@ -96,8 +96,9 @@ def test_no_time_overlap_is_refused(recording_dir, tmp_path, capsys):
 @pytest.mark.parametrize(
     ("edit", "message"),
     [
-        (lambda c: c.update(rotation="x"), "unknown key(s) 'rotation'"),
+        (lambda c: c.update(rotation_xyz=c.pop("rotation_xyzw")), "'rotation_xyz' instead of 'rotation_xyzw'?"),
         (lambda c: c.pop("translation_m"), "missing key(s) 'translation_m'"),
+        (lambda c: c.update(time_offset_s="0.1"), "time_offset_s must be a finite number"),
         (lambda c: c.update(rotation_xyzw=[0, 0, 0, 2]), "rotation_xyzw must be a unit quaternion"),
         (lambda c: c.update(camera="cam1"), "the calibration is of camera 'cam1'"),
     ],

@@ -12,12 +12,15 @@ A target-recording directory holds::
 The calibration JSON (``dualpose calibrate camera-imu ... --json``) is one object with the keys of
 :class:`~dualpose.types.calibration.CameraImuCalibration`: ``camera``, ``rotation_xyzw``, ``translation_m``,
 ``time_offset_s``, ``reprojection_rms_px`` (required), ``gyro_bias``, ``accel_bias``, ``gravity_target``, ``std``
-(optional, may be null).  Every problem is a :class:`~dualpose.io.recording.RecordingError` naming the file (and the
+(optional, may be null); other keys (the calibration's own report: residuals, outliers, ...) are not read.  A missing
+required key is refused, with the near miss named when there is one (``'rotation_xyz' instead of 'rotation_xyzw'?``).
+Every problem is a :class:`~dualpose.io.recording.RecordingError` naming the file (and the
 key or line).
 """
 
 from __future__ import annotations
 
+import difflib
 import json
 import os
 import re
@@ -140,8 +143,8 @@ def read_camera_imu_calibration(path: str | os.PathLike) -> CameraImuCalibration
     Raises
     ------
     RecordingError
-        ``path: ...`` for a missing file, invalid JSON (with its line), a missing or unknown key (the expected keys
-        listed) or a value of the wrong shape (naming the key).
+        ``path: ...`` for a missing file, invalid JSON (with its line), a missing required key (the required keys
+        listed, a near miss named) or a value of the wrong shape (naming the key).
     """
     p = check_path(path, "calibration")
     try:
@@ -156,15 +159,15 @@ def read_camera_imu_calibration(path: str | os.PathLike) -> CameraImuCalibration
     expected = ", ".join(CALIBRATION_KEYS)
     if not isinstance(data, dict):
         raise RecordingError(f"{p}: a camera-IMU calibration is one JSON object with the keys {expected}")
-    unknown = sorted(set(data) - set(CALIBRATION_KEYS))
-    if unknown:
-        raise RecordingError(f"{p}: unknown key(s) {', '.join(map(repr, unknown))}; expected {expected}")
     missing = [k for k, required in CALIBRATION_KEYS.items() if required and data.get(k) is None]
     if missing:
+        near = {k: difflib.get_close_matches(k, [d for d in data if d not in CALIBRATION_KEYS], n=1) for k in missing}
+        hint = "".join(f"; {v[0]!r} instead of {k!r}?" for k, v in near.items() if v)
         raise RecordingError(f"{p}: missing key(s) {', '.join(map(repr, missing))} (required: "
-                             f"{', '.join(k for k, r in CALIBRATION_KEYS.items() if r)})")  # fmt: skip
+                             f"{', '.join(k for k, r in CALIBRATION_KEYS.items() if r)}){hint}")  # fmt: skip
     try:
-        return CameraImuCalibration(**{k: v for k, v in data.items() if not (k == "std" and v is None)})
+        known = {k: v for k, v in data.items() if k in CALIBRATION_KEYS and not (k == "std" and v is None)}
+        return CameraImuCalibration(**known)
     except (TypeError, ValueError) as exc:
         raise RecordingError(f"{p}: {exc}") from None
 

@@ -587,8 +587,9 @@ def score_run(
     own = setup.cache["own"]
     err = errors_against(ref, estimate)
     cal = setup.calibration
-    pnp = errors_against(ref, body_trajectory(own, cal.rotation_xyzw, cal.translation_m, cal.time_offset_s),
-                         max_gap=1e-6)  # fmt: skip
+    # the tracked camera's own frames, at the reference frames' times (interpolated across its clock offset, never
+    # across a missing frame)
+    pnp = errors_against(ref, body_trajectory(own, cal.rotation_xyzw, cal.translation_m, cal.time_offset_s))
     t0 = float(src.imu.stamps[0])
     # NEES of the position against the reference, with the reference's own covariance (camera centre + lever arm)
     row = np.clip(np.searchsorted(estimate.stamps, err.estimate.stamps - 1e-6), 0, len(estimate) - 1)
