@@ -383,30 +383,28 @@ def _new_stream(filter: str, sensors, x: np.ndarray, P: np.ndarray):
     return EskfStream(f) if filter == "eskf" else Hol22Stream(f)
 
 
-def _stream_state(stream) -> dict:
-    """The current state of a stream in the error-state filter's terms (for :func:`relock_start`)."""
-    L = stream.state_layout
-    C = stream.covariance
-    x = stream.state
-    hol = "quat_be" in L.names
-    cl = L if hol else ESKF_ERROR  # Hol22: covariance over its state; ESKF: over its error state
-    q = dp.quat_conj(L.get(x, "quat_be")) if hol else L.get(x, "quat")
-    return {"position": L.get(x, "position"), "velocity": L.get(x, "velocity"), "quat": q,
-            "gyro_bias": L.get(x, "gyro_bias"), "accel_bias": L.get(x, "accel_bias"),
+def _filter_state(layout, x: np.ndarray, C: np.ndarray) -> dict:
+    """A stream's state ``x`` and covariance ``C`` (its ``state_layout``) in the error-state filter's terms (for
+    :func:`relock_start`)."""
+    hol = "quat_be" in layout.names
+    cl = layout if hol else ESKF_ERROR  # Hol22: covariance over its state; ESKF: over its error state
+    q = dp.quat_conj(layout.get(x, "quat_be")) if hol else layout.get(x, "quat")
+    return {"position": layout.get(x, "position"), "velocity": layout.get(x, "velocity"), "quat": q,
+            "gyro_bias": layout.get(x, "gyro_bias"), "accel_bias": layout.get(x, "accel_bias"),
             "gyro_bias_cov": cl.cov(C, "gyro_bias").copy(),
             "accel_bias_cov": cl.cov(C, "accel_bias").copy()}  # fmt: skip
 
 
-def _relocked(stream, done: list, t: float, gyro, accel, sensors, filter: str):
-    """After the IMU sample ``(t, gyro, accel)``: the first of the frames ``done`` (FrameUpdates filtered at it, in
-    order) that the filter lost and that re-locks gives a new stream, started from :func:`relock_start` and fed
-    that sample as its first; None when no frame does.  The batch run and :class:`TrackStream` both call this."""
+def _relocked(state, done: list, t: float, gyro, accel, sensors, filter: str):
+    """After the IMU sample ``(t, gyro, accel)`` with the filter in ``state`` (a callable giving
+    :func:`_filter_state`'s dict): the first of the frames ``done`` (FrameUpdates filtered at that sample, in order)
+    that the filter lost and that re-locks gives a new stream, started from :func:`relock_start` and fed that sample
+    as its first; None when no frame does.  The batch run and :class:`TrackStream` both call this."""
     for fu in done:
         n = len(fu.pixels)
         if fu.status != "done" or not n or not lost_frame(np.array([n]), fu.accepted)[0]:
             continue
-        new = relock_start(_stream_state(stream), np.asarray(gyro, dtype=np.float64), t - fu.t, fu.pixels, fu.points,
-                           sensors)  # fmt: skip
+        new = relock_start(state(), np.asarray(gyro, dtype=np.float64), t - fu.t, fu.pixels, fu.points, sensors)
         if new is None:
             continue
         fresh = _new_stream(filter, sensors, *new)
@@ -415,45 +413,60 @@ def _relocked(stream, done: list, t: float, gyro, accel, sensors, filter: str):
     return None
 
 
+#: frame-filtering IMU samples per compiled block of :func:`run_relocking`
+BLOCK_GROUPS = 64
+
+
 def run_relocking(rec: Recording, x: np.ndarray, P: np.ndarray, filter: str = "eskf") -> TrackedRun:
     """Run ``filter`` from ``(x, P)`` over ``rec`` and re-lock it on every frame it loses (:func:`lost_frame`,
-    :func:`relock_start`): the streaming filter fed in compiled blocks, one block per IMU sample that filters frames
-    (:meth:`~dualpose.estimation.eskf.EskfStream.update_batch`), so that after each such sample the frames are checked
-    and, on a loss, a new filter continues from that sample -- exactly what :class:`TrackStream` does line by line
-    (the streams equal the batch filters bit for bit, docs/fusion.md "Streaming")."""
+    :func:`relock_start`): the streaming filter fed in compiled blocks
+    (:meth:`~dualpose.estimation.eskf.EskfStream.update_batch`, the covariance after every sample); the frames of a
+    block are checked sample by sample in order, and at the first re-lock the rest of the block is dropped and a new
+    filter continues from that sample -- exactly what :class:`TrackStream` does line by line (the streams equal the
+    batch filters bit for bit, docs/fusion.md "Streaming")."""
     f = rec.frames
     t, gyro, accel = rec.t, rec.gyro, rec.accel
     n = len(t)
     k_of = np.searchsorted(t, f.t + rec.time_offset, side="left")  # the IMU sample each frame is filtered at
     stream = _new_stream(filter, rec, x, P)
-    hol = "quat_be" in stream.state_layout.names
-    cov_layout = stream.state_layout if hol else ESKF_ERROR
+    L = stream.state_layout
+    hol = "quat_be" in L.names
+    cov_layout = L if hol else ESKF_ERROR
+    starts = np.flatnonzero(np.diff(np.r_[-1, k_of]) != 0)  # first frame of each run of equal k_of
+    starts = starts[k_of[starts] < n]  # frames after the last sample are never filtered
+    ends = np.r_[starts[1:], np.searchsorted(k_of, n)] if len(starts) else starts
     X, C, nis, acc, relocks = [], [], [], [], []
-    i = 0
-    wall = 0.0
-    groups = np.flatnonzero(np.diff(np.r_[-1, k_of]) != 0)  # first frame of each run of equal k_of
-    bounds = np.r_[groups, len(k_of)]
-    for g0, g1 in zip(bounds[:-1], bounds[1:], strict=True):
-        k = int(k_of[g0])
-        if k >= n:
-            break
-        o = f.offsets
+    i, g, wall = 0, 0, 0.0
+    o = f.offsets
+    while g < len(starts):
+        h = min(g + BLOCK_GROUPS, len(starts))
+        k_last = int(k_of[starts[h - 1]])
+        f0, f1 = starts[g], ends[h - 1]
         t0 = time.perf_counter()
-        blk = stream.update_batch(t[i : k + 1], gyro[i : k + 1], accel[i : k + 1], f.t[g0:g1], o[g0 : g1 + 1] - o[g0],
-                                  f.pixels[o[g0] : o[g1]], f.points[o[g0] : o[g1]], covariance=True)  # fmt: skip
-        fresh = _relocked(stream, blk.frames, float(t[k]), gyro[k], accel[k], rec, filter)
+        blk = stream.update_batch(t[i : k_last + 1], gyro[i : k_last + 1], accel[i : k_last + 1], f.t[f0:f1],
+                                  o[f0 : f1 + 1] - o[f0], f.pixels[o[f0] : o[f1]], f.points[o[f0] : o[f1]],
+                                  covariance=True)  # fmt: skip
+        keep_rows, keep_frames, fresh = len(blk.states), f1 - f0, None
+        for q in range(g, h):
+            k = int(k_of[starts[q]])
+            row = k - i
+            done = blk.frames[starts[q] - f0 : ends[q] - f0]
+            fresh = _relocked(lambda b=blk, r=row: _filter_state(L, b.states[r], b.covariance[r]), done,
+                              float(t[k]), gyro[k], accel[k], rec, filter)  # fmt: skip
+            if fresh is not None:
+                keep_rows, keep_frames = row + 1, ends[q] - f0
+                blk.states[row] = fresh.state
+                blk.covariance[row] = fresh.covariance
+                relocks.append(float(t[k]))
+                stream, h = fresh, q + 1
+                break
         wall += time.perf_counter() - t0
-        if fresh is not None:
-            stream = fresh
-            blk.states[-1] = stream.state
-            blk.covariance[-1] = stream.covariance
-            relocks.append(float(t[k]))
-        X.append(blk.states)
-        C.append(blk.covariance)
-        for fu in blk.frames:
+        X.append(blk.states[:keep_rows])
+        C.append(blk.covariance[:keep_rows])
+        for fu in blk.frames[:keep_frames]:
             nis.append(fu.nis)
             acc.append(fu.accepted)
-        i = k + 1
+        i, g = i + keep_rows, h
     if i < n:
         t0 = time.perf_counter()
         blk = stream.update_batch(t[i:], gyro[i:], accel[i:], covariance=True)
@@ -461,15 +474,14 @@ def run_relocking(rec: Recording, x: np.ndarray, P: np.ndarray, filter: str = "e
         X.append(blk.states)
         C.append(blk.covariance)
     X, C = np.concatenate(X), np.concatenate(C)
-    L = stream.state_layout
     quat = dp.quat_conj(L.get(X, "quat_be")) if hol else L.get(X, "quat")
     att = None if hol else np.degrees(np.sqrt(np.trace(cov_layout.cov(C, "attitude"), axis1=1, axis2=2)))
-    bounds_nis = (float(chi2.ppf(0.025, 2)), float(chi2.ppf(0.975, 2)))
     return TrackedRun(
         t=t.copy(), position=L.get(X, "position"), velocity=L.get(X, "velocity"), quat=quat,
         position_cov=cov_layout.cov(C, "position"), attitude_sigma_deg=att,
         nis=np.concatenate(nis) if nis else np.zeros(0), accepted=np.concatenate(acc) if acc else np.zeros(0, bool),
-        bounds=bounds_nis, gate=float(chi2.ppf(0.999, 2)), relocks=relocks, wall_time=wall,
+        bounds=(float(chi2.ppf(0.025, 2)), float(chi2.ppf(0.975, 2))), gate=float(chi2.ppf(0.999, 2)),
+        relocks=relocks, wall_time=wall,
     )  # fmt: skip
 
 
@@ -720,8 +732,10 @@ class TrackStream:
         done = [fu for fu, _ in self._frames if fu.status != "pending"]
         pending = [(fu, tc) for fu, tc in self._frames if fu.status == "pending"]
         self._frames = pending
-        fresh = _relocked(self._stream, done, t, np.asarray(g, dtype=np.float64), np.asarray(a, dtype=np.float64),
-                          self._setup, self.filter)  # fmt: skip
+        st = self._stream
+        fresh = _relocked(lambda: _filter_state(st.state_layout, st.state, st.covariance), done, t,
+                          np.asarray(g, dtype=np.float64), np.asarray(a, dtype=np.float64), self._setup,
+                          self.filter)  # fmt: skip
         if fresh is not None:
             self._stream = fresh
             x = fresh.state
