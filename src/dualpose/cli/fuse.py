@@ -368,9 +368,9 @@ def run(args: argparse.Namespace) -> int:
     if args.data is not None and is_target_recording(args.data):
         return run_target(args)
     if args.calibration is not None:
-        return _usage_error("--calibration is used with --stream, or with a calibration-target recording (--data DIR "
-                            "holding imu0.csv, camN_aprilgrid.csv and sensors.yaml); a recording with sensors.json "
-                            "has its own sensor file")  # fmt: skip
+        return _usage_error("--calibration is only used with --stream or with a calibration-target recording (--data "
+                            "DIR holding imu0.csv, camN_aprilgrid.csv and sensors.yaml); a recording with "
+                            "sensors.json has its own sensor file")  # fmt: skip
     used = [n for n, v in (("--camera", args.camera), ("--outage", args.outage), ("--sensors", args.sensors)) if v]
     if used:
         return _usage_error(f"{', '.join(used)}: only used with a calibration-target recording (--data DIR holding "
