@@ -305,6 +305,33 @@ def _target_table(m: dict) -> str:
     return aligned_rows(rows)
 
 
+def _report(args: argparse.Namespace, result, paths: dict, table) -> int:
+    """Write ``--out``'s files (``paths``: name -> path) of a :class:`~dualpose.pipelines.fuse.FuseResult` and print
+    ``table(metrics)`` or, with ``--json``, the metrics (without the full evaluation)."""
+    metrics = result.metrics
+    if paths:
+        from dualpose.evaluation.fuse_figures import fuse_figures
+        from dualpose.io import write_tum
+
+        out = paths["trajectory.tum"].parent
+        out.mkdir(parents=True, exist_ok=True)
+        write_tum(paths["trajectory.tum"], result.estimate, overwrite=args.force)
+        if result.smoothed is not None:
+            write_tum(paths["trajectory_smoothed.tum"], result.smoothed, overwrite=args.force)
+        paths["metrics.json"].write_text(json.dumps(metrics, indent=2) + "\n")
+        fuse_figures(result, paths["top_view.png"], paths["errors.png"], paths["nis.png"])
+    if args.json:
+        summary = {k: v for k, v in metrics.items() if k != "evaluation"}
+        if paths:
+            summary["out"] = str(out)
+        print(json.dumps(summary, indent=2))
+        return 0
+    print(table(metrics))
+    if paths:
+        print(f"\nwritten to {out}: " + ", ".join(paths))
+    return 0
+
+
 def run_target(args: argparse.Namespace) -> int:
     """``dualpose fuse --data DIR --camera NAME --calibration CALIB.json`` on a calibration-target recording."""
     from pathlib import Path
@@ -335,25 +362,7 @@ def run_target(args: argparse.Namespace) -> int:
     except (RecordingError, ValueError) as exc:
         print(f"dualpose fuse: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1
-    metrics = result.metrics
-    if paths:
-        from dualpose.evaluation.fuse_figures import fuse_figures
-        from dualpose.io import write_tum
-
-        out.mkdir(parents=True, exist_ok=True)
-        write_tum(paths["trajectory.tum"], result.estimate, overwrite=args.force)
-        paths["metrics.json"].write_text(json.dumps(metrics, indent=2) + "\n")
-        fuse_figures(result, paths["top_view.png"], paths["errors.png"], paths["nis.png"])
-    if args.json:
-        summary = dict(metrics)
-        if paths:
-            summary["out"] = str(out)
-        print(json.dumps(summary, indent=2))
-        return 0
-    print(_target_table(metrics))
-    if paths:
-        print(f"\nwritten to {out}: " + ", ".join(paths))
-    return 0
+    return _report(args, result, paths, _target_table)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -390,24 +399,4 @@ def run(args: argparse.Namespace) -> int:
     result = _run_job(args)
     if result is None:
         return 1
-    metrics = result.metrics
-    if paths:
-        from dualpose.evaluation.fuse_figures import fuse_figures
-        from dualpose.io import write_tum
-
-        out.mkdir(parents=True, exist_ok=True)
-        write_tum(paths["trajectory.tum"], result.estimate, overwrite=args.force)
-        if result.smoothed is not None:
-            write_tum(paths["trajectory_smoothed.tum"], result.smoothed, overwrite=args.force)
-        paths["metrics.json"].write_text(json.dumps(metrics, indent=2) + "\n")
-        fuse_figures(result, paths["top_view.png"], paths["errors.png"], paths["nis.png"])
-    if args.json:
-        summary = {k: v for k, v in metrics.items() if k != "evaluation"}
-        if paths:
-            summary["out"] = str(out)
-        print(json.dumps(summary, indent=2))
-        return 0
-    print(_table(metrics))
-    if paths:
-        print(f"\nwritten to {out}: " + ", ".join(paths))
-    return 0
+    return _report(args, result, paths, _table)
