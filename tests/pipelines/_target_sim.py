@@ -11,7 +11,7 @@ import dualpose as dp
 from dualpose import sim
 from dualpose.io.euroc import ImuData
 from dualpose.io.target_recording import TargetRecording
-from dualpose.pipelines._lines import format_numbers
+from dualpose.pipelines.track_target import target_recording_lines
 from dualpose.sim.camera_imu import camera_points
 from dualpose.types import RadTanCamera, Trajectory
 from dualpose.types.calibration import CameraImuCalibration
@@ -108,17 +108,10 @@ def write_target_directory(directory, recording: TargetRecording) -> None:
     (d / "sensors.yaml").write_text("\n".join(lines) + "\n")
 
 
-def stream_lines(src, cal, t_end: float = math.inf) -> list[str]:
-    """The recording as stream lines (measured pixels), in time order on the IMU clock."""
-    imu = src.imu
-    det = src.detections[cal.camera]
-    items = [(float(imu.stamps[k]), 1, "imu, " + format_numbers([imu.stamps[k], *imu.gyro[k], *imu.accel[k]]))
-             for k in range(len(imu.stamps)) if imu.stamps[k] < t_end]  # fmt: skip
-    for j in range(len(det)):
-        if det.t[j] >= t_end:
-            continue
-        pix, pts = det.frame(j)
-        tail = ", " + format_numbers(np.hstack([pix, pts]).ravel()) if len(pix) else "\n"
-        items.append((float(det.t[j] + cal.time_offset_s), 0, f"cam, {float(det.t[j])!r}, {len(pix)}{tail}"))
-    items.sort(key=lambda it: it[:2])
-    return [it[2] for it in items]
+def stream_lines(src: TargetRecording, cal, t_end: float = math.inf) -> list[str]:
+    """The recording up to ``t_end`` (s) as stream lines (:func:`target_recording_lines`)."""
+    imu, det = src.imu, src.detections[cal.camera]
+    keep = imu.stamps < t_end
+    cut = TargetRecording(type(imu)(imu.stamps_ns[keep], imu.stamps[keep], imu.gyro[keep], imu.accel[keep], imu.name),
+                          {cal.camera: det.select(det.t < t_end)}, src.rig, src.path)  # fmt: skip
+    return target_recording_lines(cut, cal.camera, cal.time_offset_s)

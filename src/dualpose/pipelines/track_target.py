@@ -52,7 +52,9 @@ from dualpose.evaluation.target_reference import (
 )
 from dualpose.io.recording import RecordingError
 from dualpose.io.target_recording import TargetRecording, read_camera_imu_calibration, read_target_recording
+from dualpose.pipelines._lines import format_numbers
 from dualpose.pipelines.fuse import FILTERS, FuseResult
+from dualpose.pipelines.fuse_stream import parse_fusion_line
 from dualpose.registration.pnp import PnPResult, solve_pnp_ransac
 from dualpose.types import FilterStart, Recording, SensorSetup, Trajectory
 from dualpose.types.calibration import CameraImuCalibration
@@ -63,11 +65,20 @@ __all__ = [
     "STARTUP_SECONDS",
     "StartUp",
     "TrackSetup",
+    "TrackStream",
+    "TrackedRun",
+    "extrinsic_from_matrix",
     "ideal_pixel_sigma",
+    "imu_only",
+    "lost_frame",
     "prepare_track",
+    "relock_start",
+    "run_relocking",
     "run_track",
     "score_run",
     "startup",
+    "stream_track_lines",
+    "target_recording_lines",
 ]
 
 #: length of the start-up window (s of camera frames from the first usable one): long enough for the hand-held
@@ -800,13 +811,28 @@ class TrackStream:
         return self._begin() if self._stream is None and self._imu else []
 
 
+def target_recording_lines(recording: TargetRecording, camera: str = "cam0", time_offset: float = 0.0) -> list[str]:
+    """A target recording as :class:`TrackStream` input lines: one ``imu`` line per sample and one ``cam`` line per
+    frame of ``camera`` (its measured pixels and target-frame corners; ``cam, t, 0`` for a frame without detections),
+    in time order on the IMU clock (``t_cam + time_offset``; a frame before the IMU sample at its time), every number
+    as its exact ``repr``.  The inverse of what the stream reads, for piping a recording through
+    ``dualpose fuse --stream --sensors``."""
+    imu = recording.imu
+    det = recording.detections[camera]
+    rows = np.column_stack([imu.stamps, imu.gyro, imu.accel]).tolist()
+    items = [(row[0], 1, "imu, " + format_numbers(row)) for row in rows]
+    for j in range(len(det)):
+        pix, pts = det.frame(j)
+        tail = ", " + format_numbers(np.hstack([pix, pts]).ravel()) if len(pix) else "\n"
+        items.append((float(det.t[j] + time_offset), 0, f"cam, {float(det.t[j])!r}, {len(pix)}{tail}"))
+    items.sort(key=lambda it: it[:2])
+    return [it[2] for it in items]
+
+
 def stream_track_lines(lines, stream: TrackStream, source: str = "stdin"):
     """:func:`dualpose.pipelines.fuse_stream.stream_fusion_lines` for a :class:`TrackStream`: yields one
     ``t, px, py, pz, qx, qy, qz, qw`` line per IMU line from the start sample on (module docstring of
     :class:`TrackStream`); ``ValueError("{source} line N: ...")`` for a malformed line."""
-    from dualpose.pipelines._lines import format_numbers
-    from dualpose.pipelines.fuse_stream import parse_fusion_line
-
     for lineno, line in enumerate(lines, start=1):
         try:
             item = parse_fusion_line(line)
