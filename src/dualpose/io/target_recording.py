@@ -79,13 +79,15 @@ class TargetRecording:
 
 def is_target_recording(path: str | os.PathLike) -> bool:
     """True when ``path`` is a directory in this layout: it holds a ``camN_aprilgrid.csv``, or both ``imu0.csv`` and
-    ``sensors.yaml`` (:func:`read_target_recording` then names whatever else is missing)."""
+    ``sensors.yaml`` without a ``correspondences.csv`` (a dualpose recording directory, docs/fusion.md, may name its
+    IMU file ``imu0.csv`` and its sensor file ``sensors.yaml`` too); :func:`read_target_recording` then names
+    whatever else is missing."""
     p = Path(path)
     if not p.is_dir():
         return False
-    if (p / SENSORS_YAML).is_file() and (p / IMU_FILE).is_file():
+    if any(_DETECTIONS.match(f.name) for f in p.iterdir()):
         return True
-    return any(_DETECTIONS.match(f.name) for f in p.iterdir())
+    return (p / SENSORS_YAML).is_file() and (p / IMU_FILE).is_file() and not (p / "correspondences.csv").exists()
 
 
 def read_target_recording(directory: str | os.PathLike, cameras: tuple[str, ...] | None = None) -> TargetRecording:
