@@ -2,8 +2,9 @@
 compared with EuRoC's published Kalibr extrinsics (Burri et al. 2016, mav0/cam0|cam1/sensor.yaml ``T_BS``) and,
 composed (``T_cam0_cam1 = T_b_c0⁻¹ T_b_c1``), with the stereo extrinsic of sensors.yaml.
 
-Run ``nice .venv/bin/python benchmarks/calibrate_euroc.py [--bias-models random_walk constant] [--markdown PATH]``
-(one full calibration per camera and bias model, ≈ 20–60 s each on 2 shared cores).
+Run ``nice .venv/bin/python benchmarks/calibrate_euroc.py [--imu-models scale_misalignment calibrated]
+[--bias-models random_walk constant] [--noise-scales 1 3 10] [--markdown PATH]`` (one full calibration per camera
+and model pair, ≈ 20–90 s each on 2 shared cores).
 """
 
 from __future__ import annotations
@@ -18,27 +19,9 @@ import numpy as np
 import dualpose as dp
 from _common import emit
 from dualpose.io import read_rig_sensors
-from dualpose.pipelines.calibrate_camera_imu import calibrate_camera_imu_files
+from dualpose.pipelines.calibrate_camera_imu import EUROC_KALIBR_T_BS, calibrate_camera_imu_files, pose_matrix
 
 DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "euroc" / "imu_april"
-
-#: EuRoC's Kalibr T_BS (camera pose in the IMU frame), row-major (Burri et al. 2016, mav0/camX/sensor.yaml)
-KALIBR = {
-    "cam0": [0.0148655429818, -0.999880929698, 0.00414029679422, -0.0216401454975, 0.999557249008, 0.0149672133247,
-             0.025715529948, -0.064676986768, -0.0257744366974, 0.00375618835797, 0.999660727178, 0.00981073058949,
-             0, 0, 0, 1],
-    "cam1": [0.0125552670891, -0.999755099723, 0.0182237714554, -0.0198435579556, 0.999598781151, 0.0130119051815,
-             0.0251588363115, 0.0453689425024, -0.0253898008918, 0.0179005838253, 0.999517347078, 0.00786212447038,
-             0, 0, 0, 1],
-}  # fmt: skip
-
-
-def _T(m: dict) -> np.ndarray:
-    T = np.eye(4)
-    T[:3, :3] = dp.matrix_from_quat(np.array(m["rotation_xyzw"]))
-    T[:3, 3] = m["translation_m"]
-    return T
-
 
 def _angle_deg(R: np.ndarray) -> float:
     return math.degrees(float(np.linalg.norm(dp.so3_log(R))))
@@ -48,17 +31,19 @@ def _vec(v, scale: float = 1.0, fmt: str = "{:+.2f}") -> str:
     return " ".join(fmt.format(scale * x) for x in v)
 
 
-def tables(bias_model: str) -> str:
+def tables(imu_model: str, bias_model: str, noise_scale: float = 1.0) -> str:
     res = {}
     for cam in ("cam0", "cam1"):
         res[cam] = calibrate_camera_imu_files(str(DATA / "imu0.csv"), str(DATA / f"{cam}_aprilgrid.csv"),
-                                              str(DATA / "sensors.yaml"), cam, bias_model)  # fmt: skip
-    out = [f"### Bias model `{bias_model}`", "",
+                                              str(DATA / "sensors.yaml"), cam, bias_model, imu_model=imu_model,
+                                              imu_noise_scale=noise_scale)  # fmt: skip
+    scale = "" if noise_scale == 1.0 else f", IMU noise × {noise_scale:g}"
+    out = [f"#### IMU model `{imu_model}`, bias model `{bias_model}`{scale}", "",
            "| camera | rotation vs Kalibr [deg] | translation − Kalibr [mm] (x y z) | ‖·‖ [mm] | τ [ms] | "
            "reprojection RMS [px] | frames used | corners rejected | runtime [s] |",
            "|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
     for cam, m in res.items():
-        T, Tk = _T(m), np.array(KALIBR[cam]).reshape(4, 4)
+        T, Tk = pose_matrix(m), EUROC_KALIBR_T_BS[cam]
         dt = 1e3 * (T[:3, 3] - Tk[:3, 3])
         out.append(
             f"| {cam} | {_angle_deg(Tk[:3, :3].T @ T[:3, :3]):.3f} | {_vec(dt)} | {np.linalg.norm(dt):.2f} | "
@@ -67,7 +52,7 @@ def tables(bias_model: str) -> str:
             f"{m['outliers']['corners_rejected']} / {m['outliers']['corners_total']} | {m['runtime_s']:.1f} |"
         )
     stereo = read_rig_sensors(DATA / "sensors.yaml").T_cam0_cam1
-    est = np.linalg.inv(_T(res["cam0"])) @ _T(res["cam1"])
+    est = np.linalg.inv(pose_matrix(res["cam0"])) @ pose_matrix(res["cam1"])
     d = 1e3 * (est[:3, 3] - stereo[:3, 3])
     rv = np.degrees(dp.so3_log(est[:3, :3] @ stereo[:3, :3].T))
     out += ["", "| composition `T_b_c0⁻¹ T_b_c1` vs sensors.yaml `T_cam0_cam1` | value |", "|---|---|",
@@ -86,24 +71,34 @@ def tables(bias_model: str) -> str:
             f"{_vec(m['gravity_target'], fmt='{:+.4f}')} ({s['gravity_target_deg']:.4f}) | "
             f"{m['imu_chi2_per_dof']:.2f} |"
         )
-    out += ["", "| camera | post-hoc gyro `M − I` [‰] (rows) | post-hoc accelerometer `M − I` [‰] (rows) |",
-            "|---|---|---|"]  # fmt: skip
+    out += ["", "| camera | axis matrices | gyro `M − I` [‰] (rows) | accelerometer `M − I` [‰] (rows) |",
+            "|---|---|---|---|"]  # fmt: skip
     for cam, m in res.items():
-        g = "; ".join(_vec(r, 1e3, "{:+.2f}") for r in m["gyro_misalignment"])
-        a = "; ".join(_vec(r, 1e3, "{:+.2f}") for r in m["accel_misalignment"])
-        out.append(f"| {cam} | {g} | {a} |")
+        rows = [("post-hoc fit", m["gyro_misalignment"], m["accel_misalignment"])]
+        if "gyro_axes_matrix" in m:
+            eye = np.eye(3)
+            rows.append((f"in the batch (σ ≤ {1e3 * max(m['imu_axes_std']):.2f} ‰)",
+                         np.array(m["gyro_axes_matrix"]) - eye, np.array(m["accel_axes_matrix"]) - eye))  # fmt: skip
+        for name, g, a in rows:
+            gs = "; ".join(_vec(r, 1e3, "{:+.2f}") for r in g)
+            acc = "; ".join(_vec(r, 1e3, "{:+.2f}") for r in a)
+            out.append(f"| {cam} | {name} | {gs} | {acc} |")
     return "\n".join(out)
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--imu-models", nargs="+", choices=("scale_misalignment", "calibrated"),
+                    default=["scale_misalignment"])
     ap.add_argument("--bias-models", nargs="+", choices=("random_walk", "constant"), default=["random_walk"])
+    ap.add_argument("--noise-scales", nargs="+", type=float, default=[1.0],
+                    help="multiply the IMU noise of sensors.yaml (sensitivity study)")
     ap.add_argument("--markdown", default=None, help="also write the tables to this file (never overwritten)")
     args = ap.parse_args(argv)
     if not DATA.is_dir():
         print(f"EuRoC imu_april data missing ({DATA})", file=sys.stderr)
         return 1
-    text = "\n\n".join(tables(b) for b in args.bias_models)
+    text = "\n\n".join(tables(i, b, f) for i in args.imu_models for b in args.bias_models for f in args.noise_scales)
     return emit(text, args.markdown)
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from dualpose.cli.main import main
@@ -13,7 +14,8 @@ from dualpose.cli.main import main
 EUROC = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "euroc" / "imu_april"
 
 KEYS = {"camera", "rotation_xyzw", "translation_m", "time_offset_s", "reprojection_rms_px", "gyro_bias", "accel_bias",
-        "gravity_target", "std", "outliers", "excitation", "warnings"}  # fmt: skip
+        "gravity_target", "std", "outliers", "excitation", "warnings", "imu_model", "gyro_axes_matrix",
+        "accel_axes_matrix"}  # fmt: skip
 STD_KEYS = {"rotation_deg", "translation_m", "time_offset_s", "gyro_bias", "accel_bias", "gravity_target_deg"}
 
 
@@ -34,7 +36,8 @@ def test_json_keys_on_a_cut(euroc, capsys):
     out = json.loads(capsys.readouterr().out)
     assert KEYS <= set(out)
     assert STD_KEYS <= set(out["std"])
-    assert out["camera"] == "cam0"
+    assert out["camera"] == "cam0" and out["imu_model"] == "scale_misalignment"
+    assert np.allclose(out["gyro_axes_matrix"], np.eye(3), atol=0.02)
     assert len(out["rotation_xyzw"]) == 4 and len(out["translation_m"]) == 3
     assert len(out["std"]["rotation_deg"]) == 3 and out["std"]["time_offset_s"] > 0
     assert abs(out["time_offset_s"]) < 0.002

@@ -22,7 +22,41 @@ import numpy as np
 
 import dualpose as dp
 
-__all__ = ["Preintegrated", "imu_factors", "preintegrate"]
+__all__ = ["Preintegrated", "gyro_axes_matrix", "accel_axes_matrix", "imu_factors", "preintegrate"]
+
+#: parameters of the axis models: a symmetric 3 × 3 perturbation of the gyro (xx, yy, zz, xy, xz, yz) and a full
+#: 3 × 3 one of the accelerometer (row-major)
+N_GYRO_AXES = 6
+N_ACCEL_AXES = 9
+
+
+def gyro_axes_matrix(theta: np.ndarray) -> np.ndarray:
+    """Symmetric ``Δ`` (3, 3) of the gyro parameters ``θ = (xx, yy, zz, xy, xz, yz)``."""
+    xx, yy, zz, xy, xz, yz = theta
+    return np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+
+
+def accel_axes_matrix(theta: np.ndarray) -> np.ndarray:
+    """``Δ`` (3, 3) of the accelerometer parameters (row-major)."""
+    return np.asarray(theta, dtype=np.float64).reshape(3, 3)
+
+
+def _gyro_axes_jacobian(w: np.ndarray) -> np.ndarray:
+    """``∂(Δ w)/∂θ`` (…, 3, 6) for the symmetric gyro ``Δ``."""
+    G = np.zeros(w.shape[:-1] + (3, 6))
+    x, y, z = w[..., 0], w[..., 1], w[..., 2]
+    G[..., 0, 0], G[..., 0, 3], G[..., 0, 4] = x, y, z
+    G[..., 1, 1], G[..., 1, 3], G[..., 1, 5] = y, x, z
+    G[..., 2, 2], G[..., 2, 4], G[..., 2, 5] = z, x, y
+    return G
+
+
+def _accel_axes_jacobian(f: np.ndarray) -> np.ndarray:
+    """``∂(Δ f)/∂θ`` (…, 3, 9) for the row-major accelerometer ``Δ``."""
+    A = np.zeros(f.shape[:-1] + (3, 9))
+    for r in range(3):
+        A[..., r, 3 * r : 3 * r + 3] = f
+    return A
 
 
 @dataclass
@@ -30,7 +64,9 @@ class Preintegrated:
     """Preintegrated measurements of ``I`` intervals, linearised at the biases ``bias_gyro``, ``bias_accel`` (I, 3).
 
     ``dR`` (I, 3, 3), ``dv``, ``dp`` (I, 3), ``dt`` (I,) s; bias Jacobians ``R_bg``, ``v_bg``, ``v_ba``, ``p_bg``,
-    ``p_ba`` (I, 3, 3); ``covariance`` (I, 9, 9) of ``[δφ, δv, δp]``.
+    ``p_ba`` (I, 3, 3); ``covariance`` (I, 9, 9) of ``[δφ, δv, δp]``.  With ``axes=True`` also the Jacobians with
+    respect to the axis-model parameters (the measurements corrected as ``(I − Δ) y``): ``R_Mg``, ``v_Mg``,
+    ``p_Mg`` (I, 3, 6), ``v_Ma``, ``p_Ma`` (I, 3, 9); None otherwise.
     """
 
     dR: np.ndarray
@@ -45,6 +81,11 @@ class Preintegrated:
     covariance: np.ndarray
     bias_gyro: np.ndarray
     bias_accel: np.ndarray
+    R_Mg: np.ndarray | None = None
+    v_Mg: np.ndarray | None = None
+    p_Mg: np.ndarray | None = None
+    v_Ma: np.ndarray | None = None
+    p_Ma: np.ndarray | None = None
 
 
 def _substeps(imu_t: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -72,12 +113,14 @@ def preintegrate(
     bias_accel: np.ndarray,
     gyro_noise_density: float,
     accel_noise_density: float,
+    axes: bool = False,
 ) -> Preintegrated:
     """Preintegrate the IMU over the ``I = len(s) − 1`` intervals between node times ``s`` (N,) s.
 
     ``imu_t`` (S,) s, ``gyro`` (S, 3) rad/s, ``accel`` (S, 3) m/s² (body frame); ``bias_gyro``, ``bias_accel``
     (I, 3) the linearisation biases of each interval.  The loop runs over the sub-step index (≈ samples per
-    interval), vectorised over the intervals still active at that index.
+    interval), vectorised over the intervals still active at that index.  ``axes``: also the Jacobians with
+    respect to the gyro/accelerometer axis models (:class:`Preintegrated`).
     """
     a, b = s[:-1], s[1:]
     bp, n = _substeps(imu_t, a, b)
@@ -95,6 +138,9 @@ def preintegrate(
     p_bg = np.zeros((m, 3, 3))
     p_ba = np.zeros((m, 3, 3))
     cov = np.zeros((m, 9, 9))
+    if axes:
+        R_Mg, v_Mg, p_Mg = np.zeros((m, 3, 6)), np.zeros((m, 3, 6)), np.zeros((m, 3, 6))
+        v_Ma, p_Ma = np.zeros((m, 3, 9)), np.zeros((m, 3, 9))
     eye = np.eye(3)
     sg2, sa2 = gyro_noise_density**2, accel_noise_density**2
     for j in range(h.shape[1]):  # sub-step index; vectorised over the intervals that have a j-th sub-step
@@ -129,11 +175,22 @@ def preintegrate(
         v_ba[k] -= Rk * dt
         v_bg[k] -= (Rfx @ R_bg[k]) * dt
         R_bg[k] = np.swapaxes(E, 1, 2) @ R_bg[k] - Jr * dt
+        if axes:  # δω = −Δ_g ω̃, δf = −Δ_a f̃: biases with a per-step multiplier (ω̃, f̃ before the bias)
+            Gk = _gyro_axes_jacobian(w_all[k, j] + bias_gyro[k])
+            Ak = _accel_axes_jacobian(f_all[k, j] + bias_accel[k])
+            p_Ma[k] += v_Ma[k] * dt - 0.5 * (Rk @ Ak) * dt**2
+            p_Mg[k] += v_Mg[k] * dt - 0.5 * (Rfx @ R_Mg[k]) * dt**2
+            v_Ma[k] -= (Rk @ Ak) * dt
+            v_Mg[k] -= (Rfx @ R_Mg[k]) * dt
+            R_Mg[k] = np.swapaxes(E, 1, 2) @ R_Mg[k] - (Jr @ Gk) * dt
         # measurements (eq. 33–35)
         dpos[k] += dv[k] * h[k, j][:, None] + 0.5 * Rf * h[k, j][:, None] ** 2
         dv[k] += Rf * h[k, j][:, None]
         dR[k] = dR[k] @ E
-    return Preintegrated(dR, dv, dpos, b - a, R_bg, v_bg, v_ba, p_bg, p_ba, cov, bias_gyro.copy(), bias_accel.copy())
+    out = Preintegrated(dR, dv, dpos, b - a, R_bg, v_bg, v_ba, p_bg, p_ba, cov, bias_gyro.copy(), bias_accel.copy())
+    if axes:
+        out.R_Mg, out.v_Mg, out.p_Mg, out.v_Ma, out.p_Ma = R_Mg, v_Mg, p_Mg, v_Ma, p_Ma
+    return out
 
 
 def imu_factors(
@@ -149,19 +206,28 @@ def imu_factors(
     gravity: np.ndarray,
     gravity_basis: np.ndarray,
     jacobians: bool = True,
+    axes_gyro: np.ndarray | None = None,
+    axes_accel: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """Residuals ``[r_R, r_v, r_p]`` (I, 9) of eq. (45) with the first-order bias correction (eq. 44).
 
     State perturbations: ``R ← R Exp(δφ)``, ``p ← p + δp``, ``v ← v + δv`` (target frame), biases additive,
     gravity ``g ← Exp(B δg) g`` with ``B = gravity_basis`` (3, 2) orthogonal to ``g``.  Returns the residuals and
-    (with ``jacobians``) the Jacobian (I, 9, 26) over ``[φ_i, p_i, v_i, φ_j, p_j, v_j, b_g, b_a, δg]``.
+    (with ``jacobians``) the Jacobian (I, 9, 26) over ``[φ_i, p_i, v_i, φ_j, p_j, v_j, b_g, b_a, δg]``, or
+    (I, 9, 41) with the axis-model deviations ``axes_gyro`` (6,), ``axes_accel`` (9,) from the linearisation point
+    (then ``pre`` must hold the axis Jacobians) appended.
     """
     dbg = bias_gyro - pre.bias_gyro
     dba = bias_accel - pre.bias_accel
     corr = np.einsum("kij,kj->ki", pre.R_bg, dbg)
-    dRc = pre.dR @ dp.so3_exp(corr)
     dvc = pre.dv + np.einsum("kij,kj->ki", pre.v_bg, dbg) + np.einsum("kij,kj->ki", pre.v_ba, dba)
     dpc = pre.dp + np.einsum("kij,kj->ki", pre.p_bg, dbg) + np.einsum("kij,kj->ki", pre.p_ba, dba)
+    axes = axes_gyro is not None
+    if axes:
+        corr = corr + pre.R_Mg @ axes_gyro
+        dvc = dvc + pre.v_Mg @ axes_gyro + pre.v_Ma @ axes_accel
+        dpc = dpc + pre.p_Mg @ axes_gyro + pre.p_Ma @ axes_accel
+    dRc = pre.dR @ dp.so3_exp(corr)
     Rit = np.swapaxes(R_i, 1, 2)
     T = pre.dt[:, None]
     rel = Rit @ R_j
@@ -171,11 +237,18 @@ def imu_factors(
     r = np.concatenate([rR, yv - dvc, yp - dpc], axis=1)
     if not jacobians:
         return r, None
-    J = np.zeros((len(r), 9, 26))
+    J = np.zeros((len(r), 9, 41 if axes else 26))
     Jinv = dp.so3_right_jacobian_inv(rR)
     J[:, 0:3, 0:3] = -Jinv @ np.swapaxes(rel, 1, 2)
     J[:, 0:3, 9:12] = Jinv
-    J[:, 0:3, 18:21] = -Jinv @ np.swapaxes(dp.so3_exp(rR), 1, 2) @ dp.so3_right_jacobian(corr) @ pre.R_bg
+    JrotB = -Jinv @ np.swapaxes(dp.so3_exp(rR), 1, 2) @ dp.so3_right_jacobian(corr)
+    J[:, 0:3, 18:21] = JrotB @ pre.R_bg
+    if axes:
+        J[:, 0:3, 26:32] = JrotB @ pre.R_Mg
+        J[:, 3:6, 26:32] = -pre.v_Mg
+        J[:, 3:6, 32:41] = -pre.v_Ma
+        J[:, 6:9, 26:32] = -pre.p_Mg
+        J[:, 6:9, 32:41] = -pre.p_Ma
     J[:, 3:6, 0:3] = dp.so3_hat(yv)
     J[:, 3:6, 6:9] = -Rit
     J[:, 3:6, 15:18] = Rit

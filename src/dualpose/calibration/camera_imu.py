@@ -31,15 +31,23 @@ Results and the IMU-model discussion: docs/euroc.md.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
 
 import dualpose as dp
-from dualpose.calibration._preintegration import Preintegrated, imu_factors, preintegrate
+from dualpose.calibration._preintegration import (
+    N_ACCEL_AXES,
+    N_GYRO_AXES,
+    Preintegrated,
+    accel_axes_matrix,
+    gyro_axes_matrix,
+    imu_factors,
+    preintegrate,
+)
 from dualpose.calibration.time_offset import estimate_time_offset, gyro_mean_rates
 from dualpose.registration.pnp import solve_pnp, solve_pnp_batch
 from dualpose.types.camera import FrameCorrespondences
@@ -50,6 +58,7 @@ __all__ = ["CameraImuCalibration", "calibrate_camera_imu"]
 #: global unknowns after the frame states and bias knots: δε (3, body frame), δp_bc (3), δτ, δg (2)
 _NG = 9
 _BIAS_PRIOR = np.array([0.1, 0.1, 0.1, 1.0, 1.0, 1.0])  # rad/s, m/s²: only fixes the scale
+_AXES_PRIOR = 0.1  # the axis-model parameters (dimensionless), likewise
 
 
 @dataclass
@@ -91,6 +100,12 @@ class CameraImuCalibration:
         Post-hoc fit ``ω_meas ≈ M ω + b`` over the frame intervals (``M − I``: scale factors on the diagonal,
         axis misalignment off it); ``accel_misalignment`` likewise from the velocity increments.
     frames_used : int.  iterations : int (LM steps accepted).  runtime_s : float.
+    camera_parameters : ndarray (8,)
+        The camera's ``parameters`` used (refined with ``estimate_intrinsics``; ``camera_parameters_std`` then their
+        σ, else empty).
+    imu_axes : tuple
+        With ``imu_model="scale_misalignment"``: ``(M_g, M_a)`` (3, 3) each, ``ω̃ = M_g (ω + b_g)``,
+        ``f̃ = M_a (f + b_a)``; ``imu_axes_std`` (15,) the σ of the 6 gyro and 9 accelerometer parameters.
     initial : dict
         The starting values (gyro/camera rate registration): ``q_bc``, ``time_offset``, ``gyro_bias``.
     """
@@ -116,6 +131,10 @@ class CameraImuCalibration:
     bias_t: np.ndarray
     bias_track: np.ndarray
     initial: dict = field(default_factory=dict)
+    camera_parameters: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    imu_axes: tuple = ()
+    imu_axes_std: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    camera_parameters_std: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def rotation_matrix(self) -> np.ndarray:
@@ -138,6 +157,13 @@ def _tangent_basis(g: np.ndarray) -> np.ndarray:
     e1 = np.cross(u, a)
     e1 /= np.linalg.norm(e1)
     return np.column_stack([e1, np.cross(u, e1)])
+
+
+def _cross_into(out: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
+    """``out[...] = a × b`` on the last axis (broadcast), without :func:`numpy.cross`'s axis handling."""
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
 
 
 def _interp3(t: np.ndarray, x: np.ndarray, tq: np.ndarray) -> np.ndarray:
@@ -198,7 +224,8 @@ def _initial_poses(frames, keep, camera, min_corners):
 class _Problem:
     """The batch: fixed data, current state, residuals/normal equations (module docstring)."""
 
-    def __init__(self, imu_t, gyro, accel, t_frames, offsets, pixels, points, camera, noise, gmag, bias_model):
+    def __init__(self, imu_t, gyro, accel, t_frames, offsets, pixels, points, camera, noise, gmag, bias_model,
+                 intrinsics=False, axes=False):  # fmt: skip
         self.imu_t, self.gyro, self.accel = imu_t, gyro, accel
         self.t = t_frames  # (N,) camera stamps of the nodes, s
         n = len(t_frames)
@@ -226,7 +253,13 @@ class _Problem:
         self.node_off = stride * np.arange(n)
         self.knot_off = self.node_off + 9 if rw else np.array([self.nb])
         self.gbase = self.nb + (0 if rw else 6)
-        self.nvar = self.gbase + _NG
+        # after δg: the IMU axis models (gyro symmetric 6, accelerometer 9), then the camera parameters (8)
+        self.n_axes = N_GYRO_AXES + N_ACCEL_AXES if axes else 0
+        self.n_intr = 8 if intrinsics else 0
+        self.nvar = self.gbase + _NG + self.n_axes + self.n_intr
+        self.correct_g = np.eye(3)  # measurement corrections (I − Δ) at the linearisation point
+        self.correct_a = np.eye(3)
+        self.theta = np.zeros(self.n_axes)  # axis-model deviation from it
         self.node_idx = self.node_off[:, None] + np.arange(9)
         self.knot_idx = self.knot_off[:, None] + np.arange(6)
         self.sigma_px = 1.0
@@ -241,20 +274,31 @@ class _Problem:
 
     def state(self):
         return (self.R.copy(), self.p.copy(), self.v.copy(), self.bias.copy(), self.R_bc.copy(), self.p_bc.copy(),
-                self.tau, self.g.copy())  # fmt: skip
+                self.tau, self.g.copy(), self.camera, self.theta.copy())  # fmt: skip
 
     def restore(self, s):
-        self.R, self.p, self.v, self.bias, self.R_bc, self.p_bc, self.tau, self.g = s
+        self.R, self.p, self.v, self.bias, self.R_bc, self.p_bc, self.tau, self.g, self.camera, self.theta = s
+
+    def axes_matrices(self) -> tuple[np.ndarray, np.ndarray]:
+        """The current measurement corrections ``(I − Δ)`` of the gyro and the accelerometer (3, 3) each."""
+        if not self.n_axes:
+            return self.correct_g, self.correct_a
+        return ((np.eye(3) - gyro_axes_matrix(self.theta[:N_GYRO_AXES])) @ self.correct_g,
+                (np.eye(3) - accel_axes_matrix(self.theta[N_GYRO_AXES:])) @ self.correct_a)  # fmt: skip
 
     def relinearize(self):
         """Node times ``t + τ_ref``, body rates there and the preintegration at the current biases."""
         self.s = self.t + self.tau_ref
+        self.correct_g, self.correct_a = self.axes_matrices()
+        self.theta = np.zeros(self.n_axes)
+        self.gyro_c = self.gyro @ self.correct_g.T
+        self.accel_c = self.accel @ self.correct_a.T
         bn = self.bias[self.knot]
-        self.omega = _interp3(self.imu_t, self.gyro, self.s) - bn[:, :3]
+        self.omega = _interp3(self.imu_t, self.gyro_c, self.s) - bn[:, :3]
         n = self.noise
         self.pre: Preintegrated = preintegrate(
-            self.imu_t, self.gyro, self.accel, self.s, bn[:-1, :3], bn[:-1, 3:],
-            n.gyroscope_noise_density, n.accelerometer_noise_density,
+            self.imu_t, self.gyro_c, self.accel_c, self.s, bn[:-1, :3], bn[:-1, 3:],
+            n.gyroscope_noise_density, n.accelerometer_noise_density, axes=self.n_axes > 0,
         )  # fmt: skip
         L = np.linalg.cholesky(np.linalg.inv(self.pre.covariance))  # Σ⁻¹ = L Lᵀ
         self.imu_whiten = np.swapaxes(L, 1, 2)
@@ -266,7 +310,7 @@ class _Problem:
         """Move the node times to ``t + τ`` (first-order shift of each state) and re-preintegrate."""
         d = self.tau - self.tau_ref
         bn = self.bias[self.knot]
-        f = _interp3(self.imu_t, self.accel, self.s) - bn[:, 3:]
+        f = _interp3(self.imu_t, self.accel_c, self.s) - bn[:, 3:]
         acc_w = np.einsum("kij,kj->ki", self.R, f) + self.g
         self.p = self.p + self.v * d + 0.5 * acc_w * d * d
         self.v = self.v + acc_w * d
@@ -285,6 +329,9 @@ class _Problem:
         self.p_bc = self.p_bc + dg[3:6]
         self.tau = self.tau + dg[6]
         self.g = dp.so3_exp(_tangent_basis(self.g) @ dg[7:9]) @ self.g
+        self.theta = self.theta + dg[_NG : _NG + self.n_axes]
+        if self.n_intr:
+            self.camera = _with_parameters(self.camera, self.camera.parameters + dg[_NG + self.n_axes :])
 
     # ----- residuals -----------------------------------------------------------------------------------------
     def reprojection(self, jac):
@@ -302,7 +349,7 @@ class _Problem:
             pred, D = self.camera.project(xc_safe), None
         r = pred - self.pix
         use = self.inlier & front
-        return r, use, (D, E, Rt, y, xb) if jac else None
+        return r, use, (D, E, Rt, y, xb, xc_safe) if jac else None
 
     def robust(self, r, use):
         s = np.linalg.norm(r, axis=-1) / self.sigma_px
@@ -322,7 +369,10 @@ class _Problem:
                 bk[:-1, 3:], self.g, _tangent_basis(self.g))  # fmt: skip
 
     def imu_whitened(self, jac):
-        r, J = imu_factors(*self._imu_args(), jacobians=jac)
+        ax = {}
+        if self.n_axes:
+            ax = {"axes_gyro": self.theta[:N_GYRO_AXES], "axes_accel": self.theta[N_GYRO_AXES:]}
+        r, J = imu_factors(*self._imu_args(), jacobians=jac, **ax)
         rw = np.einsum("kij,kj->ki", self.imu_whiten, r)
         Jw = self.imu_whiten @ J if jac else None
         return rw, Jw
@@ -331,7 +381,7 @@ class _Problem:
         rw = self.imu_whitened(False)[0]
         rb = np.diff(self.bias, axis=0) * self.rw_scale
         rp = self.bias[0] / _BIAS_PRIOR
-        return float(np.sum(rw**2) + np.sum(rb**2) + np.sum(rp**2))
+        return float(np.sum(rw**2) + np.sum(rb**2) + np.sum(rp**2) + np.sum((self.theta / _AXES_PRIOR) ** 2))
 
     def normal_equations(self):
         """``H = JᵀWJ`` as :class:`_Normal` (band + border), the gradient ``JᵀWr`` and the cost."""
@@ -344,10 +394,10 @@ class _Problem:
             rows.append(np.broadcast_to(idx[:, :, None], H.shape).ravel())
             cols.append(np.broadcast_to(idx[:, None, :], H.shape).ravel())
             vals.append(H.ravel())
-            np.add.at(grad, idx.ravel(), np.einsum("bri,br->bi", Jw, rw).ravel())
+            grad[:] += np.bincount(idx.ravel(), np.einsum("bri,br->bi", Jw, rw).ravel(), minlength=len(grad))
 
         # reprojection: per corner 2 × 16 over [φ, p, v of its node, ε, p_bc, τ]
-        r, use, (D, E, Rt, y, xb) = self.reprojection(True)
+        r, use, (D, E, Rt, y, xb, xc_safe) = self.reprojection(True)
         c_cam, w = self.robust(r, use)
         d = self.tau - self.tau_ref
         Rbc_t = self.R_bc.T
@@ -358,23 +408,27 @@ class _Problem:
         DART = (DA @ Rt).reshape(n, m, 2, 3)
         DA = DA.reshape(n, m, 2, 3)
         DB = (D2 @ Rbc_t).reshape(n, m, 2, 3)
-        J = np.empty((n, m, 2, 16))
-        J[..., 0:3] = np.cross(DA, y[:, :, None, :])  # aᵀ [y]× = (a × y)ᵀ
+        nc = 16 + self.n_intr
+        J = np.empty((n, m, 2, nc))
+        _cross_into(J[..., 0:3], DA, y[:, :, None, :])  # aᵀ [y]× = (a × y)ᵀ
         J[..., 3:6] = -DART
         J[..., 6:9] = -DART * d
-        J[..., 9:12] = np.cross(DB, (xb - self.p_bc)[:, :, None, :])
+        _cross_into(J[..., 9:12], DB, (xb - self.p_bc)[:, :, None, :])
         J[..., 12:15] = -DB
         vb = np.einsum("nij,nj->ni", Rt, self.v)
         dxb_dtau = np.cross(xb, self.omega[:, None, :]) - np.einsum("nji,nj->ni", E, vb)[:, None, :]
         J[..., 15] = np.sum(DB * dxb_dtau[:, :, None, :], axis=-1)
+        if self.n_intr:
+            J[..., 16:] = self.camera.intrinsics_jacobian(xc_safe)
         sw = np.sqrt(w) / self.sigma_px
-        Jw = (J * sw[..., None, None]).reshape(n, -1, 16)
+        Jw = (J * sw[..., None, None]).reshape(n, -1, nc)
         rw = (r * sw[..., None]).reshape(n, -1)
-        idx = np.concatenate([self.node_idx, np.broadcast_to(gb + np.arange(7), (n, 7))], axis=1)
+        glob = np.concatenate([gb + np.arange(7), gb + _NG + self.n_axes + np.arange(self.n_intr)])
+        idx = np.concatenate([self.node_idx, np.broadcast_to(glob, (n, len(glob)))], axis=1)
         add(idx, Jw, rw)
         # IMU factors: 9 × 26 over [node i, node j, bias knot of i, δg]
         rI, JI = self.imu_whitened(True)
-        gidx = np.broadcast_to(gb + np.arange(7, 9), (n - 1, 2))
+        gidx = np.broadcast_to(gb + np.arange(7, _NG + self.n_axes), (n - 1, 2 + self.n_axes))
         kidx = self.knot_idx[self.knot[:-1]]
         idx = np.concatenate([self.node_idx[:-1], self.node_idx[1:], kidx, gidx], axis=1)
         add(idx, JI, rI)
@@ -389,10 +443,12 @@ class _Problem:
             rb = np.zeros((0, 6))
         rp = self.bias[0] / _BIAS_PRIOR
         add(self.knot_idx[:1], np.diag(1.0 / _BIAS_PRIOR)[None], rp[None])
-        H = sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                          shape=(self.nvar, self.nvar)).tocsr().tocoo()  # fmt: skip
-        cost = c_cam + float(np.sum(rI**2) + np.sum(rb**2) + np.sum(rp**2))
-        return _Normal(H, self.nb, self.stride), grad, cost
+        ra = self.theta / _AXES_PRIOR
+        if self.n_axes:
+            add((gb + _NG + np.arange(self.n_axes))[None], np.eye(self.n_axes)[None] / _AXES_PRIOR, ra[None])
+        H = _Normal(np.concatenate(rows), np.concatenate(cols), np.concatenate(vals), self.nvar, self.nb, self.stride)
+        cost = c_cam + float(np.sum(rI**2) + np.sum(rb**2) + np.sum(rp**2) + np.sum(ra**2))
+        return H, grad, cost
 
 
 class _Normal:
@@ -400,25 +456,22 @@ class _Normal:
     time order: diagonal blocks ``D`` (N, s, s), super-diagonal ``U`` (N − 1, s, s)) and a dense border ``B``
     (nb, m), ``C`` (m, m).  ``A`` is factored by the block Cholesky recursion (one small dense step per frame)."""
 
-    def __init__(self, H: sp.coo_matrix, nb: int, s: int):
-        r, c, v = H.row, H.col, H.data
+    def __init__(self, r: np.ndarray, c: np.ndarray, v: np.ndarray, nvar: int, nb: int, s: int):
+        """Sum the entries ``H[r, c] += v`` (duplicates add up) into the blocks (``bincount`` per target)."""
         n = nb // s
+        m = nvar - nb
         self.s = s
-        self.D = np.zeros((n, s, s))
-        self.U = np.zeros((max(n - 1, 0), s, s))
         inb = (r < nb) & (c < nb)
         br, bc = r // s, c // s
-        sel = inb & (br == bc)
-        self.D[br[sel], r[sel] % s, c[sel] % s] = v[sel]
-        sel = inb & (bc == br + 1)
-        self.U[br[sel], r[sel] % s, c[sel] % s] = v[sel]
-        m = H.shape[0] - nb
-        self.B = np.zeros((nb, m))
-        sel = (r < nb) & (c >= nb)
-        self.B[r[sel], c[sel] - nb] = v[sel]
-        self.C = np.zeros((m, m))
-        sel = (r >= nb) & (c >= nb)
-        self.C[r[sel] - nb, c[sel] - nb] = v[sel]
+        lin = br * (s * s) + (r % s) * s + c % s
+
+        def summed(sel, index, size):
+            return np.bincount(index[sel], v[sel], minlength=size)
+
+        self.D = summed(inb & (br == bc), lin, n * s * s).reshape(n, s, s)
+        self.U = summed(inb & (bc == br + 1), lin, max(n - 1, 0) * s * s).reshape(max(n - 1, 0), s, s)
+        self.B = summed((r < nb) & (c >= nb), r * m + (c - nb), nb * m).reshape(nb, m)
+        self.C = summed((r >= nb) & (c >= nb), (r - nb) * m + (c - nb), m * m).reshape(m, m)
 
     def _factor_band(self, lam: float):
         n = len(self.D)
@@ -471,6 +524,12 @@ class _Normal:
         y = self._solve_band(F, band_combinations)
         w = self.B.T @ y
         return Sinv, band_combinations.T @ y + w.T @ Sinv @ w
+
+
+def _with_parameters(camera, params: np.ndarray):
+    """The same camera model with ``parameters`` (fx, fy, cx, cy, 4 distortion coefficients) replaced."""
+    names = ("fx", "fy", "cx", "cy", *camera.DISTORTION_NAMES)
+    return dataclasses.replace(camera, **{k: float(v) for k, v in zip(names, params, strict=True)})
 
 
 def _levenberg_marquardt(prob: _Problem, max_iterations: int, tol: float = 1e-7) -> int:
@@ -527,6 +586,8 @@ def calibrate_camera_imu(
     reject_sigmas: float = 5.0,
     passes: int = 3,
     max_iterations: int = 30,
+    estimate_intrinsics: bool = False,
+    imu_model: str = "scale_misalignment",
 ) -> CameraImuCalibration:
     """Calibrate the camera–IMU extrinsic, time offset, IMU biases and target gravity from one recording.
 
@@ -553,6 +614,13 @@ def calibrate_camera_imu(
         Corners whose residual exceeds this many pixel σ after a pass are rejected in the next.
     passes, max_iterations : int
         Outer passes (σ re-estimate, rejection, re-anchoring) and LM steps per pass.
+    estimate_intrinsics : bool
+        Also refine the camera's 8 parameters (``camera.parameters``: fx, fy, cx, cy and the distortion) from the
+        same corners (off by default: the intrinsics are taken as calibrated).
+    imu_model : ``"scale_misalignment"`` (default): white noise, bias random walk and a symmetric 3 × 3 gyro and a
+        full 3 × 3 accelerometer axis model, ``ω̃ = M_g (ω + b_g)``, ``f̃ = M_a (f + b_a)`` (scale factors,
+        non-orthogonality, the accelerometer's rotation relative to the gyro); ``"calibrated"``: without the axis
+        models (``M = I``).
 
     Raises
     ------
@@ -563,6 +631,8 @@ def calibrate_camera_imu(
     """
     start = time.perf_counter()
     imu_t, gyro, accel = _check_inputs(imu_t, gyro, accel, frames, camera)
+    if imu_model not in ("calibrated", "scale_misalignment"):
+        raise ValueError(f"imu_model must be 'calibrated' or 'scale_misalignment'; got {imu_model!r}")
     if bias_model not in ("random_walk", "constant"):
         raise ValueError(f"bias_model must be 'random_walk' or 'constant'; got {bias_model!r}")
     ft = np.asarray(frames.t, dtype=np.float64)
@@ -596,7 +666,8 @@ def calibrate_camera_imu(
     sub = np.concatenate([[0], np.cumsum(counts[used])])
     rows = np.concatenate([np.arange(frames.offsets[k], frames.offsets[k + 1]) for k in used])
     prob = _Problem(imu_t, gyro, accel, t_used, sub, frames.pixels[rows], frames.points[rows], camera, imu_noise,
-                    float(gravity_magnitude), bias_model)  # fmt: skip
+                    float(gravity_magnitude), bias_model, estimate_intrinsics,
+                    imu_model == "scale_misalignment")  # fmt: skip
     bias = np.zeros((prob.K, 6))
     bias[:, :3] = coarse.gyro_bias
     # gravity from the telescoped velocity change: Σ (v_j − v_i) = g T + Σ R_i Δv_ij
@@ -629,7 +700,11 @@ def calibrate_camera_imu(
         c_border, c_mean = H.covariance(comb)
     except np.linalg.LinAlgError:
         c_border, c_mean = np.full((prob.nvar - prob.nb,) * 2, np.nan), np.full((comb.shape[1],) * 2, np.nan)
-    cov_g = c_border[-_NG:, -_NG:]
+    og = prob.gbase - prob.nb
+    cov_g = c_border[og : og + _NG, og : og + _NG]
+    na = prob.n_axes
+    cov_axes = c_border[og + _NG : og + _NG + na, og + _NG : og + _NG + na]
+    cov_intr = c_border[og + _NG + na :, og + _NG + na :]
     cov_g = 0.5 * (cov_g + cov_g.T)
     c_bias = c_mean if K > 1 else c_border[:6, :6]
     std_all = np.sqrt(np.maximum(np.concatenate([np.diag(cov_g), np.diag(c_bias)]), 0.0))
@@ -703,4 +778,8 @@ def calibrate_camera_imu(
         iterations=iterations, runtime_s=time.perf_counter() - start, bias_t=prob.knot_t + prob.tau_ref,
         bias_track=prob.bias.copy(),
         initial={"q_bc": coarse.q_bc, "time_offset": tau0, "gyro_bias": coarse.gyro_bias},
+        camera_parameters=np.asarray(prob.camera.parameters, dtype=np.float64),
+        imu_axes=tuple(np.linalg.inv(m) for m in prob.axes_matrices()) if na else (),
+        imu_axes_std=np.sqrt(np.maximum(np.diag(cov_axes), 0.0)) if na else np.zeros(0),
+        camera_parameters_std=np.sqrt(np.maximum(np.diag(cov_intr), 0.0)) if prob.n_intr else np.zeros(0),
     )  # fmt: skip

@@ -33,6 +33,9 @@ def add_subparser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentPa
     p.add_argument("--camera", default="cam0", help="camera name in SENSORS.yaml (cam0)")
     p.add_argument("--bias-model", choices=("random_walk", "constant"), default="random_walk",
                    help="IMU biases: a random walk with a knot per frame, or constant (random_walk)")  # fmt: skip
+    p.add_argument("--imu-model", choices=("calibrated", "scale_misalignment"), default="scale_misalignment",
+                   help="IMU model: white noise + bias random walk (calibrated), and also the gyro and accelerometer "
+                   "axis matrices (scale_misalignment, the default)")  # fmt: skip
     p.add_argument("--min-frames", type=int, default=40, metavar="N", help="refuse with fewer usable frames (40)")
     p.add_argument("--window", type=float, nargs=2, default=None, metavar=("START", "END"),
                    help="use only the frames between START and END s after the first IMU sample")  # fmt: skip
@@ -62,6 +65,10 @@ def _table(m: dict) -> str:
         ("worst translation σ [mm]", f"{1e3 * m['excitation']['translation_std_m'][0]:.3f}"),
         ("iterations / runtime [s]", f"{m['iterations']} / {m['runtime_s']:.1f}"),
     ]
+    for key, name in (("gyro_axes_matrix", "gyro M − I [‰] (rows)"), ("accel_axes_matrix", "accel M − I [‰] (rows)")):
+        if key in m:
+            rows.append((name, "; ".join(" ".join(f"{1e3 * (v - (i == j)):+.2f}" for j, v in enumerate(r))
+                                         for i, r in enumerate(m[key]))))  # fmt: skip
     rows += [("warning", w) for w in m["warnings"]]
     return aligned_rows(rows)
 
@@ -78,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         window = None if args.window is None else tuple(args.window)
         m = calibrate_camera_imu_files(args.imu, args.detections, args.sensors, args.camera, args.bias_model,
-                                       args.min_frames, window)  # fmt: skip
+                                       args.min_frames, window, args.imu_model)  # fmt: skip
     except UnknownCamera as exc:
         print(f"{PROG}: error: {exc}", file=sys.stderr)
         return 2

@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+import dualpose as dp
 from dualpose.calibration.camera_imu import CameraImuCalibration, calibrate_camera_imu
 from dualpose.io import read_rig_sensors, read_target_detections
 from dualpose.io.recording import read_imu
@@ -20,10 +21,29 @@ from dualpose.types.camera import FrameCorrespondences
 from dualpose.types.camera_models import RadTanCamera
 from dualpose.types.imu import STANDARD_GRAVITY
 
-__all__ = ["UnknownCamera", "calibrate_camera_imu_files", "calibration_summary"]
+__all__ = ["EUROC_KALIBR_T_BS", "UnknownCamera", "calibrate_camera_imu_files", "calibration_summary", "pose_matrix"]
 
 #: distortion models the estimator's camera Jacobians support
 SUPPORTED = ("radtan",)
+
+#: The reference of docs/euroc.md: EuRoC's published Kalibr camera–IMU extrinsics ``T_BS`` (the camera pose in the
+#: IMU/body frame, 4 × 4), Burri et al. 2016, ``mav0/cam0|cam1/sensor.yaml``.
+EUROC_KALIBR_T_BS = {
+    "cam0": np.array([0.0148655429818, -0.999880929698, 0.00414029679422, -0.0216401454975, 0.999557249008,
+                      0.0149672133247, 0.025715529948, -0.064676986768, -0.0257744366974, 0.00375618835797,
+                      0.999660727178, 0.00981073058949, 0, 0, 0, 1]).reshape(4, 4),
+    "cam1": np.array([0.0125552670891, -0.999755099723, 0.0182237714554, -0.0198435579556, 0.999598781151,
+                      0.0130119051815, 0.0251588363115, 0.0453689425024, -0.0253898008918, 0.0179005838253,
+                      0.999517347078, 0.00786212447038, 0, 0, 0, 1]).reshape(4, 4),
+}  # fmt: skip
+
+
+def pose_matrix(summary: dict) -> np.ndarray:
+    """The camera pose in the IMU frame ``T_bc`` (4, 4) of a :func:`calibration_summary` dictionary."""
+    T = np.eye(4)
+    T[:3, :3] = dp.matrix_from_quat(np.asarray(summary["rotation_xyzw"], dtype=np.float64))
+    T[:3, 3] = summary["translation_m"]
+    return T
 
 
 class UnknownCamera(ValueError):
@@ -38,7 +58,12 @@ def calibration_summary(res: CameraImuCalibration, camera: str) -> dict:
     """The JSON-ready dictionary of a :class:`CameraImuCalibration` (all values plain floats, lists, dicts)."""
     o = res.outliers
     e = res.excitation
-    return {
+    axes = {}
+    if res.imu_axes:
+        axes = {"gyro_axes_matrix": [_floats(r) for r in res.imu_axes[0]],
+                "accel_axes_matrix": [_floats(r) for r in res.imu_axes[1]],
+                "imu_axes_std": _floats(res.imu_axes_std)}  # fmt: skip
+    return axes | {
         "camera": camera,
         "rotation_xyzw": _floats(res.q_bc),
         "translation_m": _floats(res.p_bc),
@@ -77,6 +102,7 @@ def calibration_summary(res: CameraImuCalibration, camera: str) -> dict:
         "warnings": list(e["warnings"]),
         "gyro_misalignment": [_floats(r) for r in res.gyro_misalignment],
         "accel_misalignment": [_floats(r) for r in res.accel_misalignment],
+        "imu_model": "scale_misalignment" if res.imu_axes else "calibrated",
         "iterations": int(res.iterations),
         "runtime_s": float(res.runtime_s),
     }
@@ -90,11 +116,15 @@ def calibrate_camera_imu_files(
     bias_model: str = "random_walk",
     min_frames: int = 40,
     frame_window: tuple[float, float] | None = None,
+    imu_model: str = "scale_misalignment",
+    imu_noise_scale: float = 1.0,
 ) -> dict:
     """Read the three files and calibrate ``camera`` against the IMU; returns :func:`calibration_summary`.
 
     ``frame_window`` (start, end) in seconds from the first IMU sample keeps only the frames and IMU samples inside
-    it (a cut of the recording).
+    it (a cut of the recording).  ``imu_model``: as :func:`~dualpose.calibration.camera_imu.calibrate_camera_imu`.
+    ``imu_noise_scale`` multiplies every IMU noise density and random walk of the sensor file (a sensitivity
+    study: docs/euroc.md).
 
     Raises
     ------
@@ -131,6 +161,9 @@ def calibrate_camera_imu_files(
         raise ValueError(f"no time overlap between the IMU ({imu_path}) and the detections ({detections_path})")
     frames = FrameCorrespondences(frame_t, offsets, pixels, points)
     g = rig.gravity_magnitude if math.isfinite(rig.gravity_magnitude) else STANDARD_GRAVITY
-    res = calibrate_camera_imu(imu_t, gyro, accel, frames, cam, rig.imu_noise, gravity_magnitude=g,
-                               bias_model=bias_model, min_frames=min_frames)  # fmt: skip
+    if not imu_noise_scale > 0:
+        raise ValueError(f"imu_noise_scale must be > 0; got {imu_noise_scale}")
+    noise = rig.imu_noise.scaled(imu_noise_scale)
+    res = calibrate_camera_imu(imu_t, gyro, accel, frames, cam, noise, gravity_magnitude=g,
+                               bias_model=bias_model, min_frames=min_frames, imu_model=imu_model)  # fmt: skip
     return calibration_summary(res, camera)
