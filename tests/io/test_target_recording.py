@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -70,3 +71,15 @@ def test_imu_april_cameras_and_overlap(euroc_april):
     assert list(rec.detections) == ["cam1"] and len(rec.detections["cam1"]) == 1439
     with pytest.raises(RecordingError, match="unknown camera 'cam3'; available: cam0, cam1"):
         read_target_recording(euroc_april, ("cam3",))
+
+
+def test_calibration_axis_matrices_round_trip_and_null_reads_as_none(tmp_path):
+    M = np.eye(3) + 1e-3 * np.arange(9.0).reshape(3, 3)
+    cal = dataclasses.replace(_calibration(), gyro_axes_matrix=M)
+    back = read_camera_imu_calibration(write_camera_imu_calibration(tmp_path / "c.json", cal))
+    np.testing.assert_array_equal(back.gyro_axes_matrix, M)
+    assert back.accel_axes_matrix is None
+    d = cal.as_dict() | {"gyro_axes_matrix": [[1.0, 0.0], [0.0, 1.0]]}
+    (tmp_path / "bad.json").write_text(json.dumps(d))
+    with pytest.raises(RecordingError, match=r"bad\.json: gyro_axes_matrix must be a 3 x 3"):
+        read_camera_imu_calibration(tmp_path / "bad.json")

@@ -11,9 +11,10 @@ A target-recording directory holds::
 
 The calibration JSON (``dualpose calibrate camera-imu ... --json``) is one object with the keys of
 :class:`~dualpose.types.calibration.CameraImuCalibration`: ``camera``, ``rotation_xyzw``, ``translation_m``,
-``time_offset_s``, ``reprojection_rms_px`` (required), ``gyro_bias``, ``accel_bias``, ``gravity_target``, ``std``
-(optional, may be null); other keys (the calibration's own report: residuals, outliers, ...) are not read.  A missing
-required key is refused, with the near miss named when there is one (``'rotation_xyz' instead of 'rotation_xyzw'?``).
+``time_offset_s``, ``reprojection_rms_px`` (required), ``gyro_bias``, ``accel_bias``, ``gravity_target``, ``std``,
+``gyro_axes_matrix``, ``accel_axes_matrix`` (optional, may be null; the IMU axis models, 3 x 3 as rows); other keys
+(the calibration's own report: residuals, outliers, ...) are not read.  A missing required key is refused, with the
+near miss named when there is one (``'rotation_xyz' instead of 'rotation_xyzw'?``).
 Every problem is a :class:`~dualpose.io.recording.RecordingError` naming the file (and the
 key or line).
 """
@@ -59,6 +60,8 @@ CALIBRATION_KEYS = {
     "accel_bias": False,
     "gravity_target": False,
     "std": False,
+    "gyro_axes_matrix": False,
+    "accel_axes_matrix": False,
 }
 
 

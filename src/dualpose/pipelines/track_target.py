@@ -10,8 +10,12 @@ and no ground truth is used:
   pinhole-model filters (ESKF, Hol22) apply unchanged.  Their noise σ (one number per run, as the filters take) is
   the calibration's reprojection RMS (measured pixels) times the RMS over the image of the undistortion's pixel
   scale (:func:`ideal_pixel_sigma`): undistortion stretches the image edges, and the noise with it.
-* **Sensors.** Extrinsic and clock offset from the calibration file; IMU noise from the rig's ``sensors.yaml`` as
-  stated (not tuned); initial biases from the calibration file where it states them, otherwise estimated at start-up.
+* **Sensors.** Extrinsic and clock offset from the calibration file; the IMU samples corrected with the calibration's
+  IMU axis models when it states them (``ω = M_g⁻¹ ω̃``, ``f = M_a⁻¹ f̃``,
+  :meth:`~dualpose.types.calibration.CameraImuCalibration.corrected_imu`: in the batch and the stream alike, before
+  the start-up and the filter); IMU noise from the rig's ``sensors.yaml`` as stated (not tuned), optionally with
+  scale-factor uncertainties (``scale_sigmas``, :func:`track_imu_noise`; the ESKF models them, Hol22 does not);
+  initial biases from the calibration file where it states them, otherwise estimated at start-up.
 * **Start-up** (:func:`startup`, Hol's gravity alignment for a moving sensor): the camera's PnP poses over the first
   :data:`STARTUP_SECONDS` of frames and the IMU between them give the gyro bias, the direction of gravity in the
   target frame, the velocities and the accelerometer bias by linear least squares
@@ -56,12 +60,13 @@ from dualpose.pipelines._lines import format_numbers
 from dualpose.pipelines.fuse import FILTERS, FuseResult
 from dualpose.pipelines.fuse_stream import parse_fusion_line
 from dualpose.registration.pnp import PnPResult, solve_pnp_ransac
-from dualpose.types import FilterStart, Recording, SensorSetup, Trajectory
+from dualpose.types import FilterStart, ImuNoise, Recording, SensorSetup, Trajectory
 from dualpose.types.calibration import CameraImuCalibration
 from dualpose.types.target import TargetDetections
 
 __all__ = [
     "EUROC_T_BS",
+    "MEMS_SCALE_SIGMAS",
     "STARTUP_SECONDS",
     "StartUp",
     "TrackSetup",
@@ -79,6 +84,7 @@ __all__ = [
     "startup",
     "stream_track_lines",
     "target_recording_lines",
+    "track_imu_noise",
 ]
 
 #: length of the start-up window (s of camera frames from the first usable one): long enough for the hand-held
@@ -97,6 +103,24 @@ EUROC_T_BS = {
              0.0251588363115, 0.0453689425024, -0.0253898008918, 0.0179005838253, 0.999517347078, 0.00786212447038,
              0.0, 0.0, 0.0, 1.0),
 }  # fmt: skip
+
+
+#: relative scale-factor + axis-alignment uncertainties ``(ε_g, ε_a)`` of a calibrated MEMS IMU (the class value of the
+#: AHRS's ``gyro_scale_sigma`` / ``acc_scale_sigma``): what ``scale_sigmas="mems"`` gives (docs/fusion.md, "Tracking
+#: on EuRoC imu_april", for what they do on imu_april)
+MEMS_SCALE_SIGMAS = (0.005, 0.005)
+
+
+def track_imu_noise(rig, scale_sigmas: tuple[float, float] | str = (0.0, 0.0)) -> ImuNoise:
+    """The IMU noise the tracking filters use: the rig's densities and random walks as stated (``sensors.yaml``), its
+    rate, and the scale-factor uncertainties ``scale_sigmas = (ε_g, ε_a)`` (``ImuNoise.gyroscope_scale_sigma``,
+    ``accelerometer_scale_sigma``; ``"mems"`` for :data:`MEMS_SCALE_SIGMAS`; default none, Kalibr's noise model)."""
+    eg, ea = MEMS_SCALE_SIGMAS if isinstance(scale_sigmas, str) and scale_sigmas == "mems" else scale_sigmas
+    if not (math.isfinite(eg) and math.isfinite(ea) and eg >= 0 and ea >= 0):
+        raise ValueError(f"scale_sigmas must be two finite numbers >= 0 (or 'mems'); got {scale_sigmas!r}")
+    n = rig.imu_noise
+    rate = rig.imu_rate if math.isfinite(rig.imu_rate) else n.update_rate
+    return replace(n, update_rate=rate, gyroscope_scale_sigma=float(eg), accelerometer_scale_sigma=float(ea))
 
 
 def extrinsic_from_matrix(T: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
@@ -266,6 +290,7 @@ def prepare_track(
     calibration: str | os.PathLike | CameraImuCalibration,
     camera: str = "cam0",
     outages: Sequence[tuple[float, float]] = (),
+    scale_sigmas: tuple[float, float] | str = (0.0, 0.0),
 ) -> TrackSetup:
     """Read a target recording and a calibration and set the filter up (module docstring).
 
@@ -275,6 +300,7 @@ def prepare_track(
     calibration : calibration JSON or a :class:`~dualpose.types.calibration.CameraImuCalibration`.
     camera : the tracked camera (must be in ``sensors.yaml`` and have its detections in the directory).
     outages : (start, end) windows, seconds from the first IMU sample, whose frames of ``camera`` are deleted.
+    scale_sigmas : the IMU scale-factor uncertainties ``(ε_g, ε_a)`` or ``"mems"`` (:func:`track_imu_noise`).
 
     Raises
     ------
@@ -295,9 +321,10 @@ def prepare_track(
     det = src.detections[camera]
     det = det.select(_frames_outside(det, outages, float(imu.stamps[0])))
     g_mag = rig.gravity_magnitude if math.isfinite(rig.gravity_magnitude) else 9.81
-    noise = replace(rig.imu_noise, update_rate=rig.imu_rate) if math.isfinite(rig.imu_rate) else rig.imu_noise
+    noise = track_imu_noise(rig, scale_sigmas)
+    gyro, accel = cal.corrected_imu(imu.gyro, imu.accel)  # the calibration's IMU axis models, if any
     try:
-        st = startup(imu.stamps, imu.gyro, imu.accel, det, model, cal, noise, g_mag)
+        st = startup(imu.stamps, gyro, accel, det, model, cal, noise, g_mag)
     except ValueError as exc:
         raise RecordingError(f"{src.path}: cannot start the filter: {exc}") from None
     k0 = st.imu_index
@@ -306,7 +333,7 @@ def prepare_track(
     sub = det.select(keep)
     frames = sub.correspondences(model)
     rec = Recording(
-        t=imu.stamps[k0:], gyro=imu.gyro[k0:], accel=imu.accel[k0:], frames=frames, camera=model.pinhole(),
+        t=imu.stamps[k0:], gyro=gyro[k0:], accel=accel[k0:], frames=frames, camera=model.pinhole(),
         q_bc=cal.rotation_xyzw, p_bc=cal.translation_m,
         pixel_sigma=ideal_pixel_sigma(model, cal.reprojection_rms_px), imu_noise=noise,
         time_offset=cal.time_offset_s, gravity=st.alignment.gravity, stamps_ns=imu.stamps_ns[k0:],
@@ -696,10 +723,11 @@ class TrackStream:
     Parameters
     ----------
     rig : RigSensors.  camera : the tracked camera's name.  calibration : CameraImuCalibration.
-    filter : {"eskf", "hol22"}.
+    filter : {"eskf", "hol22"}.  scale_sigmas : as :func:`prepare_track`.
     """
 
-    def __init__(self, rig, camera: str, calibration: CameraImuCalibration, filter: str = "eskf") -> None:
+    def __init__(self, rig, camera: str, calibration: CameraImuCalibration, filter: str = "eskf",
+                 scale_sigmas: tuple[float, float] | str = (0.0, 0.0)) -> None:
         if filter not in FILTERS:
             raise ValueError(f"filter must be one of {tuple(FILTERS)}; got {filter!r}")
         if rig.imu_noise is None:
@@ -709,7 +737,7 @@ class TrackStream:
         self.model = rig.camera(camera)
         self.calibration = calibration
         self.filter = filter
-        self.noise = replace(rig.imu_noise, update_rate=rig.imu_rate) if math.isfinite(rig.imu_rate) else rig.imu_noise
+        self.noise = track_imu_noise(rig, scale_sigmas)
         self.gravity_magnitude = rig.gravity_magnitude if math.isfinite(rig.gravity_magnitude) else 9.81
         self.pixel_sigma = ideal_pixel_sigma(self.model, calibration.reprojection_rms_px)
         self._imu: list[tuple[float, list, list]] = []
@@ -788,7 +816,10 @@ class TrackStream:
 
     def update(self, kind: str, t: float, a, b) -> list:
         """One input (``"imu", t, gyro, accel`` or ``"cam", t, raw pixels (n, 2), points (n, 3)``); returns the
-        ``(t, position (3,), q_wb (4,))`` poses it completes (none while the start-up window is read)."""
+        ``(t, position (3,), q_wb (4,))`` poses it completes (none while the start-up window is read).  IMU samples
+        go through the calibration's axis models first (:meth:`CameraImuCalibration.corrected_imu`)."""
+        if kind != "cam":
+            a, b = self.calibration.corrected_imu(a, b)
         if self._stream is not None:
             if kind == "cam":
                 self._camera(t, np.asarray(a, dtype=np.float64).reshape(-1, 2), np.asarray(b, dtype=np.float64))

@@ -46,6 +46,11 @@ class CameraImuCalibration:
         Gravity in the target frame, m/s²; None when not stated.
     std : dict
         Standard deviations the calibration states (free form: name -> number or list), kept as read.
+    gyro_axes_matrix, accel_axes_matrix : ndarray, shape (3, 3), or None
+        The IMU axis models of the calibration (``dualpose calibrate camera-imu --imu-model scale_misalignment``,
+        docs/euroc.md): the measured rate and specific force are ``ω̃ = M_g (ω + b_g)``, ``f̃ = M_a (f + b_a)``
+        (scale factors on the diagonal, axis misalignment off it); None when not stated (``M = I``).
+        :meth:`corrected_imu` applies them.
     """
 
     camera: str
@@ -57,6 +62,8 @@ class CameraImuCalibration:
     accel_bias: np.ndarray | None = None
     gravity_target: np.ndarray | None = None
     std: dict = field(default_factory=dict)
+    gyro_axes_matrix: np.ndarray | None = None
+    accel_axes_matrix: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.camera, str) or not self.camera:
@@ -80,6 +87,17 @@ class CameraImuCalibration:
             v = getattr(self, name)
             if v is not None:
                 object.__setattr__(self, name, _vector(v, name, 3))
+        for name in ("gyro_axes_matrix", "accel_axes_matrix"):
+            v = getattr(self, name)
+            if v is not None:
+                m = np.asarray(v, dtype=np.float64)
+                if m.shape != (3, 3) or not np.isfinite(m).all():
+                    raise ValueError(f"{name} must be a 3 x 3 matrix of finite numbers (rows); got {v!r}")
+                dev = float(np.abs(m - np.eye(3)).max())
+                if dev > 0.2:
+                    raise ValueError(f"{name} must be close to the identity (an IMU axis model: scale factors and "
+                                     f"misalignment of a few per cent); its largest deviation is {dev:.3g}")
+                object.__setattr__(self, name, m)
         if not isinstance(self.std, dict):
             raise ValueError(f"std must be a mapping of names to standard deviations; got {type(self.std).__name__}")
 
@@ -98,4 +116,23 @@ class CameraImuCalibration:
             "accel_bias": arr(self.accel_bias),
             "gravity_target": arr(self.gravity_target),
             "std": dict(self.std),
+            "gyro_axes_matrix": None if self.gyro_axes_matrix is None else [arr(r) for r in self.gyro_axes_matrix],
+            "accel_axes_matrix": None if self.accel_axes_matrix is None else [arr(r) for r in self.accel_axes_matrix],
         }
+
+    def corrected_imu(self, gyro: np.ndarray, accel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The IMU samples with the axis models removed: ``(M_g⁻¹ ω̃, M_a⁻¹ f̃)`` (each (..., 3), rad/s and m/s²,
+        body axes; the biases stay in, in the corrected axes, as the filters model them).  Unchanged copies (as
+        float64) when the calibration states no axis model.  Elementwise arithmetic in a fixed order, so one sample
+        gives bit for bit the row of a whole array (the stream and the batch agree)."""
+        return _apply_inverse(self.gyro_axes_matrix, gyro), _apply_inverse(self.accel_axes_matrix, accel)
+
+
+def _apply_inverse(M: np.ndarray | None, x) -> np.ndarray:
+    x = np.array(x, dtype=np.float64)
+    if M is None:
+        return x
+    if x.shape[-1:] != (3,):
+        raise ValueError(f"IMU samples must have 3 components on the last axis; got shape {x.shape}")
+    W = np.linalg.inv(M)
+    return x[..., 0:1] * W[:, 0] + x[..., 1:2] * W[:, 1] + x[..., 2:3] * W[:, 2]

@@ -12,7 +12,7 @@ namespace dualpose::eskf {
 
 // Constants of one filter (set once).
 struct Config {
-    double gravity[3], noise[4];     // world gravity, m/s²; continuous-time variances [σ_g², σ_a², σ_bg², σ_ba²]
+    double gravity[3], noise[6];     // world gravity, m/s²; [σ_g², σ_a², σ_bg², σ_ba², ε_g², ε_a²] (eskf_kernels)
     double intr[4], q_bc[4], p_bc[3];  // camera [fx, fy, cx, cy], camera→body rotation xyzw, camera centre in body
     double sigma_px, gate;           // pixel σ, χ²(2) gate
 };
