@@ -13,7 +13,10 @@ Bias: per-axis RMS over seeds and axes of the bias error at the last sample of e
 standard deviation the samples allow: a bias random walk of density σ_w measured through white noise of density
 σ_d = σ_g/√rate for T seconds of quiet samples has the Kalman–Bucy posterior variance σ_w σ_d coth(T σ_w / σ_d)
 (from an uninformative prior), which is σ_d²/T = σ_g²/N (N samples) when σ_w → 0.  The second table repeats the
-recording without the random walk and without the drift (constant bias: the σ_g/√N case).
+recording without the random walk and without the drift (constant bias: the σ_g/√N case); the third one with the
+random walk, no drift and breaks that are not perfectly still (``creep`` = 0.02 °/s about a random axis per break, the
+level measured in BROAD's breaks); the fourth adds a bias that differs by 0.03 °/s between motion and rest
+(``motion_bias``).  "rest_bias_sigma=0" is the rest update without the spell-common offset (before).
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ from dualpose.evaluation.orientation_errors import orientation_rmse
 from dualpose.sim.rest_breaks import rest_break_recording
 
 SEEDS = range(10)
-ON, OFF = AhrsConfig(), AhrsConfig(rest_window=0.0)
+ON, WHITE, OFF = AhrsConfig(), AhrsConfig(rest_bias_sigma=0.0), AhrsConfig(rest_window=0.0)
 
 
 def _score(quat: np.ndarray, rec, use_mag: bool) -> tuple[float, float, float]:
@@ -49,15 +52,15 @@ def _posterior_sigma(rec, walk: float, seconds: float) -> float:
     return math.degrees(math.sqrt(var))
 
 
-def run(walk: float, drift: float) -> dict:
+def run(walk: float, drift: float, creep: float = 0.0, motion_bias: float = 0.0) -> dict:
     rows: dict[str, list] = {}
     bias: dict[str, list] = {}
     rest_samples = []
     for seed in SEEDS:
-        rec = rest_break_recording(seed, bias_walk=walk, drift=drift)
+        rec = rest_break_recording(seed, bias_walk=walk, drift=drift, creep=creep, motion_bias=motion_bias)
         for use_mag in (True, False):
             mode = "9D" if use_mag else "6D"
-            for name, cfg in (("with rest update", ON), ("without", OFF)):
+            for name, cfg in (("with rest update", ON), ("rest update, rest_bias_sigma=0", WHITE), ("without", OFF)):
                 r = estimate_orientation(rec.gyr, rec.acc, rec.mag if use_mag else None, rec.rate, use_mag=use_mag,
                                          n_rest=rec.n_rest, config=cfg)  # fmt: skip
                 rows.setdefault(f"dualpose {mode}, {name}", []).append(_score(r.quat, rec, use_mag))
@@ -109,6 +112,13 @@ def main() -> int:
     res = run(walk=0.0, drift=0.0)
     print_orientation(res, "Bias constant")
     print_bias(res, "Bias constant")
+    res = run(walk=1.0e-4, drift=0.0, creep=math.radians(0.02))
+    title = "Breaks creeping at 0.02 °/s (random walk 1e-4 rad/s²/√Hz, no drift)"
+    print_orientation(res, title)
+    print_bias(res, title)
+    res = run(walk=1.0e-4, drift=0.0, creep=math.radians(0.02), motion_bias=math.radians(0.03))
+    title = "Breaks creeping at 0.02 °/s and a bias 0.03 °/s different in motion (random walk, no drift)"
+    print_orientation(res, title)
     return 0
 
 

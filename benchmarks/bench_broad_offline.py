@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from _common import write_marked_block
-from bench_broad import MADGWICK_012
+from bench_broad import MADGWICK_012, trial_subsets
 from dualpose.estimation.ahrs import estimate_orientation
 from dualpose.estimation.ahrs.smoother import smooth_orientation
 from dualpose.evaluation.orientation_errors import orientation_rmse
@@ -143,6 +143,20 @@ def _markdown(rows: list) -> list[str]:
                    f"{int((a < b).sum())} of {len(a)} |")  # fmt: skip
         out.append(f"| {ours} vs {theirs}, inclination | {ai.mean():.3f} | {bi.mean():.3f} | "
                    f"{ai.mean() / bi.mean():.3f} | {int((ai < bi).sum())} of {len(ai)} |")  # fmt: skip
+    out += ["", "Offline 9D against offline VQF by subset (total RMSE, °; target: ratio ≤ 0.9 and dualpose lower on "
+            "≥ 3/4 of the trials; 6D inclination for reference):", "",
+            "| subset | trials | dualpose offline 9D | offline VQF 9D | ratio | dualpose lower | target | "
+            "dualpose offline 6D inclination | offline VQF 6D inclination |",
+            "|---|---:|---:|---:|---:|---:|---|---:|---:|"]  # fmt: skip
+    for label, idx in trial_subsets([n for n, _, _ in rows]):
+        a = np.array([rows[i][2]["dualpose offline 9D"][0].total_rmse_deg for i in idx])
+        b = np.array([rows[i][2]["offline VQF 9D"][0].total_rmse_deg for i in idx])
+        ai = np.mean([rows[i][2]["dualpose offline 6D"][0].inclination_rmse_deg for i in idx])
+        bi = np.mean([rows[i][2]["offline VQF 6D"][0].inclination_rmse_deg for i in idx])
+        wins = int((a < b).sum())
+        ok = a.mean() <= 0.9 * b.mean() and wins >= 0.75 * len(idx)
+        out.append(f"| {label} | {len(idx)} | {a.mean():.3f} | {b.mean():.3f} | {a.mean() / b.mean():.3f} | "
+                   f"{wins} of {len(idx)} | {'PASS' if ok else 'FAIL'} | {ai:.3f} | {bi:.3f} |")
     from importlib.metadata import version
 
     out += ["", f"Machine: {platform.machine()}, Python {platform.python_version()}, numpy {np.__version__}, "

@@ -4,7 +4,7 @@ Run ``.venv/bin/python benchmarks/bench_camera.py [--points 1e3 1e5] [--markdown
 
 Cameras: EuRoC MAV cam0 (radtan, 752 x 480) and a TUM-VI-like fisheye (equi, 512 x 512).  Points: pixels drawn
 uniformly over the image (seeded), their rays at depths 0.5-4 m (fisheye: rays within 85° of the axis, what OpenCV's
-fisheye model handles).  Contenders, each best of 9 interleaved rounds:
+fisheye model handles).  Contenders, each best of 15 interleaved rounds:
 
 * project: ``camera.project`` vs ``cv2.projectPoints`` / ``cv2.fisheye.projectPoints`` (rvec = tvec = 0);
 * project + Jacobian: ``camera.project_jacobian`` (d pixel / d point) vs ``cv2.projectPoints`` with its Jacobian
@@ -106,11 +106,11 @@ def main(argv: list[str] | None = None) -> int:
         for n in (int(v) for v in args.points):
             pixels, points = _inputs(cam, n, rng)
             for op, (ours, theirs) in _contenders(cam, pixels, points).items():
-                t = best_of_interleaved({"dualpose": ours, "opencv": theirs}, k=9)
+                t = best_of_interleaved({"dualpose": ours, "opencv": theirs}, k=15)
                 rows.append((cam.model, n, op, t["dualpose"], t["opencv"]))
     lines = [
         f"Python {platform.python_version()}, NumPy {np.__version__}, OpenCV {cv2.__version__}, "
-        f"{platform.machine()}, 1 thread; best of 9 interleaved rounds.",
+        f"{platform.machine()}, 1 thread; best of 15 interleaved rounds.",
         "",
         "| model | points | operation | dualpose (µs) | OpenCV (µs) | ratio OpenCV/dualpose |",
         "|---|---:|---|---:|---:|---:|",

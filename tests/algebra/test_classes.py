@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
+import copy
+import pickle
+import warnings
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import RigidTransform, Rotation, Slerp
 
 from dualpose.algebra import quat as fq
 from dualpose.algebra.classes import DualQuaternion, Quaternion
+from dualpose.algebra.dualquat import dualquat_mul as dq_mul
 
 TOL = 1e-12
 
@@ -385,3 +390,59 @@ class TestDualQuaternion:
             DualQuaternion.from_qt([0, 0, 0, 1], [1, 2])
         with pytest.raises(ValueError, match="must have shape"):
             DualQuaternion.identity().apply([1, 2, 3, 4])
+
+
+# ------------------------------------------------------------------------------------------------------------------
+# products of single elements held inline by the native base (no array until one is read)
+# ------------------------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("cls,size,mul", [(Quaternion, 4, fq.quat_mul), (DualQuaternion, 8, dq_mul)])
+class TestInlineProducts:
+    def test_chain_equals_the_functional_product_bit_for_bit(self, cls, size, mul, rng):
+        xs = rng.normal(size=(20, size))
+        acc, ref = cls(xs[0]), xs[0]
+        for x in xs[1:]:  # inline results multiplied again: array-held and inline operands mixed
+            acc = acc * cls(x)
+            ref = mul(ref, x)
+            acc = cls(x) * acc
+            ref = mul(x, ref)
+        assert acc.array.tobytes() == ref.tobytes()
+        assert acc.shape == () and acc.single
+
+    def test_array_is_created_once_and_then_stored(self, cls, size, mul, rng):
+        a, b = cls(rng.normal(size=size)), cls(rng.normal(size=size))
+        c = a * b
+        arr = c.array
+        assert arr is c.array and arr.shape == (size,) and arr.dtype == np.float64 and arr.flags.writeable
+        arr[0] = 7.0  # the stored array, as for any object: later products read it
+        assert (c * b).array.tobytes() == mul(arr, b.array).tobytes()
+        assert np.asarray(c) is arr
+
+    def test_copy_pickle_and_batches(self, cls, size, mul, rng):
+        c = cls(rng.normal(size=size)) * cls(rng.normal(size=size))
+        for d in (pickle.loads(pickle.dumps(c)), copy.deepcopy(c), copy.copy(c), c.copy()):
+            assert type(d) is cls and d.array.tobytes() == c.array.tobytes()
+        batch = cls(rng.normal(size=(3, 2, size)))
+        assert (batch * c).array.tobytes() == mul(batch.array, c.array).tobytes()  # broadcast: the functional path
+        view = batch[:, 1]  # strided view: the functional path
+        assert (view * view).array.tobytes() == mul(view.array, view.array).tobytes()
+        assert (batch[1, 0] * c).array.tobytes() == mul(batch.array[1, 0], c.array).tobytes()
+
+    def test_subclass_operands_give_the_base_class(self, cls, size, mul, rng):
+        class Sub(cls):
+            __slots__ = ()
+
+        s = Sub(rng.normal(size=size))
+        for r in (s * s, s * cls(s.array), cls(s.array) * s):
+            assert type(r) is cls and r.array.tobytes() == mul(s.array, s.array).tobytes()
+
+    def test_overflow_warns_as_the_functional_product(self, cls, size, mul):
+        x = cls(np.full(size, 1e200))
+        with warnings.catch_warnings(record=True) as got:
+            warnings.simplefilter("always")
+            r = x * x
+        with warnings.catch_warnings(record=True) as want:
+            warnings.simplefilter("always")
+            ref = mul(x.array, x.array)
+        assert [str(w.message) for w in got] == [str(w.message) for w in want]
+        assert any("overflow" in str(w.message) for w in got)
+        assert r.array.tobytes() == ref.tobytes()

@@ -1,4 +1,5 @@
-"""Simulated hand-eye recordings with known ``X`` and ``τ``: a camera stream with the faults of real files.
+"""Simulated hand-eye recordings with known ``X`` and ``τ``: a camera stream with the faults of real files; and the
+scoring shared by the hand-eye tests (loop-residual RMSE, OpenCV's closed forms on the same pairs).
 
 Frames: body pose ``B(t)`` (body clock), camera pose in the target ``A = T⁻¹ B(s + τ) X`` at camera stamp ``s``
 (``T`` the target in the body's reference frame).  Shared by ``tests/calibration`` and ``tests/cli``.
@@ -11,6 +12,31 @@ from dataclasses import dataclass
 import numpy as np
 
 import dualpose as dp
+from dualpose.calibration import interpolate_stream, pair_motions, pair_residuals
+
+OPENCV_METHODS = ("TSAI", "PARK", "HORAUD", "ANDREFF", "DANIILIDIS")
+
+
+def loop_rmse(cam, body, pairs, tau, q, t):
+    """RMS rotation angle (deg) and translation norm (m) of the loop residuals of ``pairs`` (m, 2) at ``tau``."""
+    qa, ta, qb, tb, ok = pair_motions(cam, body, pairs[:, 0], pairs[:, 1], tau)
+    rv, te = pair_residuals(qa[ok], ta[ok], qb[ok], tb[ok], q, t)
+    return np.degrees(np.sqrt(np.mean(np.sum(rv**2, 1)))), np.sqrt(np.mean(np.sum(te**2, 1)))
+
+
+def opencv_hand_eye(cam, body, pairs, tau, method, max_poses=150):
+    """OpenCV's ``X`` (quat xyzw, translation) from the camera samples of ``pairs`` (evenly thinned to ``max_poses``)
+    with the body interpolated at ``t + tau``."""
+    import cv2
+
+    idx = np.unique(pairs)
+    idx = idx[np.linspace(0, len(idx) - 1, min(max_poses, len(idx))).round().astype(int)]
+    pb, qb, ok = interpolate_stream(body, cam.stamps[idx] + tau)
+    qc, tc = dp.qt_conj(cam.quats[idx[ok]], cam.positions[idx[ok]])
+    r, t = cv2.calibrateHandEye(list(dp.matrix_from_quat(qb[ok])), list(pb[ok][:, :, None]),
+                                list(dp.matrix_from_quat(qc)), list(tc[:, :, None]),
+                                method=getattr(cv2, f"CALIB_HAND_EYE_{method}"))  # fmt: skip
+    return dp.quat_from_matrix(r), t.ravel()
 
 
 @dataclass

@@ -7,16 +7,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from handeye_sim import OPENCV_METHODS, loop_rmse, opencv_hand_eye
 
-import dualpose as dp
-from dualpose.calibration import (
-    calibrate_hand_eye_streams,
-    clean_pose_stream,
-    interpolate_stream,
-    loop_residual,
-    pair_motions,
-    pair_residuals,
-)
+from dualpose.calibration import calibrate_hand_eye_streams, clean_pose_stream, loop_residual
 from dualpose.io.pose_csv import read_pose_csv
 
 cv2 = pytest.importorskip("cv2")
@@ -26,24 +19,6 @@ SETS = {
     "prime_sense_1": ("prime_sense_1_camera_in_target.csv", "prime_sense_1_marker_in_vicon.csv"),
     "robot_arm_real": ("robot_arm_real_camera_in_target.csv", "robot_arm_real_hand_in_base.csv"),
 }
-METHODS = ("TSAI", "PARK", "HORAUD", "ANDREFF", "DANIILIDIS")
-
-
-def _rmse(cam, body, pairs, tau, q, t):
-    qa, ta, qb, tb, ok = pair_motions(cam, body, pairs[:, 0], pairs[:, 1], tau)
-    rv, te = pair_residuals(qa[ok], ta[ok], qb[ok], tb[ok], q, t)
-    return np.degrees(np.sqrt(np.mean(np.sum(rv**2, 1)))), np.sqrt(np.mean(np.sum(te**2, 1)))
-
-
-def _opencv(cam, body, pairs, tau, method, max_poses=150):
-    idx = np.unique(pairs)
-    idx = idx[np.linspace(0, len(idx) - 1, min(max_poses, len(idx))).round().astype(int)]
-    pb, qb, ok = interpolate_stream(body, cam.stamps[idx] + tau)
-    qc, tc = dp.qt_conj(cam.quats[idx[ok]], cam.positions[idx[ok]])
-    r, t = cv2.calibrateHandEye(list(dp.matrix_from_quat(qb[ok])), list(pb[ok][:, :, None]),
-                                list(dp.matrix_from_quat(qc)), list(tc[:, :, None]),
-                                method=getattr(cv2, f"CALIB_HAND_EYE_{method}"))  # fmt: skip
-    return dp.quat_from_matrix(r), t.ravel()
 
 
 @pytest.mark.parametrize("name", list(SETS))
@@ -53,10 +28,12 @@ def test_real_dataset_against_opencv_and_loop_minimum(name):
     cam, _ = clean_pose_stream(*read_pose_csv(DATA / SETS[name][0]))
     body, _ = clean_pose_stream(*read_pose_csv(DATA / SETS[name][1]))
     r = calibrate_hand_eye_streams(cam, body)
-    rot, trans = _rmse(cam, body, r.pairs, r.time_offset, r.quat, r.translation)
+    rot, trans = loop_rmse(cam, body, r.pairs, r.time_offset, r.quat, r.translation)
     assert rot == pytest.approx(r.rotation_rmse_deg) and trans == pytest.approx(r.translation_rmse_m)
-    cv = [_rmse(cam, body, r.pairs, r.time_offset, *_opencv(cam, body, r.pairs, r.time_offset, m)) for m in METHODS]
-    assert rot <= 1.05 * min(c[0] for c in cv) and trans <= 1.05 * min(c[1] for c in cv)
+    tau = r.time_offset
+    cv = [loop_rmse(cam, body, r.pairs, tau, *opencv_hand_eye(cam, body, r.pairs, tau, m)) for m in OPENCV_METHODS]
+    assert rot <= 1.02 * min(c[0] for c in cv) and trans <= 1.02 * min(c[1] for c in cv)
+    assert r.rotation_rmse_deg <= r.start_rotation_rmse_deg and r.translation_rmse_m <= r.start_translation_rmse_m
     assert r.pairs_used > 0.7 * r.pairs_total > 500
     # dense scan of the loop residual, X re-fitted at every τ
     i, j = r.pairs.T

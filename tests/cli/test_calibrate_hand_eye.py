@@ -20,7 +20,8 @@ sys.modules.setdefault(_spec.name, sim)  # dataclasses look their module up in s
 _spec.loader.exec_module(sim)
 
 KEYS = {"rotation_xyzw", "translation_m", "time_offset_s", "rotation_residual_deg", "translation_residual_m",
-        "pairs_used", "rotation_sigma_deg", "translation_sigma_m", "time_offset_sigma_s"}  # fmt: skip
+        "pairs_used", "rotation_sigma_deg", "translation_sigma_m", "time_offset_sigma_s", "start_method",
+        "start_rotation_residual_deg", "start_translation_residual_m"}  # fmt: skip
 
 
 def test_json_on_simulated_files(tmp_path, capsys):
@@ -34,6 +35,8 @@ def test_json_on_simulated_files(tmp_path, capsys):
     assert np.degrees(dp.quat_angle(out["rotation_xyzw"], rec.quat)) < 0.2
     assert np.linalg.norm(np.subtract(out["translation_m"], rec.translation)) < 3e-3
     assert out["camera_rows"]["exact_duplicates"] > 0
+    assert out["rotation_residual_deg"] <= out["start_rotation_residual_deg"]
+    assert out["translation_residual_m"] <= out["start_translation_residual_m"]
     assert main(["calibrate", "hand-eye", str(tmp_path / "cam.csv"), str(tmp_path / "body.csv")]) == 0
     assert "time offset τ [s]" in capsys.readouterr().out
 

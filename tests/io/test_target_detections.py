@@ -94,6 +94,15 @@ def test_euroc_corrections_and_select(euroc_dir):
     rays = np.c_[(corr.pixels[k : k + 8] - [cam.cx, cam.cy]) / [cam.fx, cam.fy], np.ones(8)]
     np.testing.assert_allclose(cam.project(rays), det.pixels[k : k + 8], atol=1e-9)
     np.testing.assert_array_equal(det.correspondences().pixels, det.pixels)
+    # a lens whose invertible region ends inside the image: the outer detections are refused, or left out
+    folded = RadTanCamera(cam.fx, cam.fy, cam.cx, cam.cy, -0.9, 0.0, 0.0, 0.0, cam.width, cam.height)
+    with pytest.raises(ValueError, match="outside the invertible region.*drop_invalid=True"):
+        det.correspondences(folded)
+    kept = det.correspondences(folded, drop_invalid=True)
+    _, valid = folded.ideal_pixels(det.pixels, return_valid=True)
+    assert 0 < valid.sum() < len(valid) and kept.offsets[-1] == valid.sum()
+    np.testing.assert_array_equal(kept.counts, np.add.reduceat(valid, det.offsets[:-1]) * (det.counts > 0))
+    np.testing.assert_array_equal(kept.points, det.points[valid])
     keep = (det.t < det.t[0] + 10) | (det.t > det.t[0] + 12)  # a 2 s outage
     sub = det.select(keep)
     assert len(sub) == keep.sum() and sub.offsets[-1] == det.counts[keep].sum()

@@ -264,3 +264,20 @@ def test_compiled_kernels_equal_the_numpy_statement(cam, rng):
         dj_ref = dj3[..., :2]
     np.testing.assert_allclose(cam.distort(xy_u), d_ref, rtol=1e-12, atol=1e-15)
     np.testing.assert_allclose(cam.distort_jacobian(xy_u), dj_ref, rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("cam", CAMERAS, ids=["radtan", "equi"])
+@given(st.floats(-1.0, 1.0), st.floats(-1.0, 1.0))
+def test_undistort_inverts_distort(cam, a, b):
+    """undistort(distort(xy)) = xy inside the invertible region (a disc reaching 0.95 of its bound)."""
+    bound = np.sqrt(cam.max_radius2) if cam.model == "radtan" else np.tan(min(cam.max_angle, 1.45))
+    xy = np.array([a, b]) * min(bound * 0.95, 1.5) / np.sqrt(2)
+    np.testing.assert_allclose(cam.undistort(cam.distort(xy)), xy, rtol=1e-11, atol=1e-13)
+
+
+@given(st.floats(0.05, 1.0), st.floats(-np.pi, np.pi), st.floats(1.6, 2.6))
+def test_equidistant_jacobian_beyond_90_degrees(rho_scale, phi, theta):
+    """The fisheye Jacobian also for rays behind the image plane (θ > 90°, Z < 0)."""
+    p = 2.0 * np.array([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)]) * rho_scale
+    _, j = TUMVI.project_jacobian(p)
+    np.testing.assert_allclose(j, _central(TUMVI.project, p, 1e-6), rtol=1e-6, atol=1e-4)

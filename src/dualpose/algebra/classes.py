@@ -32,6 +32,7 @@ from typing import Any, Literal, TypeVar
 import numpy as np
 from numpy.typing import ArrayLike
 
+from dualpose import _native
 from dualpose._validation import as_array
 from dualpose.algebra import dualquat as _dualquat
 from dualpose.algebra import interop as _interop
@@ -56,10 +57,15 @@ def _arr(x: Any) -> Any:
     return x._a if isinstance(x, _Batch) else x
 
 
-class _Batch:
-    """Shared container behaviour: one float64 array whose last axis holds the components."""
+class _Batch(_native.Facade):
+    """Shared container behaviour: one float64 array whose last axis holds the components.
 
-    __slots__ = ("_a",)
+    The native base (:class:`dualpose._native.Facade`) stores the array ``_a`` and implements ``a * b`` (see
+    ``_set_product`` below the classes): a product of two single elements is computed by the kernel's row directly
+    and held inline until ``_a`` is first read, so composing single poses in a loop allocates no array.
+    """
+
+    __slots__ = ()
     __array_ufunc__ = None  # ndarray (op) obj -> NotImplemented -> TypeError, never componentwise arithmetic
     _size: int = 0
     _layout: str = ""
@@ -72,12 +78,6 @@ class _Batch:
         if copy and isinstance(array, np.ndarray):
             a = a.copy()
         self._a = a
-
-    @classmethod
-    def _wrap(cls: type[_B], a: np.ndarray) -> _B:
-        obj = object.__new__(cls)
-        obj._a = a
-        return obj
 
     # -- container protocol -------------------------------------------------------------------------------------
     @property
@@ -226,11 +226,6 @@ class Quaternion(_Batch):
         return _interop.scipy_from_quat(self._a)
 
     # -- algebra ------------------------------------------------------------------------------------------------
-    def __mul__(self, other: Quaternion) -> Quaternion:
-        if not isinstance(other, Quaternion):
-            return NotImplemented
-        return Quaternion._wrap(_q.quat_mul(self._a, other._a))
-
     def __pow__(self, t: ArrayLike) -> Quaternion:
         if isinstance(t, _Batch):
             return NotImplemented
@@ -375,11 +370,6 @@ class DualQuaternion(_Batch):
         return _interop.scipy_from_dualquat(self._a)
 
     # -- algebra ------------------------------------------------------------------------------------------------
-    def __mul__(self, other: DualQuaternion) -> DualQuaternion:
-        if not isinstance(other, DualQuaternion):
-            return NotImplemented
-        return DualQuaternion._wrap(_dualquat.dualquat_mul(self._a, other._a))
-
     def __pow__(self, t: ArrayLike) -> DualQuaternion:
         if isinstance(t, _Batch):
             return NotImplemented
@@ -423,3 +413,9 @@ class DualQuaternion(_Batch):
     def angle_to(self, other: DualQuaternion | ArrayLike) -> np.ndarray:
         """Rotation angle in [0, π] between the orientations (real parts) of ``self`` and ``other``."""
         return _q.quat_angle(self._a[..., :4], as_array(_arr(other), "other", 8)[..., :4])
+
+
+# ``a * b``: the Hamilton / dual-quaternion product (``a`` applied after ``b``) of two objects of the class, in the
+# native base; anything but two objects of the class is refused (NotImplemented, then TypeError).
+Quaternion._set_product(_native.quat_mul, _q.quat_mul)
+DualQuaternion._set_product(_native.dualquat_mul, _dualquat.dualquat_mul)

@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike
 
 from dualpose import _native
 from dualpose._validation import as_array, call_kernel, raise_if_zero_norm
+from dualpose.algebra._fastpath import fast_path
 
 __all__ = [
     "quat_derivative",
@@ -53,6 +54,7 @@ def _body_flag(frame: str) -> float:
     raise ValueError(f"frame must be 'space' or 'body'; got {frame!r}")
 
 
+@fast_path(_native.quat_derivative, fixed=(0.0,))
 def quat_derivative(q: ArrayLike, omega: ArrayLike, frame: Frame = "space") -> np.ndarray:
     """Quaternion time derivative of a rotating frame: ``q̇ = ½ ω (x) q`` (space) or ``½ q (x) ω`` (body).
 
@@ -76,6 +78,7 @@ def quat_derivative(q: ArrayLike, omega: ArrayLike, frame: Frame = "space") -> n
     return call_kernel(_native.quat_derivative, (q, omega, _body_flag(frame)), ("q", "omega"))
 
 
+@fast_path(_native.omega_from_quat_derivative, nan_declines=True, fixed=(0.0,))
 def omega_from_quat_derivative(q: ArrayLike, qdot: ArrayLike, frame: Frame = "space") -> np.ndarray:
     """Angular velocity from a quaternion derivative: ``ω = 2 vec(q̇ (x) q*) / |q|²`` (space) or
     ``2 vec(q* (x) q̇) / |q|²`` (body).
@@ -104,6 +107,7 @@ def omega_from_quat_derivative(q: ArrayLike, qdot: ArrayLike, frame: Frame = "sp
     return out
 
 
+@fast_path(_native.quat_second_derivative, fixed=(0.0,))
 def quat_second_derivative(
     q: ArrayLike, omega: ArrayLike, omega_dot: ArrayLike, frame: Frame = "space"
 ) -> np.ndarray:
@@ -136,6 +140,7 @@ def quat_second_derivative(
     )
 
 
+@fast_path(_native.angular_acceleration_from_quat, nan_declines=True, fixed=(0.0,))
 def angular_acceleration_from_quat(
     q: ArrayLike, qdot: ArrayLike, qddot: ArrayLike, frame: Frame = "space"
 ) -> np.ndarray:
@@ -168,6 +173,7 @@ def angular_acceleration_from_quat(
     return out
 
 
+@fast_path(_native.quat_exp_derivative)
 def quat_exp_derivative(q: ArrayLike, qdot: ArrayLike) -> np.ndarray:
     """Time derivative of the exponential of a general quaternion, ``d/dt exp(q(t))``.
 
@@ -195,6 +201,7 @@ def quat_exp_derivative(q: ArrayLike, qdot: ArrayLike) -> np.ndarray:
     return call_kernel(_native.quat_exp_derivative, (q, qdot), ("q", "qdot"))
 
 
+@fast_path(_native.quat_exp_jacobian)
 def quat_exp_jacobian(q: ArrayLike) -> np.ndarray:
     """Jacobian of the quaternion exponential (Dantam 2014 eq. (22)) at ``q = [v, w]``::
 
@@ -215,6 +222,7 @@ def quat_exp_jacobian(q: ArrayLike) -> np.ndarray:
     return _native.quat_exp_jacobian(q)
 
 
+@fast_path(_native.quat_log_jacobian, nan_declines=True)
 def quat_log_jacobian(q: ArrayLike) -> np.ndarray:
     """Jacobian of the principal quaternion logarithm (Dantam 2014 eq. (26)) at a general nonzero ``q``.
 
@@ -252,6 +260,7 @@ def quat_log_jacobian(q: ArrayLike) -> np.ndarray:
     return out
 
 
+@fast_path(_native.quat_log_derivative, nan_declines=True)
 def quat_log_derivative(q: ArrayLike, qdot: ArrayLike) -> np.ndarray:
     """Time derivative of the principal logarithm, ``d/dt ln q(t) = quat_log_jacobian(q) @ q̇``.
 
@@ -277,6 +286,7 @@ def quat_log_derivative(q: ArrayLike, qdot: ArrayLike) -> np.ndarray:
     return out
 
 
+@fast_path(_native.quat_derivative_from_rotvec_rate)
 def quat_derivative_from_rotvec_rate(rotvec: ArrayLike, rotvec_dot: ArrayLike) -> np.ndarray:
     """``q̇`` of ``q = exp(v/2)`` (:func:`~dualpose.algebra.quat.quat_from_rotvec`) given ``v`` and ``v̇``.
 
@@ -304,6 +314,7 @@ def quat_derivative_from_rotvec_rate(rotvec: ArrayLike, rotvec_dot: ArrayLike) -
     return call_kernel(_native.quat_derivative_from_rotvec_rate, (v, vd), ("rotvec", "rotvec_dot"))
 
 
+@fast_path(_native.so3_jacobian_apply, fixed=(1.0, 0.0))
 def omega_from_rotvec_rate(rotvec: ArrayLike, rotvec_dot: ArrayLike, frame: Frame = "space") -> np.ndarray:
     """Angular velocity of ``R(t) = exp(v(t)×)``: ``ω_space = J_l(v) v̇``, ``ω_body = J_r(v) v̇``.
 
@@ -329,6 +340,7 @@ def omega_from_rotvec_rate(rotvec: ArrayLike, rotvec_dot: ArrayLike, frame: Fram
     return call_kernel(_native.so3_jacobian_apply, (v, vd, sgn, 0.0), ("rotvec", "rotvec_dot"))
 
 
+@fast_path(_native.so3_jacobian_apply, fixed=(1.0, 1.0))
 def rotvec_rate_from_omega(rotvec: ArrayLike, omega: ArrayLike, frame: Frame = "space") -> np.ndarray:
     """Rotation-vector rate ``v̇ = J_l(v)⁻¹ ω_space = J_r(v)⁻¹ ω_body`` (inverse of :func:`omega_from_rotvec_rate`).
 

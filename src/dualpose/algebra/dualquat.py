@@ -30,6 +30,7 @@ from dualpose._validation import (
     raise_if_zero_norm,
     try_flat_kernel,
 )
+from dualpose.algebra._fastpath import fast_path
 from dualpose.algebra.quat import raise_not_rotation
 
 __all__ = [
@@ -73,6 +74,7 @@ def dualquat_identity(shape: int | tuple[int, ...] = ()) -> np.ndarray:
     return identity_array(shape, 8)
 
 
+@fast_path(_native.dualquat_mul, takes_out=True)
 def dualquat_mul(a: ArrayLike, b: ArrayLike, out: np.ndarray | None = None) -> np.ndarray:
     """Dual-quaternion product ``a (x) b = (a_r b_r, a_r b_d + a_d b_r)`` (Dantam 2014 eq. (79)).
 
@@ -105,6 +107,7 @@ def dualquat_conj(s: ArrayLike) -> np.ndarray:
     return s * _CONJ
 
 
+@fast_path(_native.dualquat_inv, nan_declines=True)
 def dualquat_inv(s: ArrayLike) -> np.ndarray:
     """Multiplicative inverse ``(r⁻¹, −r⁻¹ d r⁻¹)`` of a dual quaternion with any nonzero real part.
 
@@ -117,6 +120,7 @@ def dualquat_inv(s: ArrayLike) -> np.ndarray:
     return out
 
 
+@fast_path(_native.dualquat_norm, nan_declines=True)
 def dualquat_norm(s: ArrayLike) -> np.ndarray:
     """Dual-number norm ``|S| = sqrt(S S*) = |r| + ε (r·d)/|r|`` as ``[|r|, r·d/|r|]``, shape (..., 8) -> (..., 2).
 
@@ -129,6 +133,7 @@ def dualquat_norm(s: ArrayLike) -> np.ndarray:
     return out
 
 
+@fast_path(_native.dualquat_normalize, nan_declines=True)
 def dualquat_normalize(s: ArrayLike) -> np.ndarray:
     """The unit dual quaternion ``S / |S|`` (dual-number division), shape (..., 8) -> (..., 8).
 
@@ -142,6 +147,7 @@ def dualquat_normalize(s: ArrayLike) -> np.ndarray:
     return out
 
 
+@fast_path(_native.dualquat_canonical)
 def dualquat_canonical(s: ArrayLike) -> np.ndarray:
     """The sign representative whose real part has ``w > 0`` (ties as :func:`~dualpose.algebra.quat.quat_canonical`).
 
@@ -152,6 +158,7 @@ def dualquat_canonical(s: ArrayLike) -> np.ndarray:
     return _native.dualquat_canonical(s)
 
 
+@fast_path(_native.dualquat_from_qt, nan_declines=True)
 def dualquat_from_qt(q: ArrayLike, t: ArrayLike) -> np.ndarray:
     """Dual quaternion ``[r, ½ t (x) r]`` with ``r = q/|q|`` (Dantam 2014 eqs. (76)-(77)).
 
@@ -174,6 +181,7 @@ def dualquat_from_qt(q: ArrayLike, t: ArrayLike) -> np.ndarray:
     return out
 
 
+@fast_path(_native.qt_from_dualquat, nan_declines=True)
 def qt_from_dualquat(s: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Rotation and translation of dual quaternions (Dantam 2014 eq. (78); Walker 1991 eq. (19)).
 
@@ -227,6 +235,7 @@ def dualquat_from_matrix(matrix: ArrayLike) -> np.ndarray:
     return _native.dualquat_from_rt(m, r)
 
 
+@fast_path(_native.matrix_from_dualquat, nan_declines=True)
 def matrix_from_dualquat(s: ArrayLike) -> np.ndarray:
     """Homogeneous transforms ``[[R, t], [0, 1]]`` of dual quaternions (Walker 1991 eqs. (17)-(19); Dantam (109)).
 
@@ -240,6 +249,7 @@ def matrix_from_dualquat(s: ArrayLike) -> np.ndarray:
     return out
 
 
+@fast_path(_native.dualquat_transform, nan_declines=True, takes_out=True)
 def dualquat_transform(s: ArrayLike, points: ArrayLike, out: np.ndarray | None = None) -> np.ndarray:
     """Transform points: ``p' = R p + t`` (Dantam 2014 eq. (95), evaluated in the implicit form (106)).
 
@@ -271,6 +281,7 @@ def dualquat_transform(s: ArrayLike, points: ArrayLike, out: np.ndarray | None =
     return res
 
 
+@fast_path(_native.dualquat_exp)
 def dualquat_exp(s: ArrayLike) -> np.ndarray:
     """Exponential of a general dual quaternion (Dantam 2014 eqs. (82)-(85)).
 
@@ -290,6 +301,7 @@ def dualquat_exp(s: ArrayLike) -> np.ndarray:
     return _native.dualquat_exp(s)
 
 
+@fast_path(_native.dualquat_log, nan_declines=True)
 def dualquat_log(s: ArrayLike) -> np.ndarray:
     """Principal logarithm of a general dual quaternion (Dantam 2014 eqs. (86)-(92)); (..., 8) -> (..., 8).
 
@@ -318,6 +330,7 @@ def dualquat_log(s: ArrayLike) -> np.ndarray:
     return out
 
 
+@fast_path(_native.dualquat_pow, nan_declines=True)
 def dualquat_pow(s: ArrayLike, t: ArrayLike) -> np.ndarray:
     """Power ``S**t = exp(t ln S)`` with the principal logarithm of :func:`dualquat_log`, in float64.
 
@@ -342,6 +355,7 @@ def dualquat_pow(s: ArrayLike, t: ArrayLike) -> np.ndarray:
     return out
 
 
+@fast_path(_native.dualquat_from_twist)
 def dualquat_from_twist(xi: ArrayLike) -> np.ndarray:
     """Rigid transform of exponential coordinates: ``dualquat_exp(½(ω + ε v))`` (Dantam 2014 eq. (84)).
 
@@ -360,6 +374,7 @@ def dualquat_from_twist(xi: ArrayLike) -> np.ndarray:
     return _native.dualquat_from_twist(xi)
 
 
+@fast_path(_native.twist_from_dualquat, nan_declines=True)
 def twist_from_dualquat(s: ArrayLike) -> np.ndarray:
     """Exponential coordinates ``[ω, v]`` (..., 6) of rigid transforms ``s`` (..., 8).
 
@@ -374,6 +389,7 @@ def twist_from_dualquat(s: ArrayLike) -> np.ndarray:
     return out
 
 
+@fast_path(_native.dualquat_sclerp, nan_declines=True)
 def dualquat_sclerp(s0: ArrayLike, s1: ArrayLike, t: ArrayLike) -> np.ndarray:
     """Screw linear interpolation ``s0 (x) (canonical(s0* (x) s1))**t`` along the shortest screw.
 
@@ -401,6 +417,7 @@ def dualquat_sclerp(s0: ArrayLike, s1: ArrayLike, t: ArrayLike) -> np.ndarray:
     return out
 
 
+@fast_path(_native.dualquat_from_screw, nan_declines=True)
 def dualquat_from_screw(axis: ArrayLike, point: ArrayLike, pitch_distance: ArrayLike, angle: ArrayLike) -> np.ndarray:
     """Dual quaternions of screw motions (Walker 1991 eqs. (8)-(12)).
 
@@ -435,6 +452,7 @@ def dualquat_from_screw(axis: ArrayLike, point: ArrayLike, pitch_distance: Array
     return out
 
 
+@fast_path(_native.screw_from_dualquat, nan_declines=True)
 def screw_from_dualquat(s: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Walker screw parameters ``(n, p, d, θ)`` of rigid transforms (Walker 1991 Appendix 3, stable form).
 
@@ -464,6 +482,7 @@ def screw_from_dualquat(s: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return axis, point, d, th
 
 
+@fast_path(_native.dualquat_integrate_space)
 def dualquat_integrate(
     s: ArrayLike, twist: ArrayLike, dt: ArrayLike, frame: Literal["space", "body"] = "space"
 ) -> np.ndarray:

@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike
 
 from dualpose import _native
 from dualpose._validation import as_array, call_kernel, raise_if_zero_norm
+from dualpose.algebra._fastpath import fast_path
 
 __all__ = [
     "qt_mul",
@@ -32,6 +33,7 @@ __all__ = [
 
 
 
+@fast_path(_native.qt_mul, nan_declines=True)
 def qt_mul(q1: ArrayLike, t1: ArrayLike, q2: ArrayLike, t2: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Compose implicit dual quaternions: ``(q1, t1)(q2, t2) = (q1 (x) q2, rot(q1, t2) + t1)``.
 
@@ -61,6 +63,7 @@ def qt_mul(q1: ArrayLike, t1: ArrayLike, q2: ArrayLike, t2: ArrayLike) -> tuple[
     return q, t
 
 
+@fast_path(_native.qt_transform, nan_declines=True)
 def qt_transform(q: ArrayLike, t: ArrayLike, points: ArrayLike) -> np.ndarray:
     """Transform points: ``p' = rot(q, p) + t`` (Dantam 2014 eq. (106)).
 
@@ -86,6 +89,7 @@ def qt_transform(q: ArrayLike, t: ArrayLike, points: ArrayLike) -> np.ndarray:
     return out
 
 
+@fast_path(_native.qt_conj, nan_declines=True)
 def qt_conj(q: ArrayLike, t: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Conjugate ``(q*, −rot(q*, t))`` (Dantam 2014 §V-C); the inverse transform for a unit ``q``.
 
@@ -110,6 +114,7 @@ def qt_conj(q: ArrayLike, t: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     return qc, tc
 
 
+@fast_path(_native.qt_from_twist)
 def qt_from_twist(xi: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Exponential of twists as implicit dual quaternions: ``q = exp(ω/2)``, ``t = J_l(ω) v``.
 
@@ -132,6 +137,7 @@ def qt_from_twist(xi: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     return _native.qt_from_twist(xi)
 
 
+@fast_path(_native.twist_from_qt, nan_declines=True)
 def twist_from_qt(q: ArrayLike, t: ArrayLike) -> np.ndarray:
     """Principal twist ``[ω, v]`` of ``(q, t)``: ``ω = 2 ln(±q)`` with ``|ω| <= π``, ``v = J_l(ω)⁻¹ t``.
 
@@ -157,6 +163,7 @@ def twist_from_qt(q: ArrayLike, t: ArrayLike) -> np.ndarray:
     return out
 
 
+@fast_path(_native.qt_mul_derivative, nan_declines=True)
 def qt_mul_derivative(
     q1: ArrayLike,
     t1: ArrayLike,

@@ -42,6 +42,7 @@ from numpy.typing import ArrayLike
 
 from dualpose import _native
 from dualpose._validation import as_array, call_kernel, check_finite, raise_if_zero_norm
+from dualpose.algebra._fastpath import fast_path
 from dualpose.algebra.hat import so3_hat, so3_vee
 from dualpose.algebra.quat import matrix_from_quat, quat_from_matrix, rotvec_from_quat
 
@@ -95,6 +96,7 @@ def se3_vee(matrix: ArrayLike) -> np.ndarray:
 # ---------------------------------------------------------------------------------------------------------------
 
 
+@fast_path(_native.so3_exp)
 def so3_exp(phi: ArrayLike) -> np.ndarray:
     """Rotation matrix ``exp([φ]×) = cos θ I + sinc(θ) Φ + cosc2(θ) φφᵀ`` (Rodrigues).
 
@@ -121,6 +123,7 @@ def so3_log(matrix: ArrayLike) -> np.ndarray:
     return rotvec_from_quat(quat_from_matrix(matrix))
 
 
+@fast_path(_native.se3_exp)
 def se3_exp(xi: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Exponential of twists: ``exp([[ω×, v], [0, 0]]) = [[R, t], [0, 1]]``.
 
@@ -175,6 +178,7 @@ def _se3_jac(xi: ArrayLike, sgn: float, inv: float) -> np.ndarray:
     return _native.se3_jacobian(xi, sgn, inv)
 
 
+@fast_path(_native.so3_jacobian, fixed=(1.0, 0.0))
 def so3_left_jacobian(phi: ArrayLike) -> np.ndarray:
     """SO(3) left Jacobian ``J_l(φ) = I + (1 − cos θ)/θ² Φ + (θ − sin θ)/θ³ Φ²``.
 
@@ -193,6 +197,7 @@ def so3_left_jacobian(phi: ArrayLike) -> np.ndarray:
     return _so3_jac(phi, 1.0, 0.0)
 
 
+@fast_path(_native.so3_jacobian, fixed=(-1.0, 0.0))
 def so3_right_jacobian(phi: ArrayLike) -> np.ndarray:
     """SO(3) right Jacobian ``J_r(φ) = J_l(−φ)``: ``exp((φ + δ)×) ≈ exp(φ×) exp((J_r δ)×)``; (..., 3) -> (..., 3, 3).
 
@@ -201,6 +206,7 @@ def so3_right_jacobian(phi: ArrayLike) -> np.ndarray:
     return _so3_jac(phi, -1.0, 0.0)
 
 
+@fast_path(_native.so3_jacobian, fixed=(1.0, 1.0))
 def so3_left_jacobian_inv(phi: ArrayLike) -> np.ndarray:
     """Inverse left Jacobian ``J_l(φ)⁻¹ = I − ½ Φ + (1 − (θ/2) cot(θ/2))/θ² Φ²``; (..., 3) -> (..., 3, 3).
 
@@ -209,11 +215,13 @@ def so3_left_jacobian_inv(phi: ArrayLike) -> np.ndarray:
     return _so3_jac(phi, 1.0, 1.0)
 
 
+@fast_path(_native.so3_jacobian, fixed=(-1.0, 1.0))
 def so3_right_jacobian_inv(phi: ArrayLike) -> np.ndarray:
     """Inverse right Jacobian ``J_r(φ)⁻¹ = J_l(−φ)⁻¹ = I + ½ Φ + jinv(θ) Φ²``; (..., 3) -> (..., 3, 3)."""
     return _so3_jac(phi, -1.0, 1.0)
 
 
+@fast_path(_native.se3_jacobian, fixed=(1.0, 0.0))
 def se3_left_jacobian(xi: ArrayLike) -> np.ndarray:
     """SE(3) left Jacobian in the ``[ω, v]`` order: ``[[J_l(ω), 0], [Q(ω, v), J_l(ω)]]``.
 
@@ -232,16 +240,19 @@ def se3_left_jacobian(xi: ArrayLike) -> np.ndarray:
     return _se3_jac(xi, 1.0, 0.0)
 
 
+@fast_path(_native.se3_jacobian, fixed=(-1.0, 0.0))
 def se3_right_jacobian(xi: ArrayLike) -> np.ndarray:
     """SE(3) right Jacobian ``J_r(ξ) = J_l(−ξ)``: ``exp((ξ + δ)^) ≈ exp(ξ^) exp((J_r δ)^)``; (..., 6) -> (..., 6, 6)."""
     return _se3_jac(xi, -1.0, 0.0)
 
 
+@fast_path(_native.se3_jacobian, fixed=(1.0, 1.0))
 def se3_left_jacobian_inv(xi: ArrayLike) -> np.ndarray:
     """Inverse SE(3) left Jacobian ``[[J⁻¹, 0], [−J⁻¹ Q J⁻¹, J⁻¹]]`` (``J = J_l(ω)``); (..., 6) -> (..., 6, 6)."""
     return _se3_jac(xi, 1.0, 1.0)
 
 
+@fast_path(_native.se3_jacobian, fixed=(-1.0, 1.0))
 def se3_right_jacobian_inv(xi: ArrayLike) -> np.ndarray:
     """Inverse SE(3) right Jacobian ``J_l(−ξ)⁻¹``; (..., 6) -> (..., 6, 6)."""
     return _se3_jac(xi, -1.0, 1.0)
@@ -260,6 +271,7 @@ def so3_adjoint(q: ArrayLike) -> np.ndarray:
     return matrix_from_quat(q)
 
 
+@fast_path(_native.se3_adjoint, nan_declines=True)
 def se3_adjoint(q: ArrayLike, t: ArrayLike) -> np.ndarray:
     """Adjoint of the transform ``T = (R(q), t)`` acting on ``[ω, v]`` twists: ``[[R, 0], [t× R, R]]``.
 

@@ -27,6 +27,7 @@ from dualpose._validation import (
     raise_if_zero_norm,
     try_flat_kernel,
 )
+from dualpose.algebra._fastpath import fast_path
 from dualpose.algebra.hat import so3_hat
 
 __all__ = [
@@ -65,6 +66,7 @@ def quat_identity(shape: int | tuple[int, ...] = ()) -> np.ndarray:
     return identity_array(shape, 4)
 
 
+@fast_path(_native.quat_mul, takes_out=True)
 def quat_mul(p: ArrayLike, q: ArrayLike, out: np.ndarray | None = None) -> np.ndarray:
     """Hamilton product ``p (x) q`` (Dantam 2014 eq. (11); Walker 1991 ``Q(p) q = W(q) p``).
 
@@ -91,12 +93,14 @@ def quat_conj(q: ArrayLike) -> np.ndarray:
     return q * _CONJ
 
 
+@fast_path(_native.quat_norm)
 def quat_norm(q: ArrayLike) -> np.ndarray:
     """Euclidean norm ``|q|`` (Dantam 2014 eq. (12)), computed without underflow/overflow; (..., 4) -> (...)."""
     q = as_array(q, "q", 4)
     return _native.quat_norm(q)
 
 
+@fast_path(_native.quat_normalize, nan_declines=True)
 def quat_normalize(q: ArrayLike) -> np.ndarray:
     """``q / |q|``; shape (..., 4), xyzw.  Raises ``ValueError`` for a zero quaternion."""
     q = as_array(q, "q", 4)
@@ -105,6 +109,7 @@ def quat_normalize(q: ArrayLike) -> np.ndarray:
     return out
 
 
+@fast_path(_native.quat_inv, nan_declines=True)
 def quat_inv(q: ArrayLike) -> np.ndarray:
     """Inverse ``q* / |q|**2`` (Dantam 2014 eq. (17)); shape (..., 4), xyzw.  Zero raises ``ValueError``."""
     q = as_array(q, "q", 4)
@@ -113,6 +118,7 @@ def quat_inv(q: ArrayLike) -> np.ndarray:
     return out
 
 
+@fast_path(_native.quat_canonical)
 def quat_canonical(q: ArrayLike) -> np.ndarray:
     """The sign representative with ``w > 0`` (ties broken by the first nonzero of x, y, z being positive).
 
@@ -122,6 +128,7 @@ def quat_canonical(q: ArrayLike) -> np.ndarray:
     return _native.quat_canonical(q)
 
 
+@fast_path(_native.quat_exp)
 def quat_exp(q: ArrayLike) -> np.ndarray:
     """Quaternion exponential ``e**q = e**w [sin|v| v/|v|, cos|v|]`` (Dantam 2014 eqs. (22)-(24)).
 
@@ -132,6 +139,7 @@ def quat_exp(q: ArrayLike) -> np.ndarray:
     return _native.quat_exp(q)
 
 
+@fast_path(_native.quat_log, nan_declines=True, max_rows=FLAT_MIN_ELEMENTS - 1)
 def quat_log(q: ArrayLike) -> np.ndarray:
     """Principal quaternion logarithm ``[φ v/|v|, ln|q|]`` with ``φ = atan2(|v|, w)`` (Dantam 2014 (25)-(28)).
 
@@ -165,6 +173,7 @@ def _quat_log_flat(q: np.ndarray) -> np.ndarray:
     return out
 
 
+@fast_path(_native.quat_pow, nan_declines=True)
 def quat_pow(q: ArrayLike, t: ArrayLike) -> np.ndarray:
     """Power ``q**t = exp(t ln q)`` with the principal logarithm (Dantam 2014 eq. (30)).
 
@@ -188,6 +197,7 @@ def quat_pow(q: ArrayLike, t: ArrayLike) -> np.ndarray:
     return out
 
 
+@fast_path(_native.quat_rotate, nan_declines=True, takes_out=True)
 def quat_rotate(q: ArrayLike, v: ArrayLike, out: np.ndarray | None = None) -> np.ndarray:
     """Rotate vectors actively: ``v' = q (x) v (x) q*`` (Dantam 2014 eqs. (44)-(45)).
 
@@ -218,6 +228,7 @@ def quat_rotate(q: ArrayLike, v: ArrayLike, out: np.ndarray | None = None) -> np
     return res
 
 
+@fast_path(_native.quat_from_rotvec)
 def quat_from_rotvec(rotvec: ArrayLike) -> np.ndarray:
     """Unit quaternion ``exp(v/2) = [sin(|v|/2) v/|v|, cos(|v|/2)]`` of rotation vectors (Dantam 2014 eq. (50)).
 
@@ -235,6 +246,7 @@ def quat_from_rotvec(rotvec: ArrayLike) -> np.ndarray:
     return _native.quat_from_rotvec(v)
 
 
+@fast_path(_native.rotvec_from_quat, nan_declines=True)
 def rotvec_from_quat(q: ArrayLike) -> np.ndarray:
     """Rotation vector ``2 ln q`` with angle in [0, π] (Dantam 2014 eqs. (51)-(53), atan2 form).
 
@@ -247,6 +259,7 @@ def rotvec_from_quat(q: ArrayLike) -> np.ndarray:
     return out
 
 
+@fast_path(_native.quat_from_axis_angle, nan_declines=True)
 def quat_from_axis_angle(axis: ArrayLike, angle: ArrayLike) -> np.ndarray:
     """Quaternion ``[sin(θ/2) u, cos(θ/2)]`` of an axis (normalized here) and angle θ in radians.
 
@@ -261,6 +274,7 @@ def quat_from_axis_angle(axis: ArrayLike, angle: ArrayLike) -> np.ndarray:
     return out
 
 
+@fast_path(_native.axis_angle_from_quat, nan_declines=True)
 def axis_angle_from_quat(q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Unit axis (..., 3) and angle θ ∈ [0, π] (...) of rotations ``q`` (..., 4, xyzw).
 
@@ -273,6 +287,7 @@ def axis_angle_from_quat(q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     return axis, angle
 
 
+@fast_path(_native.matrix_from_quat, nan_declines=True)
 def matrix_from_quat(q: ArrayLike) -> np.ndarray:
     """Rotation matrix of quaternions (Dantam 2014 eq. (108); Walker 1991 eq. (4)).
 
@@ -285,6 +300,7 @@ def matrix_from_quat(q: ArrayLike) -> np.ndarray:
     return out
 
 
+@fast_path(_native.quat_from_matrix, nan_declines=True)
 def quat_from_matrix(matrix: ArrayLike) -> np.ndarray:
     """Unit quaternion (xyzw, ``w >= 0``) of rotation matrices, shape (..., 3, 3) -> (..., 4).
 
@@ -323,6 +339,7 @@ def raise_not_rotation(out: np.ndarray, m: np.ndarray, name: str) -> None:
     raise ValueError(f"{where} is not a rotation matrix: {why}")
 
 
+@fast_path(_native.quat_slerp, nan_declines=True)
 def quat_slerp(q0: ArrayLike, q1: ArrayLike, t: ArrayLike) -> np.ndarray:
     """Spherical linear interpolation ``q0 (x) (q0* (x) q1)**t`` on the shorter arc (Dantam 2014 eq. (58)).
 
@@ -348,6 +365,7 @@ def quat_slerp(q0: ArrayLike, q1: ArrayLike, t: ArrayLike) -> np.ndarray:
     return out
 
 
+@fast_path(_native.quat_angle, nan_declines=True)
 def quat_angle(p: ArrayLike, q: ArrayLike) -> np.ndarray:
     """Rotation angle between orientations ``p`` and ``q``, in [0, π] radians.
 
@@ -365,6 +383,7 @@ def quat_angle(p: ArrayLike, q: ArrayLike) -> np.ndarray:
     return out
 
 
+@fast_path(_native.quat_integrate_space)
 def quat_integrate(
     q: ArrayLike, omega: ArrayLike, dt: ArrayLike, frame: Literal["space", "body"] = "space"
 ) -> np.ndarray:

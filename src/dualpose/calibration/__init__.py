@@ -4,6 +4,9 @@
   poses, first-order covariance), :func:`scene_gravity` (the scene's gravity direction from periods at rest),
   :func:`estimate_time_offset` / :func:`refine_time_offset_in_filter` (``t_imu = t_cam + offset`` from gyro vs
   vision rotation rates, refined by the error-state filter's NIS).  docs/fusion.md, "Calibration".
+* Camera–IMU against a target, all at once (extrinsic, time offset, biases, target gravity, IMU axis models):
+  :func:`calibrate_camera_imu`, a batch over preintegrated IMU factors and reprojections through the distorted
+  camera (Forster et al. 2017).  docs/euroc.md.
 * Hand–eye with time offset on unsynchronised pose streams (Daniilidis 1999; Furrer et al. 2017):
   :func:`calibrate_hand_eye_streams`.  docs/hand-eye.md.
 * IMU-internal: the magnetometer–gyroscope time offset (:mod:`~dualpose.calibration.sensor_time_offset`) and
@@ -12,6 +15,7 @@
 Import explicitly (``from dualpose import calibration``); ``import dualpose`` does not load it.
 """
 
+from dualpose.calibration.camera_imu import CameraImuCalibration, calibrate_camera_imu
 from dualpose.calibration.extrinsic import ExtrinsicRotation, camera_imu_rotation, unobservability_check
 from dualpose.calibration.gravity import SceneGravity, scene_gravity
 from dualpose.calibration.hand_eye_joint import HandEyeStreamResult, calibrate_hand_eye_streams
@@ -49,6 +53,7 @@ from dualpose.calibration.time_offset import (
 )
 
 __all__ = [
+    "CameraImuCalibration",
     "CleaningReport",
     "CoarseOffset",
     "ExtrinsicRotation",
@@ -60,6 +65,7 @@ __all__ = [
     "StaticPeriod",
     "TimeOffsetEstimate",
     "angular_rate_signal",
+    "calibrate_camera_imu",
     "calibrate_hand_eye_streams",
     "camera_imu_rotation",
     "clean_pose_stream",

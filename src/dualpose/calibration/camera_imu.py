@@ -3,9 +3,11 @@
 The unknowns are the IMU state at every usable camera frame ``k`` (orientation ``R_wb,k``, position ``p_k`` and
 velocity ``v_k`` in the target frame ``w``), the IMU biases (a random walk with one knot per frame, or one
 constant pair), the camera pose in the body frame (``R_bc``, ``p_bc``: ``x_b = R_bc x_c + p_bc``), the time offset
-``τ`` (a frame stamped ``t`` by the camera was taken at IMU time ``t + τ``) and the direction of gravity in the
-target frame (2 dof; its magnitude is given).  The cost (a maximum a-posteriori batch, as in Kalibr, Furgale et
-al. 2013, but in discrete time):
+``τ`` (a frame stamped ``t`` by the camera was taken at IMU time ``t + τ``), the direction of gravity in the
+target frame (2 dof; its magnitude is given) and, with the default IMU model, the axis models of the gyro
+(symmetric 3 × 3: scale factors and non-orthogonality) and of the accelerometer (full 3 × 3), applied to the
+measurements as ``(I − Δ) y`` and carried through the preintegration like the biases.  The cost (a maximum
+a-posteriori batch, as in Kalibr, Furgale et al. 2013, but in discrete time):
 
 * every target corner's reprojection residual through the distorted camera model (intrinsics fixed), the body
   pose taken at ``t_k + τ`` by a first-order shift of the frame's state, ``R(t_k + τ) = R_k Exp(ω_k δ)``,
@@ -13,10 +15,10 @@ al. 2013, but in discrete time):
   with a Huber loss (IRLS weights) and the pixel σ re-estimated robustly (MAD) between passes;
 * IMU preintegration factors between consecutive frames (Forster et al. 2017, :mod:`._preintegration`), bias
   corrected to first order, with the white-noise densities of the IMU;
-* bias random-walk factors ``b_k+1 − b_k ~ N(0, σ_rw² Δt)`` (or one constant bias), and a weak prior on the first
-  bias (0 ± 0.1 rad/s, 0 ± 1 m/s²) that only fixes the scale of the problem.
+* bias random-walk factors ``b_k+1 − b_k ~ N(0, σ_rw² Δt)`` (or one constant bias), and weak priors on the first
+  bias (0 ± 0.1 rad/s, 0 ± 1 m/s²) and the axis models (0 ± 0.1) that only fix the scale of the problem.
 
-It is solved by Levenberg–Marquardt on the sparse normal equations (block Jacobians assembled with NumPy; the
+It is solved by Levenberg–Marquardt on the normal equations (block Jacobians assembled with NumPy; the
 reprojection blocks are summed per frame with batched matrix products; the block-tridiagonal frame part is
 factored by the block Cholesky recursion and the globals by their Schur complement).  Between
 passes the frame states are re-anchored at ``t_k + τ`` and the IMU re-preintegrated at the current biases.

@@ -6,7 +6,11 @@ Pipeline (:func:`calibrate_hand_eye_streams`): (1) coarse ``τ`` from the angula
 from Daniilidis' dual-quaternion solution (Daniilidis, IJRR 1999) inside a least-median-of-squares sampler
 (outlier-robust, as ETH's RANSAC stage: Furrer et al., FSR 2017); (4) joint nonlinear least squares of ``X`` and
 ``τ`` on the rotation and translation loop residuals, each scaled by a robust estimate of its noise, alternated with
-χ² outlier rejection until the inlier set settles.  Uncertainties are first order, ``s² (JᵀJ)⁻¹`` at the solution.
+χ² outlier rejection until the inlier set settles; (5) on the settled pairs, the five classical closed forms
+(:mod:`~dualpose.registration.hand_eye_closed_form`) scored with the reported loop residuals, a grid scan of ``τ``
+(the residual has local minima in ``τ`` when the clocks tick at commensurate rates), and a final joint refinement of
+``X`` and ``τ`` started from the best closed form that by construction ends no worse than it on either reported
+residual.  Uncertainties are first order, ``s² (JᵀJ)⁻¹`` at the solution.
 """
 
 from __future__ import annotations
@@ -15,19 +19,21 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares
+from scipy.optimize import least_squares, minimize
 
 import dualpose as dp
 from dualpose.calibration.hand_eye_residual import pair_motions, pair_residuals, select_pairs, squared_pair_residuals
 from dualpose.calibration.hand_eye_streams import CleaningReport, PoseStream, interpolate_stream, shift_stamps
 from dualpose.calibration.hand_eye_time import coarse_time_offset
 from dualpose.registration import HandEyeWarning, calibrate_hand_eye
+from dualpose.registration.hand_eye_closed_form import HAND_EYE_CLOSED_FORMS, hand_eye_translation
 
 __all__ = ["HandEyeStreamResult", "calibrate_hand_eye_streams"]
 
 _CHI2_3_MEDIAN = 2.365974  # median of χ²(3): robust scale of a 3-vector residual
 _CHI2_6_999 = 22.457744  # 0.999 quantile of χ²(6): inlier gate of the normalized 6-vector residual
 _CHI2_6_9999 = 27.855876  # 0.9999 quantile of χ²(6): gate of the per-pose target consistency
+_X_SCALE = np.r_[[1e-2] * 6, 1e-3]  # typical sizes of [δθ (rad), t (m), dτ (s)] for the optimisers
 
 
 def _consistent_poses(camera: PoseStream, body: PoseStream, qx, tx, tau: float, max_gap) -> np.ndarray:
@@ -76,7 +82,16 @@ class HandEyeStreamResult:
     pairs_total : int
         Pairs with valid body poses at ``τ`` before outlier rejection.
     sigma_rotation, sigma_translation : float
-        Noise scales of the residual components (rad, m), the weights of the cost.
+        Per-component scales of the residuals (rad, m), the weights of the final cost: the RMS rotation angle and
+        translation norm of the best closed form on each, divided by ``√3``.
+    start_method : str
+        The closed form the final refinement started from (a key of
+        :data:`~dualpose.registration.hand_eye_closed_form.HAND_EYE_CLOSED_FORMS`), or ``"joint"`` when none of
+        them could be computed.
+    start_rotation_rmse_deg, start_translation_rmse_m, start_time_offset : float
+        That start's RMS loop residuals on :attr:`pairs` (deg, m) at its time offset (s, same clock as
+        ``time_offset``); by construction ``rotation_rmse_deg <= start_rotation_rmse_deg`` and
+        ``translation_rmse_m <= start_translation_rmse_m``.
     covariance : ndarray (7, 7)
         First-order covariance of ``[δθ (rad, left perturbation of the rotation), t (m), τ (s)]``.
     rotation_sigma_deg : ndarray (3,), translation_sigma_m : ndarray (3,), time_offset_sigma : float
@@ -102,6 +117,10 @@ class HandEyeStreamResult:
     rotation_sigma_deg: np.ndarray
     translation_sigma_m: np.ndarray
     time_offset_sigma: float
+    start_method: str
+    start_rotation_rmse_deg: float
+    start_translation_rmse_m: float
+    start_time_offset: float
     camera_report: CleaningReport | None = field(default=None)
     body_report: CleaningReport | None = field(default=None)
 
@@ -229,11 +248,13 @@ def calibrate_hand_eye_streams(
         inliers = new
         if len(inliers) < 3:
             raise ValueError(f"only {len(inliers)} consistent motion pair(s); need at least 3")
-        qx, tx, tau, sol = _joint_fit(camera, body, i_all[inliers], j_all[inliers], qx, tx, tau, np.sqrt(s2r),
-                                      np.sqrt(s2t), fix_time_offset, max_gap)  # fmt: skip
+        qx, tx, tau = _joint_fit(camera, body, i_all[inliers], j_all[inliers], qx, tx, tau, np.sqrt(s2r),
+                                 np.sqrt(s2t), fix_time_offset, max_gap)  # fmt: skip
     i, j = i_all[inliers], j_all[inliers]
-    qa, ta, qb, tb, _ = pair_motions(camera, body, i, j, tau, max_gap)
-    th2, t2 = squared_pair_residuals(qa, ta, qb, tb, qx, tx)
+    half_width = min(max(0.02, float(np.median(np.diff(body.stamps)))), margin)
+    qx, tx, tau, sol, sr, st, (start, ms0, tau_start), (ms_r, ms_t) = _refine_from_closed_form(
+        camera, body, i, j, qx, tx, tau, fix_time_offset, max_gap, half_width
+    )
     cov = _covariance(sol, fix_time_offset)
     sd = np.sqrt(np.diag(cov))
     x = dp.dualquat_canonical(dp.dualquat_from_qt(qx, tx))
@@ -243,15 +264,17 @@ def calibrate_hand_eye_streams(
     return HandEyeStreamResult(
         quat=qx, translation=tx, dualquat=x, matrix=dp.matrix_from_dualquat(x), time_offset=float(tau),
         coarse_time_offset=float(tau0), coarse_correlation=coarse_corr,
-        rotation_rmse_deg=float(np.degrees(np.sqrt(th2.mean()))), translation_rmse_m=float(np.sqrt(t2.mean())),
-        pairs=np.column_stack([kept[i], kept[j]]), pairs_total=pairs_total, sigma_rotation=float(np.sqrt(s2r)),
-        sigma_translation=float(np.sqrt(s2t)), covariance=cov, rotation_sigma_deg=np.degrees(sd[:3]),
-        translation_sigma_m=sd[3:6], time_offset_sigma=float(sd[6]),
+        rotation_rmse_deg=float(np.degrees(np.sqrt(ms_r))), translation_rmse_m=float(np.sqrt(ms_t)),
+        pairs=np.column_stack([kept[i], kept[j]]), pairs_total=pairs_total, sigma_rotation=sr, sigma_translation=st,
+        covariance=cov, rotation_sigma_deg=np.degrees(sd[:3]), translation_sigma_m=sd[3:6],
+        time_offset_sigma=float(sd[6]), start_method=start, start_rotation_rmse_deg=float(np.degrees(np.sqrt(ms0[0]))),
+        start_translation_rmse_m=float(np.sqrt(ms0[1])),
+        start_time_offset=float(time_offset) if fix_time_offset else tau_start + shift,
     )  # fmt: skip
 
 
-def _joint_fit(camera, body, i, j, qx0, tx0, tau0, sr, st, fix_tau, max_gap):
-    """Least squares of ``[δθ, t, dτ]`` on the normalized residuals ``[θ_ij/σ_r, t_ij/σ_t]`` of the pairs."""
+def _pair_residual_fun(camera, body, i, j, qx0, tau0, sr, st, fix_tau, max_gap):
+    """Residual vector ``[θ_ij/σ_r, t_ij/σ_t]`` (flattened) of the pairs as a function of ``z = [δθ, t, dτ]``."""
     qa, ta, _, _, _ = pair_motions(camera, body, i, j, tau0, max_gap)
 
     def fun(z: np.ndarray) -> np.ndarray:
@@ -261,13 +284,180 @@ def _joint_fit(camera, body, i, j, qx0, tx0, tau0, sr, st, fix_tau, max_gap):
         rv, te = pair_residuals(qa, ta, qb, tb, q, z[3:6])
         return np.hstack([rv / sr, te / st]).ravel()
 
-    sol = least_squares(fun, np.r_[0.0, 0.0, 0.0, tx0, 0.0], method="trf", x_scale=np.r_[[1e-2] * 6, 1e-3],
-                        diff_step=1e-6, xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=100)  # fmt: skip
+    return fun
+
+
+def _joint_fit(camera, body, i, j, qx0, tx0, tau0, sr, st, fix_tau, max_gap):
+    """Least squares of ``[δθ, t, dτ]`` on the normalized residuals ``[θ_ij/σ_r, t_ij/σ_t]`` of the pairs."""
+    fun = _pair_residual_fun(camera, body, i, j, qx0, tau0, sr, st, fix_tau, max_gap)
+    sol = least_squares(fun, np.r_[0.0, 0.0, 0.0, tx0, 0.0], method="trf", x_scale=_X_SCALE, diff_step=1e-6,
+                        xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=100)  # fmt: skip
     q = dp.quat_canonical(dp.quat_mul(dp.quat_from_rotvec(sol.x[:3]), qx0))
-    tau = tau0 + (0.0 if fix_tau else float(sol.x[6]))
-    # re-express the solution about the new rotation so that the covariance's δθ is a left perturbation of it
+    return q, sol.x[3:6].copy(), tau0 + (0.0 if fix_tau else float(sol.x[6]))
+
+
+def _closed_form_start(camera, body, i, j, qx_joint, tx_joint, tau, max_gap):
+    """The five closed forms on the pairs at ``τ`` scored with the reported residuals: ``(name, q, t, σ_r, σ_t)``.
+
+    Each translation is re-solved by least squares for its rotation (the optimum of the translation residual for that
+    rotation).  ``σ = RMS / √3`` per component from the best RMS of each residual over the closed forms; the start is
+    the closed form whose worse residual is nearest its best: least ``max(RMS_r/best_r, RMS_t/best_t)``.
+    """
+    qa, ta, qb, tb, _ = pair_motions(camera, body, i, j, tau, max_gap)
+    a_dq, b_dq = dp.dualquat_from_qt(qb, tb), dp.dualquat_from_qt(qa, ta)  # A X = X B with A the body motions
+    cands = {}
+    for name, solve in HAND_EYE_CLOSED_FORMS.items():
+        try:
+            q, _ = solve(a_dq, b_dq)
+        except (ValueError, np.linalg.LinAlgError):
+            continue
+        cands[name] = (q, hand_eye_translation(a_dq, b_dq, q))
+    if not cands:
+        cands["joint"] = (qx_joint, tx_joint)
+    ms = {k: [float(np.mean(v)) for v in squared_pair_residuals(qa, ta, qb, tb, *c)] for k, c in cands.items()}
+    sr = max(float(np.sqrt(min(m[0] for m in ms.values()) / 3.0)), 1e-12)
+    st = max(float(np.sqrt(min(m[1] for m in ms.values()) / 3.0)), 1e-12)
+    start = min(ms, key=lambda k: (max(ms[k][0] / sr**2, ms[k][1] / st**2), ms[k][0] / sr**2 + ms[k][1] / st**2))
+    return start, *cands[start], sr, st
+
+
+def _scan_time_offset(camera, body, i, j, qx, tx, tau0, sr, st, half_width, max_gap):
+    """``τ`` of least cost on a grid ``τ₀ ± half_width`` at fixed ``X`` (0.25 ms steps).
+
+    With linear/SLERP interpolation of the body the cost is piecewise smooth in ``τ``, with a kink whenever a camera
+    stamp + ``τ`` crosses a body sample; when the two clocks tick at commensurate rates the kinks line up and the
+    cost has local minima one body interval apart, which a local refinement cannot leave.
+    """
+    qa, ta, _, _, _ = pair_motions(camera, body, i, j, tau0, max_gap)
+    grid = tau0 + np.arange(-half_width, half_width + 1e-9, 2.5e-4)
+    cost = np.full(len(grid), np.inf)
+    for k, tau in enumerate(grid):
+        _, _, qb, tb, ok = pair_motions(camera, body, i, j, tau, max_gap)
+        if ok.all():
+            th2, t2 = squared_pair_residuals(qa, ta, qb, tb, qx, tx)
+            cost[k] = float(np.mean(th2 / sr**2 + t2 / st**2))
+    return float(grid[int(np.argmin(cost))]) if np.isfinite(cost).any() else tau0
+
+
+def _refine_from_closed_form(camera, body, i, j, qx_joint, tx_joint, tau0, fix_tau, max_gap, half_width):
+    """Final ``X`` and ``τ`` on the settled pairs, never worse than the closed form it starts from.
+
+    (1) The best closed form at ``τ₀`` (:func:`_closed_form_start`); (2) unless ``τ`` is fixed, a grid scan of ``τ``
+    at that ``X`` (:func:`_scan_time_offset`) moves ``τ₀`` to the deepest minimum nearby, and the closed forms are
+    recomputed there; (3) ``[δθ, t, dτ]`` refined from the start on ``mean_ij(|θ_ij|²/σ_r² + |t_ij|²/σ_t²)`` (free),
+    and the worse of the two residuals brought as near its best closed form as possible without worsening either
+    residual of the start (:func:`_minimax_refinement`); (4) of the start and these two, among those that worsen
+    neither residual of the start (the start itself at worst), the one whose worse residual is nearest its best closed
+    form, with both residuals checked by the same computation that reports them.  Returns ``qx, tx, τ, sol, σ_r,
+    σ_t``, the start ``(name, (mean squared angle rad², mean squared translation m²), τ)`` and the final mean
+    squares.
+    """
+    start, q0, t0, sr, st = _closed_form_start(camera, body, i, j, qx_joint, tx_joint, tau0, max_gap)
+    if not fix_tau:
+        tau_scan = _scan_time_offset(camera, body, i, j, q0, t0, tau0, sr, st, half_width, max_gap)
+        if tau_scan != tau0:
+            tau0 = tau_scan
+            start, q0, t0, sr, st = _closed_form_start(camera, body, i, j, q0, t0, tau0, max_gap)
+    fun = _pair_residual_fun(camera, body, i, j, q0, tau0, sr, st, fix_tau, max_gap)
+    qa, ta, _, _, _ = pair_motions(camera, body, i, j, tau0, max_gap)
+
+    def mean_squares(z: np.ndarray) -> tuple[float, float]:  # the reported residuals, computed as reported
+        q = dp.quat_canonical(dp.quat_mul(dp.quat_from_rotvec(z[:3]), q0))
+        _, _, qb, tb, ok = pair_motions(camera, body, i, j, tau0 + (0.0 if fix_tau else float(z[6])), max_gap)
+        if not ok.all():  # a τ that leaves a body gap or the body stream is never chosen
+            return np.inf, np.inf
+        th2, t2 = squared_pair_residuals(qa, ta, qb, tb, q, z[3:6])
+        return float(np.mean(th2)), float(np.mean(t2))
+
+    z0 = np.r_[0.0, 0.0, 0.0, t0, 0.0]
+    ms0 = mean_squares(z0)
+    ideal = _residual_optima(fun, mean_squares, z0, (3.0 * sr**2, 3.0 * st**2), fix_tau)
+
+    def key(ms: tuple[float, float]) -> tuple[float, float]:  # worst ratio to the optima, then the cost
+        return max(ms[0] / ideal[0], ms[1] / ideal[1]), ms[0] / ideal[0] + ms[1] / ideal[1]
+
+    sol = least_squares(fun, z0, method="trf", x_scale=_X_SCALE, diff_step=1e-6, xtol=1e-12, ftol=1e-12,
+                        gtol=1e-12, max_nfev=200)  # fmt: skip
+    cands = [sol.x, _minimax_refinement(mean_squares, z0, ms0, ideal, fix_tau)]
+    best_z, best_ms = z0, ms0
+    for z in cands:
+        ms = mean_squares(z)
+        if ms[0] <= ms0[0] and ms[1] <= ms0[1] and key(ms) < key(best_ms):
+            best_z, best_ms = z, ms
+    q = dp.quat_canonical(dp.quat_mul(dp.quat_from_rotvec(best_z[:3]), q0))
+    tau = tau0 + (0.0 if fix_tau else float(best_z[6]))
+    if best_z is not sol.x:  # the covariance at the point returned
+        sol.fun, sol.jac = fun(best_z), _jacobian(fun, best_z)
+    sol.x = best_z.copy()
     sol.x[:3] = 0.0
-    return q, sol.x[3:6].copy(), tau, sol
+    return q, best_z[3:6].copy(), tau, sol, float(sr), float(st), (start, ms0, tau0), best_ms
+
+
+def _residual_optima(fun, mean_squares, z0, closed_form_best, fix_tau):
+    """The least mean square of each residual alone over ``[δθ, t, dτ]`` (and that of the closed forms if lower).
+
+    The rotation residual does not depend on ``t``: it is minimised over ``[δθ, dτ]``, the translation residual over
+    all.  The two optima may lie at different ``τ`` and ``X``; no single solution need reach both.
+    """
+    n = 6 if fix_tau else 7
+    free = {"rotation": [0, 1, 2] + ([6] if n == 7 else []), "translation": list(range(n))}
+    out = list(closed_form_best)
+    for k, (name, idx) in enumerate(free.items()):
+        cols = slice(0, 3) if name == "rotation" else slice(3, 6)
+
+        def part(u, idx=idx, cols=cols):
+            z = z0.copy()
+            z[idx] = u
+            return fun(z).reshape(-1, 6)[:, cols].ravel()
+
+        sol = least_squares(part, z0[idx], method="trf", x_scale=_X_SCALE[idx], diff_step=1e-6, max_nfev=100)
+        z = z0.copy()
+        z[idx] = sol.x
+        out[k] = min(out[k], mean_squares(z)[k])
+    return out[0], out[1]
+
+
+def _minimax_refinement(mean_squares, z0, ms0, ideal, fix_tau):
+    """``z`` of least ``s`` with ``ms_r <= s·ideal_r``, ``ms_t <= s·ideal_t`` (the worse residual as near its optimum
+    as it can be), ``ms_r <= ms_r(z0)`` and ``ms_t <= ms_t(z0)`` (never worse than the start).
+
+    SLSQP (Kraft 1988) on ``[z / x_scale, s]`` from ``[0, s(z0)]``, which is feasible; ``z0`` if it fails.  A margin
+    of 1e-9 keeps SLSQP's slight infeasibility at active constraints (~1e-14) inside the feasible set; the caller
+    checks the result again with the reported residuals.
+    """
+    n = 6 if fix_tau else 7
+    scale = _X_SCALE[:n]
+    cache: dict[bytes, tuple[float, float]] = {}
+
+    def ev(v: np.ndarray) -> tuple[float, float]:
+        k = v[:n].tobytes()
+        if k not in cache:
+            z = z0.copy()
+            z[:n] += v[:n] * scale
+            cache[k] = mean_squares(z)
+        return cache[k]
+
+    m = 1.0 - 1e-9
+    cons = [{"type": "ineq", "fun": lambda v: m * v[n] - ev(v)[0] / ideal[0]},
+            {"type": "ineq", "fun": lambda v: m * v[n] - ev(v)[1] / ideal[1]},
+            {"type": "ineq", "fun": lambda v: m - ev(v)[0] / ms0[0]},
+            {"type": "ineq", "fun": lambda v: m - ev(v)[1] / ms0[1]}]  # fmt: skip
+    v0 = np.r_[np.zeros(n), max(ms0[0] / ideal[0], ms0[1] / ideal[1])]
+    res = minimize(lambda v: v[n], v0, method="SLSQP", constraints=cons,
+                   options={"maxiter": 60, "ftol": 1e-10, "eps": 1e-6})  # fmt: skip
+    z = z0.copy()
+    z[:n] += res.x[:n] * scale
+    return z
+
+
+def _jacobian(fun, z: np.ndarray, h: float = 1e-6) -> np.ndarray:
+    """Central-difference Jacobian of ``fun`` at ``z``."""
+    cols = []
+    for k in range(len(z)):
+        e = np.zeros(len(z))
+        e[k] = h
+        cols.append((fun(z + e) - fun(z - e)) / (2 * h))
+    return np.column_stack(cols)
 
 
 def _covariance(sol, fix_tau: bool) -> np.ndarray:

@@ -3,7 +3,8 @@
 CAMERA.csv holds the camera's pose in a calibration target, BODY.csv the pose of the body it is mounted on (a
 motion-capture marker, a robot hand) in its reference frame, each ``t, x, y, z, qx, qy, qz, qw`` in its own clock.
 Prints ``X`` (the camera pose in the body frame), the time offset ``τ`` (camera time ``t`` ↔ body time ``t + τ``),
-the RMS loop residuals and first-order standard deviations; one JSON object with ``--json``.  The computation is
+the RMS loop residuals (never above those of the closed form the final refinement started from, also printed) and
+first-order standard deviations; one JSON object with ``--json``.  The computation is
 :func:`dualpose.calibration.calibrate_hand_eye_streams`; see ``docs/hand-eye.md``.
 """
 
@@ -66,6 +67,9 @@ def run_hand_eye(args: argparse.Namespace) -> dict:
         "time_offset_s": r.time_offset,
         "rotation_residual_deg": r.rotation_rmse_deg,
         "translation_residual_m": r.translation_rmse_m,
+        "start_method": r.start_method,
+        "start_rotation_residual_deg": r.start_rotation_rmse_deg,
+        "start_translation_residual_m": r.start_translation_rmse_m,
         "pairs_used": r.pairs_used,
         "pairs_total": r.pairs_total,
         "rotation_sigma_deg": r.rotation_sigma_deg.tolist(),
@@ -96,6 +100,11 @@ def _table(m: dict) -> str:
         ("  coarse (rate correlation) [s]", f"{m['coarse_time_offset_s']:.6f}"),
         ("rotation residual RMSE [deg]", f"{m['rotation_residual_deg']:.4f}"),
         ("translation residual RMSE [mm]", f"{1e3 * m['translation_residual_m']:.3f}"),
+        (
+            "  started from (closed form)",
+            f"{m['start_method']}: {m['start_rotation_residual_deg']:.4f} deg, "
+            f"{1e3 * m['start_translation_residual_m']:.3f} mm",
+        ),
         ("pairs used / valid", f"{m['pairs_used']} / {m['pairs_total']}"),
         ("camera rows read / kept", f"{m['camera_rows']['read']} / {m['camera_rows']['kept']}"),
         ("body rows read / kept", f"{m['body_rows']['read']} / {m['body_rows']['kept']}"),

@@ -63,7 +63,7 @@ def calibration_summary(res: CameraImuCalibration, camera: str) -> dict:
         axes = {"gyro_axes_matrix": [_floats(r) for r in res.imu_axes[0]],
                 "accel_axes_matrix": [_floats(r) for r in res.imu_axes[1]],
                 "imu_axes_std": _floats(res.imu_axes_std)}  # fmt: skip
-    return axes | {
+    return {
         "camera": camera,
         "rotation_xyzw": _floats(res.q_bc),
         "translation_m": _floats(res.p_bc),
@@ -105,7 +105,7 @@ def calibration_summary(res: CameraImuCalibration, camera: str) -> dict:
         "imu_model": "scale_misalignment" if res.imu_axes else "calibrated",
         "iterations": int(res.iterations),
         "runtime_s": float(res.runtime_s),
-    }
+    } | axes
 
 
 def calibrate_camera_imu_files(

@@ -74,6 +74,20 @@ def _as_dualquats(m: ArrayLike, name: str) -> np.ndarray:
                      f"got {arr.shape}")  # fmt: skip
 
 
+def checked_motion_pairs(A_motions: ArrayLike, B_motions: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """``A_motions`` and ``B_motions`` as unit dual quaternions (n, 8) after the checks every hand–eye solver needs:
+    shapes ``(n, 4, 4)`` or ``(n, 8)``, equal counts, ``n >= 2``, finite values (ValueError naming the argument)."""
+    a = _as_dualquats(A_motions, "A_motions")
+    b = _as_dualquats(B_motions, "B_motions")
+    if a.shape != b.shape:
+        raise ValueError(f"A_motions and B_motions must have the same count; got {len(a)} and {len(b)}")
+    if len(a) < 2:
+        raise ValueError(f"need at least 2 motion pairs with non-parallel rotation axes; got {len(a)}")
+    if not (np.isfinite(a).all() and np.isfinite(b).all()):
+        raise ValueError("A_motions and B_motions must be finite")
+    return a, b
+
+
 def hand_eye_motions(
     gripper_to_base: ArrayLike, target_to_camera: ArrayLike, pairs: str = "all"
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -154,14 +168,7 @@ def calibrate_hand_eye(
     """
     import dualpose as dp
 
-    a = _as_dualquats(A_motions, "A_motions")
-    b = _as_dualquats(B_motions, "B_motions")
-    if a.shape != b.shape:
-        raise ValueError(f"A_motions and B_motions must have the same count; got {len(a)} and {len(b)}")
-    if len(a) < 2:
-        raise ValueError(f"need at least 2 motion pairs with non-parallel rotation axes; got {len(a)}")
-    if not (np.isfinite(a).all() and np.isfinite(b).all()):
-        raise ValueError("A_motions and B_motions must be finite")
+    a, b = checked_motion_pairs(A_motions, B_motions)
     # (1) signs: choose ±b so that its scalar parts match a's
     plus = np.abs(a[:, 3] - b[:, 3]) + np.abs(a[:, 7] - b[:, 7])
     minus = np.abs(a[:, 3] + b[:, 3]) + np.abs(a[:, 7] + b[:, 7])
@@ -206,7 +213,7 @@ def calibrate_hand_eye(
     t[:, 3:, 1:4] = dp.so3_hat(ad + bd)
     t[:, 3:, 4] = ar - br
     t[:, 3:, 5:8] = dp.so3_hat(ar + br)
-    _, sv, vt = np.linalg.svd(t.reshape(6 * m, 8))
+    _, sv, vt = np.linalg.svd(t.reshape(6 * m, 8), full_matrices=False)
     v7, v8 = vt[6], vt[7]
     u1, w1, u2, w2 = v7[:4], v7[4:], v8[:4], v8[4:]
     # (4) λ1 v7 + λ2 v8 with s = λ1/λ2: s² u1·w1 + s (u1·w2 + u2·w1) + u2·w2 = 0

@@ -5,6 +5,8 @@
   :func:`simulate_eight`), with exact truth; :func:`recording_from_simulation` turns a run into the
   :class:`~dualpose.types.Recording` the estimators and pipelines take.
 * :mod:`~dualpose.sim.calibration_scenarios`: static calibration poses and random extrinsics.
+* :mod:`~dualpose.sim.hand_eye_recordings`: seeded hand–eye pose-stream pairs (arm, hand-held rig, sparse motion
+  capture) with known ``X`` and time offset (:func:`simulate_hand_eye`).
 * :mod:`~dualpose.sim.broad_vision`: pseudo-vision rendered along a real BROAD trial's reference motion.
 
 Frames: world ``w``, IMU body ``b``, camera ``c``; quaternions xyzw (``q_wb`` body -> world).
@@ -20,6 +22,7 @@ from dualpose.sim.camera_imu import (
     simulate_eight,
     two_plane_landmarks,
 )
+from dualpose.sim.hand_eye_recordings import HAND_EYE_KINDS, HandEyeRecording, simulate_hand_eye
 from dualpose.sim.motion import (
     CAMERA_HOME,
     SCENE_TARGET,
@@ -32,6 +35,8 @@ from dualpose.sim.motion import (
 
 __all__ = [
     "CAMERA_HOME",
+    "HAND_EYE_KINDS",
+    "HandEyeRecording",
     "SCENE_TARGET",
     "CameraFrames",
     "SimulatedRun",
@@ -45,5 +50,6 @@ __all__ = [
     "recording_from_simulation",
     "simulate",
     "simulate_eight",
+    "simulate_hand_eye",
     "two_plane_landmarks",
 ]

@@ -9,7 +9,11 @@ of sinusoids (rotation vector of ~1–2 rad at 0.03–0.05 Hz: |ω| up to ~25 °
 ``2 Im(q* ⊗ q̇)`` at the middle of each sampling interval (central difference with a 1 µs step), which is the rate
 that, held over the interval, carries ``q_{k−1}`` to ``q_k`` to second order; in the breaks it is exactly zero.
 The gyroscope bias is ``b0 + drift · t / duration`` plus a random walk of density ``bias_walk`` (MEMS class, the
-AHRS's own :data:`~dualpose.estimation.ahrs.MEMS_GYRO_BIAS_RANDOM_WALK` by default).  Used by
+AHRS's own :data:`~dualpose.estimation.ahrs.MEMS_GYRO_BIAS_RANDOM_WALK` by default), and optionally a
+*motion-dependent offset* ``motion_bias · d · u̇`` (a fixed random direction d, full while the clock runs at speed 1,
+none at rest): a bias in motion that differs from the bias at rest, as a gyroscope's g-sensitivity or vibration
+rectification produces it, and optionally a slow *creep* rotation during the breaks (a break that is not
+perfectly still): ``q(t) = Exp(φ(u(t))) ⊗ Exp(c(t))`` with ``c`` growing at a constant rate inside each break.  Used by
 ``tests/estimation/ahrs/test_ahrs_rest.py`` and ``benchmarks/bench_ahrs_rest.py`` (docs/broad.md, "Rest detector and
 bias update").
 """
@@ -116,6 +120,8 @@ def rest_break_recording(
     bias_walk: float = 1.0e-4,
     drift: float = np.radians(0.3),
     lin_acc: float = 0.2,
+    motion_bias: float = 0.0,
+    creep: float = 0.0,
 ) -> RestBreakRecording:
     """Simulate the recording (module docstring).
 
@@ -139,6 +145,14 @@ def rest_break_recording(
         Magnitude of the bias's linear drift over the whole recording, rad/s (warm-up class), random direction.
     lin_acc : float
         Amplitude of the hand-like linear acceleration during the segments, m/s².
+    motion_bias : float
+        Magnitude of the motion-dependent bias offset, rad/s (default 0: the bias is the same at rest and in
+        motion).  Its direction is drawn after every other random number, so the recording is otherwise the one
+        without it.
+    creep : float
+        Rate (rad/s) of a slow rotation about a random axis (one per break) during each break, the residual motion
+        of an object that is set down or held still (default 0: perfectly still breaks).  Its axes come from a second
+        random number generator (seeded with ``[seed, 1]``), so the recording is otherwise the one without it.
 
     Returns
     -------
@@ -152,11 +166,21 @@ def rest_break_recording(
     dt = 1.0 / rate
     t = np.arange(n) * dt
 
-    def quat_at(times: np.ndarray) -> np.ndarray:
-        return dp.quat_from_rotvec(_rotvec(_motion_clock(times, segments, ramp)))
+    ends = segments[:-1, 1]
+    creep_rates = np.zeros((n_breaks, 3))
 
+    def quat_at(times: np.ndarray) -> np.ndarray:
+        q = dp.quat_from_rotvec(_rotvec(_motion_clock(times, segments, ramp)))
+        if not creep:
+            return q
+        c = np.clip(np.asarray(times)[:, None, None] - ends[None, :, None], 0.0, pause) * creep_rates[None]
+        return dp.quat_mul(q, dp.quat_from_rotvec(c.sum(axis=1)))
+
+    if creep:  # drawn after everything else (below) would change the other draws; the rates come from a child
+        d = np.random.default_rng([seed, 1]).normal(size=(n_breaks, 3))
+        creep_rates[:] = creep * d / np.linalg.norm(d, axis=1, keepdims=True)
     u = _motion_clock(t, segments, ramp)
-    quat = dp.quat_from_rotvec(_rotvec(u))
+    quat = quat_at(t)
     # body rate held over (t_{k−1}, t_k]: the analytic rate at the interval's middle
     w = central_body_rate(quat_at, t - 0.5 * dt)
     moving = np.zeros(n, dtype=bool)
@@ -175,10 +199,13 @@ def rest_break_recording(
         [np.sin(2 * np.pi * 0.6 * t), np.sin(2 * np.pi * 0.9 * t + 0.4), 0.5 * np.sin(2 * np.pi * 0.4 * t)], axis=1
     )
     conj = dp.quat_conj(quat)
-    gyr = w + bias + rng.normal(scale=gyr_sigma, size=(n, 3))
+    gyr_noise = rng.normal(scale=gyr_sigma, size=(n, 3))
     acc = dp.quat_rotate(conj, a_lin + [0.0, 0.0, STANDARD_GRAVITY]) + rng.normal(scale=acc_sigma, size=(n, 3))
     mag = dp.quat_rotate(conj, np.broadcast_to(FIELD_ENU, (n, 3))) + rng.normal(scale=mag_sigma, size=(n, 3))
-    ends = segments[:-1, 1]
+    if motion_bias:
+        d = rng.normal(size=3)
+        bias = bias + motion_bias * (d / np.linalg.norm(d)) * np.clip(speed, 0.0, 1.0)[:, None]
+    gyr = w + bias + gyr_noise
     breaks = np.stack([np.round(ends * rate), np.round((ends + pause) * rate)], axis=1).astype(np.int64)
     return RestBreakRecording(
         gyr=gyr, acc=acc, mag=mag, quat=quat, bias=bias, moving=moving, breaks=breaks, rate=float(rate),

@@ -80,15 +80,30 @@ class TargetDetections:
         a, b = self.offsets[k], self.offsets[k + 1]
         return self.pixels[a:b], self.points[a:b]
 
-    def correspondences(self, camera: DistortedCamera | None = None) -> FrameCorrespondences:
+    def correspondences(
+        self, camera: DistortedCamera | None = None, *, drop_invalid: bool = False
+    ) -> FrameCorrespondences:
         """All frames as :class:`~dualpose.types.camera.FrameCorrespondences` (``points`` in the target frame).
 
         With ``camera``, the pixels are converted to the undistorted pinhole camera ``camera.pinhole()`` by
-        ``camera.ideal_pixels`` (a ``ValueError`` if a detection lies outside the camera's invertible region);
-        without, the measured pixels are used as they are.
+        ``camera.ideal_pixels``; a detection outside the camera's invertible region is a ``ValueError``, or, with
+        ``drop_invalid=True``, left out (its frame keeps the others).  Without ``camera``, the measured pixels are
+        used as they are.
         """
-        pixels = self.pixels if camera is None else camera.ideal_pixels(self.pixels)
-        return FrameCorrespondences(self.t.copy(), self.offsets.copy(), np.array(pixels), self.points.copy())
+        if camera is None:
+            return FrameCorrespondences(self.t.copy(), self.offsets.copy(), self.pixels.copy(), self.points.copy())
+        pixels, valid = camera.ideal_pixels(self.pixels, return_valid=True)
+        if valid.all():
+            return FrameCorrespondences(self.t.copy(), self.offsets.copy(), pixels, self.points.copy())
+        if not drop_invalid:
+            k = int(np.argmax(~valid))
+            raise ValueError(
+                f"{int((~valid).sum())} detections (first: row {k}, pixel {self.pixels[k].tolist()}) are outside the "
+                "invertible region of the camera's distortion; pass drop_invalid=True to leave them out"
+            )
+        frame_of_row = np.repeat(np.arange(len(self)), self.counts)
+        offsets = np.concatenate([[0], np.cumsum(np.bincount(frame_of_row[valid], minlength=len(self)))])
+        return FrameCorrespondences(self.t.copy(), offsets.astype(np.int64), pixels[valid], self.points[valid])
 
     def select(self, frames: np.ndarray) -> TargetDetections:
         """A new :class:`TargetDetections` with the frames where the boolean mask ``frames`` (F,) is true."""

@@ -19,8 +19,11 @@ bool ordinary(double n2) { return n2 >= kTiny && n2 <= kHuge; }
 bool ordinary(v4 n2) { return lanes::all((n2 >= kTiny) & (n2 <= kHuge)); }
 }  // namespace
 
+// Blocks of four rows in lanes (loaded before stored, so o may be p or q), then the last n mod 4 rows.
 DUALPOSE_CLONES void quat_mul_rows(const double* p, const double* q, double* o, npy_intp n) {
-    for (npy_intp i = 0; i < n; ++i) quat_mul_row(p + 4 * i, q + 4 * i, o + 4 * i);
+    npy_intp i = 0;
+    for (; i + 4 <= n; i += 4) lanes::join4(qmul_t(lanes::split4(p + 4 * i, 4), lanes::split4(q + 4 * i, 4)), o + 4 * i, 4);
+    for (; i < n; ++i) quat_mul_row(p + 4 * i, q + 4 * i, o + 4 * i);
 }
 
 // Blocks of four rows whose squared norms are all ordinary take the vector path with s2 = 2/|q|**2; any other

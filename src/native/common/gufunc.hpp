@@ -10,8 +10,16 @@
 // per-element loop when every operand is a C-contiguous stack of cores (the usual large batch): a plain,
 // non-template function that the compiler vectorises across rows and that can be cloned per instruction set
 // (target_clones); it must compute exactly what F computes, row by row, and read a row before writing it.
+//
+// Every gufunc also gets a direct entry (Gufunc::direct, registered with register_direct): for inputs that need no
+// gufunc machinery -- exact float64 ndarrays, C-contiguous, aligned, native byte order, the core shapes, one common
+// leading shape (single elements and, for scalar cores, Python floats go with every row) -- it allocates the outputs
+// (or takes a preallocated one) and runs ROWS (or F row by row, as the gufunc's strided loop) on them, so it returns
+// what the gufunc returns bit for bit; other inputs are declined and take the gufunc.
+// dualpose._native.FastPath (algebra/fastpath.cpp) puts it in front of a public function.
 #pragma once
 
+#include "direct.hpp"
 #include "numpy_api.hpp"
 
 #include <algorithm>
@@ -66,6 +74,13 @@ inline void scatter(char* p, const npy_intp* cs, const double* buf) {
             for (int c = 0; c < Op::cols; ++c)
                 *reinterpret_cast<double*>(p + r * cs[0] + c * cs[1]) = buf[r * Op::cols + c];
     }
+}
+
+// Whether p[0..n) holds a NaN (a loop the compiler vectorises: quiet comparisons, no early exit).
+inline bool has_nan(const double* p, npy_intp n) {
+    int any = 0;
+    for (npy_intp k = 0; k < n; ++k) any |= p[k] != p[k];
+    return any != 0;
 }
 
 template <class... Ops>
@@ -147,6 +162,172 @@ struct Gufunc<F, In<I...>, Out<O...>, ROWS> {
         run(args, dims[0], steps, std::index_sequence_for<I...>{}, std::index_sequence_for<O...>{});
     }
 
+    // The direct entry (see the top of this file): 1 with *result the output (a tuple for several), 0 when the
+    // inputs need the gufunc, when the computation raised a floating-point exception flag or, with nan_declines,
+    // when an output holds a NaN; -1 with a Python error set.
+    static int direct(PyObject* const* args, PyObject* out, std::ptrdiff_t max_rows, bool nan_declines,
+                      PyObject** result) {
+        return direct_impl(args, out, max_rows, nan_declines, result, std::index_sequence_for<I...>{},
+                           std::index_sequence_for<O...>{});
+    }
+
+    template <std::size_t... Ii, std::size_t... Oi>
+    static int direct_impl(PyObject* const* args, PyObject* out, npy_intp max_rows, bool nan_declines,
+                           PyObject** result, std::index_sequence<Ii...>, std::index_sequence<Oi...>) {
+        constexpr int core_ndim[nin] = {I::ndim...};
+        constexpr int core_rows[nin] = {I::rows...};
+        constexpr int core_cols[nin] = {I::cols...};
+        constexpr npy_intp core_size[nin] = {I::size...};
+        const double* in[nin];
+        npy_intp step[nin];  // doubles per row: the core size; 0 for a single element or a Python float (every row)
+        double value[nin];
+        int lead_ndim = -1;
+        const npy_intp* lead = nullptr;
+        for (int j = 0; j < nin; ++j) {
+            PyObject* o = args[j];
+            if (core_ndim[j] == 0 && PyFloat_Check(o)) {
+                value[j] = PyFloat_AS_DOUBLE(o);
+                in[j] = &value[j];
+                step[j] = 0;
+                continue;
+            }
+            if (!PyArray_CheckExact(o)) return 0;
+            auto* a = reinterpret_cast<PyArrayObject*>(o);
+            if (PyArray_TYPE(a) != NPY_DOUBLE || !PyArray_ISCARRAY_RO(a) || !PyArray_ISNOTSWAPPED(a)) return 0;
+            const int nd = PyArray_NDIM(a) - core_ndim[j];
+            const npy_intp* d = PyArray_DIMS(a);
+            if (nd < 0) return 0;
+            if (core_ndim[j] >= 1 && d[nd] != core_rows[j]) return 0;
+            if (core_ndim[j] == 2 && d[nd + 1] != core_cols[j]) return 0;
+            in[j] = static_cast<const double*>(PyArray_DATA(a));
+            step[j] = nd == 0 ? 0 : core_size[j];  // a single element goes with every row (as the gufunc broadcasts)
+            if (nd == 0) continue;
+            if (lead_ndim < 0) {
+                lead_ndim = nd;
+                lead = d;
+            } else if (nd != lead_ndim || !std::equal(d, d + nd, lead)) {
+                return 0;  // other broadcasting: the gufunc's job
+            }
+        }
+        if (lead_ndim < 0) lead_ndim = 0;  // single elements only
+        npy_intp n = 1;
+        for (int k = 0; k < lead_ndim; ++k) n *= lead[k];
+        if (max_rows >= 0 && n > max_rows) return 0;
+        constexpr int out_ndim[nout] = {O::ndim...};
+        constexpr int out_rows[nout] = {O::rows...};
+        constexpr int out_cols[nout] = {O::cols...};
+        constexpr npy_intp out_size[nout] = {O::size...};
+        PyObject* outs[nout] = {};
+        double* od[nout];
+        npy_intp dims[NPY_MAXDIMS];
+        if (lead_ndim + 2 > NPY_MAXDIMS) return 0;
+        std::copy(lead, lead + lead_ndim, dims);
+        if (out != nullptr) {
+            // a preallocated output: exactly the result's shape, C-contiguous, writeable, sharing no memory with an
+            // input (NumPy would work on copies of overlapping operands)
+            if (nout != 1 || !PyArray_CheckExact(out)) return 0;
+            auto* o = reinterpret_cast<PyArrayObject*>(out);
+            dims[lead_ndim] = out_rows[0];
+            dims[lead_ndim + 1] = out_cols[0];
+            if (PyArray_TYPE(o) != NPY_DOUBLE || !PyArray_ISCARRAY(o) || !PyArray_ISNOTSWAPPED(o) ||
+                PyArray_NDIM(o) != lead_ndim + out_ndim[0] ||
+                !std::equal(dims, dims + lead_ndim + out_ndim[0], PyArray_DIMS(o)))
+                return 0;
+            const char* lo = static_cast<const char*>(PyArray_DATA(o));
+            const char* hi = lo + PyArray_NBYTES(o);
+            for (int j = 0; j < nin; ++j) {
+                const char* a = reinterpret_cast<const char*>(in[j]);
+                const char* b = a + sizeof(double) * (step[j] ? n * step[j] : core_size[j]);
+                if (a < hi && lo < b) return 0;
+            }
+            Py_INCREF(out);
+            outs[0] = out;
+            od[0] = reinterpret_cast<double*>(PyArray_DATA(o));
+        }
+        for (int j = out != nullptr ? nout : 0; j < nout; ++j) {
+            dims[lead_ndim] = out_rows[j];
+            dims[lead_ndim + 1] = out_cols[j];
+            outs[j] = PyArray_SimpleNew(lead_ndim + out_ndim[j], dims, NPY_DOUBLE);
+            if (outs[j] == nullptr) {
+                for (int k = 0; k < j; ++k) Py_DECREF(outs[k]);
+                return -1;
+            }
+            od[j] = static_cast<double*>(PyArray_DATA(reinterpret_cast<PyArrayObject*>(outs[j])));
+        }
+        // every input a stack of n cores (or one row in all): the gufunc's contiguous loop (ROWS when there is one);
+        // else F row by row, as the gufunc's strided loop
+        bool full = true;
+        for (int j = 0; j < nin; ++j) full &= step[j] != 0;
+        full |= n == 1;
+        fp_flags_clear();  // a computation that raises a flag is declined (direct.hpp)
+        bool decline = false;
+        constexpr npy_intp kChunk = 1024;  // rows per NaN scan, while they are in cache
+        {
+            const bool nogil = n >= 4 * kChunk;
+            PyThreadState* ts = nogil ? PyEval_SaveThread() : nullptr;
+            bool flagged = false;  // an int ROWS flags every row whose norm is zero or extreme (algebra/rows.hpp):
+                                   // with nan_declines its flag stands for the NaN scan
+            if constexpr (!std::is_same_v<decltype(ROWS), std::nullptr_t>) {
+                if constexpr (std::is_same_v<decltype(ROWS(in[Ii]..., od[Oi]..., n)), int>) {
+                    if (full && nan_declines) {
+                        decline = ROWS(in[Ii]..., od[Oi]..., n) != 0;
+                        flagged = true;
+                    }
+                }
+            }
+            for (npy_intp i0 = 0, m = 0; i0 < n && !decline && !flagged; i0 += m) {
+                m = nan_declines ? std::min(kChunk, n - i0) : n - i0;
+                bool done = false;
+                if constexpr (!std::is_same_v<decltype(ROWS), std::nullptr_t>) {
+                    if (full) {
+                        ROWS((in[Ii] + i0 * step[Ii])..., (od[Oi] + i0 * out_size[Oi])..., m);
+                        done = true;
+                    }
+                }
+                if (!done)
+                    for (npy_intp i = i0; i < i0 + m; ++i) F((in[Ii] + i * step[Ii])..., (od[Oi] + i * out_size[Oi])...);
+                if (nan_declines)
+                    for (int j = 0; j < nout; ++j) decline |= has_nan(od[j] + i0 * out_size[j], m * out_size[j]);
+            }
+            decline |= fp_flags_raised();
+            if (nogil) PyEval_RestoreThread(ts);
+        }
+        if (decline) {
+            for (int j = 0; j < nout; ++j) Py_DECREF(outs[j]);
+            return 0;
+        }
+        if constexpr (nout == 1) {
+            *result = out != nullptr ? outs[0] : PyArray_Return(reinterpret_cast<PyArrayObject*>(outs[0]));
+        } else {
+            PyObject* t = PyTuple_New(nout);
+            if (t == nullptr) {
+                for (int j = 0; j < nout; ++j) Py_DECREF(outs[j]);
+                return -1;
+            }
+            for (int j = 0; j < nout; ++j) PyTuple_SET_ITEM(t, j, PyArray_Return(reinterpret_cast<PyArrayObject*>(outs[j])));
+            *result = t;
+        }
+        return *result == nullptr ? -1 : 1;
+    }
+
+    template <std::size_t... Ii, std::size_t... Oi>
+    static void row_impl(const double* const* in, double* const* out, std::index_sequence<Ii...>,
+                         std::index_sequence<Oi...>) {
+        F(in[Ii]..., out[Oi]...);
+    }
+    static void row(const double* const* in, double* const* out) {
+        row_impl(in, out, std::index_sequence_for<I...>{}, std::index_sequence_for<O...>{});
+    }
+
+    static DirectEntry entry() {
+        DirectEntry e{&direct, &row, nin, nout, {}, {}};
+        constexpr int is[] = {I::size...};
+        constexpr int os[] = {O::size...};
+        for (int j = 0; j < nin && j < 8; ++j) e.in_size[j] = is[j];
+        for (int j = 0; j < nout && j < 8; ++j) e.out_size[j] = os[j];
+        return e;
+    }
+
     // The ufunc object (a new reference), or nullptr with a Python error set.
     static PyObject* create(const char* name, const char* doc) {
         static PyUFuncGenericFunction funcs[1] = {&loop};
@@ -164,6 +345,7 @@ template <class G>
 inline bool add_gufunc(PyObject* module, const char* name, const char* doc) {
     PyObject* u = G::create(name, doc);
     if (u == nullptr) return false;
+    if (!register_direct(u, G::entry())) return Py_DECREF(u), false;
     return PyModule_AddObject(module, name, u) == 0 || (Py_DECREF(u), false);
 }
 

@@ -7,9 +7,15 @@
 // are recomputed exactly from the ring every time it wraps, so rounding cannot accumulate.
 //
 // Update: while the window is quiet, every `stride` samples the window's mean rate z measures the bias,
-// z = b + v, H = [0₃ₓ₃, I₃] in the error state [δθ, δb], v ~ N(0, σ²/n I) with σ² the gyroscope's per-sample noise
-// variance; consecutive windows share n − stride samples, so every update after the first of a quiet spell carries
-// the noise σ²/n · n/stride (the overlap accounting of the accelerometer update).  χ²(3)-gated (no release: a
+// z = b + v, H = [0₃ₓ₃, I₃] in the error state [δθ, δb], v = white + offset: the white part ~ N(0, σ²/n I) with σ²
+// the gyroscope's per-sample noise variance, and an offset ~ N(0, c I) common to the whole spell: the residual
+// rotation of a "still" object and the difference between the bias at rest and in motion (c = (0.02 °/s)²; the role
+// of VQF's rest-bias σ, Laidig & Seel 2023; docs/broad.md, "Rest detector and bias update").  A spell of L quiet samples carries the information I(L) = L / (σ² + c L) per axis, which saturates
+// at 1/c however long the rest; the k-th update of a spell, whose window reaches L_k = n + (k − 1) stride samples,
+// carries the increment I(L_k) − I(L_{k−1}) (L_0 = 0), i.e. the noise
+//   r_k = (σ² + c L_k)(σ² + c L_{k−1}) / (σ² (L_k − L_{k−1})),
+// which for c = 0 is σ²/n for the first window and σ²/stride after it (consecutive windows share n − stride
+// samples: the overlap accounting of the accelerometer update).  χ²(3)-gated (no release: a
 // rejected window is a rotation the detector cannot see, e.g. a slow constant turn about the vertical, not a bias),
 // Joseph form, then injection and reset; the gain on δθ follows from the cross-covariance (a bias error found at
 // rest also corrects the attitude error it has caused).
@@ -24,15 +30,16 @@
 namespace dualpose::ahrs {
 
 struct RestParams {
-    std::int64_t n, skip;           // window length (0: off), leading samples not seen
+    std::int64_t n, skip, stride;   // window length (0: off), leading samples not seen, samples between updates
     double gyr_th, acc_th;          // thresholds of the pooled window variances
-    double r_first, r_next, gate;   // bias measurement noise (first window of a spell, later ones), χ²(3) gate
+    double white, offset, gate;     // per-sample white-noise variance σ², rest-offset variance c, χ²(3) gate
 };
 
 struct RestState {
     double sum[6], sq[2];           // window sums of gyr, acc (3 each) and of their squares (pooled per sensor)
     std::int64_t seen, head, filled, since;  // samples seen, ring position, samples in the window, since an update
     std::int64_t quiet;             // 1 while the window has been quiet since the last update of this spell
+    std::int64_t spell;             // updates (accepted or not) made in the current quiet spell
 };
 
 inline RestParams make_rest_params(const double* params, std::int64_t stride) {
@@ -42,11 +49,18 @@ inline RestParams make_rest_params(const double* params, std::int64_t stride) {
     rp.gyr_th = params[P_REST_GYR_TH];
     rp.acc_th = params[P_REST_ACC_TH];
     rp.gate = params[P_REST_GATE];
-    if (rp.n > 0) {
-        rp.r_first = params[P_REST_GYR_VAR] / double(rp.n);
-        rp.r_next = rp.r_first * double(rp.n) / double(std::min(stride, rp.n));
-    }
+    rp.white = params[P_REST_GYR_VAR];
+    rp.offset = std::max(0.0, params[P_REST_OFFSET_VAR]);
+    rp.stride = std::max(std::int64_t{1}, std::min(stride, std::max(rp.n, std::int64_t{1})));
     return rp;
+}
+
+// Noise of the k-th bias update (k ≥ 1) of a quiet spell (see above): r_k = (σ² + c L_k)(σ² + c L_{k−1}) /
+// (σ² (L_k − L_{k−1})), L_0 = 0, L_k = n + (k − 1) stride.
+inline double rest_noise(const RestParams& rp, std::int64_t k) {
+    const double lk = double(rp.n + (k - 1) * rp.stride);
+    const double lp = k > 1 ? lk - double(rp.stride) : 0.0;
+    return (rp.white + rp.offset * lk) * (rp.white + rp.offset * lp) / (rp.white * (lk - lp));
 }
 
 inline std::int64_t rest_ring_doubles(const RestParams& rp) { return 6 * rp.n; }
@@ -99,11 +113,12 @@ inline void rest_update(RestState& rs, const RestParams& rp, bool quiet, std::in
     if (!quiet) {
         rs.quiet = 0;
         rs.since = 0;
+        rs.spell = 0;
         return;
     }
     stats[S_REST_SAMPLES] += 1.0;
     if (rs.quiet && ++rs.since < stride) return;
-    const double r = rs.quiet ? rp.r_next : rp.r_first;
+    const double r = rest_noise(rp, ++rs.spell);
     rs.quiet = 1;
     rs.since = 0;
     constexpr int B = D_GYRO_BIAS;

@@ -44,6 +44,8 @@ Params make_params(const double* params, const double* Ha, const double* Hm, dou
     p.rest = make_rest_params(params, p.stride);
     const double dg = params[P_ACC_SCALE] * p.grav;  // the accelerometer's own error of a specific force ≈ g
     p.acc_tol = 2.0 * dg;
+    p.acc_clip = std::max(0.0, params[P_ACC_CLIP]);
+    p.acc_dev_alpha = std::min(1.0, dt / 1.0);
     p.acc_cal_var = dg * dg / 3.0;
     return p;
 }
@@ -91,9 +93,32 @@ void step(State& s, double* ring, const Params& p, const double* gyr, const doub
     // field into the sliding window
     const double ax = acc[0], ay = acc[1], az = acc[2];
     for (int i = 0; i < 3; ++i) v[i] = R[3 * i] * ax + R[3 * i + 1] * ay + R[3 * i + 2] * az;
+    double ea[3];
+    for (int i = 0; i < 3; ++i) ea[i] = Cm[i] * v[0] + Cm[3 + i] * v[1] + Cm[6 + i] * v[2];
+    if (p.acc_clip > 0.0) {
+        if (filled == 0) {
+            s.acc_dev_ms = 3.0 * acc_var;
+        } else {
+            // an impulse (a tap, a shock: milliseconds, up to tens of g) enters the low-pass at most k running RMS
+            // (time constant 1 s, of the clipped changes) away from its last output; a Gaussian change of that RMS
+            // exceeds k = 5 with probability < 1e-15, and a sustained acceleration raises the RMS within tens of ms
+            // (a step k times the RMS grows it by the factor 1 + α(k² − 1) per sample) and passes
+            const double d0 = ea[0] - s.acc_out[0], d1 = ea[1] - s.acc_out[1], d2 = ea[2] - s.acc_out[2];
+            double dn2 = d0 * d0 + d1 * d1 + d2 * d2;
+            const double lim2 = p.acc_clip * p.acc_clip * s.acc_dev_ms;
+            if (dn2 > lim2) {
+                const double f = std::sqrt(lim2 / dn2);
+                ea[0] = s.acc_out[0] + f * d0;
+                ea[1] = s.acc_out[1] + f * d1;
+                ea[2] = s.acc_out[2] + f * d2;
+                dn2 = lim2;
+            }
+            s.acc_dev_ms += p.acc_dev_alpha * (dn2 - s.acc_dev_ms);
+        }
+    }
     for (int i = 0; i < 3; ++i) {
-        const double e = Cm[i] * v[0] + Cm[3 + i] * v[1] + Cm[6 + i] * v[2];
-        acc_mean[i] = lowpass_step(p.acc_lp, s.acc_lp + 2 * i, e, filled == 0);
+        acc_mean[i] = lowpass_step(p.acc_lp, s.acc_lp + 2 * i, ea[i], filled == 0);
+        s.acc_out[i] = acc_mean[i];
     }
     double* ring_lag = ring + 4 * n_win;
     if (use_mag) {

@@ -17,6 +17,8 @@ struct Params {
     double dt;  // sampling interval, s
     double gyr_var, bias_var, acc_var, grav, mag_var, mag_norm, mag_dip, acc_gate, mag_gate, scale_var;
     double overlap, acc_alpha, mag_alpha, release;
+    double acc_clip;     // k: changes from the low-pass's last output beyond k × their running RMS are clipped (0: off)
+    double acc_dev_alpha;  // forgetting factor (per sample) of that running mean square
     double acc_tol;      // magnitude error the accelerometer can make by itself, vs. the rest magnitude: 2 δ g (m/s²)
     double acc_cal_var;  // per-axis variance of its direction error: (δ g)² / 3 (m/s²)²
     double Ha[2 * ERROR_DIM], Hm[ERROR_DIM];  // measurement Jacobians (2, 6) and (1, 6)
@@ -32,6 +34,8 @@ struct Params {
 struct State {
     double q[4], b[3], P[ERROR_DIM * ERROR_DIM];  // nominal state (xyzw, rad/s) and error covariance
     double acc_lp[6];                             // low-pass state of the specific force, (3, 2) (uncorrected frame)
+    double acc_out[3];                            // the low-pass's last output (uncorrected frame)
+    double acc_dev_ms;                            // running mean square of the (clipped) change from it, (m/s²)²
     double mag_sum[3];                            // field window sum (uncorrected frame)
     double Cm[9];                                 // accumulated corrections: current earth frame = Cm · uncorrected
     double mag_dist_sum, mag_dist;                // window sum / mean of the field's disturbance lower bound
@@ -95,9 +99,10 @@ void rest_run(std::ptrdiff_t n, const double* gyr, const double* acc, const doub
 // The saved stream: one contiguous byte buffer [StreamHeader | Params | State | ring (ring_doubles(p) doubles)], so
 // that a byte copy saves it and restores it.  STREAM_VERSION changes whenever the layout does (2: the time offset's
 // parameters, state and rings, and n_ring in the header; 3: the accelerometer's own error in Params; 4: the rest
-// detector's parameters, state and ring).
+// detector's parameters, state and ring; 5: the rest-offset variance and the accelerometer's impulse clipping in
+// Params, the spell count and the clipping's last output and running mean square in State).
 constexpr std::uint64_t STREAM_MAGIC = 0x3153524841504455ULL;  // "UDPAHRS1" little-endian
-constexpr std::uint64_t STREAM_VERSION = 4;
+constexpr std::uint64_t STREAM_VERSION = 5;
 struct StreamHeader {
     std::uint64_t magic, version, size, n_win, n_ring;  // size: total bytes of the buffer; n_ring = ring_doubles
 };

@@ -50,8 +50,14 @@ The error-state filter of :mod:`dualpose.estimation.eskf` reduced to orientation
 * rest detection with a gyroscope-bias update (strictly causal, in the same per-sample step): when the variances
   of the gyroscope and the accelerometer over the trailing ``rest_window`` (1.5 s) are both within ``rest_margin²``
   (9) times their white-noise variance measured at rest, the window's mean rate measures the bias (``H = [0, I]``,
-  noise ``σ_g² / N`` times the window overlap, χ²(3)-gated without release; ``src/native/estimation/ahrs_rest.hpp``,
-  docs/broad.md, "Rest detector and bias update");
+  noise ``σ_g² / N`` times the window overlap, plus an error common to the whole quiet spell, ``rest_bias_sigma``
+  (0.02 °/s: a "still" object's residual rotation, the bias at rest vs in motion), so a spell's information
+  saturates; χ²(3)-gated without release; ``src/native/estimation/ahrs_rest.hpp``, docs/broad.md, "Rest detector
+  and bias update");
+* impulse clipping of the accelerometer: a sample of the earth-frame specific force enters the low-pass at most
+  ``acc_clip`` (5) running RMS of its change from the low-pass's last output away from it, so a tap or shock
+  (milliseconds, tens of g) cannot tilt the filtered vector while hand motion passes (docs/broad.md, "Twelve
+  trials");
 * causal rest period: inside the rest period (before its statistics are complete) the output is the orientation of
   the running mean specific force and field of the samples so far; at its last sample the filter is initialised from
   the rest statistics and run over the rest samples (all in the past by then), so no output depends on a later

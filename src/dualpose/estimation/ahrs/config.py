@@ -52,6 +52,11 @@ MAG_LAG_MIN_SECONDS = 1.0
 #: 16-bit MEMS gyroscope at ±2000 °/s (0.061 °/s) and accelerometer at ±16 g (0.0048 m/s²)
 REST_GYRO_QUANTISATION = math.radians(2000.0 / 32768.0) / math.sqrt(12.0)
 REST_ACC_QUANTISATION = 16.0 * 9.80665 / 32768.0 / math.sqrt(12.0)
+#: standard deviation (rad/s, per axis) of the error of a rest spell's mean rate as a bias measurement, common to the
+#: whole spell: the residual rotation of an object set down or held still (0.02 °/s per axis RMS over BROAD's nine
+#: breaks) and the difference between the bias at rest and in motion; the role of VQF's ``biasSigmaRest`` (0.03 °/s,
+#: Laidig & Seel 2023).  docs/broad.md, "Rest detector and bias update"
+REST_BIAS_SIGMA = math.radians(0.02)
 
 
 @dataclass(frozen=True)
@@ -119,6 +124,17 @@ class AhrsConfig:
     rest_margin : float
         Quiet means: the window's variance of each sensor (pooled over the axes) at most ``rest_margin²`` times its
         per-sample noise variance measured at rest (default 3; docs/broad.md, "Rest detector and bias update").
+    rest_bias_sigma : float
+        Standard deviation (rad/s, per axis) of the error of a quiet spell's mean rate as a bias measurement that is
+        common to the whole spell: the residual rotation of a "still" object and the difference between the bias
+        at rest and in motion (default :data:`REST_BIAS_SIGMA`, 0.02 °/s).  A spell of L quiet samples measures
+        the bias to at best √(σ²/L + rest_bias_sigma²), however long the rest (0: to σ/√L).
+    acc_clip : float
+        Impulse clipping of the accelerometer (default 5; 0: off): a sample of the earth-frame specific force enters
+        the low-pass at most ``acc_clip`` times the running RMS (time constant 1 s, of the clipped values) of its
+        change from the low-pass's last output away from that output.  A tap or shock (milliseconds, up to tens of g)
+        is cut to that size; hand motion, whose acceleration builds up over tens of milliseconds, raises the RMS as
+        it comes and passes (docs/broad.md, "Twelve trials", (b)).
     acc_scale_sigma : float
         Relative error δ of the accelerometer (scale factor + axis misalignment; calibrated MEMS class, default
         0.5 %, as the gyroscope's): a specific force ≈ g is measured off by up to δ g.  So the lower bound
@@ -139,6 +155,8 @@ class AhrsConfig:
     acc_scale_sigma: float = 0.005
     rest_window: float = 1.5
     rest_margin: float = 3.0
+    rest_bias_sigma: float = REST_BIAS_SIGMA
+    acc_clip: float = 5.0
 
     def __post_init__(self) -> None:
         if self.noise is not None and not isinstance(self.noise, AhrsNoise):
@@ -149,7 +167,8 @@ class AhrsConfig:
                   ("window", self.window, True), ("gyro_scale_sigma", self.gyro_scale_sigma, False),
                   ("update_interval", self.update_interval, True),
                   ("acc_scale_sigma", self.acc_scale_sigma, False), ("rest_window", self.rest_window, False),
-                  ("rest_margin", self.rest_margin, True))  # fmt: skip
+                  ("rest_margin", self.rest_margin, True),
+                  ("rest_bias_sigma", self.rest_bias_sigma, False), ("acc_clip", self.acc_clip, False))  # fmt: skip
         for name, value, positive in checks:
             if not (math.isfinite(value) and (value > 0.0 if positive else value >= 0.0)):
                 kind = "a positive" if positive else "a non-negative"
@@ -479,6 +498,8 @@ def _set_rest_params(params: np.ndarray, rate: float, noise: AhrsNoise, c: AhrsC
     params[_native.AHRS_P_REST_GYR_VAR] = sg**2
     params[_native.AHRS_P_REST_GATE] = float(chi2.ppf(c.gate_probability, 3))
     params[_native.AHRS_P_REST_SKIP] = int(skip)
+    params[_native.AHRS_P_REST_OFFSET_VAR] = c.rest_bias_sigma**2
+    params[_native.AHRS_P_ACC_CLIP] = c.acc_clip
 
 
 def _check_config(config: object) -> AhrsConfig:
