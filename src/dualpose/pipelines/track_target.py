@@ -14,7 +14,7 @@ and no ground truth is used:
   IMU axis models when it states them (``ω = M_g⁻¹ ω̃``, ``f = M_a⁻¹ f̃``,
   :meth:`~dualpose.types.calibration.CameraImuCalibration.corrected_imu`: in the batch and the stream alike, before
   the start-up and the filter); IMU noise from the rig's ``sensors.yaml`` as stated (not tuned), optionally with
-  scale-factor uncertainties (``scale_sigmas``, :func:`track_imu_noise`; the ESKF models them, Hol22 does not);
+  scale-factor uncertainties (``scale_sigmas``, :func:`track_imu_noise`; both filters model them);
   initial biases from the calibration file where it states them, otherwise estimated at start-up.
 * **Start-up** (:func:`startup`, Hol's gravity alignment for a moving sensor): the camera's PnP poses over the first
   :data:`STARTUP_SECONDS` of frames and the IMU between them give the gyro bias, the direction of gravity in the

@@ -88,7 +88,7 @@ std::int64_t run(const RunArgs& a, const NodeRecord* rec);
 // The saved stream: one contiguous byte buffer [StreamHeader | Config | Filter], so that a byte copy saves it and
 // restores it.  STREAM_VERSION changes whenever the layout does.
 constexpr std::uint64_t STREAM_MAGIC = 0x31464b5345504455ULL;  // "UDPESKF1" little-endian
-constexpr std::uint64_t STREAM_VERSION = 1;
+constexpr std::uint64_t STREAM_VERSION = 2;  // 2: noise (6,) with the scale-factor terms
 struct StreamHeader {
     std::uint64_t magic, version, size, reserved;  // size: total bytes of the buffer
 };
