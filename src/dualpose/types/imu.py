@@ -36,9 +36,9 @@ class ImuNoise:
         Hz.
     gyroscope_scale_sigma, accelerometer_scale_sigma : float
         Relative uncertainty ε of the gyroscope's and the accelerometer's scale factors and axis alignment (a model
-        error proportional to the signal; not in Kalibr's model, default 0).  The ESKF and Hol22 add ``ε² |ω|² · 1 s`` to
-        the gyroscope's and ``ε_a² |f|² · 1 s`` to the accelerometer's noise density (rad²/s, m²/s³), as the AHRS's
-        ``gyro_scale_sigma`` (:class:`dualpose.estimation.ahrs.AhrsConfig`).
+        error proportional to the signal; not in Kalibr's model, default 0).  The ESKF and Hol22 add
+        ``ε² |ω|² · 1 s`` to the gyroscope's and ``ε_a² |f|² · 1 s`` to the accelerometer's noise density (rad²/s,
+        m²/s³), as the AHRS's ``gyro_scale_sigma`` (:class:`dualpose.estimation.ahrs.AhrsConfig`).
     """
 
     gyroscope_noise_density: float = math.radians(0.1)
