@@ -52,3 +52,15 @@ def euroc_v101():
     if not (csv.is_file() and gt.is_file()):
         pytest.skip("EuRoC v101_30s data directory missing")
     return csv, gt
+
+
+#: EuRoC's imu_april target recording (the full one: the tests on it check whole-recording numbers)
+EUROC_APRIL_DIR = data_dir("euroc/imu_april", full=True)
+
+
+@pytest.fixture(scope="session")
+def euroc_april():
+    """The imu_april directory (imu0.csv, cam0/cam1_aprilgrid.csv, sensors.yaml); skipped when it is missing."""
+    if not (EUROC_APRIL_DIR / "cam0_aprilgrid.csv").is_file():
+        pytest.skip(f"EuRoC imu_april data missing ({EUROC_APRIL_DIR})")
+    return EUROC_APRIL_DIR

@@ -1,7 +1,7 @@
 // Kernels of the error-state EKF (Solà 2017 §5-7) and of its camera measurement model, ports of the numba kernels
 // that dualpose.estimation.eskf documents.  Layouts in eskf_layout.hpp: nominal x (16,), error δx (15,) with the
-// local attitude error q = q̂ ⊗ Exp(δθ), covariance P (15, 15), noise (4,) = continuous-time variances
-// [σ_g², σ_a², σ_bg², σ_ba²], camera intr (4,) = [fx, fy, cx, cy], q_bc (4, xyzw), p_bc (3,).
+// local attitude error q = q̂ ⊗ Exp(δθ), covariance P (15, 15), noise (6,) = continuous-time variances
+// [σ_g², σ_a², σ_bg², σ_ba²] and the squared relative scale-factor uncertainties [ε_g², ε_a²], camera intr (4,) = [fx, fy, cx, cy], q_bc (4, xyzw), p_bc (3,).
 // Everything works in place on x and P.
 #pragma once
 
@@ -57,11 +57,14 @@ inline void predict_transition(double* x, double* Pm, const double* gyro, const 
         x[P + i] += x[V + i] * dt + 0.5 * aw * dt * dt;
         x[V + i] += aw * dt;
     }
-    // --- covariance: P = F P Fᵀ + Q
+    // --- covariance: P = F P Fᵀ + Q; the scale-factor terms ε² |ω|² · 1 s and ε_a² |f|² · 1 s add to the densities
+    // (model error proportional to the signal, as a white noise of 1 s correlation time)
     congruence_sparse<NE>(F, Pm);
+    const double w2 = wx * wx + wy * wy + wz * wz, f2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
+    const double q_th = (noise[0] + noise[4] * w2) * dt, q_v = (noise[1] + noise[5] * f2) * dt;
     for (int i = 0; i < 3; ++i) {
-        Pm[(DV + i) * (NE + 1)] += noise[1] * dt;
-        Pm[(DTH + i) * (NE + 1)] += noise[0] * dt;
+        Pm[(DV + i) * (NE + 1)] += q_v;
+        Pm[(DTH + i) * (NE + 1)] += q_th;
         Pm[(DBG + i) * (NE + 1)] += noise[2] * dt;
         Pm[(DBA + i) * (NE + 1)] += noise[3] * dt;
     }
