@@ -29,7 +29,7 @@ import numpy as np
 
 from _common import emit
 from dualpose.evaluation.target_reference import body_trajectory, errors_against
-from dualpose.io.target_recording import (
+from dualpose.io.target.recording import (
     read_camera_imu_calibration,
     read_target_recording,
     write_camera_imu_calibration,

@@ -15,7 +15,7 @@ from _pipes import run_lines
 
 from dualpose.cli.fuse import OUTPUT_FILES
 from dualpose.cli.main import main
-from dualpose.io.target_recording import write_camera_imu_calibration
+from dualpose.io.target.recording import write_camera_imu_calibration
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "pipelines"))
 from _target_sim import simulated_target_recording, stream_lines, write_target_directory

@@ -1,4 +1,4 @@
-"""Target-recording directories and the camera-IMU calibration JSON (dualpose.io.target_recording)."""
+"""Target-recording directories and the camera-IMU calibration JSON (dualpose.io.target.recording)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pytest
 import dualpose as dp
 from dualpose import sim
 from dualpose.io import RecordingError, write_recording
-from dualpose.io.target_recording import (
+from dualpose.io.target.recording import (
     is_target_recording,
     read_camera_imu_calibration,
     read_target_recording,

@@ -1,5 +1,5 @@
 """A simulated calibration-target recording with lens distortion (the simulator's eight, landmarks seen through a
-radial-tangential camera), as :func:`dualpose.io.target_recording.read_target_recording` would return it."""
+radial-tangential camera), as :func:`dualpose.io.target.recording.read_target_recording` would return it."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 import dualpose as dp
 from dualpose import sim
 from dualpose.io.euroc import ImuData
-from dualpose.io.target_recording import TargetRecording
+from dualpose.io.target.recording import TargetRecording
 from dualpose.pipelines.track_target import target_recording_lines
 from dualpose.sim.camera_imu import camera_points
 from dualpose.types import RadTanCamera, Trajectory

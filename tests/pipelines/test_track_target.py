@@ -14,7 +14,7 @@ from _target_sim import CAMERA, simulated_target_recording, stream_lines
 import dualpose as dp
 from dualpose.estimation.initialization import align_with_camera_poses
 from dualpose.evaluation.target_reference import errors_against
-from dualpose.io.target_recording import read_target_recording
+from dualpose.io.target.recording import read_target_recording
 from dualpose.pipelines.track_target import (
     EUROC_T_BS,
     TrackStream,

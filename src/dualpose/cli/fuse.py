@@ -255,7 +255,7 @@ def _run_target_stream(args: argparse.Namespace) -> int:
     """``dualpose fuse --stream --sensors sensors.yaml --camera NAME --calibration CALIB.json``."""
     from dualpose.io.recording import RecordingError
     from dualpose.io.sensors_yaml import read_rig_sensors
-    from dualpose.io.target_recording import read_camera_imu_calibration
+    from dualpose.io.target.recording import read_camera_imu_calibration
     from dualpose.pipelines.track_target import TrackStream, stream_track_lines
 
     try:
@@ -384,7 +384,7 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from dualpose.cli._output import output_files_problem
-    from dualpose.io.target_recording import is_target_recording
+    from dualpose.io.target.recording import is_target_recording
 
     if args.stream:
         return run_stream(args)

@@ -333,7 +333,7 @@ def align_with_camera_poses(
        given, the accelerometer bias ``b_a``:
        ``p_k+1 − p_k − R_k α_k = v_k Δt + ½ g Δt² − R_k Jα_k b_a`` (σ: √2 × ``position_sigma``) and
        ``R_k β_k = v_k+1 − v_k − g Δt + R_k Jβ_k b_a`` (σ: accelerometer white noise over Δt and
-       ``attitude_sigma`` × |β_k|) — the linear alignment of visual-inertial odometry (Qin, Li & Shen, VINS-Mono,
+       ``attitude_sigma`` × ‖β_k‖) — the linear alignment of visual-inertial odometry (Qin, Li & Shen, VINS-Mono,
        IEEE T-RO 2018, §V-B), here with metric camera poses and the accelerometer bias.
 
     The first solve leaves the magnitude of ``g`` free (``gravity_estimated``: a check of the accelerometer's

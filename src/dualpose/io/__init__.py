@@ -29,8 +29,8 @@ from dualpose.io.recording import (
     write_sensor_setup,
 )
 from dualpose.io.sensors_yaml import read_rig_sensors
-from dualpose.io.target_detections import read_target_detections
-from dualpose.io.target_recording import (
+from dualpose.io.target.detections import read_target_detections
+from dualpose.io.target.recording import (
     TargetRecording,
     read_camera_imu_calibration,
     read_target_recording,

@@ -1,5 +1,5 @@
 """Tracking a camera–IMU rig against a calibration target: ``dualpose fuse --data DIR --camera cam0
---calibration CALIB.json`` on a target recording (EuRoC ``imu_april`` layout, :mod:`dualpose.io.target_recording`);
+--calibration CALIB.json`` on a target recording (EuRoC ``imu_april`` layout, :mod:`dualpose.io.target.recording`);
 docs/fusion.md, "Tracking on EuRoC imu_april".
 
 The world frame is the **target frame**; the output is the IMU's pose in it.  Nothing about the motion is assumed
@@ -55,8 +55,9 @@ from dualpose.evaluation.target_reference import (
     reference_trajectory,
 )
 from dualpose.io.recording import RecordingError
-from dualpose.io.target_recording import TargetRecording, read_camera_imu_calibration, read_target_recording
+from dualpose.io.target.recording import TargetRecording, read_camera_imu_calibration, read_target_recording
 from dualpose.pipelines._lines import format_numbers
+from dualpose.pipelines.calibrate_camera_imu import EUROC_KALIBR_T_BS
 from dualpose.pipelines.fuse import FILTERS, FuseResult
 from dualpose.pipelines.fuse_stream import parse_fusion_line
 from dualpose.registration.pnp import PnPResult, solve_pnp_ransac
@@ -67,6 +68,9 @@ from dualpose.types.target import TargetDetections
 __all__ = [
     "EUROC_T_BS",
     "MEMS_SCALE_SIGMAS",
+    "RELOCK_MIN_ACCEPTED",
+    "RELOCK_MIN_CORNERS",
+    "RELOCK_VELOCITY_SIGMA",
     "STARTUP_SECONDS",
     "StartUp",
     "TrackSetup",
@@ -94,15 +98,8 @@ STARTUP_SECONDS = 10.0
 STARTUP_MIN_CORNERS = 10
 
 #: EuRoC's published camera poses in the IMU frame (Burri et al. 2016, mav0/camN/sensor.yaml ``T_BS``, Kalibr),
-#: row-major 4 x 4: ``x_imu = T x_cam`` -- the extrinsic the *reference* camera is mapped with
-EUROC_T_BS = {
-    "cam0": (0.0148655429818, -0.999880929698, 0.00414029679422, -0.0216401454975, 0.999557249008, 0.0149672133247,
-             0.025715529948, -0.064676986768, -0.0257744366974, 0.00375618835797, 0.999660727178, 0.00981073058949,
-             0.0, 0.0, 0.0, 1.0),
-    "cam1": (0.0125552670891, -0.999755099723, 0.0182237714554, -0.0198435579556, 0.999598781151, 0.0130119051815,
-             0.0251588363115, 0.0453689425024, -0.0253898008918, 0.0179005838253, 0.999517347078, 0.00786212447038,
-             0.0, 0.0, 0.0, 1.0),
-}  # fmt: skip
+#: row-major 4 x 4: ``x_imu = T x_cam`` -- the extrinsic the *reference* camera is mapped with (the calibration job's table)
+EUROC_T_BS = EUROC_KALIBR_T_BS
 
 
 #: relative scale-factor + axis-alignment uncertainties ``(ε_g, ε_a)`` of a calibrated MEMS IMU (the class value of the
@@ -296,7 +293,7 @@ def prepare_track(
 
     Parameters
     ----------
-    data : target-recording directory or a :class:`~dualpose.io.target_recording.TargetRecording`.
+    data : target-recording directory or a :class:`~dualpose.io.target.recording.TargetRecording`.
     calibration : calibration JSON or a :class:`~dualpose.types.calibration.CameraImuCalibration`.
     camera : the tracked camera (must be in ``sensors.yaml`` and have its detections in the directory).
     outages : (start, end) windows, seconds from the first IMU sample, whose frames of ``camera`` are deleted.
@@ -817,7 +814,8 @@ class TrackStream:
     def update(self, kind: str, t: float, a, b) -> list:
         """One input (``"imu", t, gyro, accel`` or ``"cam", t, raw pixels (n, 2), points (n, 3)``); returns the
         ``(t, position (3,), q_wb (4,))`` poses it completes (none while the start-up window is read).  IMU samples
-        go through the calibration's axis models first (:meth:`CameraImuCalibration.corrected_imu`)."""
+        go through the calibration's axis models first
+        (:meth:`~dualpose.types.calibration.CameraImuCalibration.corrected_imu`)."""
         if kind != "cam":
             a, b = self.calibration.corrected_imu(a, b)
         if self._stream is not None:

@@ -5,7 +5,7 @@ A target-recording directory holds::
 
     imu0.csv              EuRoC IMU CSV (int ns, rad/s, m/s², body frame)
     camN_aprilgrid.csv    per camera: detected target corners, raw (distorted) pixels and target-frame points
-                          (:func:`dualpose.io.target_detections.read_target_detections`)
+                          (:func:`dualpose.io.target.detections.read_target_detections`)
     sensors.yaml          camera models, IMU noise, camera-to-camera poses
                           (:func:`dualpose.io.sensors_yaml.read_rig_sensors`)
 
@@ -32,7 +32,7 @@ from dualpose.io._text import check_path, open_for_writing
 from dualpose.io.euroc import ImuData
 from dualpose.io.recording import RecordingError, read_imu
 from dualpose.io.sensors_yaml import read_rig_sensors
-from dualpose.io.target_detections import read_target_detections
+from dualpose.io.target.detections import read_target_detections
 from dualpose.types.calibration import CameraImuCalibration
 from dualpose.types.target import RigSensors, TargetDetections
 
