@@ -98,7 +98,7 @@ STARTUP_SECONDS = 10.0
 STARTUP_MIN_CORNERS = 10
 
 #: EuRoC's published camera poses in the IMU frame (Burri et al. 2016, mav0/camN/sensor.yaml ``T_BS``, Kalibr),
-#: row-major 4 x 4: ``x_imu = T x_cam`` -- the extrinsic the *reference* camera is mapped with (the calibration job's table)
+#: row-major 4 x 4: ``x_imu = T x_cam`` -- the extrinsic the *reference* camera is mapped with
 EUROC_T_BS = EUROC_KALIBR_T_BS
 
 
