@@ -20,10 +20,22 @@ Options:
   directly (others, e.g. in place over an input, take ``f``).
 
 Put it only in front of an ``f`` that, for such inputs, returns exactly the kernel's outputs.
+
+Lazy arrays: a call with a dask array among the kernel's inputs (positional or by keyword) returns lazy dask arrays
+(one per kernel output): ``dask.array.apply_gufunc`` with the kernel's core signature (without the ``fixed``
+inputs), the kernel's output dtypes given explicitly and the core axes rechunked to one chunk; the leading axes keep
+(and broadcast) the chunks as given.  Each block is computed by ``f`` itself on NumPy blocks, so the values are
+``f``'s bit for bit (up to ``max_rows``, which depends on the rows per block), and nothing is computed before
+``.compute()``.  Core shapes are checked when the call is made.  dask is never imported here: an input is recognised
+as a dask array by the module of its type, and dask is then already imported (``docs/scaling.md``, "Lazy and
+out-of-core").
 """
 
 from __future__ import annotations
 
+import functools
+import re
+import sys
 from collections.abc import Callable
 from typing import Any, TypeVar
 
@@ -41,6 +53,64 @@ def fast_path(kernel: np.ufunc, *, nan_declines: bool = False, max_rows: int = -
     """Decorator: put the direct entry of the gufunc ``kernel`` in front of the function (see the module text)."""
 
     def wrap(func: _F) -> _F:
-        return _native.FastPath(kernel, func, nan_declines, max_rows, fixed, takes_out)  # type: ignore[return-value]
+        general = _dask_dispatch(kernel, func, kernel.nin - len(fixed))
+        return _native.FastPath(kernel, general, nan_declines, max_rows, fixed, takes_out)  # type: ignore[return-value]
 
     return wrap
+
+
+def _is_dask(x: object) -> bool:
+    return type(x).__module__.startswith("dask.")
+
+
+def _dask_dispatch(kernel: np.ufunc, func: Callable[..., Any], n_in: int) -> Callable[..., Any]:
+    """``func`` preceded by the lazy route for dask inputs (see the module text); other calls go to ``func``."""
+    cores = re.findall(r"\(([^)]*)\)", kernel.signature.split("->")[0])[:n_in]
+    signature = ",".join(f"({c})" for c in cores) + "->" + kernel.signature.split("->")[1]
+    out_types = [np.dtype(c) for c in kernel.types[0].split("->")[1]]
+    names = list(_parameters(func))[:n_in]
+
+    @functools.wraps(func)
+    def general(*args: Any, **kwargs: Any) -> Any:
+        if any(_is_dask(a) for a in args) or (kwargs and any(_is_dask(v) for v in kwargs.values())):
+            return _lazy_call(func, signature, cores, names, out_types, args, kwargs)
+        return func(*args, **kwargs)
+
+    return general
+
+
+def _parameters(func: Callable[..., Any]) -> list[str]:
+    code = func.__code__
+    return list(code.co_varnames[: code.co_argcount])
+
+
+def _lazy_call(func: Callable[..., Any], signature: str, cores: list[str], names: list[str],
+               out_types: list[np.dtype], args: tuple[Any, ...], kwargs: dict[str, Any]) -> Any:
+    """Build the lazy result of ``func(*args, **kwargs)`` with ``dask.array.apply_gufunc`` (dask is imported)."""
+    da = sys.modules["dask.array"]
+    arrays = list(args[: len(names)])
+    for name in names[len(arrays):]:
+        if name not in kwargs:
+            raise TypeError(f"{func.__name__}() missing required argument '{name}'")
+        arrays.append(kwargs.pop(name))
+    if kwargs.get("out") is not None:
+        raise TypeError(f"{func.__name__}: out= is not supported with dask arrays (the result is a new lazy array)")
+    kwargs.pop("out", None)
+    extra = args[len(names):]
+    for name, core, a in zip(names, cores, arrays, strict=True):
+        want = tuple(int(d) for d in core.split(",") if d.strip())
+        shape = tuple(np.shape(a)) if not _is_dask(a) else a.shape
+        if len(shape) < len(want) or (want and shape[len(shape) - len(want):] != want):
+            expected = "(..., " + ", ".join(map(str, want)) + ")" if want else "(...)"
+            raise ValueError(f"{func.__name__}: {name} must have shape {expected}, got {shape}")
+    # the core axes in one chunk, the leading axes as given
+    arrays = [a.rechunk({a.ndim - 1 - i: -1 for i in range(core.count(",") + bool(core.strip()))})
+              if _is_dask(a) else a for core, a in zip(cores, arrays, strict=True)]
+
+    def block(*blocks: np.ndarray) -> Any:
+        return func(*blocks, *extra, **kwargs)
+
+    out_dtypes = out_types if len(out_types) > 1 else out_types[0]
+    sizes = {d: int(d) for d in re.findall(r"\d+", signature)}  # the kernels' core sizes are all fixed numbers
+    return da.apply_gufunc(block, signature, *arrays, output_dtypes=out_dtypes, output_sizes=sizes,
+                           allow_rechunk=True)
