@@ -27,13 +27,13 @@ inputs), the kernel's output dtypes given explicitly and the core axes rechunked
 (and broadcast) the chunks as given.  Each block is computed by ``f`` itself on NumPy blocks, so the values are
 ``f``'s bit for bit (up to ``max_rows``, which depends on the rows per block), and nothing is computed before
 ``.compute()``.  Core shapes are checked when the call is made.  dask is never imported here: an input is recognised
-as a dask array by the module of its type, and dask is then already imported (``docs/scaling.md``, "Lazy and
+as a dask array by the module of its type (in ``FastPath``, only while ``dask.array`` is imported), and dask is
+then already imported (``docs/scaling.md``, "Lazy and
 out-of-core").
 """
 
 from __future__ import annotations
 
-import functools
 import re
 import sys
 from collections.abc import Callable
@@ -53,8 +53,9 @@ def fast_path(kernel: np.ufunc, *, nan_declines: bool = False, max_rows: int = -
     """Decorator: put the direct entry of the gufunc ``kernel`` in front of the function (see the module text)."""
 
     def wrap(func: _F) -> _F:
-        general = _dask_dispatch(kernel, func, kernel.nin - len(fixed))
-        return _native.FastPath(kernel, general, nan_declines, max_rows, fixed, takes_out)  # type: ignore[return-value]
+        lazy = _lazy_route(kernel, func, kernel.nin - len(fixed))
+        return _native.FastPath(kernel, func, nan_declines, max_rows, fixed, takes_out,  # type: ignore[return-value]
+                                lazy)
 
     return wrap
 
@@ -63,20 +64,17 @@ def _is_dask(x: object) -> bool:
     return type(x).__module__.startswith("dask.")
 
 
-def _dask_dispatch(kernel: np.ufunc, func: Callable[..., Any], n_in: int) -> Callable[..., Any]:
-    """``func`` preceded by the lazy route for dask inputs (see the module text); other calls go to ``func``."""
+def _lazy_route(kernel: np.ufunc, func: Callable[..., Any], n_in: int) -> Callable[..., Any]:
+    """The call ``FastPath`` makes instead of ``func`` when an argument is a dask array (see the module text)."""
     cores = re.findall(r"\(([^)]*)\)", kernel.signature.split("->")[0])[:n_in]
     signature = ",".join(f"({c})" for c in cores) + "->" + kernel.signature.split("->")[1]
     out_types = [np.dtype(c) for c in kernel.types[0].split("->")[1]]
-    names = list(_parameters(func))[:n_in]
+    names = _parameters(func)[:n_in]
 
-    @functools.wraps(func)
-    def general(*args: Any, **kwargs: Any) -> Any:
-        if any(_is_dask(a) for a in args) or (kwargs and any(_is_dask(v) for v in kwargs.values())):
-            return _lazy_call(func, signature, cores, names, out_types, args, kwargs)
-        return func(*args, **kwargs)
+    def lazy(*args: Any, **kwargs: Any) -> Any:
+        return _lazy_call(func, signature, cores, names, out_types, args, kwargs)
 
-    return general
+    return lazy
 
 
 def _parameters(func: Callable[..., Any]) -> list[str]:
