@@ -83,6 +83,10 @@ def test_mixed_numpy_and_dask_inputs_broadcast_and_core_axis_is_rechunked() -> N
     assert lazy.chunks == ((100, 100, 100), (4,))
     np.testing.assert_array_equal(lazy.compute(), dp.quat_mul(p, q))
     np.testing.assert_array_equal(dp.quat_mul(p=da.from_array(p, chunks=100), q=q).compute(), dp.quat_mul(p, q))
+    a, b = rng.normal(size=(1, 100, 4)), rng.normal(size=(3, 1, 4))  # size-1 leading axes broadcast
+    lazy = dp.quat_mul(da.from_array(a, chunks=(1, 30, 4)), da.from_array(b, chunks=(2, 1, 4)))
+    assert lazy.chunks == ((2, 1), (30, 30, 30, 10), (4,))
+    np.testing.assert_array_equal(lazy.compute(), dp.quat_mul(a, b))
 
 
 def test_keyword_and_frame_arguments_reach_every_block() -> None:

@@ -95,20 +95,29 @@ def _lazy_call(func: Callable[..., Any], signature: str, cores: list[str], names
         raise TypeError(f"{func.__name__}: out= is not supported with dask arrays (the result is a new lazy array)")
     kwargs.pop("out", None)
     extra = args[len(names):]
-    for name, core, a in zip(names, cores, arrays, strict=True):
-        want = tuple(int(d) for d in core.split(",") if d.strip())
-        shape = tuple(np.shape(a)) if not _is_dask(a) else a.shape
+    wants = [tuple(int(d) for d in core.split(",") if d.strip()) for core in cores]
+    for name, want, a in zip(names, wants, arrays, strict=True):
+        shape = tuple(a.shape) if _is_dask(a) else np.shape(a)
         if len(shape) < len(want) or (want and shape[len(shape) - len(want):] != want):
             expected = "(..., " + ", ".join(map(str, want)) + ")" if want else "(...)"
             raise ValueError(f"{func.__name__}: {name} must have shape {expected}, got {shape}")
     # the core axes in one chunk, the leading axes as given
-    arrays = [a.rechunk({a.ndim - 1 - i: -1 for i in range(core.count(",") + bool(core.strip()))})
-              if _is_dask(a) else a for core, a in zip(cores, arrays, strict=True)]
+    arrays = [da.asarray(a) for a in arrays]
+    arrays = [a.rechunk({a.ndim - 1 - i: -1 for i in range(len(w))}) for a, w in zip(arrays, wants, strict=True)]
 
     def block(*blocks: np.ndarray) -> Any:
         return func(*blocks, *extra, **kwargs)
 
-    out_dtypes = out_types if len(out_types) > 1 else out_types[0]
-    sizes = {d: int(d) for d in re.findall(r"\d+", signature)}  # the kernels' core sizes are all fixed numbers
-    return da.apply_gufunc(block, signature, *arrays, output_dtypes=out_dtypes, output_sizes=sizes,
-                           allow_rechunk=True)
+    if len(out_types) > 1:
+        sizes = {d: int(d) for d in re.findall(r"\d+", signature)}  # the kernels' core sizes are all fixed numbers
+        return da.apply_gufunc(block, signature, *arrays, output_dtypes=out_types, output_sizes=sizes)
+    # one output: blockwise over the leading axes (apply_gufunc's extra transposes cost a copy per block)
+    n_lead = max(a.ndim - len(w) for a, w in zip(arrays, wants, strict=True))
+    lead = tuple(f"l{i}" for i in range(n_lead))
+    pairs: list[Any] = []
+    for k, (a, w) in enumerate(zip(arrays, wants, strict=True)):
+        pairs += [a, lead[n_lead - (a.ndim - len(w)):] + tuple(f"c{k}_{j}" for j in range(len(w)))]
+    out_core = [int(d) for d in re.findall(r"\d+", signature.split("->")[1])]
+    new_axes = {f"o{j}": n for j, n in enumerate(out_core)}
+    return da.blockwise(block, lead + tuple(new_axes), *pairs, new_axes=new_axes, concatenate=True,
+                        dtype=out_types[0], meta=np.empty((0,) * (n_lead + len(out_core)), out_types[0]))
