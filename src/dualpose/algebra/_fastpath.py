@@ -108,6 +108,16 @@ def _lazy_call(func: Callable[..., Any], signature: str, cores: list[str], names
     def block(*blocks: np.ndarray) -> Any:
         return func(*blocks, *extra, **kwargs)
 
+    def single_blocks(*nested: Any) -> Any:
+        # blockwise hands the (one-chunk) core axes missing from the output as nested lists of one block each;
+        # unwrapping them avoids the copy that concatenate=True makes
+        blocks = []
+        for b in nested:
+            while isinstance(b, list):
+                b = b[0]
+            blocks.append(b)
+        return func(*blocks, *extra, **kwargs)
+
     if len(out_types) > 1:
         sizes = {d: int(d) for d in re.findall(r"\d+", signature)}  # the kernels' core sizes are all fixed numbers
         return da.apply_gufunc(block, signature, *arrays, output_dtypes=out_types, output_sizes=sizes)
@@ -119,5 +129,5 @@ def _lazy_call(func: Callable[..., Any], signature: str, cores: list[str], names
         pairs += [a, lead[n_lead - (a.ndim - len(w)):] + tuple(f"c{k}_{j}" for j in range(len(w)))]
     out_core = [int(d) for d in re.findall(r"\d+", signature.split("->")[1])]
     new_axes = {f"o{j}": n for j, n in enumerate(out_core)}
-    return da.blockwise(block, lead + tuple(new_axes), *pairs, new_axes=new_axes, concatenate=True,
+    return da.blockwise(single_blocks, lead + tuple(new_axes), *pairs, new_axes=new_axes, concatenate=False,
                         dtype=out_types[0], meta=np.empty((0,) * (n_lead + len(out_core)), out_types[0]))
