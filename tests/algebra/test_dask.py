@@ -15,20 +15,11 @@ import dualpose as dp
 from dualpose import _native
 
 da = pytest.importorskip("dask.array")
-from dask.callbacks import Callback  # noqa: E402
 
 FAST = sorted((getattr(dp, n) for n in dp.__all__ if isinstance(getattr(dp, n), _native.FastPath)),
               key=lambda f: f.__name__)
 BATCH, CHUNKS = (2, 130), (1, 65)  # two leading axes, several blocks each; > 63 rows a block (quat_log's max_rows)
 
-
-class TaskCounter(Callback):
-    def __init__(self) -> None:
-        super().__init__()
-        self.tasks = 0
-
-    def _pretask(self, key, dask, state) -> None:
-        self.tasks += 1
 
 
 def kernel_cores(kernel: np.ufunc) -> tuple[list[tuple[int, ...]], list[tuple[int, ...]]]:
@@ -54,12 +45,12 @@ def test_registry_covers_the_gufunc_backed_functions() -> None:
 
 
 @pytest.mark.parametrize("f", FAST, ids=lambda f: f.__name__)
-def test_dask_input_gives_a_lazy_array_equal_to_numpy(f) -> None:
+def test_dask_input_gives_a_lazy_array_equal_to_numpy(f, dask_task_counter) -> None:
     rng = np.random.default_rng(7)
     args = user_inputs(f, rng)
     expected = f(*args)
     lazy_args = [da.from_array(a, chunks=CHUNKS + (-1,) * (a.ndim - len(BATCH))) for a in args]
-    counter = TaskCounter()
+    counter = dask_task_counter
     with counter:
         lazy = f(*lazy_args)
         assert counter.tasks == 0  # building the graph computes nothing

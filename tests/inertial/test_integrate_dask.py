@@ -9,25 +9,15 @@ import dualpose as dp
 from dualpose.inertial import integrate_attitude, integrate_pose
 
 da = pytest.importorskip("dask.array")
-from dask.callbacks import Callback  # noqa: E402
-
-
-class TaskCounter(Callback):
-    def __init__(self) -> None:
-        super().__init__()
-        self.tasks = 0
-
-    def _pretask(self, key, dask, state) -> None:
-        self.tasks += 1
 
 
 @pytest.mark.parametrize(("integrate", "w0", "w"), [(integrate_attitude, 4, 3), (integrate_pose, 8, 6)])
-def test_lazy_integration_equals_numpy_bit_for_bit(integrate, w0: int, w: int) -> None:
+def test_lazy_integration_equals_numpy_bit_for_bit(integrate, w0: int, w: int, dask_task_counter) -> None:
     rng = np.random.default_rng(5)
     x0 = dp.dualquat_normalize(rng.normal(size=(6, 8))) if w0 == 8 else dp.quat_normalize(rng.normal(size=(6, 4)))
     x = 0.01 * rng.normal(size=(6, 40, w))
     expected = integrate(x0, x, 2, "coning-optimal", "space")
-    counter = TaskCounter()
+    counter = dask_task_counter
     with counter:
         lazy = integrate(da.from_array(x0, chunks=(2, w0)), da.from_array(x, chunks=(3, 10, w)), 2,
                          "coning-optimal", "space")
