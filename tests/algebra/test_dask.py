@@ -7,6 +7,8 @@ Reference: each function's own NumPy result on the whole array (bit for bit); la
 from __future__ import annotations
 
 import inspect
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -127,3 +129,11 @@ def test_raw_gufunc_through_xarray_apply_ufunc() -> None:
                        output_core_dims=[["component"]], dask="parallelized", output_dtypes=[float])
     assert isinstance(r.data, da.Array)
     np.testing.assert_array_equal(r.compute().values, dp.quat_mul(p, q))
+
+
+def test_dualpose_does_not_import_dask() -> None:
+    code = ("import sys, numpy as np, dualpose as dp\n"
+            "from dualpose.inertial import integrate_attitude\n"
+            "dp.quat_mul([0.0, 0, 0, 1], np.ones((3, 4))); integrate_attitude([0.0, 0, 0, 1], np.zeros((2, 3)))\n"
+            "assert 'dask' not in sys.modules, 'dask imported'\n")
+    subprocess.run([sys.executable, "-c", code], check=True)

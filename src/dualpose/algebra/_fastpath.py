@@ -21,15 +21,14 @@ Options:
 
 Put it only in front of an ``f`` that, for such inputs, returns exactly the kernel's outputs.
 
-Lazy arrays: a call with a dask array among the kernel's inputs (positional or by keyword) returns lazy dask arrays
-(one per kernel output): ``dask.array.apply_gufunc`` with the kernel's core signature (without the ``fixed``
-inputs), the kernel's output dtypes given explicitly and the core axes rechunked to one chunk; the leading axes keep
-(and broadcast) the chunks as given.  Each block is computed by ``f`` itself on NumPy blocks, so the values are
-``f``'s bit for bit (up to ``max_rows``, which depends on the rows per block), and nothing is computed before
-``.compute()``.  Core shapes are checked when the call is made.  dask is never imported here: an input is recognised
-as a dask array by the module of its type (in ``FastPath``, only while ``dask.array`` is imported), and dask is
-then already imported (``docs/scaling.md``, "Lazy and
-out-of-core").
+Lazy arrays: a call with a dask array among the arguments returns lazy dask arrays (one per kernel output):
+``dask.array.blockwise`` over the leading axes (``dask.array.apply_gufunc`` with the kernel's core signature, less
+the ``fixed`` inputs, for kernels with several outputs), the output dtypes and core sizes given explicitly, the core
+axes rechunked to one chunk, the leading axes chunked (and broadcast) as given.  Each block is computed by ``f``
+itself on NumPy blocks, so the values are ``f``'s bit for bit (up to ``max_rows``, which depends on the rows per
+block), and nothing is computed before ``.compute()``.  Core shapes are checked when the call is made.  dask is never
+imported here: ``FastPath`` recognises a dask array by the module of its type, only while ``dask.array`` is imported
+(docs/scaling.md, "Lazy and out-of-core").
 """
 
 from __future__ import annotations
@@ -84,7 +83,7 @@ def _parameters(func: Callable[..., Any]) -> list[str]:
 
 def _lazy_call(func: Callable[..., Any], signature: str, cores: list[str], names: list[str],
                out_types: list[np.dtype], args: tuple[Any, ...], kwargs: dict[str, Any]) -> Any:
-    """Build the lazy result of ``func(*args, **kwargs)`` with ``dask.array.apply_gufunc`` (dask is imported)."""
+    """Build the lazy result of ``func(*args, **kwargs)`` (dask is imported: a dask array is among the arguments)."""
     da = sys.modules["dask.array"]
     arrays = list(args[: len(names)])
     for name in names[len(arrays):]:
