@@ -15,6 +15,22 @@ settings.load_profile("ci")
 
 
 @pytest.fixture
+def dask_task_counter():
+    """A context manager whose ``tasks`` counts the dask tasks run inside it (skips without dask)."""
+    callbacks = pytest.importorskip("dask.callbacks")
+
+    class TaskCounter(callbacks.Callback):
+        def __init__(self) -> None:
+            super().__init__()
+            self.tasks = 0
+
+        def _pretask(self, key, dask, state) -> None:
+            self.tasks += 1
+
+    return TaskCounter()
+
+
+@pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(20261122)
 
