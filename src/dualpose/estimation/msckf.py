@@ -158,8 +158,10 @@ class MsckfVio(EskfStateAccessors, Estimator):
         self.P = 0.5 * (P + P.T)
         self.imu_noise = ImuNoise() if imu_noise is None else imu_noise
         n = self.imu_noise
+        # the ESKF prediction's noise vector (eskf_kernels.hpp): the four densities², then the scale-factor terms ε²
         self.noise = np.array([n.gyroscope_noise_density**2, n.accelerometer_noise_density**2,
-                               n.gyroscope_random_walk**2, n.accelerometer_random_walk**2])  # fmt: skip
+                               n.gyroscope_random_walk**2, n.accelerometer_random_walk**2,
+                               n.gyroscope_scale_sigma**2, n.accelerometer_scale_sigma**2])  # fmt: skip
         self.q_bc = dp.quat_normalize(np.asarray(q_bc, dtype=np.float64))
         self.p_bc = np.asarray(p_bc, dtype=np.float64).reshape(3)
         self.feature_sigma = float(feature_sigma)
@@ -217,7 +219,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
 
     # ------------------------------------------------------------------ savable state (streaming)
     #: version of :meth:`state_dict`'s layout
-    STATE_VERSION = 1
+    STATE_VERSION = 2
 
     def state_dict(self) -> dict[str, np.ndarray]:
         """Everything the filter needs to continue, as arrays (``np.savez`` writes it): the IMU state and the held
@@ -247,7 +249,8 @@ class MsckfVio(EskfStateAccessors, Estimator):
             o = np.asarray(d["options"], dtype=np.float64)
             opts = MsckfOptions(int(o[0]), int(o[1]), float(o[2]), float(o[3]), float(o[4]), float(o[5]))
             noise = np.asarray(d["noise"], dtype=np.float64)
-            imu = ImuNoise(*np.sqrt(noise)[[0, 2, 1, 3]].tolist())
+            g, a, g_rw, a_rw, g_scale, a_scale = np.sqrt(noise).tolist()
+            imu = ImuNoise(g, g_rw, a, a_rw, gyroscope_scale_sigma=g_scale, accelerometer_scale_sigma=a_scale)
             P = np.array(d["P"], dtype=np.float64)
             f = cls(np.array(d["x"]), P[:_NE, :_NE], imu, d["q_bc"], d["p_bc"], float(d["feature_sigma"]),
                     d["gravity"], float(d["camera_time_offset"]), opts)  # fmt: skip

@@ -167,7 +167,7 @@ bool triangulate(const std::vector<CamPose>& cams, const std::int64_t* ci, const
     return true;
 }
 
-// msckf_propagate(x, P, Phi, gyro (k, 3), accel (k, 3), dt (k,), gravity, noise, X (k, 16)): k steps of the ESKF
+// msckf_propagate(x, P, Phi, gyro (k, 3), accel (k, 3), dt (k,), gravity, noise (6,), X (k, 16)): k steps of the ESKF
 // prediction with constant input per step (eskf::predict_transition), in place on x (16,) and the IMU covariance
 // P (15, 15); Phi (15, 15) <- the product of the step transitions, X[i] the state after step i.
 PyObject* py_propagate(PyObject*, PyObject* args) {
@@ -183,7 +183,7 @@ PyObject* py_propagate(PyObject*, PyObject* args) {
     const npy_intp k = dt.shape[0];
     if (!shape_is("x", x, {NX}) || !shape_is("P", Pm, {NE, NE}) || !shape_is("Phi", Phi, {NE, NE}) ||
         !shape_is("gyro", gyro, {k, 3}) || !shape_is("accel", accel, {k, 3}) || !shape_is("gravity", gravity, {3}) ||
-        !shape_is("noise", noise, {4}) || !shape_is("X", X, {k, NX}))
+        !shape_is("noise", noise, {6}) || !shape_is("X", X, {k, NX}))
         return nullptr;
     double F[NE * NE], T[NE * NE];
     std::fill(Phi.data, Phi.data + NE * NE, 0.0);
