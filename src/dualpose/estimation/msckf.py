@@ -58,6 +58,11 @@ class MsckfOptions:
     ``max_clones`` the window length (OpenVINS ``max_clones`` 11); ``min_track`` the fewest observations a feature
     needs to be used; ``gate_probability`` of the per-feature χ² gate; ``min_depth``, ``max_depth`` (m) and
     ``min_parallax`` (largest baseline over depth) the triangulation checks.
+
+    ``adaptive_sigma`` estimates the feature σ online from the filter's own residuals (covariance matching,
+    Mehra 1972; Mohamed & Schwarz 1999; docs/vio.md "Measurement noise"): the given σ is the starting value,
+    ``sigma_floor`` (a fraction of it) the lowest value, ``sigma_memory`` the number of residual rows the running
+    estimate remembers (its adaptation time constant in rows).
     """
 
     max_clones: int = 11
@@ -66,6 +71,9 @@ class MsckfOptions:
     min_depth: float = 0.1
     max_depth: float = 60.0
     min_parallax: float = 0.01
+    adaptive_sigma: bool = True
+    sigma_floor: float = 0.1
+    sigma_memory: float = 1000.0
 
     def __post_init__(self) -> None:
         if int(self.max_clones) != self.max_clones or self.max_clones < 2:
@@ -77,6 +85,9 @@ class MsckfOptions:
         if not 0.0 < self.min_depth < self.max_depth or not self.min_parallax >= 0.0:
             raise ValueError("need 0 < min_depth < max_depth and min_parallax >= 0; got "
                              f"{self.min_depth!r}, {self.max_depth!r}, {self.min_parallax!r}")  # fmt: skip
+        if not 0.0 < self.sigma_floor <= 1.0 or not self.sigma_memory > 0.0:
+            raise ValueError("need 0 < sigma_floor <= 1 and sigma_memory > 0; got "
+                             f"{self.sigma_floor!r}, {self.sigma_memory!r}")  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -122,7 +133,8 @@ class MsckfVio(EskfStateAccessors, Estimator):
     covariance : (15, 15) its error covariance.
     imu_noise : ImuNoise (continuous-time densities).
     q_bc, p_bc : camera axes (xyzw) and camera centre (m) in the IMU frame.
-    feature_sigma : σ of a normalised image coordinate.
+    feature_sigma : σ of a normalised image coordinate (the starting value when ``options.adaptive_sigma``; the
+        current one is :attr:`feature_sigma`, its start :attr:`nominal_sigma`).
     gravity : (3,) world gravity, m/s².  camera_time_offset : ``t_imu = t_cam + offset``, s.
     options : MsckfOptions.
     """
@@ -163,11 +175,13 @@ class MsckfVio(EskfStateAccessors, Estimator):
         self.q_bc = dp.quat_normalize(np.asarray(q_bc, dtype=np.float64))
         self.p_bc = np.asarray(p_bc, dtype=np.float64).reshape(3)
         self.feature_sigma = float(feature_sigma)
+        self.nominal_sigma = float(feature_sigma)
         self.gravity = np.asarray(gravity, dtype=np.float64).reshape(3)
         self.camera_time_offset = float(camera_time_offset)
         self.options = MsckfOptions() if options is None else options
         o = self.options
         self._chi2 = np.r_[np.inf, chi2.ppf(o.gate_probability, np.arange(1, 2 * o.max_clones + 8))]
+        self._open_gate = np.full_like(self._chi2, np.inf)
         self._limits = np.array([o.min_depth, o.max_depth, o.min_parallax])
         self.time: float | None = None
         self._u = np.zeros(6)
@@ -217,7 +231,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
 
     # ------------------------------------------------------------------ savable state (streaming)
     #: version of :meth:`state_dict`'s layout
-    STATE_VERSION = 1
+    STATE_VERSION = 2
 
     def state_dict(self) -> dict[str, np.ndarray]:
         """Everything the filter needs to continue, as arrays (``np.savez`` writes it): the IMU state and the held
@@ -231,9 +245,10 @@ class MsckfVio(EskfStateAccessors, Estimator):
             "next_clone": np.array(self._next_clone), "ob_track": self._ob_track.copy(),
             "ob_clone": self._ob_clone.copy(), "ob_uv": self._ob_uv.copy(), "noise": self.noise.copy(),
             "q_bc": self.q_bc.copy(), "p_bc": self.p_bc.copy(), "gravity": self.gravity.copy(),
-            "feature_sigma": np.array(self.feature_sigma), "camera_time_offset": np.array(self.camera_time_offset),
+            "feature_sigma": np.array(self.feature_sigma), "nominal_sigma": np.array(self.nominal_sigma),
+            "camera_time_offset": np.array(self.camera_time_offset),
             "options": np.array([o.max_clones, o.min_track, o.gate_probability, o.min_depth, o.max_depth,
-                                 o.min_parallax]),
+                                 o.min_parallax, float(o.adaptive_sigma), o.sigma_floor, o.sigma_memory]),
         }  # fmt: skip
 
     @classmethod
@@ -245,12 +260,14 @@ class MsckfVio(EskfStateAccessors, Estimator):
                 raise ValueError(f"saved MSCKF state has layout version {int(d['version'])}; this is "
                                  f"{cls.STATE_VERSION}")  # fmt: skip
             o = np.asarray(d["options"], dtype=np.float64)
-            opts = MsckfOptions(int(o[0]), int(o[1]), float(o[2]), float(o[3]), float(o[4]), float(o[5]))
+            opts = MsckfOptions(int(o[0]), int(o[1]), float(o[2]), float(o[3]), float(o[4]), float(o[5]), bool(o[6]),
+                                float(o[7]), float(o[8]))
             noise = np.asarray(d["noise"], dtype=np.float64)
             imu = ImuNoise(*np.sqrt(noise)[[0, 2, 1, 3]].tolist())
             P = np.array(d["P"], dtype=np.float64)
-            f = cls(np.array(d["x"]), P[:_NE, :_NE], imu, d["q_bc"], d["p_bc"], float(d["feature_sigma"]),
+            f = cls(np.array(d["x"]), P[:_NE, :_NE], imu, d["q_bc"], d["p_bc"], float(d["nominal_sigma"]),
                     d["gravity"], float(d["camera_time_offset"]), opts)  # fmt: skip
+            f.feature_sigma = float(d["feature_sigma"])
             f.noise = noise.copy()
             f.x = np.array(d["x"], dtype=np.float64)
             f.q_bc = np.array(d["q_bc"], dtype=np.float64)
@@ -453,15 +470,40 @@ class MsckfVio(EskfStateAccessors, Estimator):
         status = np.empty(g, np.int64)
         nis = np.empty(g)
         P = np.ascontiguousarray(self.P)
+        # the kernel with an open gate returns the rows of every triangulated feature: the σ estimate sees them all
+        # (a gate at the current σ would keep the small residuals and bias it low), the χ² gate is applied here
         m = _native.msckf_features(np.ascontiguousarray(self.clones), np.ascontiguousarray(self.clones_fej),
                                    self.q_bc, self.p_bc, offsets, obs_clone, np.ascontiguousarray(self._ob_uv[sel]),
-                                   P, self.feature_sigma, self._chi2, self._limits, H, r, status, nis)  # fmt: skip
+                                   P, self.feature_sigma, self._open_gate, self._limits, H, r, status,
+                                   nis)  # fmt: skip
         dof = 2 * count[enough] - 3
+        solved = status == 1
+        gated = solved & (nis > self._chi2[np.minimum(dof, len(self._chi2) - 1)])
+        status[gated] = 0
         accepted = status == 1
-        if m > 0:  # one update of all accepted rows (QR-compressed in the kernel when m > n)
+        if m > 0:
             self.P = P
-            _native.msckf_update(self.x, self.clones, self.P, H[:m], r[:m], self.feature_sigma)
+            sigma_next = self._adapted_sigma(H[:m], r[:m]) if self.options.adaptive_sigma else self.feature_sigma
+            keep = np.repeat(accepted[solved], dof[solved])
+            if keep.any():  # one update of all accepted rows (QR-compressed in the kernel when m > n)
+                _native.msckf_update(self.x, self.clones, self.P, np.ascontiguousarray(H[:m][keep]), r[:m][keep],
+                                     self.feature_sigma)  # fmt: skip
+            self.feature_sigma = sigma_next
         return TrackUpdate(nis, int(dof[accepted].sum()), accepted, feature_dof=dof, status=status)
+
+    def _adapted_sigma(self, H: np.ndarray, r: np.ndarray) -> float:
+        """The feature σ after this frame's rows ``H`` (m, n), ``r`` (m,) of every triangulated feature, before the
+        χ² gate (covariance matching, Mehra 1972 §IV; Mohamed & Schwarz 1999 eq. 20): a nullspace-projected row has
+        ``E[r_i²] = (H P Hᵀ)_ii + σ²`` (the projection is orthonormal, so the noise stays ``σ² I``).  The frame's
+        estimate is ``σ̂² = (1.4826 med|r_i|)² − med (H P Hᵀ)_ii`` (median absolute deviation: robust to the
+        outliers among the rows), blended into the running value with weight ``m / (m + sigma_memory)``, floored
+        at ``sigma_floor`` × the nominal (starting) σ."""
+        o = self.options
+        d = np.einsum("ij,ij->i", H @ self.P, H)
+        s2 = (1.4826 * np.median(np.abs(r))) ** 2 - np.median(d)
+        w = len(r) / (len(r) + o.sigma_memory)
+        var = (1.0 - w) * self.feature_sigma**2 + w * max(s2, 0.0)
+        return float(max(np.sqrt(var), o.sigma_floor * self.nominal_sigma))
 
     # ------------------------------------------------------------------ a whole recording
     def run(self, recording: TrackRecording, start: int = 0) -> VioResult:
