@@ -15,9 +15,9 @@ State (docs/vio.md):
 No landmark enters the state.  A feature is used once, when its track ends or when its oldest observation would
 leave the window: it is triangulated from the window (linear midpoint, then Gauss–Newton on the inverse depth in
 its first camera), its reprojection residuals are linearised at the clones' *first estimates* (FEJ, Huang et al.
-2010: the values the clones had when they were taken, so that the linearisation keeps the four unobservable
-directions -- position and yaw -- unobservable), the feature Jacobian is removed by projecting onto its left
-nullspace (Givens rotations), and the ``2m − 3`` projected rows pass a per-feature χ² gate.  The accepted rows of
+2010: the values the clones had when they were taken) and the propagation's transition at the IMU state's first
+estimate (the propagated state before an update), so that the four unobservable directions -- position and yaw --
+stay unobservable; the feature Jacobian is removed by projecting onto its left nullspace (Givens rotations), and the ``2m − 3`` projected rows pass a per-feature χ² gate.  The accepted rows of
 all features of a frame are stacked, compressed by a QR decomposition when they outnumber the state, and fused in
 one EKF update (Joseph form).  All per-feature work is the native ``msckf_features``.
 
@@ -185,6 +185,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
         self._limits = np.array([o.min_depth, o.max_depth, o.min_parallax])
         self.time: float | None = None
         self._u = np.zeros(6)
+        self._x_fej: np.ndarray | None = None  # the state before the updates since the last propagation (FEJ)
         self.clones = np.zeros((0, 7))  # [p_wb, q_wb] per clone, oldest first
         self.clones_fej = np.zeros((0, 7))
         self.clone_t = np.zeros(0)
@@ -234,13 +235,16 @@ class MsckfVio(EskfStateAccessors, Estimator):
     STATE_VERSION = 2
 
     def state_dict(self) -> dict[str, np.ndarray]:
-        """Everything the filter needs to continue, as arrays (``np.savez`` writes it): the IMU state and the held
-        sample, the window (clones, first estimates, times, ids), the window's feature observations, the full
-        covariance, the settings.  :meth:`from_state_dict` continues bit for bit (one sample / frame at a time)."""
+        """Everything the filter needs to continue, as arrays (``np.savez`` writes it): the IMU state, its first
+        estimate (``x_fej``, NaN when none is pending) and the held sample, the window (clones, first estimates,
+        times, ids), the window's feature observations, the full covariance, the current and nominal feature σ, the
+        settings.  :meth:`from_state_dict` continues bit for bit (one sample / frame at a time)."""
         o = self.options
         return {
             "version": np.array(self.STATE_VERSION), "x": self.x.copy(), "P": self.P.copy(), "u": self._u.copy(),
-            "time": np.array(np.nan if self.time is None else self.time), "clones": self.clones.copy(),
+            "time": np.array(np.nan if self.time is None else self.time),
+            "x_fej": np.full(ESKF_STATE.dim, np.nan) if self._x_fej is None else self._x_fej.copy(),
+            "clones": self.clones.copy(),
             "clones_fej": self.clones_fej.copy(), "clone_t": self.clone_t.copy(), "clone_id": self._clone_id.copy(),
             "next_clone": np.array(self._next_clone), "ob_track": self._ob_track.copy(),
             "ob_clone": self._ob_clone.copy(), "ob_uv": self._ob_uv.copy(), "noise": self.noise.copy(),
@@ -273,6 +277,8 @@ class MsckfVio(EskfStateAccessors, Estimator):
             f.q_bc = np.array(d["q_bc"], dtype=np.float64)
             f.P = np.ascontiguousarray(P)
             f._u = np.array(d["u"], dtype=np.float64)
+            x_fej = np.array(d["x_fej"], dtype=np.float64)
+            f._x_fej = None if np.isnan(x_fej).any() else x_fej
             t = float(d["time"])
             f.time = None if np.isnan(t) else t
             f.clones = np.array(d["clones"], dtype=np.float64).reshape(-1, 7)
@@ -329,8 +335,10 @@ class MsckfVio(EskfStateAccessors, Estimator):
             return X
         Pii = np.ascontiguousarray(self.P[:_NE, :_NE])
         Phi = np.empty((_NE, _NE))
-        _native.msckf_propagate(self.x, Pii, Phi, np.ascontiguousarray(gyro), np.ascontiguousarray(accel),
+        x0 = self.x.copy() if self._x_fej is None else self._x_fej
+        _native.msckf_propagate(self.x, x0, Pii, Phi, np.ascontiguousarray(gyro), np.ascontiguousarray(accel),
                                 np.ascontiguousarray(dt, dtype=np.float64), self.gravity, self.noise, X)  # fmt: skip
+        self._x_fej = None
         self.P[:_NE, :_NE] = Pii
         if self.P.shape[0] > _NE:
             cross = Phi @ self.P[:_NE, _NE:]
@@ -398,6 +406,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
         IKH[np.diag_indices_from(IKH)] += 1.0
         P = IKH @ P @ IKH.T + K @ R @ K.T
         dx = K @ r
+        self._keep_first_estimate()
         self._inject(dx)
         # reset Jacobian of the IMU attitude error (Solà 2017 eq. 285-287), as the error-state filter applies it
         G = np.eye(len(dx))
@@ -406,6 +415,12 @@ class MsckfVio(EskfStateAccessors, Estimator):
         P = G @ P @ G.T
         self.P = 0.5 * (P + P.T)
         return nis
+
+    def _keep_first_estimate(self) -> None:
+        """Remember the propagated state before the first update at this time: the next propagation step's
+        transition is evaluated at it (first-estimates Jacobians, ``msckf_propagate``)."""
+        if self._x_fej is None:
+            self._x_fej = self.x.copy()
 
     def _inject(self, dx: np.ndarray) -> None:
         x = self.x
@@ -486,6 +501,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
             sigma_next = self._adapted_sigma(H[:m], r[:m]) if self.options.adaptive_sigma else self.feature_sigma
             keep = np.repeat(accepted[solved], dof[solved])
             if keep.any():  # one update of all accepted rows (QR-compressed in the kernel when m > n)
+                self._keep_first_estimate()
                 _native.msckf_update(self.x, self.clones, self.P, np.ascontiguousarray(H[:m][keep]), r[:m][keep],
                                      self.feature_sigma)  # fmt: skip
             self.feature_sigma = sigma_next

@@ -167,30 +167,73 @@ bool triangulate(const std::vector<CamPose>& cams, const std::int64_t* ci, const
     return true;
 }
 
-// msckf_propagate(x, P, Phi, gyro (k, 3), accel (k, 3), dt (k,), gravity, noise, X (k, 16)): k steps of the ESKF
-// prediction with constant input per step (eskf::predict_transition), in place on x (16,) and the IMU covariance
-// P (15, 15); Phi (15, 15) <- the product of the step transitions, X[i] the state after step i.
+// One propagation step (eskf::predict_transition's nominal state) whose transition F is evaluated at the first
+// estimates x0 of the start position, velocity and attitude (FEJ; Huang, Mourikis & Roumeliotis 2010; OpenVINS'
+// propagator): with R0 = R(q0) and the new state x,
+//   F_θθ = R(q)ᵀ R0,   F_vθ = −[v − v0 − g dt]× R0,   F_pθ = −[p − p0 − v0 dt − ½ g dt²]× R0,
+// the exact Jacobian of the trapezoidal step when x0 is the current state.  It maps the unobservable directions
+// of the first estimates (global position, yaw about gravity: N_θ = R0ᵀ g, N_v = −[v0]× g, N_p = −[p0]× g; Hesch
+// et al. 2014) onto those of the new state, so that propagation adds no information along them.
+inline void fej_step(double* x, const double* x0, double* Pm, double* Pscratch, const double* gyro,
+                     const double* accel, double dt, const double* gravity, const double* noise, double* F) {
+    std::copy(Pm, Pm + NE * NE, Pscratch);
+    predict_transition(x, Pscratch, gyro, accel, dt, gravity, noise, F);
+    double R0[9], R1[9];
+    rotmat_xyzw(x0[Q], x0[Q + 1], x0[Q + 2], x0[Q + 3], R0);
+    rotmat_xyzw(x[Q], x[Q + 1], x[Q + 2], x[Q + 3], R1);
+    double dv[3], dpos[3];
+    for (int i = 0; i < 3; ++i) {
+        dv[i] = x[V + i] - x0[V + i] - gravity[i] * dt;
+        dpos[i] = x[P + i] - x0[P + i] - x0[V + i] * dt - 0.5 * gravity[i] * dt * dt;
+    }
+    const double Dv[9] = {0.0, -dv[2], dv[1], dv[2], 0.0, -dv[0], -dv[1], dv[0], 0.0};
+    const double Dp[9] = {0.0, -dpos[2], dpos[1], dpos[2], 0.0, -dpos[0], -dpos[1], dpos[0], 0.0};
+    double A[9], B[9], T[9];
+    mul33(Dv, R0, A);
+    mul33(Dp, R0, B);
+    mul_tn3(R1, R0, T);
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+            F[(DV + i) * NE + DTH + j] = -A[3 * i + j];
+            F[(DP + i) * NE + DTH + j] = -B[3 * i + j];
+            F[(DTH + i) * NE + DTH + j] = T[3 * i + j];
+        }
+    congruence_sparse<NE>(F, Pm);
+    for (int i = 0; i < 3; ++i) {
+        Pm[(DV + i) * (NE + 1)] += noise[1] * dt;
+        Pm[(DTH + i) * (NE + 1)] += noise[0] * dt;
+        Pm[(DBG + i) * (NE + 1)] += noise[2] * dt;
+        Pm[(DBA + i) * (NE + 1)] += noise[3] * dt;
+    }
+}
+
+// msckf_propagate(x, x0, P, Phi, gyro (k, 3), accel (k, 3), dt (k,), gravity, noise, X (k, 16)): k steps of the ESKF
+// prediction with constant input per step, in place on x (16,) and the IMU covariance P (15, 15), the transitions
+// at first estimates (fej_step): x0 (16,) those of the start (the state before the last update), then each step's
+// own start; Phi (15, 15) <- the product of the step transitions, X[i] the state after step i.
 PyObject* py_propagate(PyObject*, PyObject* args) {
-    Array<double, 1, true> x, X0;
+    Array<double, 1, true> x;
     Array<double, 2, true> Pm, Phi, X;
     Array<double, 2> gyro, accel;
-    Array<double, 1> dt, gravity, noise;
-    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&O&O&:msckf_propagate", convert<double, 1, true>, &x,
-                          convert<double, 2, true>, &Pm, convert<double, 2, true>, &Phi, convert<double, 2>, &gyro,
-                          convert<double, 2>, &accel, convert<double, 1>, &dt, convert<double, 1>, &gravity,
-                          convert<double, 1>, &noise, convert<double, 2, true>, &X))
+    Array<double, 1> x0, dt, gravity, noise;
+    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&O&O&O&:msckf_propagate", convert<double, 1, true>, &x,
+                          convert<double, 1>, &x0, convert<double, 2, true>, &Pm, convert<double, 2, true>, &Phi,
+                          convert<double, 2>, &gyro, convert<double, 2>, &accel, convert<double, 1>, &dt,
+                          convert<double, 1>, &gravity, convert<double, 1>, &noise, convert<double, 2, true>, &X))
         return nullptr;
     const npy_intp k = dt.shape[0];
-    if (!shape_is("x", x, {NX}) || !shape_is("P", Pm, {NE, NE}) || !shape_is("Phi", Phi, {NE, NE}) ||
-        !shape_is("gyro", gyro, {k, 3}) || !shape_is("accel", accel, {k, 3}) || !shape_is("gravity", gravity, {3}) ||
-        !shape_is("noise", noise, {4}) || !shape_is("X", X, {k, NX}))
+    if (!shape_is("x", x, {NX}) || !shape_is("x0", x0, {NX}) || !shape_is("P", Pm, {NE, NE}) ||
+        !shape_is("Phi", Phi, {NE, NE}) || !shape_is("gyro", gyro, {k, 3}) || !shape_is("accel", accel, {k, 3}) ||
+        !shape_is("gravity", gravity, {3}) || !shape_is("noise", noise, {4}) || !shape_is("X", X, {k, NX}))
         return nullptr;
-    double F[NE * NE], T[NE * NE];
+    double F[NE * NE], T[NE * NE], Ps[NE * NE], start[NX];
     std::fill(Phi.data, Phi.data + NE * NE, 0.0);
     for (int i = 0; i < NE; ++i) Phi.data[i * (NE + 1)] = 1.0;
     Py_BEGIN_ALLOW_THREADS;
+    std::copy(x0.data, x0.data + NX, start);
     for (npy_intp s = 0; s < k; ++s) {
-        predict_transition(x.data, Pm.data, gyro.row(s), accel.row(s), dt[s], gravity.data, noise.data, F);
+        fej_step(x.data, start, Pm.data, Ps, gyro.row(s), accel.row(s), dt[s], gravity.data, noise.data, F);
+        std::copy(x.data, x.data + NX, start);
         mul_sparse_left<NE, NE, NE>(F, Phi.data, T);
         std::copy(T, T + NE * NE, Phi.data);
         std::copy(x.data, x.data + NX, X.row(s));
@@ -547,7 +590,7 @@ PyObject* py_update(PyObject*, PyObject* args) {
 
 PyMethodDef methods[] = {
     {"msckf_propagate", py_propagate, METH_VARARGS,
-     "msckf_propagate(x, P, Phi, gyro, accel, dt, gravity, noise, X): k ESKF prediction steps in place on x (16,) "
+     "msckf_propagate(x, x0, P, Phi, gyro, accel, dt, gravity, noise, X): k ESKF prediction steps in place on x (16,) "
      "and P (15, 15); Phi (15, 15) the product of the step transitions, X (k, 16) the state after every step."},
     {"msckf_features", py_features, METH_VARARGS,
      "msckf_features(clones, clones_fej, q_bc, p_bc, offsets, obs_clone, obs_uv, P, sigma, chi2, limits, H, r, "
