@@ -12,14 +12,15 @@ State (docs/vio.md):
   times (stochastic cloning), each with a 6-dof error ``[δp, δθ]`` (:data:`MSCKF_CLONE_ERROR`); the full
   covariance is ``(15 + 6C, 15 + 6C)``.
 
-No landmark enters the state.  A feature is used once, when its track ends or when its oldest observation would
-leave the window: it is triangulated from the window (linear midpoint, then Gauss–Newton on the inverse depth in
-its first camera), its reprojection residuals are linearised at the clones' *first estimates* (FEJ, Huang et al.
-2010: the values the clones had when they were taken) and the propagation's transition at the IMU state's first
-estimate (the propagated state before an update), so that the four unobservable directions -- position and yaw --
-stay unobservable; the feature Jacobian is removed by projecting onto its left nullspace (Givens rotations), and the ``2m − 3`` projected rows pass a per-feature χ² gate.  The accepted rows of
-all features of a frame are stacked, compressed by a QR decomposition when they outnumber the state, and fused in
-one EKF update (Joseph form).  All per-feature work is the native ``msckf_features``.
+No landmark enters the state. A feature is used once, when its track ends or when its oldest observation would leave
+the window: it is triangulated from the window (linear midpoint, then Gauss–Newton on the inverse depth in its first
+camera), its reprojection residuals are linearised at the clones' *first estimates* (FEJ, Huang et al. 2010: the
+values the clones had when they were taken) and the propagation's transition at the IMU state's first estimate (the
+propagated state before an update), so that the four unobservable directions -- position and yaw -- stay
+unobservable; the feature Jacobian is removed by projecting onto its left nullspace (Givens rotations), and the
+``2m − 3`` projected rows pass a per-feature χ² gate. The accepted rows of all features of a frame are stacked,
+compressed by a QR decomposition when they outnumber the state, and fused in one EKF update (Joseph form). All
+per-feature work is the native ``msckf_features``.
 
 The filter initialises itself from the rest period at the start (:meth:`MsckfVio.from_rest`): gravity direction
 and gyro bias from the static samples (:func:`~dualpose.estimation.initialization.static_alignment`), zero velocity,
