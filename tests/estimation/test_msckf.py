@@ -36,13 +36,14 @@ def test_features_kernel_on_exact_geometry(rng: np.random.Generator) -> None:
     uv = pc[:, :2] / pc[:, 2:3]
     n = 15 + 6 * C
     P = np.eye(n) * 1e-4
-    H, r = np.empty((2 * C - 3, n)), np.empty(2 * C - 3)
+    H, r, rvar = np.empty((2 * C - 3, n)), np.empty(2 * C - 3), np.empty(2 * C - 3)
     status, nis = np.empty(1, np.int64), np.empty(1)
     gates = np.r_[np.inf, chi2.ppf(0.95, np.arange(1, 40))]
     rows = _native.msckf_features(clones, clones.copy(), q_bc, p_bc, np.array([0, C]), np.arange(C), uv, P, 1e-3,
-                                  gates, np.array([0.1, 60.0, 0.01]), H, r, status, nis)  # fmt: skip
+                                  gates, np.array([0.1, 60.0, 0.01]), H, r, rvar, status, nis)  # fmt: skip
     assert rows == 2 * C - 3 and status[0] == 1
     np.testing.assert_allclose(r, 0.0, atol=1e-9)
+    np.testing.assert_allclose(rvar, np.einsum("ij,jk,ik->i", H, P, H), rtol=1e-10)
     assert nis[0] < 1e-9
     # a common translation δp of every clone (the feature moves with it) is invisible: H [δp; 0]* = 0
     dx = np.zeros(n)
@@ -52,7 +53,7 @@ def test_features_kernel_on_exact_geometry(rng: np.random.Generator) -> None:
     # no baseline: the same pose for every clone fails triangulation
     same = np.repeat(clones[:1], C, 0)
     rows = _native.msckf_features(same, same, q_bc, p_bc, np.array([0, C]), np.arange(C), np.repeat(uv[:1], C, 0),
-                                  P, 1e-3, gates, np.array([0.1, 60.0, 0.01]), H, r, status, nis)  # fmt: skip
+                                  P, 1e-3, gates, np.array([0.1, 60.0, 0.01]), H, r, rvar, status, nis)  # fmt: skip
     assert rows == 0 and status[0] == -1
 
 

@@ -483,6 +483,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
         cap = int(np.sum(2 * count[enough] - 3))
         H = np.empty((cap, n))
         r = np.empty(cap)
+        rvar = np.empty(cap)
         status = np.empty(g, np.int64)
         nis = np.empty(g)
         P = np.ascontiguousarray(self.P)
@@ -490,7 +491,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
         # (a gate at the current σ would keep the small residuals and bias it low), the χ² gate is applied here
         m = _native.msckf_features(np.ascontiguousarray(self.clones), np.ascontiguousarray(self.clones_fej),
                                    self.q_bc, self.p_bc, offsets, obs_clone, np.ascontiguousarray(self._ob_uv[sel]),
-                                   P, self.feature_sigma, self._open_gate, self._limits, H, r, status,
+                                   P, self.feature_sigma, self._open_gate, self._limits, H, r, rvar, status,
                                    nis)  # fmt: skip
         dof = 2 * count[enough] - 3
         solved = status == 1
@@ -499,25 +500,25 @@ class MsckfVio(EskfStateAccessors, Estimator):
         accepted = status == 1
         if m > 0:
             self.P = P
-            sigma_next = self._adapted_sigma(H[:m], r[:m]) if self.options.adaptive_sigma else self.feature_sigma
+            sigma_next = self._adapted_sigma(r[:m], rvar[:m]) if self.options.adaptive_sigma else self.feature_sigma
             keep = np.repeat(accepted[solved], dof[solved])
             if keep.any():  # one update of all accepted rows (QR-compressed in the kernel when m > n)
                 self._keep_first_estimate()
-                _native.msckf_update(self.x, self.clones, self.P, np.ascontiguousarray(H[:m][keep]), r[:m][keep],
-                                     self.feature_sigma)  # fmt: skip
+                Hk, rk = (H[:m], r[:m]) if keep.all() else (np.ascontiguousarray(H[:m][keep]), r[:m][keep])
+                _native.msckf_update(self.x, self.clones, self.P, Hk, rk, self.feature_sigma)
             self.feature_sigma = sigma_next
         return TrackUpdate(nis, int(dof[accepted].sum()), accepted, feature_dof=dof, status=status)
 
-    def _adapted_sigma(self, H: np.ndarray, r: np.ndarray) -> float:
-        """The feature σ after this frame's rows ``H`` (m, n), ``r`` (m,) of every triangulated feature, before the
-        χ² gate (covariance matching, Mehra 1972 §IV; Mohamed & Schwarz 1999 eq. 20): a nullspace-projected row has
-        ``E[r_i²] = (H P Hᵀ)_ii + σ²`` (the projection is orthonormal, so the noise stays ``σ² I``).  The frame's
-        estimate is ``σ̂² = (1.4826 med|r_i|)² − med (H P Hᵀ)_ii`` (median absolute deviation: robust to the
-        outliers among the rows), blended into the running value with weight ``m / (m + sigma_memory)``, floored
-        at ``sigma_floor`` × the nominal (starting) σ."""
+    def _adapted_sigma(self, r: np.ndarray, rvar: np.ndarray) -> float:
+        """The feature σ after this frame's residual rows ``r`` (m,) of every triangulated feature, before the
+        χ² gate, with their prior variances ``rvar`` (m,) ``= (H P Hᵀ)_ii`` (covariance matching, Mehra 1972 §IV;
+        Mohamed & Schwarz 1999 eq. 20): a nullspace-projected row has ``E[r_i²] = (H P Hᵀ)_ii + σ²`` (the
+        projection is orthonormal, so the noise stays ``σ² I``).  The frame's estimate is
+        ``σ̂² = (1.4826 med|r_i|)² − med (H P Hᵀ)_ii`` (median absolute deviation: robust to the outliers among
+        the rows), blended into the running value with weight ``m / (m + sigma_memory)``, floored at
+        ``sigma_floor`` × the nominal (starting) σ."""
         o = self.options
-        d = np.einsum("ij,ij->i", H @ self.P, H)
-        s2 = (1.4826 * np.median(np.abs(r))) ** 2 - np.median(d)
+        s2 = (1.4826 * np.median(np.abs(r))) ** 2 - np.median(rvar)
         w = len(r) / (len(r) + o.sigma_memory)
         var = (1.0 - w) * self.feature_sigma**2 + w * max(s2, 0.0)
         return float(max(np.sqrt(var), o.sigma_floor * self.nominal_sigma))

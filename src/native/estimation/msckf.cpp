@@ -244,29 +244,31 @@ PyObject* py_propagate(PyObject*, PyObject* args) {
 }
 
 // msckf_features(clones (C, 7), clones_fej (C, 7), q_bc, p_bc, offsets (G + 1,), obs_clone (M,), obs_uv (M, 2), P
-// (n, n), sigma, chi2 (D,), limits (3,) = [min_depth, max_depth, min_parallax], H (R, n), r (R,), status (G,),
-// nis (G,)) -> rows: the stacked nullspace-projected rows of the accepted features (status 1 accepted, 0 rejected
+// (n, n), sigma, chi2 (D,), limits (3,) = [min_depth, max_depth, min_parallax], H (R, n), r (R,), rvar (R,),
+// status (G,), nis (G,)) -> rows: the stacked nullspace-projected rows of the accepted features (rvar their prior
+// variances (H P Hᵀ)_ii, without the noise) (status 1 accepted, 0 rejected
 // by the gate, -1 triangulation failed, -2 too few observations); chi2[d] the gate for d degrees of freedom.
 PyObject* py_features(PyObject*, PyObject* args) {
     Array<double, 2> clones, fej, uv, Pm;
     Array<double, 1> q_bc, p_bc, chi2, limits;
     Array<std::int64_t, 1> offsets, oc;
     Array<double, 2, true> Hout;
-    Array<double, 1, true> rout, nis;
+    Array<double, 1, true> rout, rvar, nis;
     Array<std::int64_t, 1, true> status;
     double sigma;
-    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&O&dO&O&O&O&O&O&:msckf_features", convert<double, 2>, &clones,
+    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&O&dO&O&O&O&O&O&O&:msckf_features", convert<double, 2>, &clones,
                           convert<double, 2>, &fej, convert<double, 1>, &q_bc, convert<double, 1>, &p_bc,
                           convert<std::int64_t, 1>, &offsets, convert<std::int64_t, 1>, &oc, convert<double, 2>, &uv,
                           convert<double, 2>, &Pm, &sigma, convert<double, 1>, &chi2, convert<double, 1>, &limits,
                           convert<double, 2, true>, &Hout, convert<double, 1, true>, &rout,
-                          convert<std::int64_t, 1, true>, &status, convert<double, 1, true>, &nis))
+                          convert<double, 1, true>, &rvar, convert<std::int64_t, 1, true>, &status, convert<double, 1, true>, &nis))
         return nullptr;
     const npy_intp nc = clones.shape[0], n = Pm.shape[0], g = offsets.shape[0] - 1, m_all = oc.shape[0];
     if (!shape_is("clones", clones, {-1, 7}) || !shape_is("clones_fej", fej, {nc, 7}) ||
         !shape_is("q_bc", q_bc, {4}) || !shape_is("p_bc", p_bc, {3}) || !shape_is("obs_uv", uv, {m_all, 2}) ||
         !shape_is("P", Pm, {NE + 6 * nc, NE + 6 * nc}) || !shape_is("limits", limits, {3}) ||
-        !shape_is("H", Hout, {-1, n}) || !shape_is("r", rout, {Hout.shape[0]}) || !shape_is("status", status, {g}) ||
+        !shape_is("H", Hout, {-1, n}) || !shape_is("r", rout, {Hout.shape[0]}) ||
+        !shape_is("rvar", rvar, {Hout.shape[0]}) || !shape_is("status", status, {g}) ||
         !shape_is("nis", nis, {g}))
         return nullptr;
     for (npy_intp f = 0; f <= g; ++f)
@@ -293,7 +295,7 @@ PyObject* py_features(PyObject*, PyObject* args) {
         const double* q2 = clones.row(c) + 3;
         rotmat_xyzw(q2[0], q2[1], q2[2], q2[3], &Rwb[9 * c]);
     }
-    std::vector<double> Hx, Hf, res, H0, HP, S;
+    std::vector<double> Hx, Hf, res, H0, HP, S, diag;
     std::vector<int> piv;
     const double s2 = sigma * sigma;
     for (npy_intp f = 0; f < g; ++f) {
@@ -410,6 +412,8 @@ PyObject* py_features(PyObject*, PyObject* args) {
                 for (npy_intp k = NE; k < n; ++k) s += HP[i * n + k] * h0[jj * n + k];
                 S[i * dof + jj] = s + (i == jj ? s2 : 0.0);
             }
+        diag.resize(dof);
+        for (npy_intp i = 0; i < dof; ++i) diag[i] = S[i * dof + i] - s2;
         piv.assign(dof, 0);
         std::vector<double> y(r0, r0 + dof);
         if (!lu_factor<0>(S.data(), static_cast<int>(dof), piv.data())) {
@@ -428,6 +432,7 @@ PyObject* py_features(PyObject*, PyObject* args) {
         status[f] = 1;
         std::copy(h0, h0 + dof * n, Hout.row(rows));
         std::copy(r0, r0 + dof, rout.data + rows);
+        std::copy(diag.begin(), diag.end(), rvar.data + rows);
         rows += dof;
     }
     Py_END_ALLOW_THREADS;
@@ -593,9 +598,9 @@ PyMethodDef methods[] = {
      "msckf_propagate(x, x0, P, Phi, gyro, accel, dt, gravity, noise, X): k ESKF prediction steps in place on x (16,) "
      "and P (15, 15); Phi (15, 15) the product of the step transitions, X (k, 16) the state after every step."},
     {"msckf_features", py_features, METH_VARARGS,
-     "msckf_features(clones, clones_fej, q_bc, p_bc, offsets, obs_clone, obs_uv, P, sigma, chi2, limits, H, r, "
+     "msckf_features(clones, clones_fej, q_bc, p_bc, offsets, obs_clone, obs_uv, P, sigma, chi2, limits, H, r, rvar, "
      "status, nis) -> rows: triangulate, linearise (FEJ), nullspace-project and gate every feature; the accepted "
-     "rows stacked in H (R, n) and r (R,)."},
+     "rows stacked in H (R, n) and r (R,), their prior variances (H P Hᵀ)_ii in rvar (R,)."},
     {"msckf_update", py_update, METH_VARARGS,
      "msckf_update(x, clones, P, H, r, sigma) -> nis: EKF update (QR-compressed when H has more rows than columns) "
      "of the IMU state x (16,), the clones (C, 7) and P (15 + 6C, 15 + 6C) in place, noise sigma² I."},
