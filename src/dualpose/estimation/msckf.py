@@ -444,31 +444,34 @@ class MsckfVio(EskfStateAccessors, Estimator):
         if t > self.time:
             self._steps(self._u[None, :3], self._u[None, 3:], np.array([t - self.time]))
             self.time = t
-        return self._frame_update(frame)
+        return self._frame_update(frame.track_id, frame.uv)
 
-    def _frame_update(self, frame: TrackFrame) -> TrackUpdate:
+    def _frame_update(self, track_id: np.ndarray, uv: np.ndarray) -> TrackUpdate:
+        """Clone, update with the tracks that end or leave the window, marginalise; a frame's ``track_id`` (m,)
+        int64 and normalised ``uv`` (m, 2)."""
         o = self.options
         self._clone(self.time)
         cid = self._clone_id[-1]
-        lost = np.setdiff1d(self._ob_track, frame.track_id)
-        self._ob_track = np.concatenate([self._ob_track, frame.track_id])
-        self._ob_clone = np.concatenate([self._ob_clone, np.full(len(frame.track_id), cid)])
-        self._ob_uv = np.vstack([self._ob_uv, frame.uv])
+        use = np.zeros(len(self._ob_track) + len(track_id), bool)  # the observations of the tracks to use
+        use[: len(self._ob_track)] = ~np.isin(self._ob_track, track_id)  # tracks that ended
+        self._ob_track = np.concatenate([self._ob_track, track_id])
+        self._ob_clone = np.concatenate([self._ob_clone, np.full(len(track_id), cid)])
+        self._ob_uv = np.concatenate([self._ob_uv, uv])
         full = len(self.clones) > o.max_clones
-        use = lost
-        if full:
-            use = np.union1d(lost, self._ob_track[self._ob_clone == self._clone_id[0]])
+        if full:  # and the tracks seen in the oldest clone, which leaves the window
+            use |= np.isin(self._ob_track, self._ob_track[self._ob_clone == self._clone_id[0]])
         result = self._features_update(use)
-        self._keep_obs(~np.isin(self._ob_track, use))
+        self._keep_obs(~use)
         if full:
             self._drop_oldest_clone()
         return result
 
-    def _features_update(self, tracks: np.ndarray) -> TrackUpdate:
+    def _features_update(self, use: np.ndarray) -> TrackUpdate:
+        """Update with the window's observations ``use`` (boolean, per observation; whole tracks)."""
         empty = TrackUpdate(np.zeros(0), 0, np.zeros(0, bool))
-        if len(tracks) == 0:
+        rows = np.flatnonzero(use)
+        if len(rows) == 0:
             return empty
-        rows = np.flatnonzero(np.isin(self._ob_track, tracks))
         order = rows[np.argsort(self._ob_track[rows], kind="stable")]
         _, count = np.unique(self._ob_track[order], return_counts=True)
         enough = count >= self.options.min_track
@@ -555,7 +558,8 @@ class MsckfVio(EskfStateAccessors, Estimator):
             if ft[j] > self.time:
                 self._steps(self._u[None, :3], self._u[None, 3:], np.array([ft[j] - self.time]))
                 self.time = float(ft[j])
-            res = self._frame_update(r.tracks.frame(j))
+            a, b = r.tracks.offsets[j], r.tracks.offsets[j + 1]  # the frame's rows (validated by FeatureTracks)
+            res = self._frame_update(r.tracks.track_id[a:b], r.tracks.uv[a:b])
             if self.time == t[k]:  # a frame at an IMU stamp: the output there is the state after the update
                 X[k] = self.x
             stats["used"] += int(np.sum(res.status == 1))
