@@ -135,7 +135,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
     imu_noise : ImuNoise (continuous-time densities).
     q_bc, p_bc : camera axes (xyzw) and camera centre (m) in the IMU frame.
     feature_sigma : σ of a normalised image coordinate (the starting value when ``options.adaptive_sigma``; the
-        current one is :attr:`feature_sigma`, its start :attr:`nominal_sigma`).
+        current one is ``feature_sigma``, its start ``nominal_sigma``).
     gravity : (3,) world gravity, m/s².  camera_time_offset : ``t_imu = t_cam + offset``, s.
     options : MsckfOptions.
     """

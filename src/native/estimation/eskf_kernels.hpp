@@ -15,6 +15,16 @@
 
 namespace dualpose::eskf {
 
+// P += Q dt: the diagonal densities noise = [σ_g², σ_a², σ_bg², σ_ba²] over a step of dt.
+inline void add_process_noise(double* Pm, const double* noise, double dt) {
+    for (int i = 0; i < 3; ++i) {
+        Pm[(DV + i) * (NE + 1)] += noise[1] * dt;
+        Pm[(DTH + i) * (NE + 1)] += noise[0] * dt;
+        Pm[(DBG + i) * (NE + 1)] += noise[2] * dt;
+        Pm[(DBA + i) * (NE + 1)] += noise[3] * dt;
+    }
+}
+
 // Propagate nominal state and covariance over dt with constant IMU input (Solà eq. 260, 269-270) and write the
 // error-state transition of the step (Solà eq. 269) to F (15, 15): δx⁻_{k+1} ≈ F δx⁺_k.
 inline void predict_transition(double* x, double* Pm, const double* gyro, const double* accel, double dt,
@@ -59,12 +69,7 @@ inline void predict_transition(double* x, double* Pm, const double* gyro, const 
     }
     // --- covariance: P = F P Fᵀ + Q
     congruence_sparse<NE>(F, Pm);
-    for (int i = 0; i < 3; ++i) {
-        Pm[(DV + i) * (NE + 1)] += noise[1] * dt;
-        Pm[(DTH + i) * (NE + 1)] += noise[0] * dt;
-        Pm[(DBG + i) * (NE + 1)] += noise[2] * dt;
-        Pm[(DBA + i) * (NE + 1)] += noise[3] * dt;
-    }
+    add_process_noise(Pm, noise, dt);
 }
 
 // Reprojection residual r = pixel − π(R_bcᵀ(R_wbᵀ(z − p) − p_bc)) (2,) and H = ∂π/∂δx (2, 15); returns the depth Z

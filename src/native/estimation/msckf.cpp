@@ -199,12 +199,7 @@ inline void fej_step(double* x, const double* x0, double* Pm, double* Pscratch, 
             F[(DTH + i) * NE + DTH + j] = T[3 * i + j];
         }
     congruence_sparse<NE>(F, Pm);
-    for (int i = 0; i < 3; ++i) {
-        Pm[(DV + i) * (NE + 1)] += noise[1] * dt;
-        Pm[(DTH + i) * (NE + 1)] += noise[0] * dt;
-        Pm[(DBG + i) * (NE + 1)] += noise[2] * dt;
-        Pm[(DBA + i) * (NE + 1)] += noise[3] * dt;
-    }
+    add_process_noise(Pm, noise, dt);
 }
 
 // msckf_propagate(x, x0, P, Phi, gyro (k, 3), accel (k, 3), dt (k,), gravity, noise, X (k, 16)): k steps of the ESKF
