@@ -34,6 +34,14 @@ def write_marked_block(path: Path, table: str, begin: str, end: str) -> None:
     path.write_text(text)
 
 
+def print_and_mark(text: str, markdown: str | None, begin: str, end: str) -> int:
+    """Print ``text`` and, with ``markdown``, write it into that page's generated block.  Returns the exit code."""
+    print(text)
+    if markdown:
+        write_marked_block(Path(markdown), text, begin, end)
+    return 0
+
+
 def best_of(fn: Callable[[], object], k: int = 7) -> float:
     """Smallest wall time (s) of ``k`` calls of ``fn``, garbage collection paused."""
     return best_of_interleaved({"fn": fn}, k)["fn"]

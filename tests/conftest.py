@@ -15,6 +15,22 @@ settings.load_profile("ci")
 
 
 @pytest.fixture
+def dask_task_counter():
+    """A context manager whose ``tasks`` counts the dask tasks run inside it (skips without dask)."""
+    callbacks = pytest.importorskip("dask.callbacks")
+
+    class TaskCounter(callbacks.Callback):
+        def __init__(self) -> None:
+            super().__init__()
+            self.tasks = 0
+
+        def _pretask(self, key, dask, state) -> None:
+            self.tasks += 1
+
+    return TaskCounter()
+
+
+@pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(20261122)
 
@@ -52,3 +68,15 @@ def euroc_v101():
     if not (csv.is_file() and gt.is_file()):
         pytest.skip("EuRoC v101_30s data directory missing")
     return csv, gt
+
+
+#: EuRoC's imu_april target recording (the full one: the tests on it check whole-recording numbers)
+EUROC_APRIL_DIR = data_dir("euroc/imu_april", full=True)
+
+
+@pytest.fixture(scope="session")
+def euroc_april():
+    """The imu_april directory (imu0.csv, cam0/cam1_aprilgrid.csv, sensors.yaml); skipped when it is missing."""
+    if not (EUROC_APRIL_DIR / "cam0_aprilgrid.csv").is_file():
+        pytest.skip(f"EuRoC imu_april data missing ({EUROC_APRIL_DIR})")
+    return EUROC_APRIL_DIR

@@ -8,7 +8,7 @@ import pytest
 
 from dualpose.cli.main import main
 from dualpose.inertial.motions import coning_drift
-from dualpose.pipelines.reproduce_screw_vector import Scenario, simulate
+from dualpose.pipelines.reproduce.screw_vector import Scenario, simulate
 
 ARGS = ["reproduce", "screw-vector", "--duration", "20", "--long-duration", "60", "--no-progress"]
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from dualpose.cli.main import main
-from dualpose.pipelines.reproduce_walker1991 import feeder_vertices
+from dualpose.pipelines.reproduce.walker1991 import feeder_vertices
 from dualpose.registration import register_pose
 
 

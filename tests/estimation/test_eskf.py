@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 import dualpose as dp
 from dualpose import sim
 from dualpose.estimation import eskf, models
+from dualpose.estimation.eskf import ErrorStateEKF
+from dualpose.types import ImuNoise
 
 MOVING = (1.0, 6.4)  # the 5.4 s eight (the run rests before and after)
 
@@ -162,3 +166,20 @@ def test_magnetometer_updates_remove_the_observable_attitude_error() -> None:
     assert np.degrees(np.linalg.norm(np.cross(err_w, m_hat))) < 0.3
     assert np.degrees(np.linalg.norm(err_w)) > 1.0  # the part along the field stays
     assert np.mean(nis[20:]) < 6.0  # χ²(3) mean 3
+
+
+def test_scale_factor_uncertainty_adds_eps2_omega2_and_eps2_f2_to_the_densities() -> None:
+    """From P = 0, one step of dt adds (σ_g² + ε_g² |ω|²) dt to each attitude and (σ_a² + ε_a² |f|²) dt to each
+    velocity variance (ImuNoise ``*_scale_sigma``, a 1 s correlation time): the analytic values."""
+    noise = ImuNoise(gyroscope_noise_density=1e-3, accelerometer_noise_density=2e-3, gyroscope_scale_sigma=0.004,
+                     accelerometer_scale_sigma=0.002)
+    w, f, dt = np.array([1.0, -2.0, 2.5]), np.array([0.5, 1.0, 9.0]), 0.005
+    ekf = ErrorStateEKF(np.zeros(3), np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0]), np.zeros((15, 15)), noise)
+    ekf.predict(w, f, dt)
+    P = ekf.covariance
+    np.testing.assert_allclose(np.diag(P)[6:9], (1e-6 + 0.004**2 * (w @ w)) * dt, rtol=1e-12)
+    np.testing.assert_allclose(np.diag(P)[3:6], (4e-6 + 0.002**2 * (f @ f)) * dt, rtol=1e-12)
+    off = ErrorStateEKF(np.zeros(3), np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0]), np.zeros((15, 15)),
+                        dataclasses.replace(noise, gyroscope_scale_sigma=0.0, accelerometer_scale_sigma=0.0))
+    off.predict(w, f, dt)
+    np.testing.assert_allclose(np.diag(off.covariance)[6:9], 1e-6 * dt, rtol=1e-12)

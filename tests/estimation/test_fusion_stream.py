@@ -191,7 +191,8 @@ def test_refuses_bad_states():
         EskfStream.from_state(d)
     d = eskf.state_dict()
     d["state"][8] += 1  # the header's layout version
-    with pytest.raises(ValueError, match="layout version 2; this build reads an ESKF stream state version 1"):
+    v = EskfStream.LAYOUT_VERSION
+    with pytest.raises(ValueError, match=f"layout version {v + 1}; this build reads an ESKF stream state version {v}"):
         EskfStream.from_state(d)
     d = eskf.state_dict()
     d["version"] = 99

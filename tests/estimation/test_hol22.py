@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -92,9 +94,13 @@ def _python_algorithm_1(f: hol22.Hol22EKF, run: sim.SimulatedRun, n: int) -> tup
     return np.array(X), np.array(Ps), accepted
 
 
-def test_compiled_run_equals_the_step_methods() -> None:
-    """The compiled Algorithm 1 reproduces the numpy step methods (states, covariances, gating decisions)."""
+@pytest.mark.parametrize("scale_sigma", [0.0, 0.005])
+def test_compiled_run_equals_the_step_methods(scale_sigma: float) -> None:
+    """The compiled Algorithm 1 reproduces the numpy step methods (states, covariances, gating decisions), also
+    with the scale-factor noise (ImuNoise ``*_scale_sigma``) added to the IMU measurement noise."""
     run = sim.simulate_eight(5, outlier_fraction=0.1)
+    noise = dataclasses.replace(run.imu_noise, gyroscope_scale_sigma=scale_sigma, accelerometer_scale_sigma=scale_sigma)
+    run = dataclasses.replace(run, imu_noise=noise)
     n = 160  # 1.6 s: 20 camera frames
     ref_filter, fast_filter = _start(run, 5), _start(run, 5)
     X, Ps, accepted = _python_algorithm_1(ref_filter, run, n)

@@ -200,7 +200,7 @@ def test_stored_transition_is_the_jacobian_of_the_prediction() -> None:
     q0 = dp.quat_from_rotvec(rng.standard_normal(3))
     x0 = np.concatenate([rng.standard_normal(6), q0, 0.01 * rng.standard_normal(6)])
     gyro, accel = np.array([0.3, -0.5, 0.8]), np.array([1.0, -2.0, 9.0])
-    gravity, noise = np.array([0.0, 0.0, -9.81]), np.zeros(4)
+    gravity, noise = np.array([0.0, 0.0, -9.81]), np.zeros(6)
 
     def propagate(x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
         x = x.copy()

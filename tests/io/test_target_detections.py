@@ -1,4 +1,4 @@
-"""Target-corner files and rig sensor files (dualpose.io.target_detections, dualpose.io.sensors_yaml): the EuRoC
+"""Target-corner files and rig sensor files (dualpose.io.target.detections, dualpose.io.sensors_yaml): the EuRoC
 imu_april recording in ../shared/data/euroc, and the errors of malformed files (file and line)."""
 
 from __future__ import annotations
@@ -60,7 +60,7 @@ def test_euroc_aprilgrid_files(euroc_dir, cam):
 def test_array_and_line_readers_agree(euroc_dir, tmp_path, variant):
     """The whole-array parse of the plain layout and the line-by-line reader give the same rows (the first 3000
     lines of cam0, with empty frames spliced in; a trailing comment sends the file to the line reader)."""
-    from dualpose.io import target_detections as td
+    from dualpose.io.target import detections as td
 
     lines = (euroc_dir / "cam0_aprilgrid.csv").read_text().splitlines()[:3000]
     stamp = [int(s.split(",")[0]) for s in lines[1:]]

@@ -13,7 +13,7 @@ a-posteriori batch, as in Kalibr, Furgale et al. 2013, but in discrete time):
   pose taken at ``t_k + τ`` by a first-order shift of the frame's state, ``R(t_k + τ) = R_k Exp(ω_k δ)``,
   ``p(t_k + τ) = p_k + v_k δ`` with ``δ = τ − τ_ref`` (Li & Mourikis 2014, IJRR 33(7); Qin & Shen 2018, IROS),
   with a Huber loss (IRLS weights) and the pixel σ re-estimated robustly (MAD) between passes;
-* IMU preintegration factors between consecutive frames (Forster et al. 2017, :mod:`._preintegration`), bias
+* IMU preintegration factors between consecutive frames (Forster et al. 2017, ``calibration._preintegration``), bias
   corrected to first order, with the white-noise densities of the IMU;
 * bias random-walk factors ``b_k+1 − b_k ~ N(0, σ_rw² Δt)`` (or one constant bias), and weak priors on the first
   bias (0 ± 0.1 rad/s, 0 ± 1 m/s²) and the axis models (0 ± 0.1) that only fix the scale of the problem.

@@ -37,7 +37,8 @@ def run_vio_job(args: argparse.Namespace) -> int:
     from dualpose.pipelines.vio import OUTPUT_FILES, run_vio, trajectory_figure
 
     unused = [name for name, given in (("--smooth", args.smooth), ("--seed", args.seed is not None),
-                                       ("--filter", args.filter != "eskf")) if given]  # fmt: skip
+                                       ("--filter", args.filter != "eskf"),
+                                       ("--out-bag", args.out_bag)) if given]  # fmt: skip
     if unused:
         print(f"dualpose fuse: error: {', '.join(unused)}: not used with feature-track data (the MSCKF runs)",
               file=sys.stderr)  # fmt: skip

@@ -16,6 +16,15 @@ names the file and line).
 read from standard input, one pose line written (and flushed) per IMU line as soon as it is known; the calibration
 file (a recording's sensor file with ``imu.update_rate`` and an ``initial_state``), the line formats and the exit
 statuses are in docs/fusion.md, "Streaming" (the job is :func:`dualpose.pipelines.fuse_stream.stream_fusion_lines`).
+
+Calibration-target recordings (docs/fusion.md, "Tracking on EuRoC imu_april"): ``dualpose fuse --data DIR --camera
+cam0 --calibration CALIB.json`` where DIR holds ``imu0.csv``, ``camN_aprilgrid.csv`` and ``sensors.yaml``; CALIB.json
+is the camera-IMU calibration (``dualpose calibrate camera-imu ... --json``).  The world is the target frame; scored
+against another camera's per-frame PnP when DIR has its detections (:mod:`dualpose.pipelines.track_target`).
+``--outage A:B`` (repeatable) deletes the camera's detections over [A, B) s from the first IMU sample.  Streaming:
+``dualpose fuse --stream --sensors sensors.yaml --camera cam0 --calibration CALIB.json`` (camera lines with the
+measured, distorted pixels).  ``--calibration`` is thus the camera-IMU calibration with ``--data DIR`` or
+``--sensors``, and the sensor file with a filter start with a plain ``--stream``.
 """
 
 from __future__ import annotations
@@ -49,7 +58,29 @@ FILE is a recording's sensor file (docs/fusion.md: camera, imu, gravity) that al
 malformed line (unknown tag, wrong number of fields, not a number, non-finite, out of time order), with
 'stdin line N: ...' on stderr and every line before it already written; 2 on bad arguments; 141 when the reader of
 standard output goes away.
+
+calibration-target recordings (docs/fusion.md, "Tracking on EuRoC imu_april"):
+  dualpose fuse --data DIR --camera cam0 --calibration CALIB.json [--filter ...] [--outage A:B ...] [--out OUT]
+    DIR holds imu0.csv, camN_aprilgrid.csv, sensors.yaml; CALIB.json is the camera-IMU calibration
+    (keys camera, rotation_xyzw, translation_m, time_offset_s, reprojection_rms_px, optional gyro_bias,
+    accel_bias, gravity_target, std).  World = target frame; gravity estimated at start-up; scored against
+    another camera's per-frame PnP when DIR has its detections.  --outage A:B deletes the camera's frames in
+    [A, B) s from the first IMU sample (bridging test).
+  dualpose fuse --stream --sensors sensors.yaml --camera cam0 --calibration CALIB.json
+    the same filter on stdin lines; cam lines carry the MEASURED (distorted) pixels and target-frame corners; the
+    first pose line comes once the start-up window (10 s of frames) has been read.
 """
+
+
+def _outage(text: str) -> tuple[float, float]:
+    """``A:B`` seconds, B > A >= 0, for ``--outage``."""
+    try:
+        a, b = (float(v) for v in text.split(":"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected A:B (seconds, e.g. 20:21); got {text!r}") from None
+    if not (a >= 0 and b > a and b < 1e9):
+        raise argparse.ArgumentTypeError(f"expected 0 <= A < B (seconds); got {text!r}")
+    return a, b
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -78,7 +109,15 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
                    help="read IMU and camera lines from stdin, write one pose line per IMU line (see below)")
     p.add_argument("--calibration", metavar="FILE",
                    help="with --stream: sensor set-up and filter start (a sensor file with imu.update_rate and "
-                   "initial_state; see below)")  # fmt: skip
+                   "initial_state; see below); with a target recording (--data DIR) or --sensors: the camera-IMU "
+                   "calibration JSON")  # fmt: skip
+    p.add_argument("--camera", metavar="NAME",
+                   help="target recordings: the tracked camera (default cam0)")
+    p.add_argument("--sensors", metavar="FILE",
+                   help="with --stream: a rig's sensors.yaml (camera models, IMU noise) for a target stream")
+    p.add_argument("--outage", metavar="A:B", action="append", type=_outage, default=None,
+                   help="target recordings: delete the camera's detections over [A, B) s from the first IMU sample "
+                   "(repeatable)")
     p.add_argument("--out", metavar="DIR", help="write trajectory.tum, metrics.json and PNG figures into DIR")
     p.add_argument("--out-bag", choices=("bag", "db3", "mcap"), metavar="FORMAT",
                    help="with --out: also write the estimate as DIR/trajectory.FORMAT, a ROS bag (bag: ROS 1; db3, "
@@ -188,12 +227,19 @@ def _usage_error(message: str) -> int:
 def run_stream(args: argparse.Namespace) -> int:
     """``dualpose fuse --stream``: stdin lines in, one flushed pose line per IMU line out."""
     if args.calibration is None:
+        if args.sensors is not None:
+            return _usage_error("--stream --sensors needs the camera-IMU calibration: --calibration CALIB.json")
         return _usage_error("--stream needs the sensor set-up and filter start: --calibration FILE")
     used = [name for name, given in (("--data", args.data is not None), ("--seed", args.seed is not None),
                                      ("--out", args.out), ("--force", args.force), ("--json", args.json),
-                                     ("--smooth", args.smooth), ("--out-bag", args.out_bag)) if given]  # fmt: skip
+                                     ("--smooth", args.smooth), ("--out-bag", args.out_bag),
+                                     ("--outage", args.outage)) if given]  # fmt: skip
     if used:
         return _usage_error(f"{', '.join(used)}: not used with --stream (it reads standard input)")
+    if args.sensors is not None:
+        return _run_target_stream(args)
+    if args.camera is not None:
+        return _usage_error("--camera with --stream needs the rig's sensor file: --sensors sensors.yaml")
     from dualpose.io.recording import RecordingError
     from dualpose.pipelines.fuse_stream import stream_filter, stream_fusion_lines
 
@@ -205,16 +251,153 @@ def run_stream(args: argparse.Namespace) -> int:
     return write_flushed(stream_fusion_lines(sys.stdin, stream), "fuse")
 
 
+def _run_target_stream(args: argparse.Namespace) -> int:
+    """``dualpose fuse --stream --sensors sensors.yaml --camera NAME --calibration CALIB.json``."""
+    from dualpose.io.recording import RecordingError
+    from dualpose.io.sensors_yaml import read_rig_sensors
+    from dualpose.io.target.recording import read_camera_imu_calibration
+    from dualpose.pipelines.track_target import TrackStream, stream_track_lines
+
+    try:
+        rig = read_rig_sensors(args.sensors)
+        cal = read_camera_imu_calibration(args.calibration)
+        stream = TrackStream(rig, args.camera or "cam0", cal, args.filter)
+    except (RecordingError, ValueError) as exc:
+        print(f"dualpose fuse: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 1
+    return write_flushed(stream_track_lines(sys.stdin, stream), "fuse")
+
+
+#: rows of the target-tracking summary: label, metrics key path, format
+_TARGET_ROWS = (
+    ("position RMSE vs reference [m]", ("position_rmse_m",), ".6f"),
+    ("rotation RMSE vs reference [deg]", ("rotation_rmse_deg",), ".4f"),
+    ("camera-only PnP: position RMSE [m]", ("camera_pnp", "position_rmse_m"), ".6f"),
+    ("camera-only PnP: rotation RMSE [deg]", ("camera_pnp", "rotation_rmse_deg"), ".4f"),
+    ("position NEES (3 dof) vs reference", ("nees_position",), ".2f"),
+)
+
+
+def _target_table(m: dict) -> str:
+    from dualpose.cli._output import aligned_rows
+
+    def get(path):
+        v = m
+        for k in path:
+            v = None if v is None else v.get(k)
+        return v
+
+    ref = m["reference"]
+    rows = [("data", m["data"]), ("camera", m["camera"]), ("filter", m["filter"]),
+            ("reference", "none (no other camera's detections)" if ref is None else
+             f"{ref['camera']} per-frame PnP, {ref['frames_scored']} frames")]  # fmt: skip
+    for label, path, fmt in _TARGET_ROWS:
+        v = get(path)
+        rows.append((label, "n/a" if v is None else format(v, fmt)))
+    for w in m["outages"] or []:
+        if w["frames"]:
+            rows.append((f"outage {w['start_s']:g}-{w['end_s']:g} s: max position / rotation error",
+                         f"{w['position_max_m']:.4f} m / {w['rotation_max_deg']:.3f} deg ({w['frames']} frames)"))
+    su = m["startup"]
+    ang = su["gravity_angle_to_calibration_deg"]
+    rows += [
+        ("gravity (start-up) [m/s^2]", " ".join(f"{v:.4f}" for v in su["gravity_target"])
+         + f" (sigma {su['gravity_sigma_deg']:.3f} deg" + ("" if ang is None else f", {ang:.3f} deg from CALIB") + ")"),
+        ("NIS inside 95% band", f"{m['nis_fraction_inside']:.3f}"),
+        ("correspondences rejected", f"{m['n_rejected']} of {m['n_correspondences']}"),
+        ("re-locks", f"{m['relocks']}"),
+        ("real-time factor", f"{m['realtime_factor']:.1f}x"),
+    ]  # fmt: skip
+    return aligned_rows(rows)
+
+
+def _report(args: argparse.Namespace, result, paths: dict, table) -> int:
+    """Write ``--out``'s files (``paths``: name -> path) of a :class:`~dualpose.pipelines.fuse.FuseResult` and print
+    ``table(metrics)`` or, with ``--json``, the metrics (without the full evaluation)."""
+    metrics = result.metrics
+    if paths:
+        from dualpose.evaluation.fuse_figures import fuse_figures
+        from dualpose.io import write_tum
+
+        out = paths["trajectory.tum"].parent
+        out.mkdir(parents=True, exist_ok=True)
+        write_tum(paths["trajectory.tum"], result.estimate, overwrite=args.force)
+        if result.smoothed is not None:
+            write_tum(paths["trajectory_smoothed.tum"], result.smoothed, overwrite=args.force)
+        if args.out_bag:
+            from dualpose.io.rosbag import write_trajectory_bag
+
+            bag = paths[f"trajectory.{args.out_bag}"]
+            write_trajectory_bag(bag, result.estimate, "/dualpose/pose", "world", overwrite=args.force)
+        paths["metrics.json"].write_text(json.dumps(metrics, indent=2) + "\n")
+        fuse_figures(result, paths["top_view.png"], paths["errors.png"], paths["nis.png"])
+    if args.json:
+        summary = {k: v for k, v in metrics.items() if k != "evaluation"}
+        if paths:
+            summary["out"] = str(out)
+        print(json.dumps(summary, indent=2))
+        return 0
+    print(table(metrics))
+    if paths:
+        print(f"\nwritten to {out}: " + ", ".join(paths))
+    return 0
+
+
+def run_target(args: argparse.Namespace) -> int:
+    """``dualpose fuse --data DIR --camera NAME --calibration CALIB.json`` on a calibration-target recording."""
+    from pathlib import Path
+
+    from dualpose.cli._output import output_files_problem
+
+    if args.calibration is None:
+        return _usage_error(f"{args.data} is a calibration-target recording: give the camera-IMU calibration with "
+                            "--calibration CALIB.json (dualpose calibrate camera-imu ... --json)")  # fmt: skip
+    used = [n for n, v in (("--seed", args.seed is not None), ("--smooth", args.smooth), ("--sensors", args.sensors))
+            if v]  # fmt: skip
+    if used:
+        return _usage_error(f"{', '.join(used)}: not used with a calibration-target recording")
+    if args.out_bag and not args.out:
+        return _usage_error("--out-bag writes into the --out directory: give --out DIR")
+    paths: dict = {}
+    if args.out:
+        out = Path(args.out)
+        names = OUTPUT_FILES + ((f"trajectory.{args.out_bag}",) if args.out_bag else ())
+        problem = output_files_problem(out, names, args.force)
+        if problem is not None:
+            return _usage_error(problem)
+        paths = {name: out / name for name in names}
+    from dualpose.io.recording import RecordingError
+    from dualpose.pipelines.track_target import prepare_track, run_track
+
+    outages = tuple(args.outage or ())
+    try:
+        setup = prepare_track(args.data, args.calibration, args.camera or "cam0", outages)
+        result = run_track(setup, args.filter, outages=outages)
+    except (RecordingError, ValueError) as exc:
+        print(f"dualpose fuse: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 1
+    return _report(args, result, paths, _target_table)
+
+
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``dualpose fuse``."""
     from pathlib import Path
 
     from dualpose.cli._output import output_files_problem
+    from dualpose.io.target.recording import is_target_recording
 
     if args.stream:
         return run_stream(args)
+    if args.data is not None and is_target_recording(args.data):
+        return run_target(args)
     if args.calibration is not None:
-        return _usage_error("--calibration is only used with --stream (a recording has its own sensor file)")
+        return _usage_error("--calibration is only used with --stream or with a calibration-target recording (--data "
+                            "DIR holding imu0.csv, camN_aprilgrid.csv and sensors.yaml); a recording with "
+                            "sensors.json has its own sensor file")  # fmt: skip
+    used = [n for n, v in (("--camera", args.camera), ("--outage", args.outage), ("--sensors", args.sensors)) if v]
+    if used:
+        return _usage_error(f"{', '.join(used)}: only used with a calibration-target recording (--data DIR holding "
+                            "imu0.csv, camN_aprilgrid.csv and sensors.yaml)")  # fmt: skip
 
     if args.data is not None:
         from dualpose.pipelines.vio import is_track_data
@@ -242,29 +425,4 @@ def run(args: argparse.Namespace) -> int:
     result = _run_job(args)
     if result is None:
         return 1
-    metrics = result.metrics
-    if paths:
-        from dualpose.evaluation.fuse_figures import fuse_figures
-        from dualpose.io import write_tum
-
-        out.mkdir(parents=True, exist_ok=True)
-        write_tum(paths["trajectory.tum"], result.estimate, overwrite=args.force)
-        if result.smoothed is not None:
-            write_tum(paths["trajectory_smoothed.tum"], result.smoothed, overwrite=args.force)
-        if args.out_bag:
-            from dualpose.io.rosbag import write_trajectory_bag
-
-            bag = paths[f"trajectory.{args.out_bag}"]
-            write_trajectory_bag(bag, result.estimate, "/dualpose/pose", "world", overwrite=args.force)
-        paths["metrics.json"].write_text(json.dumps(metrics, indent=2) + "\n")
-        fuse_figures(result, paths["top_view.png"], paths["errors.png"], paths["nis.png"])
-    if args.json:
-        summary = {k: v for k, v in metrics.items() if k != "evaluation"}
-        if paths:
-            summary["out"] = str(out)
-        print(json.dumps(summary, indent=2))
-        return 0
-    print(_table(metrics))
-    if paths:
-        print(f"\nwritten to {out}: " + ", ".join(paths))
-    return 0
+    return _report(args, result, paths, _table)

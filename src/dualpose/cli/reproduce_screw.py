@@ -52,7 +52,7 @@ def _simulate(sc: Any, n: int, duration: float, label: str, show: bool) -> dict:
     from contextlib import nullcontext
 
     from dualpose.cli._progress import FractionSteps, progress_bar
-    from dualpose.pipelines.reproduce_screw_vector import simulate
+    from dualpose.pipelines.reproduce.screw_vector import simulate
 
     with progress_bar(10, f"{_PROG}: {label}") if show else nullcontext() as bar:  # 10 % steps
         return simulate(sc, n, duration, progress=FractionSteps(bar, 10))
@@ -122,7 +122,7 @@ def run_screw_vector(args: argparse.Namespace) -> int:
     from dataclasses import asdict
 
     from dualpose.cli._output import output_files_problem
-    from dualpose.pipelines.reproduce_screw_vector import Scenario, summarize
+    from dualpose.pipelines.reproduce.screw_vector import Scenario, summarize
 
     out: Path | None = args.out
     names = [f"screw_vector_{n}_sample.png" for n in args.samples]

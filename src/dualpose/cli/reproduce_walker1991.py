@@ -114,7 +114,7 @@ def run(args: argparse.Namespace) -> int:
     """Entry point of ``dualpose reproduce walker1991``."""
     from dualpose.cli._output import output_files_problem
     from dualpose.cli._progress import FractionSteps, progress_bar
-    from dualpose.pipelines import reproduce_walker1991 as walker1991
+    from dualpose.pipelines.reproduce import walker1991
 
     out_dir = Path(args.out) if args.out else None
     names = ("walker1991.md", "walker1991.json", "walker1991.png")

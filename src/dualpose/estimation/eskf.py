@@ -202,7 +202,8 @@ class ErrorStateEKF(EskfStateAccessors, Estimator):
     quat : (4,) initial q_wb, xyzw.
     covariance : (15, 15) initial error covariance (see :func:`initial_covariance`).
     imu_noise : ImuNoise
-        Kalibr densities used for the process noise (``Q`` blocks ``σ² Δt``, Solà eq. 262).
+        Kalibr densities used for the process noise (``Q`` blocks ``σ² Δt``, Solà eq. 262), plus the scale-factor
+        terms ``ε² |ω|² · 1 s`` (attitude) and ``ε_a² |f|² · 1 s`` (velocity) of its ``*_scale_sigma``.
     gravity : (3,) world gravity the filter assumes, m/s² (default ``[0, 0, −9.81]``).
     camera : PinholeCamera.  q_bc, p_bc : camera→body rotation (xyzw) and camera centre in the body frame.
     pixel_sigma : float, px.  gate_probability : float, χ²(2) gate (default 0.999 → 13.8).
@@ -248,6 +249,8 @@ class ErrorStateEKF(EskfStateAccessors, Estimator):
                 n.accelerometer_noise_density**2,
                 n.gyroscope_random_walk**2,
                 n.accelerometer_random_walk**2,
+                n.gyroscope_scale_sigma**2,
+                n.accelerometer_scale_sigma**2,
             ]
         )
         self.gravity = np.asarray(gravity, dtype=np.float64)
@@ -388,8 +391,8 @@ class ErrorStateEKF(EskfStateAccessors, Estimator):
 
     def kernel_config(self) -> tuple:
         """The constants of the compiled filter (``eskf_run``, ``eskf_stream_new``): ``gravity`` (3,), ``noise``
-        (4,) ``[σ_g², σ_a², σ_bg², σ_ba²]``, ``intr`` (4,) ``[fx, fy, cx, cy]``, ``q_bc`` (4,), ``p_bc`` (3,),
-        ``pixel_sigma``, ``gate``; float64, C-contiguous."""
+        (6,) ``[σ_g², σ_a², σ_bg², σ_ba², ε_g², ε_a²]`` (ε: ``ImuNoise``'s scale-factor uncertainties), ``intr``
+        (4,) ``[fx, fy, cx, cy]``, ``q_bc`` (4,), ``p_bc`` (3,), ``pixel_sigma``, ``gate``; float64, C-contiguous."""
         f64 = np.float64
         return (np.ascontiguousarray(self.gravity, dtype=f64), np.ascontiguousarray(self.noise, dtype=f64),
                 np.ascontiguousarray(self.intrinsics, dtype=f64), np.ascontiguousarray(self.q_bc, dtype=f64),

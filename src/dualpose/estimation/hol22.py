@@ -158,6 +158,8 @@ class Hol22EKF(Estimator):
         self.R_imu = np.diag(
             np.r_[np.full(3, n.accelerometer_noise_density**2 * rate), np.full(3, n.gyroscope_noise_density**2 * rate)]
         )
+        # scale-factor noise (ImuNoise ``*_scale_sigma``): ε² |z|² · 1 s as a density, times the rate per sample
+        self.scale2 = np.array([n.gyroscope_scale_sigma**2 * rate, n.accelerometer_scale_sigma**2 * rate])
         self._nis: list[np.ndarray] = []
         self._acc: list[np.ndarray] = []
 
@@ -300,10 +302,12 @@ class Hol22EKF(Estimator):
         hw, Hw = models.hol_gyroscope(self.x)
         H = np.vstack([Ha, Hw])
         nu = np.concatenate([np.asarray(accel, float) - ha, np.asarray(gyro, float) - hw])
-        S = H @ self.P @ H.T + self.R_imu
+        a, w = np.asarray(accel, float), np.asarray(gyro, float)
+        R = self.R_imu + np.diag(np.r_[np.full(3, self.scale2[1] * (a @ a)), np.full(3, self.scale2[0] * (w @ w))])
+        S = H @ self.P @ H.T + R
         K = np.linalg.solve(S, H @ self.P).T
         self.x = self.x + K @ nu
-        self._joseph(K, H, self.R_imu)
+        self._joseph(K, H, R)
         self._normalize()
         return float(nu @ np.linalg.solve(S, nu))
 
@@ -349,12 +353,15 @@ class Hol22EKF(Estimator):
 
     def kernel_config(self) -> tuple:
         """The constants of the compiled filter (``hol22_run``, ``hol22_stream_new``): ``qdiag`` (22,) (
-        :meth:`process_noise_diagonal`), ``gravity`` (3,), ``R_imu`` (6, 6), ``intr`` (4,) ``[fx, fy, cx, cy]``,
+        :meth:`process_noise_diagonal`), ``gravity`` (3,), ``R_imu`` (6, 6), ``scale2`` (2,) ``[ε_g², ε_a²] · rate``
+        (added to the gyro / accelerometer diagonal of ``R_imu`` times the squared measured norm), ``intr`` (4,)
+        ``[fx, fy, cx, cy]``,
         ``p_bc`` (3,), ``R^{cb}`` (3, 3), ``pixel_sigma``, ``gate``; float64, C-contiguous."""
         f64 = np.float64
         Rcb = np.ascontiguousarray(dp.matrix_from_quat(dp.quat_conj(self.q_bc)), dtype=f64)
         return (self.process_noise_diagonal(), np.ascontiguousarray(self.gravity, dtype=f64),
-                np.ascontiguousarray(self.R_imu, dtype=f64), np.array(self.intrinsics, dtype=f64),
+                np.ascontiguousarray(self.R_imu, dtype=f64), np.ascontiguousarray(self.scale2, dtype=f64),
+                np.array(self.intrinsics, dtype=f64),
                 np.ascontiguousarray(self.p_bc, dtype=f64), Rcb, self.pixel_sigma, self.gate)  # fmt: skip
 
     # ------------------------------------------------------------------ Algorithm 1

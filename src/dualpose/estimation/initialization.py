@@ -1,4 +1,6 @@
-"""Filter initialisation: static accelerometer (+ magnetometer) alignment and a body prior from a first-frame PnP.
+"""Filter initialisation: static accelerometer (+ magnetometer) alignment and a body prior from a first-frame PnP;
+for a sensor that is already moving, the visual-inertial alignment of :func:`align_with_camera_poses` (gyro bias,
+gravity in the scene frame, velocities and accelerometer bias from the camera poses of the first seconds).
 
 Orientations ``q_wb`` (4,) xyzw body→world; error conventions as in :mod:`dualpose.estimation.eskf`
 (``q = q̂ ⊗ Exp(δθ)``, body-frame δθ).
@@ -9,6 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import sparse
+from scipy.sparse.linalg import splu
 
 import dualpose as dp
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
@@ -21,6 +25,8 @@ __all__ = [
     "initial_state_from_rest_and_frame",
     "detect_rest",
     "initial_state_from_run",
+    "CameraImuAlignment",
+    "align_with_camera_poses",
 ]
 
 
@@ -220,3 +226,238 @@ def initial_state_from_run(run, rest_seconds: float | None = 0.9) -> tuple[np.nd
         run.accel[rest], run.gyro[rest], first, run.q_bc, run.p_bc, n.gyroscope_noise_density,
         n.accelerometer_initial_bias_sigma, n.update_rate,
     )  # fmt: skip
+
+
+@dataclass
+class CameraImuAlignment:
+    """Result of :func:`align_with_camera_poses` (frames: scene/world ``w``, body ``b``).
+
+    Attributes
+    ----------
+    gravity : ndarray, shape (3,)
+        Gravity in the scene frame, m/s²: the estimated direction scaled to the given magnitude (what the filter
+        uses).
+    gravity_estimated : ndarray, shape (3,)
+        The unconstrained least-squares gravity vector, m/s² (its magnitude is a check of the accelerometer).
+    gravity_sigma_deg : float
+        1σ of the gravity direction (root of the tangent-plane covariance trace), degrees.
+    velocity : ndarray, shape (K, 3)
+        Body velocity in the scene frame at each frame time, m/s.
+    velocity_sigma : float
+        1σ per axis (root of the mean diagonal) of the first frame's velocity, m/s.
+    gyro_bias, accel_bias : ndarray, shape (3,)
+        rad/s, m/s² (as given, or estimated).
+    accel_bias_sigma : float
+        1σ per axis of the estimated accelerometer bias (0 when it was given), m/s².
+    residual_rms : float
+        RMS of the whitened least-squares residuals (≈ 1 when the stated sigmas fit).
+    """
+
+    gravity: np.ndarray
+    gravity_estimated: np.ndarray
+    gravity_sigma_deg: float
+    velocity: np.ndarray
+    velocity_sigma: float
+    gyro_bias: np.ndarray
+    accel_bias: np.ndarray
+    accel_bias_sigma: float
+    residual_rms: float
+
+
+def _interval_samples(t, gyro, accel, frame_t):
+    """Sub-steps of every frame interval ``[frame_t[k], frame_t[k+1]]``: the IMU samples inside plus the linearly
+    interpolated ends, padded with zero-length steps to a common count.  Returns ``(dt (K-1, L), gyro, accel
+    (K-1, L + 1, 3))``: step j runs from node j to node j + 1."""
+    lo = np.searchsorted(t, frame_t[:-1], side="right")
+    hi = np.searchsorted(t, frame_t[1:], side="left")
+    inside = hi - lo
+    L = int(inside.max()) + 1
+    j = np.arange(L + 1)
+    idx = lo[:, None] + j[None, :] - 1  # node j (1..inside) is sample lo + j - 1
+    node_t = t[np.clip(idx, 0, len(t) - 1)]
+    node_t[:, 0] = frame_t[:-1]
+    last = inside + 1
+    node_t = np.where(j[None, :] >= last[:, None], frame_t[1:, None], node_t)
+    g = np.stack([np.interp(node_t, t, gyro[:, i]) for i in range(3)], axis=-1)
+    a = np.stack([np.interp(node_t, t, accel[:, i]) for i in range(3)], axis=-1)
+    return np.diff(node_t, axis=1), g, a
+
+
+def _preintegrate(dt, g, a, gyro_bias):
+    """Trapezoidal preintegration over every interval (vectorised over intervals, a loop over the L sub-steps):
+    ``ΔR`` (K-1, 3, 3), position and velocity increments ``α, β`` (K-1, 3) in the frame of the interval's start, and
+    their derivatives ``Jα, Jβ`` (K-1, 3, 3) with respect to a constant accelerometer bias (``α(b) = α − Jα b``)."""
+    n = dt.shape[0]
+    R = np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
+    al, be = np.zeros((n, 3)), np.zeros((n, 3))
+    Ja, Jb = np.zeros((n, 3, 3)), np.zeros((n, 3, 3))
+    for j in range(dt.shape[1]):
+        h = dt[:, j]
+        w = 0.5 * (g[:, j] + g[:, j + 1]) - gyro_bias
+        R1 = R @ dp.matrix_from_quat(dp.quat_from_rotvec(w * h[:, None]))
+        f = 0.5 * (np.einsum("nij,nj->ni", R, a[:, j]) + np.einsum("nij,nj->ni", R1, a[:, j + 1]))
+        Rm = 0.5 * (R + R1)
+        al += be * h[:, None] + 0.5 * f * (h * h)[:, None]
+        Ja += Jb * h[:, None, None] + 0.5 * Rm * (h * h)[:, None, None]
+        be += f * h[:, None]
+        Jb += Rm * h[:, None, None]
+        R = R1
+    return R, al, be, Ja, Jb
+
+
+def align_with_camera_poses(
+    t: np.ndarray,
+    gyro: np.ndarray,
+    accel: np.ndarray,
+    frame_t: np.ndarray,
+    p_wb: np.ndarray,
+    q_wb: np.ndarray,
+    gravity_magnitude: float,
+    position_sigma: float,
+    attitude_sigma: float,
+    accelerometer_noise_density: float,
+    gyro_bias: np.ndarray | None = None,
+    accel_bias: np.ndarray | None = None,
+) -> CameraImuAlignment:
+    """Visual-inertial alignment of a moving sensor from camera poses (a short batch, linear least squares).
+
+    Hol (2008) aligns the scene with gravity from accelerometer readings taken while the camera pose is known;
+    for a sensor that never rests, the accelerometer's specific force has to be corrected for the motion, which the
+    camera poses give.  With ``K`` camera-derived body poses ``(p_k, R_k)`` over a short window:
+
+    1. **gyro bias** (unless given): the rotation of the bias-corrected gyro between consecutive frames must equal
+       ``R_kᵀ R_k+1``; ``Log(ΔR_gyro(b)ᵀ R_kᵀ R_k+1) ≈ r_k + Δt_k b`` is solved for ``b`` (two Gauss–Newton
+       passes; the sum telescopes, so the pose noise enters only through the first and last frames);
+    2. **preintegration** between frames (trapezoidal, in the body frame of the interval's start): ``α_k, β_k``;
+    3. **linear least squares** for every frame velocity ``v_k``, gravity ``g`` (3 free components) and, unless
+       given, the accelerometer bias ``b_a``:
+       ``p_k+1 − p_k − R_k α_k = v_k Δt + ½ g Δt² − R_k Jα_k b_a`` (σ: √2 × ``position_sigma``) and
+       ``R_k β_k = v_k+1 − v_k − g Δt + R_k Jβ_k b_a`` (σ: accelerometer white noise over Δt and
+       ``attitude_sigma`` × ‖β_k‖) — the linear alignment of visual-inertial odometry (Qin, Li & Shen, VINS-Mono,
+       IEEE T-RO 2018, §V-B), here with metric camera poses and the accelerometer bias.
+
+    The first solve leaves the magnitude of ``g`` free (``gravity_estimated``: a check of the accelerometer's
+    scale); the result then fixes it to ``gravity_magnitude`` and re-solves with the direction's two tangent-plane
+    components as unknowns (relinearised four times), so the velocities and the accelerometer bias are consistent
+    with the gravity the filter uses.
+
+    Parameters
+    ----------
+    t : (N,) IMU times, s.  gyro, accel : (N, 3) rad/s, m/s², body frame.
+    frame_t : (K,) frame times on the IMU clock, s, strictly increasing, within ``[t[0], t[-1]]``; K >= 3.
+    p_wb : (K, 3) body positions in the scene frame, m.  q_wb : (K, 4) body attitudes, xyzw body -> scene.
+    gravity_magnitude : float, m/s².
+    position_sigma, attitude_sigma : float
+        1σ of the camera-derived body positions (m, per axis) and attitudes (rad).
+    accelerometer_noise_density : float, m/s²/√Hz.
+    gyro_bias, accel_bias : (3,) or None
+        Known biases (rad/s, m/s²); None estimates them.
+
+    Raises
+    ------
+    ValueError
+        Fewer than 3 frames, frames outside the IMU span, or an alignment that is not determined (e.g. a window
+        without rotation when the accelerometer bias is estimated).
+    """
+    t = np.asarray(t, dtype=np.float64)
+    gyro = np.asarray(gyro, dtype=np.float64)
+    accel = np.asarray(accel, dtype=np.float64)
+    ft = np.asarray(frame_t, dtype=np.float64)
+    p = np.asarray(p_wb, dtype=np.float64)
+    Rk = dp.matrix_from_quat(np.asarray(q_wb, dtype=np.float64))
+    K = len(ft)
+    if K < 3 or p.shape != (K, 3) or Rk.shape != (K, 3, 3):
+        raise ValueError(f"frame_t (K,), p_wb (K, 3) and q_wb (K, 4) must describe K >= 3 frames; got {ft.shape}, "
+                         f"{p.shape}, {np.shape(q_wb)}")  # fmt: skip
+    if np.any(np.diff(ft) <= 0) or ft[0] < t[0] or ft[-1] > t[-1]:
+        raise ValueError("frame_t must increase strictly and lie within the IMU times")
+    dt, g_s, a_s = _interval_samples(t, gyro, accel, ft)
+    D = ft[1:] - ft[:-1]
+    rel = np.einsum("kji,kjl->kil", Rk[:-1], Rk[1:])  # R_kᵀ R_k+1
+    bg = np.zeros(3) if gyro_bias is None else np.asarray(gyro_bias, dtype=np.float64)
+    for _ in range(0 if gyro_bias is not None else 2):
+        dR = _preintegrate(dt, g_s, a_s, bg)[0]
+        r = dp.rotvec_from_quat(dp.quat_from_matrix(np.einsum("kji,kjl->kil", dR, rel)))
+        bg = bg - (D @ r) / (D @ D)
+    _, al, be, Ja, Jb = _preintegrate(dt, g_s, a_s, bg)
+    est_ba = accel_bias is None
+    ba = np.zeros(3) if est_ba else np.asarray(accel_bias, dtype=np.float64)
+    n = 3 * K + 3 + (3 if est_ba else 0)
+    m = K - 1
+    A = np.zeros((m, 6, n))
+    y = np.zeros((m, 6))
+    k = np.arange(m)
+    for i in range(3):
+        A[k, i, 3 * k + i] = D
+        A[k, i, 3 * K + i] = 0.5 * D * D
+        A[k, 3 + i, 3 * k + i] = -1.0
+        A[k, 3 + i, 3 * k + 3 + i] = 1.0
+        A[k, 3 + i, 3 * K + i] = -D
+    RJa = np.einsum("kij,kjl->kil", Rk[:-1], Ja)
+    RJb = np.einsum("kij,kjl->kil", Rk[:-1], Jb)
+    y[:, :3] = p[1:] - p[:-1] - np.einsum("kij,kj->ki", Rk[:-1], al)
+    y[:, 3:] = np.einsum("kij,kj->ki", Rk[:-1], be)
+    if est_ba:
+        A[:, :3, 3 * K + 3 :] = -RJa
+        A[:, 3:, 3 * K + 3 :] = RJb
+    else:
+        y[:, :3] += np.einsum("kij,j->ki", RJa, ba)
+        y[:, 3:] -= np.einsum("kij,j->ki", RJb, ba)
+    s_pos = np.sqrt(2.0) * position_sigma
+    s_vel = np.sqrt(accelerometer_noise_density**2 * D + (attitude_sigma * np.linalg.norm(be, axis=1)) ** 2)
+    w = np.concatenate([np.full((m, 3), 1.0 / s_pos), np.repeat(1.0 / s_vel[:, None], 3, axis=1)], axis=1)
+    Aw = sparse.csc_matrix((A * w[:, :, None]).reshape(-1, n))  # each row: two velocities and the global unknowns
+    yw = (y * w).reshape(-1)
+    undetermined = ValueError("the camera-IMU alignment is not determined by these frames (too little motion or "
+                              "rotation to separate gravity, velocities and the accelerometer bias)")  # fmt: skip
+    try:
+        x = splu((Aw.T @ Aw).tocsc()).solve(Aw.T @ yw)
+    except RuntimeError:
+        raise undetermined from None
+    g_est = x[3 * K : 3 * K + 3].copy()
+    if not np.isfinite(x).all() or not np.linalg.norm(g_est) > 0:
+        raise undetermined
+    # gravity of known magnitude: g = |g| (u + B δ) with δ in the tangent plane of u (2 unknowns instead of 3;
+    # VINS-Mono's gravity refinement), a few relinearisations
+    G = float(gravity_magnitude)
+    u = g_est / np.linalg.norm(g_est)
+    Av, Ag, Ab = Aw[:, : 3 * K], Aw[:, 3 * K : 3 * K + 3], Aw[:, 3 * K + 3 :]
+    for _ in range(4):
+        a0 = np.cross(u, np.eye(3)[int(np.argmin(np.abs(u)))])
+        a0 /= np.linalg.norm(a0)
+        B = np.stack([a0, np.cross(u, a0)], axis=1)  # (3, 2)
+        Ar = sparse.hstack([Av, sparse.csc_matrix(Ag @ (G * B)), Ab]).tocsc()
+        yr = yw - Ag @ (G * u)
+        try:
+            lu = splu((Ar.T @ Ar).tocsc())
+        except RuntimeError:
+            raise undetermined from None
+        xr = lu.solve(Ar.T @ yr)
+        u = u + B @ xr[3 * K : 3 * K + 2]
+        u /= np.linalg.norm(u)
+    res = yr - Ar @ xr
+    nr = Ar.shape[1]
+    dof = max(len(yr) - nr, 1)
+    scale = max(float(res @ res) / dof, 1.0)  # inflate the covariance when the residuals exceed the stated sigmas
+    want = np.r_[0, 1, 2, np.arange(3 * K, nr)]  # v_0, δ, b_a: the covariance columns needed
+    E = np.zeros((nr, len(want)))
+    E[want, np.arange(len(want))] = 1.0
+    C = lu.solve(E)[want] * scale
+    Cd = C[3:5, 3:5]
+    ba_sigma = float(np.sqrt(np.mean(np.diag(C[5:, 5:])))) if est_ba else 0.0
+    if not (np.isfinite(C).all() and np.sqrt(np.trace(Cd)) < np.radians(5.0) and ba_sigma < 1.0):
+        raise undetermined
+    if est_ba:
+        ba = xr[3 * K + 2 :]
+    x = xr
+    return CameraImuAlignment(
+        gravity=G * u,
+        gravity_estimated=g_est,
+        gravity_sigma_deg=float(np.degrees(np.sqrt(np.trace(Cd)))),
+        velocity=x[: 3 * K].reshape(K, 3),
+        velocity_sigma=float(np.sqrt(np.trace(C[:3, :3]) / 3.0)),
+        gyro_bias=bg,
+        accel_bias=ba,
+        accel_bias_sigma=ba_sigma,
+        residual_rms=float(np.sqrt(float(res @ res) / len(yr))),
+    )

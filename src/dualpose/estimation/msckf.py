@@ -172,7 +172,8 @@ class MsckfVio(EskfStateAccessors, Estimator):
         self.imu_noise = ImuNoise() if imu_noise is None else imu_noise
         n = self.imu_noise
         self.noise = np.array([n.gyroscope_noise_density**2, n.accelerometer_noise_density**2,
-                               n.gyroscope_random_walk**2, n.accelerometer_random_walk**2])  # fmt: skip
+                               n.gyroscope_random_walk**2, n.accelerometer_random_walk**2,
+                               n.gyroscope_scale_sigma**2, n.accelerometer_scale_sigma**2])  # fmt: skip
         self.q_bc = dp.quat_normalize(np.asarray(q_bc, dtype=np.float64))
         self.p_bc = np.asarray(p_bc, dtype=np.float64).reshape(3)
         self.feature_sigma = float(feature_sigma)
@@ -268,7 +269,9 @@ class MsckfVio(EskfStateAccessors, Estimator):
             opts = MsckfOptions(int(o[0]), int(o[1]), float(o[2]), float(o[3]), float(o[4]), float(o[5]), bool(o[6]),
                                 float(o[7]), float(o[8]))
             noise = np.asarray(d["noise"], dtype=np.float64)
-            imu = ImuNoise(*np.sqrt(noise)[[0, 2, 1, 3]].tolist())
+            sd = np.sqrt(noise)
+            imu = ImuNoise(*sd[[0, 2, 1, 3]].tolist(), gyroscope_scale_sigma=float(sd[4]),
+                           accelerometer_scale_sigma=float(sd[5]))  # fmt: skip
             P = np.array(d["P"], dtype=np.float64)
             f = cls(np.array(d["x"]), P[:_NE, :_NE], imu, d["q_bc"], d["p_bc"], float(d["nominal_sigma"]),
                     d["gravity"], float(d["camera_time_offset"]), opts)  # fmt: skip

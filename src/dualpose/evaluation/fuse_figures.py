@@ -30,6 +30,7 @@ def fuse_figures(result, top_view: str | os.PathLike, errors: str | os.PathLike,
     import matplotlib.pyplot as plt
 
     has_truth = result.truth is not None
+    truth_label = "reference" if result.metrics.get("reference") else "truth"  # target tracking: another camera
     name = result.metrics["filter"]
     idx = result.error_index if has_truth else np.arange(len(result.estimate))
     t = result.truth.stamps if has_truth else result.estimate.stamps
@@ -40,7 +41,7 @@ def fuse_figures(result, top_view: str | os.PathLike, errors: str | os.PathLike,
     axes = "xyz"
     fig, ax = plt.subplots(figsize=(7, 5))
     if has_truth:
-        ax.plot(result.truth.positions[:, i], result.truth.positions[:, j], "k-", lw=1.5, label="truth")
+        ax.plot(result.truth.positions[:, i], result.truth.positions[:, j], "k-", lw=1.5, label=truth_label)
     ax.plot(result.estimate.positions[:, i], result.estimate.positions[:, j], "r--", lw=1.0, label="estimate")
     if result.smoothed is not None:
         ax.plot(result.smoothed.positions[:, i], result.smoothed.positions[:, j], "g:", lw=1.0, label="smoothed")

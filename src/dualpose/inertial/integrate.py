@@ -20,7 +20,9 @@ Paper: Adv. Mech. Eng. 2019, "Research on the rigid body pose estimation using d
 
 from __future__ import annotations
 
-from typing import Literal
+import sys
+from collections.abc import Callable
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -179,6 +181,45 @@ def _fold(
     return out.reshape(*lead, *out.shape[1:])
 
 
+def _is_dask(x: object) -> bool:
+    return type(x).__module__.startswith("dask.")
+
+
+def _lazy_fold(integrate: Callable[..., np.ndarray], x0: Any, name0: str, x: Any, name: str, w0: int, w: int,
+               samples: int, *options: Any) -> Any:
+    """Lazy ``integrate(x0, x, samples, *options)`` for dask inputs: blocks over the leading (batch) axes only.
+
+    Integration is sequential along time, so each block holds whole time series: the time and component axes of
+    ``x`` and the component axis of ``x0`` in one chunk, the leading axes chunked as given.  Each block is the
+    NumPy function's result on its rows (bit for bit); shapes are checked when the call is made.  dask is imported
+    (a dask array is among the inputs).
+    """
+    da = sys.modules["dask.array"]
+    x0, x = da.asarray(x0), da.asarray(x)
+    if x0.ndim < 1 or x0.shape[-1] != w0:
+        raise ValueError(f"{name0} must have shape (..., {w0}); got shape {x0.shape}")
+    if x.ndim < 2 or x.shape[-1] != w:
+        raise ValueError(f"{name} must have shape (..., K*N, {w}); got shape {x.shape}")
+    m = x.shape[-2]
+    if m == 0 or m % samples:
+        raise ValueError(f"{name} has {m} rows, which is not a positive multiple of samples={samples}")
+    x0 = x0.rechunk({x0.ndim - 1: -1})
+    x = x.rechunk({x.ndim - 2: -1, x.ndim - 1: -1})
+    n_lead = max(x0.ndim - 1, x.ndim - 2)
+    lead = tuple(f"l{i}" for i in range(n_lead))
+
+    def block(b0: Any, b: Any) -> np.ndarray:
+        while isinstance(b0, list):  # the one-chunk axes missing from the output come as nested lists
+            b0 = b0[0]
+        while isinstance(b, list):
+            b = b[0]
+        return integrate(b0, b, samples, *options)
+
+    return da.blockwise(block, (*lead, "k", "c"), x0, (*lead[n_lead - (x0.ndim - 1):], "c0"),
+                        x, (*lead[n_lead - (x.ndim - 2):], "m", "c1"), new_axes={"k": m // samples + 1, "c": w0},
+                        concatenate=False, dtype=np.float64, meta=np.empty((0,) * (n_lead + 2)))
+
+
 def integrate_attitude(
     q0: ArrayLike,
     dtheta: ArrayLike,
@@ -203,8 +244,12 @@ def integrate_attitude(
     Returns
     -------
     ndarray, shape (..., K+1, 4)
-        ``q_0 … q_K`` at the update times ``0, T, …, K T`` (xyzw).
+        ``q_0 … q_K`` at the update times ``0, T, …, K T`` (xyzw).  With a dask array among ``q0``, ``dtheta``:
+        a lazy dask array, chunked over the leading (batch) axes as given, each series whole in one chunk
+        (integration is sequential along time; docs/scaling.md, "Lazy and out-of-core").
     """
+    if _is_dask(q0) or _is_dask(dtheta):
+        return _lazy_fold(integrate_attitude, q0, "q0", dtheta, "dtheta", 4, 3, samples, coefficients, frame)
     q0 = as_array(q0, "q0", 4)
     return _fold(q0, "q0", as_array(dtheta, "dtheta", 3), "dtheta", samples, coefficients, frame)
 
@@ -235,8 +280,12 @@ def integrate_pose(
     Returns
     -------
     ndarray, shape (..., K+1, 8)
-        ``q̂_0 … q̂_K`` at ``0, T, …, K T``.
+        ``q̂_0 … q̂_K`` at ``0, T, …, K T``.  With a dask array among the inputs: lazy, as in
+        :func:`integrate_attitude`.
     """
+    if _is_dask(dq0) or _is_dask(dual_increments):
+        return _lazy_fold(integrate_pose, dq0, "dq0", dual_increments, "dual_increments", 8, 6, samples,
+                          coefficients, frame)
     dq0 = as_array(dq0, "dq0", 8)
     x = as_array(dual_increments, "dual_increments", 6)
     return _fold(dq0, "dq0", x, "dual_increments", samples, coefficients, frame)

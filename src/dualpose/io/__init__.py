@@ -5,7 +5,9 @@ Camera-IMU recordings for ``dualpose fuse --data`` (:mod:`dualpose.io.recording`
 :func:`read_sensor_setup`, :func:`write_sensor_setup`.  Point CSV files for ``dualpose register``:
 :mod:`dualpose.io.csv_points`.
 Calibration-target corner files (:func:`read_target_detections`) and rig sensor files in YAML, ``sensors.yaml`` or
-Kalibr ``camchain.yaml`` (:func:`read_rig_sensors`).
+Kalibr ``camchain.yaml`` (:func:`read_rig_sensors`).  Target-recording directories (``imu0.csv``,
+``camN_aprilgrid.csv``, ``sensors.yaml``: :func:`read_target_recording`) and the camera-IMU calibration JSON
+(:func:`read_camera_imu_calibration`, :func:`write_camera_imu_calibration`).
 Pose streams ``t, x, y, z, qx, qy, qz, qw`` for ``dualpose calibrate hand-eye``: :func:`read_pose_csv`.  ROS 1 and
 ROS 2 bags (``FILE.bag:/topic``, read by :func:`read_trajectory` and the IMU readers too): :mod:`dualpose.io.rosbag`
 (needs ``rosbags``, the extra ``dualpose[ros]``).  Import explicitly; ``import dualpose`` does not load this.
@@ -27,7 +29,13 @@ from dualpose.io.recording import (
     write_sensor_setup,
 )
 from dualpose.io.sensors_yaml import read_rig_sensors
-from dualpose.io.target_detections import read_target_detections
+from dualpose.io.target.detections import read_target_detections
+from dualpose.io.target.recording import (
+    TargetRecording,
+    read_camera_imu_calibration,
+    read_target_recording,
+    write_camera_imu_calibration,
+)
 from dualpose.io.tum import read_tum, write_tum
 from dualpose.types.target import RigSensors, TargetDetections
 from dualpose.types.trajectory import Trajectory, seconds_from_ns
@@ -57,4 +65,8 @@ __all__ = [
     "read_target_detections",
     "RigSensors",
     "read_rig_sensors",
+    "TargetRecording",
+    "read_target_recording",
+    "read_camera_imu_calibration",
+    "write_camera_imu_calibration",
 ]

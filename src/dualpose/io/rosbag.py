@@ -8,19 +8,19 @@ Reading and writing go through ``rosbags`` (pure Python, Apache-2.0, no ROS inst
 
 Messages read (the ROS 1 and ROS 2 definitions are the same field for field):
 
-==========================================  =========================================================================
-message type                                read as
-==========================================  =========================================================================
-``geometry_msgs/PoseStamped``               :class:`~dualpose.types.Trajectory`: ``pose`` (position, orientation)
-``geometry_msgs/PoseWithCovarianceStamped`` the same, ``pose.pose``
-``geometry_msgs/TransformStamped``          ``transform`` (translation, rotation): the pose of ``child_frame_id``
-                                            in ``header.frame_id``
-``nav_msgs/Odometry``                       ``pose.pose``: the pose of ``child_frame_id`` in ``header.frame_id``
-``tf2_msgs/TFMessage`` (``/tf``)            a parent -> child chain of its transforms (``/tf_static`` included)
-``sensor_msgs/Imu``                         :class:`~dualpose.io.ImuData`: ``angular_velocity`` (rad/s),
-                                            ``linear_acceleration`` (m/s², specific force, REP 145)
-``sensor_msgs/MagneticField``               ``magnetic_field`` (tesla), see :func:`read_bag_magnetic_field`
-==========================================  =========================================================================
+============================================  =========================================================================
+message type                                  read as
+============================================  =========================================================================
+``geometry_msgs/PoseStamped``                 :class:`~dualpose.types.Trajectory`: ``pose`` (position, orientation)
+``geometry_msgs/PoseWithCovarianceStamped``   the same, ``pose.pose``
+``geometry_msgs/TransformStamped``            ``transform`` (translation, rotation): the pose of ``child_frame_id``
+                                              in ``header.frame_id``
+``nav_msgs/Odometry``                         ``pose.pose``: the pose of ``child_frame_id`` in ``header.frame_id``
+``tf2_msgs/TFMessage`` (``/tf``)              a parent -> child chain of its transforms (``/tf_static`` included)
+``sensor_msgs/Imu``                           :class:`~dualpose.io.ImuData`: ``angular_velocity`` (rad/s),
+                                              ``linear_acceleration`` (m/s², specific force, REP 145)
+``sensor_msgs/MagneticField``                 ``magnetic_field`` (tesla), see :func:`read_bag_magnetic_field`
+============================================  =========================================================================
 
 Quaternions are ``geometry_msgs/Quaternion`` ``x y z w``: dualpose's xyzw (scalar last), unchanged.  Stamps are
 the messages' ``header.stamp`` (``stamps="header"``, default) or the times the bag recorded them

@@ -32,7 +32,7 @@ from dualpose.estimation.smoother import rts_smooth
 from dualpose.evaluation.metrics import evaluate
 from dualpose.io import load_broad
 from dualpose.io.recording import RecordingError, read_recording
-from dualpose.pipelines.checks import check_before_fuse, check_gravity_after_alignment
+from dualpose.pipelines._checks import check_before_fuse, check_gravity_after_alignment
 from dualpose.sim.broad_vision import recording_from_broad
 from dualpose.types import Recording, Trajectory
 

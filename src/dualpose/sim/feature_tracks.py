@@ -3,9 +3,9 @@ consumes), with the exact truth kept aside.
 
 A simulated run (:func:`dualpose.sim.simulate`) supplies the motion, the IMU stream and the frame times; here every
 landmark visible in a frame (more than ``min_depth`` in front of the camera, inside the image) is observed as the
-normalised image coordinates ``(X/Z, Y/Z)`` plus zero-mean Gaussian noise of standard deviation
-``feature_sigma``, and keeps one track id while it stays visible (a landmark that leaves the image and comes back
-starts a new track). The landmark positions are not handed to the estimator.
+normalised image coordinates ``(X/Z, Y/Z)`` plus zero-mean Gaussian noise of standard deviation ``feature_sigma``,
+and keeps one track id while it stays visible (a landmark that leaves the image and comes back starts a new track).
+The landmark positions are not handed to the estimator.
 """
 
 from __future__ import annotations

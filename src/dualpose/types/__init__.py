@@ -9,10 +9,13 @@
   frame; a camera rig's sensors as a calibration file states them.
 * :class:`Recording` (:mod:`~dualpose.types.recording`): one camera-IMU run, whatever its source;
   :class:`SensorSetup` / :class:`FilterStart`: its sensor set-up and a filter start without the data (streaming).
+* :class:`CameraImuCalibration` (:mod:`~dualpose.types.calibration`): a camera's extrinsic, clock offset and IMU
+  biases, as a camera-IMU calibration states them.
 
 Layouts: positions ``(N, 3)`` metres, quaternions ``(N, 4)`` xyzw Hamilton body -> world, times in seconds.
 """
 
+from dualpose.types.calibration import CameraImuCalibration
 from dualpose.types.camera import CameraFrame, CameraIntrinsics, FrameCorrespondences, PinholeCamera, PinholeModel
 from dualpose.types.camera_models import (
     DistortedCamera,
@@ -49,4 +52,5 @@ __all__ = [
     "SensorSetup",
     "Trajectory",
     "seconds_from_ns",
+    "CameraImuCalibration",
 ]

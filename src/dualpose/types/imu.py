@@ -34,6 +34,11 @@ class ImuNoise:
         Standard deviation of the turn-on bias drawn per run (rad/s, m/s²).
     update_rate : float
         Hz.
+    gyroscope_scale_sigma, accelerometer_scale_sigma : float
+        Relative uncertainty ε of the gyroscope's and the accelerometer's scale factors and axis alignment (a model
+        error proportional to the signal; not in Kalibr's model, default 0).  The ESKF and Hol22 add
+        ``ε² |ω|² · 1 s`` to the gyroscope's and ``ε_a² |f|² · 1 s`` to the accelerometer's noise density (rad²/s,
+        m²/s³), as the AHRS's ``gyro_scale_sigma`` (:class:`dualpose.estimation.ahrs.AhrsConfig`).
     """
 
     gyroscope_noise_density: float = math.radians(0.1)
@@ -43,6 +48,8 @@ class ImuNoise:
     gyroscope_initial_bias_sigma: float = math.radians(0.5)
     accelerometer_initial_bias_sigma: float = 0.05
     update_rate: float = 100.0
+    gyroscope_scale_sigma: float = 0.0
+    accelerometer_scale_sigma: float = 0.0
 
     def scaled(self, factor: float) -> ImuNoise:
         """All noise terms (not the rate) multiplied by ``factor`` (``0`` gives a noise-free IMU)."""
@@ -54,4 +61,6 @@ class ImuNoise:
             self.gyroscope_initial_bias_sigma * factor,
             self.accelerometer_initial_bias_sigma * factor,
             self.update_rate,
+            self.gyroscope_scale_sigma * factor,
+            self.accelerometer_scale_sigma * factor,
         )

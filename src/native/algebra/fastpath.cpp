@@ -1,6 +1,7 @@
 // dualpose._native.FastPath: a public function with a direct native entry in front of it.
 //
-// FastPath(kernel, func, nan_declines=False, max_rows=-1, fixed=(), takes_out=False) is called like ``func``.  A
+// FastPath(kernel, func, nan_declines=False, max_rows=-1, fixed=(), takes_out=False, lazy=None) is called like
+// ``func``.  (``lazy``, if given, takes the calls with a dask array among the arguments; see has_dask_argument.)  A
 // call with exactly the kernel's inputs as positional arguments (``fixed`` appended: constant trailing inputs such as
 // a frame flag) and no keywords -- or, with ``takes_out``, also an ``out`` array (positional after the inputs or the
 // keyword out) -- first goes to the gufunc's direct entry (common/gufunc.hpp, Gufunc::direct).  It computes into
@@ -40,6 +41,7 @@ struct FastPath {
     PyObject* func;
     PyObject* kernel;
     PyObject* fixed;  // tuple of constant trailing inputs
+    PyObject* lazy;   // called instead of func when an argument is a dask array (nullptr: never)
     DirectFn direct;
     Py_ssize_t nin;
     Py_ssize_t max_rows;
@@ -65,6 +67,28 @@ PyObject* out_argument(const FastPath* self, PyObject* const* args, Py_ssize_t n
     return out == Py_None ? nullptr : out;
 }
 
+// Whether an argument (positional or keyword value) is an instance of a type defined in a module of dask.  While
+// dask.array is not imported there can be none, and the check is one dictionary lookup.
+bool has_dask_argument(PyObject* const* args, Py_ssize_t n, PyObject* kwnames) {
+    static PyObject* const key = PyUnicode_InternFromString("dask.array");
+    static PyObject* const module_attr = PyUnicode_InternFromString("__module__");
+    static PyObject* const prefix = PyUnicode_InternFromString("dask.");
+    if (key == nullptr || module_attr == nullptr || prefix == nullptr) return PyErr_Clear(), false;
+    if (PyDict_GetItem(PyImport_GetModuleDict(), key) == nullptr) return false;
+    const Py_ssize_t total = n + (kwnames ? PyTuple_GET_SIZE(kwnames) : 0);
+    for (Py_ssize_t j = 0; j < total; ++j) {
+        PyObject* m = PyObject_GetAttr(reinterpret_cast<PyObject*>(Py_TYPE(args[j])), module_attr);
+        if (m == nullptr) {
+            PyErr_Clear();
+            continue;
+        }
+        const bool dask = PyUnicode_Check(m) && PyUnicode_Tailmatch(m, prefix, 0, PY_SSIZE_T_MAX, -1) == 1;
+        Py_DECREF(m);
+        if (dask) return true;
+    }
+    return false;
+}
+
 PyObject* fast_call(PyObject* self_, PyObject* const* args, size_t nargsf, PyObject* kwnames) {
     auto* self = reinterpret_cast<FastPath*>(self_);
     const Py_ssize_t n = PyVectorcall_NARGS(nargsf);
@@ -86,24 +110,26 @@ PyObject* fast_call(PyObject* self_, PyObject* const* args, size_t nargsf, PyObj
         if (s > 0) return result;
         if (s < 0) return nullptr;
     }
+    if (self->lazy != nullptr && has_dask_argument(args, n, kwnames))
+        return PyObject_Vectorcall(self->lazy, args, nargsf, kwnames);
     return PyObject_Vectorcall(self->func, args, nargsf, kwnames);
 }
 
 PyObject* fast_new(PyTypeObject* type, PyObject* args, PyObject* kwds) {
-    static const char* names[] = {"kernel", "func", "nan_declines", "max_rows", "fixed", "takes_out", nullptr};
-    PyObject *kernel, *func, *fixed = nullptr;
+    static const char* names[] = {"kernel", "func", "nan_declines", "max_rows", "fixed", "takes_out", "lazy", nullptr};
+    PyObject *kernel, *func, *fixed = nullptr, *lazy = Py_None;
     int nan_declines = 0, takes_out = 0;
     Py_ssize_t max_rows = -1;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OO|pnO!p:FastPath", const_cast<char**>(names), &kernel, &func,
-                                     &nan_declines, &max_rows, &PyTuple_Type, &fixed, &takes_out))
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OO|pnO!pO:FastPath", const_cast<char**>(names), &kernel, &func,
+                                     &nan_declines, &max_rows, &PyTuple_Type, &fixed, &takes_out, &lazy))
         return nullptr;
     const DirectEntry* e = find_direct(kernel);
     if (e == nullptr) {
         PyErr_SetString(PyExc_TypeError, "FastPath: kernel must be a gufunc of dualpose._native");
         return nullptr;
     }
-    if (!PyCallable_Check(func)) {
-        PyErr_SetString(PyExc_TypeError, "FastPath: func must be callable");
+    if (!PyCallable_Check(func) || (lazy != Py_None && !PyCallable_Check(lazy))) {
+        PyErr_SetString(PyExc_TypeError, "FastPath: func and lazy must be callable");
         return nullptr;
     }
     const int nin = reinterpret_cast<PyUFuncObject*>(kernel)->nin;
@@ -117,6 +143,7 @@ PyObject* fast_new(PyTypeObject* type, PyObject* args, PyObject* kwds) {
     self->vectorcall = fast_call;
     Py_INCREF(func);
     self->func = func;
+    self->lazy = lazy == Py_None ? nullptr : (Py_INCREF(lazy), lazy);
     Py_INCREF(kernel);
     self->kernel = kernel;
     self->fixed = fixed ? (Py_INCREF(fixed), fixed) : PyTuple_New(0);
@@ -134,6 +161,7 @@ int fast_traverse(PyObject* self_, visitproc visit, void* arg) {
     Py_VISIT(self->func);
     Py_VISIT(self->kernel);
     Py_VISIT(self->fixed);
+    Py_VISIT(self->lazy);
     return 0;
 }
 
@@ -142,6 +170,7 @@ int fast_clear(PyObject* self_) {
     Py_CLEAR(self->func);
     Py_CLEAR(self->kernel);
     Py_CLEAR(self->fixed);
+    Py_CLEAR(self->lazy);
     return 0;
 }
 

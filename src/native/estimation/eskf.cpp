@@ -33,7 +33,7 @@ constexpr auto ci1w = convert<std::int64_t, 1, true>;
 bool state_ok(const V1w& x, const M2w& P) { return shape_is("x", x, {NX}) && shape_is("P", P, {NE, NE}); }
 
 bool config_ok(const V1& gravity, const V1& noise, const V1& intr, const V1& q_bc, const V1& p_bc) {
-    return shape_is("gravity", gravity, {3}) && shape_is("noise", noise, {4}) && shape_is("intr", intr, {4}) &&
+    return shape_is("gravity", gravity, {3}) && shape_is("noise", noise, {6}) && shape_is("intr", intr, {4}) &&
            shape_is("q_bc", q_bc, {4}) && shape_is("p_bc", p_bc, {3});
 }
 
@@ -41,7 +41,7 @@ Config make_config(const V1& gravity, const V1& noise, const V1& intr, const V1&
                    double sigma_px, double gate) {
     Config c{};
     std::copy(gravity.data, gravity.data + 3, c.gravity);
-    std::copy(noise.data, noise.data + 4, c.noise);
+    std::copy(noise.data, noise.data + 6, c.noise);
     std::copy(intr.data, intr.data + 4, c.intr);
     std::copy(q_bc.data, q_bc.data + 4, c.q_bc);
     std::copy(p_bc.data, p_bc.data + 3, c.p_bc);
@@ -69,7 +69,7 @@ PyObject* py_predict(PyObject*, PyObject* args) {
                    : PyArg_ParseTuple(args, "O&O&O&O&dO&O&:eskf_predict", cv1w, &x, cm2w, &P, cv1, &gyro, cv1, &accel,
                                       &dt, cv1, &gravity, cv1, &noise);
     if (!parsed || !state_ok(x, P) || !shape_is("gyro", gyro, {3}) || !shape_is("accel", accel, {3}) ||
-        !shape_is("gravity", gravity, {3}) || !shape_is("noise", noise, {4}) ||
+        !shape_is("gravity", gravity, {3}) || !shape_is("noise", noise, {6}) ||
         (TRANSITION && !shape_is("F", F, {NE, NE})))
         return nullptr;
     double scratch[NE * NE];

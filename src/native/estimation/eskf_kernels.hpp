@@ -1,7 +1,7 @@
 // Kernels of the error-state EKF (Solà 2017 §5-7) and of its camera measurement model, ports of the numba kernels
 // that dualpose.estimation.eskf documents.  Layouts in eskf_layout.hpp: nominal x (16,), error δx (15,) with the
-// local attitude error q = q̂ ⊗ Exp(δθ), covariance P (15, 15), noise (4,) = continuous-time variances
-// [σ_g², σ_a², σ_bg², σ_ba²], camera intr (4,) = [fx, fy, cx, cy], q_bc (4, xyzw), p_bc (3,).
+// local attitude error q = q̂ ⊗ Exp(δθ), covariance P (15, 15), noise (6,) = continuous-time variances
+// [σ_g², σ_a², σ_bg², σ_ba²] and the squared relative scale-factor uncertainties [ε_g², ε_a²], camera intr (4,) = [fx, fy, cx, cy], q_bc (4, xyzw), p_bc (3,).
 // Everything works in place on x and P.
 #pragma once
 
@@ -15,20 +15,10 @@
 
 namespace dualpose::eskf {
 
-// P += Q dt: the diagonal densities noise = [σ_g², σ_a², σ_bg², σ_ba²] over a step of dt.
-inline void add_process_noise(double* Pm, const double* noise, double dt) {
-    for (int i = 0; i < 3; ++i) {
-        Pm[(DV + i) * (NE + 1)] += noise[1] * dt;
-        Pm[(DTH + i) * (NE + 1)] += noise[0] * dt;
-        Pm[(DBG + i) * (NE + 1)] += noise[2] * dt;
-        Pm[(DBA + i) * (NE + 1)] += noise[3] * dt;
-    }
-}
-
-// Propagate nominal state and covariance over dt with constant IMU input (Solà eq. 260, 269-270) and write the
-// error-state transition of the step (Solà eq. 269) to F (15, 15): δx⁻_{k+1} ≈ F δx⁺_k.
-inline void predict_transition(double* x, double* Pm, const double* gyro, const double* accel, double dt,
-                               const double* gravity, const double* noise, double* F) {
+// Propagate the nominal state over dt with constant IMU input (Solà eq. 260) and write the error-state transition
+// of the step (Solà eq. 269) to F (15, 15): δx⁻_{k+1} ≈ F δx⁺_k; w2, f2 <- |ω|², |f|² of the bias-corrected input.
+inline void step_transition(double* x, const double* gyro, const double* accel, double dt, const double* gravity,
+                            double* F, double& w2, double& f2) {
     double R[9];
     rotmat_xyzw(x[Q], x[Q + 1], x[Q + 2], x[Q + 3], R);
     const double wx = gyro[0] - x[BG], wy = gyro[1] - x[BG + 1], wz = gyro[2] - x[BG + 2];
@@ -67,9 +57,30 @@ inline void predict_transition(double* x, double* Pm, const double* gyro, const 
         x[P + i] += x[V + i] * dt + 0.5 * aw * dt * dt;
         x[V + i] += aw * dt;
     }
-    // --- covariance: P = F P Fᵀ + Q
+    w2 = wx * wx + wy * wy + wz * wz;
+    f2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
+}
+
+// P += Q dt (Solà eq. 262) for noise (6,); the scale-factor terms ε² |ω|² · 1 s and ε_a² |f|² · 1 s add to the
+// densities (model error proportional to the signal, as a white noise of 1 s correlation time).
+inline void add_process_noise(double* Pm, const double* noise, double dt, double w2, double f2) {
+    const double q_th = (noise[0] + noise[4] * w2) * dt, q_v = (noise[1] + noise[5] * f2) * dt;
+    for (int i = 0; i < 3; ++i) {
+        Pm[(DV + i) * (NE + 1)] += q_v;
+        Pm[(DTH + i) * (NE + 1)] += q_th;
+        Pm[(DBG + i) * (NE + 1)] += noise[2] * dt;
+        Pm[(DBA + i) * (NE + 1)] += noise[3] * dt;
+    }
+}
+
+// Propagate nominal state and covariance over dt with constant IMU input (Solà eq. 260, 269-270) and write the
+// error-state transition of the step (Solà eq. 269) to F (15, 15): P = F P Fᵀ + Q.
+inline void predict_transition(double* x, double* Pm, const double* gyro, const double* accel, double dt,
+                               const double* gravity, const double* noise, double* F) {
+    double w2, f2;
+    step_transition(x, gyro, accel, dt, gravity, F, w2, f2);
     congruence_sparse<NE>(F, Pm);
-    add_process_noise(Pm, noise, dt);
+    add_process_noise(Pm, noise, dt, w2, f2);
 }
 
 // Reprojection residual r = pixel − π(R_bcᵀ(R_wbᵀ(z − p) − p_bc)) (2,) and H = ∂π/∂δx (2, 15); returns the depth Z

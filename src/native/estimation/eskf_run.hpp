@@ -12,7 +12,7 @@ namespace dualpose::eskf {
 
 // Constants of one filter (set once).
 struct Config {
-    double gravity[3], noise[4];     // world gravity, m/s²; continuous-time variances [σ_g², σ_a², σ_bg², σ_ba²]
+    double gravity[3], noise[6];     // world gravity, m/s²; [σ_g², σ_a², σ_bg², σ_ba², ε_g², ε_a²] (eskf_kernels)
     double intr[4], q_bc[4], p_bc[3];  // camera [fx, fy, cx, cy], camera→body rotation xyzw, camera centre in body
     double sigma_px, gate;           // pixel σ, χ²(2) gate
 };
@@ -88,7 +88,7 @@ std::int64_t run(const RunArgs& a, const NodeRecord* rec);
 // The saved stream: one contiguous byte buffer [StreamHeader | Config | Filter], so that a byte copy saves it and
 // restores it.  STREAM_VERSION changes whenever the layout does.
 constexpr std::uint64_t STREAM_MAGIC = 0x31464b5345504455ULL;  // "UDPESKF1" little-endian
-constexpr std::uint64_t STREAM_VERSION = 1;
+constexpr std::uint64_t STREAM_VERSION = 2;  // 2: noise (6,) with the scale-factor terms
 struct StreamHeader {
     std::uint64_t magic, version, size, reserved;  // size: total bytes of the buffer
 };

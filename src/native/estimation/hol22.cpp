@@ -30,13 +30,14 @@ constexpr auto ct3w = convert<double, 3, true>;
 constexpr auto ci1 = convert<std::int64_t, 1>;
 constexpr auto ci1w = convert<std::int64_t, 1, true>;
 
-// The constants qdiag (22,), gravity (3,), R_imu (6, 6), intr (4,), p_bc (3,), Rcb (3, 3).
+// The constants qdiag (22,), gravity (3,), R_imu (6, 6), scale2 (2,), intr (4,), p_bc (3,), Rcb (3, 3).
 struct ConfigArrays {
-    V1 qdiag, gravity, intr, p_bc;
+    V1 qdiag, gravity, scale2, intr, p_bc;
     M2 R_imu, Rcb;
     bool ok() const {
         return shape_is("qdiag", qdiag, {N}) && shape_is("gravity", gravity, {3}) &&
-               shape_is("R_imu", R_imu, {6, 6}) && shape_is("intr", intr, {4}) && shape_is("p_bc", p_bc, {3}) &&
+               shape_is("R_imu", R_imu, {6, 6}) && shape_is("scale2", scale2, {2}) && shape_is("intr", intr, {4}) &&
+               shape_is("p_bc", p_bc, {3}) &&
                shape_is("Rcb", Rcb, {3, 3});
     }
     Config config(double sigma_px, double gate) const {
@@ -44,6 +45,7 @@ struct ConfigArrays {
         std::copy(qdiag.data, qdiag.data + N, c.qdiag);
         std::copy(gravity.data, gravity.data + 3, c.gravity);
         std::copy(R_imu.data, R_imu.data + 36, c.R_imu);
+        std::copy(scale2.data, scale2.data + 2, c.scale2);
         std::copy(intr.data, intr.data + 4, c.intr);
         std::copy(p_bc.data, p_bc.data + 3, c.p_bc);
         std::copy(Rcb.data, Rcb.data + 9, c.Rcb);
@@ -61,9 +63,10 @@ PyObject* hol22_run(PyObject*, PyObject* args) {
     T3w Ps;
     I1w acc;
     double sigma_px, gate;
-    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&O&O&O&O&O&O&O&O&ddO&O&O&O&:hol22_run", cv1, &ba.t, cm2, &ba.gyro, cm2,
+    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&O&O&O&O&O&O&O&O&O&ddO&O&O&O&:hol22_run", cv1, &ba.t, cm2, &ba.gyro, cm2,
                           &ba.accel, cv1, &ba.cam_t, ci1, &ba.offsets, cm2, &ba.pixels, cm2, &ba.points, cv1w, &x,
-                          cm2w, &P, cv1, &ca.qdiag, cv1, &ca.gravity, cm2, &ca.R_imu, cv1, &ca.intr, cv1, &ca.p_bc,
+                          cm2w, &P, cv1, &ca.qdiag, cv1, &ca.gravity, cm2, &ca.R_imu, cv1, &ca.scale2, cv1, &ca.intr,
+                          cv1, &ca.p_bc,
                           cm2, &ca.Rcb, &sigma_px, &gate, cm2w, &X, ct3w, &Ps, cv1w, &nis, ci1w, &acc))
         return nullptr;
     const npy_intp n = ba.t.shape[0], m = ba.pixels.shape[0];
@@ -92,8 +95,8 @@ PyObject* stream_new(PyObject*, PyObject* args) {
     M2 P;
     ConfigArrays ca;
     double sigma_px, gate;
-    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&O&dd:hol22_stream_new", cv1, &x, cm2, &P, cv1, &ca.qdiag, cv1,
-                          &ca.gravity, cm2, &ca.R_imu, cv1, &ca.intr, cv1, &ca.p_bc, cm2, &ca.Rcb, &sigma_px, &gate))
+    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&O&O&dd:hol22_stream_new", cv1, &x, cm2, &P, cv1, &ca.qdiag, cv1,
+                          &ca.gravity, cm2, &ca.R_imu, cv1, &ca.scale2, cv1, &ca.intr, cv1, &ca.p_bc, cm2, &ca.Rcb, &sigma_px, &gate))
         return nullptr;
     if (!shape_is("x", x, {N}) || !shape_is("P", P, {N, N}) || !ca.ok()) return nullptr;
     PyObject* out = stream::new_buffer<Stream>(stream_kind);
@@ -158,11 +161,12 @@ PyObject* stream_get(PyObject*, PyObject* args) {
 
 PyMethodDef hol22_methods[] = {
     {"hol22_run", hol22_run, METH_VARARGS,
-     "hol22_run(t, gyro, accel, cam_t, offsets, pixels, points, x, P, qdiag, gravity, R_imu, intr, p_bc, Rcb, "
+     "hol22_run(t, gyro, accel, cam_t, offsets, pixels, points, x, P, qdiag, gravity, R_imu, scale2, intr, p_bc, Rcb, "
      "sigma_px, gate, X, Ps, nis_out, acc_out): Hol's Algorithm 1 over a recording (dualpose.estimation.hol22); x, "
      "P, X, Ps, nis_out, acc_out written in place.  The GIL is released."},
     {"hol22_stream_new", stream_new, METH_VARARGS,
-     "hol22_stream_new(x, P, qdiag, gravity, R_imu, intr, p_bc, Rcb, sigma_px, gate) -> state: a new Hol22 stream "
+     "hol22_stream_new(x, P, qdiag, gravity, R_imu, scale2, intr, p_bc, Rcb, sigma_px, gate) -> state: a new Hol22 "
+     "stream "
      "(numpy.uint8 array: layout header, constants, filter state) before its first sample."},
     {"hol22_stream_imu", reinterpret_cast<PyCFunction>(reinterpret_cast<void (*)()>(stream_imu)), METH_FASTCALL,
      "hol22_stream_imu(state, t, gyro, accel) -> x (22,): one IMU sample (time update, IMU update)."},

@@ -40,7 +40,19 @@ void imu_step(Filter& f, const Config& c, double t, const double* gyro, const do
     }
     time_update(f.x, f.P, t - f.tc, c.qdiag);
     f.tc = t;
-    imu_update(f.x, f.P, accel, gyro, c.gravity, c.R_imu);
+    if (c.scale2[0] != 0.0 || c.scale2[1] != 0.0) {  // scale-factor noise ∝ the measured signal (ImuNoise)
+        double R[36];
+        for (int i = 0; i < 36; ++i) R[i] = c.R_imu[i];
+        const double a2 = accel[0] * accel[0] + accel[1] * accel[1] + accel[2] * accel[2];
+        const double w2 = gyro[0] * gyro[0] + gyro[1] * gyro[1] + gyro[2] * gyro[2];
+        for (int i = 0; i < 3; ++i) {
+            R[7 * i] += c.scale2[1] * a2;
+            R[7 * (3 + i)] += c.scale2[0] * w2;
+        }
+        imu_update(f.x, f.P, accel, gyro, c.gravity, R);
+    } else {
+        imu_update(f.x, f.P, accel, gyro, c.gravity, c.R_imu);
+    }
     f.t_imu = t;
     ++f.samples;
 }

@@ -15,6 +15,7 @@ namespace dualpose::hol22 {
 struct Config {
     double qdiag[DIM];                  // process noise spectral densities (diagonal of Q / T)
     double gravity[3], R_imu[36];       // g^e, m/s²; accelerometer + gyroscope noise (6, 6)
+    double scale2[2];                   // [ε_g², ε_a²] · rate · 1 s: added to R_imu's gyro / accel diagonal × |z|²
     double intr[4], p_bc[3], Rcb[9];    // camera [fx, fy, cx, cy], camera centre in body, R^{cb} (3, 3)
     double sigma_px, gate;              // pixel σ, χ²(2) gate
 };
@@ -53,7 +54,7 @@ void run(const SensorBlock& b, const Config& c, double* x, double* P, double* X,
 // The saved stream: one contiguous byte buffer [StreamHeader | Config | Filter].  STREAM_VERSION changes whenever
 // the layout does.
 constexpr std::uint64_t STREAM_MAGIC = 0x3132484c4f504455ULL;  // "UDPOLH21" little-endian
-constexpr std::uint64_t STREAM_VERSION = 1;
+constexpr std::uint64_t STREAM_VERSION = 2;  // 2: Config.scale2
 struct StreamHeader {
     std::uint64_t magic, version, size, reserved;
 };

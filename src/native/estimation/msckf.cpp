@@ -174,10 +174,10 @@ bool triangulate(const std::vector<CamPose>& cams, const std::int64_t* ci, const
 // the exact Jacobian of the trapezoidal step when x0 is the current state.  It maps the unobservable directions
 // of the first estimates (global position, yaw about gravity: N_θ = R0ᵀ g, N_v = −[v0]× g, N_p = −[p0]× g; Hesch
 // et al. 2014) onto those of the new state, so that propagation adds no information along them.
-inline void fej_step(double* x, const double* x0, double* Pm, double* Pscratch, const double* gyro,
-                     const double* accel, double dt, const double* gravity, const double* noise, double* F) {
-    std::copy(Pm, Pm + NE * NE, Pscratch);
-    predict_transition(x, Pscratch, gyro, accel, dt, gravity, noise, F);
+inline void fej_step(double* x, const double* x0, double* Pm, const double* gyro, const double* accel, double dt,
+                     const double* gravity, const double* noise, double* F) {
+    double w2, f2;
+    step_transition(x, gyro, accel, dt, gravity, F, w2, f2);
     double R0[9], R1[9];
     rotmat_xyzw(x0[Q], x0[Q + 1], x0[Q + 2], x0[Q + 3], R0);
     rotmat_xyzw(x[Q], x[Q + 1], x[Q + 2], x[Q + 3], R1);
@@ -199,7 +199,7 @@ inline void fej_step(double* x, const double* x0, double* Pm, double* Pscratch, 
             F[(DTH + i) * NE + DTH + j] = T[3 * i + j];
         }
     congruence_sparse<NE>(F, Pm);
-    add_process_noise(Pm, noise, dt);
+    add_process_noise(Pm, noise, dt, w2, f2);
 }
 
 // msckf_propagate(x, x0, P, Phi, gyro (k, 3), accel (k, 3), dt (k,), gravity, noise, X (k, 16)): k steps of the ESKF
@@ -219,15 +219,15 @@ PyObject* py_propagate(PyObject*, PyObject* args) {
     const npy_intp k = dt.shape[0];
     if (!shape_is("x", x, {NX}) || !shape_is("x0", x0, {NX}) || !shape_is("P", Pm, {NE, NE}) ||
         !shape_is("Phi", Phi, {NE, NE}) || !shape_is("gyro", gyro, {k, 3}) || !shape_is("accel", accel, {k, 3}) ||
-        !shape_is("gravity", gravity, {3}) || !shape_is("noise", noise, {4}) || !shape_is("X", X, {k, NX}))
+        !shape_is("gravity", gravity, {3}) || !shape_is("noise", noise, {6}) || !shape_is("X", X, {k, NX}))
         return nullptr;
-    double F[NE * NE], T[NE * NE], Ps[NE * NE], start[NX];
+    double F[NE * NE], T[NE * NE], start[NX];
     std::fill(Phi.data, Phi.data + NE * NE, 0.0);
     for (int i = 0; i < NE; ++i) Phi.data[i * (NE + 1)] = 1.0;
     Py_BEGIN_ALLOW_THREADS;
     std::copy(x0.data, x0.data + NX, start);
     for (npy_intp s = 0; s < k; ++s) {
-        fej_step(x.data, start, Pm.data, Ps, gyro.row(s), accel.row(s), dt[s], gravity.data, noise.data, F);
+        fej_step(x.data, start, Pm.data, gyro.row(s), accel.row(s), dt[s], gravity.data, noise.data, F);
         std::copy(x.data, x.data + NX, start);
         mul_sparse_left<NE, NE, NE>(F, Phi.data, T);
         std::copy(T, T + NE * NE, Phi.data);
