@@ -12,14 +12,15 @@ State (docs/vio.md):
   times (stochastic cloning), each with a 6-dof error ``[δp, δθ]`` (:data:`MSCKF_CLONE_ERROR`); the full
   covariance is ``(15 + 6C, 15 + 6C)``.
 
-No landmark enters the state.  A feature is used once, when its track ends or when its oldest observation would
-leave the window: it is triangulated from the window (linear midpoint, then Gauss–Newton on the inverse depth in
-its first camera), its reprojection residuals are linearised at the clones' *first estimates* (FEJ, Huang et al.
-2010: the values the clones had when they were taken, so that the linearisation keeps the four unobservable
-directions -- position and yaw -- unobservable), the feature Jacobian is removed by projecting onto its left
-nullspace (Givens rotations), and the ``2m − 3`` projected rows pass a per-feature χ² gate.  The accepted rows of
-all features of a frame are stacked, compressed by a QR decomposition when they outnumber the state, and fused in
-one EKF update (Joseph form).  All per-feature work is the native ``msckf_features``.
+No landmark enters the state. A feature is used once, when its track ends or when its oldest observation would leave
+the window: it is triangulated from the window (linear midpoint, then Gauss–Newton on the inverse depth in its first
+camera), its reprojection residuals are linearised at the clones' *first estimates* (FEJ, Huang et al. 2010: the
+values the clones had when they were taken) and the propagation's transition at the IMU state's first estimate (the
+propagated state before an update), so that the four unobservable directions -- position and yaw -- stay
+unobservable; the feature Jacobian is removed by projecting onto its left nullspace (Givens rotations), and the
+``2m − 3`` projected rows pass a per-feature χ² gate. The accepted rows of all features of a frame are stacked,
+compressed by a QR decomposition when they outnumber the state, and fused in one EKF update (Joseph form). All
+per-feature work is the native ``msckf_features``.
 
 The filter initialises itself from the rest period at the start (:meth:`MsckfVio.from_rest`): gravity direction
 and gyro bias from the static samples (:func:`~dualpose.estimation.initialization.static_alignment`), zero velocity,
@@ -58,6 +59,11 @@ class MsckfOptions:
     ``max_clones`` the window length (OpenVINS ``max_clones`` 11); ``min_track`` the fewest observations a feature
     needs to be used; ``gate_probability`` of the per-feature χ² gate; ``min_depth``, ``max_depth`` (m) and
     ``min_parallax`` (largest baseline over depth) the triangulation checks.
+
+    ``adaptive_sigma`` estimates the feature σ online from the filter's own residuals (covariance matching,
+    Mehra 1972; Mohamed & Schwarz 1999; docs/vio.md "Measurement noise"): the given σ is the starting value,
+    ``sigma_floor`` (a fraction of it) the lowest value, ``sigma_memory`` the number of residual rows the running
+    estimate remembers (its adaptation time constant in rows).
     """
 
     max_clones: int = 11
@@ -66,6 +72,9 @@ class MsckfOptions:
     min_depth: float = 0.1
     max_depth: float = 60.0
     min_parallax: float = 0.01
+    adaptive_sigma: bool = True
+    sigma_floor: float = 0.1
+    sigma_memory: float = 1000.0
 
     def __post_init__(self) -> None:
         if int(self.max_clones) != self.max_clones or self.max_clones < 2:
@@ -77,6 +86,9 @@ class MsckfOptions:
         if not 0.0 < self.min_depth < self.max_depth or not self.min_parallax >= 0.0:
             raise ValueError("need 0 < min_depth < max_depth and min_parallax >= 0; got "
                              f"{self.min_depth!r}, {self.max_depth!r}, {self.min_parallax!r}")  # fmt: skip
+        if not 0.0 < self.sigma_floor <= 1.0 or not self.sigma_memory > 0.0:
+            raise ValueError("need 0 < sigma_floor <= 1 and sigma_memory > 0; got "
+                             f"{self.sigma_floor!r}, {self.sigma_memory!r}")  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -122,7 +134,8 @@ class MsckfVio(EskfStateAccessors, Estimator):
     covariance : (15, 15) its error covariance.
     imu_noise : ImuNoise (continuous-time densities).
     q_bc, p_bc : camera axes (xyzw) and camera centre (m) in the IMU frame.
-    feature_sigma : σ of a normalised image coordinate.
+    feature_sigma : σ of a normalised image coordinate (the starting value when ``options.adaptive_sigma``; the
+        current one is ``feature_sigma``, its start ``nominal_sigma``).
     gravity : (3,) world gravity, m/s².  camera_time_offset : ``t_imu = t_cam + offset``, s.
     options : MsckfOptions.
     """
@@ -158,21 +171,23 @@ class MsckfVio(EskfStateAccessors, Estimator):
         self.P = 0.5 * (P + P.T)
         self.imu_noise = ImuNoise() if imu_noise is None else imu_noise
         n = self.imu_noise
-        # the ESKF prediction's noise vector (eskf_kernels.hpp): the four densities², then the scale-factor terms ε²
         self.noise = np.array([n.gyroscope_noise_density**2, n.accelerometer_noise_density**2,
                                n.gyroscope_random_walk**2, n.accelerometer_random_walk**2,
                                n.gyroscope_scale_sigma**2, n.accelerometer_scale_sigma**2])  # fmt: skip
         self.q_bc = dp.quat_normalize(np.asarray(q_bc, dtype=np.float64))
         self.p_bc = np.asarray(p_bc, dtype=np.float64).reshape(3)
         self.feature_sigma = float(feature_sigma)
+        self.nominal_sigma = float(feature_sigma)
         self.gravity = np.asarray(gravity, dtype=np.float64).reshape(3)
         self.camera_time_offset = float(camera_time_offset)
         self.options = MsckfOptions() if options is None else options
         o = self.options
         self._chi2 = np.r_[np.inf, chi2.ppf(o.gate_probability, np.arange(1, 2 * o.max_clones + 8))]
+        self._open_gate = np.full_like(self._chi2, np.inf)
         self._limits = np.array([o.min_depth, o.max_depth, o.min_parallax])
         self.time: float | None = None
         self._u = np.zeros(6)
+        self._x_fej: np.ndarray | None = None  # the state before the updates since the last propagation (FEJ)
         self.clones = np.zeros((0, 7))  # [p_wb, q_wb] per clone, oldest first
         self.clones_fej = np.zeros((0, 7))
         self.clone_t = np.zeros(0)
@@ -222,20 +237,24 @@ class MsckfVio(EskfStateAccessors, Estimator):
     STATE_VERSION = 2
 
     def state_dict(self) -> dict[str, np.ndarray]:
-        """Everything the filter needs to continue, as arrays (``np.savez`` writes it): the IMU state and the held
-        sample, the window (clones, first estimates, times, ids), the window's feature observations, the full
-        covariance, the settings.  :meth:`from_state_dict` continues bit for bit (one sample / frame at a time)."""
+        """Everything the filter needs to continue, as arrays (``np.savez`` writes it): the IMU state, its first
+        estimate (``x_fej``, NaN when none is pending) and the held sample, the window (clones, first estimates,
+        times, ids), the window's feature observations, the full covariance, the current and nominal feature σ, the
+        settings.  :meth:`from_state_dict` continues bit for bit (one sample / frame at a time)."""
         o = self.options
         return {
             "version": np.array(self.STATE_VERSION), "x": self.x.copy(), "P": self.P.copy(), "u": self._u.copy(),
-            "time": np.array(np.nan if self.time is None else self.time), "clones": self.clones.copy(),
+            "time": np.array(np.nan if self.time is None else self.time),
+            "x_fej": np.full(ESKF_STATE.dim, np.nan) if self._x_fej is None else self._x_fej.copy(),
+            "clones": self.clones.copy(),
             "clones_fej": self.clones_fej.copy(), "clone_t": self.clone_t.copy(), "clone_id": self._clone_id.copy(),
             "next_clone": np.array(self._next_clone), "ob_track": self._ob_track.copy(),
             "ob_clone": self._ob_clone.copy(), "ob_uv": self._ob_uv.copy(), "noise": self.noise.copy(),
             "q_bc": self.q_bc.copy(), "p_bc": self.p_bc.copy(), "gravity": self.gravity.copy(),
-            "feature_sigma": np.array(self.feature_sigma), "camera_time_offset": np.array(self.camera_time_offset),
+            "feature_sigma": np.array(self.feature_sigma), "nominal_sigma": np.array(self.nominal_sigma),
+            "camera_time_offset": np.array(self.camera_time_offset),
             "options": np.array([o.max_clones, o.min_track, o.gate_probability, o.min_depth, o.max_depth,
-                                 o.min_parallax]),
+                                 o.min_parallax, float(o.adaptive_sigma), o.sigma_floor, o.sigma_memory]),
         }  # fmt: skip
 
     @classmethod
@@ -247,18 +266,23 @@ class MsckfVio(EskfStateAccessors, Estimator):
                 raise ValueError(f"saved MSCKF state has layout version {int(d['version'])}; this is "
                                  f"{cls.STATE_VERSION}")  # fmt: skip
             o = np.asarray(d["options"], dtype=np.float64)
-            opts = MsckfOptions(int(o[0]), int(o[1]), float(o[2]), float(o[3]), float(o[4]), float(o[5]))
+            opts = MsckfOptions(int(o[0]), int(o[1]), float(o[2]), float(o[3]), float(o[4]), float(o[5]), bool(o[6]),
+                                float(o[7]), float(o[8]))
             noise = np.asarray(d["noise"], dtype=np.float64)
-            g, a, g_rw, a_rw, g_scale, a_scale = np.sqrt(noise).tolist()
-            imu = ImuNoise(g, g_rw, a, a_rw, gyroscope_scale_sigma=g_scale, accelerometer_scale_sigma=a_scale)
+            sd = np.sqrt(noise)
+            imu = ImuNoise(*sd[[0, 2, 1, 3]].tolist(), gyroscope_scale_sigma=float(sd[4]),
+                           accelerometer_scale_sigma=float(sd[5]))  # fmt: skip
             P = np.array(d["P"], dtype=np.float64)
-            f = cls(np.array(d["x"]), P[:_NE, :_NE], imu, d["q_bc"], d["p_bc"], float(d["feature_sigma"]),
+            f = cls(np.array(d["x"]), P[:_NE, :_NE], imu, d["q_bc"], d["p_bc"], float(d["nominal_sigma"]),
                     d["gravity"], float(d["camera_time_offset"]), opts)  # fmt: skip
+            f.feature_sigma = float(d["feature_sigma"])
             f.noise = noise.copy()
             f.x = np.array(d["x"], dtype=np.float64)
             f.q_bc = np.array(d["q_bc"], dtype=np.float64)
             f.P = np.ascontiguousarray(P)
             f._u = np.array(d["u"], dtype=np.float64)
+            x_fej = np.array(d["x_fej"], dtype=np.float64)
+            f._x_fej = None if np.isnan(x_fej).any() else x_fej
             t = float(d["time"])
             f.time = None if np.isnan(t) else t
             f.clones = np.array(d["clones"], dtype=np.float64).reshape(-1, 7)
@@ -315,8 +339,10 @@ class MsckfVio(EskfStateAccessors, Estimator):
             return X
         Pii = np.ascontiguousarray(self.P[:_NE, :_NE])
         Phi = np.empty((_NE, _NE))
-        _native.msckf_propagate(self.x, Pii, Phi, np.ascontiguousarray(gyro), np.ascontiguousarray(accel),
+        x0 = self.x.copy() if self._x_fej is None else self._x_fej
+        _native.msckf_propagate(self.x, x0, Pii, Phi, np.ascontiguousarray(gyro), np.ascontiguousarray(accel),
                                 np.ascontiguousarray(dt, dtype=np.float64), self.gravity, self.noise, X)  # fmt: skip
+        self._x_fej = None
         self.P[:_NE, :_NE] = Pii
         if self.P.shape[0] > _NE:
             cross = Phi @ self.P[:_NE, _NE:]
@@ -384,6 +410,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
         IKH[np.diag_indices_from(IKH)] += 1.0
         P = IKH @ P @ IKH.T + K @ R @ K.T
         dx = K @ r
+        self._keep_first_estimate()
         self._inject(dx)
         # reset Jacobian of the IMU attitude error (Solà 2017 eq. 285-287), as the error-state filter applies it
         G = np.eye(len(dx))
@@ -392,6 +419,12 @@ class MsckfVio(EskfStateAccessors, Estimator):
         P = G @ P @ G.T
         self.P = 0.5 * (P + P.T)
         return nis
+
+    def _keep_first_estimate(self) -> None:
+        """Remember the propagated state before the first update at this time: the next propagation step's
+        transition is evaluated at it (first-estimates Jacobians, ``msckf_propagate``)."""
+        if self._x_fej is None:
+            self._x_fej = self.x.copy()
 
     def _inject(self, dx: np.ndarray) -> None:
         x = self.x
@@ -414,31 +447,34 @@ class MsckfVio(EskfStateAccessors, Estimator):
         if t > self.time:
             self._steps(self._u[None, :3], self._u[None, 3:], np.array([t - self.time]))
             self.time = t
-        return self._frame_update(frame)
+        return self._frame_update(frame.track_id, frame.uv)
 
-    def _frame_update(self, frame: TrackFrame) -> TrackUpdate:
+    def _frame_update(self, track_id: np.ndarray, uv: np.ndarray) -> TrackUpdate:
+        """Clone, update with the tracks that end or leave the window, marginalise; a frame's ``track_id`` (m,)
+        int64 and normalised ``uv`` (m, 2)."""
         o = self.options
         self._clone(self.time)
         cid = self._clone_id[-1]
-        lost = np.setdiff1d(self._ob_track, frame.track_id)
-        self._ob_track = np.concatenate([self._ob_track, frame.track_id])
-        self._ob_clone = np.concatenate([self._ob_clone, np.full(len(frame.track_id), cid)])
-        self._ob_uv = np.vstack([self._ob_uv, frame.uv])
+        use = np.zeros(len(self._ob_track) + len(track_id), bool)  # the observations of the tracks to use
+        use[: len(self._ob_track)] = ~np.isin(self._ob_track, track_id)  # tracks that ended
+        self._ob_track = np.concatenate([self._ob_track, track_id])
+        self._ob_clone = np.concatenate([self._ob_clone, np.full(len(track_id), cid)])
+        self._ob_uv = np.concatenate([self._ob_uv, uv])
         full = len(self.clones) > o.max_clones
-        use = lost
-        if full:
-            use = np.union1d(lost, self._ob_track[self._ob_clone == self._clone_id[0]])
+        if full:  # and the tracks seen in the oldest clone, which leaves the window
+            use |= np.isin(self._ob_track, self._ob_track[self._ob_clone == self._clone_id[0]])
         result = self._features_update(use)
-        self._keep_obs(~np.isin(self._ob_track, use))
+        self._keep_obs(~use)
         if full:
             self._drop_oldest_clone()
         return result
 
-    def _features_update(self, tracks: np.ndarray) -> TrackUpdate:
+    def _features_update(self, use: np.ndarray) -> TrackUpdate:
+        """Update with the window's observations ``use`` (boolean, per observation; whole tracks)."""
         empty = TrackUpdate(np.zeros(0), 0, np.zeros(0, bool))
-        if len(tracks) == 0:
+        rows = np.flatnonzero(use)
+        if len(rows) == 0:
             return empty
-        rows = np.flatnonzero(np.isin(self._ob_track, tracks))
         order = rows[np.argsort(self._ob_track[rows], kind="stable")]
         _, count = np.unique(self._ob_track[order], return_counts=True)
         enough = count >= self.options.min_track
@@ -453,18 +489,45 @@ class MsckfVio(EskfStateAccessors, Estimator):
         cap = int(np.sum(2 * count[enough] - 3))
         H = np.empty((cap, n))
         r = np.empty(cap)
+        rvar = np.empty(cap)
         status = np.empty(g, np.int64)
         nis = np.empty(g)
         P = np.ascontiguousarray(self.P)
+        # the kernel with an open gate returns the rows of every triangulated feature: the σ estimate sees them all
+        # (a gate at the current σ would keep the small residuals and bias it low), the χ² gate is applied here
         m = _native.msckf_features(np.ascontiguousarray(self.clones), np.ascontiguousarray(self.clones_fej),
                                    self.q_bc, self.p_bc, offsets, obs_clone, np.ascontiguousarray(self._ob_uv[sel]),
-                                   P, self.feature_sigma, self._chi2, self._limits, H, r, status, nis)  # fmt: skip
+                                   P, self.feature_sigma, self._open_gate, self._limits, H, r, rvar, status,
+                                   nis)  # fmt: skip
         dof = 2 * count[enough] - 3
+        solved = status == 1
+        gated = solved & (nis > self._chi2[np.minimum(dof, len(self._chi2) - 1)])
+        status[gated] = 0
         accepted = status == 1
-        if m > 0:  # one update of all accepted rows (QR-compressed in the kernel when m > n)
+        if m > 0:
             self.P = P
-            _native.msckf_update(self.x, self.clones, self.P, H[:m], r[:m], self.feature_sigma)
+            sigma_next = self._adapted_sigma(r[:m], rvar[:m]) if self.options.adaptive_sigma else self.feature_sigma
+            keep = np.repeat(accepted[solved], dof[solved])
+            if keep.any():  # one update of all accepted rows (QR-compressed in the kernel when m > n)
+                self._keep_first_estimate()
+                Hk, rk = (H[:m], r[:m]) if keep.all() else (np.ascontiguousarray(H[:m][keep]), r[:m][keep])
+                _native.msckf_update(self.x, self.clones, self.P, Hk, rk, self.feature_sigma)
+            self.feature_sigma = sigma_next
         return TrackUpdate(nis, int(dof[accepted].sum()), accepted, feature_dof=dof, status=status)
+
+    def _adapted_sigma(self, r: np.ndarray, rvar: np.ndarray) -> float:
+        """The feature σ after this frame's residual rows ``r`` (m,) of every triangulated feature, before the
+        χ² gate, with their prior variances ``rvar`` (m,) ``= (H P Hᵀ)_ii`` (covariance matching, Mehra 1972 §IV;
+        Mohamed & Schwarz 1999 eq. 20): a nullspace-projected row has ``E[r_i²] = (H P Hᵀ)_ii + σ²`` (the
+        projection is orthonormal, so the noise stays ``σ² I``).  The frame's estimate is
+        ``σ̂² = (1.4826 med|r_i|)² − med (H P Hᵀ)_ii`` (median absolute deviation: robust to the outliers among
+        the rows), blended into the running value with weight ``m / (m + sigma_memory)``, floored at
+        ``sigma_floor`` × the nominal (starting) σ."""
+        o = self.options
+        s2 = (1.4826 * np.median(np.abs(r))) ** 2 - np.median(rvar)
+        w = len(r) / (len(r) + o.sigma_memory)
+        var = (1.0 - w) * self.feature_sigma**2 + w * max(s2, 0.0)
+        return float(max(np.sqrt(var), o.sigma_floor * self.nominal_sigma))
 
     # ------------------------------------------------------------------ a whole recording
     def run(self, recording: TrackRecording, start: int = 0) -> VioResult:
@@ -498,7 +561,8 @@ class MsckfVio(EskfStateAccessors, Estimator):
             if ft[j] > self.time:
                 self._steps(self._u[None, :3], self._u[None, 3:], np.array([ft[j] - self.time]))
                 self.time = float(ft[j])
-            res = self._frame_update(r.tracks.frame(j))
+            a, b = r.tracks.offsets[j], r.tracks.offsets[j + 1]  # the frame's rows (validated by FeatureTracks)
+            res = self._frame_update(r.tracks.track_id[a:b], r.tracks.uv[a:b])
             if self.time == t[k]:  # a frame at an IMU stamp: the output there is the state after the update
                 X[k] = self.x
             stats["used"] += int(np.sum(res.status == 1))

@@ -28,7 +28,8 @@ from dualpose.types.trajectory import Trajectory
 
 __all__ = ["VioRun", "is_track_data", "run_vio", "vio_metrics", "PIXEL_SIGMA", "OUTPUT_FILES"]
 
-#: σ of a tracked feature, pixels (OpenVINS' default ``up_msckf_sigma_px``), over the focal length
+#: starting σ of a tracked feature, pixels (OpenVINS' default ``up_msckf_sigma_px``), over the focal length; the
+#: filter then estimates it from its residuals (``MsckfOptions.adaptive_sigma``, docs/vio.md)
 PIXEL_SIGMA = 1.0
 #: files ``--out`` writes
 OUTPUT_FILES = ("trajectory.tum", "metrics.json", "trajectory.png")
@@ -76,8 +77,9 @@ def run_vio(data: str | os.PathLike | TrackRecording, truth: str | os.PathLike |
             options: MsckfOptions | None = None, pixel_sigma: float = PIXEL_SIGMA) -> VioRun:  # fmt: skip
     """Run the MSCKF on feature-track ``data`` (an EqVIO replay CSV or a :class:`~dualpose.types.TrackRecording`),
     scored against ``truth`` (a trajectory file any :func:`~dualpose.io.read_trajectory` format reads, e.g. EuRoC
-    ground truth, or a Trajectory) when given.  The feature σ is ``pixel_sigma`` over the focal length when the
-    recording knows it, the recording's own ``feature_sigma`` otherwise."""
+    ground truth, or a Trajectory) when given.  The starting feature σ is ``pixel_sigma`` over the focal length
+    when the recording knows it, the recording's own ``feature_sigma`` otherwise; the filter adapts it online
+    (metrics ``adapted_sigma_px``: its final value)."""
     t0 = time.perf_counter()
     rec = data if isinstance(data, TrackRecording) else read_eqvio_csv(data)
     if np.isfinite(rec.focal_length) and rec.focal_length > 0:
@@ -92,7 +94,8 @@ def run_vio(data: str | os.PathLike | TrackRecording, truth: str | os.PathLike |
         "data": rec.name, "estimator": "msckf", "start_s": float(rec.t[k]), "rest_s": float(rec.t[k] - rec.t[0]),
         "features_used": res.n_used, "features_gated": res.n_gated, "features_failed": res.n_failed,
         "mean_nis_per_dof": float(np.mean(res.nis / res.nis_dof)) if len(res.nis) else float("nan"),
-        "feature_sigma_px": float(rec.feature_sigma * rec.focal_length), "read_s": t_read,
+        "feature_sigma_px": float(rec.feature_sigma * rec.focal_length),
+        "adapted_sigma_px": float(f.feature_sigma * rec.focal_length), "read_s": t_read,
         "filter_s": res.wall_time, "realtime_factor": duration / res.wall_time if res.wall_time > 0 else float("inf"),
     }  # fmt: skip
     gt = None

@@ -15,10 +15,10 @@
 
 namespace dualpose::eskf {
 
-// Propagate nominal state and covariance over dt with constant IMU input (Solà eq. 260, 269-270) and write the
-// error-state transition of the step (Solà eq. 269) to F (15, 15): δx⁻_{k+1} ≈ F δx⁺_k.
-inline void predict_transition(double* x, double* Pm, const double* gyro, const double* accel, double dt,
-                               const double* gravity, const double* noise, double* F) {
+// Propagate the nominal state over dt with constant IMU input (Solà eq. 260) and write the error-state transition
+// of the step (Solà eq. 269) to F (15, 15): δx⁻_{k+1} ≈ F δx⁺_k; w2, f2 <- |ω|², |f|² of the bias-corrected input.
+inline void step_transition(double* x, const double* gyro, const double* accel, double dt, const double* gravity,
+                            double* F, double& w2, double& f2) {
     double R[9];
     rotmat_xyzw(x[Q], x[Q + 1], x[Q + 2], x[Q + 3], R);
     const double wx = gyro[0] - x[BG], wy = gyro[1] - x[BG + 1], wz = gyro[2] - x[BG + 2];
@@ -57,10 +57,13 @@ inline void predict_transition(double* x, double* Pm, const double* gyro, const 
         x[P + i] += x[V + i] * dt + 0.5 * aw * dt * dt;
         x[V + i] += aw * dt;
     }
-    // --- covariance: P = F P Fᵀ + Q; the scale-factor terms ε² |ω|² · 1 s and ε_a² |f|² · 1 s add to the densities
-    // (model error proportional to the signal, as a white noise of 1 s correlation time)
-    congruence_sparse<NE>(F, Pm);
-    const double w2 = wx * wx + wy * wy + wz * wz, f2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
+    w2 = wx * wx + wy * wy + wz * wz;
+    f2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
+}
+
+// P += Q dt (Solà eq. 262) for noise (6,); the scale-factor terms ε² |ω|² · 1 s and ε_a² |f|² · 1 s add to the
+// densities (model error proportional to the signal, as a white noise of 1 s correlation time).
+inline void add_process_noise(double* Pm, const double* noise, double dt, double w2, double f2) {
     const double q_th = (noise[0] + noise[4] * w2) * dt, q_v = (noise[1] + noise[5] * f2) * dt;
     for (int i = 0; i < 3; ++i) {
         Pm[(DV + i) * (NE + 1)] += q_v;
@@ -68,6 +71,16 @@ inline void predict_transition(double* x, double* Pm, const double* gyro, const 
         Pm[(DBG + i) * (NE + 1)] += noise[2] * dt;
         Pm[(DBA + i) * (NE + 1)] += noise[3] * dt;
     }
+}
+
+// Propagate nominal state and covariance over dt with constant IMU input (Solà eq. 260, 269-270) and write the
+// error-state transition of the step (Solà eq. 269) to F (15, 15): P = F P Fᵀ + Q.
+inline void predict_transition(double* x, double* Pm, const double* gyro, const double* accel, double dt,
+                               const double* gravity, const double* noise, double* F) {
+    double w2, f2;
+    step_transition(x, gyro, accel, dt, gravity, F, w2, f2);
+    congruence_sparse<NE>(F, Pm);
+    add_process_noise(Pm, noise, dt, w2, f2);
 }
 
 // Reprojection residual r = pixel − π(R_bcᵀ(R_wbᵀ(z − p) − p_bc)) (2,) and H = ∂π/∂δx (2, 15); returns the depth Z

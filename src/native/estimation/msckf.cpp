@@ -167,30 +167,68 @@ bool triangulate(const std::vector<CamPose>& cams, const std::int64_t* ci, const
     return true;
 }
 
-// msckf_propagate(x, P, Phi, gyro (k, 3), accel (k, 3), dt (k,), gravity, noise (6,), X (k, 16)): k steps of the ESKF
-// prediction with constant input per step (eskf::predict_transition), in place on x (16,) and the IMU covariance
-// P (15, 15); Phi (15, 15) <- the product of the step transitions, X[i] the state after step i.
+// One propagation step (eskf::predict_transition's nominal state) whose transition F is evaluated at the first
+// estimates x0 of the start position, velocity and attitude (FEJ; Huang, Mourikis & Roumeliotis 2010; OpenVINS'
+// propagator): with R0 = R(q0) and the new state x,
+//   F_θθ = R(q)ᵀ R0,   F_vθ = −[v − v0 − g dt]× R0,   F_pθ = −[p − p0 − v0 dt − ½ g dt²]× R0,
+// the exact Jacobian of the trapezoidal step when x0 is the current state.  It maps the unobservable directions
+// of the first estimates (global position, yaw about gravity: N_θ = R0ᵀ g, N_v = −[v0]× g, N_p = −[p0]× g; Hesch
+// et al. 2014) onto those of the new state, so that propagation adds no information along them.
+inline void fej_step(double* x, const double* x0, double* Pm, const double* gyro, const double* accel, double dt,
+                     const double* gravity, const double* noise, double* F) {
+    double w2, f2;
+    step_transition(x, gyro, accel, dt, gravity, F, w2, f2);
+    double R0[9], R1[9];
+    rotmat_xyzw(x0[Q], x0[Q + 1], x0[Q + 2], x0[Q + 3], R0);
+    rotmat_xyzw(x[Q], x[Q + 1], x[Q + 2], x[Q + 3], R1);
+    double dv[3], dpos[3];
+    for (int i = 0; i < 3; ++i) {
+        dv[i] = x[V + i] - x0[V + i] - gravity[i] * dt;
+        dpos[i] = x[P + i] - x0[P + i] - x0[V + i] * dt - 0.5 * gravity[i] * dt * dt;
+    }
+    const double Dv[9] = {0.0, -dv[2], dv[1], dv[2], 0.0, -dv[0], -dv[1], dv[0], 0.0};
+    const double Dp[9] = {0.0, -dpos[2], dpos[1], dpos[2], 0.0, -dpos[0], -dpos[1], dpos[0], 0.0};
+    double A[9], B[9], T[9];
+    mul33(Dv, R0, A);
+    mul33(Dp, R0, B);
+    mul_tn3(R1, R0, T);
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+            F[(DV + i) * NE + DTH + j] = -A[3 * i + j];
+            F[(DP + i) * NE + DTH + j] = -B[3 * i + j];
+            F[(DTH + i) * NE + DTH + j] = T[3 * i + j];
+        }
+    congruence_sparse<NE>(F, Pm);
+    add_process_noise(Pm, noise, dt, w2, f2);
+}
+
+// msckf_propagate(x, x0, P, Phi, gyro (k, 3), accel (k, 3), dt (k,), gravity, noise, X (k, 16)): k steps of the ESKF
+// prediction with constant input per step, in place on x (16,) and the IMU covariance P (15, 15), the transitions
+// at first estimates (fej_step): x0 (16,) those of the start (the state before the last update), then each step's
+// own start; Phi (15, 15) <- the product of the step transitions, X[i] the state after step i.
 PyObject* py_propagate(PyObject*, PyObject* args) {
-    Array<double, 1, true> x, X0;
+    Array<double, 1, true> x;
     Array<double, 2, true> Pm, Phi, X;
     Array<double, 2> gyro, accel;
-    Array<double, 1> dt, gravity, noise;
-    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&O&O&:msckf_propagate", convert<double, 1, true>, &x,
-                          convert<double, 2, true>, &Pm, convert<double, 2, true>, &Phi, convert<double, 2>, &gyro,
-                          convert<double, 2>, &accel, convert<double, 1>, &dt, convert<double, 1>, &gravity,
-                          convert<double, 1>, &noise, convert<double, 2, true>, &X))
+    Array<double, 1> x0, dt, gravity, noise;
+    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&O&O&O&:msckf_propagate", convert<double, 1, true>, &x,
+                          convert<double, 1>, &x0, convert<double, 2, true>, &Pm, convert<double, 2, true>, &Phi,
+                          convert<double, 2>, &gyro, convert<double, 2>, &accel, convert<double, 1>, &dt,
+                          convert<double, 1>, &gravity, convert<double, 1>, &noise, convert<double, 2, true>, &X))
         return nullptr;
     const npy_intp k = dt.shape[0];
-    if (!shape_is("x", x, {NX}) || !shape_is("P", Pm, {NE, NE}) || !shape_is("Phi", Phi, {NE, NE}) ||
-        !shape_is("gyro", gyro, {k, 3}) || !shape_is("accel", accel, {k, 3}) || !shape_is("gravity", gravity, {3}) ||
-        !shape_is("noise", noise, {6}) || !shape_is("X", X, {k, NX}))
+    if (!shape_is("x", x, {NX}) || !shape_is("x0", x0, {NX}) || !shape_is("P", Pm, {NE, NE}) ||
+        !shape_is("Phi", Phi, {NE, NE}) || !shape_is("gyro", gyro, {k, 3}) || !shape_is("accel", accel, {k, 3}) ||
+        !shape_is("gravity", gravity, {3}) || !shape_is("noise", noise, {6}) || !shape_is("X", X, {k, NX}))
         return nullptr;
-    double F[NE * NE], T[NE * NE];
+    double F[NE * NE], T[NE * NE], start[NX];
     std::fill(Phi.data, Phi.data + NE * NE, 0.0);
     for (int i = 0; i < NE; ++i) Phi.data[i * (NE + 1)] = 1.0;
     Py_BEGIN_ALLOW_THREADS;
+    std::copy(x0.data, x0.data + NX, start);
     for (npy_intp s = 0; s < k; ++s) {
-        predict_transition(x.data, Pm.data, gyro.row(s), accel.row(s), dt[s], gravity.data, noise.data, F);
+        fej_step(x.data, start, Pm.data, gyro.row(s), accel.row(s), dt[s], gravity.data, noise.data, F);
+        std::copy(x.data, x.data + NX, start);
         mul_sparse_left<NE, NE, NE>(F, Phi.data, T);
         std::copy(T, T + NE * NE, Phi.data);
         std::copy(x.data, x.data + NX, X.row(s));
@@ -201,29 +239,31 @@ PyObject* py_propagate(PyObject*, PyObject* args) {
 }
 
 // msckf_features(clones (C, 7), clones_fej (C, 7), q_bc, p_bc, offsets (G + 1,), obs_clone (M,), obs_uv (M, 2), P
-// (n, n), sigma, chi2 (D,), limits (3,) = [min_depth, max_depth, min_parallax], H (R, n), r (R,), status (G,),
-// nis (G,)) -> rows: the stacked nullspace-projected rows of the accepted features (status 1 accepted, 0 rejected
+// (n, n), sigma, chi2 (D,), limits (3,) = [min_depth, max_depth, min_parallax], H (R, n), r (R,), rvar (R,),
+// status (G,), nis (G,)) -> rows: the stacked nullspace-projected rows of the accepted features (rvar their prior
+// variances (H P Hᵀ)_ii, without the noise) (status 1 accepted, 0 rejected
 // by the gate, -1 triangulation failed, -2 too few observations); chi2[d] the gate for d degrees of freedom.
 PyObject* py_features(PyObject*, PyObject* args) {
     Array<double, 2> clones, fej, uv, Pm;
     Array<double, 1> q_bc, p_bc, chi2, limits;
     Array<std::int64_t, 1> offsets, oc;
     Array<double, 2, true> Hout;
-    Array<double, 1, true> rout, nis;
+    Array<double, 1, true> rout, rvar, nis;
     Array<std::int64_t, 1, true> status;
     double sigma;
-    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&O&dO&O&O&O&O&O&:msckf_features", convert<double, 2>, &clones,
+    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&O&dO&O&O&O&O&O&O&:msckf_features", convert<double, 2>, &clones,
                           convert<double, 2>, &fej, convert<double, 1>, &q_bc, convert<double, 1>, &p_bc,
                           convert<std::int64_t, 1>, &offsets, convert<std::int64_t, 1>, &oc, convert<double, 2>, &uv,
                           convert<double, 2>, &Pm, &sigma, convert<double, 1>, &chi2, convert<double, 1>, &limits,
                           convert<double, 2, true>, &Hout, convert<double, 1, true>, &rout,
-                          convert<std::int64_t, 1, true>, &status, convert<double, 1, true>, &nis))
+                          convert<double, 1, true>, &rvar, convert<std::int64_t, 1, true>, &status, convert<double, 1, true>, &nis))
         return nullptr;
     const npy_intp nc = clones.shape[0], n = Pm.shape[0], g = offsets.shape[0] - 1, m_all = oc.shape[0];
     if (!shape_is("clones", clones, {-1, 7}) || !shape_is("clones_fej", fej, {nc, 7}) ||
         !shape_is("q_bc", q_bc, {4}) || !shape_is("p_bc", p_bc, {3}) || !shape_is("obs_uv", uv, {m_all, 2}) ||
         !shape_is("P", Pm, {NE + 6 * nc, NE + 6 * nc}) || !shape_is("limits", limits, {3}) ||
-        !shape_is("H", Hout, {-1, n}) || !shape_is("r", rout, {Hout.shape[0]}) || !shape_is("status", status, {g}) ||
+        !shape_is("H", Hout, {-1, n}) || !shape_is("r", rout, {Hout.shape[0]}) ||
+        !shape_is("rvar", rvar, {Hout.shape[0]}) || !shape_is("status", status, {g}) ||
         !shape_is("nis", nis, {g}))
         return nullptr;
     for (npy_intp f = 0; f <= g; ++f)
@@ -250,7 +290,7 @@ PyObject* py_features(PyObject*, PyObject* args) {
         const double* q2 = clones.row(c) + 3;
         rotmat_xyzw(q2[0], q2[1], q2[2], q2[3], &Rwb[9 * c]);
     }
-    std::vector<double> Hx, Hf, res, H0, HP, S;
+    std::vector<double> Hx, Hf, res, H0, HP, S, diag;
     std::vector<int> piv;
     const double s2 = sigma * sigma;
     for (npy_intp f = 0; f < g; ++f) {
@@ -367,6 +407,8 @@ PyObject* py_features(PyObject*, PyObject* args) {
                 for (npy_intp k = NE; k < n; ++k) s += HP[i * n + k] * h0[jj * n + k];
                 S[i * dof + jj] = s + (i == jj ? s2 : 0.0);
             }
+        diag.resize(dof);
+        for (npy_intp i = 0; i < dof; ++i) diag[i] = S[i * dof + i] - s2;
         piv.assign(dof, 0);
         std::vector<double> y(r0, r0 + dof);
         if (!lu_factor<0>(S.data(), static_cast<int>(dof), piv.data())) {
@@ -385,6 +427,7 @@ PyObject* py_features(PyObject*, PyObject* args) {
         status[f] = 1;
         std::copy(h0, h0 + dof * n, Hout.row(rows));
         std::copy(r0, r0 + dof, rout.data + rows);
+        std::copy(diag.begin(), diag.end(), rvar.data + rows);
         rows += dof;
     }
     Py_END_ALLOW_THREADS;
@@ -547,12 +590,12 @@ PyObject* py_update(PyObject*, PyObject* args) {
 
 PyMethodDef methods[] = {
     {"msckf_propagate", py_propagate, METH_VARARGS,
-     "msckf_propagate(x, P, Phi, gyro, accel, dt, gravity, noise, X): k ESKF prediction steps in place on x (16,) "
+     "msckf_propagate(x, x0, P, Phi, gyro, accel, dt, gravity, noise, X): k ESKF prediction steps in place on x (16,) "
      "and P (15, 15); Phi (15, 15) the product of the step transitions, X (k, 16) the state after every step."},
     {"msckf_features", py_features, METH_VARARGS,
-     "msckf_features(clones, clones_fej, q_bc, p_bc, offsets, obs_clone, obs_uv, P, sigma, chi2, limits, H, r, "
+     "msckf_features(clones, clones_fej, q_bc, p_bc, offsets, obs_clone, obs_uv, P, sigma, chi2, limits, H, r, rvar, "
      "status, nis) -> rows: triangulate, linearise (FEJ), nullspace-project and gate every feature; the accepted "
-     "rows stacked in H (R, n) and r (R,)."},
+     "rows stacked in H (R, n) and r (R,), their prior variances (H P Hᵀ)_ii in rvar (R,)."},
     {"msckf_update", py_update, METH_VARARGS,
      "msckf_update(x, clones, P, H, r, sigma) -> nis: EKF update (QR-compressed when H has more rows than columns) "
      "of the IMU state x (16,), the clones (C, 7) and P (15 + 6C, 15 + 6C) in place, noise sigma² I."},
