@@ -5,8 +5,6 @@ benchmarks/calibrate_euroc.py)."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -16,8 +14,9 @@ from dualpose.calibration.camera_imu import calibrate_camera_imu
 from dualpose.types.camera import FrameCorrespondences
 from dualpose.types.camera_models import RadTanCamera
 from dualpose.types.imu import ImuNoise
+from realdata import data_dir
 
-EUROC = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "euroc" / "imu_april"
+EUROC = data_dir("euroc/imu_april", full=True)
 
 def _simulated(seed: int, pixel_sigma: float = 0.3, time_offset: float = 0.004):
     """The eight-shaped run at 200 Hz with its pinhole pixels re-projected through a radial–tangential camera."""
