@@ -5,14 +5,21 @@ Each subcommand lives in its own module under :mod:`dualpose.cli` and exposes tw
 line in :data:`SUBCOMMANDS`; the modules import nothing heavy at module level: their computations are imported in
 ``run`` from :mod:`dualpose.pipelines` and the layers below.
 
-Exit status: 0 success, 1 bad data (a file that cannot be read or evaluated), 2 usage errors (argparse), and 141
+Exit status: 0 success, 1 bad data (a file that cannot be read or evaluated), 2 usage errors (argparse), 130
+(128 + SIGINT) on Ctrl-C, the normal way to stop ``--stream``: quietly, with every line already written kept, and 141
 (128 + SIGPIPE, what a C tool killed by SIGPIPE reports) when the reader of stdout goes away, as in
 ``dualpose eval R E --json | head -3``: the output is cut short quietly, without a ``BrokenPipeError`` traceback.
+
+The standard streams are made safe before a command runs (:func:`guard_standard_streams`): a closed standard input
+reads as empty, a closed standard output or error writes nowhere, and characters the output's encoding cannot carry
+(``σ``, ``≈`` or a file name on a ``cp1252`` / ``ascii`` terminal) are written as ``\\uXXXX`` escapes instead of
+raising ``UnicodeEncodeError``.
 """
 
 from __future__ import annotations
 
 import argparse
+import io
 import os
 import sys
 from types import ModuleType
@@ -36,9 +43,26 @@ def build_parser() -> argparse.ArgumentParser:
 
 #: exit status when stdout is a closed pipe (128 + SIGPIPE)
 EXIT_BROKEN_PIPE = 141
+#: exit status on Ctrl-C (128 + SIGINT)
+EXIT_INTERRUPTED = 130
+
+
+def guard_standard_streams() -> None:
+    """Make the standard streams safe to use: a stream the process was started without (``<&-``, ``>&-``: Python
+    sets it to ``None``) is replaced by an empty input or a sink, and text the output encoding cannot carry is
+    written with backslash escapes."""
+    if sys.stdin is None:
+        sys.stdin = io.StringIO("")
+    for name in ("stdout", "stderr"):
+        stream = getattr(sys, name)
+        if stream is None:
+            setattr(sys, name, open(os.devnull, "w", encoding="utf-8"))  # a sink for the life of the process
+        elif isinstance(stream, io.TextIOWrapper) and stream.errors == "strict":
+            stream.reconfigure(errors="backslashreplace")
 
 
 def main(argv: list[str] | None = None) -> int:
+    guard_standard_streams()
     try:
         args = build_parser().parse_args(argv)
         code = int(args._run(args))
@@ -53,6 +77,13 @@ def main(argv: list[str] | None = None) -> int:
         except (OSError, ValueError):  # pragma: no cover - stdout without a file descriptor
             pass
         return EXIT_BROKEN_PIPE
+    except KeyboardInterrupt:
+        # Ctrl-C: everything already written stays (each streamed line was flushed when written); no traceback
+        try:
+            sys.stdout.flush()
+        except (OSError, ValueError):
+            pass
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

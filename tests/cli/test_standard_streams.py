@@ -1,0 +1,70 @@
+"""The console script on unusual standard streams, as real processes: Ctrl-C stops a stream with exit 130 and no
+traceback (lines already written kept), a closed stdin reads as empty, a closed stdout writes nowhere, and an output
+encoding without ``σ``/``≈`` gets escapes instead of a ``UnicodeEncodeError``."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from _pipes import LineReader, dualpose_process
+
+import dualpose as dp
+
+#: one 6D sample line of ``dualpose ahrs --stream --no-mag`` (t, gyro rad/s, specific force m/s²)
+SAMPLE = "{t:.2f}, 0.01, -0.02, 0.03, 0.1, 0.2, 9.8\n"
+
+
+def _run(args: list[str], *, env: dict | None = None, encoding: str = "utf-8",
+         **streams) -> subprocess.CompletedProcess:
+    src = str(Path(dp.__file__).resolve().parents[1])
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([src, os.environ.get("PYTHONPATH", "")]), **(env or {}))
+    return subprocess.run([sys.executable, "-m", "dualpose.cli.main", *args], env=env, capture_output=not streams,
+                          encoding=encoding, timeout=120, **streams)  # fmt: skip
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
+def test_ctrl_c_stops_a_stream_quietly_with_exit_130() -> None:
+    proc = dualpose_process("ahrs", "--stream", "--rate", "100", "--no-mag", "--rest-seconds", "0")
+    reader = LineReader(proc)
+    for k in range(3):
+        proc.stdin.write(SAMPLE.format(t=0.01 * k))
+        proc.stdin.flush()
+        assert reader.readline().count(",") >= 4  # each line is out before the next goes in
+    proc.send_signal(signal.SIGINT)
+    code = proc.wait(timeout=60)
+    err = proc.stderr.read()
+    assert code == 130
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err
+
+
+def test_closed_stdin_reads_as_empty_input() -> None:
+    res = _run(["ahrs", "--stream", "--rate", "100", "--no-mag"], stdin=subprocess.DEVNULL,
+               stdout=subprocess.PIPE, stderr=subprocess.PIPE)  # fmt: skip
+    assert res.returncode == 0 and res.stdout == ""
+    # the stream started without a standard input at all (``<&-``): Python gives sys.stdin = None
+    code = "import sys; sys.stdin.close(); sys.stdin = None; from dualpose.cli.main import main; " \
+           "sys.exit(main(['ahrs', '--stream', '--rate', '100', '--no-mag']))"  # fmt: skip
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                         env=dict(os.environ, PYTHONPATH=str(Path(dp.__file__).resolve().parents[1])))  # fmt: skip
+    assert res.returncode == 0 and "Traceback" not in res.stderr
+
+
+def test_closed_stdout_writes_nowhere() -> None:
+    code = "import sys; sys.stdout.close(); sys.stdout = None; from dualpose.cli.main import main; " \
+           "sys.exit(main(['demo']))"  # fmt: skip
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                         env=dict(os.environ, PYTHONPATH=str(Path(dp.__file__).resolve().parents[1])))  # fmt: skip
+    assert res.returncode == 0 and "Traceback" not in res.stderr
+
+
+@pytest.mark.parametrize("encoding", ["ascii", "cp1252"])
+def test_output_encoding_without_greek_letters(encoding: str) -> None:
+    res = _run(["calibrate", "--poses", "2", "--seed", "1"], env={"PYTHONIOENCODING": encoding}, encoding=encoding)
+    assert res.returncode == 0, res.stderr
+    assert "UnicodeEncodeError" not in res.stderr and "Traceback" not in res.stderr
+    assert "\\u03c3" in res.stdout  # the σ of the table, escaped
