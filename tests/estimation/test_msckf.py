@@ -57,6 +57,21 @@ def test_features_kernel_on_exact_geometry(rng: np.random.Generator) -> None:
     assert rows == 0 and status[0] == -1
 
 
+def test_features_kernel_checks_the_gate_table(rng: np.random.Generator) -> None:
+    """An empty χ² table is refused (the gate of a feature with d dof reads chi2[min(d, D − 1)])."""
+    C = 4
+    clones = _clone_poses(rng, C)
+    q_bc, p_bc = np.array([0.0, 0.0, 0.0, 1.0]), np.zeros(3)
+    pc = sim.camera_points(clones[:, 3:], clones[:, :3], q_bc, p_bc, np.repeat([[0.2, 0.1, 3.0]], C, 0))
+    uv = pc[:, :2] / pc[:, 2:3]
+    n = 15 + 6 * C
+    H, r, rvar = np.empty((2 * C - 3, n)), np.empty(2 * C - 3), np.empty(2 * C - 3)
+    with pytest.raises(ValueError, match="chi2"):
+        _native.msckf_features(clones, clones.copy(), q_bc, p_bc, np.array([0, C]), np.arange(C), uv,
+                               np.eye(n) * 1e-4, 1e-3, np.empty(0), np.array([0.1, 60.0, 0.01]), H, r, rvar,
+                               np.empty(1, np.int64), np.empty(1))  # fmt: skip
+
+
 def _start(run: sim.SimulatedRun, rec, rng: np.random.Generator) -> MsckfVio:
     """The filter at t[0] from a draw of its prior around the truth (the estimator never sees the landmarks)."""
     tr = run.truth

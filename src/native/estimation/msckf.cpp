@@ -266,6 +266,10 @@ PyObject* py_features(PyObject*, PyObject* args) {
         !shape_is("rvar", rvar, {Hout.shape[0]}) || !shape_is("status", status, {g}) ||
         !shape_is("nis", nis, {g}))
         return nullptr;
+    if (chi2.shape[0] < 1) {  // the gate reads chi2[min(dof, D - 1)]
+        PyErr_SetString(PyExc_ValueError, "chi2 must have shape (D,) with D >= 1; got (0,)");
+        return nullptr;
+    }
     for (npy_intp f = 0; f <= g; ++f)
         if (offsets[f] < 0 || offsets[f] > m_all || (f < g && offsets[f] > offsets[f + 1])) {
             PyErr_SetString(PyExc_ValueError, "offsets must be nondecreasing within [0, len(obs_clone)]");
