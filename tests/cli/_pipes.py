@@ -14,12 +14,14 @@ import pytest
 import dualpose as dp
 
 
-def dualpose_process(*args: str, stdin=subprocess.PIPE) -> subprocess.Popen:
-    """``python -m dualpose.cli.main ARGS`` with text pipes (the dualpose the tests imported)."""
+def dualpose_process(*args: str, stdin=subprocess.PIPE, preexec_fn=None) -> subprocess.Popen:
+    """``python -m dualpose.cli.main ARGS`` with text pipes (the dualpose the tests imported); ``preexec_fn`` runs in
+    the child before it starts (POSIX)."""
     src = str(Path(dp.__file__).resolve().parents[1])
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([src, os.environ.get("PYTHONPATH", "")]))
     cmd = [sys.executable, "-m", "dualpose.cli.main", *args]
-    return subprocess.Popen(cmd, stdin=stdin, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, text=True)
+    return subprocess.Popen(cmd, stdin=stdin, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, text=True,
+                            preexec_fn=preexec_fn)  # fmt: skip
 
 
 def run_lines(lines: list[str], *args: str) -> tuple[int, str, str]:

@@ -29,7 +29,10 @@ def _run(args: list[str], *, env: dict | None = None, encoding: str = "utf-8",
 
 @pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
 def test_ctrl_c_stops_a_stream_quietly_with_exit_130() -> None:
-    proc = dualpose_process("ahrs", "--stream", "--rate", "100", "--no-mag", "--rest-seconds", "0")
+    # a child inherits an ignored SIGINT from a background job (as a CI runner may start us), and Python then leaves
+    # it ignored: give the child the default disposition, as a terminal's foreground process has
+    proc = dualpose_process("ahrs", "--stream", "--rate", "100", "--no-mag", "--rest-seconds", "0",
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # fmt: skip
     reader = LineReader(proc)
     for k in range(3):
         proc.stdin.write(SAMPLE.format(t=0.01 * k))
