@@ -141,3 +141,10 @@ def test_truth_is_refused_with_a_target_recording_and_a_stream(recording_dir, tm
                  "--truth", str(truth)]) == 2  # fmt: skip
     assert "--truth" in _error(capsys)
 
+
+
+def test_stream_with_a_missing_sensor_file_is_an_error_not_a_traceback(recording_dir, tmp_path):
+    _, calib, _, _ = recording_dir
+    code, _, err = run_lines([], "fuse", "--stream", "--sensors", str(tmp_path / "none.yaml"), "--calibration",
+                             str(calib))  # fmt: skip
+    assert code == 1 and "none.yaml" in err and "Traceback" not in err

@@ -262,7 +262,7 @@ def _run_target_stream(args: argparse.Namespace) -> int:
         rig = read_rig_sensors(args.sensors)
         cal = read_camera_imu_calibration(args.calibration)
         stream = TrackStream(rig, args.camera or "cam0", cal, args.filter)
-    except (RecordingError, ValueError) as exc:
+    except (RecordingError, ValueError, OSError) as exc:
         print(f"dualpose fuse: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1
     return write_flushed(stream_track_lines(sys.stdin, stream), "fuse")
