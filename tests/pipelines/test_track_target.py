@@ -215,3 +215,14 @@ def test_april_batch_and_stream_agree_bit_for_bit_on_a_cut(april, published_cali
                                                                                    published_calibration)))  # fmt: skip
     got = np.array([[float(v) for v in line.split(",")] for line in out])
     np.testing.assert_array_equal(got, np.column_stack([tr.t, tr.position, tr.quat]))
+
+
+@pytest.mark.parametrize("kind", ["imu", "cam"])
+def test_stream_refuses_lines_out_of_time_order_in_the_startup_window(simulated, kind):
+    src, cal, _, _ = simulated
+    lines = [line for line in stream_lines(src, cal, t_end=3.0) if line.strip()]
+    idx = [i for i, line in enumerate(lines) if line.startswith(kind)]
+    a, b = idx[20], idx[21]  # early: still inside the start-up window
+    lines[a], lines[b] = lines[b], lines[a]
+    with pytest.raises(ValueError, match=rf"stdin line {b + 1}: .*increase strictly"):
+        list(stream_track_lines(lines, TrackStream(src.rig, "cam0", cal)))

@@ -823,6 +823,9 @@ class TrackStream:
                 self._camera(t, np.asarray(a, dtype=np.float64).reshape(-1, 2), np.asarray(b, dtype=np.float64))
                 return []
             return [self._imu_step(t, a, b)]
+        buffered = self._cams if kind == "cam" else self._imu  # the filter checks the order once it runs
+        if buffered and not t > buffered[-1][0]:
+            raise ValueError(f"t must be finite and increase strictly: got {t!r} after {buffered[-1][0]!r}")
         if kind == "cam":
             raw = np.asarray(a, dtype=np.float64).reshape(-1, 2)
             self._cams.append((t, raw, np.asarray(b, dtype=np.float64).reshape(-1, 3)))
