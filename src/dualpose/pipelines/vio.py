@@ -93,7 +93,7 @@ def run_vio(data: str | os.PathLike | TrackRecording, truth: str | os.PathLike |
     metrics: dict = {
         "data": rec.name, "estimator": "msckf", "start_s": float(rec.t[k]), "rest_s": float(rec.t[k] - rec.t[0]),
         "features_used": res.n_used, "features_gated": res.n_gated, "features_failed": res.n_failed,
-        "mean_nis_per_dof": float(np.mean(res.nis / res.nis_dof)) if len(res.nis) else float("nan"),
+        "mean_nis_per_dof": float(np.mean(res.nis / res.nis_dof)) if len(res.nis) else None,
         "feature_sigma_px": float(rec.feature_sigma * rec.focal_length),
         "adapted_sigma_px": float(f.feature_sigma * rec.focal_length), "read_s": t_read,
         "filter_s": res.wall_time, "realtime_factor": duration / res.wall_time if res.wall_time > 0 else float("inf"),
