@@ -226,3 +226,14 @@ def test_stream_refuses_lines_out_of_time_order_in_the_startup_window(simulated,
     lines[a], lines[b] = lines[b], lines[a]
     with pytest.raises(ValueError, match=rf"stdin line {b + 1}: .*increase strictly"):
         list(stream_track_lines(lines, TrackStream(src.rig, "cam0", cal)))
+
+
+def test_outage_scores_of_a_window_without_frames_are_none_not_nan(simulated, simulated_setup):
+    import json
+
+    src, cal, _, ext = simulated
+    late = (1e4, 1e4 + 1.0)  # after the end of the recording: no reference frame inside
+    r = run_track(simulated_setup, "eskf", outages=[late], reference_extrinsics=ext)
+    w = r.metrics["outages"][0]
+    assert w["frames"] == 0 and w["position_rmse_m"] is None and w["rotation_rmse_deg"] is None
+    json.dumps(r.metrics, allow_nan=False)

@@ -653,8 +653,9 @@ def score_run(
         dist = np.linalg.norm(w.position, axis=1)
         windows.append({
             "start_s": float(a), "end_s": float(b), "frames": int(len(w.index)),
-            "position_rmse_m": w.position_rmse_m, "position_max_m": float(dist.max()) if len(dist) else None,
-            "rotation_rmse_deg": w.rotation_rmse_deg,
+            "position_rmse_m": w.position_rmse_m if len(dist) else None,
+            "position_max_m": float(dist.max()) if len(dist) else None,
+            "rotation_rmse_deg": w.rotation_rmse_deg if len(dist) else None,
             "rotation_max_deg": float(w.rotation_deg.max()) if len(w.index) else None,
         })  # fmt: skip
     metrics = {
