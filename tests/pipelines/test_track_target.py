@@ -237,3 +237,9 @@ def test_outage_scores_of_a_window_without_frames_are_none_not_nan(simulated, si
     w = r.metrics["outages"][0]
     assert w["frames"] == 0 and w["position_rmse_m"] is None and w["rotation_rmse_deg"] is None
     json.dumps(r.metrics, allow_nan=False)
+
+
+def test_an_outage_window_without_frames_is_refused(simulated):
+    src, cal, _, _ = simulated
+    with pytest.raises(ValueError, match=r"outage 10000:10001 s holds no frame"):
+        prepare_track(src, cal, "cam0", outages=[(3.0, 4.0), (1e4, 1e4 + 1.0)])

@@ -272,13 +272,19 @@ def startup(
 
 
 def _frames_outside(det: TargetDetections, outages: Sequence[tuple[float, float]], t_first: float) -> np.ndarray:
-    """Mask (F,) of the frames outside every outage window (s from ``t_first``, start inclusive, end exclusive)."""
+    """Mask (F,) of the frames outside every outage window (s from ``t_first``, start inclusive, end exclusive); a
+    ``ValueError`` for a window that holds no frame (it would delete nothing)."""
     keep = np.ones(len(det), bool)
     rel = det.t - t_first
     for a, b in outages:
         if not (math.isfinite(a) and math.isfinite(b) and b > a):
             raise ValueError(f"outage windows must be (start, end) seconds with end > start; got {(a, b)!r}")
-        keep &= ~((rel >= a) & (rel < b))
+        inside = (rel >= a) & (rel < b)
+        if not inside.any():
+            span = f"{rel[0]:.2f} to {rel[-1]:.2f} s" if len(rel) else "none"
+            raise ValueError(f"outage {a:g}:{b:g} s holds no frame of the camera (its frames: {span} from the first "
+                             "IMU sample)")  # fmt: skip
+        keep &= ~inside
     return keep
 
 
