@@ -173,6 +173,7 @@ def test_small_corner_file(tmp_path):
         ("100,1,2,3,4,5,0,0\n200,1,2,3,4,5,0,0\n100,1,2,3,4,5,0,1\n", 4, "earlier"),
         ("100,1,2,3,4,5,0,0\n100\n", 3, "timestamp-only row"),
         ("100\n100\n", 3, "repeated timestamp-only"),
+        ("100,1,2,3,4,5,7,1\n100,1,2,3,4,5,7,2\n100,9,9,3,4,5,7,1\n", 4, "tag 7 corner 1 appears twice"),
     ],
 )
 def test_malformed_corner_files(tmp_path, rows, line, message):
