@@ -129,3 +129,22 @@ def test_unknown_camera_on_imu_april(euroc_april, recording_dir, capsys):
     _, calib, _, _ = recording_dir
     assert main(["fuse", "--data", str(euroc_april), "--camera", "cam2", "--calibration", str(calib)]) == 1
     assert "available: cam0, cam1" in _error(capsys)
+
+
+def test_truth_is_refused_with_a_target_recording_and_a_stream(recording_dir, tmp_path, capsys):
+    rec, calib, _, _ = recording_dir
+    truth = tmp_path / "truth.tum"
+    truth.write_text("0 0 0 0 0 0 0 1\n")
+    assert main(["fuse", "--data", str(rec), "--calibration", str(calib), "--truth", str(truth)]) == 2
+    assert "--truth" in _error(capsys)
+    assert main(["fuse", "--stream", "--sensors", str(rec / "sensors.yaml"), "--calibration", str(calib),
+                 "--truth", str(truth)]) == 2  # fmt: skip
+    assert "--truth" in _error(capsys)
+
+
+
+def test_stream_with_a_missing_sensor_file_is_an_error_not_a_traceback(recording_dir, tmp_path):
+    _, calib, _, _ = recording_dir
+    code, _, err = run_lines([], "fuse", "--stream", "--sensors", str(tmp_path / "none.yaml"), "--calibration",
+                             str(calib))  # fmt: skip
+    assert code == 1 and "none.yaml" in err and "Traceback" not in err

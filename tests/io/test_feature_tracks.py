@@ -121,3 +121,14 @@ def test_bulk_and_line_by_line_parses_agree(euroc_v101) -> None:
     for name in ("t", "offsets", "track_id", "uv"):
         np.testing.assert_array_equal(getattr(a.tracks, name), getattr(b.tracks, name))
     assert a.meta == b.meta and a.feature_sigma == b.feature_sigma
+
+
+def test_eqvio_landmark_twice_in_a_frame_is_refused_with_its_line(tmp_path, euroc_v101) -> None:
+    path, _ = euroc_v101
+    lines = path.read_text().splitlines()
+    k = [i for i, line in enumerate(lines) if line.startswith("vision_feature,")][100]
+    lines.insert(k + 1, lines[k])  # the same feature observed twice in one frame
+    bad = tmp_path / "dup.csv"
+    bad.write_text("\n".join(lines) + "\n")
+    with pytest.raises(ValueError, match=rf"dup.csv:{k + 2}: landmark_id \d+ appears twice"):
+        read_eqvio_csv(bad)

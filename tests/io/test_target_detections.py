@@ -182,6 +182,7 @@ def test_small_corner_file(tmp_path):
         ("100,1,2,3,4,5,0,0\n200,1,2,3,4,5,0,0\n100,1,2,3,4,5,0,1\n", 4, "earlier"),
         ("100,1,2,3,4,5,0,0\n100\n", 3, "timestamp-only row"),
         ("100\n100\n", 3, "repeated timestamp-only"),
+        ("100,1,2,3,4,5,7,1\n100,1,2,3,4,5,7,2\n100,9,9,3,4,5,7,1\n", 4, "tag 7 corner 1 appears twice"),
     ],
 )
 def test_malformed_corner_files(tmp_path, rows, line, message):
@@ -271,6 +272,10 @@ cam1:
          "names camera 'cam3'"),
         (_SENSORS + "T_cam0_cam0: {data: [2, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]}\n", 8, "rigid transform"),
         ("- just\n- a list\n", 1, "mapping at the top level"),
+        (_SENSORS.replace("rate_hz: 100.0", "rate_hz: 0"), 1, r"imu0\.rate_hz: must be > 0"),
+        (_SENSORS.replace("rate_hz: 100.0", "rate_hz: -100.0"), 1, r"imu0\.rate_hz: must be > 0"),
+        (_SENSORS.replace("3e-3}", "3e-3, gravity_m_s2: 0}"), 2, r"imu0\.gravity_m_s2: must be > 0"),
+        (_SENSORS.replace("3e-3}", "3e-3, gravity_m_s2: -9.81}"), 2, r"imu0\.gravity_m_s2: must be > 0"),
     ],
 )  # fmt: skip
 def test_bad_sensor_files(tmp_path, text, line, message):

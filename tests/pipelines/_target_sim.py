@@ -42,7 +42,7 @@ def simulated_target_recording(seed: int = 0, pixel_sigma: float = 0.3, referenc
         cams["cam1"] = (run.q_bc, p1)
     detections = {}
     for name, (q_bc, p_bc) in cams.items():
-        pix, pts, counts = [], [], []
+        pix, pts, corner, counts = [], [], [], []
         for k in range(len(f.t)):
             ids = f.landmark_ids[f.offsets[k] : f.offsets[k + 1]]
             pw = run.landmarks[ids]
@@ -51,13 +51,14 @@ def simulated_target_recording(seed: int = 0, pixel_sigma: float = 0.3, referenc
             inside = (uv[:, 0] > 0) & (uv[:, 0] < CAMERA.width) & (uv[:, 1] > 0) & (uv[:, 1] < CAMERA.height)
             pix.append(uv[inside])
             pts.append(pw[inside])
+            corner.append(ids[inside])  # the landmark's index: unique within the frame
             counts.append(int(inside.sum()))
         offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
         fns = np.round(f.t * 1e9).astype(np.int64)
         m = int(offsets[-1])
-        ids = np.zeros(m, np.int64)
         detections[name] = TargetDetections(fns, seconds_from_ns(fns), offsets, np.concatenate(pix),
-                                            np.concatenate(pts), ids, ids.copy())  # fmt: skip
+                                            np.concatenate(pts), np.zeros(m, np.int64),
+                                            np.concatenate(corner).astype(np.int64))  # fmt: skip
     rig = RigSensors(cameras={n: CAMERA for n in cams}, camera_rates={n: 20.0 for n in cams},
                      imu_noise=run.imu_noise, imu_rate=run.imu_noise.update_rate,
                      gravity_magnitude=float(np.linalg.norm(run.gravity)), camera_extrinsics={})  # fmt: skip

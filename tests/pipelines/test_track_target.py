@@ -215,3 +215,31 @@ def test_april_batch_and_stream_agree_bit_for_bit_on_a_cut(april, published_cali
                                                                                    published_calibration)))  # fmt: skip
     got = np.array([[float(v) for v in line.split(",")] for line in out])
     np.testing.assert_array_equal(got, np.column_stack([tr.t, tr.position, tr.quat]))
+
+
+@pytest.mark.parametrize("kind", ["imu", "cam"])
+def test_stream_refuses_lines_out_of_time_order_in_the_startup_window(simulated, kind):
+    src, cal, _, _ = simulated
+    lines = [line for line in stream_lines(src, cal, t_end=3.0) if line.strip()]
+    idx = [i for i, line in enumerate(lines) if line.startswith(kind)]
+    a, b = idx[20], idx[21]  # early: still inside the start-up window
+    lines[a], lines[b] = lines[b], lines[a]
+    with pytest.raises(ValueError, match=rf"stdin line {b + 1}: .*increase strictly"):
+        list(stream_track_lines(lines, TrackStream(src.rig, "cam0", cal)))
+
+
+def test_outage_scores_of_a_window_without_frames_are_none_not_nan(simulated, simulated_setup):
+    import json
+
+    src, cal, _, ext = simulated
+    late = (1e4, 1e4 + 1.0)  # after the end of the recording: no reference frame inside
+    r = run_track(simulated_setup, "eskf", outages=[late], reference_extrinsics=ext)
+    w = r.metrics["outages"][0]
+    assert w["frames"] == 0 and w["position_rmse_m"] is None and w["rotation_rmse_deg"] is None
+    json.dumps(r.metrics, allow_nan=False)
+
+
+def test_an_outage_window_without_frames_is_refused(simulated):
+    src, cal, _, _ = simulated
+    with pytest.raises(ValueError, match=r"outage 10000:10001 s holds no frame"):
+        prepare_track(src, cal, "cam0", outages=[(3.0, 4.0), (1e4, 1e4 + 1.0)])

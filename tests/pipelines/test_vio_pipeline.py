@@ -32,3 +32,31 @@ def test_fuse_runs_the_msckf_on_feature_tracks(tmp_path, euroc_v101) -> None:
     assert again.returncode == 2 and "exists" in again.stderr
     bad = _fuse("--data", str(csv), "--smooth")
     assert bad.returncode == 2 and "--smooth" in bad.stderr
+
+
+def test_metrics_are_strict_json_when_no_feature_was_used(tmp_path, euroc_v101) -> None:
+    from dualpose.pipelines.vio import run_vio
+
+    csv, _ = euroc_v101
+    lines = csv.read_text().splitlines()
+    rest = [lines[0]] + [r for r in lines[1:] if r.startswith("meta") or float(r.split(",")[2]) < 3.0]  # at rest
+    short = tmp_path / "rest.csv"
+    short.write_text("\n".join(rest) + "\n")
+    m = run_vio(short).metrics
+    assert m["features_used"] == 0
+    json.dumps(m, allow_nan=False)  # no NaN in metrics.json / --json
+
+
+def test_a_missing_truth_file_is_reported_before_the_filter_runs(tmp_path, euroc_v101, monkeypatch) -> None:
+    import pytest
+
+    from dualpose.estimation.msckf import MsckfVio
+    from dualpose.pipelines.vio import run_vio
+
+    def no_run(*args, **kwargs):
+        raise AssertionError("the filter ran before the truth file was read")
+
+    monkeypatch.setattr(MsckfVio, "run", no_run)
+    csv, _ = euroc_v101
+    with pytest.raises(OSError, match="missing.csv"):
+        run_vio(csv, truth=tmp_path / "missing.csv")

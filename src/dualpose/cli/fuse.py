@@ -233,7 +233,7 @@ def run_stream(args: argparse.Namespace) -> int:
     used = [name for name, given in (("--data", args.data is not None), ("--seed", args.seed is not None),
                                      ("--out", args.out), ("--force", args.force), ("--json", args.json),
                                      ("--smooth", args.smooth), ("--out-bag", args.out_bag),
-                                     ("--outage", args.outage)) if given]  # fmt: skip
+                                     ("--outage", args.outage), ("--truth", args.truth)) if given]  # fmt: skip
     if used:
         return _usage_error(f"{', '.join(used)}: not used with --stream (it reads standard input)")
     if args.sensors is not None:
@@ -262,7 +262,7 @@ def _run_target_stream(args: argparse.Namespace) -> int:
         rig = read_rig_sensors(args.sensors)
         cal = read_camera_imu_calibration(args.calibration)
         stream = TrackStream(rig, args.camera or "cam0", cal, args.filter)
-    except (RecordingError, ValueError) as exc:
+    except (RecordingError, ValueError, OSError) as exc:
         print(f"dualpose fuse: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1
     return write_flushed(stream_track_lines(sys.stdin, stream), "fuse")
@@ -352,8 +352,8 @@ def run_target(args: argparse.Namespace) -> int:
     if args.calibration is None:
         return _usage_error(f"{args.data} is a calibration-target recording: give the camera-IMU calibration with "
                             "--calibration CALIB.json (dualpose calibrate camera-imu ... --json)")  # fmt: skip
-    used = [n for n, v in (("--seed", args.seed is not None), ("--smooth", args.smooth), ("--sensors", args.sensors))
-            if v]  # fmt: skip
+    used = [n for n, v in (("--seed", args.seed is not None), ("--smooth", args.smooth), ("--sensors", args.sensors),
+                           ("--truth", args.truth)) if v]  # fmt: skip
     if used:
         return _usage_error(f"{', '.join(used)}: not used with a calibration-target recording")
     if args.out_bag and not args.out:

@@ -95,6 +95,15 @@ def read_eqvio_csv(path: str | os.PathLike, _checked: bool = False) -> TrackReco
         _raise(f"{p}:{vis_lines[int(np.argmax(ids_f != np.round(ids_f)))]}: landmark_id must be a whole number")
     starts = np.flatnonzero(np.r_[True, np.diff(ft) > 0])
     offsets = np.r_[starts, len(ft)].astype(np.int64)
+    frame_of = np.cumsum(np.r_[False, np.diff(ft) > 0])
+    order = np.lexsort((ids_f, frame_of))  # stable: of two equal rows the later one comes second
+    twice = np.flatnonzero((np.diff(frame_of[order]) == 0) & (np.diff(ids_f[order]) == 0))
+    if len(twice):
+        if vis_lines is None:
+            return _read_eqvio_checked(path)
+        row = int(order[twice[0] + 1])
+        _raise(f"{p}:{vis_lines[row]}: landmark_id {int(ids_f[row])} appears twice in the frame at t_abs="
+               f"{vis[row, 0]!r}")
     tracks = FeatureTracks(ft[starts], offsets, ids_f.astype(np.int64), vis[:, 2:4])
     q_bc = np.array([meta_float(f"T_ci_q{c}") for c in "xyzw"])
     p_bc = np.array([meta_float(f"T_ci_t{c}") for c in "xyz"])

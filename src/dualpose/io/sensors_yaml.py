@@ -242,6 +242,9 @@ def read_rig_sensors(path: str | os.PathLike) -> RigSensors:
         rate = float(doc.get(("imu0", "rate_hz"), "number", required=False, default=math.nan))
         if "update_rate" in doc.data["imu0"]:
             rate = float(doc.get(("imu0", "update_rate"), "number"))
+        if math.isfinite(rate) and not rate > 0:  # NaN: not given
+            key = "update_rate" if "update_rate" in doc.data["imu0"] else "rate_hz"
+            raise doc.error(("imu0", key), f"must be > 0 Hz; got {rate}")
         values = {k: float(doc.get(("imu0", k), "number")) for k in _NOISE_KEYS}
         for k, v in values.items():
             if v < 0:
@@ -249,6 +252,8 @@ def read_rig_sensors(path: str | os.PathLike) -> RigSensors:
         default = ImuNoise()
         noise = ImuNoise(**values, update_rate=rate if math.isfinite(rate) else default.update_rate)
         gravity = float(doc.get(("imu0", "gravity_m_s2"), "number", required=False, default=math.nan))
+        if math.isfinite(gravity) and not gravity > 0:
+            raise doc.error(("imu0", "gravity_m_s2"), f"must be > 0 (the magnitude, m/s²); got {gravity}")
     target = dict(doc.get(("target",), "map", required=False, default={}))
     return RigSensors(
         cameras=cameras, camera_rates=rates, imu_noise=noise, imu_rate=rate, gravity_magnitude=gravity,

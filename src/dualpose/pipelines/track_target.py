@@ -272,13 +272,19 @@ def startup(
 
 
 def _frames_outside(det: TargetDetections, outages: Sequence[tuple[float, float]], t_first: float) -> np.ndarray:
-    """Mask (F,) of the frames outside every outage window (s from ``t_first``, start inclusive, end exclusive)."""
+    """Mask (F,) of the frames outside every outage window (s from ``t_first``, start inclusive, end exclusive); a
+    ``ValueError`` for a window that holds no frame (it would delete nothing)."""
     keep = np.ones(len(det), bool)
     rel = det.t - t_first
     for a, b in outages:
         if not (math.isfinite(a) and math.isfinite(b) and b > a):
             raise ValueError(f"outage windows must be (start, end) seconds with end > start; got {(a, b)!r}")
-        keep &= ~((rel >= a) & (rel < b))
+        inside = (rel >= a) & (rel < b)
+        if not inside.any():
+            span = f"{rel[0]:.2f} to {rel[-1]:.2f} s" if len(rel) else "none"
+            raise ValueError(f"outage {a:g}:{b:g} s holds no frame of the camera (its frames: {span} from the first "
+                             "IMU sample)")  # fmt: skip
+        keep &= ~inside
     return keep
 
 
@@ -653,8 +659,9 @@ def score_run(
         dist = np.linalg.norm(w.position, axis=1)
         windows.append({
             "start_s": float(a), "end_s": float(b), "frames": int(len(w.index)),
-            "position_rmse_m": w.position_rmse_m, "position_max_m": float(dist.max()) if len(dist) else None,
-            "rotation_rmse_deg": w.rotation_rmse_deg,
+            "position_rmse_m": w.position_rmse_m if len(dist) else None,
+            "position_max_m": float(dist.max()) if len(dist) else None,
+            "rotation_rmse_deg": w.rotation_rmse_deg if len(dist) else None,
             "rotation_max_deg": float(w.rotation_deg.max()) if len(w.index) else None,
         })  # fmt: skip
     metrics = {
@@ -823,6 +830,9 @@ class TrackStream:
                 self._camera(t, np.asarray(a, dtype=np.float64).reshape(-1, 2), np.asarray(b, dtype=np.float64))
                 return []
             return [self._imu_step(t, a, b)]
+        buffered = self._cams if kind == "cam" else self._imu  # the filter checks the order once it runs
+        if buffered and not t > buffered[-1][0]:
+            raise ValueError(f"t must be finite and increase strictly: got {t!r} after {buffered[-1][0]!r}")
         if kind == "cam":
             raw = np.asarray(a, dtype=np.float64).reshape(-1, 2)
             self._cams.append((t, raw, np.asarray(b, dtype=np.float64).reshape(-1, 3)))

@@ -80,6 +80,9 @@ def run_vio(data: str | os.PathLike | TrackRecording, truth: str | os.PathLike |
     ground truth, or a Trajectory) when given.  The starting feature σ is ``pixel_sigma`` over the focal length
     when the recording knows it, the recording's own ``feature_sigma`` otherwise; the filter adapts it online
     (metrics ``adapted_sigma_px``: its final value)."""
+    gt = None  # read first: a bad truth file is reported before the filter runs
+    if truth is not None:
+        gt = truth if isinstance(truth, Trajectory) else read_trajectory(truth)
     t0 = time.perf_counter()
     rec = data if isinstance(data, TrackRecording) else read_eqvio_csv(data)
     if np.isfinite(rec.focal_length) and rec.focal_length > 0:
@@ -93,14 +96,12 @@ def run_vio(data: str | os.PathLike | TrackRecording, truth: str | os.PathLike |
     metrics: dict = {
         "data": rec.name, "estimator": "msckf", "start_s": float(rec.t[k]), "rest_s": float(rec.t[k] - rec.t[0]),
         "features_used": res.n_used, "features_gated": res.n_gated, "features_failed": res.n_failed,
-        "mean_nis_per_dof": float(np.mean(res.nis / res.nis_dof)) if len(res.nis) else float("nan"),
+        "mean_nis_per_dof": float(np.mean(res.nis / res.nis_dof)) if len(res.nis) else None,
         "feature_sigma_px": float(rec.feature_sigma * rec.focal_length),
         "adapted_sigma_px": float(f.feature_sigma * rec.focal_length), "read_s": t_read,
         "filter_s": res.wall_time, "realtime_factor": duration / res.wall_time if res.wall_time > 0 else float("inf"),
     }  # fmt: skip
-    gt = None
-    if truth is not None:
-        gt = truth if isinstance(truth, Trajectory) else read_trajectory(truth)
+    if gt is not None:
         metrics.update(vio_metrics(gt, est))
     return VioRun(rec, res, est, metrics, gt)
 

@@ -170,7 +170,8 @@ def read_target_detections(path: str | os.PathLike) -> TargetDetections:
     RecordingError
         ``path:line: ...`` for a row with neither 8 fields nor only a timestamp, a non-integer timestamp, a
         non-number, a non-integer tag or corner index, a timestamp earlier than the row before (frames out of order
-        or not contiguous), a timestamp-only row inside a frame with corners, or a file without rows.
+        or not contiguous), a timestamp-only row inside a frame with corners, a corner (tag_id, corner_idx) twice in
+        one frame, or a file without rows.
     """
     p = check_path(path)
     with open(p, "rb") as f:
@@ -203,6 +204,14 @@ def read_target_detections(path: str | os.PathLike) -> TargetDetections:
     if bad.any():
         k = rest_rows[int(np.argmax(bad))]
         raise RecordingError(f"{p}:{linenos[k]}: tag_id and corner_idx must be whole numbers")
+    frame_c, tag_c, corner_c = frame_of_row[rest_rows], ids[:, 0], ids[:, 1]
+    order = np.lexsort((corner_c, tag_c, frame_c))  # stable: of two equal rows the later one comes second
+    same = np.flatnonzero((np.diff(frame_c[order]) == 0) & (np.diff(tag_c[order]) == 0)
+                          & (np.diff(corner_c[order]) == 0))  # fmt: skip
+    if same.size:
+        j = int(order[same[0] + 1])
+        raise RecordingError(f"{p}:{linenos[rest_rows[j]]}: tag {int(tag_c[j])} corner {int(corner_c[j])} appears "
+                             f"twice in the frame at {ns[rest_rows[j]]} ns")  # fmt: skip
     stamps_ns = ns[first]
     offsets = np.concatenate([[0], np.cumsum(corners_per_frame)]).astype(np.int64)
     return TargetDetections(
