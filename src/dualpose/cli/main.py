@@ -12,8 +12,8 @@ Exit status: 0 success, 1 bad data (a file that cannot be read or evaluated), 2 
 
 The standard streams are made safe before a command runs (:func:`guard_standard_streams`): a closed standard input
 reads as empty, a closed standard output or error writes nowhere, and characters the output's encoding cannot carry
-(``σ``, ``≈`` or a file name on a ``cp1252`` / ``ascii`` terminal) are written as ``\\uXXXX`` escapes instead of
-raising ``UnicodeEncodeError``.
+(``σ``, ``≈`` or a file name on a ``cp1252`` / ``ascii`` terminal) are written as backslash escapes (``σ`` as
+``\\u03c3``) instead of raising ``UnicodeEncodeError``.
 """
 
 from __future__ import annotations
