@@ -12,7 +12,7 @@ import dualpose as dp
 from dualpose import _native, sim
 from dualpose.estimation.consistency import nees_band
 from dualpose.estimation.eskf import initial_covariance
-from dualpose.estimation.msckf import MsckfVio, TrackUpdate
+from dualpose.estimation.msckf import MsckfOptions, MsckfVio, TrackUpdate
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
 from dualpose.types import ImuNoise
 from dualpose.types.features import TrackFrame
@@ -37,11 +37,12 @@ def test_features_kernel_on_exact_geometry(rng: np.random.Generator) -> None:
     n = 15 + 6 * C
     P = np.eye(n) * 1e-4
     H, r, rvar = np.empty((2 * C - 3, n)), np.empty(2 * C - 3), np.empty(2 * C - 3)
-    status, nis = np.empty(1, np.int64), np.empty(1)
+    status, nis, points = np.empty(1, np.int64), np.empty(1), np.empty((1, 3))
     gates = np.r_[np.inf, chi2.ppf(0.95, np.arange(1, 40))]
     rows = _native.msckf_features(clones, clones.copy(), q_bc, p_bc, np.array([0, C]), np.arange(C), uv, P, 1e-3,
-                                  gates, np.array([0.1, 60.0, 0.01]), H, r, rvar, status, nis)  # fmt: skip
+                                  gates, np.array([0.1, 60.0, 0.01]), H, r, rvar, status, nis, points)  # fmt: skip
     assert rows == 2 * C - 3 and status[0] == 1
+    np.testing.assert_allclose(points[0], pw, atol=1e-9)
     np.testing.assert_allclose(r, 0.0, atol=1e-9)
     np.testing.assert_allclose(rvar, np.einsum("ij,jk,ik->i", H, P, H), rtol=1e-10)
     assert nis[0] < 1e-9
@@ -53,8 +54,9 @@ def test_features_kernel_on_exact_geometry(rng: np.random.Generator) -> None:
     # no baseline: the same pose for every clone fails triangulation
     same = np.repeat(clones[:1], C, 0)
     rows = _native.msckf_features(same, same, q_bc, p_bc, np.array([0, C]), np.arange(C), np.repeat(uv[:1], C, 0),
-                                  P, 1e-3, gates, np.array([0.1, 60.0, 0.01]), H, r, rvar, status, nis)  # fmt: skip
-    assert rows == 0 and status[0] == -1
+                                  P, 1e-3, gates, np.array([0.1, 60.0, 0.01]), H, r, rvar, status, nis,
+                                  points)  # fmt: skip
+    assert rows == 0 and status[0] == -1 and np.isnan(points[0]).all()
 
 
 def test_features_kernel_checks_the_gate_table(rng: np.random.Generator) -> None:
@@ -69,10 +71,10 @@ def test_features_kernel_checks_the_gate_table(rng: np.random.Generator) -> None
     with pytest.raises(ValueError, match="chi2"):
         _native.msckf_features(clones, clones.copy(), q_bc, p_bc, np.array([0, C]), np.arange(C), uv,
                                np.eye(n) * 1e-4, 1e-3, np.empty(0), np.array([0.1, 60.0, 0.01]), H, r, rvar,
-                               np.empty(1, np.int64), np.empty(1))  # fmt: skip
+                               np.empty(1, np.int64), np.empty(1), np.empty((1, 3)))  # fmt: skip
 
 
-def _start(run: sim.SimulatedRun, rec, rng: np.random.Generator) -> MsckfVio:
+def _start(run: sim.SimulatedRun, rec, rng: np.random.Generator, options: MsckfOptions | None = None) -> MsckfVio:
     """The filter at t[0] from a draw of its prior around the truth (the estimator never sees the landmarks)."""
     tr = run.truth
     P0 = initial_covariance(imu_noise=run.imu_noise)
@@ -81,7 +83,7 @@ def _start(run: sim.SimulatedRun, rec, rng: np.random.Generator) -> MsckfVio:
                             quat=dp.quat_mul(tr["quat"][0], dp.quat_from_rotvec(e[6:9])),
                             gyro_bias=tr["gyro_bias"][0] + e[9:12],
                             accel_bias=tr["accel_bias"][0] + e[12:15])  # fmt: skip
-    f = MsckfVio(x, P0, run.imu_noise, run.q_bc, run.p_bc, rec.feature_sigma)
+    f = MsckfVio(x, P0, run.imu_noise, run.q_bc, run.p_bc, rec.feature_sigma, options=options)
     f.time, f._u = float(run.t[0]), np.r_[run.gyro[0], run.accel[0]]
     return f
 
@@ -118,9 +120,10 @@ def test_accuracy_and_nees_with_unknown_landmarks() -> None:
 
 
 def _unobservable_directions(f: MsckfVio) -> np.ndarray:
-    """(15 + 6C, 4) the error-state directions of a global translation (3) and a rotation about the vertical
+    """(15 + 6C + 3L, 4) the error-state directions of a global translation (3) and a rotation about the vertical
     through the origin (1) (Hesch et al. 2014), at the first estimates (the IMU state before a pending update, the
-    clones as taken); gravity along −z.  Local attitude error: a world rotation δψ ẑ is ``δθ = Rᵀ ẑ δψ``."""
+    clones as taken, the SLAM features as initialised); gravity along −z.  Local attitude error: a world rotation
+    δψ ẑ is ``δθ = Rᵀ ẑ δψ``."""
     z = np.array([0.0, 0.0, 1.0])
     x = f.x if f._x_fej is None else f._x_fej
     N = np.zeros((f.P.shape[0], 4))
@@ -132,6 +135,10 @@ def _unobservable_directions(f: MsckfVio) -> np.ndarray:
         N[o : o + 3, :3] = np.eye(3)
         N[o : o + 3, 3] = np.cross(z, clone[:3])
         N[o + 3 : o + 6, 3] = dp.matrix_from_quat(clone[3:]).T @ z
+    o = 15 + 6 * len(f.clones)
+    for i, p in enumerate(f.slam_fej):  # SLAM features: world points
+        N[o + 3 * i : o + 3 * i + 3, :3] = np.eye(3)
+        N[o + 3 * i : o + 3 * i + 3, 3] = np.cross(z, p)
     return N
 
 
@@ -157,6 +164,7 @@ def test_position_and_yaw_stay_unobservable() -> None:
     growth = [np.linalg.eigvalsh(info[i + 1] - info[i]).max() / np.linalg.eigvalsh(info[i]).max()
               for i in range(len(info) - 1)]  # fmt: skip
     assert max(growth) < 1e-9, max(growth)
+    assert f.n_slam_init > 5  # SLAM features were initialised, updated and marginalised along the way
     assert info[-1][3, 3] < info[0][3, 3]  # process noise only loses yaw information
     P = f.covariance
     pos = ESKF_ERROR.slice("position")
@@ -174,7 +182,7 @@ def test_feature_sigma_adapts_to_the_tracks() -> None:
     run, rec = sim.simulate_tracks(sim.random_motion(5, duration=3.0), seed=5, imu_noise=ImuNoise(update_rate=100.0),
                                    n_landmarks=120)  # fmt: skip
     for start in (3.0, 1.0, 0.3):
-        f = _start(run, rec, np.random.default_rng(6))
+        f = _start(run, rec, np.random.default_rng(6), MsckfOptions(adaptive_sigma=True))
         f.feature_sigma = f.nominal_sigma = start * rec.feature_sigma
         f.run(rec, 0)
         assert f.feature_sigma == pytest.approx(rec.feature_sigma, rel=0.1), (start, f.feature_sigma)
@@ -196,7 +204,7 @@ def test_track_frames_go_through_the_interface() -> None:
         assert len(f.clones) <= f.options.max_clones
         used += int(np.sum(res.accepted))
     assert used > 50
-    assert f.full_covariance.shape == (15 + 6 * len(f.clones),) * 2
+    assert f.full_covariance.shape == (15 + 6 * len(f.clones) + 3 * len(f.slam_id),) * 2
     with pytest.raises(TypeError, match="no model for a CameraFrame"):
         f.update(run.frames.camera_frame(0))
     with pytest.raises(ValueError, match="older than the filter time"):
@@ -212,20 +220,20 @@ def test_euroc_v101_from_rest(euroc_v101) -> None:
     out = run_vio(csv, truth=gt)
     m = out.metrics
     assert 4.0 < m["rest_s"] < 5.2
-    assert m["ate_rmse_4dof_m"] < 0.045 and m["orientation_rmse_4dof_deg"] < 1.3 and m["final_drift_percent"] < 0.8
-    assert m["features_used"] > 5 * m["features_gated"]
-    assert 0.1 < m["adapted_sigma_px"] < 0.6 < m["feature_sigma_px"]  # KLT tracks are sub-pixel; 1 px the start
+    assert m["ate_rmse_4dof_m"] < 0.025 and m["orientation_rmse_4dof_deg"] < 1.1 and m["final_drift_percent"] < 0.4
+    assert m["features_used"] > 5 * m["features_gated"] and m["slam_features"] > 50
+    assert m["adapted_sigma_px"] == m["feature_sigma_px"] == pytest.approx(1.0)  # OpenVINS' 1 px, not adapted
 
 
 def test_options_are_checked() -> None:
-    from dualpose.estimation.msckf import MsckfOptions
-
     with pytest.raises(ValueError, match="max_clones"):
         MsckfOptions(max_clones=1)
     with pytest.raises(ValueError, match="gate_probability"):
         MsckfOptions(gate_probability=1.0)
     with pytest.raises(ValueError, match="sigma_floor"):
         MsckfOptions(sigma_floor=0.0)
+    with pytest.raises(ValueError, match="max_slam"):
+        MsckfOptions(max_slam=-1)
 
 
 def test_saved_state_continues_bit_for_bit(tmp_path) -> None:

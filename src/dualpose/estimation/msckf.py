@@ -64,6 +64,11 @@ class MsckfOptions:
     Mehra 1972; Mohamed & Schwarz 1999; docs/vio.md "Measurement noise"): the given σ is the starting value,
     ``sigma_floor`` (a fraction of it) the lowest value, ``sigma_memory`` the number of residual rows the running
     estimate remembers (its adaptation time constant in rows).
+
+    ``max_slam`` the most long-lived features kept in the state as world points (OpenVINS' hybrid MSCKF/SLAM
+    features, ``max_slam``; docs/vio.md "SLAM features"): a track still seen when it has spanned the whole window
+    is initialised into the state instead of being used once, updated at every frame it is seen in, and
+    marginalised when its track ends or its update fails the χ² gate; 0 gives the pure MSCKF.
     """
 
     max_clones: int = 11
@@ -72,9 +77,10 @@ class MsckfOptions:
     min_depth: float = 0.1
     max_depth: float = 60.0
     min_parallax: float = 0.01
-    adaptive_sigma: bool = True
+    adaptive_sigma: bool = False
     sigma_floor: float = 0.1
     sigma_memory: float = 1000.0
+    max_slam: int = 25
 
     def __post_init__(self) -> None:
         if int(self.max_clones) != self.max_clones or self.max_clones < 2:
@@ -86,6 +92,8 @@ class MsckfOptions:
         if not 0.0 < self.min_depth < self.max_depth or not self.min_parallax >= 0.0:
             raise ValueError("need 0 < min_depth < max_depth and min_parallax >= 0; got "
                              f"{self.min_depth!r}, {self.max_depth!r}, {self.min_parallax!r}")  # fmt: skip
+        if int(self.max_slam) != self.max_slam or self.max_slam < 0:
+            raise ValueError(f"max_slam must be a whole number >= 0; got {self.max_slam!r}")
         if not 0.0 < self.sigma_floor <= 1.0 or not self.sigma_memory > 0.0:
             raise ValueError("need 0 < sigma_floor <= 1 and sigma_memory > 0; got "
                              f"{self.sigma_floor!r}, {self.sigma_memory!r}")  # fmt: skip
@@ -196,6 +204,11 @@ class MsckfVio(EskfStateAccessors, Estimator):
         self._ob_track = np.zeros(0, np.int64)  # the window's feature observations
         self._ob_clone = np.zeros(0, np.int64)
         self._ob_uv = np.zeros((0, 2))
+        self.slam_id = np.zeros(0, np.int64)  # SLAM features in the state: track id, world point, first estimate
+        self.slam_p = np.zeros((0, 3))
+        self.slam_fej = np.zeros((0, 3))
+        self._chi2_2 = float(chi2.ppf(self.options.gate_probability, 2))
+        self.n_slam_init = 0  # SLAM features initialised so far
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -234,13 +247,14 @@ class MsckfVio(EskfStateAccessors, Estimator):
 
     # ------------------------------------------------------------------ savable state (streaming)
     #: version of :meth:`state_dict`'s layout
-    STATE_VERSION = 2
+    STATE_VERSION = 3
 
     def state_dict(self) -> dict[str, np.ndarray]:
         """Everything the filter needs to continue, as arrays (``np.savez`` writes it): the IMU state, its first
         estimate (``x_fej``, NaN when none is pending) and the held sample, the window (clones, first estimates,
-        times, ids), the window's feature observations, the full covariance, the current and nominal feature σ, the
-        settings.  :meth:`from_state_dict` continues bit for bit (one sample / frame at a time)."""
+        times, ids), the window's feature observations, the SLAM features, the full covariance, the current and
+        nominal feature σ, the settings.  :meth:`from_state_dict` continues bit for bit (one sample / frame at a
+        time)."""
         o = self.options
         return {
             "version": np.array(self.STATE_VERSION), "x": self.x.copy(), "P": self.P.copy(), "u": self._u.copy(),
@@ -250,11 +264,13 @@ class MsckfVio(EskfStateAccessors, Estimator):
             "clones_fej": self.clones_fej.copy(), "clone_t": self.clone_t.copy(), "clone_id": self._clone_id.copy(),
             "next_clone": np.array(self._next_clone), "ob_track": self._ob_track.copy(),
             "ob_clone": self._ob_clone.copy(), "ob_uv": self._ob_uv.copy(), "noise": self.noise.copy(),
+            "slam_id": self.slam_id.copy(), "slam_p": self.slam_p.copy(), "slam_fej": self.slam_fej.copy(),
             "q_bc": self.q_bc.copy(), "p_bc": self.p_bc.copy(), "gravity": self.gravity.copy(),
             "feature_sigma": np.array(self.feature_sigma), "nominal_sigma": np.array(self.nominal_sigma),
             "camera_time_offset": np.array(self.camera_time_offset),
             "options": np.array([o.max_clones, o.min_track, o.gate_probability, o.min_depth, o.max_depth,
-                                 o.min_parallax, float(o.adaptive_sigma), o.sigma_floor, o.sigma_memory]),
+                                 o.min_parallax, float(o.adaptive_sigma), o.sigma_floor, o.sigma_memory,
+                                 o.max_slam]),
         }  # fmt: skip
 
     @classmethod
@@ -267,7 +283,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
                                  f"{cls.STATE_VERSION}")  # fmt: skip
             o = np.asarray(d["options"], dtype=np.float64)
             opts = MsckfOptions(int(o[0]), int(o[1]), float(o[2]), float(o[3]), float(o[4]), float(o[5]), bool(o[6]),
-                                float(o[7]), float(o[8]))
+                                float(o[7]), float(o[8]), int(o[9]))
             noise = np.asarray(d["noise"], dtype=np.float64)
             sd = np.sqrt(noise)
             imu = ImuNoise(*sd[[0, 2, 1, 3]].tolist(), gyroscope_scale_sigma=float(sd[4]),
@@ -293,10 +309,14 @@ class MsckfVio(EskfStateAccessors, Estimator):
             f._ob_track = np.array(d["ob_track"], dtype=np.int64)
             f._ob_clone = np.array(d["ob_clone"], dtype=np.int64)
             f._ob_uv = np.array(d["ob_uv"], dtype=np.float64).reshape(-1, 2)
+            f.slam_id = np.array(d["slam_id"], dtype=np.int64)
+            f.slam_p = np.array(d["slam_p"], dtype=np.float64).reshape(-1, 3)
+            f.slam_fej = np.array(d["slam_fej"], dtype=np.float64).reshape(-1, 3)
         except KeyError as exc:
             raise ValueError(f"saved MSCKF state lacks {exc}") from None
-        if f.P.shape != (_NE + _CE * len(f.clones),) * 2:
-            raise ValueError(f"saved MSCKF state: covariance {f.P.shape} does not match {len(f.clones)} clones")
+        if f.P.shape != (_NE + _CE * len(f.clones) + 3 * len(f.slam_id),) * 2:
+            raise ValueError(f"saved MSCKF state: covariance {f.P.shape} does not match {len(f.clones)} clones and "
+                             f"{len(f.slam_id)} SLAM features")  # fmt: skip
         return f
 
     # ------------------------------------------------------------------ the estimator interface
@@ -312,7 +332,8 @@ class MsckfVio(EskfStateAccessors, Estimator):
 
     @property
     def full_covariance(self) -> np.ndarray:
-        """Covariance (15 + 6C, 15 + 6C) of the IMU error and the C clones' ``[δp, δθ]``, a copy."""
+        """Covariance (15 + 6C + 3L, same) of the IMU error, the C clones' ``[δp, δθ]`` and the L SLAM features'
+        world points, a copy."""
         return self.P.copy()
 
     def update(self, measurement) -> UpdateResult:
@@ -365,12 +386,14 @@ class MsckfVio(EskfStateAccessors, Estimator):
     # ------------------------------------------------------------------ the window
     def _clone(self, t: float) -> None:
         n = self.P.shape[0]
+        k = _NE + _CE * len(self.clones)  # the new clone's columns, before the SLAM features
         JP = self.P[_POSE_ROWS]  # J P with J selecting the pose rows [δp, δθ] of the IMU error
         P = np.empty((n + _CE, n + _CE))
-        P[:n, :n] = self.P
-        P[n:, :n] = JP
-        P[:n, n:] = JP.T
-        P[n:, n:] = JP[:, _POSE_ROWS]
+        e = k + _CE
+        P[:k, :k], P[:k, e:], P[e:, :k], P[e:, e:] = self.P[:k, :k], self.P[:k, k:], self.P[k:, :k], self.P[k:, k:]
+        P[k:e, :k], P[k:e, e:] = JP[:, :k], JP[:, k:]
+        P[:k, k:e], P[e:, k:e] = JP[:, :k].T, JP[:, k:].T
+        P[k:e, k:e] = JP[:, _POSE_ROWS]
         self.P = P
         c = np.concatenate([ESKF_STATE.get(self.x, "position"), ESKF_STATE.get(self.x, "quat")])
         self.clones = np.vstack([self.clones, c])
@@ -432,8 +455,10 @@ class MsckfVio(EskfStateAccessors, Estimator):
             ESKF_STATE.get(x, name)[:] += ESKF_ERROR.get(dx[:_NE], name)
         q = ESKF_STATE.get(x, "quat")
         q[:] = dp.quat_normalize(dp.quat_mul(q, dp.quat_from_rotvec(ESKF_ERROR.get(dx[:_NE], "attitude"))))
+        k = _NE + _CE * len(self.clones)
+        self.slam_p += dx[k:].reshape(-1, 3)
         if len(self.clones):
-            d = dx[_NE:].reshape(-1, _CE)
+            d = dx[_NE:k].reshape(-1, _CE)
             self.clones[:, :3] += MSCKF_CLONE_ERROR.get(d, "position")
             self.clones[:, 3:] = dp.quat_normalize(
                 dp.quat_mul(self.clones[:, 3:], dp.quat_from_rotvec(MSCKF_CLONE_ERROR.get(d, "attitude")))
@@ -450,11 +475,21 @@ class MsckfVio(EskfStateAccessors, Estimator):
         return self._frame_update(frame.track_id, frame.uv)
 
     def _frame_update(self, track_id: np.ndarray, uv: np.ndarray) -> TrackUpdate:
-        """Clone, update with the tracks that end or leave the window, marginalise; a frame's ``track_id`` (m,)
-        int64 and normalised ``uv`` (m, 2)."""
+        """Marginalise the SLAM features whose track ended, clone, update with the tracks that end or leave the window
+        (the long ones among them initialised as SLAM features while there is room) and with this frame's
+        observations of the SLAM features, marginalise the oldest clone; a frame's ``track_id`` (m,) int64 and
+        normalised ``uv`` (m, 2)."""
         o = self.options
+        if len(self.slam_id):
+            seen = np.isin(self.slam_id, track_id)
+            if not seen.all():
+                self._drop_landmarks(~seen)
         self._clone(self.time)
         cid = self._clone_id[-1]
+        in_slam = np.isin(track_id, self.slam_id) if len(self.slam_id) else np.zeros(len(track_id), bool)
+        slam_track, slam_uv = track_id[in_slam], uv[in_slam]
+        if in_slam.any():
+            track_id, uv = track_id[~in_slam], uv[~in_slam]
         use = np.zeros(len(self._ob_track) + len(track_id), bool)  # the observations of the tracks to use
         use[: len(self._ob_track)] = ~np.isin(self._ob_track, track_id)  # tracks that ended
         self._ob_track = np.concatenate([self._ob_track, track_id])
@@ -463,57 +498,187 @@ class MsckfVio(EskfStateAccessors, Estimator):
         full = len(self.clones) > o.max_clones
         if full:  # and the tracks seen in the oldest clone, which leaves the window
             use |= np.isin(self._ob_track, self._ob_track[self._ob_clone == self._clone_id[0]])
-        result = self._features_update(use)
+        result = self._features_update(use, track_id if full else None, slam_track, slam_uv)
         self._keep_obs(~use)
         if full:
             self._drop_oldest_clone()
         return result
 
-    def _features_update(self, use: np.ndarray) -> TrackUpdate:
-        """Update with the window's observations ``use`` (boolean, per observation; whole tracks)."""
-        empty = TrackUpdate(np.zeros(0), 0, np.zeros(0, bool))
+    def _features_update(self, use: np.ndarray, current: np.ndarray | None, slam_track: np.ndarray,
+                         slam_uv: np.ndarray) -> TrackUpdate:  # fmt: skip
+        """One EKF update with the window's observations ``use`` (boolean, per observation; whole tracks), of which
+        the tracks still seen in this frame (``current`` track ids; None when the window is not full) may become
+        SLAM features, and with the observations ``slam_uv`` of the SLAM features ``slam_track`` in the newest
+        clone."""
+        o = self.options
+        status = np.zeros(0, np.int64)
+        nis = np.zeros(0)
+        dof = np.zeros(0, np.int64)
+        blocks: list[tuple[np.ndarray, np.ndarray]] = []  # (H, r) rows, H over the state before any SLAM init
+        resid: list[tuple[np.ndarray, np.ndarray]] = []  # every row before the gate and its (H P Hᵀ)_ii (σ estimate)
         rows = np.flatnonzero(use)
-        if len(rows) == 0:
-            return empty
-        order = rows[np.argsort(self._ob_track[rows], kind="stable")]
-        _, count = np.unique(self._ob_track[order], return_counts=True)
-        enough = count >= self.options.min_track
-        if not enough.any():
-            return empty
-        sel = order[np.repeat(enough, count)]  # the rows of the tracks long enough, grouped by track in time order
-        offsets = np.zeros(int(enough.sum()) + 1, np.int64)
-        np.cumsum(count[enough], out=offsets[1:])
-        obs_clone = np.searchsorted(self._clone_id, self._ob_clone[sel]).astype(np.int64)
-        g = len(offsets) - 1
-        n = self.P.shape[0]
-        cap = int(np.sum(2 * count[enough] - 3))
-        H = np.empty((cap, n))
-        r = np.empty(cap)
-        rvar = np.empty(cap)
-        status = np.empty(g, np.int64)
-        nis = np.empty(g)
-        P = np.ascontiguousarray(self.P)
-        # the kernel with an open gate returns the rows of every triangulated feature: the σ estimate sees them all
-        # (a gate at the current σ would keep the small residuals and bias it low), the χ² gate is applied here
-        m = _native.msckf_features(np.ascontiguousarray(self.clones), np.ascontiguousarray(self.clones_fej),
-                                   self.q_bc, self.p_bc, offsets, obs_clone, np.ascontiguousarray(self._ob_uv[sel]),
-                                   P, self.feature_sigma, self._open_gate, self._limits, H, r, rvar, status,
-                                   nis)  # fmt: skip
-        dof = 2 * count[enough] - 3
-        solved = status == 1
-        gated = solved & (nis > self._chi2[np.minimum(dof, len(self._chi2) - 1)])
-        status[gated] = 0
+        if len(rows):
+            order = rows[np.argsort(self._ob_track[rows], kind="stable")]
+            ids, count = np.unique(self._ob_track[order], return_counts=True)
+            enough = count >= o.min_track
+            if enough.any():
+                sel = order[np.repeat(enough, count)]  # the rows of the tracks long enough, grouped by track
+                offsets = np.zeros(int(enough.sum()) + 1, np.int64)
+                np.cumsum(count[enough], out=offsets[1:])
+                obs_clone = np.searchsorted(self._clone_id, self._ob_clone[sel]).astype(np.int64)
+                g = len(offsets) - 1
+                n = self.P.shape[0]
+                cap = int(np.sum(2 * count[enough] - 3))
+                H = np.empty((cap, n))
+                r = np.empty(cap)
+                rvar = np.empty(cap)
+                status = np.empty(g, np.int64)
+                nis = np.empty(g)
+                points = np.empty((g, 3))
+                uv_sel = np.ascontiguousarray(self._ob_uv[sel])
+                # the kernel with an open gate returns the rows of every triangulated feature: the σ estimate sees
+                # them all (a gate at the current σ would keep the small residuals and bias it low); the χ² gate is
+                # applied here
+                m = _native.msckf_features(np.ascontiguousarray(self.clones), np.ascontiguousarray(self.clones_fej),
+                                           self.q_bc, self.p_bc, offsets, obs_clone, uv_sel, self.P,
+                                           self.feature_sigma, self._open_gate, self._limits, H, r, rvar, status, nis,
+                                           points)  # fmt: skip
+                dof = 2 * count[enough] - 3
+                solved = status == 1
+                gated = solved & (nis > self._chi2[np.minimum(dof, len(self._chi2) - 1)])
+                status[gated] = 0
+                accepted = status == 1
+                if m > 0:
+                    resid.append((r[:m].copy(), rvar[:m].copy()))
+                    keep = np.repeat(accepted[solved], dof[solved])
+                    if keep.any():
+                        blocks.append((H[:m][keep], r[:m][keep]))
+                    room = o.max_slam - len(self.slam_id)
+                    if current is not None and room > 0:  # long tracks (seen in the oldest clone and now): SLAM
+                        gid = ids[enough]
+                        for f in np.flatnonzero(accepted & np.isin(gid, current))[:room]:
+                            a, b = offsets[f], offsets[f + 1]
+                            self._init_landmark(int(gid[f]), obs_clone[a:b], uv_sel[a:b], points[f])
+        drop = np.zeros(len(self.slam_id), bool)
+        if len(slam_track):
+            Hs, rs, idx, ok, r_all, rvar_all = self._slam_rows(slam_track, slam_uv)
+            resid.append((r_all, rvar_all))
+            if len(rs):
+                blocks.append((Hs, rs))
+            drop[idx[~ok]] = True  # a SLAM feature whose update fails the gate is marginalised
+        if blocks:
+            n = self.P.shape[0]
+            Hk = np.zeros((sum(len(b[1]) for b in blocks), n))
+            rk = np.concatenate([b[1] for b in blocks])
+            i = 0
+            for Hb, _ in blocks:
+                Hk[i : i + len(Hb), : Hb.shape[1]] = Hb
+                i += len(Hb)
+            self._keep_first_estimate()  # one update of all accepted rows (QR-compressed in the kernel when m > n)
+            _native.msckf_update(self.x, self.clones, self.slam_p, self.P, Hk, rk, self.feature_sigma)
+        if drop.any():
+            self._drop_landmarks(drop)
+        if o.adaptive_sigma and resid:
+            self.feature_sigma = self._adapted_sigma(np.concatenate([a for a, _ in resid]),
+                                                     np.concatenate([b for _, b in resid]))  # fmt: skip
         accepted = status == 1
-        if m > 0:
-            self.P = P
-            sigma_next = self._adapted_sigma(r[:m], rvar[:m]) if self.options.adaptive_sigma else self.feature_sigma
-            keep = np.repeat(accepted[solved], dof[solved])
-            if keep.any():  # one update of all accepted rows (QR-compressed in the kernel when m > n)
-                self._keep_first_estimate()
-                Hk, rk = (H[:m], r[:m]) if keep.all() else (np.ascontiguousarray(H[:m][keep]), r[:m][keep])
-                _native.msckf_update(self.x, self.clones, self.P, Hk, rk, self.feature_sigma)
-            self.feature_sigma = sigma_next
         return TrackUpdate(nis, int(dof[accepted].sum()), accepted, feature_dof=dof, status=status)
+
+    # ------------------------------------------------------------------ SLAM features
+    def _observation_jacobians(
+        self, pw: np.ndarray, pw_fej: np.ndarray, clone: np.ndarray, uv: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Per observation k of world point ``pw`` (k, 3) in clone ``clone`` (k,) at normalised ``uv`` (k, 2): the
+        residual (k, 2) ``uv − π(p_c)`` at the current estimates, the Jacobians at the first estimates (the clone's,
+        and ``pw_fej`` (k, 3) of the point) with respect to the clone error ``[δp, δθ]`` (k, 2, 6) and the world
+        point (k, 2, 3) (as ``msckf_features``), and whether the point is in front of the camera (k,)."""
+        Rbc = dp.matrix_from_quat(self.q_bc)
+        cl, fe = self.clones[clone], self.clones_fej[clone]
+        p_b = np.einsum("kji,kj->ki", dp.matrix_from_quat(cl[:, 3:]), pw - cl[:, :3])
+        p_c = (p_b - self.p_bc) @ Rbc
+        Rf = dp.matrix_from_quat(fe[:, 3:])
+        pbf = np.einsum("kji,kj->ki", Rf, pw_fej - fe[:, :3])
+        pcf = (pbf - self.p_bc) @ Rbc
+        ok = (p_c[:, 2] > 0.0) & (pcf[:, 2] > 0.0)
+        z = np.where(ok, p_c[:, 2], 1.0)
+        zf = np.where(ok, pcf[:, 2], 1.0)
+        r = uv - p_c[:, :2] / z[:, None]
+        iz = 1.0 / zf
+        Jp = np.zeros((len(zf), 2, 3))
+        Jp[:, 0, 0] = Jp[:, 1, 1] = iz
+        Jp[:, :, 2] = -pcf[:, :2] * (iz * iz)[:, None]
+        JB = Jp @ Rbc.T  # ∂z/∂p_b
+        JW = np.einsum("kil,kml->kim", JB, Rf)  # ∂z/∂p_w = JB R_wbᵀ
+        Hc = np.empty((len(zf), 2, _CE))
+        Hc[:, :, :3] = -JW
+        Hc[:, :, 3:] = np.cross(JB, pbf[:, None, :])  # JB [p_b]×: each row × p_b
+        return r, Hc, JW, ok
+
+    def _init_landmark(self, track: int, clone: np.ndarray, uv: np.ndarray, pw: np.ndarray) -> None:
+        """Put the feature ``track`` seen in ``clone`` (m,) at ``uv`` (m, 2), triangulated at ``pw`` (3,), into the
+        state (delayed initialisation, Li & Mourikis, "Optimization-based estimator design for vision-aided
+        inertial navigation", RSS 2012; OpenVINS ``StateHelper::initialize_invertible``): with ``Q₁`` an
+        orthonormal basis of the range of the feature Jacobian ``H_f = Q₁ R``, the three rows
+        ``Q₁ᵀ r = Q₁ᵀ H_x δx + R δf + Q₁ᵀ n`` give the point ``pw + R⁻¹ Q₁ᵀ r``, its covariance
+        ``A P Aᵀ + σ² R⁻¹ R⁻ᵀ`` and its cross-covariance ``−A P`` with ``A = R⁻¹ Q₁ᵀ H_x`` (the other ``2m − 3``
+        rows are the MSCKF rows of the same update); its first estimate is ``pw``."""
+        m = len(clone)
+        pts = np.broadcast_to(pw, (m, 3))
+        r, Hc, Hf, ok = self._observation_jacobians(pts, pts, clone, uv)
+        if not ok.all():
+            return
+        n = self.P.shape[0]
+        Hx = np.zeros((2 * m, n))
+        cols = _NE + _CE * clone[:, None] + np.arange(_CE)
+        Hx[np.arange(2 * m).reshape(m, 2)[:, :, None], cols[:, None, :]] = Hc
+        Q1, R = np.linalg.qr(Hf.reshape(2 * m, 3))
+        Rinv = np.linalg.inv(R)
+        A = Rinv @ (Q1.T @ Hx)
+        AP = A @ self.P
+        Pff = AP @ A.T + self.feature_sigma**2 * (Rinv @ Rinv.T)
+        P = np.empty((n + 3, n + 3))
+        P[:n, :n] = self.P
+        P[n:, :n] = -AP
+        P[:n, n:] = -AP.T
+        P[n:, n:] = 0.5 * (Pff + Pff.T)
+        self.P = P
+        self.slam_id = np.append(self.slam_id, track)
+        self.slam_p = np.vstack([self.slam_p, pw + Rinv @ (Q1.T @ r.reshape(-1))])
+        self.slam_fej = np.vstack([self.slam_fej, pw])
+        self.n_slam_init += 1
+
+    def _slam_rows(
+        self, track: np.ndarray, uv: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The rows (2 per feature) of the SLAM features ``track`` (k,) seen at ``uv`` (k, 2) in the newest clone
+        that pass the χ² gate (2 dof) — ``H`` (2a, n), ``r`` (2a,) —, the features' indices in the state (k,),
+        which of them passed (k,), and the residuals and their prior variances ``(H P Hᵀ)_ii`` of every feature
+        in front of the camera, before the gate (for the σ estimate)."""
+        srt = np.argsort(self.slam_id)
+        idx = srt[np.searchsorted(self.slam_id, track, sorter=srt)]
+        c = len(self.clones) - 1
+        r, Hc, Hf, ok = self._observation_jacobians(self.slam_p[idx], self.slam_fej[idx], np.full(len(idx), c), uv)
+        k0 = _NE + _CE * len(self.clones)
+        cols = np.concatenate([np.broadcast_to(_NE + _CE * c + np.arange(_CE), (len(idx), _CE)),
+                               k0 + 3 * idx[:, None] + np.arange(3)], axis=1)  # fmt: skip
+        Hs = np.concatenate([Hc, Hf], axis=2)  # (k, 2, 9)
+        Psub = self.P[cols[:, :, None], cols[:, None, :]]
+        S = Hs @ Psub @ np.swapaxes(Hs, 1, 2) + self.feature_sigma**2 * np.eye(2)
+        q = np.einsum("ki,ki->k", r, np.linalg.solve(S, r[..., None])[..., 0])
+        front = ok.copy()
+        ok &= q <= self._chi2_2
+        good = np.flatnonzero(ok)
+        H = np.zeros((2 * len(good), self.P.shape[0]))
+        H[np.arange(2 * len(good)).reshape(-1, 2)[:, :, None], cols[good][:, None, :]] = Hs[good]
+        rvar = np.diagonal(S, axis1=1, axis2=2) - self.feature_sigma**2
+        return H, r[good].reshape(-1), idx, ok, r[front].reshape(-1), rvar[front].reshape(-1)
+
+    def _drop_landmarks(self, drop: np.ndarray) -> None:
+        """Marginalise the SLAM features ``drop`` (L,) bool: delete their rows and columns."""
+        k0 = _NE + _CE * len(self.clones)
+        keep = np.r_[np.arange(k0), (k0 + 3 * np.flatnonzero(~drop)[:, None] + np.arange(3)).reshape(-1)]
+        self.P = np.ascontiguousarray(self.P[np.ix_(keep, keep)])
+        self.slam_id, self.slam_p, self.slam_fej = self.slam_id[~drop], self.slam_p[~drop], self.slam_fej[~drop]
 
     def _adapted_sigma(self, r: np.ndarray, rvar: np.ndarray) -> float:
         """The feature σ after this frame's residual rows ``r`` (m,) of every triangulated feature, before the

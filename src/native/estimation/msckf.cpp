@@ -240,32 +240,39 @@ PyObject* py_propagate(PyObject*, PyObject* args) {
 
 // msckf_features(clones (C, 7), clones_fej (C, 7), q_bc, p_bc, offsets (G + 1,), obs_clone (M,), obs_uv (M, 2), P
 // (n, n), sigma, chi2 (D,), limits (3,) = [min_depth, max_depth, min_parallax], H (R, n), r (R,), rvar (R,),
-// status (G,), nis (G,)) -> rows: the stacked nullspace-projected rows of the accepted features (rvar their prior
-// variances (H P Hᵀ)_ii, without the noise) (status 1 accepted, 0 rejected
-// by the gate, -1 triangulation failed, -2 too few observations); chi2[d] the gate for d degrees of freedom.
+// status (G,), nis (G,), points (G, 3)) -> rows: the stacked nullspace-projected rows of the accepted features (rvar
+// their prior variances (H P Hᵀ)_ii, without the noise) (status 1 accepted, 0 rejected by the gate, -1 triangulation
+// failed, -2 too few observations); chi2[d] the gate for d degrees of freedom; points the triangulated world points
+// (NaN where none).  P (n, n) may carry L landmarks after the clones (n = 15 + 6C + 3L).
 PyObject* py_features(PyObject*, PyObject* args) {
     Array<double, 2> clones, fej, uv, Pm;
     Array<double, 1> q_bc, p_bc, chi2, limits;
     Array<std::int64_t, 1> offsets, oc;
     Array<double, 2, true> Hout;
     Array<double, 1, true> rout, rvar, nis;
+    Array<double, 2, true> points;
     Array<std::int64_t, 1, true> status;
     double sigma;
-    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&O&dO&O&O&O&O&O&O&:msckf_features", convert<double, 2>, &clones,
+    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&O&dO&O&O&O&O&O&O&O&:msckf_features", convert<double, 2>, &clones,
                           convert<double, 2>, &fej, convert<double, 1>, &q_bc, convert<double, 1>, &p_bc,
                           convert<std::int64_t, 1>, &offsets, convert<std::int64_t, 1>, &oc, convert<double, 2>, &uv,
                           convert<double, 2>, &Pm, &sigma, convert<double, 1>, &chi2, convert<double, 1>, &limits,
                           convert<double, 2, true>, &Hout, convert<double, 1, true>, &rout,
-                          convert<double, 1, true>, &rvar, convert<std::int64_t, 1, true>, &status, convert<double, 1, true>, &nis))
+                          convert<double, 1, true>, &rvar, convert<std::int64_t, 1, true>, &status, convert<double, 1, true>, &nis,
+                          convert<double, 2, true>, &points))
         return nullptr;
     const npy_intp nc = clones.shape[0], n = Pm.shape[0], g = offsets.shape[0] - 1, m_all = oc.shape[0];
     if (!shape_is("clones", clones, {-1, 7}) || !shape_is("clones_fej", fej, {nc, 7}) ||
         !shape_is("q_bc", q_bc, {4}) || !shape_is("p_bc", p_bc, {3}) || !shape_is("obs_uv", uv, {m_all, 2}) ||
-        !shape_is("P", Pm, {NE + 6 * nc, NE + 6 * nc}) || !shape_is("limits", limits, {3}) ||
+        !shape_is("P", Pm, {n, n}) || !shape_is("limits", limits, {3}) || !shape_is("points", points, {g, 3}) ||
         !shape_is("H", Hout, {-1, n}) || !shape_is("r", rout, {Hout.shape[0]}) ||
         !shape_is("rvar", rvar, {Hout.shape[0]}) || !shape_is("status", status, {g}) ||
         !shape_is("nis", nis, {g}))
         return nullptr;
+    if (n < NE + 6 * nc || (n - NE - 6 * nc) % 3 != 0) {
+        PyErr_SetString(PyExc_ValueError, "P must have 15 + 6C + 3L rows (IMU, C clones, L landmarks)");
+        return nullptr;
+    }
     if (chi2.shape[0] < 1) {  // the gate reads chi2[min(dof, D - 1)]
         PyErr_SetString(PyExc_ValueError, "chi2 must have shape (D,) with D >= 1; got (0,)");
         return nullptr;
@@ -304,7 +311,8 @@ PyObject* py_features(PyObject*, PyObject* args) {
             status[f] = -2;
             continue;
         }
-        double pw[3];
+        double* pw = points.row(f);
+        pw[0] = pw[1] = pw[2] = NAN;
         if (!triangulate(cams, oc.data + a, uv.data + 2 * a, m, limits[0], limits[1], limits[2], pw)) {
             status[f] = -1;
             continue;
@@ -439,23 +447,25 @@ PyObject* py_features(PyObject*, PyObject* args) {
 }
 
 
-// msckf_update(x (16,), clones (C, 7), P (n, n), H (m, n), r (m,), sigma) -> nis: the EKF update with r = H δx + e,
-// e ~ N(0, σ² I), of the IMU state and the clones, in place.  When m > n the rows are first compressed by a
+// msckf_update(x (16,), clones (C, 7), landmarks (L, 3), P (n, n), H (m, n), r (m,), sigma) -> nis: the EKF update
+// with r = H δx + e, e ~ N(0, σ² I), of the IMU state, the clones and the landmarks (world points, additive error at
+// columns 15 + 6C + 3l; n = 15 + 6C + 3L), in place.  When m > n the rows are first compressed by a
 // Householder QR (H = Q T, r <- Q₁ᵀ r; Mourikis & Roumeliotis 2007 §III-D).  P <- P − P Hᵀ S⁻¹ H P (symmetrised),
 // then δx = P Hᵀ S⁻¹ r is injected (IMU: additive blocks, q ⊗ Exp(δθ); clones: p + δp, q ⊗ Exp(δθ)).  Returns the
 // NIS rᵀ S⁻¹ r, or raises numpy's LinAlgError if S is not positive definite.
 PyObject* py_update(PyObject*, PyObject* args) {
     Array<double, 1, true> x, r;
-    Array<double, 2, true> clones, Pm, H;
+    Array<double, 2, true> clones, lm, Pm, H;
     double sigma;
-    if (!PyArg_ParseTuple(args, "O&O&O&O&O&d:msckf_update", convert<double, 1, true>, &x, convert<double, 2, true>,
-                          &clones, convert<double, 2, true>, &Pm, convert<double, 2, true>, &H,
-                          convert<double, 1, true>, &r, &sigma))
+    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&d:msckf_update", convert<double, 1, true>, &x, convert<double, 2, true>,
+                          &clones, convert<double, 2, true>, &lm, convert<double, 2, true>, &Pm,
+                          convert<double, 2, true>, &H, convert<double, 1, true>, &r, &sigma))
         return nullptr;
-    const npy_intp nc = clones.shape[0], n = NE + 6 * nc;
+    const npy_intp nc = clones.shape[0], nl = lm.shape[0], n = NE + 6 * nc + 3 * nl;
     npy_intp m = H.shape[0];
     const npy_intp m_all = m;
-    if (!shape_is("x", x, {NX}) || !shape_is("clones", clones, {-1, 7}) || !shape_is("P", Pm, {n, n}) ||
+    if (!shape_is("x", x, {NX}) || !shape_is("clones", clones, {-1, 7}) || !shape_is("landmarks", lm, {-1, 3}) ||
+        !shape_is("P", Pm, {n, n}) ||
         !shape_is("H", H, {-1, n}) || !shape_is("r", r, {m}))
         return nullptr;
     bool ok = true;
@@ -586,6 +596,8 @@ PyObject* py_update(PyObject*, PyObject* args) {
             for (int i = 0; i < 3; ++i) cl[i] += d[i];
             quat_mul_exp_inplace(cl + 3, d[3], d[4], d[5]);
         }
+        for (npy_intp l = 0; l < nl; ++l)
+            for (int i = 0; i < 3; ++i) lm(l, i) += dx[NE + 6 * nc + 3 * l + i];
     }
     Py_END_ALLOW_THREADS;
     if (!ok) return raise_linalg_error("the innovation covariance is not positive definite");
@@ -598,11 +610,13 @@ PyMethodDef methods[] = {
      "and P (15, 15); Phi (15, 15) the product of the step transitions, X (k, 16) the state after every step."},
     {"msckf_features", py_features, METH_VARARGS,
      "msckf_features(clones, clones_fej, q_bc, p_bc, offsets, obs_clone, obs_uv, P, sigma, chi2, limits, H, r, rvar, "
-     "status, nis) -> rows: triangulate, linearise (FEJ), nullspace-project and gate every feature; the accepted "
-     "rows stacked in H (R, n) and r (R,), their prior variances (H P Hᵀ)_ii in rvar (R,)."},
+     "status, nis, points) -> rows: triangulate, linearise (FEJ), nullspace-project and gate every feature; the "
+     "accepted rows stacked in H (R, n) and r (R,), their prior variances (H P Hᵀ)_ii in rvar (R,), the "
+     "triangulated points in points (G, 3)."},
     {"msckf_update", py_update, METH_VARARGS,
-     "msckf_update(x, clones, P, H, r, sigma) -> nis: EKF update (QR-compressed when H has more rows than columns) "
-     "of the IMU state x (16,), the clones (C, 7) and P (15 + 6C, 15 + 6C) in place, noise sigma² I."},
+     "msckf_update(x, clones, landmarks, P, H, r, sigma) -> nis: EKF update (QR-compressed when H has more rows than "
+     "columns) of the IMU state x (16,), the clones (C, 7), the landmarks (L, 3) and P (15 + 6C + 3L, same) in place, "
+     "noise sigma² I."},
     {nullptr, nullptr, 0, nullptr},
 };
 
