@@ -37,10 +37,10 @@ def test_features_kernel_on_exact_geometry(rng: np.random.Generator) -> None:
     n = 15 + 6 * C
     P = np.eye(n) * 1e-4
     H, r, rvar = np.empty((2 * C - 3, n)), np.empty(2 * C - 3), np.empty(2 * C - 3)
-    status, nis, points = np.empty(1, np.int64), np.empty(1), np.empty((1, 3))
+    status, nis, points, top = np.empty(1, np.int64), np.empty(1), np.empty((1, 3)), np.empty((1, 3, n + 4))
     gates = np.r_[np.inf, chi2.ppf(0.95, np.arange(1, 40))]
     rows = _native.msckf_features(clones, clones.copy(), q_bc, p_bc, np.array([0, C]), np.arange(C), uv, P, 1e-3,
-                                  gates, np.array([0.1, 60.0, 0.01]), H, r, rvar, status, nis, points)  # fmt: skip
+                                  gates, np.array([0.1, 60.0, 0.01]), H, r, rvar, status, nis, points, top)  # fmt: skip
     assert rows == 2 * C - 3 and status[0] == 1
     np.testing.assert_allclose(points[0], pw, atol=1e-9)
     np.testing.assert_allclose(r, 0.0, atol=1e-9)
@@ -55,7 +55,7 @@ def test_features_kernel_on_exact_geometry(rng: np.random.Generator) -> None:
     same = np.repeat(clones[:1], C, 0)
     rows = _native.msckf_features(same, same, q_bc, p_bc, np.array([0, C]), np.arange(C), np.repeat(uv[:1], C, 0),
                                   P, 1e-3, gates, np.array([0.1, 60.0, 0.01]), H, r, rvar, status, nis,
-                                  points)  # fmt: skip
+                                  points, top)  # fmt: skip
     assert rows == 0 and status[0] == -1 and np.isnan(points[0]).all()
 
 
@@ -71,7 +71,8 @@ def test_features_kernel_checks_the_gate_table(rng: np.random.Generator) -> None
     with pytest.raises(ValueError, match="chi2"):
         _native.msckf_features(clones, clones.copy(), q_bc, p_bc, np.array([0, C]), np.arange(C), uv,
                                np.eye(n) * 1e-4, 1e-3, np.empty(0), np.array([0.1, 60.0, 0.01]), H, r, rvar,
-                               np.empty(1, np.int64), np.empty(1), np.empty((1, 3)))  # fmt: skip
+                               np.empty(1, np.int64), np.empty(1), np.empty((1, 3)),
+                               np.empty((1, 3, n + 4)))  # fmt: skip
 
 
 def _start(run: sim.SimulatedRun, rec, rng: np.random.Generator, options: MsckfOptions | None = None) -> MsckfVio:

@@ -52,6 +52,19 @@ _REST_GUARD = 0.2  # s, one window of detect_rest
 _POSE_ROWS = np.r_[np.arange(3) + ESKF_ERROR.offset("position"), np.arange(3) + ESKF_ERROR.offset("attitude")]
 
 
+def _member(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.isin(a, b)`` for the non-negative int64 track ids of a frame and a window: a lookup table when the ids are
+    small (a few µs instead of a sort per call), ``np.isin`` otherwise."""
+    if len(a) == 0 or len(b) == 0:
+        return np.zeros(len(a), bool)
+    top = max(int(a.max()), int(b.max()))
+    if top >= 1 << 22 or min(int(a.min()), int(b.min())) < 0:
+        return np.isin(a, b)
+    table = np.zeros(top + 1, bool)
+    table[b] = True
+    return table[a]
+
+
 @dataclass(frozen=True)
 class MsckfOptions:
     """Settings of :class:`MsckfVio` (one set of defaults, those of OpenVINS where it has one).
@@ -481,23 +494,23 @@ class MsckfVio(EskfStateAccessors, Estimator):
         normalised ``uv`` (m, 2)."""
         o = self.options
         if len(self.slam_id):
-            seen = np.isin(self.slam_id, track_id)
+            seen = _member(self.slam_id, track_id)
             if not seen.all():
                 self._drop_landmarks(~seen)
         self._clone(self.time)
         cid = self._clone_id[-1]
-        in_slam = np.isin(track_id, self.slam_id) if len(self.slam_id) else np.zeros(len(track_id), bool)
+        in_slam = _member(track_id, self.slam_id) if len(self.slam_id) else np.zeros(len(track_id), bool)
         slam_track, slam_uv = track_id[in_slam], uv[in_slam]
         if in_slam.any():
             track_id, uv = track_id[~in_slam], uv[~in_slam]
         use = np.zeros(len(self._ob_track) + len(track_id), bool)  # the observations of the tracks to use
-        use[: len(self._ob_track)] = ~np.isin(self._ob_track, track_id)  # tracks that ended
+        use[: len(self._ob_track)] = ~_member(self._ob_track, track_id)  # tracks that ended
         self._ob_track = np.concatenate([self._ob_track, track_id])
         self._ob_clone = np.concatenate([self._ob_clone, np.full(len(track_id), cid)])
         self._ob_uv = np.concatenate([self._ob_uv, uv])
         full = len(self.clones) > o.max_clones
         if full:  # and the tracks seen in the oldest clone, which leaves the window
-            use |= np.isin(self._ob_track, self._ob_track[self._ob_clone == self._clone_id[0]])
+            use |= _member(self._ob_track, self._ob_track[self._ob_clone == self._clone_id[0]])
         result = self._features_update(use, track_id if full else None, slam_track, slam_uv)
         self._keep_obs(~use)
         if full:
@@ -535,6 +548,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
                 status = np.empty(g, np.int64)
                 nis = np.empty(g)
                 points = np.empty((g, 3))
+                top = np.empty((g, 3, n + 4))
                 uv_sel = np.ascontiguousarray(self._ob_uv[sel])
                 # the kernel with an open gate returns the rows of every triangulated feature: the σ estimate sees
                 # them all (a gate at the current σ would keep the small residuals and bias it low); the χ² gate is
@@ -542,7 +556,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
                 m = _native.msckf_features(np.ascontiguousarray(self.clones), np.ascontiguousarray(self.clones_fej),
                                            self.q_bc, self.p_bc, offsets, obs_clone, uv_sel, self.P,
                                            self.feature_sigma, self._open_gate, self._limits, H, r, rvar, status, nis,
-                                           points)  # fmt: skip
+                                           points, top)  # fmt: skip
                 dof = 2 * count[enough] - 3
                 solved = status == 1
                 gated = solved & (nis > self._chi2[np.minimum(dof, len(self._chi2) - 1)])
@@ -556,9 +570,8 @@ class MsckfVio(EskfStateAccessors, Estimator):
                     room = o.max_slam - len(self.slam_id)
                     if current is not None and room > 0:  # long tracks (seen in the oldest clone and now): SLAM
                         gid = ids[enough]
-                        for f in np.flatnonzero(accepted & np.isin(gid, current))[:room]:
-                            a, b = offsets[f], offsets[f + 1]
-                            self._init_landmark(int(gid[f]), obs_clone[a:b], uv_sel[a:b], points[f])
+                        for f in np.flatnonzero(accepted & _member(gid, current))[:room]:
+                            self._init_landmark(int(gid[f]), points[f], top[f])
         drop = np.zeros(len(self.slam_id), bool)
         if len(slam_track):
             Hs, rs, idx, ok, r_all, rvar_all = self._slam_rows(slam_track, slam_uv)
@@ -585,56 +598,19 @@ class MsckfVio(EskfStateAccessors, Estimator):
         return TrackUpdate(nis, int(dof[accepted].sum()), accepted, feature_dof=dof, status=status)
 
     # ------------------------------------------------------------------ SLAM features
-    def _observation_jacobians(
-        self, pw: np.ndarray, pw_fej: np.ndarray, clone: np.ndarray, uv: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Per observation k of world point ``pw`` (k, 3) in clone ``clone`` (k,) at normalised ``uv`` (k, 2): the
-        residual (k, 2) ``uv − π(p_c)`` at the current estimates, the Jacobians at the first estimates (the clone's,
-        and ``pw_fej`` (k, 3) of the point) with respect to the clone error ``[δp, δθ]`` (k, 2, 6) and the world
-        point (k, 2, 3) (as ``msckf_features``), and whether the point is in front of the camera (k,)."""
-        Rbc = dp.matrix_from_quat(self.q_bc)
-        cl, fe = self.clones[clone], self.clones_fej[clone]
-        p_b = np.einsum("kji,kj->ki", dp.matrix_from_quat(cl[:, 3:]), pw - cl[:, :3])
-        p_c = (p_b - self.p_bc) @ Rbc
-        Rf = dp.matrix_from_quat(fe[:, 3:])
-        pbf = np.einsum("kji,kj->ki", Rf, pw_fej - fe[:, :3])
-        pcf = (pbf - self.p_bc) @ Rbc
-        ok = (p_c[:, 2] > 0.0) & (pcf[:, 2] > 0.0)
-        z = np.where(ok, p_c[:, 2], 1.0)
-        zf = np.where(ok, pcf[:, 2], 1.0)
-        r = uv - p_c[:, :2] / z[:, None]
-        iz = 1.0 / zf
-        Jp = np.zeros((len(zf), 2, 3))
-        Jp[:, 0, 0] = Jp[:, 1, 1] = iz
-        Jp[:, :, 2] = -pcf[:, :2] * (iz * iz)[:, None]
-        JB = Jp @ Rbc.T  # ∂z/∂p_b
-        JW = np.einsum("kil,kml->kim", JB, Rf)  # ∂z/∂p_w = JB R_wbᵀ
-        Hc = np.empty((len(zf), 2, _CE))
-        Hc[:, :, :3] = -JW
-        Hc[:, :, 3:] = np.cross(JB, pbf[:, None, :])  # JB [p_b]×: each row × p_b
-        return r, Hc, JW, ok
-
-    def _init_landmark(self, track: int, clone: np.ndarray, uv: np.ndarray, pw: np.ndarray) -> None:
-        """Put the feature ``track`` seen in ``clone`` (m,) at ``uv`` (m, 2), triangulated at ``pw`` (3,), into the
-        state (delayed initialisation, Li & Mourikis, "Optimization-based estimator design for vision-aided
-        inertial navigation", RSS 2012; OpenVINS ``StateHelper::initialize_invertible``): with ``Q₁`` an
-        orthonormal basis of the range of the feature Jacobian ``H_f = Q₁ R``, the three rows
-        ``Q₁ᵀ r = Q₁ᵀ H_x δx + R δf + Q₁ᵀ n`` give the point ``pw + R⁻¹ Q₁ᵀ r``, its covariance
-        ``A P Aᵀ + σ² R⁻¹ R⁻ᵀ`` and its cross-covariance ``−A P`` with ``A = R⁻¹ Q₁ᵀ H_x`` (the other ``2m − 3``
-        rows are the MSCKF rows of the same update); its first estimate is ``pw``."""
-        m = len(clone)
-        pts = np.broadcast_to(pw, (m, 3))
-        r, Hc, Hf, ok = self._observation_jacobians(pts, pts, clone, uv)
-        if not ok.all():
-            return
-        n = self.P.shape[0]
-        Hx = np.zeros((2 * m, n))
-        cols = _NE + _CE * clone[:, None] + np.arange(_CE)
-        Hx[np.arange(2 * m).reshape(m, 2)[:, :, None], cols[:, None, :]] = Hc
-        Q1, R = np.linalg.qr(Hf.reshape(2 * m, 3))
-        Rinv = np.linalg.inv(R)
-        A = Rinv @ (Q1.T @ Hx)
-        AP = A @ self.P
+    def _init_landmark(self, track: int, pw: np.ndarray, top: np.ndarray) -> None:
+        """Put the feature ``track``, triangulated at ``pw`` (3,), into the state (delayed initialisation, Li &
+        Mourikis, "Optimization-based estimator design for vision-aided inertial navigation", RSS 2012; OpenVINS
+        ``StateHelper::initialize_invertible``) from the three rows ``top`` (3, n + 4) = ``[H_x1 | R | r1]`` that
+        the nullspace projection of ``msckf_features`` sets aside (``r1 = H_x1 δx + R δf + n1``, ``R`` upper
+        triangular; the other ``2m − 3`` rows are the MSCKF rows of the same update): the point
+        ``pw + R⁻¹ r1``, its covariance ``A P Aᵀ + σ² R⁻¹ R⁻ᵀ`` and its cross-covariance ``−A P`` with
+        ``A = R⁻¹ H_x1``; its first estimate is ``pw`` (where the Jacobians were taken)."""
+        n, nt = self.P.shape[0], top.shape[1] - 4  # features initialised before in this frame: zero columns of H_x1
+        Rinv = np.linalg.inv(top[:, nt : nt + 3])
+        AP = (Rinv @ top[:, :nt]) @ self.P[:nt]
+        A = np.zeros((3, n))
+        A[:, :nt] = Rinv @ top[:, :nt]
         Pff = AP @ A.T + self.feature_sigma**2 * (Rinv @ Rinv.T)
         P = np.empty((n + 3, n + 3))
         P[:n, :n] = self.P
@@ -643,7 +619,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
         P[n:, n:] = 0.5 * (Pff + Pff.T)
         self.P = P
         self.slam_id = np.append(self.slam_id, track)
-        self.slam_p = np.vstack([self.slam_p, pw + Rinv @ (Q1.T @ r.reshape(-1))])
+        self.slam_p = np.vstack([self.slam_p, pw + Rinv @ top[:, nt + 3]])
         self.slam_fej = np.vstack([self.slam_fej, pw])
         self.n_slam_init += 1
 
@@ -653,25 +629,18 @@ class MsckfVio(EskfStateAccessors, Estimator):
         """The rows (2 per feature) of the SLAM features ``track`` (k,) seen at ``uv`` (k, 2) in the newest clone
         that pass the χ² gate (2 dof) — ``H`` (2a, n), ``r`` (2a,) —, the features' indices in the state (k,),
         which of them passed (k,), and the residuals and their prior variances ``(H P Hᵀ)_ii`` of every feature
-        in front of the camera, before the gate (for the σ estimate)."""
+        in front of the camera, before the gate (for the σ estimate); the native ``msckf_slam_rows``."""
         srt = np.argsort(self.slam_id)
-        idx = srt[np.searchsorted(self.slam_id, track, sorter=srt)]
-        c = len(self.clones) - 1
-        r, Hc, Hf, ok = self._observation_jacobians(self.slam_p[idx], self.slam_fej[idx], np.full(len(idx), c), uv)
-        k0 = _NE + _CE * len(self.clones)
-        cols = np.concatenate([np.broadcast_to(_NE + _CE * c + np.arange(_CE), (len(idx), _CE)),
-                               k0 + 3 * idx[:, None] + np.arange(3)], axis=1)  # fmt: skip
-        Hs = np.concatenate([Hc, Hf], axis=2)  # (k, 2, 9)
-        Psub = self.P[cols[:, :, None], cols[:, None, :]]
-        S = Hs @ Psub @ np.swapaxes(Hs, 1, 2) + self.feature_sigma**2 * np.eye(2)
-        q = np.einsum("ki,ki->k", r, np.linalg.solve(S, r[..., None])[..., 0])
-        front = ok.copy()
-        ok &= q <= self._chi2_2
-        good = np.flatnonzero(ok)
-        H = np.zeros((2 * len(good), self.P.shape[0]))
-        H[np.arange(2 * len(good)).reshape(-1, 2)[:, :, None], cols[good][:, None, :]] = Hs[good]
-        rvar = np.diagonal(S, axis1=1, axis2=2) - self.feature_sigma**2
-        return H, r[good].reshape(-1), idx, ok, r[front].reshape(-1), rvar[front].reshape(-1)
+        idx = srt[np.searchsorted(self.slam_id, track, sorter=srt)].astype(np.int64)
+        k = len(idx)
+        H = np.empty((2 * k, self.P.shape[0]))
+        r, r_all, rvar = np.empty(2 * k), np.empty(2 * k), np.empty(2 * k)
+        status = np.empty(k, np.int64)
+        rows, front = _native.msckf_slam_rows(self.clones, self.clones_fej, self.q_bc, self.p_bc, self.slam_p,
+                                              self.slam_fej, idx, len(self.clones) - 1,
+                                              np.ascontiguousarray(uv, dtype=np.float64), self.P, self.feature_sigma,
+                                              self._chi2_2, H, r, status, r_all, rvar)  # fmt: skip
+        return H[:rows], r[:rows], idx, status == 1, r_all[: 2 * front], rvar[: 2 * front]
 
     def _drop_landmarks(self, drop: np.ndarray) -> None:
         """Marginalise the SLAM features ``drop`` (L,) bool: delete their rows and columns."""
