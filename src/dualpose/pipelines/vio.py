@@ -101,6 +101,8 @@ def run_vio(data: str | os.PathLike | TrackRecording, truth: str | os.PathLike |
         "feature_sigma_px": float(rec.feature_sigma * rec.focal_length),
         "adapted_sigma_px": float(f.feature_sigma * rec.focal_length), "read_s": t_read,
         "filter_s": res.wall_time, "realtime_factor": duration / res.wall_time if res.wall_time > 0 else float("inf"),
+        "filter_cpu_s": res.cpu_time,
+        "realtime_factor_cpu": duration / res.cpu_time if res.cpu_time > 0 else float("inf"),
     }  # fmt: skip
     if gt is not None:
         metrics.update(vio_metrics(gt, est))

@@ -697,7 +697,18 @@ PyObject* py_update(PyObject*, PyObject* args) {
             nis += y[j] * y[j];
             for (npy_intp i = 0; i < n; ++i) dx[i] += W[j * n + i] * y[j];
         }
-        for (npy_intp j = 0; j < m; ++j) {  // P −= Wᵀ W, upper triangle, one row of W at a time
+        // P −= Wᵀ W, upper triangle, four rows of W per pass over P (P is read and written m/4 times, not m)
+        npy_intp j = 0;
+        for (; j + 4 <= m; j += 4) {
+            const double *w0 = &W[j * n], *w1 = w0 + n, *w2 = w1 + n, *w3 = w2 + n;
+            for (npy_intp i = 0; i < n; ++i) {
+                const double a0 = w0[i], a1 = w1[i], a2 = w2[i], a3 = w3[i];
+                if (a0 == 0.0 && a1 == 0.0 && a2 == 0.0 && a3 == 0.0) continue;
+                double* pr = Pm.row(i);
+                for (npy_intp k = i; k < n; ++k) pr[k] -= (a0 * w0[k] + a1 * w1[k]) + (a2 * w2[k] + a3 * w3[k]);
+            }
+        }
+        for (; j < m; ++j) {
             const double* w = &W[j * n];
             for (npy_intp i = 0; i < n; ++i) {
                 const double wi = w[i];
