@@ -82,6 +82,11 @@ class MsckfOptions:
     features, ``max_slam``; docs/vio.md "SLAM features"): a track still seen when it has spanned the whole window
     is initialised into the state instead of being used once, updated at every frame it is seen in, and
     marginalised when its track ends or its update fails the χ² gate; 0 gives the pure MSCKF.
+
+    ``estimate_time_offset`` adds the camera–IMU time offset ``t_imu = t_cam + t_d`` to the state (the last error
+    element, prior σ ``time_offset_sigma`` s around the given offset; OpenVINS ``calib_cam_timeoffset``, Li &
+    Mourikis, "Online temporal calibration for camera-aided inertial navigation", IJRR 2014): each clone is the
+    IMU pose at ``t_cam + t̂_d``, so its error gains ``[v_w, ω_b] δt_d`` (docs/vio.md "Time offset").
     """
 
     max_clones: int = 11
@@ -94,6 +99,8 @@ class MsckfOptions:
     sigma_floor: float = 0.1
     sigma_memory: float = 1000.0
     max_slam: int = 25
+    estimate_time_offset: bool = True
+    time_offset_sigma: float = 0.01
 
     def __post_init__(self) -> None:
         if int(self.max_clones) != self.max_clones or self.max_clones < 2:
@@ -107,6 +114,8 @@ class MsckfOptions:
                              f"{self.min_depth!r}, {self.max_depth!r}, {self.min_parallax!r}")  # fmt: skip
         if int(self.max_slam) != self.max_slam or self.max_slam < 0:
             raise ValueError(f"max_slam must be a whole number >= 0; got {self.max_slam!r}")
+        if not self.time_offset_sigma > 0.0:
+            raise ValueError(f"time_offset_sigma must be > 0 s; got {self.time_offset_sigma!r}")
         if not 0.0 < self.sigma_floor <= 1.0 or not self.sigma_memory > 0.0:
             raise ValueError("need 0 < sigma_floor <= 1 and sigma_memory > 0; got "
                              f"{self.sigma_floor!r}, {self.sigma_memory!r}")  # fmt: skip
@@ -205,10 +214,18 @@ class MsckfVio(EskfStateAccessors, Estimator):
         self.camera_time_offset = float(camera_time_offset)
         self.options = MsckfOptions() if options is None else options
         o = self.options
+        # scalar states after the SLAM features (the time offset), updated in place by msckf_update
+        self._extra = np.array([self.camera_time_offset]) if o.estimate_time_offset else np.zeros(0)
+        if o.estimate_time_offset:
+            P = np.zeros((_NE + 1, _NE + 1))
+            P[:_NE, :_NE] = self.P
+            P[_NE, _NE] = o.time_offset_sigma**2
+            self.P = P
         self._chi2 = np.r_[np.inf, chi2.ppf(o.gate_probability, np.arange(1, 2 * o.max_clones + 8))]
         self._open_gate = np.full_like(self._chi2, np.inf)
         self._limits = np.array([o.min_depth, o.max_depth, o.min_parallax])
         self.time: float | None = None
+        self._t_imu: float | None = None  # the last IMU sample's time
         self._u = np.zeros(6)
         self._x_fej: np.ndarray | None = None  # the state before the updates since the last propagation (FEJ)
         self.clones = np.zeros((0, 7))  # [p_wb, q_wb] per clone, oldest first
@@ -256,7 +273,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
             accel_bias=np.full(3, n.accelerometer_initial_bias_sigma**2),
         ))  # fmt: skip
         f = cls(x, P, n, r.q_bc, r.p_bc, r.feature_sigma, camera_time_offset=r.time_offset, options=options)
-        f.time = float(r.t[k])
+        f.time = f._t_imu = float(r.t[k])
         f._u = np.r_[r.gyro[k], r.accel[k]]
         return f, k
 
@@ -282,10 +299,11 @@ class MsckfVio(EskfStateAccessors, Estimator):
             "slam_id": self.slam_id.copy(), "slam_p": self.slam_p.copy(), "slam_fej": self.slam_fej.copy(),
             "q_bc": self.q_bc.copy(), "p_bc": self.p_bc.copy(), "gravity": self.gravity.copy(),
             "feature_sigma": np.array(self.feature_sigma), "nominal_sigma": np.array(self.nominal_sigma),
-            "camera_time_offset": np.array(self.camera_time_offset),
+            "camera_time_offset": np.array(self.camera_time_offset), "extra": self._extra.copy(),
+            "t_imu": np.array(np.nan if self._t_imu is None else self._t_imu),
             "options": np.array([o.max_clones, o.min_track, o.gate_probability, o.min_depth, o.max_depth,
                                  o.min_parallax, float(o.adaptive_sigma), o.sigma_floor, o.sigma_memory,
-                                 o.max_slam]),
+                                 o.max_slam, float(o.estimate_time_offset), o.time_offset_sigma]),
         }  # fmt: skip
 
     @classmethod
@@ -298,7 +316,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
                                  f"{cls.STATE_VERSION}")  # fmt: skip
             o = np.asarray(d["options"], dtype=np.float64)
             opts = MsckfOptions(int(o[0]), int(o[1]), float(o[2]), float(o[3]), float(o[4]), float(o[5]), bool(o[6]),
-                                float(o[7]), float(o[8]), int(o[9]))
+                                float(o[7]), float(o[8]), int(o[9]), bool(o[10]), float(o[11]))
             noise = np.asarray(d["noise"], dtype=np.float64)
             sd = np.sqrt(noise)
             imu = ImuNoise(*sd[[0, 2, 1, 3]].tolist(), gyroscope_scale_sigma=float(sd[4]),
@@ -327,9 +345,12 @@ class MsckfVio(EskfStateAccessors, Estimator):
             f.slam_id = np.array(d["slam_id"], dtype=np.int64)
             f.slam_p = np.array(d["slam_p"], dtype=np.float64).reshape(-1, 3)
             f.slam_fej = np.array(d["slam_fej"], dtype=np.float64).reshape(-1, 3)
+            f._extra = np.array(d["extra"], dtype=np.float64).reshape(-1)
+            t_imu = float(d["t_imu"])
+            f._t_imu = None if np.isnan(t_imu) else t_imu
         except KeyError as exc:
             raise ValueError(f"saved MSCKF state lacks {exc}") from None
-        if f.P.shape != (_NE + _CE * len(f.clones) + 3 * len(f.slam_id),) * 2:
+        if f.P.shape != (_NE + _CE * len(f.clones) + 3 * len(f.slam_id) + len(f._extra),) * 2:
             raise ValueError(f"saved MSCKF state: covariance {f.P.shape} does not match {len(f.clones)} clones and "
                              f"{len(f.slam_id)} SLAM features")  # fmt: skip
         return f
@@ -347,8 +368,8 @@ class MsckfVio(EskfStateAccessors, Estimator):
 
     @property
     def full_covariance(self) -> np.ndarray:
-        """Covariance (15 + 6C + 3L, same) of the IMU error, the C clones' ``[δp, δθ]`` and the L SLAM features'
-        world points, a copy."""
+        """Covariance (15 + 6C + 3L + E, same) of the IMU error, the C clones' ``[δp, δθ]``, the L SLAM features'
+        world points and, when estimated (E = 1), the camera time offset, a copy."""
         return self.P.copy()
 
     def update(self, measurement) -> UpdateResult:
@@ -391,11 +412,17 @@ class MsckfVio(EskfStateAccessors, Estimator):
         <dualpose.estimation.eskf.ErrorStateEKF.propagate>`: the mean of the held and the new sample over the
         step, then the new one held).  ``mag`` is not used."""
         u = np.r_[np.asarray(gyro, float).reshape(3), np.asarray(accel, float).reshape(3)]
+        if (len(self._extra) and self.time is not None and t < self.time
+                and (self._t_imu is None or t > self._t_imu)):  # fmt: skip
+            # a frame at the estimated time offset took the clock past this sample: its interval was covered by the
+            # held sample; hold the new one
+            self._u, self._t_imu = u, float(t)
+            return
         dt = self._elapsed(t, f"IMU sample at t={t}")
         if dt > 0:
             mid = 0.5 * (self._u + u)
             self._steps(mid[None, :3], mid[None, 3:], np.array([dt]))
-        self.time = float(t)
+        self.time = self._t_imu = float(t)
         self._u = u
 
     # ------------------------------------------------------------------ the window
@@ -403,12 +430,17 @@ class MsckfVio(EskfStateAccessors, Estimator):
         n = self.P.shape[0]
         k = _NE + _CE * len(self.clones)  # the new clone's columns, before the SLAM features
         JP = self.P[_POSE_ROWS]  # J P with J selecting the pose rows [δp, δθ] of the IMU error
+        block = JP[:, _POSE_ROWS]
+        if len(self._extra):  # the clone is the pose at t_cam + t̂_d: its error gains u δt_d, u = [v_w, ω_b]
+            u = np.r_[ESKF_STATE.get(self.x, "velocity"), self._u[:3] - ESKF_STATE.get(self.x, "gyro_bias")]
+            JP = JP + np.outer(u, self.P[n - 1])
+            block = JP[:, _POSE_ROWS] + np.outer(JP[:, n - 1], u)
         P = np.empty((n + _CE, n + _CE))
         e = k + _CE
         P[:k, :k], P[:k, e:], P[e:, :k], P[e:, e:] = self.P[:k, :k], self.P[:k, k:], self.P[k:, :k], self.P[k:, k:]
         P[k:e, :k], P[k:e, e:] = JP[:, :k], JP[:, k:]
         P[:k, k:e], P[e:, k:e] = JP[:, :k].T, JP[:, k:].T
-        P[k:e, k:e] = JP[:, _POSE_ROWS]
+        P[k:e, k:e] = 0.5 * (block + block.T)
         self.P = P
         c = np.concatenate([ESKF_STATE.get(self.x, "position"), ESKF_STATE.get(self.x, "quat")])
         self.clones = np.vstack([self.clones, c])
@@ -471,7 +503,10 @@ class MsckfVio(EskfStateAccessors, Estimator):
         q = ESKF_STATE.get(x, "quat")
         q[:] = dp.quat_normalize(dp.quat_mul(q, dp.quat_from_rotvec(ESKF_ERROR.get(dx[:_NE], "attitude"))))
         k = _NE + _CE * len(self.clones)
-        self.slam_p += dx[k:].reshape(-1, 3)
+        self.slam_p += dx[k : k + 3 * len(self.slam_id)].reshape(-1, 3)
+        if len(self._extra):
+            self._extra += dx[len(dx) - len(self._extra) :]
+            self.camera_time_offset = float(self._extra[0])
         if len(self.clones):
             d = dx[_NE:k].reshape(-1, _CE)
             self.clones[:, :3] += MSCKF_CLONE_ERROR.get(d, "position")
@@ -483,7 +518,15 @@ class MsckfVio(EskfStateAccessors, Estimator):
         """Propagate to the frame (the last IMU sample held), clone the IMU pose, and update with every feature whose
         track ended or whose oldest observation leaves the window; then drop the oldest clone if the window is
         over ``max_clones``."""
-        t = self._frame_time(frame.t, self.camera_time_offset)
+        if len(self._extra) and self.time is not None:
+            # with the offset estimated, a frame may fall a little before the filter time (the clock ran ahead at
+            # an earlier estimate): it is taken at the filter time, within 3 prior σ of the offset
+            t = frame.t + self.camera_time_offset
+            if t < self.time - 3.0 * self.options.time_offset_sigma:
+                self._elapsed(t, f"frame at IMU time {t}")
+            t = max(t, self.time)
+        else:
+            t = self._frame_time(frame.t, self.camera_time_offset)
         if t > self.time:
             self._steps(self._u[None, :3], self._u[None, 3:], np.array([t - self.time]))
             self.time = t
@@ -590,7 +633,9 @@ class MsckfVio(EskfStateAccessors, Estimator):
                 Hk[i : i + len(Hb), : Hb.shape[1]] = Hb
                 i += len(Hb)
             self._keep_first_estimate()  # one update of all accepted rows (QR-compressed in the kernel when m > n)
-            _native.msckf_update(self.x, self.clones, self.slam_p, self.P, Hk, rk, self.feature_sigma)
+            _native.msckf_update(self.x, self.clones, self.slam_p, self._extra, self.P, Hk, rk, self.feature_sigma)
+            if len(self._extra):
+                self.camera_time_offset = float(self._extra[0])
         if drop.any():
             self._drop_landmarks(drop)
         if o.adaptive_sigma and resid:
@@ -608,17 +653,19 @@ class MsckfVio(EskfStateAccessors, Estimator):
         triangular; the other ``2m − 3`` rows are the MSCKF rows of the same update): the point
         ``pw + R⁻¹ r1``, its covariance ``A P Aᵀ + σ² R⁻¹ R⁻ᵀ`` and its cross-covariance ``−A P`` with
         ``A = R⁻¹ H_x1``; its first estimate is ``pw`` (where the Jacobians were taken)."""
-        n, nt = self.P.shape[0], top.shape[1] - 4  # features initialised before in this frame: zero columns of H_x1
+        n, nt, E = self.P.shape[0], top.shape[1] - 4, len(self._extra)
         Rinv = np.linalg.inv(top[:, nt : nt + 3])
-        AP = (Rinv @ top[:, :nt]) @ self.P[:nt]
-        A = np.zeros((3, n))
-        A[:, :nt] = Rinv @ top[:, :nt]
+        A = np.zeros((3, n))  # R⁻¹ H_x1 in the current layout (points initialised before in this frame: zero)
+        A[:, : nt - E] = Rinv @ top[:, : nt - E]
+        A[:, n - E :] = Rinv @ top[:, nt - E : nt]
+        AP = A @ self.P
         Pff = AP @ A.T + self.feature_sigma**2 * (Rinv @ Rinv.T)
+        k, e = n - E, n - E + 3  # the point goes after the other points, before the scalar states
         P = np.empty((n + 3, n + 3))
-        P[:n, :n] = self.P
-        P[n:, :n] = -AP
-        P[:n, n:] = -AP.T
-        P[n:, n:] = 0.5 * (Pff + Pff.T)
+        P[:k, :k], P[:k, e:], P[e:, :k], P[e:, e:] = self.P[:k, :k], self.P[:k, k:], self.P[k:, :k], self.P[k:, k:]
+        P[k:e, :k], P[k:e, e:] = -AP[:, :k], -AP[:, k:]
+        P[:k, k:e], P[e:, k:e] = -AP[:, :k].T, -AP[:, k:].T
+        P[k:e, k:e] = 0.5 * (Pff + Pff.T)
         self.P = P
         self.slam_id = np.append(self.slam_id, track)
         self.slam_p = np.vstack([self.slam_p, pw + Rinv @ top[:, nt + 3]])
@@ -647,7 +694,9 @@ class MsckfVio(EskfStateAccessors, Estimator):
     def _drop_landmarks(self, drop: np.ndarray) -> None:
         """Marginalise the SLAM features ``drop`` (L,) bool: delete their rows and columns."""
         k0 = _NE + _CE * len(self.clones)
-        keep = np.r_[np.arange(k0), (k0 + 3 * np.flatnonzero(~drop)[:, None] + np.arange(3)).reshape(-1)]
+        n = self.P.shape[0]
+        keep = np.r_[np.arange(k0), (k0 + 3 * np.flatnonzero(~drop)[:, None] + np.arange(3)).reshape(-1),
+                     np.arange(n - len(self._extra), n)]  # fmt: skip
         self.P = np.ascontiguousarray(self.P[np.ix_(keep, keep)])
         self.slam_id, self.slam_p, self.slam_fej = self.slam_id[~drop], self.slam_p[~drop], self.slam_fej[~drop]
 
@@ -684,7 +733,8 @@ class MsckfVio(EskfStateAccessors, Estimator):
         nis_all, dof_all = [], []
         t0, c0 = time.perf_counter(), time.process_time()
         for j in range(first, len(ft) + 1):
-            tf = ft[j] if j < len(ft) else np.inf
+            # the frame on the IMU clock with the current offset estimate (online: never before the filter time)
+            tf = max(r.tracks.t[j] + self.camera_time_offset, self.time) if j < len(ft) else np.inf
             k1 = int(np.searchsorted(t, tf, side="right")) - 1  # last sample at or before the frame
             if k1 > k:
                 mid = 0.5 * (u[k:k1] + u[k + 1 : k1 + 1])
@@ -692,11 +742,12 @@ class MsckfVio(EskfStateAccessors, Estimator):
                 dts[0] = t[k + 1] - self.time
                 X[k + 1 : k1 + 1] = self._steps(mid[:, :3], mid[:, 3:], dts)
                 self.time, self._u, k = float(t[k1]), u[k1].copy(), k1
+                self._t_imu = self.time
             if j == len(ft):
                 break
-            if ft[j] > self.time:
-                self._steps(self._u[None, :3], self._u[None, 3:], np.array([ft[j] - self.time]))
-                self.time = float(ft[j])
+            if tf > self.time:
+                self._steps(self._u[None, :3], self._u[None, 3:], np.array([tf - self.time]))
+                self.time = float(tf)
             a, b = r.tracks.offsets[j], r.tracks.offsets[j + 1]  # the frame's rows (validated by FeatureTracks)
             res = self._frame_update(r.tracks.track_id[a:b], r.tracks.uv[a:b])
             if self.time == t[k]:  # a frame at an IMU stamp: the output there is the state after the update

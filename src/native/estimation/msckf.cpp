@@ -283,7 +283,8 @@ PyObject* py_propagate(PyObject*, PyObject* args) {
 // failed, -2 too few observations); chi2[d] the gate for d degrees of freedom; points the triangulated world points
 // (NaN where none); top the three rows the nullspace projection sets aside, which determine the point (delayed
 // initialisation): per feature [H_x1 (3, n) | R (3, 3) upper triangular | r1 (3, 1)] (the Givens-rotated H_x, H_f and
-// residual), for every triangulated feature.  P (n, n) may carry L landmarks after the clones (n = 15 + 6C + 3L).
+// residual), for every triangulated feature.  P (n, n) may carry other states after the clones (landmarks, the time
+// offset: n >= 15 + 6C); their columns of H are zero.
 PyObject* py_features(PyObject*, PyObject* args) {
     Array<double, 2> clones, fej, uv, Pm;
     Array<double, 1> q_bc, p_bc, chi2, limits;
@@ -311,8 +312,8 @@ PyObject* py_features(PyObject*, PyObject* args) {
         !shape_is("rvar", rvar, {Hout.shape[0]}) || !shape_is("status", status, {g}) ||
         !shape_is("nis", nis, {g}))
         return nullptr;
-    if (n < NE + 6 * nc || (n - NE - 6 * nc) % 3 != 0) {
-        PyErr_SetString(PyExc_ValueError, "P must have 15 + 6C + 3L rows (IMU, C clones, L landmarks)");
+    if (n < NE + 6 * nc) {
+        PyErr_SetString(PyExc_ValueError, "P must have at least 15 + 6C rows (IMU, C clones, then any other states)");
         return nullptr;
     }
     if (chi2.shape[0] < 1) {  // the gate reads chi2[min(dof, D - 1)]
@@ -460,7 +461,7 @@ PyObject* py_features(PyObject*, PyObject* args) {
 
 // msckf_slam_rows(clones (C, 7), clones_fej (C, 7), q_bc, p_bc, points (L, 3), points_fej (L, 3), idx (k,), clone,
 // uv (k, 2), P (n, n), sigma, gate, H (2k, n), r (2k,), status (k,), r_all (2k,), rvar (2k,)) -> (rows, front):
-// the observations uv of the SLAM features idx (world points at columns 15 + 6C + 3l of P, n = 15 + 6C + 3L) in the
+// the observations uv of the SLAM features idx (world points at columns 15 + 6C + 3l of P, n >= 15 + 6C + 3L) in the
 // clone `clone`: per feature the two rows (residual at the current estimates, Jacobians at the first estimates of
 // the clone and the point, as msckf_features), its NIS rᵀ (H P Hᵀ + σ² I)⁻¹ r against `gate`; the accepted rows
 // stacked in H and r (rows of them), status 1 accepted, 0 gated, -1 behind the camera; r_all and rvar the residuals
@@ -482,13 +483,17 @@ PyObject* py_slam_rows(PyObject*, PyObject* args) {
                           convert<std::int64_t, 1, true>, &status, convert<double, 1, true>, &rall,
                           convert<double, 1, true>, &rvar))
         return nullptr;
-    const npy_intp nc = clones.shape[0], nl = pts.shape[0], k = idx.shape[0], n = NE + 6 * nc + 3 * nl;
+    const npy_intp nc = clones.shape[0], nl = pts.shape[0], k = idx.shape[0], n = Pm.shape[0];
     if (!shape_is("clones", clones, {-1, 7}) || !shape_is("clones_fej", fej, {nc, 7}) ||
         !shape_is("q_bc", q_bc, {4}) || !shape_is("p_bc", p_bc, {3}) || !shape_is("points", pts, {-1, 3}) ||
         !shape_is("points_fej", pts_fej, {nl, 3}) || !shape_is("uv", uv, {k, 2}) || !shape_is("P", Pm, {n, n}) ||
         !shape_is("H", Hout, {2 * k, n}) || !shape_is("r", rout, {2 * k}) || !shape_is("status", status, {k}) ||
         !shape_is("r_all", rall, {2 * k}) || !shape_is("rvar", rvar, {2 * k}))
         return nullptr;
+    if (n < NE + 6 * nc + 3 * nl) {
+        PyErr_SetString(PyExc_ValueError, "P must have at least 15 + 6C + 3L rows (IMU, clones, points)");
+        return nullptr;
+    }
     if (clone < 0 || clone >= nc) {
         PyErr_SetString(PyExc_ValueError, "clone must index the clones");
         return nullptr;
@@ -562,21 +567,23 @@ PyObject* py_slam_rows(PyObject*, PyObject* args) {
     return Py_BuildValue("nn", rows, front);
 }
 
-// msckf_update(x (16,), clones (C, 7), landmarks (L, 3), P (n, n), H (m, n), r (m,), sigma) -> nis: the EKF update
-// with r = H δx + e, e ~ N(0, σ² I), of the IMU state, the clones and the landmarks (world points, additive error at
-// columns 15 + 6C + 3l; n = 15 + 6C + 3L), in place.  When m > n the rows are first compressed by a
+// msckf_update(x (16,), clones (C, 7), landmarks (L, 3), extra (E,), P (n, n), H (m, n), r (m,), sigma) -> nis: the
+// EKF update with r = H δx + e, e ~ N(0, σ² I), of the IMU state, the clones, the landmarks (world points, additive
+// error at columns 15 + 6C + 3l) and E scalar states after them (additive; the camera time offset; n = 15 + 6C + 3L
+// + E), in place.  When m > n the rows are first compressed by a
 // Householder QR (H = Q T, r <- Q₁ᵀ r; Mourikis & Roumeliotis 2007 §III-D).  P <- P − P Hᵀ S⁻¹ H P (symmetrised),
 // then δx = P Hᵀ S⁻¹ r is injected (IMU: additive blocks, q ⊗ Exp(δθ); clones: p + δp, q ⊗ Exp(δθ)).  Returns the
 // NIS rᵀ S⁻¹ r, or raises numpy's LinAlgError if S is not positive definite.
 PyObject* py_update(PyObject*, PyObject* args) {
-    Array<double, 1, true> x, r;
+    Array<double, 1, true> x, r, extra;
     Array<double, 2, true> clones, lm, Pm, H;
     double sigma;
-    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&d:msckf_update", convert<double, 1, true>, &x, convert<double, 2, true>,
-                          &clones, convert<double, 2, true>, &lm, convert<double, 2, true>, &Pm,
+    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&d:msckf_update", convert<double, 1, true>, &x,
+                          convert<double, 2, true>, &clones, convert<double, 2, true>, &lm,
+                          convert<double, 1, true>, &extra, convert<double, 2, true>, &Pm,
                           convert<double, 2, true>, &H, convert<double, 1, true>, &r, &sigma))
         return nullptr;
-    const npy_intp nc = clones.shape[0], nl = lm.shape[0], n = NE + 6 * nc + 3 * nl;
+    const npy_intp nc = clones.shape[0], nl = lm.shape[0], ne = extra.shape[0], n0 = NE + 6 * nc + 3 * nl, n = n0 + ne;
     npy_intp m = H.shape[0];
     const npy_intp m_all = m;
     if (!shape_is("x", x, {NX}) || !shape_is("clones", clones, {-1, 7}) || !shape_is("landmarks", lm, {-1, 3}) ||
@@ -734,6 +741,7 @@ PyObject* py_update(PyObject*, PyObject* args) {
         }
         for (npy_intp l = 0; l < nl; ++l)
             for (int i = 0; i < 3; ++i) lm(l, i) += dx[NE + 6 * nc + 3 * l + i];
+        for (npy_intp e = 0; e < ne; ++e) extra[e] += dx[n0 + e];
     }
     Py_END_ALLOW_THREADS;
     if (!ok) return raise_linalg_error("the innovation covariance is not positive definite");
@@ -754,9 +762,9 @@ PyMethodDef methods[] = {
      "r_all, rvar) -> (rows, front): the gated update rows of SLAM features observed in one clone (FEJ Jacobians), "
      "and the residuals and prior variances of those in front of the camera."},
     {"msckf_update", py_update, METH_VARARGS,
-     "msckf_update(x, clones, landmarks, P, H, r, sigma) -> nis: EKF update (QR-compressed when H has more rows than "
-     "columns) of the IMU state x (16,), the clones (C, 7), the landmarks (L, 3) and P (15 + 6C + 3L, same) in place, "
-     "noise sigma² I."},
+     "msckf_update(x, clones, landmarks, extra, P, H, r, sigma) -> nis: EKF update (QR-compressed when H has more rows "
+     "than columns) of the IMU state x (16,), the clones (C, 7), the landmarks (L, 3), the scalar states extra (E,) "
+     "and P (15 + 6C + 3L + E, same) in place, noise sigma² I."},
     {nullptr, nullptr, 0, nullptr},
 };
 
