@@ -9,18 +9,21 @@ State (docs/vio.md):
   (:mod:`dualpose.estimation.eskf`, Solà 2017; local attitude error ``q = q̂ ⊗ Exp(δθ)``), propagated by the same
   native kernel (``msckf_propagate``, ``src/native/estimation/msckf.cpp``);
 * a sliding window of ``C ≤ max_clones`` clones of the IMU pose ``[p_wb (3), q_wb (4)]`` taken at the camera
-  times (stochastic cloning), each with a 6-dof error ``[δp, δθ]`` (:data:`MSCKF_CLONE_ERROR`); the full
-  covariance is ``(15 + 6C, 15 + 6C)``.
+  times (stochastic cloning), each with a 6-dof error ``[δp, δθ]`` (:data:`MSCKF_CLONE_ERROR`);
+* up to ``max_slam`` long-lived features as world points (OpenVINS' SLAM features, 3 each) and the camera–IMU time
+  offset (1); the full covariance is ``(15 + 6C + 3L + 1)²`` in that order.
 
-No landmark enters the state. A feature is used once, when its track ends or when its oldest observation would leave
+A feature that is not a SLAM feature is used once, when its track ends or when its oldest observation would leave
 the window: it is triangulated from the window (linear midpoint, then Gauss–Newton on the inverse depth in its first
 camera), its reprojection residuals are linearised at the clones' *first estimates* (FEJ, Huang et al. 2010: the
 values the clones had when they were taken) and the propagation's transition at the IMU state's first estimate (the
 propagated state before an update), so that the four unobservable directions -- position and yaw -- stay
 unobservable; the feature Jacobian is removed by projecting onto its left nullspace (Givens rotations), and the
 ``2m − 3`` projected rows pass a per-feature χ² gate. The accepted rows of all features of a frame are stacked,
-compressed by a QR decomposition when they outnumber the state, and fused in one EKF update (Joseph form). All
-per-feature work is the native ``msckf_features``.
+compressed by a QR decomposition when they outnumber the state, and fused in one EKF update. A track that spans the
+whole window becomes a SLAM feature (delayed initialisation from the three rows the projection sets aside), updated
+at every frame it is seen in and marginalised when it ends.  All per-feature work is native (``msckf_features``,
+``msckf_slam_rows``, ``msckf_update``).
 
 The filter initialises itself from the rest period at the start (:meth:`MsckfVio.from_rest`): gravity direction
 and gyro bias from the static samples (:func:`~dualpose.estimation.initialization.static_alignment`), zero velocity,
