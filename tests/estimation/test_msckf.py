@@ -236,6 +236,8 @@ def test_options_are_checked() -> None:
         MsckfOptions(sigma_floor=0.0)
     with pytest.raises(ValueError, match="max_slam"):
         MsckfOptions(max_slam=-1)
+    with pytest.raises(ValueError, match="time_offset_sigma"):
+        MsckfOptions(time_offset_sigma=0.0)
 
 
 def test_saved_state_continues_bit_for_bit(tmp_path) -> None:
