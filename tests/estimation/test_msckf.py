@@ -303,3 +303,33 @@ def test_time_offset_is_estimated_online() -> None:
     assert abs(td - 0.008) < 0.0015 and np.sqrt(f.P[-1, -1]) < 0.001, (td, f.P[-1, -1])
     assert err < out[0.0, False][1], (err, out[0.0, False][1])
     assert out[0.0, False][0] == 0.0 and abs(out[0.008, True][0] - 0.008) < 0.0005
+
+
+def test_slam_rows_kernel_is_the_linearised_projection(rng: np.random.Generator) -> None:
+    """``msckf_slam_rows``: the residual of an observation made at a slightly different clone pose and point is the
+    kernel's two rows times the difference, ``r = H δx`` to first order (δx = truth − estimate, local attitude error
+    ``q = q̂ ⊗ Exp(δθ)``), the rows sit in the newest clone's and the point's columns, and a gate of 0 rejects."""
+    C, L = 4, 2
+    clones = _clone_poses(rng, C)
+    q_bc, p_bc = np.array([0.0, 0.0, 0.0, 1.0]), np.array([0.05, -0.02, 0.01])
+    c = C - 1
+    R = dp.matrix_from_quat(clones[c, 3:])
+    points = clones[c, :3] + np.array([[0.2, -0.1, 3.0], [-0.3, 0.2, 2.0]]) @ R.T  # in front of the clone
+    d = 1e-6 * rng.standard_normal(9)  # [δp, δθ] of the clone, δp_f of point 1
+    q_true = dp.quat_mul(clones[c, 3:], dp.quat_from_rotvec(d[3:6]))
+    pc = sim.camera_points(q_true, clones[c, :3] + d[:3], q_bc, p_bc, (points[1] + d[6:])[None, :])
+    uv = pc[:, :2] / pc[:, 2:3]
+    n = 15 + 6 * C + 3 * L + 1  # the time offset last
+    P = np.eye(n) * 1e-4
+    H, r, r_all, rvar = np.empty((2, n)), np.empty(2), np.empty(2), np.empty(2)
+    status = np.empty(1, np.int64)
+    rows, front = _native.msckf_slam_rows(clones, clones.copy(), q_bc, p_bc, points, points.copy(), np.array([1]), c,
+                                          uv, P, 1e-3, np.inf, H, r, status, r_all, rvar)  # fmt: skip
+    assert rows == 2 and front == 1 and status[0] == 1
+    cols = np.r_[15 + 6 * c : 21 + 6 * c, 15 + 6 * C + 3 : 15 + 6 * C + 6]
+    np.testing.assert_allclose(r, H[:, cols] @ d, rtol=1e-4, atol=1e-12)
+    assert np.count_nonzero(H[:, np.setdiff1d(np.arange(n), cols)]) == 0
+    np.testing.assert_allclose(rvar, np.einsum("ij,jk,ik->i", H, P, H), rtol=1e-12)
+    rows, _ = _native.msckf_slam_rows(clones, clones.copy(), q_bc, p_bc, points, points.copy(), np.array([1]), c,
+                                      uv + 0.01, P, 1e-3, 0.0, H, r, status, r_all, rvar)  # fmt: skip
+    assert rows == 0 and status[0] == 0
