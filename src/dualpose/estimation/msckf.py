@@ -36,6 +36,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import NDArray
 from scipy.stats import chi2
 
 import dualpose as dp
@@ -55,7 +56,7 @@ _REST_GUARD = 0.2  # s, one window of detect_rest
 _POSE_ROWS = np.r_[np.arange(3) + ESKF_ERROR.offset("position"), np.arange(3) + ESKF_ERROR.offset("attitude")]
 
 
-def _member(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def _member(a: NDArray[np.int64], b: NDArray[np.int64]) -> NDArray[np.bool_]:
     """``np.isin(a, b)`` for the non-negative int64 track ids of a frame and a window: a lookup table when the ids are
     small (a few µs instead of a sort per call), ``np.isin`` otherwise."""
     if len(a) == 0 or len(b) == 0:
@@ -65,7 +66,8 @@ def _member(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return np.isin(a, b)
     table = np.zeros(top + 1, bool)
     table[b] = True
-    return table[a]
+    found: NDArray[np.bool_] = table[a]
+    return found
 
 
 @dataclass(frozen=True)
