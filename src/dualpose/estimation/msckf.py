@@ -616,7 +616,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
                     resid.append((r[:m].copy(), rvar[:m].copy()))
                     keep = np.repeat(accepted[solved], dof[solved])
                     if keep.any():
-                        blocks.append((H[:m][keep], r[:m][keep]))
+                        blocks.append((H[:m], r[:m]) if keep.all() else (H[:m][keep], r[:m][keep]))
                     room = o.max_slam - len(self.slam_id)
                     if current is not None and room > 0:  # long tracks (seen in the oldest clone and now): SLAM
                         gid = ids[enough]
@@ -631,12 +631,15 @@ class MsckfVio(EskfStateAccessors, Estimator):
             drop[idx[~ok]] = True  # a SLAM feature whose update fails the gate is marginalised
         if blocks:
             n = self.P.shape[0]
-            Hk = np.zeros((sum(len(b[1]) for b in blocks), n))
-            rk = np.concatenate([b[1] for b in blocks])
-            i = 0
-            for Hb, _ in blocks:
-                Hk[i : i + len(Hb), : Hb.shape[1]] = Hb
-                i += len(Hb)
+            if len(blocks) == 1 and blocks[0][0].shape[1] == n:  # one block over the whole state: as it is
+                Hk, rk = np.ascontiguousarray(blocks[0][0]), np.ascontiguousarray(blocks[0][1])
+            else:  # stacked; rows from before a SLAM initialisation in this frame are zero in its columns
+                Hk = np.zeros((sum(len(b[1]) for b in blocks), n))
+                rk = np.concatenate([b[1] for b in blocks])
+                i = 0
+                for Hb, _ in blocks:
+                    Hk[i : i + len(Hb), : Hb.shape[1]] = Hb
+                    i += len(Hb)
             self._keep_first_estimate()  # one update of all accepted rows (QR-compressed in the kernel when m > n)
             _native.msckf_update(self.x, self.clones, self.slam_p, self._extra, self.P, Hk, rk, self.feature_sigma)
             if len(self._extra):
@@ -702,7 +705,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
         n = self.P.shape[0]
         keep = np.r_[np.arange(k0), (k0 + 3 * np.flatnonzero(~drop)[:, None] + np.arange(3)).reshape(-1),
                      np.arange(n - len(self._extra), n)]  # fmt: skip
-        self.P = np.ascontiguousarray(self.P[np.ix_(keep, keep)])
+        self.P = np.ascontiguousarray(self.P[keep][:, keep])
         self.slam_id, self.slam_p, self.slam_fej = self.slam_id[~drop], self.slam_p[~drop], self.slam_fej[~drop]
 
     def _adapted_sigma(self, r: np.ndarray, rvar: np.ndarray) -> float:
