@@ -108,7 +108,7 @@ class _Batch(_native.Facade):
             raise TypeError(f"Single {self._noun} is not subscriptable.")
         # Index the batch axes only: the trailing full slice always lands on the component axis or before it.
         key = key if isinstance(key, tuple) else (key,)
-        return type(self)._wrap(self._a[(*key, slice(None))])
+        return type(self)._wrap(self._a[key + (slice(None),)])
 
     def __iter__(self: _B) -> Iterator[_B]:
         if self._a.ndim == 1:
