@@ -65,6 +65,8 @@ def _is_dask(x: object) -> bool:
 
 def _lazy_route(kernel: np.ufunc, func: Callable[..., Any], n_in: int) -> Callable[..., Any]:
     """The call ``FastPath`` makes instead of ``func`` when an argument is a dask array (see the module text)."""
+    if kernel.signature is None:
+        raise TypeError(f"fast_path needs a generalized ufunc; {kernel.__name__} is elementwise")
     cores = re.findall(r"\(([^)]*)\)", kernel.signature.split("->")[0])[:n_in]
     signature = ",".join(f"({c})" for c in cores) + "->" + kernel.signature.split("->")[1]
     out_types = [np.dtype(c) for c in kernel.types[0].split("->")[1]]
