@@ -289,8 +289,9 @@ def integrate_pose(
         :func:`integrate_attitude`.
     """
     if _is_dask(dq0) or _is_dask(dual_increments):
-        result: NDArray[np.float64] = _lazy_fold(integrate_pose, dq0, "dq0", dual_increments, "dual_increments", 8, 6, samples,
-                          coefficients, frame)
+        result: NDArray[np.float64] = _lazy_fold(
+            integrate_pose, dq0, "dq0", dual_increments, "dual_increments", 8, 6, samples, coefficients, frame
+        )
         return result
     dq0 = as_array(dq0, "dq0", 8)
     x = as_array(dual_increments, "dual_increments", 6)

@@ -10,6 +10,7 @@ import csv
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 __all__ = ["CsvFormatError", "read_columns"]
 
@@ -26,7 +27,7 @@ def _number(cell: str) -> float | None:
     return value
 
 
-def read_columns(path: str | Path, ncols: int, what: str = "values") -> np.ndarray:
+def read_columns(path: str | Path, ncols: int, what: str = "values") -> NDArray[np.float64]:
     """Rows of ``ncols`` numbers from the CSV file ``path``: shape ``(n, ncols)`` (``(n,)`` when ``ncols == 1``).
 
     Parameters
