@@ -36,7 +36,7 @@ from __future__ import annotations
 import re
 import sys
 from collections.abc import Callable
-from typing import Any, TypeVar
+from typing import Any, TypeVar, cast
 
 import numpy as np
 
@@ -53,8 +53,8 @@ def fast_path(kernel: np.ufunc, *, nan_declines: bool = False, max_rows: int = -
 
     def wrap(func: _F) -> _F:
         lazy = _lazy_route(kernel, func, kernel.nin - len(fixed))
-        return _native.FastPath(kernel, func, nan_declines, max_rows, fixed, takes_out,  # type: ignore[return-value]
-                                lazy)
+        # the FastPath object stands in for func: called as func, read as func (name, docstring, signature)
+        return cast(_F, _native.FastPath(kernel, func, nan_declines, max_rows, fixed, takes_out, lazy))
 
     return wrap
 

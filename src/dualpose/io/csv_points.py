@@ -73,7 +73,7 @@ def read_columns(path: str | Path, ncols: int, what: str = "values") -> NDArray[
                 raise CsvFormatError(f"{path}, line {lineno}, column {col}: {cell!r} is not a number")
             if not np.isfinite(v):
                 raise CsvFormatError(f"{path}, line {lineno}, column {col}: {cell!r} is not finite")
-        rows.append(values)  # type: ignore[arg-type]
+        rows.append([v for v in values if v is not None])  # all of them: each was checked above
     if not rows:
         raise CsvFormatError(f"{path}: no data rows of {what}")
     arr = np.array(rows, dtype=np.float64)

@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 import dualpose as dp
 
@@ -36,7 +36,7 @@ class PnPResult:
 
 
 def _check(
-    pixels: np.ndarray, points: np.ndarray, K: np.ndarray,
+    pixels: ArrayLike, points: ArrayLike, K: ArrayLike,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     pixels = np.asarray(pixels, dtype=np.float64)
     points = np.asarray(points, dtype=np.float64)
@@ -52,7 +52,7 @@ def _check(
     return pixels, points, K
 
 
-def pnp_dlt(pixels: np.ndarray, points: np.ndarray, K: np.ndarray) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def pnp_dlt(pixels: ArrayLike, points: ArrayLike, K: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Linear PnP: returns ``(R_cw (3, 3), t (3,))`` with ``X_c = R_cw X_w + t``.
 
     Non-coplanar points: 12-unknown DLT.  When the points are close to a plane (smallest/largest spread < 0.2,

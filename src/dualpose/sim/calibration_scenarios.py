@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 import dualpose as dp
 from dualpose.sim import camera_imu, motion
@@ -32,7 +32,7 @@ __all__ = [
 ]
 
 
-def static_motion(q_wb: np.ndarray, p_wb: np.ndarray, duration: float) -> motion.SmoothMotion:
+def static_motion(q_wb: ArrayLike, p_wb: ArrayLike, duration: float) -> motion.SmoothMotion:
     """A :class:`~dualpose.sim.motion.SmoothMotion` at rest at body pose ``(q_wb (4,) xyzw, p_wb (3,) m)``."""
     z = np.zeros((1, 3))
     return motion.SmoothMotion(

@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 import dualpose as dp
 from dualpose.sim._imu_truth import FIELD_ENU, central_body_rate
@@ -21,7 +21,7 @@ from dualpose.types.imu import STANDARD_GRAVITY
 __all__ = ["FIELD_ENU", "LaggedRecording", "tumbling_quat", "tumbling_body_rate", "lagged_recording"]
 
 
-def tumbling_quat(t: np.ndarray) -> NDArray[np.float64]:
+def tumbling_quat(t: ArrayLike) -> NDArray[np.float64]:
     """Orientation body → ENU, xyzw, shape (n, 4), at the times ``t`` (s, shape (n,))."""
     t = np.asarray(t, dtype=np.float64)
     phi = np.stack(
@@ -35,7 +35,7 @@ def tumbling_quat(t: np.ndarray) -> NDArray[np.float64]:
     return dp.quat_from_rotvec(phi)
 
 
-def tumbling_body_rate(t: np.ndarray) -> NDArray[np.float64]:
+def tumbling_body_rate(t: ArrayLike) -> NDArray[np.float64]:
     """Body-frame angular rate, rad/s, shape (n, 3), of :func:`tumbling_quat` at the times ``t`` (s, shape (n,))."""
     return central_body_rate(tumbling_quat, np.asarray(t, dtype=np.float64))
 

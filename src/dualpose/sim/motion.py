@@ -71,7 +71,7 @@ class SmoothMotion:
     period: float = 1.0
     duration: float = 1.0
 
-    def phase(self, t: np.ndarray) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    def phase(self, t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """θ(t), θ'(t), θ''(t) for times ``t`` (s), each shaped like ``t``."""
         t = np.asarray(t, dtype=np.float64)
         if self.phase_kind == "linear":

@@ -123,7 +123,7 @@ class CameraImuCalibration:
             "accel_axes_matrix": None if self.accel_axes_matrix is None else [arr(r) for r in self.accel_axes_matrix],
         }
 
-    def corrected_imu(self, gyro: np.ndarray, accel: np.ndarray) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    def corrected_imu(self, gyro: ArrayLike, accel: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The IMU samples with the axis models removed: ``(M_g⁻¹ ω̃, M_a⁻¹ f̃)`` (each (..., 3), rad/s and m/s²,
         body axes; the biases stay in, in the corrected axes, as the filters model them).  Unchanged copies (as
         float64) when the calibration states no axis model.  Elementwise arithmetic in a fixed order, so one sample

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 __all__ = ["PinholeModel", "PinholeCamera", "CameraIntrinsics", "CameraFrame", "FrameCorrespondences"]
 
@@ -40,7 +40,7 @@ class PinholeModel:
         """Intrinsic matrix ``K``, shape (3, 3), pixels."""
         return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
 
-    def project(self, points_c: np.ndarray) -> NDArray[np.float64]:
+    def project(self, points_c: ArrayLike) -> NDArray[np.float64]:
         """Pixels ``(..., 2)`` of camera-frame points ``(..., 3)`` (metres; Z must be > 0)."""
         p = np.asarray(points_c, dtype=np.float64)
         if p.shape[-1:] != (3,):

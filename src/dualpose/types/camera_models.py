@@ -157,7 +157,7 @@ class DistortedCamera(_KernelRow):
         return CameraIntrinsics(self.fx, self.fy, self.cx, self.cy, self.width, self.height)
 
     # ------------------------------------------------------------------ projection
-    def project(self, points_c: np.ndarray) -> NDArray[np.float64]:
+    def project(self, points_c: ArrayLike) -> NDArray[np.float64]:
         """Pixels ``(..., 2)`` of camera-frame points ``points_c`` ``(..., 3)`` (metres).
 
         Raises
@@ -169,7 +169,7 @@ class DistortedCamera(_KernelRow):
         result: NDArray[np.float64] = self._kernel("project")(self._params, self._checked_points(points_c))
         return result
 
-    def project_jacobian(self, points_c: np.ndarray) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    def project_jacobian(self, points_c: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Pixels ``(..., 2)`` and their derivative with respect to the camera-frame point, ``(..., 2, 3)``
         (pixels per metre; rows ``u, v``, columns ``X, Y, Z``).  Same input rules as :meth:`project`."""
         result: tuple[NDArray[np.float64], NDArray[np.float64]] = (
@@ -177,20 +177,20 @@ class DistortedCamera(_KernelRow):
         )
         return result
 
-    def intrinsics_jacobian(self, points_c: np.ndarray) -> NDArray[np.float64]:
+    def intrinsics_jacobian(self, points_c: ArrayLike) -> NDArray[np.float64]:
         """Derivative of the pixels of ``points_c`` ``(..., 3)`` with respect to :attr:`parameters`
         ``(fx, fy, cx, cy, d1, d2, d3, d4)``, shape ``(..., 2, 8)`` (rows ``u, v``)."""
         result: NDArray[np.float64] = self._kernel("intrinsics_jacobian")(self._params, self._checked_points(points_c))
         return result
 
-    def distort(self, xy: np.ndarray) -> NDArray[np.float64]:
+    def distort(self, xy: ArrayLike) -> NDArray[np.float64]:
         """Distorted normalised coordinates ``(..., 2)`` of undistorted normalised ``xy = (X/Z, Y/Z)`` ``(..., 2)``."""
         result: NDArray[np.float64] = (
             self._kernel("distort")(self._params, _planar(xy, "xy", "undistorted normalised x, y"))[0]
         )
         return result
 
-    def distort_jacobian(self, xy: np.ndarray) -> NDArray[np.float64]:
+    def distort_jacobian(self, xy: ArrayLike) -> NDArray[np.float64]:
         """``d distort(xy) / d xy``, shape ``(..., 2, 2)`` (rows ``x_d, y_d``, columns ``x, y``)."""
         result: NDArray[np.float64] = (
             self._kernel("distort")(self._params, _planar(xy, "xy", "undistorted normalised x, y"))[1]

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from dualpose.types.camera import FrameCorrespondences
 from dualpose.types.camera_models import DistortedCamera
@@ -107,7 +107,7 @@ class TargetDetections:
         offsets = np.concatenate([[0], np.cumsum(np.bincount(frame_of_row[valid], minlength=len(self)))])
         return FrameCorrespondences(self.t.copy(), offsets.astype(np.int64), pixels[valid], self.points[valid])
 
-    def select(self, frames: np.ndarray) -> TargetDetections:
+    def select(self, frames: ArrayLike) -> TargetDetections:
         """A new :class:`TargetDetections` with the frames where the boolean mask ``frames`` (F,) is true."""
         mask = np.asarray(frames)
         if mask.dtype != bool or mask.shape != (len(self),):
