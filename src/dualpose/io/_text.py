@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import IO
 
 import numpy as np
+from numpy.typing import NDArray
 
 from dualpose import _native
 
@@ -33,7 +34,7 @@ _BLOCK = 1 << 24  # bytes read and parsed at a time
 
 
 def check_path(path: object, name: str = "path") -> str:
-    """``path`` as a str; a ``TypeError`` naming ``name`` for anything that is not a str or ``os.PathLike``."""
+    """``path`` as a str; a ``TypeError`` naming ``name`` for anything that is not a str or ``os.PathLike[str]``."""
     if isinstance(path, bytes) or not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"{name} must be a str or os.PathLike file path; got {type(path).__name__}")
     return os.fspath(path)
@@ -71,7 +72,7 @@ def split_fields(line: str, delimiter: str | None) -> list[str] | None:
     return s.split(delimiter) if delimiter is None else [x.strip() for x in s.split(delimiter)]
 
 
-def read_table(path: str | os.PathLike, delimiter: str | None, ncols: tuple[int, int], what: str) -> Table:
+def read_table(path: str | os.PathLike[str], delimiter: str | None, ncols: tuple[int, int], what: str) -> Table:
     """Read a text table: ``#`` starts a comment (a whole line, or the rest of a data line); blank lines are skipped.
 
     Parameters
@@ -131,7 +132,7 @@ def _last_newline(buf: np.ndarray, start: int, stop: int) -> int:
     return -1
 
 
-def _float_table_fast(path: str, ncols: int, comma: bool) -> np.ndarray | None:
+def _float_table_fast(path: str, ncols: int, comma: bool) -> NDArray[np.float64] | None:
     """The numbers of a text table with exactly ``ncols`` fields per data line, or None when the kernel declines."""
     with open(path, "rb") as f:
         size = os.fstat(f.fileno()).st_size
@@ -141,7 +142,7 @@ def _float_table_fast(path: str, ncols: int, comma: bool) -> np.ndarray | None:
         while True:
             if have == buf.shape[0]:  # one line longer than the block
                 buf = np.concatenate([buf, np.empty_like(buf)])
-            got = f.readinto(memoryview(buf)[have:])
+            got = f.readinto(buf.data[have:])
             eof = not got
             have += got or 0
             start = 0
@@ -180,7 +181,7 @@ def _float_table_fast(path: str, ncols: int, comma: bool) -> np.ndarray | None:
     return data if out.shape[0] <= row + row // 2 + 1024 else data.copy()
 
 
-def read_float_table(path: str | os.PathLike, ncols: int, delimiter: str | None, what: str) -> np.ndarray:
+def read_float_table(path: str | os.PathLike[str], ncols: int, delimiter: str | None, what: str) -> NDArray[np.float64]:
     """All fields of a numeric text table with exactly ``ncols`` fields per data line, as finite float64 (N, ncols).
 
     ``delimiter`` is ``None`` (runs of whitespace) or ``","``.  Comments (``#`` to the end of a line), blank
@@ -209,7 +210,7 @@ def first_line_delimiter(path: str) -> str | None:
     return None
 
 
-def read_pose_rows(path: str | os.PathLike, what: str) -> np.ndarray:
+def read_pose_rows(path: str | os.PathLike[str], what: str) -> NDArray[np.float64]:
     """The rows ``t x y z qx qy qz qw`` of a pose file (separator of its first data line), float64 (N, 8), in file
     order; ``path:line: ...`` errors as :func:`read_float_table`'s, and for a zero quaternion."""
     p = check_path(path)
@@ -222,7 +223,7 @@ def read_pose_rows(path: str | os.PathLike, what: str) -> np.ndarray:
     return data
 
 
-def parse_float_columns(table: Table, columns: slice, what: str) -> np.ndarray:
+def parse_float_columns(table: Table, columns: slice, what: str) -> NDArray[np.float64]:
     """Columns ``columns`` of every row as finite float64, shape (N, k); errors name the file and line."""
     cells = [r[columns] for r in table.rows]
     try:
@@ -244,7 +245,7 @@ def parse_float_columns(table: Table, columns: slice, what: str) -> np.ndarray:
     return out
 
 
-def parse_int_column(table: Table, column: int, what: str) -> np.ndarray:
+def parse_int_column(table: Table, column: int, what: str) -> NDArray[np.int64]:
     """Column ``column`` as exact int64 (no float round trip), shape (N,); errors name the file and line."""
     cells = [r[column] for r in table.rows]
     try:
@@ -260,7 +261,7 @@ def parse_int_column(table: Table, column: int, what: str) -> np.ndarray:
         raise  # pragma: no cover
 
 
-def open_for_writing(path: str | os.PathLike, overwrite: bool) -> IO[str]:
+def open_for_writing(path: str | os.PathLike[str], overwrite: bool) -> IO[str]:
     """Open ``path`` for text output; an existing file is an error unless ``overwrite`` is true."""
     p = Path(path)
     try:

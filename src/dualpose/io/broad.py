@@ -30,8 +30,10 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 __all__ = ["BroadTrial", "load_broad"]
 
@@ -84,7 +86,7 @@ class BroadTrial:
     has_mag: bool = True
 
     @property
-    def time(self) -> np.ndarray:
+    def time(self) -> NDArray[np.float64]:
         """Sample times, seconds from the first sample, shape (n,)."""
         return np.arange(self.gyr.shape[0]) / self.rate
 
@@ -95,7 +97,7 @@ class BroadTrial:
         return int(idx[0]) if idx.size else self.movement.size
 
 
-def _read_mat(path: Path) -> dict[str, np.ndarray]:
+def _read_mat(path: Path) -> dict[str, NDArray[Any]]:
     with open(path, "rb") as fh:
         head = fh.read(512)
     if b"\x89HDF" in head or head[:8] == b"\x89HDF\r\n\x1a\n":
@@ -158,7 +160,7 @@ def load_broad(path: str | Path) -> BroadTrial:
     if rate.size != 1 or not (np.isfinite(rate[0]) and rate[0] > 0):
         raise ValueError(f"{path.name}: field sampling_rate must be one finite number > 0 (Hz); got {rate.tolist()}")
 
-    def vec(key: str, width: int) -> np.ndarray:
+    def vec(key: str, width: int) -> NDArray[np.float64]:
         if key not in raw:
             return np.full((n, width), np.nan)
         try:

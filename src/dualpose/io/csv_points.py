@@ -10,6 +10,7 @@ import csv
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 __all__ = ["CsvFormatError", "read_columns"]
 
@@ -26,7 +27,7 @@ def _number(cell: str) -> float | None:
     return value
 
 
-def read_columns(path: str | Path, ncols: int, what: str = "values") -> np.ndarray:
+def read_columns(path: str | Path, ncols: int, what: str = "values") -> NDArray[np.float64]:
     """Rows of ``ncols`` numbers from the CSV file ``path``: shape ``(n, ncols)`` (``(n,)`` when ``ncols == 1``).
 
     Parameters
@@ -72,7 +73,7 @@ def read_columns(path: str | Path, ncols: int, what: str = "values") -> np.ndarr
                 raise CsvFormatError(f"{path}, line {lineno}, column {col}: {cell!r} is not a number")
             if not np.isfinite(v):
                 raise CsvFormatError(f"{path}, line {lineno}, column {col}: {cell!r} is not finite")
-        rows.append(values)  # type: ignore[arg-type]
+        rows.append([v for v in values if v is not None])  # all of them: each was checked above
     if not rows:
         raise CsvFormatError(f"{path}: no data rows of {what}")
     arr = np.array(rows, dtype=np.float64)

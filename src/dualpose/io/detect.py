@@ -26,7 +26,7 @@ _FORMATS = (
 )
 
 
-def detect_format(path: str | os.PathLike) -> Format:
+def detect_format(path: str | os.PathLike[str]) -> Format:
     """Tell a TUM trajectory, a KITTI pose file, an EuRoC ground-truth CSV, an EuRoC IMU CSV and a ROS bag apart.
 
     A bag source ``BAG:/topic`` (:func:`dualpose.io.rosbag.parse_bag_source`) is ``"rosbag"`` without opening it.
@@ -82,9 +82,9 @@ def detect_format(path: str | os.PathLike) -> Format:
 
 
 def read_trajectory(
-    path: str | os.PathLike,
+    path: str | os.PathLike[str],
     fmt: Format | None = None,
-    times: str | os.PathLike | None = None,
+    times: str | os.PathLike[str] | None = None,
     *,
     bag_time: Literal["header", "receive"] = "header",
 ) -> Trajectory:

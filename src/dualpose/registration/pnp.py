@@ -15,6 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 import dualpose as dp
 
@@ -34,7 +35,9 @@ class PnPResult:
     iterations: int
 
 
-def _check(pixels: np.ndarray, points: np.ndarray, K: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _check(
+    pixels: ArrayLike, points: ArrayLike, K: ArrayLike,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     pixels = np.asarray(pixels, dtype=np.float64)
     points = np.asarray(points, dtype=np.float64)
     K = np.asarray(K, dtype=np.float64)
@@ -49,7 +52,7 @@ def _check(pixels: np.ndarray, points: np.ndarray, K: np.ndarray) -> tuple[np.nd
     return pixels, points, K
 
 
-def pnp_dlt(pixels: np.ndarray, points: np.ndarray, K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def pnp_dlt(pixels: ArrayLike, points: ArrayLike, K: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Linear PnP: returns ``(R_cw (3, 3), t (3,))`` with ``X_c = R_cw X_w + t``.
 
     Non-coplanar points: 12-unknown DLT.  When the points are close to a plane (smallest/largest spread < 0.2,
@@ -73,7 +76,7 @@ def pnp_dlt(pixels: np.ndarray, points: np.ndarray, K: np.ndarray) -> tuple[np.n
     return candidates[int(np.nanargmin(costs))]
 
 
-def _dlt_design(xn: np.ndarray, X: np.ndarray) -> np.ndarray:
+def _dlt_design(xn: np.ndarray, X: np.ndarray) -> NDArray[np.float64]:
     """DLT design matrix (2m, 3k) of ``x ~ M X`` for normalized image points ``xn`` (m, 2) and homogeneous ``X``
     (m, k): rows ``[Xᵀ, 0, −u Xᵀ]`` and ``[0, Xᵀ, −v Xᵀ]`` (k = 4: the 3x4 projection, k = 3: a homography)."""
     m, k = X.shape
@@ -85,7 +88,7 @@ def _dlt_design(xn: np.ndarray, X: np.ndarray) -> np.ndarray:
     return A
 
 
-def _general_dlt(xn: np.ndarray, points: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _general_dlt(xn: np.ndarray, points: np.ndarray, mu: np.ndarray) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     s = np.sqrt(3.0) / np.mean(np.linalg.norm(points - mu, axis=1))
     Xh = np.column_stack([(points - mu) * s, np.ones(len(points))])
     _, _, vt = np.linalg.svd(_dlt_design(xn, Xh), full_matrices=False)
@@ -102,7 +105,9 @@ def _general_dlt(xn: np.ndarray, points: np.ndarray, mu: np.ndarray) -> tuple[np
     return R, t / sv.mean()
 
 
-def _planar_dlt(xn: np.ndarray, points: np.ndarray, mu: np.ndarray, vt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _planar_dlt(
+    xn: np.ndarray, points: np.ndarray, mu: np.ndarray, vt: np.ndarray,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Pose from a plane-to-image homography (Zhang 2000 §2-3): ``H ∝ [r1 r2 t]`` in plane coordinates."""
     B = vt.T.copy()  # columns: in-plane axes e1, e2 and the normal
     B[:, 2] = np.cross(B[:, 0], B[:, 1])
@@ -120,7 +125,11 @@ def _planar_dlt(xn: np.ndarray, points: np.ndarray, mu: np.ndarray, vt: np.ndarr
     return R, tp - R @ mu
 
 
-def _residuals(R: np.ndarray, t: np.ndarray, pixels: np.ndarray, points: np.ndarray, K: np.ndarray):
+def _residuals(
+    R: NDArray[np.float64], t: NDArray[np.float64], pixels: NDArray[np.float64], points: NDArray[np.float64],
+    K: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Reprojection residuals ``(M, 2)`` px and camera-frame points ``(M, 3)`` of the pose ``(R, t)``."""
     pc = points @ R.T + t
     z = np.where(np.abs(pc[:, 2]) > 1e-12, pc[:, 2], 1e-12)  # RANSAC candidates may put a point on the plane Z = 0
     fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
@@ -136,7 +145,7 @@ def pnp_refine(
     K: np.ndarray,
     iterations: int = 10,
     tol: float = 1e-10,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], int]:
     """Gauss–Newton on the reprojection error; returns ``(R_cw, t, JᵀJ (6, 6), iterations used)``.
 
     Parameters ``[δφ, δt]`` update ``R ← Exp(δφ) R`` and ``t ← t + δt``;
@@ -157,7 +166,7 @@ def pnp_refine(
         Jp[:, 1, 1] = fy / Z
         Jp[:, 1, 2] = -fy * Y / Z**2
         rx = pc - t
-        J = np.empty((len(pc), 2, 6))  # ∂π/∂[δφ, δt]
+        J: NDArray[np.float64] = np.empty((len(pc), 2, 6))  # ∂π/∂[δφ, δt]
         J[:, :, 0:3] = -np.einsum("mij,mjk->mik", Jp, dp.so3_hat(rx))
         J[:, :, 3:6] = Jp
         J = J.reshape(-1, 6)
@@ -202,7 +211,7 @@ def solve_pnp_ransac(
     threshold_px: float = 6.0,
     iterations: int = 200,
     seed: int = 0,
-) -> tuple[PnPResult, np.ndarray]:
+) -> tuple[PnPResult, NDArray[np.float64]]:
     """Robust PnP: RANSAC over minimal 6-point DLT samples (seeded), then :func:`solve_pnp` on the largest consensus
     set (reprojection error < ``threshold_px``).  Returns the result and the inlier mask (M,)."""
     pixels, points, K = _check(pixels, points, K)
@@ -246,7 +255,10 @@ class PnPBatch:
     inliers: np.ndarray
 
 
-def _gauss_newton_batch(R, t, pixels, points, w, K, iterations, tol):
+def _gauss_newton_batch(
+    R: NDArray[np.float64], t: NDArray[np.float64], pixels: NDArray[np.float64], points: NDArray[np.float64],
+    w: NDArray[np.float64], K: NDArray[np.float64], iterations: int, tol: float,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Batched :func:`pnp_refine` over rows weighted by ``w`` (B, M) (0 / 1); returns ``(R, t, JᵀJ, r, Z)``."""
     points = np.ascontiguousarray(points)
     fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
@@ -259,7 +271,7 @@ def _gauss_newton_batch(R, t, pixels, points, w, K, iterations, tol):
         A, C = fx / Z, -fx * pc[..., 0] / Z**2
         D, E = fy / Z, -fy * pc[..., 1] / Z**2
         p, q, s = rx[..., 0], rx[..., 1], rx[..., 2]
-        J = np.zeros(pc.shape[:2] + (2, 6))
+        J: NDArray[np.float64] = np.zeros(pc.shape[:2] + (2, 6))
         J[..., 0, 0], J[..., 0, 1], J[..., 0, 2] = q * C, s * A - p * C, -q * A
         J[..., 1, 0], J[..., 1, 1], J[..., 1, 2] = q * E - s * D, -p * E, p * D
         J[..., 0, 3], J[..., 0, 5], J[..., 1, 4], J[..., 1, 5] = A, C, D, E
