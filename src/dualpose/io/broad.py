@@ -33,6 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
+from dualpose.io._text import open_input
+
 __all__ = ["BroadTrial", "load_broad"]
 
 _FIELDS = ("imu_gyr", "imu_acc", "imu_mag", "opt_quat", "opt_pos", "movement", "sampling_rate")
@@ -96,26 +98,27 @@ class BroadTrial:
 
 
 def _read_mat(path: Path) -> dict[str, np.ndarray]:
-    with open(path, "rb") as fh:
+    with open_input(path, "a MATLAB .mat file") as fh:  # refuses a directory or a device; a pipe is read once
         head = fh.read(512)
-    if b"\x89HDF" in head or head[:8] == b"\x89HDF\r\n\x1a\n":
-        try:
-            import h5py
-        except ImportError:
-            msg = f"{path} is a MATLAB v7.3 (HDF5) file; reading it needs h5py (pip install h5py)"
-            raise ImportError(msg) from None
-        with h5py.File(path, "r") as f:
-            out = {}
-            for k in _FIELDS + ("info",):
-                if k in f:
-                    a = np.asarray(f[k])
-                    out[k] = a.T if a.ndim == 2 else a  # MATLAB writes column-major
-            if "info" in out and out["info"].dtype.kind in "ui":
-                out["info"] = np.array(["".join(map(chr, out["info"].ravel()))])
-            return out
-    from scipy.io import loadmat
+        fh.seek(0)
+        if b"\x89HDF" in head or head[:8] == b"\x89HDF\r\n\x1a\n":
+            try:
+                import h5py
+            except ImportError:
+                msg = f"{path} is a MATLAB v7.3 (HDF5) file; reading it needs h5py (pip install h5py)"
+                raise ImportError(msg) from None
+            with h5py.File(fh, "r") as f:
+                out = {}
+                for k in _FIELDS + ("info",):
+                    if k in f:
+                        a = np.asarray(f[k])
+                        out[k] = a.T if a.ndim == 2 else a  # MATLAB writes column-major
+                if "info" in out and out["info"].dtype.kind in "ui":
+                    out["info"] = np.array(["".join(map(chr, out["info"].ravel()))])
+                return out
+        from scipy.io import loadmat
 
-    return loadmat(path)
+        return loadmat(fh)
 
 
 def load_broad(path: str | Path) -> BroadTrial:

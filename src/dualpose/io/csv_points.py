@@ -11,6 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
+from dualpose.io._text import open_input, parse_number
+
 __all__ = ["CsvFormatError", "read_columns"]
 
 
@@ -20,7 +22,7 @@ class CsvFormatError(ValueError):
 
 def _number(cell: str) -> float | None:
     try:
-        value = float(cell)
+        value = parse_number(cell)
     except ValueError:
         return None
     return value
@@ -45,7 +47,10 @@ def read_columns(path: str | Path, ncols: int, what: str = "values") -> np.ndarr
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8-sig")
+        with open_input(path) as f:
+            text = f.read().decode("utf-8-sig")
+    except ValueError as exc:
+        raise CsvFormatError(str(exc)) from None
     except OSError as exc:
         raise CsvFormatError(f"{path}: cannot read ({exc.strerror or exc})") from None
     except UnicodeDecodeError:

@@ -17,6 +17,7 @@ dualpose; EuRoC ground truth stores wxyz and is converted by its reader.
 
 from __future__ import annotations
 
+import io
 import json
 import math
 import os
@@ -25,7 +26,15 @@ from pathlib import Path
 
 import numpy as np
 
-from dualpose.io._text import check_path, open_for_writing, parse_float_columns, parse_int_column, read_table
+from dualpose.io._text import (
+    check_path,
+    open_for_writing,
+    open_input,
+    parse_float_columns,
+    parse_int_column,
+    parse_number,
+    read_table,
+)
 from dualpose.io.detect import read_trajectory
 from dualpose.io.euroc import ImuData, read_euroc_imu, write_euroc_groundtruth, write_euroc_imu
 from dualpose.io.rosbag import is_bag_source, read_bag_imu
@@ -241,7 +250,7 @@ def _sensor_path(name: str | os.PathLike) -> Path:
 
 def _row_line(path: str | os.PathLike, k: int) -> int:
     """1-based line number of the k-th data row (not blank, not a ``#`` comment) of a text file."""
-    with open(path, encoding="utf-8-sig") as f:
+    with open_input(path) as raw, io.TextIOWrapper(raw, encoding="utf-8-sig") as f:
         j = -1
         for i, line in enumerate(f, start=1):
             s = line.strip()
@@ -276,7 +285,7 @@ def _ns_from_decimal_seconds(table, column: int) -> np.ndarray:
                 v = int(m.group(2) or "0") * 1_000_000_000 + int(frac)
                 out[k] = -v if m.group(1) == "-" else v
             else:
-                x = float(cell)
+                x = parse_number(cell)
                 if not math.isfinite(x):
                     raise ValueError
                 out[k] = round(x * 1e9)
@@ -305,7 +314,7 @@ def read_imu(path: str | os.PathLike, *, bag_time: str = "header") -> ImuData:
         except (ValueError, ImportError) as exc:
             raise RecordingError(str(exc)) from None
     try:
-        with open(p, encoding="utf-8-sig") as f:
+        with open_input(p) as raw, io.TextIOWrapper(raw, encoding="utf-8-sig") as f:
             first = next((s.strip() for s in f if s.strip() and not s.strip().startswith("#")), "")
         if "," in first:
             imu = read_euroc_imu(p)
