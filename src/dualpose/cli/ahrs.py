@@ -99,7 +99,9 @@ def run_stream(args: argparse.Namespace) -> int:
     if 0 < n_rest < 10:
         return _usage_error(f"--rest-seconds {rest_seconds:g} at --rate {args.rate:g} is {n_rest} samples; "
                             "the rest period needs at least 10 samples, or 0 for none")  # fmt: skip
-    return write_flushed(stream_ahrs_lines(sys.stdin, args.rate, use_mag=args.mag, n_rest=n_rest), "ahrs")
+    from dualpose.io._text import bounded_lines
+
+    return write_flushed(stream_ahrs_lines(bounded_lines(), args.rate, use_mag=args.mag, n_rest=n_rest), "ahrs")
 
 
 def run(args: argparse.Namespace) -> int:

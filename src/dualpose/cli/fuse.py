@@ -251,7 +251,9 @@ def run_stream(args: argparse.Namespace) -> int:
     except (RecordingError, ValueError) as exc:
         print(f"dualpose fuse: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1
-    return write_flushed(stream_fusion_lines(sys.stdin, stream), "fuse")
+    from dualpose.io._text import bounded_lines
+
+    return write_flushed(stream_fusion_lines(bounded_lines(), stream), "fuse")
 
 
 def _run_target_stream(args: argparse.Namespace) -> int:
@@ -268,7 +270,9 @@ def _run_target_stream(args: argparse.Namespace) -> int:
     except (RecordingError, ValueError, OSError) as exc:
         print(f"dualpose fuse: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1
-    return write_flushed(stream_track_lines(sys.stdin, stream), "fuse")
+    from dualpose.io._text import bounded_lines
+
+    return write_flushed(stream_track_lines(bounded_lines(), stream), "fuse")
 
 
 #: rows of the target-tracking summary: label, metrics key path, format

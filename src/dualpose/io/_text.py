@@ -47,6 +47,7 @@ __all__ = [
     "check_path",
     "NUMBER",
     "parse_number",
+    "all_numbers",
     "open_input",
     "bounded_lines",
     "MAX_LINE_BYTES",
@@ -83,7 +84,7 @@ _TOKEN = rf"(?:{NUMBER.pattern}|{_NONFINITE.pattern})"
 _MANY = re.compile(rf"(?:{_TOKEN}\n)*{_TOKEN}", re.IGNORECASE)
 
 
-def _all_numbers(cells: list[str]) -> bool:
+def all_numbers(cells: list[str]) -> bool:
     """Whether every string of ``cells`` (none holds a line end) is in the number grammar or a non-finite word: one
     regex pass over them all."""
     return not cells or _MANY.fullmatch("\n".join(cells)) is not None
@@ -378,7 +379,7 @@ def parse_float_columns(table: Table, columns: slice, what: str) -> np.ndarray:
     """Columns ``columns`` of every row as finite float64, shape (N, k); errors name the file and line."""
     cells = [r[columns] for r in table.rows]
     out = None
-    if _all_numbers([c for row in cells for c in row]):
+    if all_numbers([c for row in cells for c in row]):
         try:
             out = np.array(cells, dtype=np.float64)
         except ValueError:
