@@ -48,29 +48,18 @@ def _manifest_is_the_listing(out: Path) -> None:
     assert sorted([e["name"] for e in manifest["files"]] + ["manifest.json"]) == sorted(os.listdir(out))
 
 
-def test_force_over_an_older_run_leaves_only_the_new_runs_files(tmp_path):
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
+def test_an_out_set_is_always_one_runs_ctrl_c_and_force_included(tmp_path):
+    """Ctrl-C during ``fuse --out --force`` leaves the earlier set whole (or, when the run was done, the new set
+    whole); ``--force`` replaces the whole earlier set, so no stale ``trajectory_smoothed.tum`` survives."""
     out = tmp_path / "run"
     code, _, err = _run("fuse", "--smooth", "--out", str(out))
-    assert code == 0, err
-    assert (out / "trajectory_smoothed.tum").exists()
+    assert code == 0 and (out / "trajectory_smoothed.tum").exists(), err
     code, _, err = _run("fuse", "--out", str(out))
     assert code == 2 and "earlier run's output" in _one_line(err, "dualpose fuse")
-    code, _, err = _run("fuse", "--filter", "hol22", "--out", str(out), "--force")
-    assert code == 0, err
-    assert not (out / "trajectory_smoothed.tum").exists()  # no stale file of the earlier run survives
-    _manifest_is_the_listing(out)
-    assert json.loads((out / "metrics.json").read_text())["filter"] == "hol22"
-    assert "fuse --filter hol22" in json.loads((out / "manifest.json").read_text())["command"]
-    _no_leftovers(tmp_path)
-
-
-@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
-def test_ctrl_c_during_fuse_out_leaves_the_earlier_set_whole(tmp_path):
-    out = tmp_path / "run"
-    assert _run("fuse", "--out", str(out))[0] == 0
     before = _listing(out)
     codes = set()
-    for delay in (0.0, 0.6, 1.2, 1.8):  # after the first stage line: simulation, filtering, evaluation, writing
+    for delay in (0.0, 1.0):  # after the first stage line: simulation / filtering
         proc = dualpose_process("fuse", "--filter", "hol22", "--out", str(out), "--force", stdin=subprocess.DEVNULL,
                                 preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # fmt: skip
         first = proc.stderr.readline()  # the command is running (past Python's start-up)
@@ -87,21 +76,29 @@ def test_ctrl_c_during_fuse_out_leaves_the_earlier_set_whole(tmp_path):
             _manifest_is_the_listing(out)
             before = _listing(out)
     assert 130 in codes
+    code, _, err = _run("fuse", "--filter", "hol22", "--out", str(out), "--force")
+    assert code == 0, err
+    assert not (out / "trajectory_smoothed.tum").exists()  # no file of the earlier run survives
+    _manifest_is_the_listing(out)
+    assert json.loads((out / "metrics.json").read_text())["filter"] == "hol22"
+    assert "fuse --filter hol22" in json.loads((out / "manifest.json").read_text())["command"]
+    _no_leftovers(tmp_path)
 
 
-def test_fuse_refuses_an_out_that_is_inside_or_contains_its_input(tmp_path):
+def test_fuse_refuses_an_out_that_is_inside_or_contains_its_input(tmp_path, capsys):
+    from dualpose.cli.main import main
     from dualpose.io import write_recording
     from dualpose.sim import recording_from_simulation, simulate_eight
 
     data = tmp_path / "rec"
     write_recording(data, recording_from_simulation(simulate_eight(0)))
     before = _listing(data)
-    for out, reason in [(data, "is the input directory"), (data / "results", "lies inside the input directory"),
-                        (tmp_path, "contains the input")]:  # fmt: skip
-        code, _, err = _run("fuse", "--data", str(data), "--out", str(out), "--force")
-        assert code == 2 and reason in _one_line(err, "dualpose fuse"), err
-    code, _, err = _run("fuse", "--data", str(data / "sensors.json"), "--out", str(data), "--force")
-    assert code == 2 and "contains the input file" in _one_line(err, "dualpose fuse")
+    for given, out, reason in [(data, data, "is the input directory"),
+                               (data, data / "results", "lies inside the input directory"),
+                               (data, tmp_path, "contains the input"),
+                               (data / "sensors.json", data, "contains the input file")]:  # fmt: skip
+        assert main(["fuse", "--data", str(given), "--out", str(out), "--force"]) == 2
+        assert reason in _one_line(capsys.readouterr().err, "dualpose fuse")
     assert _listing(data) == before
 
 

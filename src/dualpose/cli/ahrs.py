@@ -154,6 +154,8 @@ def run(args: argparse.Namespace) -> int:
                 trial.gyr, trial.acc, trial.mag if args.mag else None, trial.rate, use_mag=args.mag,
                 n_rest=max(trial.static_start, 10), mag_calibration="auto" if calibrate else None,
             )  # fmt: skip
+        if not args.offline:
+            scores = broad_scores(result.quat, trial, use_mag=args.mag)
     except ValueError as exc:
         print(f"dualpose ahrs: error: {args.file}: {exc}", file=sys.stderr)
         return 1
@@ -178,8 +180,6 @@ def run(args: argparse.Namespace) -> int:
     }
     if args.mag and result.mag_calibration is not None:
         out.update(result.mag_calibration.as_dict())
-    if not args.offline:
-        scores = broad_scores(result.quat, trial, use_mag=args.mag)
     has_ref = scores is not None
     if has_ref:
         out.update(scores)

@@ -95,6 +95,10 @@ def _usage_problem(args: argparse.Namespace) -> str | None:
         v = getattr(args, name)
         if v is not None and not math.isfinite(v):
             return f"--{name.replace('_', '-')} must be a finite number; got {v}"
+    if args.rpe_unit == "frames" and not (args.rpe_delta >= 1 and args.rpe_delta == int(args.rpe_delta)):
+        return f"--rpe-delta must be a whole number of frames >= 1 (--rpe-unit frames); got {args.rpe_delta:g}"
+    if args.rpe_unit == "m" and not args.rpe_delta > 0:
+        return f"--rpe-delta must be a distance > 0 m (--rpe-unit m); got {args.rpe_delta:g}"
     if args.max_diff < 0:
         return f"--max-diff must be >= 0; got {args.max_diff}"
     if args.t_start is not None and args.t_end is not None and args.t_start >= args.t_end:

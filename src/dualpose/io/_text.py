@@ -58,7 +58,7 @@ __all__ = [
 NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 _NONFINITE = re.compile(r"[+-]?(?:nan|inf|infinity)", re.IGNORECASE)
 #: the longest line a stream accepts, bytes
-MAX_LINE_BYTES = 1 << 24
+MAX_LINE_BYTES = 1 << 20
 #: the most a pipe given as an input file may hold, bytes
 MAX_PIPE_BYTES = 1 << 31
 

@@ -28,6 +28,7 @@ they are (the AHRS and :func:`dualpose.sim.broad_vision.recording_from_broad` re
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -118,7 +119,9 @@ def _read_mat(path: Path) -> dict[str, np.ndarray]:
                 return out
         from scipy.io import loadmat
 
-        return loadmat(fh)
+        raw = loadmat(fh)
+    # a MATLAB sparse matrix is a numeric matrix stored another way: read it as the dense one
+    return {k: v.toarray() if hasattr(v, "toarray") else v for k, v in raw.items()}
 
 
 def load_broad(path: str | Path) -> BroadTrial:
@@ -142,24 +145,29 @@ def load_broad(path: str | Path) -> BroadTrial:
     ValueError
         When a required field is missing or has the wrong shape.
     """
+    name = os.fspath(path)  # as given: messages name the file the way the user did
     path = Path(path)
     if not path.is_file():
-        raise FileNotFoundError(f"no BROAD trial file at {path}")
+        raise FileNotFoundError(f"no BROAD trial file at {name}")
     try:
         raw = _read_mat(path)
     except ImportError:
         raise
     except Exception as exc:  # scipy.io / h5py raise assorted errors on files that are not MATLAB files
-        raise ValueError(f"{path.name}: not a readable MATLAB .mat file ({exc})") from None
+        raise ValueError(f"{name}: not a readable MATLAB .mat file ({exc})") from None
     missing = [k for k in _FIELDS if k not in raw and k not in _OPTIONAL]
     if missing:
-        raise ValueError(f"{path.name} is not a BROAD trial: missing fields {missing}")
-    n = np.asarray(raw["imu_gyr"]).shape[0] if np.ndim(raw["imu_gyr"]) else 0
+        raise ValueError(f"{name} is not a BROAD trial: missing fields {missing}")
+    gyr_shape = np.shape(raw["imu_gyr"])
+    n = gyr_shape[0] if len(gyr_shape) else 0
+    if len(gyr_shape) == 2 and gyr_shape[0] == 3 and gyr_shape[1] > 3:
+        raise ValueError(f"{name}: field imu_gyr has shape {gyr_shape}: samples must be rows, ({gyr_shape[1]}, 3); "
+                         "is it transposed?")  # fmt: skip
     if n < 2:
-        raise ValueError(f"{path.name}: field imu_gyr: no samples (got shape {np.shape(raw['imu_gyr'])})")
+        raise ValueError(f"{name}: field imu_gyr: no samples (got shape {np.shape(raw['imu_gyr'])})")
     rate = np.asarray(raw["sampling_rate"], dtype=np.float64).ravel()
     if rate.size != 1 or not (np.isfinite(rate[0]) and rate[0] > 0):
-        raise ValueError(f"{path.name}: field sampling_rate must be one finite number > 0 (Hz); got {rate.tolist()}")
+        raise ValueError(f"{name}: field sampling_rate must be one finite number > 0 (Hz); got {rate.tolist()}")
 
     def vec(key: str, width: int) -> np.ndarray:
         if key not in raw:
@@ -167,15 +175,16 @@ def load_broad(path: str | Path) -> BroadTrial:
         try:
             a = np.asarray(raw[key], dtype=np.float64)
         except (TypeError, ValueError):
-            raise ValueError(f"{path.name}: field {key} must be numeric") from None
+            raise ValueError(f"{name}: field {key} must be numeric") from None
         if a.shape != (n, width):
-            raise ValueError(f"{path.name}: field {key} must have shape ({n}, {width}); got {a.shape}")
+            hint = "; is it transposed?" if a.shape == (width, n) else ""
+            raise ValueError(f"{name}: field {key} must have shape ({n}, {width}) like imu_gyr; got {a.shape}{hint}")
         limit = _IMU_LIMITS.get(key)
         if limit is not None:
             bad = np.flatnonzero((np.abs(a) > limit).any(axis=1))  # infinities too; NaN samples are kept
             if bad.size:
                 k = int(bad[0])
-                raise ValueError(f"{path.name}: field {key}: sample {k} has |value| {np.abs(a[k]).max():.3g} > "
+                raise ValueError(f"{name}: field {key}: sample {k} has |value| {np.abs(a[k]).max():.3g} > "
                                  f"{limit:g}: a corrupt sample ({bad.size} such)")  # fmt: skip
         return a
 
@@ -186,7 +195,7 @@ def load_broad(path: str | Path) -> BroadTrial:
     if off.size:
         k = int(np.flatnonzero(tracked)[off[0]])
         raise ValueError(
-            f"{path.name}: field opt_quat: {off.size} of {int(tracked.sum())} reference quaternions are not unit "
+            f"{name}: field opt_quat: {off.size} of {int(tracked.sum())} reference quaternions are not unit "
             f"(sample {k} has norm {np.linalg.norm(wxyz[k]):.3g}); untracked samples must be NaN"
         )
     info = raw.get("info", "")
@@ -198,7 +207,7 @@ def load_broad(path: str | Path) -> BroadTrial:
         description, groups = entry.get("description", ""), tuple(entry.get("groups", ()))
     movement = np.asarray(raw["movement"]).ravel().astype(bool)
     if movement.shape != (n,):
-        raise ValueError(f"{path.name}: field movement must have {n} samples; got {movement.shape}")
+        raise ValueError(f"{name}: field movement must have {n} samples; got {movement.shape}")
     return BroadTrial(
         name=path.stem,
         rate=float(rate[0]),
