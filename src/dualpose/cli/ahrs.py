@@ -145,6 +145,8 @@ def run(args: argparse.Namespace) -> int:
     calibrate = bool(args.mag_calibration)
     smoothed = scores = None
     try:
+        if not bag:
+            trial.require_finite(("imu_gyr", "imu_acc", "imu_mag") if args.mag else ("imu_gyr", "imu_acc"))
         if args.offline:
             cal = "auto" if calibrate else None
             smoothed, scores = smooth_broad_trial(trial, use_mag=args.mag, mag_calibration=cal)

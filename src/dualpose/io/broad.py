@@ -97,6 +97,18 @@ class BroadTrial:
         idx = np.flatnonzero(self.movement)
         return int(idx[0]) if idx.size else self.movement.size
 
+    def require_finite(self, fields: tuple[str, ...] = ("imu_gyr", "imu_acc"), start: int = 0) -> None:
+        """Raise ``ValueError`` naming the file's field and the trial's own sample number (0-based) of the first
+        non-finite sample of ``fields`` (of ``imu_gyr``, ``imu_acc``, ``imu_mag``) from sample ``start`` on."""
+        arrays = {"imu_gyr": self.gyr, "imu_acc": self.acc, "imu_mag": self.mag}
+        for key in fields:
+            bad = np.flatnonzero(~np.isfinite(arrays[key][start:]).all(axis=1))
+            if bad.size:
+                k = start + int(bad[0])
+                where = f" from sample {start} on, where the run starts" if start else ""
+                raise ValueError(f"field {key}: sample {k} (t = {k / self.rate:.6f} s) is not finite ({bad.size} "
+                                 f"such{where}); drop or interpolate the missing samples")  # fmt: skip
+
 
 def _read_mat(path: Path) -> dict[str, np.ndarray]:
     with open_input(path, "a MATLAB .mat file") as fh:  # refuses a directory or a device; a pipe is read once

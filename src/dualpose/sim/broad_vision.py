@@ -237,12 +237,7 @@ def recording_from_broad(
     i0 = max(int(np.searchsorted(t, frames.t[0] + time_offset, side="right")) - 1, 0)
     if n_rest - i0 < 3:
         raise ValueError(f"{trial.name}: the first reference pose comes after the static start; cannot initialise")
-    for key, a in (("imu_gyr", trial.gyr), ("imu_acc", trial.acc)):  # named by the trial's own sample numbers
-        bad = np.flatnonzero(~np.isfinite(a[i0:]).all(axis=1))
-        if bad.size:
-            k = i0 + int(bad[0])
-            raise ValueError(f"{trial.name}: field {key}: sample {k} (t = {t[k]:.6f} s) is not finite ({bad.size} such "
-                             f"from sample {i0} on, where the run starts); drop or interpolate the missing samples")  # fmt: skip
+    trial.require_finite(start=i0)  # named by the trial's own sample numbers
     q_bc, p_bc = default_extrinsic()
     truth = reference_on_imu_clock(trial, time_offset)
     truth = truth.take(np.flatnonzero(truth.stamps >= t[i0]))
