@@ -13,6 +13,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 from _pipes import dualpose_process
 
@@ -140,3 +141,66 @@ def test_a_pipe_given_as_a_file_is_read(tmp_path):
         out, err = proc.communicate(rows, timeout=60)
         assert proc.returncode == 0, err
         assert json.loads(out)["matched_poses"] == 40
+
+
+def test_a_numpy_warning_reaches_the_user_as_one_line():
+    src = str(Path(dp.__file__).resolve().parents[1])
+    code = ("import numpy as np; from dualpose.cli.main import one_line_warnings; one_line_warnings('dualpose x'); "
+            "np.log(np.zeros(1))")  # fmt: skip
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60,
+                          env=dict(os.environ, PYTHONPATH=src))  # fmt: skip
+    assert proc.stderr == "dualpose x: warning: divide by zero encountered in log (RuntimeWarning)\n"
+
+
+def test_an_unexpected_exception_is_one_line_with_exit_1(monkeypatch, capsys):
+    from dualpose.cli import demo
+    from dualpose.cli.main import main
+
+    def broken(args):
+        raise TypeError("an internal bug")
+
+    monkeypatch.setattr(demo, "run", broken)
+    monkeypatch.delenv("DUALPOSE_TRACEBACK", raising=False)
+    assert main(["demo"]) == 1
+    err = capsys.readouterr().err
+    assert err == ("dualpose demo: error: internal error (TypeError: an internal bug); DUALPOSE_TRACEBACK=1 shows "
+                   "where\n")  # fmt: skip
+    monkeypatch.setenv("DUALPOSE_TRACEBACK", "1")
+    with pytest.raises(TypeError):
+        main(["demo"])
+
+
+@pytest.mark.parametrize("args, message", [
+    (["eval", "{ref}", "{ref}", "--rpe-delta", "0.5"], "--rpe-delta must be a whole number of frames"),
+    (["eval", "{ref}", "{ref}", "--rpe-delta", "0", "--rpe-unit", "m"], "--rpe-delta must be a distance > 0"),
+    (["register", "{pts}", "{pts}", "--ransac", "--threshold", "0.1"], None),
+])  # fmt: skip
+def test_option_and_small_input_messages(tmp_path, capsys, args, message):
+    from dualpose.cli.main import main
+
+    ref, pts = tmp_path / "ref.tum", tmp_path / "pts.csv"
+    ref.write_text("".join(f"{k} {k} 0 0 0 0 0 1\n" for k in range(20)))
+    pts.write_text("0,0,0\n1,0,0\n0,1,0\n")  # three points: RANSAC's one triple
+    code = main([a.format(ref=ref, pts=pts) for a in args])
+    err = capsys.readouterr().err
+    if message is None:
+        assert code == 0 and err == ""
+    else:
+        assert code == 2 and message in _one_line(err, f"dualpose {args[0]}")
+
+
+@pytest.mark.parametrize("offline", [False, True])
+def test_broad_with_an_all_zero_magnetometer_names_the_magnetometer(tmp_path, capsys, offline):
+    from scipy.io import savemat
+
+    from dualpose.cli.main import main
+
+    n, rng = 600, np.random.default_rng(5)
+    savemat(tmp_path / "t.mat", {
+        "imu_gyr": rng.normal(0.0, 1e-3, (n, 3)), "imu_acc": [0.0, 0.0, 9.81] + rng.normal(0.0, 1e-2, (n, 3)),
+        "imu_mag": np.zeros((n, 3)), "opt_quat": np.tile([1.0, 0.0, 0.0, 0.0], (n, 1)), "opt_pos": np.zeros((n, 3)),
+        "movement": (np.arange(n) >= n // 2).astype(np.uint8), "sampling_rate": 2000.0 / 7.0,
+    })  # fmt: skip
+    assert main(["ahrs", str(tmp_path / "t.mat"), *(["--offline"] if offline else [])]) == 1
+    line = _one_line(capsys.readouterr().err, "dualpose ahrs")
+    assert "mag: every sample is zero" in line and "--no-mag" in line and "gyroscope" not in line

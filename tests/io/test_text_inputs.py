@@ -47,7 +47,7 @@ def test_every_float_written_in_the_usual_ways_reads_back(x, fmt):
 def test_python_only_literals_are_refused_by_the_fast_and_the_line_reader(tmp_path, token):
     f = tmp_path / "t.tum"
     f.write_text("0 0 0 0 0 0 0 1\n" + f"1 0 0 0 0 0 0 {token}\n")
-    with pytest.raises(ValueError, match=rf"t\.tum:2: .*is not a number"):
+    with pytest.raises(ValueError, match=r"t\.tum:2: .*is not a number"):
         read_tum(f)
 
 

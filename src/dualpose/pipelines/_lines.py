@@ -2,8 +2,9 @@
 numbers out.
 
 Input fields are separated by commas or by whitespace (:func:`dualpose.io._text.split_fields` with ``"auto"``);
-``#`` starts a comment; numbers are in the grammar of the file readers (:func:`dualpose.io._text.parse_number`).  Output numbers are Python's ``repr`` of the float64 (the shortest text that reads back to
-the same value), so a line read back gives the filter's numbers bit for bit.
+``#`` starts a comment; numbers are in the grammar of the file readers (:func:`dualpose.io._text.parse_number`).
+Output numbers are Python's ``repr`` of the float64 (the shortest text that reads back to the same value), so a
+line read back gives the filter's numbers bit for bit.
 """
 
 from __future__ import annotations
