@@ -30,6 +30,7 @@ import os
 import sys
 import warnings
 from types import ModuleType
+from typing import TextIO
 
 from dualpose.cli import ahrs, calibrate, demo, eval, fuse, register, reproduce
 
@@ -80,7 +81,8 @@ def one_line_warnings(prog: str) -> None:
     """Print every warning that reaches the default handler as one line ``PROG: warning: TEXT`` on stderr (the
     handler stays until :func:`main` returns)."""
 
-    def show(message, category, filename, lineno, file=None, line=None) -> None:
+    def show(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+             file: TextIO | None = None, line: str | None = None) -> None:  # fmt: skip
         text = " ".join(str(message).split())
         kind = "" if category is UserWarning else f" ({category.__name__})"
         try:

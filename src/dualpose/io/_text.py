@@ -106,14 +106,14 @@ def _kind(mode: int) -> str:
     return "not a regular file"
 
 
-def _read_pipe(f: IO[bytes], name: str) -> bytes:
+def _read_pipe(f: IO[bytes] | io.BufferedReader, name: str) -> bytes:
     data = f.read(MAX_PIPE_BYTES + 1)
     if len(data) > MAX_PIPE_BYTES:
         raise ValueError(f"{name}: a pipe holding more than {MAX_PIPE_BYTES} bytes; give a regular file")
     return data
 
 
-def open_input(path: str | os.PathLike, what: str = "a file") -> IO[bytes]:
+def open_input(path: str | os.PathLike[str], what: str = "a file") -> io.BufferedReader | io.BytesIO:
     """``path`` opened for reading bytes, refusing anything that is not a file of data.
 
     A regular file is opened as it is.  A pipe (``-`` is standard input; ``/dev/stdin``, ``<(...)``) is read once,
@@ -148,7 +148,7 @@ def open_input(path: str | os.PathLike, what: str = "a file") -> IO[bytes]:
     return f
 
 
-def input_size(f: IO[bytes]) -> int:
+def input_size(f: io.BufferedReader | io.BytesIO) -> int:
     """The number of bytes of an input opened by :func:`open_input`."""
     if isinstance(f, io.BytesIO):
         return len(f.getbuffer())
@@ -219,7 +219,7 @@ def split_fields(line: str, delimiter: str | None) -> list[str] | None:
     return s.split(delimiter) if delimiter is None else [x.strip() for x in s.split(delimiter)]
 
 
-def read_table(path: str | os.PathLike, delimiter: str | None, ncols: tuple[int, int], what: str) -> Table:
+def read_table(path: str | os.PathLike[str], delimiter: str | None, ncols: tuple[int, int], what: str) -> Table:
     """Read a text table: ``#`` starts a comment (a whole line, or the rest of a data line); blank lines are skipped.
 
     Parameters
@@ -333,7 +333,7 @@ def _float_table_fast(path: str, ncols: int, comma: bool) -> np.ndarray | None:
     return data if out.shape[0] <= row + row // 2 + 1024 else data.copy()
 
 
-def read_float_table(path: str | os.PathLike, ncols: int, delimiter: str | None, what: str) -> np.ndarray:
+def read_float_table(path: str | os.PathLike[str], ncols: int, delimiter: str | None, what: str) -> np.ndarray:
     """All fields of a numeric text table with exactly ``ncols`` fields per data line, as finite float64 (N, ncols).
 
     ``delimiter`` is ``None`` (runs of whitespace) or ``","``.  Comments (``#`` to the end of a line), blank
@@ -362,7 +362,7 @@ def first_line_delimiter(path: str) -> str | None:
     return None
 
 
-def read_pose_rows(path: str | os.PathLike, what: str) -> np.ndarray:
+def read_pose_rows(path: str | os.PathLike[str], what: str) -> np.ndarray:
     """The rows ``t x y z qx qy qz qw`` of a pose file (separator of its first data line), float64 (N, 8), in file
     order; ``path:line: ...`` errors as :func:`read_float_table`'s, and for a zero quaternion."""
     p = check_path(path)
@@ -415,7 +415,7 @@ def parse_int_column(table: Table, column: int, what: str) -> np.ndarray:
         raise  # pragma: no cover
 
 
-def open_for_writing(path: str | os.PathLike, overwrite: bool) -> contextlib.AbstractContextManager[IO[str]]:
+def open_for_writing(path: str | os.PathLike[str], overwrite: bool) -> contextlib.AbstractContextManager[IO[str]]:
     """Open ``path`` for text output, as a context manager: the file appears complete when the block ends, or not at
     all (written into a temporary sibling, :func:`dualpose.io._output.atomic_text_file`); an existing file is an
     error unless ``overwrite`` is true."""
