@@ -83,14 +83,20 @@ def _trial_write(directory: Path) -> str | None:
 
 
 def _parent_problem(out: Path, option: str) -> str | None:
-    """None when the parent directory of ``out`` exists (or can be created) and is writable."""
+    """None when the parent directory of ``out`` exists (or can be created) and is writable: the output is written
+    beside ``out`` and renamed into place, so the parent must take a new entry even when ``out`` exists."""
     parent = out.absolute().parent
     while not parent.exists() and parent != parent.parent:
         parent = parent.parent
     if not parent.is_dir():
         return f"{option} {out}: cannot be created: {parent} is not a directory"
     problem = _trial_write(parent)
-    return None if problem is None else f"{option} {out}: cannot be created: {parent} is {problem}"
+    if problem is None:
+        return None
+    if out.exists():
+        return (f"{option} {out}: its directory {parent} is {problem} (the output is written beside it and renamed "
+                "into place)")  # fmt: skip
+    return f"{option} {out}: cannot be created: {parent} is {problem}"
 
 
 @contextlib.contextmanager
