@@ -412,6 +412,21 @@ def _imu_noise(imu_cfg: dict, rate: float) -> ImuNoise:
     )
 
 
+#: the sensor file's key for each field of the types layer's messages (the user wrote the file, not the dataclass)
+_FILE_KEYS = {
+    "imu_noise.update_rate": "imu.update_rate", "imu_noise.": "imu.", "q_bc": "camera.q_bc", "p_bc": "camera.p_bc",
+    "pixel_sigma": "camera.pixel_sigma", "time_offset": "camera.timeshift_cam_imu", "rest_seconds": "rest_duration_s",
+}  # fmt: skip
+_FIELD = re.compile(r"(?<![\w.])(?:" + "|".join(re.escape(k) + ("" if k.endswith(".") else r"(?!\w)")
+                                                 for k in _FILE_KEYS) + ")")  # fmt: skip
+
+
+def _in_file_keys(message: str) -> str:
+    """``message`` of a types-layer check with each dataclass field named by its key in the sensor file
+    (``imu_noise.update_rate`` -> ``imu.update_rate``, ``time_offset`` -> ``camera.timeshift_cam_imu``)."""
+    return _FIELD.sub(lambda m: _FILE_KEYS[m.group(0)], message)
+
+
 def _sensor_fields(top: dict, cam: dict) -> dict:
     """The fields :class:`~dualpose.types.recording.Recording` and :class:`~dualpose.types.recording.SensorSetup`
     share, from the checked top level and ``camera`` section: camera, extrinsic, pixel sigma, time offset, gravity."""
@@ -450,7 +465,7 @@ def read_sensor_setup(path: str | os.PathLike) -> SensorSetup:
             **_sensor_fields(top, cam),
         )  # fmt: skip
     except ValueError as exc:
-        raise RecordingError(f"{sf.path}: {exc}") from None
+        raise RecordingError(f"{sf.path}: {_in_file_keys(str(exc))}") from None
 
 
 # ------------------------------------------------------------------------------------------------ recording
@@ -497,7 +512,7 @@ def read_recording(path: str | os.PathLike):
         )  # fmt: skip
     except ValueError as exc:
         src = base / files["imu"] if str(exc).startswith(("gyro", "accel", "t ")) else sf.path
-        raise RecordingError(f"{src}: {exc}") from None
+        raise RecordingError(f"{src}: {_in_file_keys(str(exc))}") from None
 
 
 def _ns(seconds: np.ndarray) -> np.ndarray:
