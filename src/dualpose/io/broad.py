@@ -159,8 +159,9 @@ def load_broad(path: str | Path) -> BroadTrial:
     """
     name = os.fspath(path)  # as given: messages name the file the way the user did
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise FileNotFoundError(f"no BROAD trial file at {name}")
+    open_input(name, "a MATLAB .mat file").close()  # a directory or a device: named as such, nothing read
     try:
         raw = _read_mat(path)
     except ImportError:
