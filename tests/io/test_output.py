@@ -152,3 +152,15 @@ def test_text_writers_never_leave_a_partial_file(tmp_path):
     with pytest.raises(FileExistsError, match="overwrite=True"):
         atomic_text_file(p, overwrite=False).__enter__()
     assert p.read_text() == "done\n"
+
+
+def test_the_current_directory_is_never_an_output_set(tmp_path, monkeypatch):
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    for out in (".", str(work), str(tmp_path)):
+        with pytest.raises(OutputError, match="current directory"):
+            OutputDirectory(out, names=NAMES, command="x", force=True)
+    _write_set("run/", {"a.txt": "1"})  # a trailing slash names the same directory
+    _write_set("run/.", {"a.txt": "2"}, force=True)
+    assert (work / "run" / "a.txt").read_text() == "2" and _leftovers(work) == []

@@ -269,7 +269,10 @@ class OutputDirectory:
         self.names = frozenset(names)
         self.command = command
         self.force = force
-        problem = _input_problem(self.path, inputs, option) or self._existing_problem(option)
+        problem = _input_problem(self.path, inputs, option)
+        if problem is None and _inside(_real(os.getcwd()), _real(self.path)):
+            problem = f"{option} {self.path}: is or contains the current directory; give another directory"
+        problem = problem or self._existing_problem(option)
         if problem is None:
             problem = _parent_problem(self.path, option)
         if problem is None and self.path.is_dir():
@@ -311,23 +314,24 @@ class OutputDirectory:
         """The temporary directory to write the files into; on a normal end it gets ``manifest.json`` and takes
         the place of :attr:`path` (an earlier set is removed); on an error or Ctrl-C it is removed and :attr:`path`
         is left as it was."""
-        parent = self.path.absolute().parent
+        target = Path(os.path.abspath(self.path))  # "run/." and "run/" name the directory "run"
+        parent = target.parent
         parent.mkdir(parents=True, exist_ok=True)
-        stage = Path(tempfile.mkdtemp(prefix=f".{self.path.name}{_TMP}", dir=parent))
+        stage = Path(tempfile.mkdtemp(prefix=f".{target.name}{_TMP}", dir=parent))
         old: Path | None = None
         try:
             yield stage
             self._write_manifest(stage)
             os.chmod(stage, 0o777 & ~_umask())
             with _signals_held():
-                if self.path.exists():
+                if target.exists():
                     if self._existing_problem("--out") is not None:  # changed while the command ran
                         raise OutputError(f"{self.path}: changed while the command ran; nothing was replaced")
-                    old = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.dualpose-old-", dir=parent))
-                    os.replace(self.path, old / "set")
-                    os.replace(stage, self.path)
+                    old = Path(tempfile.mkdtemp(prefix=f".{target.name}.dualpose-old-", dir=parent))
+                    os.replace(target, old / "set")
+                    os.replace(stage, target)
                 else:
-                    os.rename(stage, self.path)
+                    os.rename(stage, target)
         finally:
             shutil.rmtree(stage, ignore_errors=True)
             if old is not None:
