@@ -9,6 +9,8 @@ import json
 import os
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from dualpose.io._output import MANIFEST, OutputDirectory, OutputError, OutputFile, atomic_text_file
 
@@ -164,3 +166,39 @@ def test_the_current_directory_is_never_an_output_set(tmp_path, monkeypatch):
     _write_set("run/", {"a.txt": "1"})  # a trailing slash names the same directory
     _write_set("run/.", {"a.txt": "2"}, force=True)
     assert (work / "run" / "a.txt").read_text() == "2" and _leftovers(work) == []
+
+
+_RUN = st.tuples(st.sets(st.sampled_from(NAMES), min_size=1), st.booleans(), st.booleans())
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(_RUN, min_size=1, max_size=5))
+def test_any_sequence_of_runs_leaves_one_runs_set(tmp_path_factory, runs):
+    """Runs writing some of the names, with or without ``force``, some failing half-way: after each, the directory
+    is exactly the last successful run's files and manifest (or absent), and no temporary sibling is left."""
+    parent = tmp_path_factory.mktemp("seq")
+    out = parent / "run"
+    expected: dict[str, str] | None = None
+    for k, (names, force, fails) in enumerate(runs):
+        files = {name: f"run {k}" for name in sorted(names)}
+        try:
+            target = OutputDirectory(out, names=NAMES, command=f"run {k}", force=force)
+        except OutputError:
+            assert expected is not None and not force  # refused only over an earlier set without --force
+        else:
+            try:
+                with target.writing() as stage:
+                    for name, text in files.items():
+                        (stage / name).write_text(text)
+                    if fails:
+                        raise RuntimeError("failed half-way")
+                expected = files
+            except RuntimeError:
+                pass
+        if expected is None:
+            assert not out.exists()
+        else:
+            assert {n: (out / n).read_text() for n in os.listdir(out) if n != MANIFEST} == expected
+            _manifest = json.loads((out / MANIFEST).read_text())
+            assert sorted(e["name"] for e in _manifest["files"]) == sorted(expected)
+        assert _leftovers(parent) == []
