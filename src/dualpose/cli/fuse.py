@@ -33,9 +33,14 @@ import argparse
 import json
 import os
 import sys
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 from dualpose.cli._args import seed
 from dualpose.cli._stream import write_flushed
+
+if TYPE_CHECKING:
+    from dualpose.io._output import OutputDirectory
 
 #: formats of ``--out-bag``
 _BAGS = ("bag", "db3", "mcap")
@@ -318,7 +323,8 @@ def _target_table(m: dict) -> str:
     return aligned_rows(rows)
 
 
-def _report(args: argparse.Namespace, result, out, table) -> int:
+def _report(args: argparse.Namespace, result: Any, out: OutputDirectory | None,
+            table: Callable[[dict[str, Any]], str]) -> int:  # fmt: skip
     """Write ``--out``'s files (``out``: the :class:`~dualpose.io._output.OutputDirectory`, or None) of a
     :class:`~dualpose.pipelines.fuse.FuseResult` and print ``table(metrics)`` or, with ``--json``, the metrics
     (without the full evaluation)."""
@@ -365,7 +371,7 @@ def _inputs(args: argparse.Namespace) -> list[str | None]:
     return found
 
 
-def _output(args: argparse.Namespace, names: tuple[str, ...]):
+def _output(args: argparse.Namespace, names: tuple[str, ...]) -> OutputDirectory | None:
     """The ``--out`` directory for ``names`` (None without ``--out``); :class:`OutputError` when it cannot take
     them."""
     from dualpose.cli._output import output_directory

@@ -176,7 +176,14 @@ def _file_in_place(path: Path, force: bool) -> Iterator[Path]:
             if force:
                 os.replace(tmp, path)
             else:
-                os.link(tmp, path)  # raises FileExistsError if the file appeared meanwhile: never replaced unasked
+                try:
+                    os.link(tmp, path)  # FileExistsError if the file appeared meanwhile: never replaced unasked
+                except FileExistsError:
+                    raise
+                except OSError:  # a file system without hard links (FAT, some network mounts)
+                    if path.exists():
+                        raise FileExistsError(f"{path}: file exists") from None
+                    os.replace(tmp, path)
     finally:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
