@@ -4,7 +4,8 @@ ground truth when there is one.
 ``--data`` is "sim" (default), a recording directory or its ``sensors.json`` (format: ``docs/fusion.md``), or a BROAD
 trial ``.mat`` (pseudo-vision, ``docs/broad-pose.md``). Prints a summary table (or one JSON object with ``--json``);
 with ``--out DIR`` writes ``trajectory.tum`` (the estimate, TUM format), ``metrics.json`` and PNG figures (top view,
-errors with 3σ bounds, NIS vs χ² bounds). An existing output file is never replaced unless ``--force``. ``--smooth``
+errors with 3σ bounds, NIS vs χ² bounds) and ``manifest.json``, as one set renamed into place when complete; an
+earlier run's set is replaced as a whole with ``--force`` and never otherwise (docs/refusals.md). ``--smooth``
 (ESKF only) also runs the offline RTS smoother: the table and JSON (``"smoothed"``) report filter and smoother side
 by side and ``--out`` adds ``trajectory_smoothed.tum``.  The output directory is checked (a directory or creatable,
 writable) before anything is computed.  Warnings about the input (IMU gaps, a doubtful gravity vector; docs/fusion.md
