@@ -99,7 +99,9 @@ def run_stream(args: argparse.Namespace) -> int:
     if 0 < n_rest < 10:
         return _usage_error(f"--rest-seconds {rest_seconds:g} at --rate {args.rate:g} is {n_rest} samples; "
                             "the rest period needs at least 10 samples, or 0 for none")  # fmt: skip
-    return write_flushed(stream_ahrs_lines(sys.stdin, args.rate, use_mag=args.mag, n_rest=n_rest), "ahrs")
+    from dualpose.io._text import bounded_lines
+
+    return write_flushed(stream_ahrs_lines(bounded_lines(), args.rate, use_mag=args.mag, n_rest=n_rest), "ahrs")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -143,6 +145,8 @@ def run(args: argparse.Namespace) -> int:
     calibrate = bool(args.mag_calibration)
     smoothed = scores = None
     try:
+        if not bag:
+            trial.require_finite(("imu_gyr", "imu_acc", "imu_mag") if args.mag else ("imu_gyr", "imu_acc"))
         if args.offline:
             cal = "auto" if calibrate else None
             smoothed, scores = smooth_broad_trial(trial, use_mag=args.mag, mag_calibration=cal)
@@ -152,6 +156,8 @@ def run(args: argparse.Namespace) -> int:
                 trial.gyr, trial.acc, trial.mag if args.mag else None, trial.rate, use_mag=args.mag,
                 n_rest=max(trial.static_start, 10), mag_calibration="auto" if calibrate else None,
             )  # fmt: skip
+        if not args.offline:
+            scores = broad_scores(result.quat, trial, use_mag=args.mag)
     except ValueError as exc:
         print(f"dualpose ahrs: error: {args.file}: {exc}", file=sys.stderr)
         return 1
@@ -176,8 +182,6 @@ def run(args: argparse.Namespace) -> int:
     }
     if args.mag and result.mag_calibration is not None:
         out.update(result.mag_calibration.as_dict())
-    if not args.offline:
-        scores = broad_scores(result.quat, trial, use_mag=args.mag)
     has_ref = scores is not None
     if has_ref:
         out.update(scores)

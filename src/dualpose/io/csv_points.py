@@ -12,6 +12,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from dualpose.io._text import open_input, parse_number
+
 __all__ = ["CsvFormatError", "read_columns"]
 
 
@@ -21,7 +23,7 @@ class CsvFormatError(ValueError):
 
 def _number(cell: str) -> float | None:
     try:
-        value = float(cell)
+        value = parse_number(cell)
     except ValueError:
         return None
     return value
@@ -46,7 +48,10 @@ def read_columns(path: str | Path, ncols: int, what: str = "values") -> NDArray[
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8-sig")
+        with open_input(path) as f:
+            text = f.read().decode("utf-8-sig")
+    except ValueError as exc:
+        raise CsvFormatError(str(exc)) from None
     except OSError as exc:
         raise CsvFormatError(f"{path}: cannot read ({exc.strerror or exc})") from None
     except UnicodeDecodeError:

@@ -18,6 +18,7 @@ Kalibr ``camchain.yaml``, :func:`~dualpose.io.read_rig_sensors`) of :func:`read_
 
 from __future__ import annotations
 
+import io
 import math
 import os
 from collections.abc import Iterator
@@ -27,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 import dualpose as dp
-from dualpose.io._text import check_path, open_for_writing, parse_float_columns, read_table
+from dualpose.io._text import check_path, open_for_writing, open_input, parse_float_columns, parse_number, read_table
 from dualpose.io.euroc import read_euroc_imu
 from dualpose.io.sensors_yaml import read_rig_sensors
 from dualpose.types.camera import PinholeModel
@@ -45,9 +46,9 @@ _TRACK_LAYOUT = "t, track_id, u, v"
 def is_eqvio_csv(path: str | os.PathLike[str]) -> bool:
     """Whether the first line of ``path`` is the EqVIO replay CSV header."""
     try:
-        with open(check_path(path), encoding="utf-8-sig") as f:
-            return f.readline().strip().replace(" ", "") == EQVIO_HEADER
-    except (OSError, UnicodeDecodeError):
+        with open_input(check_path(path)) as f:
+            return f.readline(4096).decode("utf-8-sig").strip().replace(" ", "") == EQVIO_HEADER
+    except (OSError, ValueError):
         return False
 
 
@@ -144,8 +145,8 @@ def _eqvio_fast(
     None when anything is unusual (the caller then uses the line-by-line reader)."""
     p = check_path(path)
     try:
-        with open(p, encoding="utf-8-sig") as f:
-            lines = f.read().splitlines()
+        with open_input(p) as f:
+            lines = f.read().decode("utf-8-sig").splitlines()
         if not lines or lines[0].strip().replace(" ", "") != EQVIO_HEADER:
             return None
         body = lines[1:]
@@ -249,7 +250,7 @@ def iter_track_csv(path: str | os.PathLike[str]) -> Iterator[TrackFrame]:
     time, reading the file line by line (for streaming; a frame is yielded when the next one starts)."""
     p = check_path(path)
     t_cur, ids, uv = None, [], []
-    with open(p, encoding="utf-8-sig") as f:
+    with open_input(p) as raw, io.TextIOWrapper(raw, encoding="utf-8-sig") as f:
         for lineno, line in enumerate(f, start=1):
             s = line.split("#", 1)[0].strip()
             if not s or s.replace(" ", "").lower() == "t,track_id,u,v":
@@ -258,7 +259,7 @@ def iter_track_csv(path: str | os.PathLike[str]) -> Iterator[TrackFrame]:
             try:
                 if len(fields) != 4:
                     raise ValueError
-                t, i, u, v = (float(x) for x in fields)
+                t, i, u, v = (parse_number(x.strip()) for x in fields)
                 if not all(map(math.isfinite, (t, u, v))) or i != round(i):
                     raise ValueError
             except ValueError:

@@ -17,6 +17,7 @@ dualpose; EuRoC ground truth stores wxyz and is converted by its reader.
 
 from __future__ import annotations
 
+import io
 import json
 import math
 import os
@@ -31,8 +32,10 @@ from dualpose.io._text import (
     Table,
     check_path,
     open_for_writing,
+    open_input,
     parse_float_columns,
     parse_int_column,
+    parse_number,
     read_table,
 )
 from dualpose.io.detect import read_trajectory
@@ -255,7 +258,7 @@ def _sensor_path(name: str | os.PathLike[str]) -> Path:
 
 def _row_line(path: str | os.PathLike[str], k: int) -> int:
     """1-based line number of the k-th data row (not blank, not a ``#`` comment) of a text file."""
-    with open(path, encoding="utf-8-sig") as f:
+    with open_input(path) as raw, io.TextIOWrapper(raw, encoding="utf-8-sig") as f:
         j = -1
         for i, line in enumerate(f, start=1):
             s = line.strip()
@@ -290,7 +293,7 @@ def _ns_from_decimal_seconds(table: Table, column: int) -> NDArray[np.int64]:
                 v = int(m.group(2) or "0") * 1_000_000_000 + int(frac)
                 out[k] = -v if m.group(1) == "-" else v
             else:
-                x = float(cell)
+                x = parse_number(cell)
                 if not math.isfinite(x):
                     raise ValueError
                 out[k] = round(x * 1e9)
@@ -319,7 +322,7 @@ def read_imu(path: str | os.PathLike[str], *, bag_time: Stamps = "header") -> Im
         except (ValueError, ImportError) as exc:
             raise RecordingError(str(exc)) from None
     try:
-        with open(p, encoding="utf-8-sig") as f:
+        with open_input(p) as raw, io.TextIOWrapper(raw, encoding="utf-8-sig") as f:
             first = next((s.strip() for s in f if s.strip() and not s.strip().startswith("#")), "")
         if "," in first:
             imu = read_euroc_imu(p)
@@ -419,6 +422,21 @@ def _imu_noise(imu_cfg: dict[str, Any], rate: float) -> ImuNoise:
     )
 
 
+#: the sensor file's key for each field of the types layer's messages (the user wrote the file, not the dataclass)
+_FILE_KEYS = {
+    "imu_noise.update_rate": "imu.update_rate", "imu_noise.": "imu.", "q_bc": "camera.q_bc", "p_bc": "camera.p_bc",
+    "pixel_sigma": "camera.pixel_sigma", "time_offset": "camera.timeshift_cam_imu", "rest_seconds": "rest_duration_s",
+}  # fmt: skip
+_FIELD = re.compile(r"(?<![\w.])(?:" + "|".join(re.escape(k) + ("" if k.endswith(".") else r"(?!\w)")
+                                                 for k in _FILE_KEYS) + ")")  # fmt: skip
+
+
+def _in_file_keys(message: str) -> str:
+    """``message`` of a types-layer check with each dataclass field named by its key in the sensor file
+    (``imu_noise.update_rate`` -> ``imu.update_rate``, ``time_offset`` -> ``camera.timeshift_cam_imu``)."""
+    return _FIELD.sub(lambda m: _FILE_KEYS[m.group(0)], message)
+
+
 def _sensor_fields(top: dict[str, Any], cam: dict[str, Any]) -> dict[str, Any]:
     """The fields :class:`~dualpose.types.recording.Recording` and :class:`~dualpose.types.recording.SensorSetup`
     share, from the checked top level and ``camera`` section: camera, extrinsic, pixel sigma, time offset, gravity."""
@@ -457,7 +475,7 @@ def read_sensor_setup(path: str | os.PathLike[str]) -> SensorSetup:
             **_sensor_fields(top, cam),
         )  # fmt: skip
     except ValueError as exc:
-        raise RecordingError(f"{sf.path}: {exc}") from None
+        raise RecordingError(f"{sf.path}: {_in_file_keys(str(exc))}") from None
 
 
 # ------------------------------------------------------------------------------------------------ recording
@@ -504,7 +522,7 @@ def read_recording(path: str | os.PathLike[str]) -> Recording:
         )  # fmt: skip
     except ValueError as exc:
         src = base / files["imu"] if str(exc).startswith(("gyro", "accel", "t ")) else sf.path
-        raise RecordingError(f"{src}: {exc}") from None
+        raise RecordingError(f"{src}: {_in_file_keys(str(exc))}") from None
 
 
 def _ns(seconds: np.ndarray) -> NDArray[np.int64]:

@@ -43,7 +43,7 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
-from dualpose.io._text import check_path
+from dualpose.io._text import check_path, open_input
 from dualpose.io.recording import RecordingError
 from dualpose.types.camera_models import (
     CAMERA_MODEL_NAMES,
@@ -77,8 +77,8 @@ class _Doc:
     def __init__(self, path: str) -> None:
         self.path = path
         try:
-            with open(path, encoding="utf-8-sig") as f:
-                text = f.read()
+            with open_input(path) as f:
+                text = f.read().decode("utf-8-sig")
         except UnicodeDecodeError as exc:
             raise RecordingError(f"{path}: not a UTF-8 text file ({exc})") from None
         try:

@@ -49,7 +49,26 @@ def _check(
         raise ValueError(f"K must have shape (3, 3); got {K.shape}")
     if len(pixels) < 6:
         raise ValueError(f"PnP (DLT) needs at least 6 correspondences; got {len(pixels)}")
+    if not (np.isfinite(pixels).all() and np.isfinite(points).all()):
+        raise ValueError("pixels and points must be finite")
     return pixels, points, K
+
+
+def _normalised(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    """``(points − mu) / r`` with the centroid ``mu`` and the largest coordinate spread ``r``, and ``mu``, ``r``:
+    the projection does not change with the scale of the scene, so PnP is solved on points of spread ~1 (no
+    overflow for 1e200 m, no underflow for 1e-200 m).  ``ValueError`` for points all at one place or on one line
+    (the pose is then undetermined)."""
+    mu = points.mean(axis=0)
+    d = points - mu
+    r = float(np.abs(d).max())
+    if not r > 0.0:
+        raise ValueError("points: every correspondence has the same world point; PnP needs points spread in space")
+    d = d / r
+    sv = np.linalg.svd(d, compute_uv=False)
+    if not sv[1] > 1e-9 * sv[0]:
+        raise ValueError("points: the world points lie on one line; the rotation about it is undetermined")
+    return d, mu, r
 
 
 def pnp_dlt(pixels: ArrayLike, points: ArrayLike, K: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -59,7 +78,8 @@ def pnp_dlt(pixels: ArrayLike, points: ArrayLike, K: ArrayLike) -> tuple[NDArray
     e.g. a frame seeing mostly one of two walls) the plane-homography solution is computed as well and the
     candidate with the lower reprojection error is returned; exactly coplanar points use the homography only.
     """
-    pixels, points, K = _check(pixels, points, K)
+    pixels, world, K = _check(pixels, points, K)
+    points, mu_w, r_w = _normalised(world)  # solved at spread ~1; the pose mapped back below
     xn = np.linalg.solve(K, np.column_stack([pixels, np.ones(len(pixels))]).T).T[:, :2]
     mu = points.mean(axis=0)
     _, sv_pts, vt_pts = np.linalg.svd(points - mu, full_matrices=False)
@@ -73,7 +93,8 @@ def pnp_dlt(pixels: ArrayLike, points: ArrayLike, K: ArrayLike) -> tuple[NDArray
     if flatness < 0.2 or not candidates:
         candidates.append(_planar_dlt(xn, points, mu, vt_pts))
     costs = [np.sum(_residuals(R, t, pixels, points, K)[0] ** 2) for R, t in candidates]
-    return candidates[int(np.nanargmin(costs))]
+    R, t = candidates[int(np.nanargmin(costs))]
+    return R, r_w * t - R @ mu_w  # X_c = R X_w + t with X_w = r_w X_n + mu_w
 
 
 def _dlt_design(xn: np.ndarray, X: np.ndarray) -> NDArray[np.float64]:
@@ -182,21 +203,31 @@ def pnp_refine(
 def solve_pnp(
     pixels: np.ndarray, points: np.ndarray, K: np.ndarray, pixel_sigma: float = 1.0, iterations: int = 10
 ) -> PnPResult:
-    """DLT initial guess + Gauss–Newton refinement; the camera pose in the world with its covariance."""
+    """DLT initial guess + Gauss–Newton refinement; the camera pose in the world with its covariance.
+
+    Solved on the points normalised to spread ~1 (the pose and its covariance mapped back), so the scene's scale
+    does not matter; ``ValueError`` for points all at one place or on one line."""
+    pixels, world, K = _check(pixels, points, K)
+    points, mu_w, r_w = _normalised(world)
     R, t = pnp_dlt(pixels, points, K)
     R, t, JtJ, its = pnp_refine(R, t, pixels, points, K, iterations=iterations)
-    r, _ = _residuals(R, t, np.asarray(pixels, float), np.asarray(points, float), K)
-    cov_lt = np.linalg.inv(JtJ) * pixel_sigma**2  # over [δφ (world→camera, left), δt]
+    r, _ = _residuals(R, t, pixels, points, K)
+    cov_lt = np.linalg.inv(JtJ) * pixel_sigma**2  # over [δφ (world→camera, left), δt], normalised points
     # R_wc = Rᵀ ← Rᵀ Exp(−δφ): camera-frame rotation error δθ_c = −δφ;
     # c = −Rᵀ t ← −(Exp(δφ) R)ᵀ (t + δt) ≈ c − Rᵀ δt − Rᵀ [t]× δφ
     Jc = np.zeros((6, 6))
     Jc[0:3, 0:3] = -np.eye(3)
     Jc[3:6, 0:3] = -R.T @ dp.so3_hat(t)
     Jc[3:6, 3:6] = -R.T
-    cov = Jc @ cov_lt @ Jc.T
+    Jc[3:6] *= r_w  # the centre in the world: c_w = r_w c_n + mu_w
+    with np.errstate(over="ignore", invalid="ignore"):  # checked just below
+        cov = Jc @ cov_lt @ Jc.T
+    if not np.isfinite(cov).all():
+        raise ValueError(f"points: spread {r_w:.3g} (world units): the pose covariance overflows float64 at this "
+                         "scale; express the points in larger units")  # fmt: skip
     return PnPResult(
         q_wc=dp.quat_from_matrix(R.T),
-        c_w=-R.T @ t,
+        c_w=-r_w * (R.T @ t) + mu_w,
         covariance=0.5 * (cov + cov.T),
         rms_px=float(np.sqrt(np.mean(r**2))),
         iterations=its,

@@ -137,12 +137,14 @@ def register_pose_ransac(
         raise ValueError("model_points and measured_points must be finite")
     rng = np.random.default_rng(seed)
     n = p0.shape[0]
+    if n < 3:
+        raise ValueError(f"RANSAC draws triples of correspondences: needs at least 3 points; got {n}")
     best_count, best_sum, best = -1, np.inf, None
     needed, drawn = max_iterations, 0
     while drawn < min(needed, max_iterations):
         h = min(batch_size, min(needed, max_iterations) - drawn)
         # distinct triples: the first 3 of a random key's argsort per row (vectorised sampling without replacement)
-        idx = np.argpartition(rng.random((h, n)), 3, axis=1)[:, :3]
+        idx = np.argpartition(rng.random((h, n)), 2, axis=1)[:, :3]  # kth=2: the 3 smallest keys come first
         hyp = register_pose_batch(p0[idx], p1[idx], method=method)
         drawn += h
         res = _residual_norms(hyp.quat, hyp.translation, p0, p1)

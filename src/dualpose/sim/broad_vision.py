@@ -239,6 +239,7 @@ def recording_from_broad(
     i0 = max(int(np.searchsorted(t, frames.t[0] + time_offset, side="right")) - 1, 0)
     if n_rest - i0 < 3:
         raise ValueError(f"{trial.name}: the first reference pose comes after the static start; cannot initialise")
+    trial.require_finite(start=i0)  # named by the trial's own sample numbers
     q_bc, p_bc = default_extrinsic()
     truth = reference_on_imu_clock(trial, time_offset)
     truth = truth.take(np.flatnonzero(truth.stamps >= t[i0]))

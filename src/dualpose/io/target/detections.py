@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dualpose import _native
-from dualpose.io._text import check_path
+from dualpose.io._text import check_path, open_input, parse_number
 from dualpose.io.recording import RecordingError
 from dualpose.types.target import TargetDetections
 from dualpose.types.trajectory import seconds_from_ns
@@ -45,7 +45,7 @@ def _parse_numbers(path: str, rest: list[str], linenos: list[int]) -> NDArray[np
                 f"found {len(fields) + 1}"
             )
         try:
-            values = [float(f) for f in fields]
+            values = [parse_number(f) for f in fields]
         except ValueError:
             raise RecordingError(f"{path}:{linenos[k]}: not a number in {s!r} ({TARGET_LAYOUT})") from None
         if not all(np.isfinite(values)):
@@ -179,7 +179,7 @@ def read_target_detections(path: str | os.PathLike[str]) -> TargetDetections:
         one frame, or a file without rows.
     """
     p = check_path(path)
-    with open(p, "rb") as f:
+    with open_input(p) as f:
         raw = f.read()
     rows = _rows_fast(raw)
     ns, has_corner, numbers, linenos = rows if rows is not None else _rows_lines(p, raw)

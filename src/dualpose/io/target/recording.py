@@ -28,7 +28,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from dualpose.io._text import check_path, open_for_writing
+from dualpose.io._text import check_path, open_for_writing, open_input
 from dualpose.io.euroc import ImuData
 from dualpose.io.recording import RecordingError, read_imu
 from dualpose.io.sensors_yaml import read_rig_sensors
@@ -153,8 +153,8 @@ def read_camera_imu_calibration(path: str | os.PathLike[str]) -> CameraImuCalibr
     """
     p = check_path(path, "calibration")
     try:
-        with open(p, encoding="utf-8") as f:
-            data = json.load(f)
+        with open_input(p) as f:
+            data = json.loads(f.read().decode("utf-8"))
     except FileNotFoundError:
         raise RecordingError(f"{p}: calibration file not found") from None
     except json.JSONDecodeError as exc:
