@@ -363,7 +363,7 @@ class _Problem:
         use = self.inlier & front
         return r, use, (D, E, Rt, y, xb, xc_safe) if jac else None
 
-    def robust(self, r, use):
+    def robust(self, r: np.ndarray, use: np.ndarray) -> tuple[float, np.ndarray]:
         s = np.linalg.norm(r, axis=-1) / (self.sigma_px * self.corner_scale)
         c = self.huber
         rho = np.where(s <= c, s * s, 2 * c * s - c * c)
@@ -417,7 +417,7 @@ class _Problem:
         )  # fmt: skip
         return H, g, float(np.sum(cost))
 
-    def cost(self):
+    def cost(self) -> float:
         if self.native:
             return self._native_reprojection(False)[2] + self._imu_cost()
         r, use, _ = self.reprojection(False)
@@ -438,13 +438,13 @@ class _Problem:
         Jw = self.imu_whiten @ J if jac else None
         return rw, Jw
 
-    def _imu_cost(self):
+    def _imu_cost(self) -> float:
         rw = self.imu_whitened(False)[0]
         rb = np.diff(self.bias, axis=0) * self.rw_scale
         rp = self.bias[0] / _BIAS_PRIOR
         return float(np.sum(rw**2) + np.sum(rb**2) + np.sum(rp**2) + np.sum((self.theta / _AXES_PRIOR) ** 2))
 
-    def normal_equations(self):
+    def normal_equations(self) -> tuple[_Normal, np.ndarray, float]:
         """``H = JᵀWJ`` as :class:`_Normal` (band + border), the gradient ``JᵀWr`` and the cost."""
         n, K, gb = self.N, self.K, self.gbase
         acc = _Normal.empty(self.nvar, self.nb, self.stride)
