@@ -188,6 +188,7 @@ def main() -> int:
                  f"{out_runs['eskf'].metrics['rotation_rmse_deg']:.3f}° overall)")  # fmt: skip
     if args.structure:
         lines += [""] + _structure(setup, {"ESKF": runs["eskf"].estimate, "ESKF + RTS smoother": smoothed})
+        lines += [""] + _outage_offsets(setup, out_setup, out_runs["eskf"].estimate)
     if args.figure:
         _figure(runs["eskf"], setup, args.figure)
         lines.append(f"figure: {args.figure}")
@@ -278,6 +279,41 @@ def _structure(setup, tracks: dict) -> list[str]:
         lag_p = -float(np.sum((e.position - e.position.mean(axis=0)) * v) / np.sum(v * v))
         out.append(f"| {name} | {_split(e.position, 1e3)} | {_split(ev, np.degrees(1.0))} | "
                    f"{1e3 * lag_r:+.2f} / {1e3 * lag_p:+.2f} |")  # fmt: skip
+    return out
+
+
+def _rotation_errors(ref: Trajectory, track: Trajectory):
+    """Errors of ``track`` at the reference frames: stamps (K,), position (K, 3) m, rotation vectors (K, 3) rad
+    (body frame)."""
+    e = errors_against(ref, track)
+    rq = dp.matrix_from_quat(ref.quats[e.index])
+    return e.estimate.stamps, e.position, dp.so3_log(np.swapaxes(rq, 1, 2) @ dp.matrix_from_quat(e.estimate.quats))
+
+
+def _outage_offsets(setup, out_setup, eskf_out: Trajectory) -> list[str]:
+    """Inside each outage window: the largest errors of the ESKF and of the RTS-smoothed ESKF of the run with the
+    outages, the rotation also with the run's constant rotation offset (its mean error vector) removed, and cam0's
+    PnP the same way (no outage)."""
+    ref, _ = setup.cache["reference", "cam1"]
+    t0 = float(setup.source.imu.stamps[0])
+    cal = setup.calibration
+    tracks = {"ESKF": eskf_out, "RTS": _smoothed(out_setup),
+              "PnP": body_trajectory(setup.cache["own"], cal.rotation_xyzw, cal.translation_m, cal.time_offset_s)}
+    errs = {k: _rotation_errors(ref, tr) for k, tr in tracks.items()}
+    out = ["Outage windows (cam0 deleted; PnP: no outage) — largest errors inside, and the largest rotation error with "
+           "the run's constant rotation offset (mean error vector over all reference frames) removed:", "",
+           "| outage [s] | ESKF position [mm] / rotation [deg] / offset removed | RTS-smoothed: position / rotation / "
+           "offset removed | cam0 PnP rotation / offset removed [deg] |", "|---|---|---|---|"]  # fmt: skip
+    for a, b in OUTAGES:
+        cells = []
+        for k in ("ESKF", "RTS", "PnP"):
+            st, pe, ev = errs[k]
+            m = (st - t0 >= a) & (st - t0 < b)
+            rot = np.degrees(np.linalg.norm(ev[m], axis=1).max())
+            rot0 = np.degrees(np.linalg.norm(ev[m] - ev.mean(axis=0), axis=1).max())
+            pos = 1e3 * np.linalg.norm(pe[m], axis=1).max()
+            cells.append(f"{rot:.3f} / {rot0:.3f}" if k == "PnP" else f"{pos:.1f} / {rot:.3f} / {rot0:.3f}")
+        out.append(f"| {a:g}–{b:g} | " + " | ".join(cells) + " |")
     return out
 
 
