@@ -18,9 +18,10 @@ a-posteriori batch, as in Kalibr, Furgale et al. 2013, but in discrete time):
 * bias random-walk factors ``b_k+1 − b_k ~ N(0, σ_rw² Δt)`` (or one constant bias), and weak priors on the first
   bias (0 ± 0.1 rad/s, 0 ± 1 m/s²) and the axis models (0 ± 0.1) that only fix the scale of the problem.
 
-It is solved by Levenberg–Marquardt on the normal equations (block Jacobians assembled with NumPy; the
-reprojection blocks are summed per frame with batched matrix products; the block-tridiagonal frame part is
-factored by the block Cholesky recursion and the globals by their Schur complement).  Between
+It is solved by Levenberg–Marquardt on the normal equations (the reprojection blocks of every frame summed corner
+by corner in a compiled kernel, ``_native.camera_imu_reprojection``, with a NumPy path for other camera models and
+refined intrinsics; the IMU blocks in NumPy; the block-tridiagonal frame part factored by the compiled block
+Cholesky recursion and the globals by their Schur complement).  Between
 passes the frame states are re-anchored at ``t_k + τ`` and the IMU re-preintegrated at the current biases.
 
 Start from no prior: per-frame PnP on the undistorted corners (:func:`dualpose.registration.pnp.solve_pnp_batch`),
