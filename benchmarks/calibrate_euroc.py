@@ -36,12 +36,13 @@ def _vec(v, scale: float = 1.0, fmt: str = "{:+.2f}") -> str:
     return " ".join(fmt.format(scale * x) for x in v)
 
 
-def stereo_bundle_adjustment(window: tuple[float, float] | None = None) -> tuple[np.ndarray, int, float]:
+def stereo_bundle_adjustment(window: tuple[float, float] | None = None) -> tuple[np.ndarray, int, float, dict]:
     """Camera-only stereo calibration of the corner files with the intrinsics of sensors.yaml held fixed: a pose per
     frame seen by both cameras (≥ 8 corners each; started from cam0's PnP) and one ``T_cam0_cam1``, Gauss–Newton on
     the reprojection errors of both cameras (Huber at 1.5 σ, corners beyond 5 σ dropped after 5, 10 and 15 steps),
-    the frame poses eliminated by their Schur complement.  Returns ``T_cam0_cam1`` (4, 4), the frame count and the
-    final pixel σ."""
+    the frame poses eliminated by their Schur complement.  Returns ``T_cam0_cam1`` (4, 4), the frame count, the
+    final pixel σ and, per camera, the mean and RMS rotation (camera frame, deg) of its own per-frame PnP (frames
+    with RMS < 0.7 px) relative to the adjusted pose of that camera."""
     src = read_target_recording(DATA)
     cams = {c: src.rig.camera(c) for c in ("cam0", "cam1")}
     det = src.detections
@@ -105,12 +106,19 @@ def stereo_bundle_adjustment(window: tuple[float, float] | None = None) -> tuple
             break
     T = np.eye(4)
     T[:3, :3], T[:3, 3] = R10, t10
-    return np.linalg.inv(T), n, sigma
+    pnp = {}
+    for cam, frames, R_ba in (("cam0", ps0.frame[ok], R), ("cam1", f1[ok], np.einsum("ij,kjl->kil", R10, R))):
+        ps = ps0 if cam == "cam0" else camera_poses(det[cam], cams[cam], 8)
+        j = np.clip(np.searchsorted(ps.frame, frames), 0, len(ps.frame) - 1)
+        m = (ps.frame[j] == frames) & (ps.rms_px[j] < 0.7)
+        e = np.degrees(dp.so3_log(dp.matrix_from_quat(ps.q_wc[j[m]]).swapaxes(1, 2) @ np.swapaxes(R_ba[m], 1, 2)))
+        pnp[cam] = (e.mean(axis=0), np.sqrt(np.mean(e**2, axis=0)))
+    return np.linalg.inv(T), n, sigma, pnp
 
 
 def stereo_table(window: tuple[float, float] | None) -> str:
     stereo = read_rig_sensors(DATA / "sensors.yaml").T_cam0_cam1
-    T, n, sigma = stereo_bundle_adjustment(window)
+    T, n, sigma, pnp = stereo_bundle_adjustment(window)
     rv = np.degrees(dp.so3_log(T[:3, :3] @ stereo[:3, :3].T))
     d = 1e3 * (T[:3, 3] - stereo[:3, 3])
     return "\n".join([
@@ -118,7 +126,10 @@ def stereo_table(window: tuple[float, float] | None) -> str:
         "|---|---|",
         f"| frames (both cameras ≥ 8 corners), pixel σ | {n}, {sigma:.3f} px |",
         f"| rotation error [deg] (rotation vector in cam0: {_vec(rv, fmt='{:+.4f}')}) | {np.linalg.norm(rv):.4f} |",
-        f"| translation error [mm] (x y z) | {_vec(d)} (‖·‖ {np.linalg.norm(d):.2f}) |", ""])  # fmt: skip
+        f"| translation error [mm] (x y z) | {_vec(d)} (‖·‖ {np.linalg.norm(d):.2f}) |",
+        *(f"| {c}'s per-frame PnP relative to the adjusted pose: mean (RMS) rotation [deg], camera axes | "
+          f"{_vec(mu, fmt='{:+.4f}')} ({_vec(rms, fmt='{:.3f}')}) |" for c, (mu, rms) in pnp.items()),
+        ""])  # fmt: skip
 
 
 def tables(imu_model: str, bias_model: str, noise_scale: float = 1.0, window: tuple[float, float] | None = None,
