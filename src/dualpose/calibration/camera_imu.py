@@ -18,9 +18,10 @@ a-posteriori batch, as in Kalibr, Furgale et al. 2013, but in discrete time):
 * bias random-walk factors ``b_k+1 − b_k ~ N(0, σ_rw² Δt)`` (or one constant bias), and weak priors on the first
   bias (0 ± 0.1 rad/s, 0 ± 1 m/s²) and the axis models (0 ± 0.1) that only fix the scale of the problem.
 
-It is solved by Levenberg–Marquardt on the normal equations (block Jacobians assembled with NumPy; the
-reprojection blocks are summed per frame with batched matrix products; the block-tridiagonal frame part is
-factored by the block Cholesky recursion and the globals by their Schur complement).  Between
+It is solved by Levenberg–Marquardt on the normal equations (the reprojection blocks of every frame summed corner
+by corner in a compiled kernel, ``_native.camera_imu_reprojection``, with a NumPy path for other camera models and
+refined intrinsics; the IMU blocks in NumPy; the block-tridiagonal frame part factored by the compiled block
+Cholesky recursion and the globals by their Schur complement).  Between
 passes the frame states are re-anchored at ``t_k + τ`` and the IMU re-preintegrated at the current biases.
 
 Start from no prior: per-frame PnP on the undistorted corners (:func:`dualpose.registration.pnp.solve_pnp_batch`),
@@ -41,6 +42,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 import dualpose as dp
+from dualpose import _native
 from dualpose.calibration._preintegration import (
     N_ACCEL_AXES,
     N_GYRO_AXES,
@@ -53,6 +55,7 @@ from dualpose.calibration._preintegration import (
 from dualpose.calibration.time_offset import estimate_time_offset, gyro_mean_rates
 from dualpose.registration.pnp import solve_pnp, solve_pnp_batch
 from dualpose.types.camera import FrameCorrespondences
+from dualpose.types.camera_models import RadTanCamera
 from dualpose.types.imu import STANDARD_GRAVITY, ImuNoise
 
 __all__ = ["CameraImuCalibration", "calibrate_camera_imu"]
@@ -61,6 +64,8 @@ __all__ = ["CameraImuCalibration", "calibrate_camera_imu"]
 _NG = 9
 _BIAS_PRIOR = np.array([0.1, 0.1, 0.1, 1.0, 1.0, 1.0])  # rad/s, m/s²: only fixes the scale
 _AXES_PRIOR = 0.1  # the axis-model parameters (dimensionless), likewise
+#: relative cost decrease that ends the LM of a re-weighting pass (the final pass runs to 1e-7)
+_PASS_TOLERANCE = 1e-5
 
 
 @dataclass
@@ -89,7 +94,8 @@ class CameraImuCalibration:
     covariance : ndarray (9, 9)
         Covariance of ``[ε (3), p_bc (3), τ, δg (2)]`` (rad, m, s, rad; ``gravity_basis`` spans δg).
     reprojection_rms_px : float
-        RMS of the corner residuals (both axes) of the inlier corners, px.  ``pixel_sigma`` the robust (MAD) σ, px.
+        RMS of the corner residuals (both axes) of the inlier corners, px.  ``pixel_sigma`` the robust (MAD) σ, px
+        (``σ₀`` with ``noise_model="motion"``, whose ``κ`` is ``blur_time_s``, s; 0 otherwise).
     imu_chi2_per_dof : float
         Mean ``rᵀ Σ⁻¹ r / 9`` of the preintegration factors (≈ 1 when the IMU noise densities fit).
     outliers : dict
@@ -137,6 +143,7 @@ class CameraImuCalibration:
     imu_axes: tuple = ()
     imu_axes_std: np.ndarray = field(default_factory=lambda: np.zeros(0))
     camera_parameters_std: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    blur_time_s: float = 0.0
 
     @property
     def rotation_matrix(self) -> np.ndarray:
@@ -265,7 +272,11 @@ class _Problem:
         self.node_idx = self.node_off[:, None] + np.arange(9)
         self.knot_idx = self.knot_off[:, None] + np.arange(6)
         self.sigma_px = 1.0
+        self.corner_scale = np.ones(self.valid0.shape)  # per-corner σ / sigma_px (the motion-blur noise model)
         self.huber = 1.5  # in σ
+        self.blur_time = 0.0
+        #: the compiled reprojection blocks (radial-tangential camera, intrinsics fixed); the NumPy path otherwise
+        self.native = isinstance(camera, RadTanCamera) and not intrinsics
 
     # ----- state ---------------------------------------------------------------------------------------------
     def set_state(self, R, p, v, bias, R_bc, p_bc, tau, g, tau_ref):
@@ -353,14 +364,63 @@ class _Problem:
         use = self.inlier & front
         return r, use, (D, E, Rt, y, xb, xc_safe) if jac else None
 
-    def robust(self, r, use):
-        s = np.linalg.norm(r, axis=-1) / self.sigma_px
+    def robust(self, r: np.ndarray, use: np.ndarray) -> tuple[float, np.ndarray]:
+        s = np.linalg.norm(r, axis=-1) / (self.sigma_px * self.corner_scale)
         c = self.huber
         rho = np.where(s <= c, s * s, 2 * c * s - c * c)
         w = np.where(s <= c, 1.0, c / np.maximum(s, 1e-300)) * use
         return float(np.sum(rho * use)), w
 
-    def cost(self):
+    def image_speed(self) -> np.ndarray:
+        """Speed of every corner's image (N, M), px/s, from the frame's body rate and velocity: ``ẋ_b = −ω × x_b
+        − R_wbᵀ v``, ``ẋ_c = R_bcᵀ ẋ_b``, ``u̇ = (∂π/∂x_c) ẋ_c``."""
+        r, use, (D, E, Rt, y, xb, xc_safe) = self.reprojection(True)
+        vb = np.einsum("nij,nj->ni", Rt, self.v)
+        xdot_b = -np.cross(self.omega[:, None, :], xb) - vb[:, None, :]
+        xdot_c = xdot_b @ self.R_bc
+        return np.asarray(np.linalg.norm(np.einsum("nmij,nmj->nmi", D, xdot_c), axis=-1), dtype=np.float64)
+
+    def fit_noise(self, r: np.ndarray, use: np.ndarray, motion: bool) -> None:
+        """Re-estimate the pixel noise from the residuals ``r`` (N, M, 2) of the corners ``use``: ``sigma_px`` the
+        robust (MAD) σ, and with ``motion`` the per-corner model ``σ² = σ₀² + (κ |u̇|)²`` (``κ`` s: the blur's
+        effective duration; least squares of the squared residuals on the squared image speed)."""
+        if not motion:
+            self.sigma_px = max(1.4826 * float(np.median(np.abs(r[use]))), 1e-3)
+            return
+        speed = self.image_speed()[use]
+        e2 = 0.5 * np.sum(r[use] ** 2, axis=-1)
+        A = np.column_stack([np.ones_like(speed), speed**2])
+        a, b = np.linalg.lstsq(A, e2, rcond=None)[0]
+        s0 = max(1.4826 * float(np.median(np.abs(r[use]))), 1e-3)
+        a = a if a > 0 else s0**2
+        b = max(float(b), 0.0)
+        self.blur_time = math.sqrt(b)
+        full = self.image_speed()
+        self.corner_scale = np.sqrt(1.0 + (b / a) * full**2)
+        # the MAD of the normalised residuals: σ₀ robustly, given the shape of the model
+        self.sigma_px = max(1.4826 * float(np.median(np.abs(r[use] / self.corner_scale[use][:, None]))), 1e-3)
+
+    def _native_reprojection(self, jacobians: bool) -> tuple[np.ndarray, np.ndarray, float]:
+        """The per-frame reprojection blocks ``JᵀWJ`` (N, 16, 16), ``JᵀWr`` (N, 16) and the robust cost, compiled
+        (``_native.camera_imu_reprojection``: the equations of :meth:`reprojection` and :meth:`normal_equations`)."""
+        n, m = self.valid0.shape
+        d = self.tau - self.tau_ref
+        E = np.ascontiguousarray(dp.so3_exp(self.omega * d), dtype=np.float64)
+        H = np.empty((n, 16, 16) if jacobians else (0, 16, 16))
+        g = np.empty((n, 16) if jacobians else (0, 16))
+        cost = np.empty(n)
+        _native.camera_imu_reprojection(
+            np.ascontiguousarray(self.camera.parameters, dtype=np.float64), np.ascontiguousarray(self.R),
+            np.ascontiguousarray(self.p), np.ascontiguousarray(self.v), np.ascontiguousarray(self.omega), E,
+            np.ascontiguousarray(self.R_bc).ravel(), np.ascontiguousarray(self.p_bc, dtype=np.float64),
+            self.pts, self.pix, self.inlier.astype(np.float64), self.sigma_px * self.corner_scale, float(d),
+            float(self.huber), int(jacobians), H, g, cost,
+        )  # fmt: skip
+        return H, g, float(np.sum(cost))
+
+    def cost(self) -> float:
+        if self.native:
+            return self._native_reprojection(False)[2] + self._imu_cost()
         r, use, _ = self.reprojection(False)
         c_cam = self.robust(r, use)[0]
         return c_cam + self._imu_cost()
@@ -379,55 +439,52 @@ class _Problem:
         Jw = self.imu_whiten @ J if jac else None
         return rw, Jw
 
-    def _imu_cost(self):
+    def _imu_cost(self) -> float:
         rw = self.imu_whitened(False)[0]
         rb = np.diff(self.bias, axis=0) * self.rw_scale
         rp = self.bias[0] / _BIAS_PRIOR
         return float(np.sum(rw**2) + np.sum(rb**2) + np.sum(rp**2) + np.sum((self.theta / _AXES_PRIOR) ** 2))
 
-    def normal_equations(self):
+    def normal_equations(self) -> tuple[_Normal, np.ndarray, float]:
         """``H = JᵀWJ`` as :class:`_Normal` (band + border), the gradient ``JᵀWr`` and the cost."""
         n, K, gb = self.N, self.K, self.gbase
-        rows, cols, vals = [], [], []
-        grad = np.zeros(self.nvar)
-
-        def add(idx, Jw, rw):
-            H = np.swapaxes(Jw, 1, 2) @ Jw
-            rows.append(np.broadcast_to(idx[:, :, None], H.shape).ravel())
-            cols.append(np.broadcast_to(idx[:, None, :], H.shape).ravel())
-            vals.append(H.ravel())
-            grad[:] += np.bincount(idx.ravel(), np.einsum("bri,br->bi", Jw, rw).ravel(), minlength=len(grad))
-
+        acc = _Normal.empty(self.nvar, self.nb, self.stride)
+        add = acc.add
         # reprojection: per corner 2 × 16 over [φ, p, v of its node, ε, p_bc, τ]
-        r, use, (D, E, Rt, y, xb, xc_safe) = self.reprojection(True)
-        c_cam, w = self.robust(r, use)
-        d = self.tau - self.tau_ref
-        Rbc_t = self.R_bc.T
-        A = Rbc_t @ np.swapaxes(E, 1, 2)  # (N, 3, 3): d x_c / d x_b ∘ Eᵀ
-        m = D.shape[1]
-        D2 = D.reshape(n, 2 * m, 3)
-        DA = D2 @ A  # row-vector products as batched (2M × 3)(3 × 3) matrices
-        DART = (DA @ Rt).reshape(n, m, 2, 3)
-        DA = DA.reshape(n, m, 2, 3)
-        DB = (D2 @ Rbc_t).reshape(n, m, 2, 3)
-        nc = 16 + self.n_intr
-        J = np.empty((n, m, 2, nc))
-        _cross_into(J[..., 0:3], DA, y[:, :, None, :])  # aᵀ [y]× = (a × y)ᵀ
-        J[..., 3:6] = -DART
-        J[..., 6:9] = -DART * d
-        _cross_into(J[..., 9:12], DB, (xb - self.p_bc)[:, :, None, :])
-        J[..., 12:15] = -DB
-        vb = np.einsum("nij,nj->ni", Rt, self.v)
-        dxb_dtau = np.cross(xb, self.omega[:, None, :]) - np.einsum("nji,nj->ni", E, vb)[:, None, :]
-        J[..., 15] = np.sum(DB * dxb_dtau[:, :, None, :], axis=-1)
-        if self.n_intr:
-            J[..., 16:] = self.camera.intrinsics_jacobian(xc_safe)
-        sw = np.sqrt(w) / self.sigma_px
-        Jw = (J * sw[..., None, None]).reshape(n, -1, nc)
-        rw = (r * sw[..., None]).reshape(n, -1)
         glob = np.concatenate([gb + np.arange(7), gb + _NG + self.n_axes + np.arange(self.n_intr)])
         idx = np.concatenate([self.node_idx, np.broadcast_to(glob, (n, len(glob)))], axis=1)
-        add(idx, Jw, rw)
+        if self.native:
+            Hc, gc, c_cam = self._native_reprojection(True)
+            acc.add_blocks(idx, Hc, gc)
+        else:
+            r, use, (D, E, Rt, y, xb, xc_safe) = self.reprojection(True)
+            c_cam, w = self.robust(r, use)
+            d = self.tau - self.tau_ref
+            Rbc_t = self.R_bc.T
+            A = Rbc_t @ np.swapaxes(E, 1, 2)  # (N, 3, 3): d x_c / d x_b ∘ Eᵀ
+            m = D.shape[1]
+            D2 = D.reshape(n, 2 * m, 3)
+            DA = D2 @ A  # row-vector products as batched (2M × 3)(3 × 3) matrices
+            DART = (DA @ Rt).reshape(n, m, 2, 3)
+            DA = DA.reshape(n, m, 2, 3)
+            DB = (D2 @ Rbc_t).reshape(n, m, 2, 3)
+            nc = 16 + self.n_intr
+            J = np.empty((n, m, 2, nc))
+            _cross_into(J[..., 0:3], DA, y[:, :, None, :])  # aᵀ [y]× = (a × y)ᵀ
+            J[..., 3:6] = -DART
+            J[..., 6:9] = -DART * d
+            _cross_into(J[..., 9:12], DB, (xb - self.p_bc)[:, :, None, :])
+            J[..., 12:15] = -DB
+            vb = np.einsum("nij,nj->ni", Rt, self.v)
+            dxb_dtau = np.cross(xb, self.omega[:, None, :]) - np.einsum("nji,nj->ni", E, vb)[:, None, :]
+            J[..., 15] = np.sum(DB * dxb_dtau[:, :, None, :], axis=-1)
+            if self.n_intr:
+                J[..., 16:] = self.camera.intrinsics_jacobian(xc_safe)
+            sw = np.sqrt(w) / (self.sigma_px * self.corner_scale)
+            Jw = (J * sw[..., None, None]).reshape(n, -1, nc)
+            rw = (r * sw[..., None]).reshape(n, -1)
+            add(idx, Jw, rw)
+        # IMU factors: 9 × 26 over [node i, node j, bias knot of i, δg]
         # IMU factors: 9 × 26 over [node i, node j, bias knot of i, δg]
         rI, JI = self.imu_whitened(True)
         gidx = np.broadcast_to(gb + np.arange(7, _NG + self.n_axes), (n - 1, 2 + self.n_axes))
@@ -448,57 +505,122 @@ class _Problem:
         ra = self.theta / _AXES_PRIOR
         if self.n_axes:
             add((gb + _NG + np.arange(self.n_axes))[None], np.eye(self.n_axes)[None] / _AXES_PRIOR, ra[None])
-        H = _Normal(np.concatenate(rows), np.concatenate(cols), np.concatenate(vals), self.nvar, self.nb, self.stride)
+        H, grad = acc, acc.gradient()
         cost = c_cam + float(np.sum(rI**2) + np.sum(rb**2) + np.sum(rp**2) + np.sum(ra**2))
         return H, grad, cost
+
+
+def _as_slice(index: np.ndarray) -> slice | np.ndarray:
+    """``index`` (k,) as a slice when it is a run of consecutive integers, else unchanged."""
+    if len(index) and np.all(np.diff(index) == 1):
+        return slice(int(index[0]), int(index[-1]) + 1)
+    return index
+
+
+def _take2(H: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """``H[:, rows][:, :, cols]`` (F, len(rows), len(cols)), by slices where the indices are consecutive."""
+    r, c = _as_slice(rows), _as_slice(cols)
+    out = H[:, r] if isinstance(r, slice) else H[:, rows]
+    return out[:, :, c] if isinstance(c, slice) else out[:, :, cols]
 
 
 class _Normal:
     """Normal matrix ``[[A, B], [Bᵀ, C]]``: ``A`` (nb, nb) block tridiagonal (the per-frame blocks of size ``s`` in
     time order: diagonal blocks ``D`` (N, s, s), super-diagonal ``U`` (N − 1, s, s)) and a dense border ``B``
-    (nb, m), ``C`` (m, m).  ``A`` is factored by the block Cholesky recursion (one small dense step per frame)."""
+    (nb, m), ``C`` (m, m), with the gradient ``g`` (nb + m,).  ``A`` is factored by the block Cholesky recursion
+    (one small dense step per frame, compiled; LAPACK's banded Cholesky is as fast single-threaded, but its threaded
+    BLAS made it a hundred times slower on busy cores) and the border by its Schur complement."""
 
-    def __init__(self, r: np.ndarray, c: np.ndarray, v: np.ndarray, nvar: int, nb: int, s: int):
-        """Sum the entries ``H[r, c] += v`` (duplicates add up) into the blocks (``bincount`` per target)."""
-        n = nb // s
-        m = nvar - nb
-        self.s = s
-        inb = (r < nb) & (c < nb)
-        br, bc = r // s, c // s
-        lin = br * (s * s) + (r % s) * s + c % s
+    def __init__(self, D: np.ndarray, U: np.ndarray, B: np.ndarray, C: np.ndarray, g: np.ndarray):
+        self.D, self.U, self.B, self.C, self.g = D, U, B, C, g
+        self.s = D.shape[1]
 
-        def summed(sel, index, size):
-            return np.bincount(index[sel], v[sel], minlength=size)
+    @classmethod
+    def empty(cls, nvar: int, nb: int, s: int) -> _Normal:
+        n, m = nb // s, nvar - nb
+        return cls(np.zeros((n, s, s)), np.zeros((max(n - 1, 0), s, s)), np.zeros((nb, m)), np.zeros((m, m)),
+                   np.zeros(nvar))  # fmt: skip
 
-        self.D = summed(inb & (br == bc), lin, n * s * s).reshape(n, s, s)
-        self.U = summed(inb & (bc == br + 1), lin, max(n - 1, 0) * s * s).reshape(max(n - 1, 0), s, s)
-        self.B = summed((r < nb) & (c >= nb), r * m + (c - nb), nb * m).reshape(nb, m)
-        self.C = summed((r >= nb) & (c >= nb), (r - nb) * m + (c - nb), m * m).reshape(m, m)
+    def gradient(self) -> np.ndarray:
+        return self.g
 
-    def _factor_band(self, lam: float):
-        n = len(self.D)
-        Linv = np.empty_like(self.D)
-        Lsub = np.empty_like(self.U)
-        d = self.D[0] + lam * np.diag(np.diag(self.D[0]))
-        for i in range(n):  # block Cholesky: A = L Lᵀ, L block lower bidiagonal
-            Linv[i] = np.linalg.inv(np.linalg.cholesky(d))
-            if i + 1 < n:
-                Lsub[i] = self.U[i].T @ Linv[i].T
-                d = self.D[i + 1] + lam * np.diag(np.diag(self.D[i + 1])) - Lsub[i] @ Lsub[i].T
+    def add(self, idx: np.ndarray, Jw: np.ndarray, rw: np.ndarray) -> None:
+        """Add the factors ``Jw`` (F, r, c) with whitened residuals ``rw`` (F, r) over the unknowns ``idx`` (F, c).
+
+        Each column is either a band unknown in the same position of a frame block for every factor (the block of
+        the first band column, or the next one), or a border unknown; ``JᵀJ`` and ``Jᵀr`` go straight into the
+        blocks (the blocks of one call are distinct across factors)."""
+        self.add_blocks(idx, np.swapaxes(Jw, 1, 2) @ Jw, np.einsum("bri,br->bi", Jw, rw))
+
+    def add_blocks(self, idx: np.ndarray, H: np.ndarray, gv: np.ndarray) -> None:
+        """Add the factors' information ``H`` (F, c, c) and gradients ``gv`` (F, c) over ``idx`` (F, c) (as
+        :meth:`add`)."""
+        s, nb = self.s, len(self.B)
+        band = idx[0] < nb
+        bc, oc = np.flatnonzero(band), np.flatnonzero(~band)
+        border = idx[0, oc] - nb
+        if len(oc):
+            self.C[np.ix_(border, border)] += H[:, oc][:, :, oc].sum(axis=0)
+            self.g[nb + border] += gv[:, oc].sum(axis=0)
+        if not len(bc):
+            return
+        blk = idx[:, bc] // s
+        base = blk[:, 0]
+        rel = blk[0] - base[0]
+        off = idx[0, bc] % s
+        if np.any(blk - base[:, None] != rel) or np.any(idx[:, bc] % s != off) or np.any(rel > 1) or np.any(rel < 0):
+            raise ValueError("factor columns do not follow the block layout")
+        gband = self.g[:nb].reshape(-1, s)
+        Bb = self.B.reshape(-1, s, self.B.shape[1])
+        consecutive = bool(np.all(np.diff(base) == 1))
+        for a in (0, 1):
+            ca = bc[rel == a]
+            if not len(ca):
+                continue
+            oa = _as_slice(off[rel == a])
+            # the factors' frame blocks: a slice when they are consecutive frames (every factor kind here)
+            ba = slice(int(base[0]) + a, int(base[-1]) + a + 1) if consecutive else (base + a)[:, None]
+            bi = (base + a)[:, None]
+            if isinstance(ba, slice) and isinstance(oa, slice):
+                gband[ba, oa] += gv[:, ca]
+            else:
+                gband[bi, off[rel == a][None, :]] += gv[:, ca]
+            if len(oc):
+                bs = _as_slice(border)
+                if isinstance(ba, slice) and isinstance(oa, slice) and isinstance(bs, slice):
+                    Bb[ba, oa, bs] += _take2(H, ca, oc)
+                else:
+                    Bb[bi[:, :, None], off[rel == a][None, :, None], border[None, None, :]] += _take2(H, ca, oc)
+            for b_ in (a, a + 1):
+                cb = bc[rel == b_]
+                if not len(cb):
+                    continue
+                T = self.D if b_ == a else self.U
+                ob = _as_slice(off[rel == b_])
+                if isinstance(ba, slice) and isinstance(oa, slice) and isinstance(ob, slice):
+                    T[ba, oa, ob] += _take2(H, ca, cb)
+                else:
+                    bi = (base + a)[:, None, None]
+                    T[bi, off[rel == a][None, :, None], off[rel == b_][None, None, :]] += _take2(H, ca, cb)
+
+    def _factor_band(self, lam: float) -> tuple[np.ndarray, np.ndarray]:
+        """Block Cholesky ``A = L Lᵀ`` of the band damped by ``1 + lam`` on the diagonal (compiled,
+        ``_native.block_tridiagonal_factor``): the inverses of ``L``'s diagonal blocks and its sub-diagonal blocks."""
+        n, s = self.D.shape[:2]
+        Linv = np.empty((n, s, s))
+        Lsub = np.empty((max(n - 1, 0), s, s))
+        if not _native.block_tridiagonal_factor(np.ascontiguousarray(self.D), np.ascontiguousarray(self.U),
+                                                float(lam), Linv, Lsub):  # fmt: skip
+            raise np.linalg.LinAlgError("the frame band of the normal matrix is not positive definite")
         return Linv, Lsub
 
-    def _solve_band(self, F, b: np.ndarray) -> np.ndarray:
+    def _solve_band(self, F: tuple[np.ndarray, np.ndarray], b: np.ndarray) -> np.ndarray:
+        """``A⁻¹ b`` for ``b`` (nb,) or (nb, q) with the factor of :meth:`_factor_band`."""
         Linv, Lsub = F
-        n, s = len(Linv), self.s
-        bb = b.reshape((n, s) + b.shape[1:])
-        y = np.empty_like(bb)
-        y[0] = Linv[0] @ bb[0]
-        for i in range(1, n):
-            y[i] = Linv[i] @ (bb[i] - Lsub[i - 1] @ y[i - 1])
+        n, s = Linv.shape[:2]
+        bb = np.ascontiguousarray(b.reshape(n, s, -1), dtype=np.float64)
         x = np.empty_like(bb)
-        x[-1] = Linv[-1].T @ y[-1]
-        for i in range(n - 2, -1, -1):
-            x[i] = Linv[i].T @ (y[i] - Lsub[i].T @ x[i + 1])
+        _native.block_tridiagonal_solve(Linv, Lsub, bb, x)
         return x.reshape(b.shape)
 
     def factor(self, lam: float = 0.0):
@@ -535,7 +657,8 @@ def _with_parameters(camera, params: np.ndarray):
 
 
 def _levenberg_marquardt(prob: _Problem, max_iterations: int, tol: float = 1e-7) -> int:
-    """LM (Marquardt's diagonal damping) on the current model; returns the accepted steps."""
+    """LM (Marquardt's diagonal damping) on the current model, until a step lowers the cost by less than ``tol``
+    (relative); returns the accepted steps."""
     lam = 1e-5
     accepted = 0
     H, g, cost = prob.normal_equations()
@@ -559,10 +682,9 @@ def _levenberg_marquardt(prob: _Problem, max_iterations: int, tol: float = 1e-7)
         if not step_ok:
             break
         accepted += 1
-        rel = (cost - new) / max(cost, 1e-300)
-        H, g, cost = prob.normal_equations()
-        if rel < tol:
+        if (cost - new) / max(cost, 1e-300) < tol:
             break
+        H, g, cost = prob.normal_equations()
     return accepted
 
 
@@ -590,6 +712,8 @@ def calibrate_camera_imu(
     max_iterations: int = 30,
     estimate_intrinsics: bool = False,
     imu_model: str = "scale_misalignment",
+    noise_model: str = "uniform",
+    huber: float = 1.5,
 ) -> CameraImuCalibration:
     """Calibrate the camera–IMU extrinsic, time offset, IMU biases and target gravity from one recording.
 
@@ -623,6 +747,12 @@ def calibrate_camera_imu(
         full 3 × 3 accelerometer axis model, ``ω̃ = M_g (ω + b_g)``, ``f̃ = M_a (f + b_a)`` (scale factors,
         non-orthogonality, the accelerometer's rotation relative to the gyro); ``"calibrated"``: without the axis
         models (``M = I``).
+    noise_model : ``"uniform"`` (default): one pixel σ for every corner (MAD of the residuals after each pass);
+        ``"motion"``: per-corner ``σ² = σ₀² + (κ |u̇|)²`` with ``|u̇|`` the speed of the corner's image (px/s, from
+        the frame's body rate and velocity) and ``σ₀``, ``κ`` (s, the blur's effective duration) fitted to the
+        squared residuals after each pass — motion blur of a global-shutter camera (docs/euroc.md).
+    huber : float
+        Huber threshold of the reprojection loss, in σ (IRLS weights).
 
     Raises
     ------
@@ -637,6 +767,10 @@ def calibrate_camera_imu(
         raise ValueError(f"imu_model must be 'calibrated' or 'scale_misalignment'; got {imu_model!r}")
     if bias_model not in ("random_walk", "constant"):
         raise ValueError(f"bias_model must be 'random_walk' or 'constant'; got {bias_model!r}")
+    if noise_model not in ("uniform", "motion"):
+        raise ValueError(f"noise_model must be 'uniform' or 'motion'; got {noise_model!r}")
+    if not huber > 0:
+        raise ValueError(f"huber must be > 0 (in pixel σ); got {huber!r}")
     ft = np.asarray(frames.t, dtype=np.float64)
     inside = (ft - max_offset > imu_t[0]) & (ft + max_offset < imu_t[-1])
     if not inside.any():
@@ -679,16 +813,18 @@ def calibrate_camera_imu(
     g0 = g_sum / np.linalg.norm(g_sum) * gravity_magnitude
     pix_sigma0 = float(np.nanmedian(pnp_rms[ok]))
     prob.sigma_px = max(pix_sigma0, 0.05)
+    prob.huber = float(huber)
     prob.set_state(R_wb, p_wb, v_wb, bias, R_bc, np.zeros(3), tau0, g0, tau0)
 
-    # first: a pass with the lever arm and velocities settling (everything free), then re-weighting passes
+    # first: a pass with the lever arm and velocities settling (everything free), then re-weighting passes (to a
+    # looser tolerance: the weights and the anchoring change after each), then the final pass
     iterations = 0
     for _pass in range(passes):
-        iterations += _levenberg_marquardt(prob, max_iterations)
+        iterations += _levenberg_marquardt(prob, max_iterations, _PASS_TOLERANCE)
         r, use, _ = prob.reprojection(False)
         rn = np.linalg.norm(r, axis=-1)
-        prob.sigma_px = max(1.4826 * float(np.median(np.abs(r[prob.inlier & use]))), 1e-3)
-        prob.inlier = prob.valid0 & (rn < reject_sigmas * prob.sigma_px)
+        prob.fit_noise(r, prob.inlier & use, noise_model == "motion")
+        prob.inlier = prob.valid0 & (rn < reject_sigmas * prob.sigma_px * prob.corner_scale)
         prob.reanchor()
     iterations += _levenberg_marquardt(prob, max_iterations)
 
@@ -784,4 +920,5 @@ def calibrate_camera_imu(
         imu_axes=tuple(np.linalg.inv(m) for m in prob.axes_matrices()) if na else (),
         imu_axes_std=np.sqrt(np.maximum(np.diag(cov_axes), 0.0)) if na else np.zeros(0),
         camera_parameters_std=np.sqrt(np.maximum(np.diag(cov_intr), 0.0)) if prob.n_intr else np.zeros(0),
+        blur_time_s=float(prob.blur_time),
     )  # fmt: skip

@@ -10,6 +10,7 @@ Returns the dictionary printed with ``--json`` (the keys the tracking job reads:
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -70,6 +71,7 @@ def calibration_summary(res: CameraImuCalibration, camera: str) -> dict:
         "time_offset_s": float(res.time_offset),
         "reprojection_rms_px": float(res.reprojection_rms_px),
         "pixel_sigma_px": float(res.pixel_sigma),
+        "blur_time_s": float(res.blur_time_s),
         "gyro_bias": _floats(res.gyro_bias),
         "accel_bias": _floats(res.accel_bias),
         "gravity_target": _floats(res.gravity_target),
@@ -118,13 +120,15 @@ def calibrate_camera_imu_files(
     frame_window: tuple[float, float] | None = None,
     imu_model: str = "scale_misalignment",
     imu_noise_scale: float = 1.0,
+    **options: Any,
 ) -> dict:
     """Read the three files and calibrate ``camera`` against the IMU; returns :func:`calibration_summary`.
 
     ``frame_window`` (start, end) in seconds from the first IMU sample keeps only the frames and IMU samples inside
     it (a cut of the recording).  ``imu_model``: as :func:`~dualpose.calibration.camera_imu.calibrate_camera_imu`.
     ``imu_noise_scale`` multiplies every IMU noise density and random walk of the sensor file (a sensitivity
-    study: docs/euroc.md).
+    study: docs/euroc.md).  ``options`` are passed on to
+    :func:`~dualpose.calibration.camera_imu.calibrate_camera_imu` (``noise_model``, ``huber``, ``reject_sigmas``, …).
 
     Raises
     ------
@@ -165,5 +169,6 @@ def calibrate_camera_imu_files(
         raise ValueError(f"imu_noise_scale must be > 0; got {imu_noise_scale}")
     noise = rig.imu_noise.scaled(imu_noise_scale)
     res = calibrate_camera_imu(imu_t, gyro, accel, frames, cam, noise, gravity_magnitude=g,
-                               bias_model=bias_model, min_frames=min_frames, imu_model=imu_model)  # fmt: skip
+                               bias_model=bias_model, min_frames=min_frames, imu_model=imu_model,
+                               **options)  # fmt: skip
     return calibration_summary(res, camera)
