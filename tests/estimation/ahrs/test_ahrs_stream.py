@@ -211,7 +211,7 @@ def test_non_finite_samples_are_refused_and_change_nothing(n_rest):
         a.update_imu(0.01, np.array([np.nan, 0.0, 0.0]), [0.0, 0.0, 9.8], [0.0, 20.0, -40.0])
     with pytest.raises(ValueError, match="mag must be finite"):
         a.update_imu(0.01, [0.0, 0.0, 0.0], [0.0, 0.0, 9.8], [np.inf, 20.0, -40.0])
-    with pytest.raises(ValueError, match=r"accel must be finite; row 1 is \[0.0, nan, 9.8\]"):
+    with pytest.raises(ValueError, match=r"accel must be finite: row 1 is \[0.0, nan, 9.8\]"):
         a.update_batch([0.01, 0.02], np.zeros((2, 3)), [[0.0, 0.0, 9.8], [0.0, np.nan, 9.8]],
                        np.tile([0.0, 20.0, -40.0], (2, 1)))  # fmt: skip
     assert a.samples == b.samples == 1
