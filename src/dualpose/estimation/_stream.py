@@ -92,3 +92,12 @@ def sample_block(x: Any, name: str, n: int | None, kind: str | None = None, wher
 
 def _row(k: int) -> str:
     return f"row {k}"
+
+
+def saved_quaternion(q: np.ndarray, name: str) -> None:
+    """A restored attitude quaternion must be unit to rounding (a saved filter keeps it normalised)."""
+    with np.errstate(over="ignore"):
+        nq = float(np.linalg.norm(q))
+    if not abs(nq - 1.0) <= 1e-6:
+        raise ValueError(f"{name}: the saved attitude quaternion is not unit (norm {nq!r}): a corrupted or altered "
+                         "buffer")  # fmt: skip

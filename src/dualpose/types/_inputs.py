@@ -183,8 +183,7 @@ def sample_times(t: Any, name: str = "t", after: float = -math.inf, where: Where
     if bad.any():
         k = int(np.argmax(bad))
         p = float(prev[k])
-        what = "is not finite" if not math.isfinite(a[k]) else f"does not increase (previous {p!r})"
-        raise ValueError(f"{name}: {where(k)}: time {float(a[k])!r} {what}")
+        raise ValueError(f"{name} must be finite and increase strictly: {where(k)} is {float(a[k])!r} after {p!r}")
     return a
 
 
@@ -227,7 +226,8 @@ def frame_points(pixels: Any, points: Any) -> tuple[NDArray[np.float64], NDArray
             bad = ~(np.abs(a) <= 1e9).all(axis=1)
         if bad.any():
             k = int(np.argmax(bad))
-            raise ValueError(f"{name}: correspondence {k + 1} is {a[k].tolist()}: not finite or beyond 1e9")
+            raise ValueError(f"pixels and points must be finite (within ±1e9 px, m): correspondence {k + 1} has "
+                             f"{name} {a[k].tolist()}")  # fmt: skip
     return np.ascontiguousarray(pix), np.ascontiguousarray(pts)
 
 
@@ -305,7 +305,7 @@ def unit_quaternion(q: Any, name: str, tolerance: float = UNIT_TOLERANCE) -> NDA
     if not abs(nq - 1.0) <= tolerance:
         raise ValueError(f"{name} must be a unit quaternion (x, y, z, w); got {a.tolist()} of norm {nq:.6g} (accepted "
                          f"within {tolerance:g} of 1 and normalised)")  # fmt: skip
-    return a / nq
+    return a if abs(nq - 1.0) <= 1e-12 else a / nq  # unit to rounding: kept bit for bit
 
 
 def covariance_matrix(P: Any, name: str, n: int, psd_tolerance: float = 1e-9) -> NDArray[np.float64]:
@@ -372,6 +372,9 @@ def _encode(obj: Any, out: list[bytes]) -> None:
         for k in sorted(obj, key=str):
             _encode(str(k), out)
             _encode(obj[k], out)
+    elif isinstance(obj, (bytes, bytearray, memoryview, np.bytes_)):  # a buffer saved as bytes: as its uint8 array
+        b = bytes(obj)
+        out.append(b"B" + struct.pack("<q", len(b)) + b)
     elif isinstance(obj, (list, tuple)):
         out.append(b"L" + struct.pack("<q", len(obj)))
         for v in obj:
@@ -382,6 +385,8 @@ def _encode(obj: Any, out: list[bytes]) -> None:
             out.append(b"B" + struct.pack("<q", a.size) + np.ascontiguousarray(a).tobytes())
         elif a.dtype.kind == "O":
             _encode(a.tolist(), out)
+        elif a.dtype.kind == "S" and a.shape == ():
+            _encode(a.item(), out)
         elif a.dtype.kind in "U":
             _encode(str(a), out)
         else:
@@ -418,7 +423,7 @@ def check_seal(state: Mapping[str, Any], name: str = "state") -> bool:
     try:
         want = _digest(state)
     except (TypeError, ValueError, OverflowError) as exc:
-        raise ValueError(f"{name} holds values that are not a saved stream's: {exc}") from None
+        raise ValueError(f"{name} holds values that are not a saved stream's: {str(exc)[:120]}") from None
     if got != want:
         raise ValueError(f"{name}: checksum mismatch: the saved state was altered or corrupted after it was written")
     return True

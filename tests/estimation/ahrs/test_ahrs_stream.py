@@ -182,7 +182,7 @@ def test_a_saved_state_of_the_wrong_size_or_version_is_refused():
 def test_bad_samples_raise_naming_them():
     s = AhrsStream(RATE, n_rest=0)
     s.update_imu(0.0, [0, 0, 0], [0, 0, 9.8], [0, 20, -40])
-    with pytest.raises(ValueError, match="t must increase"):
+    with pytest.raises(ValueError, match="t must be finite and increase"):
         s.update_imu(0.0, [0, 0, 0], [0, 0, 9.8], [0, 20, -40])
     with pytest.raises(ValueError, match="mag is required"):
         s.update_imu(0.01, [0, 0, 0], [0, 0, 9.8])
