@@ -445,7 +445,8 @@ def rest_problem(rest_seconds: float | None, duration: float, where: str) -> str
     return None
 
 
-def rate_doubt(t: NDArray[np.float64], update_rate: float, where: str, tolerance: float = 0.1) -> Doubt | None:
+def rate_doubt(t: NDArray[np.float64], update_rate: float, where: str, tolerance: float = 0.1,
+               rate_name: str = "imu.update_rate") -> Doubt | None:
     """A stated IMU ``update_rate`` (Hz) that contradicts the median spacing of the stamps ``t`` (s) by more than
     ``tolerance`` (relative)."""
     if len(t) < 3:
@@ -453,7 +454,7 @@ def rate_doubt(t: NDArray[np.float64], update_rate: float, where: str, tolerance
     measured = 1.0 / float(np.median(np.diff(t)))
     if abs(measured / update_rate - 1.0) <= tolerance:
         return None
-    return Doubt("imu_rate_mismatch", f"{where}: imu.update_rate is {update_rate:g} Hz but the IMU stamps are "
+    return Doubt("imu_rate_mismatch", f"{where}: {rate_name} is {update_rate:g} Hz but the IMU stamps are "
                  f"{measured:.4g} Hz apart (median): the filter's noise and steps assume the stated rate")  # fmt: skip
 
 

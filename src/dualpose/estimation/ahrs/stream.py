@@ -191,6 +191,7 @@ class AhrsStream:
             self._t = t
             self._samples += 1
             return q
+        self._check_rest_force(a[None], single=True)
         k = self._n_pending
         self._reserve(k + 1)
         pt, pg, pa, pm = self._pending
@@ -203,6 +204,16 @@ class AhrsStream:
         if self._n_pending < max(self._n_rest, 1):
             return self._rest_outputs(pg[k : k + 1], pa[k : k + 1], pm[k : k + 1])[0][0]
         return self._finish_rest()[0].copy()
+
+    def _check_rest_force(self, a: np.ndarray, single: bool = False) -> None:
+        """Refuse rest samples ``a`` (k, 3) after which the running mean specific force is zero (it has no direction
+        to start from), before any change to the stream."""
+        c = self._rest_sums[3:6] + np.cumsum(a, axis=0)
+        zero = ~(np.abs(c).max(axis=1) > 0) if len(c) else np.zeros(0, bool)
+        if zero.any():
+            k = int(np.argmax(zero))
+            raise ValueError(f"accel{'' if single else f': row {k}'}: the mean specific force of the rest period so far is zero: no vertical "
+                             "to start from (at rest an accelerometer reads about 9.81 m/s²)")  # fmt: skip
 
     def _reserve(self, k: int) -> None:
         """Room for ``k`` buffered rest samples (doubling, at most ``n_rest``)."""
@@ -250,6 +261,7 @@ class AhrsStream:
         if self._state is None:
             need = max(self._n_rest, 1) - self._n_pending
             i = min(n, need)
+            self._check_rest_force(a[:i])
             k = self._n_pending
             self._reserve(k + i)
             for buf, x in zip(self._pending, (t, g, a, m), strict=True):
@@ -267,6 +279,11 @@ class AhrsStream:
         return out_q, out_b
 
     # ---- state --------------------------------------------------------------------------------------------------
+
+    @property
+    def rate(self) -> float:
+        """The sampling rate the filter steps at, Hz."""
+        return self._rate
 
     @property
     def ready(self) -> bool:
