@@ -240,15 +240,16 @@ def run_stream(args: argparse.Namespace) -> int:
         return _run_target_stream(args)
     if args.camera is not None:
         return _usage_error("--camera with --stream needs the rig's sensor file: --sensors sensors.yaml")
-    from dualpose.io.recording import RecordingError
+    from dualpose.io.recording import RecordingError, read_sensor_setup
     from dualpose.pipelines.fuse_stream import stream_filter, stream_fusion_lines
 
     try:
-        stream = stream_filter(args.calibration, args.filter)
+        setup = read_sensor_setup(args.calibration)
+        stream = stream_filter(setup, args.filter)
     except (RecordingError, ValueError) as exc:
         print(f"dualpose fuse: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1
-    return write_flushed(stream_fusion_lines(sys.stdin, stream), "fuse")
+    return write_flushed(stream_fusion_lines(sys.stdin, stream, rate=setup.imu_noise.update_rate), "fuse")
 
 
 def _run_target_stream(args: argparse.Namespace) -> int:

@@ -64,7 +64,7 @@ def format_numbers(values: Iterable[float]) -> str:
 class StreamTimes:
     """The time stamps of a stream's IMU lines: refuses one that is not finite or does not increase, and warns
     (:class:`~dualpose.types.recording.RecordingWarning`, naming the line) about a gap longer than five sample
-    ``period`` s and, once :data:`RATE_SAMPLES` stamps are in, about stamps whose median spacing contradicts the
+    ``period`` s (None: the median spacing of the first :data:`RATE_SAMPLES` stamps) and, once :data:`RATE_SAMPLES` stamps are in, about stamps whose median spacing contradicts the
     stated rate (:mod:`dualpose.types._inputs`, the set-up checks of the batch paths).  ``doubts`` keeps them."""
 
     #: stamps after which the stated rate is compared with the measured one
@@ -72,7 +72,7 @@ class StreamTimes:
     #: gaps reported one by one; later ones only counted
     MAX_REPORTED = 5
 
-    def __init__(self, period: float, source: str, rate_name: str) -> None:
+    def __init__(self, period: float | None, source: str, rate_name: str) -> None:
         self.period, self.source, self.rate_name = period, source, rate_name
         self.last = -math.inf
         self.first: list[float] = []
@@ -82,8 +82,8 @@ class StreamTimes:
     def check(self, t: float, lineno: int) -> None:
         """Refuse (ValueError) or note (warning) the stamp ``t`` of input line ``lineno``."""
         if not (math.isfinite(t) and t > self.last):
-            raise ValueError(f"time {t!r} is not finite or does not increase (previous {self.last!r})")
-        if self.last > -math.inf:
+            raise ValueError(f"t must be finite and increase strictly: got {t!r} after {self.last!r}")
+        if self.last > -math.inf and self.period is not None:
             d = gap_doubt(t - self.last, self.period, f"{self.source} line {lineno}")
             if d is not None:
                 self.gaps += 1
@@ -92,7 +92,9 @@ class StreamTimes:
         self.last = t
         if len(self.first) < self.RATE_SAMPLES:
             self.first.append(t)
-            if len(self.first) == self.RATE_SAMPLES:
+            if len(self.first) == self.RATE_SAMPLES and self.period is None:  # no stated rate: the stamps' own
+                self.period = float(np.median(np.diff(self.first)))
+            elif len(self.first) == self.RATE_SAMPLES:
                 d = rate_doubt(np.array(self.first), 1.0 / self.period, f"{self.source} lines up to {lineno}",
                                rate_name=self.rate_name)
                 if d is not None:
