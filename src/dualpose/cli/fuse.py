@@ -34,7 +34,7 @@ import json
 import sys
 
 from dualpose.cli._args import seed
-from dualpose.cli._stream import write_flushed
+from dualpose.cli._stream import EXIT_DOUBTFUL, write_flushed
 
 #: files ``--out`` writes
 OUTPUT_FILES: tuple[str, ...] = ("trajectory.tum", "metrics.json", "top_view.png", "errors.png", "nis.png")
@@ -161,6 +161,8 @@ def _table(m: dict) -> str:
         ("correspondences rejected", f"{m['n_rejected']} of {m['n_correspondences']}"),
         ("real-time factor", f"{m['realtime_factor']:.1f}x"),
     ]
+    if m.get("input_doubts"):
+        rows.append(("input doubts (see warnings)", ", ".join(d["code"] for d in m["input_doubts"])))
     return aligned_rows(rows)
 
 
@@ -249,7 +251,8 @@ def run_stream(args: argparse.Namespace) -> int:
     except (RecordingError, ValueError) as exc:
         print(f"dualpose fuse: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1
-    return write_flushed(stream_fusion_lines(sys.stdin, stream, rate=setup.imu_noise.update_rate), "fuse")
+    return write_flushed(stream_fusion_lines(sys.stdin, stream, rate=setup.imu_noise.update_rate,
+                                             gravity=setup.gravity), "fuse")
 
 
 def _run_target_stream(args: argparse.Namespace) -> int:
@@ -426,4 +429,5 @@ def run(args: argparse.Namespace) -> int:
     result = _run_job(args)
     if result is None:
         return 1
-    return _report(args, result, paths, _table)
+    code = _report(args, result, paths, _table)
+    return EXIT_DOUBTFUL if code == 0 and result.metrics.get("input_doubts") else code

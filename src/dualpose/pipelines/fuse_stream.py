@@ -27,13 +27,14 @@ from typing import Any
 
 import numpy as np
 
+import dualpose as dp
 from dualpose.estimation.eskf import ErrorStateEKF, EskfStream, initial_covariance
 from dualpose.estimation.hol22 import Hol22EKF, Hol22Stream
 from dualpose.io.recording import read_sensor_setup
 from dualpose.estimation.eskf import FrameUpdate
 from dualpose.pipelines._lines import StreamTimes, format_numbers, parse_numbers, split_fields
 from dualpose.types import SensorRun, SensorSetup
-from dualpose.types._inputs import Doubt
+from dualpose.types._inputs import Doubt, gravity_up_problem
 from dualpose.types.recording import RecordingWarning
 
 __all__ = [
@@ -170,7 +171,8 @@ def _pose_slices(stream: EskfStream | Hol22Stream) -> tuple[slice, slice, bool]:
 
 
 def stream_fusion_lines(
-    lines: Iterable[str], stream: EskfStream | Hol22Stream, source: str = "stdin", rate: float | None = None
+    lines: Iterable[str], stream: EskfStream | Hol22Stream, source: str = "stdin", rate: float | None = None,
+    gravity: Any = None,
 ) -> Iterator[str]:
     """Filter the IMU and camera lines of ``lines`` and yield one output line per IMU line, as soon as it is known.
 
@@ -185,6 +187,10 @@ def stream_fusion_lines(
     rate : float, optional
         The IMU rate of the set-up (Hz, ``imu.update_rate``): gaps longer than five sample periods and stamps whose
         spacing contradicts it are warned about (default: gaps against the median spacing of the first stamps).
+    gravity : array_like, shape (3,), optional
+        The set-up's world gravity (m/s²): the first IMU sample of a stream that has not started is refused when its
+        specific force, rotated to the world with the start attitude, is more than 90° from ``-gravity`` (the batch
+        path's check: gravity pointing up).
 
     Yields
     ------
@@ -217,6 +223,8 @@ def stream_fusion_lines(
                 frames.add(stream.update_camera(t, a, b))
                 continue
             times.check(t, lineno)
+            if gravity is not None and stream.samples == 0:
+                _check_gravity(stream, np.asarray(gravity, dtype=np.float64), b)
             x = stream.update_imu(t, a, b)
             if not np.isfinite(x).all():  # never a NaN line: the filter cannot go on from here
                 raise ValueError("the filter's state is not finite; it cannot continue from this sample")
@@ -226,6 +234,18 @@ def stream_fusion_lines(
         q = x[qs]
         yield format_numbers([t, *x[ps], *((-q[0], -q[1], -q[2], q[3]) if hol else q)])  # q_wb = conj(q^{be})
     frames.finish(stream)
+
+
+def _check_gravity(stream: EskfStream | Hol22Stream, gravity: np.ndarray, accel: Any) -> None:
+    """Refuse a ``gravity`` that points up against the first sample's specific force ``accel`` (body frame) rotated
+    to the world with the stream's start attitude (:func:`dualpose.types._inputs.gravity_up_problem`)."""
+    _, qs, hol = _pose_slices(stream)
+    q = stream.state[qs]
+    q_wb = np.array([-q[0], -q[1], -q[2], q[3]]) if hol else q
+    f_w = dp.quat_rotate(q_wb, np.asarray(accel, dtype=np.float64))
+    problem = gravity_up_problem(f_w, gravity, "the set-up")
+    if problem:
+        raise ValueError(problem)
 
 
 class _FrameUse:

@@ -50,6 +50,8 @@ __all__ = [
     "finite_vector",
     "frame_points",
     "gap_doubt",
+    "gravity_angle",
+    "gravity_up_problem",
     "gravity_vector",
     "gyro_unit_doubt",
     "imu_rows",
@@ -330,18 +332,35 @@ def covariance_matrix(P: Any, name: str, n: int, psd_tolerance: float = 1e-9) ->
 
 
 def gravity_vector(gravity: object, name: str = "gravity") -> NDArray[np.float64]:
-    """``gravity`` (3,) m/s², world frame, as a float64 array: magnitude in [1, 100] m/s² and pointing down (the world
-    z axis points up, docs/fusion.md): a negative z component larger than the horizontal ones."""
+    """``gravity`` (3,) m/s², world frame, as a float64 array of magnitude in [1, 100] m/s² (its direction is
+    checked against the accelerometer: :func:`gravity_up_problem`)."""
     g = np.array(gravity, dtype=np.float64) if not isinstance(gravity, str) else np.zeros(0)
     if g.shape != (3,):
         raise ValueError(f"{name} must have shape (3,); got {g.shape}")
     m = float(np.linalg.norm(g)) if np.isfinite(g).all() else math.nan
     if not 1.0 <= m <= 100.0:
         raise ValueError(f"{name}: magnitude must be in [1, 100] m/s² (9.81 on Earth); got {g.tolist()}")
-    if not g[2] < -float(np.hypot(g[0], g[1])):
-        raise ValueError(f"{name} {g.tolist()} points up or sideways: the world z axis points up and gravity is "
-                         "[0, 0, -9.81] m/s² (docs/fusion.md)")  # fmt: skip
     return g
+
+
+def gravity_angle(f_w: NDArray[np.float64], gravity: NDArray[np.float64]) -> float:
+    """Angle (deg) between a world-frame specific force at rest ``f_w`` and ``-gravity``: about 0 when gravity
+    points the way the accelerometer says (atan2, accurate at small angles; 90 for a zero force, which has no
+    direction)."""
+    if not float(np.linalg.norm(f_w)):
+        return 90.0
+    return math.degrees(math.atan2(float(np.linalg.norm(np.cross(f_w, gravity))), float(-(f_w @ gravity))))
+
+
+def gravity_up_problem(f_w: NDArray[np.float64], gravity: NDArray[np.float64], where: str) -> str | None:
+    """The refusal of a ``gravity`` that points up: more than 90° from where the specific force at rest ``f_w``
+    (world frame) says down is; None when fine."""
+    angle = gravity_angle(f_w, gravity)
+    if angle <= 90.0:
+        return None
+    return (f"{where}: gravity {gravity.tolist()} points up: at rest the specific force (accelerometer) rotated to the "
+            f"world is {np.round(f_w, 3).tolist()} m/s², {angle:.0f} deg from -gravity; the world z axis points up "
+            "and gravity is [0, 0, -9.81] (docs/fusion.md)")  # fmt: skip
 
 
 def check_imu_noise(noise: ImuNoise, name: str = "imu_noise") -> None:

@@ -193,15 +193,11 @@ class Recording:
         f_w = quat_rotate(np.asarray(q_wb, dtype=np.float64), self.accel[sel].mean(axis=0))
         g = self.gravity
         nf, ng = float(np.linalg.norm(f_w)), float(np.linalg.norm(g))
-        # atan2 (not acos): accurate at small angles; a zero specific force has no direction (90 deg, as cos = 0)
-        angle = math.degrees(math.atan2(float(np.linalg.norm(np.cross(f_w, g))), float(-(f_w @ g)))) if nf else 90.0
+        angle = _inputs.gravity_angle(f_w, g)
         where = self.name or "recording"
-        if angle > 90.0:
-            raise ValueError(
-                f"{where}: gravity {g.tolist()} points up: at rest the specific force (accelerometer) rotated to the "
-                f"world is {np.round(f_w, 3).tolist()} m/s², {angle:.0f} deg from -gravity; the world z axis points up "
-                "and gravity is [0, 0, -9.81] (docs/fusion.md)"
-            )
+        problem = _inputs.gravity_up_problem(f_w, g, where)
+        if problem:
+            raise ValueError(problem)
         if angle > max_angle_deg:
             warnings.warn(f"{where}: the specific force at rest is {angle:.1f} deg from -gravity {g.tolist()}: check "
                           "the gravity vector and the scene's vertical", RecordingWarning, stacklevel=2)  # fmt: skip
