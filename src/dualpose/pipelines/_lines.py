@@ -9,15 +9,14 @@ the same value), so a line read back gives the filter's numbers bit for bit.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable, Iterable, Sequence
 
 import numpy as np
 
-import warnings
-
 from dualpose.io._text import split_fields
-from dualpose.types.recording import RecordingWarning
 from dualpose.types._inputs import Doubt, gap_doubt, rate_doubt
+from dualpose.types.recording import RecordingWarning
 
 __all__ = ["StreamTimes", "format_numbers", "parse_numbers", "split_fields"]
 
@@ -64,8 +63,9 @@ def format_numbers(values: Iterable[float]) -> str:
 class StreamTimes:
     """The time stamps of a stream's IMU lines: refuses one that is not finite or does not increase, and warns
     (:class:`~dualpose.types.recording.RecordingWarning`, naming the line) about a gap longer than five sample
-    ``period`` s (None: the median spacing of the first :data:`RATE_SAMPLES` stamps) and, once :data:`RATE_SAMPLES` stamps are in, about stamps whose median spacing contradicts the
-    stated rate (:mod:`dualpose.types._inputs`, the set-up checks of the batch paths).  ``doubts`` keeps them."""
+    ``period`` s (None: the median spacing of the first :data:`RATE_SAMPLES` stamps) and, once that many stamps are
+    in, about stamps whose median spacing contradicts the stated rate (:mod:`dualpose.types._inputs`, the set-up
+    checks of the batch paths).  ``doubts`` keeps them."""
 
     #: stamps after which the stated rate is compared with the measured one
     RATE_SAMPLES = 200

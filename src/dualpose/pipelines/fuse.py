@@ -92,8 +92,8 @@ class FuseResult:
         alignment -- the SE(3) alignment fitted to the positions adds attitude error), the innovation
         summary and the full evaluation statistics under ``evaluation``, and ``input_doubts``: what the checks on
         the input doubted (each ``{"code", "message"}``, also warned as a
-        :class:`~dualpose.types.recording.RecordingWarning`; docs/refusals.md) -- empty when nothing was.  Without ground truth the metrics in
-        ``TRUTH_METRICS`` and ``evaluation`` are None.
+        :class:`~dualpose.types.recording.RecordingWarning`; docs/refusals.md), empty when nothing was.  Without
+        ground truth the metrics in ``TRUTH_METRICS`` and ``evaluation`` are None.
     position_error : ndarray, shape (K, 3), or None
         Estimate minus truth at the matched poses, world frame, m (no alignment).
     orientation_error_deg : ndarray, shape (K,), or None

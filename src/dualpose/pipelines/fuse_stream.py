@@ -28,10 +28,9 @@ from typing import Any
 import numpy as np
 
 import dualpose as dp
-from dualpose.estimation.eskf import ErrorStateEKF, EskfStream, initial_covariance
+from dualpose.estimation.eskf import ErrorStateEKF, EskfStream, FrameUpdate, initial_covariance
 from dualpose.estimation.hol22 import Hol22EKF, Hol22Stream
 from dualpose.io.recording import read_sensor_setup
-from dualpose.estimation.eskf import FrameUpdate
 from dualpose.pipelines._lines import StreamTimes, format_numbers, parse_numbers, split_fields
 from dualpose.types import SensorRun, SensorSetup
 from dualpose.types._inputs import Doubt, gravity_up_problem

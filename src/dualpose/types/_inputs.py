@@ -506,8 +506,8 @@ def accel_unit_problem(accel_rest: NDArray[np.float64], gravity: NDArray[np.floa
     f = float(np.linalg.norm(accel_rest.mean(axis=0)))
     g = float(np.linalg.norm(gravity))
     if abs(f - 1.0) <= 0.2 and g > 5.0:
-        return (f"{where}: at rest the accelerometer reads {f:.3f} while |gravity| is {g:.3f} m/s²: the accelerometer is "
-                "in g; convert it to m/s² (multiply by 9.80665)")  # fmt: skip
+        return (f"{where}: at rest the accelerometer reads {f:.3f} while |gravity| is {g:.3f} m/s²: the accelerometer "
+                "is in g; convert it to m/s² (multiply by 9.80665)")  # fmt: skip
     return None
 
 

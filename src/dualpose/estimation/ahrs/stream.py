@@ -212,8 +212,9 @@ class AhrsStream:
         zero = ~(np.abs(c).max(axis=1) > 0) if len(c) else np.zeros(0, bool)
         if zero.any():
             k = int(np.argmax(zero))
-            raise ValueError(f"accel{'' if single else f': row {k}'}: the mean specific force of the rest period so far is zero: no vertical "
-                             "to start from (at rest an accelerometer reads about 9.81 m/s²)")  # fmt: skip
+            at = "" if single else f": row {k}"
+            raise ValueError(f"accel{at}: the mean specific force of the rest period so far is zero: no vertical to "
+                             "start from (at rest an accelerometer reads about 9.81 m/s²)")  # fmt: skip
 
     def _reserve(self, k: int) -> None:
         """Room for ``k`` buffered rest samples (doubling, at most ``n_rest``)."""
