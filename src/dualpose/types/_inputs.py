@@ -303,7 +303,8 @@ def unit_quaternion(q: Any, name: str, tolerance: float = UNIT_TOLERANCE) -> NDA
     """A quaternion (4,) xyzw that should be unit, normalised: refused when not finite or when its norm is off 1 by
     more than ``tolerance`` (a zero quaternion, a missing or misplaced component)."""
     a = finite_vector(q, name, 4)
-    nq = float(np.linalg.norm(a))
+    with np.errstate(over="ignore"):
+        nq = float(np.linalg.norm(a))
     if not abs(nq - 1.0) <= tolerance:
         raise ValueError(f"{name} must be a unit quaternion (x, y, z, w); got {a.tolist()} of norm {nq:.6g} (accepted "
                          f"within {tolerance:g} of 1 and normalised)")  # fmt: skip
@@ -337,7 +338,8 @@ def gravity_vector(gravity: object, name: str = "gravity") -> NDArray[np.float64
     g = np.array(gravity, dtype=np.float64) if not isinstance(gravity, str) else np.zeros(0)
     if g.shape != (3,):
         raise ValueError(f"{name} must have shape (3,); got {g.shape}")
-    m = float(np.linalg.norm(g)) if np.isfinite(g).all() else math.nan
+    with np.errstate(over="ignore"):
+        m = float(np.linalg.norm(g)) if np.isfinite(g).all() else math.nan
     if not 1.0 <= m <= 100.0:
         raise ValueError(f"{name}: magnitude must be in [1, 100] m/s² (9.81 on Earth); got {g.tolist()}")
     return g

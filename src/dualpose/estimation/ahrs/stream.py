@@ -379,7 +379,9 @@ class AhrsStream:
         if d is None:
             return None
         noise = AhrsNoise(**d["noise"])
-        if not all(math.isfinite(v) and v >= 0 for v in asdict(noise).values()):
+        m = np.array(d["magnetic_field"], dtype=np.float64).reshape(3)
+        if not all((math.isfinite(v) and v >= 0) or (k.startswith("magnetometer") and math.isnan(v))
+                   for k, v in asdict(noise).items()):  # 6D: no magnetometer noise (NaN)
             raise ValueError(f"state: rest statistics noise must be finite and >= 0; got {asdict(noise)}")
         return RestStatistics(
             samples=int(d["samples"]),
@@ -387,8 +389,8 @@ class AhrsStream:
                                                  _inputs.IMU_LIMITS["gyro"]),
             specific_force=_inputs.finite_vector(d["specific_force"], "state: rest specific_force", 3,
                                                  _inputs.IMU_LIMITS["accel"]),
-            magnetic_field=_inputs.finite_vector(d["magnetic_field"], "state: rest magnetic_field", 3,
-                                                 _inputs.IMU_LIMITS["mag"]),
+            magnetic_field=m if np.isnan(m).all() else _inputs.finite_vector(m, "state: rest magnetic_field", 3,
+                                                                             _inputs.IMU_LIMITS["mag"]),  # 6D: NaN
             noise=noise,
         )  # fmt: skip
 
