@@ -153,7 +153,8 @@ class FusionStream(abc.ABC):
         """
         g, a = vec3(gyro, "gyro"), vec3(accel, "accel")  # finite and within the IMU limits (docs/refusals.md)
         if not self._pending:
-            return self._imu(self._buf, t, g, a)
+            x: np.ndarray = self._imu(self._buf, t, g, a)
+            return x
         return self._imu_after_frames(float(t), g, a)
 
     def update_camera(self, t: float, pixels: Any, points: Any) -> FrameUpdate:

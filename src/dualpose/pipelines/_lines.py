@@ -92,10 +92,11 @@ class StreamTimes:
         self.last = t
         if len(self.first) < self.RATE_SAMPLES:
             self.first.append(t)
-            if len(self.first) == self.RATE_SAMPLES and self.period is None:  # no stated rate: the stamps' own
+            period = self.period
+            if len(self.first) == self.RATE_SAMPLES and period is None:  # no stated rate: the stamps' own
                 self.period = float(np.median(np.diff(self.first)))
-            elif len(self.first) == self.RATE_SAMPLES:
-                d = rate_doubt(np.array(self.first), 1.0 / self.period, f"{self.source} lines up to {lineno}",
+            elif len(self.first) == self.RATE_SAMPLES and period is not None:
+                d = rate_doubt(np.array(self.first), 1.0 / period, f"{self.source} lines up to {lineno}",
                                rate_name=self.rate_name)
                 if d is not None:
                     self._doubt(d)

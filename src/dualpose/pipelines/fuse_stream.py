@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-import dualpose as dp
+from dualpose.algebra.quat import quat_rotate
 from dualpose.estimation.eskf import ErrorStateEKF, EskfStream, FrameUpdate, initial_covariance
 from dualpose.estimation.hol22 import Hol22EKF, Hol22Stream
 from dualpose.io.recording import read_sensor_setup
@@ -241,7 +241,7 @@ def _check_gravity(stream: EskfStream | Hol22Stream, gravity: np.ndarray, accel:
     _, qs, hol = _pose_slices(stream)
     q = stream.state[qs]
     q_wb = np.array([-q[0], -q[1], -q[2], q[3]]) if hol else q
-    f_w = dp.quat_rotate(q_wb, np.asarray(accel, dtype=np.float64))
+    f_w = quat_rotate(q_wb, np.asarray(accel, dtype=np.float64))
     problem = gravity_up_problem(f_w, gravity, "the set-up")
     if problem:
         raise ValueError(problem)

@@ -180,14 +180,9 @@ class AhrsStream:
         """
         g, a = vec3(gyro, "gyro"), vec3(accel, "accel")  # finite and within the IMU limits (docs/refusals.md)
         m = vec3(mag, "mag") if mag is not None else None
-        if self._state is not None and t > self._t and math.isfinite(t) and (m is not None or not self._use_mag):
-            q = _native.ahrs_stream_step(self._state, g, a, m)
-            self._t = t
-            self._samples += 1
-            return q
         self._check_sample(t, mag)
         if self._state is not None:
-            q = _native.ahrs_stream_step(self._state, g, a, m)
+            q: np.ndarray = _native.ahrs_stream_step(self._state, g, a, m)
             self._t = t
             self._samples += 1
             return q
