@@ -8,7 +8,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from dualpose.types._inputs import Where, imu_rows, imu_vector
+from dualpose.types._inputs import Where, frame_points, imu_rows, imu_vector
 
 
 class Streams(NamedTuple):
@@ -49,12 +49,18 @@ def check_streams(
         raise ValueError("t must hold at least two strictly increasing IMU times")
     if not strictly_increasing and (n < 1 or np.any(np.diff(t) < 0)):
         raise ValueError("t must hold non-decreasing IMU times")
+    if not np.isfinite(t).all():
+        raise ValueError(f"t must be finite: sample {int(np.argmax(~np.isfinite(t)))} is not")
+    gyro, accel = imu_rows(gyro, "gyro", "gyro", n), imu_rows(accel, "accel", "accel", n)  # docs/refusals.md
     cam_t = np.ascontiguousarray(frame_t, dtype=np.float64) + camera_time_offset
     offsets = np.ascontiguousarray(offsets, dtype=np.int64)
     pixels = np.ascontiguousarray(pixels, dtype=np.float64).reshape(-1, 2)
     points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
     if len(offsets) != len(cam_t) + 1 or offsets[-1] != len(pixels) or len(points) != len(pixels):
         raise ValueError("offsets must have F + 1 entries ending at len(pixels) == len(points)")
+    if not np.isfinite(cam_t).all():
+        raise ValueError("frame_t must be finite (camera stamps, s)")
+    pixels, points = frame_points(pixels, points)
     return Streams(t, gyro, accel, cam_t, offsets, pixels, points)
 
 
