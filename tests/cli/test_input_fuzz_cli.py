@@ -129,7 +129,7 @@ def test_ahrs_stream_with_one_corrupted_line(kind, at):
     assert code == want, err
 
 
-@pytest.mark.parametrize(("kind", "at"), [("huge_gyro", 150), ("gap", 120)])
+@pytest.mark.parametrize(("kind", "at"), [("huge_gyro", 150)])
 def test_ahrs_stream_corrupted_line_through_a_real_pipe(kind, at):
     lines, want = corrupted_ahrs(kind, at)
     code, out, err = run_lines(lines, "ahrs", "--stream", "--rate", "100", "--no-mag")
@@ -189,7 +189,7 @@ def test_fuse_stream_with_one_corrupted_imu_line(calibration, kind, at):
     check_fuse(kind, code, err, n_before)
 
 
-@pytest.mark.parametrize(("kind", "at"), [("huge_accel", 200), ("gap", 150)])
+@pytest.mark.parametrize(("kind", "at"), [("gap", 150)])
 def test_fuse_stream_corrupted_line_through_a_real_pipe(calibration, kind, at):
     lines, bad, n_before, n_all = corrupted_fuse(kind, at)
     code, out, err = run_lines(lines, "fuse", "--stream", "--calibration", str(calibration))
