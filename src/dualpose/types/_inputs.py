@@ -159,10 +159,15 @@ def _sample_problem(v: NDArray[np.float64], name: str, kind: str, at: str) -> st
 
 def imu_vector(v: Any, name: str, kind: str) -> NDArray[np.float64]:
     """One IMU sample ``v`` as a float64 array of shape (3,), finite and within ``IMU_LIMITS[kind]``."""
-    a = np.array(_as_float(v, name), dtype=np.float64)
+    try:
+        a = np.array(v, dtype=np.float64)
+    except (TypeError, ValueError):
+        a = _as_float(v, name)
     if a.shape != (3,):
         raise ValueError(f"{name} must be 3 numbers (shape (3,)); got shape {a.shape}")
-    if not (abs(a[0]) <= IMU_LIMITS[kind] and abs(a[1]) <= IMU_LIMITS[kind] and abs(a[2]) <= IMU_LIMITS[kind]):
+    x, y, z = a.tolist()  # Python floats: the per-sample check of a stream costs well under a microsecond
+    lim = IMU_LIMITS[kind]
+    if not (-lim <= x <= lim and -lim <= y <= lim and -lim <= z <= lim):  # NaN compares False
         raise ValueError(_sample_problem(a, name, kind, "the sample"))
     return a
 
