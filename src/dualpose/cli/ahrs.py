@@ -94,8 +94,15 @@ def run_stream(args: argparse.Namespace) -> int:
         return _usage_error("--offline smooths a whole recording file: not with --stream")
     if args.json or args.mag_calibration is not None:
         return _usage_error("--json and --mag-calibration are not used with --stream")
+    from dualpose.types._inputs import check_rate, check_rest_samples
+
     rest_seconds = 1.0 if args.rest_seconds is None else args.rest_seconds  # the documented default
     n_rest = round(rest_seconds * args.rate)
+    try:  # the checks AhrsStream makes, as usage errors naming the options (docs/refusals.md)
+        check_rate(args.rate, "--rate")
+        check_rest_samples(n_rest, args.rate, "--rest-seconds")
+    except ValueError as exc:
+        return _usage_error(str(exc))
     if 0 < n_rest < 10:
         return _usage_error(f"--rest-seconds {rest_seconds:g} at --rate {args.rate:g} is {n_rest} samples; "
                             "the rest period needs at least 10 samples, or 0 for none")  # fmt: skip

@@ -38,7 +38,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from dualpose.cli._args import seed
-from dualpose.cli._stream import write_flushed
+from dualpose.cli._stream import EXIT_DOUBTFUL, write_flushed
 
 if TYPE_CHECKING:
     from dualpose.io._output import OutputDirectory
@@ -170,6 +170,8 @@ def _table(m: dict) -> str:
         ("correspondences rejected", f"{m['n_rejected']} of {m['n_correspondences']}"),
         ("real-time factor", f"{m['realtime_factor']:.1f}x"),
     ]
+    if m.get("input_doubts"):
+        rows.append(("input doubts (see warnings)", ", ".join(d["code"] for d in m["input_doubts"])))
     return aligned_rows(rows)
 
 
@@ -249,17 +251,19 @@ def run_stream(args: argparse.Namespace) -> int:
         return _run_target_stream(args)
     if args.camera is not None:
         return _usage_error("--camera with --stream needs the rig's sensor file: --sensors sensors.yaml")
-    from dualpose.io.recording import RecordingError
+    from dualpose.io.recording import RecordingError, read_sensor_setup
     from dualpose.pipelines.fuse_stream import stream_filter, stream_fusion_lines
 
     try:
-        stream = stream_filter(args.calibration, args.filter)
+        setup = read_sensor_setup(args.calibration)
+        stream = stream_filter(setup, args.filter)
     except (RecordingError, ValueError) as exc:
         print(f"dualpose fuse: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1
     from dualpose.io._text import bounded_lines
 
-    return write_flushed(stream_fusion_lines(bounded_lines(), stream), "fuse")
+    return write_flushed(stream_fusion_lines(bounded_lines(), stream, rate=setup.imu_noise.update_rate,
+                                             gravity=setup.gravity), "fuse")
 
 
 def _run_target_stream(args: argparse.Namespace) -> int:
@@ -453,4 +457,5 @@ def run(args: argparse.Namespace) -> int:
     result = _run_job(args)
     if result is None:
         return 1
-    return _report(args, result, out, _table)
+    code = _report(args, result, out, _table)
+    return EXIT_DOUBTFUL if code == 0 and result.metrics.get("input_doubts") else code

@@ -26,7 +26,7 @@ from dualpose.estimation._fusion_stream import BlockResult, FrameUpdate, FusionS
 from dualpose.estimation._stream import check_streams, vec3
 from dualpose.estimation.interface import Estimator, UpdateResult
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
-from dualpose.types import CameraFrame, ImuNoise, PinholeCamera, SensorRun
+from dualpose.types import CameraFrame, ImuNoise, PinholeCamera, SensorRun, _inputs
 
 __all__ = [
     "BlockResult",
@@ -229,19 +229,17 @@ class ErrorStateEKF(EskfStateAccessors, Estimator):
         gyro_bias: np.ndarray = (0.0, 0.0, 0.0),
         accel_bias: np.ndarray = (0.0, 0.0, 0.0),
     ) -> None:
-        self.x = ESKF_STATE.assemble(position=position, velocity=velocity, quat=quat, gyro_bias=gyro_bias,
-                                     accel_bias=accel_bias)  # fmt: skip
-        q = ESKF_STATE.get(self.x, "quat")
-        nq = np.linalg.norm(q)
-        if not np.isfinite(nq) or nq == 0.0:
-            raise ValueError("quat must be a finite nonzero quaternion")
-        q /= nq
-        P = np.array(covariance, dtype=np.float64)
-        n = ESKF_ERROR.dim
-        if P.shape != (n, n):
-            raise ValueError(f"covariance must have shape ({n}, {n}); got {P.shape}")
-        self.P = 0.5 * (P + P.T)
+        # the filter-parameter checks every path shares (dualpose.types._inputs, docs/refusals.md)
+        self.x = ESKF_STATE.assemble(
+            position=_inputs.finite_vector(position, "position", 3, _inputs.MAX_POSITION_M, "m"),
+            velocity=_inputs.finite_vector(velocity, "velocity", 3, _inputs.MAX_VELOCITY_M_S, "m/s"),
+            quat=_inputs.unit_quaternion(quat, "quat"),
+            gyro_bias=_inputs.finite_vector(gyro_bias, "gyro_bias", 3, _inputs.IMU_LIMITS["gyro"], "rad/s"),
+            accel_bias=_inputs.finite_vector(accel_bias, "accel_bias", 3, _inputs.IMU_LIMITS["accel"], "m/s²"),
+        )  # fmt: skip
+        self.P = _inputs.covariance_matrix(covariance, "covariance", ESKF_ERROR.dim)
         self.imu_noise = ImuNoise() if imu_noise is None else imu_noise
+        _inputs.check_imu_noise(self.imu_noise)
         n = self.imu_noise
         self.noise = np.array(
             [
@@ -253,14 +251,16 @@ class ErrorStateEKF(EskfStateAccessors, Estimator):
                 n.accelerometer_scale_sigma**2,
             ]
         )
-        self.gravity = np.asarray(gravity, dtype=np.float64)
+        self.gravity = _inputs.gravity_vector(gravity)
         self.camera = PinholeCamera() if camera is None else camera
+        _inputs.check_camera(self.camera)
         c = self.camera
         self.intrinsics = np.array([c.fx, c.fy, c.cx, c.cy])
-        self.q_bc = np.asarray(q_bc, dtype=np.float64)
-        self.p_bc = np.asarray(p_bc, dtype=np.float64)
-        self.pixel_sigma = float(pixel_sigma)
-        self.gate = float(chi2.ppf(gate_probability, 2))
+        self.q_bc = _inputs.unit_quaternion(q_bc, "q_bc")
+        self.p_bc = _inputs.finite_vector(p_bc, "p_bc", 3, _inputs.MAX_POSITION_M, "m")
+        self.pixel_sigma = _inputs.positive(pixel_sigma, "pixel_sigma", 1e4, "px")
+        self.gate = float(chi2.ppf(_inputs.probability(gate_probability, "gate_probability"), 2))
+        camera_time_offset = _inputs.time_offset(camera_time_offset, "camera_time_offset")
         self.camera_time_offset = float(camera_time_offset)
         self.time: float | None = None
         self._u = np.zeros(6)  # IMU measurement held at the current filter time [gyro, accel]

@@ -30,7 +30,7 @@ from dualpose.estimation._stream import check_streams
 from dualpose.estimation.eskf import InnovationReport, _report
 from dualpose.estimation.interface import Estimator, UpdateResult
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE, HOL22_STATE
-from dualpose.types import CameraFrame, ImuNoise, PinholeCamera, SensorRun
+from dualpose.types import CameraFrame, ImuNoise, PinholeCamera, SensorRun, _inputs
 
 __all__ = ["Hol22EKF", "Hol22Result", "Hol22Stream", "HolProcessNoise", "process_model"]
 
@@ -130,28 +130,26 @@ class Hol22EKF(Estimator):
         gate_probability: float = 0.999,
         camera_time_offset: float = 0.0,
     ) -> None:
-        n = HOL22_STATE.dim
-        x0 = np.array(x0, dtype=np.float64)
-        if x0.shape != (n,):
-            raise ValueError(f"x0 must have shape ({n},); got {x0.shape}")
-        P0 = np.array(P0, dtype=np.float64)
-        if P0.shape != (n, n):
-            raise ValueError(f"P0 must have shape ({n}, {n}); got {P0.shape}")
+        # the filter-parameter checks every path shares (dualpose.types._inputs, docs/refusals.md)
+        x0 = _inputs.finite_vector(x0, "x0", HOL22_STATE.dim)
         self.x = x0
         q = HOL22_STATE.get(self.x, "quat_be")
-        q /= np.linalg.norm(q)
+        q[:] = _inputs.unit_quaternion(q, "x0[quat_be]")
         self.time: float | None = None
-        self.P = 0.5 * (P0 + P0.T)
+        self.P = _inputs.covariance_matrix(P0, "P0", HOL22_STATE.dim)
         self.imu_noise = ImuNoise() if imu_noise is None else imu_noise
+        _inputs.check_imu_noise(self.imu_noise)
         self.process_noise = HolProcessNoise() if process_noise is None else process_noise
-        self.gravity = np.asarray(gravity, dtype=np.float64)
+        self.gravity = _inputs.gravity_vector(gravity)
         self.camera = PinholeCamera() if camera is None else camera
+        _inputs.check_camera(self.camera)
         c = self.camera
         self.intrinsics = (c.fx, c.fy, c.cx, c.cy)
-        self.q_bc = np.asarray(q_bc, dtype=np.float64)
-        self.p_bc = np.asarray(p_bc, dtype=np.float64)
-        self.pixel_sigma = float(pixel_sigma)
-        self.gate = float(chi2.ppf(gate_probability, 2))
+        self.q_bc = _inputs.unit_quaternion(q_bc, "q_bc")
+        self.p_bc = _inputs.finite_vector(p_bc, "p_bc", 3, _inputs.MAX_POSITION_M, "m")
+        self.pixel_sigma = _inputs.positive(pixel_sigma, "pixel_sigma", 1e4, "px")
+        self.gate = float(chi2.ppf(_inputs.probability(gate_probability, "gate_probability"), 2))
+        camera_time_offset = _inputs.time_offset(camera_time_offset, "camera_time_offset")
         self.camera_time_offset = float(camera_time_offset)
         n = self.imu_noise
         rate = n.update_rate

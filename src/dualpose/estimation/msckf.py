@@ -32,6 +32,7 @@ the world frame the gravity-aligned start frame (yaw 0, position 0).
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -41,11 +42,12 @@ from scipy.stats import chi2
 
 import dualpose as dp
 from dualpose import _native
+from dualpose.estimation._stream import saved_quaternion
 from dualpose.estimation.eskf import EskfStateAccessors
 from dualpose.estimation.initialization import detect_rest, static_alignment
 from dualpose.estimation.interface import Estimator, UpdateResult
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE, MSCKF_CLONE_ERROR
-from dualpose.types import CameraFrame, ImuNoise
+from dualpose.types import CameraFrame, ImuNoise, _inputs
 from dualpose.types.features import TrackFrame, TrackRecording
 
 __all__ = ["MsckfVio", "MsckfOptions", "TrackUpdate", "VioResult"]
@@ -192,18 +194,17 @@ class MsckfVio(EskfStateAccessors, Estimator):
         camera_time_offset: float = 0.0,
         options: MsckfOptions | None = None,
     ) -> None:
-        x = np.array(state, dtype=np.float64)
-        if x.shape != (ESKF_STATE.dim,) or not np.isfinite(x).all():
-            raise ValueError(f"state must be a finite ({ESKF_STATE.dim},) vector (ESKF_STATE); got shape {x.shape}")
+        # the filter-parameter checks every path shares (dualpose.types._inputs, docs/refusals.md)
+        x = _inputs.finite_vector(state, "state", ESKF_STATE.dim)
         q = ESKF_STATE.get(x, "quat")
-        if np.linalg.norm(q) == 0.0:
-            raise ValueError("the state's quaternion must be nonzero")
-        q /= np.linalg.norm(q)
-        P = np.array(covariance, dtype=np.float64)
-        if P.shape != (_NE, _NE) or not np.isfinite(P).all():
-            raise ValueError(f"covariance must be a finite ({_NE}, {_NE}) matrix; got shape {P.shape}")
-        if not (feature_sigma > 0):
-            raise ValueError(f"feature_sigma must be positive; got {feature_sigma!r}")
+        q[:] = _inputs.unit_quaternion(q, "state[quat]")
+        P = _inputs.covariance_matrix(covariance, "covariance", _NE)
+        feature_sigma = _inputs.positive(feature_sigma, "feature_sigma", 1.0, "(normalised image units)")
+        _inputs.check_imu_noise(ImuNoise() if imu_noise is None else imu_noise)
+        q_bc = _inputs.unit_quaternion(q_bc, "q_bc")
+        p_bc = _inputs.finite_vector(p_bc, "p_bc", 3, _inputs.MAX_POSITION_M, "m")
+        gravity = _inputs.gravity_vector(gravity)
+        camera_time_offset = _inputs.time_offset(camera_time_offset, "camera_time_offset")
         self.x = x
         self.P = 0.5 * (P + P.T)
         self.imu_noise = ImuNoise() if imu_noise is None else imu_noise
@@ -211,7 +212,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
         self.noise = np.array([n.gyroscope_noise_density**2, n.accelerometer_noise_density**2,
                                n.gyroscope_random_walk**2, n.accelerometer_random_walk**2,
                                n.gyroscope_scale_sigma**2, n.accelerometer_scale_sigma**2])  # fmt: skip
-        self.q_bc = dp.quat_normalize(np.asarray(q_bc, dtype=np.float64))
+        self.q_bc = q_bc
         self.p_bc = np.asarray(p_bc, dtype=np.float64).reshape(3)
         self.feature_sigma = float(feature_sigma)
         self.nominal_sigma = float(feature_sigma)
@@ -293,7 +294,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
         nominal feature σ, the settings.  :meth:`from_state_dict` continues bit for bit (one sample / frame at a
         time)."""
         o = self.options
-        return {
+        return _inputs.seal({
             "version": np.array(self.STATE_VERSION), "x": self.x.copy(), "P": self.P.copy(), "u": self._u.copy(),
             "time": np.array(np.nan if self.time is None else self.time),
             "x_fej": np.full(ESKF_STATE.dim, np.nan) if self._x_fej is None else self._x_fej.copy(),
@@ -309,7 +310,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
             "options": np.array([o.max_clones, o.min_track, o.gate_probability, o.min_depth, o.max_depth,
                                  o.min_parallax, float(o.adaptive_sigma), o.sigma_floor, o.sigma_memory,
                                  o.max_slam, float(o.estimate_time_offset), o.time_offset_sigma]),
-        }  # fmt: skip
+        })  # fmt: skip
 
     @classmethod
     def from_state_dict(cls, d) -> MsckfVio:
@@ -353,12 +354,38 @@ class MsckfVio(EskfStateAccessors, Estimator):
             f._extra = np.array(d["extra"], dtype=np.float64).reshape(-1)
             t_imu = float(d["t_imu"])
             f._t_imu = None if np.isnan(t_imu) else t_imu
+            _inputs.check_seal(d, "saved MSCKF state")
         except KeyError as exc:
             raise ValueError(f"saved MSCKF state lacks {exc}") from None
+        except TypeError as exc:
+            raise ValueError(f"saved MSCKF state holds values of the wrong kind: {exc}") from None
         if f.P.shape != (_NE + _CE * len(f.clones) + 3 * len(f.slam_id) + len(f._extra),) * 2:
             raise ValueError(f"saved MSCKF state: covariance {f.P.shape} does not match {len(f.clones)} clones and "
                              f"{len(f.slam_id)} SLAM features")  # fmt: skip
+        f._check_saved()
         return f
+
+    def _check_saved(self) -> None:
+        """The values of a restored filter (docs/refusals.md): finite, unit quaternions, a symmetric positive
+        semi-definite covariance, a finite time, clone times and observations that belong to the window."""
+        name = "saved MSCKF state"
+        n = len(self.clones)
+        if not (np.isfinite(self.x).all() and np.isfinite(self.clones).all() and np.isfinite(self.clones_fej).all()
+                and np.isfinite(self.clone_t).all() and np.isfinite(self._ob_uv).all() and np.isfinite(self._u).all()
+                and np.isfinite(self.slam_p).all() and np.isfinite(self.slam_fej).all()
+                and np.isfinite(self._extra).all() and (self.time is None or math.isfinite(self.time))):  # fmt: skip
+            raise ValueError(f"{name}: values are not finite (a corrupted or altered state)")
+        for q, what in [(ESKF_STATE.get(self.x, "quat"), "state quaternion"), *((c[3:], "clone quaternion")
+                                                                                for c in self.clones)]:  # fmt: skip
+            saved_quaternion(q, f"{name} {what}")
+        dim = _NE + _CE * n + 3 * len(self.slam_id) + len(self._extra)
+        _inputs.covariance_matrix(self.P, f"{name} covariance", dim)
+        if (len(self.clone_t) != n or len(self._clone_id) != n or len(self.clones_fej) != n
+                or np.any(np.diff(self.clone_t) < 0) or len(self._ob_clone) != len(self._ob_uv)
+                or len(self._ob_track) != len(self._ob_uv)
+                or (len(self._ob_clone) and not np.isin(self._ob_clone, self._clone_id).all())):  # fmt: skip
+            raise ValueError(f"{name}: the window's clones and observations do not agree (a corrupted or altered "
+                             "state)")  # fmt: skip
 
     # ------------------------------------------------------------------ the estimator interface
     @property

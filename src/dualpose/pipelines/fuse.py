@@ -90,8 +90,10 @@ class FuseResult:
         ``nis_fraction_inside``, ``realtime_factor``, ``filter``, ``data``, ``seed``, ``duration_s``,
         ``position_rmse_unaligned_m`` and ``orientation_rmse_unaligned_deg`` (in the recording's world frame, no
         alignment -- the SE(3) alignment fitted to the positions adds attitude error), the innovation
-        summary and the full evaluation statistics under ``evaluation``.  Without ground truth the metrics in
-        ``TRUTH_METRICS`` and ``evaluation`` are None.
+        summary and the full evaluation statistics under ``evaluation``, and ``input_doubts``: what the checks on
+        the input doubted (each ``{"code", "message"}``, also warned as a
+        :class:`~dualpose.types.recording.RecordingWarning`; docs/refusals.md), empty when nothing was.  Without
+        ground truth the metrics in ``TRUTH_METRICS`` and ``evaluation`` are None.
     position_error : ndarray, shape (K, 3), or None
         Estimate minus truth at the matched poses, world frame, m (no alignment).
     orientation_error_deg : ndarray, shape (K,), or None
@@ -237,13 +239,13 @@ def run_fuse(
             progress(k + 1, len(stages), stages[k])
 
     run = load_recording(data, seed)
-    check_before_fuse(run)  # too short: RecordingError; IMU gaps: RecordingWarning
+    doubts = check_before_fuse(run)  # too short, rest too long, g units: RecordingError; doubts: RecordingWarning
     step(0)
     try:
         x, P0 = initialization.initial_state_from_run(run, run.rest_seconds)
     except ValueError as exc:
         raise RecordingError(f"{run.name}: cannot start the filter: {exc}") from None
-    check_gravity_after_alignment(run, x)  # gravity pointing up: RecordingError; doubtful: RecordingWarning
+    doubts += check_gravity_after_alignment(run, x)  # gravity pointing up: RecordingError; doubtful: a doubt
     step(1)
     est = factory(run, x, P0)
     if "position" not in est.state_layout.names:
@@ -272,6 +274,7 @@ def run_fuse(
         "camera_frames": int(len(run.frames)),
         "filter_wall_time_s": float(res.wall_time),
         "realtime_factor": duration / float(res.wall_time),
+        "input_doubts": [d.as_dict() for d in doubts],
     }
     for key in TRUTH_METRICS[:4]:
         metrics[key] = truth_metrics[key]

@@ -12,6 +12,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from dualpose import _native
+from dualpose.types._inputs import check_rate
 
 __all__ = [
     "MEMS_GYRO_BIAS_RANDOM_WALK",
@@ -518,8 +519,7 @@ def _rest_length(rate: float, n_rest: int | None, n: int | None = None) -> int:
     second (at most ``n``, the recording's length when known), 0 when that is below 10 samples.  ValueError naming
     ``rate`` / ``n_rest`` for a rate that is not a positive number, or a rest period outside ``[0, n]`` or of 1 to 9
     samples."""
-    if not (np.isfinite(rate) and rate > 0):
-        raise ValueError(f"rate must be a positive number of Hz; got {rate}")
+    rate = check_rate(rate)  # the sampling-rate check every path shares (docs/refusals.md)
     if n_rest is None:
         n_rest = int(round(rate)) if n is None else min(n, int(round(rate)))
         n_rest = n_rest if n_rest >= 10 else 0
