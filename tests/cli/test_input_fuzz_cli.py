@@ -208,7 +208,7 @@ def _edited(calibration: Path, tmp_path: Path, edit) -> Path:
 @pytest.mark.parametrize(("edit", "match"), [
     (lambda s: s["initial_state"].__setitem__("position_sigma", 1e300), "position_sigma"),
     (lambda s: s["initial_state"].__setitem__("velocity", [1e300, 0, 0]), "velocity"),
-    (lambda s: s["camera"].__setitem__("timeshift_cam_imu", 1e300), "time_offset"),
+    (lambda s: s["camera"].__setitem__("timeshift_cam_imu", 1e300), "timeshift_cam_imu"),
     (lambda s: s["camera"].__setitem__("cx", 1e6), "principal point"),
     (lambda s: s["camera"].__setitem__("q_bc", [0, 0, 0, 0]), "q_bc"),
     (lambda s: s["camera"].__setitem__("pixel_sigma", -1), "pixel_sigma"),
