@@ -86,9 +86,12 @@ def test_imu_gap_is_warned_with_its_times(good, tmp_path, capsys):
     head, rows = _imu_rows(d)
     (d / "imu.csv").write_text("\n".join(head + rows[:300] + rows[500:]) + "\n")  # 2 s without IMU data
     assert main(["fuse", "--data", str(d), "--json"]) == 0
-    err = capsys.readouterr().err
+    out, err = capsys.readouterr()
     warn = [s for s in err.splitlines() if s.startswith("dualpose fuse: warning: ")]
-    assert len(warn) == 1 and "1 IMU gap(s)" in warn[0] and "2.990-5.000 s" in warn[0]
+    assert "1 IMU gap(s)" in warn[0] and "2.990-5.000 s" in warn[0]
+    # the estimate drifts across the gap: its se3 alignment to the truth is not determined, warned about and flagged
+    assert len(warn) == 2 and "alignment (se3) is not determined" in warn[1]
+    assert json.loads(out)["alignment_well_determined"] is False
     assert "\r" not in err  # progress: plain lines off a terminal
     assert "dualpose fuse: 4/4 evaluate" in err
 

@@ -28,7 +28,8 @@ _BAD_INPUT = R.BAD_INPUT_NAMES
 def bad_input_message(code: float) -> str:
     """The error for a non-zero result-row code ``row[BAD_INPUT]`` of the solver (see ``_row``)."""
     if int(code) == len(_BAD_INPUT) + 1:
-        return "the weighted second moments overflow (coordinates of about 1e150 or more): rescale the inputs"
+        return ("the weighted second moments overflow (the weighted centroid sums exceed the largest double, "
+                "~1.8e308): rescale the inputs")  # fmt: skip
     return f"{_BAD_INPUT[int(code) - 1]} contains NaN or infinity"
 
 #: relative size (squared length, against the largest model scatter eigenvalue: a relative thickness of ~1e-5)

@@ -82,6 +82,12 @@ inline double norm4(double x, double y, double z, double w) {
 }
 inline double norm4(Quat q) { return norm4(q.x, q.y, q.z, q.w); }
 
+// True for the zero quaternion and for one with an infinite component (no power of two makes either ordinary).
+inline bool is_zero_or_inf(Quat q) {
+    const double m = std::max(std::max(std::fabs(q.x), std::fabs(q.y)), std::max(std::fabs(q.z), std::fabs(q.w)));
+    return m == 0.0 || m == kInf;
+}
+
 // (a + ε b)(c + ε d) = a c + ε (a d + b c): Dantam 2014 eq. (79), for any struct DQ with quaternion-like
 // members r and d (see qmul_t).
 template <class DQ>
@@ -133,16 +139,44 @@ inline Vec3 transform_point(const DualQuat& s, Vec3 p, double s2) {
     return o;
 }
 
+// The exponent e (|e| <= 1000) of the power of two 2**e that brings the largest |component| of q into [1/2, 1)
+// when that component is outside [2**-450, 2**450], where |q|**2 would leave [1e-271, 1e271]; 0 for ordinary,
+// zero and non-finite q.  Multiplying by 2**e is exact (no rounding, subnormal components included), so a kernel
+// that is invariant to the scale of q can run on 2**e q and be exact for every finite nonzero magnitude, while
+// ordinary input is not touched (bit-identical results).  The bound 1000 keeps 2**e a normal double; the smallest
+// subnormal (2**-1074) then lands at 2**-74, still far inside the ordinary range.
+inline int extreme_exponent(double x, double y, double z, double w) {
+    const double m = std::max(std::max(std::fabs(x), std::fabs(y)), std::max(std::fabs(z), std::fabs(w)));
+    if (!(m < 0x1p-450 || m > 0x1p450) || m == 0.0 || m == kInf) return 0;  // NaN compares false: 0
+    int e;
+    std::frexp(m, &e);
+    return std::clamp(-e, -1000, 1000);
+}
+inline int extreme_exponent(Quat q) { return extreme_exponent(q.x, q.y, q.z, q.w); }
+inline Quat ldexp4(Quat q, int e) {
+    return {std::ldexp(q.x, e), std::ldexp(q.y, e), std::ldexp(q.z, e), std::ldexp(q.w, e)};
+}
+// 2**e q with e = extreme_exponent(q): q itself unless its magnitude is extreme (see extreme_exponent).
+inline Quat ordinary_magnitude(Quat q) {
+    const int e = extreme_exponent(q);
+    return e == 0 ? q : ldexp4(q, e);
+}
+
 // (c, s2) with s2 = 2/|c q|**2, for formulas that need 2/|q|**2 (rotation, matrices, transforms).  For ordinary
-// magnitudes c = 1 and s2 = 2/|q|**2; for |q| near 1e-200 or 1e200 c = 1/|q| and s2 = 2, and the caller scales
-// the quaternion (and a dual part) by c first.  A zero quaternion gives a quiet NaN; a NaN one propagates.
+// magnitudes c = 1 and s2 = 2/|q|**2; for |q|**2 outside [1e-280, 1e280] c is the power of two of
+// extreme_exponent (exact, also for subnormal components) and the caller scales the quaternion (and a dual part)
+// by c first.  A zero quaternion gives a quiet NaN; a NaN one propagates.
 inline Scale unit_scale(Quat q) {
     const double n2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
     if (n2 != n2) return {1.0, n2};
     if (kTiny <= n2 && n2 <= kHuge) return {1.0, 2.0 / n2};
-    const double n = norm4(q);
-    if (n == 0.0) return {kNaN, kNaN};
-    return {1.0 / n, 2.0};
+    if (is_zero_or_inf(q)) return {kNaN, kNaN};
+    const double m = std::max(std::max(std::fabs(q.x), std::fabs(q.y)), std::max(std::fabs(q.z), std::fabs(q.w)));
+    int e;
+    std::frexp(m, &e);
+    const double c = std::ldexp(1.0, std::clamp(-e, -1000, 1000));
+    const Quat u = scale(c, q);
+    return {c, 2.0 / (u.x * u.x + u.y * u.y + u.z * u.z + u.w * u.w)};
 }
 
 // 2/|q|**2 (quiet NaN for a zero quaternion); prefer unit_scale, which also survives |q| ~ 1e-200.
@@ -170,6 +204,8 @@ inline double log_norm(Quat q) {
         return 0.5 * d * (nz ? f : 1.0);
     }
     if (kTiny <= n2 && n2 <= kHuge) return 0.5 * std::log(n2);
+    const int e = extreme_exponent(q);  // exact rescaling: ln|q| = ln|2**e q| - e ln 2
+    if (e != 0) return std::log(norm4(ldexp4(q, e))) - e * 0.6931471805599453;
     return std::log(norm4(q));
 }
 
