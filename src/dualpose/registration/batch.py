@@ -65,7 +65,10 @@ class PoseBatch:
         pts = np.sqrt(np.maximum(self._rows[:, R.POINT_COST], 0.0) / np.where(bsum > 0, bsum, 1.0))
         dir_cost = np.maximum(self._rows[:, R.COST] - self._rows[:, R.POINT_COST], 0.0)
         dirs = np.sqrt(dir_cost / np.where(asum > 0, asum, 1.0))
-        return np.where(bsum > 0, pts, dirs)
+        out = np.where(bsum > 0, pts, dirs)
+        for i in np.flatnonzero(self._rows[:, R.POINT_EXPONENT] != 0):  # extreme spreads only (rare)
+            out[i] = self[int(i)].rmsd
+        return out
 
     @property
     def rotation_matrix(self) -> np.ndarray:
