@@ -147,8 +147,9 @@ static void quat_slerp(const double* p, const double* q, const double* tp, doubl
 // k = (|q| - |p|)/(|p||q|) from |q|**2 - |p|**2 = a.b, p/|p| - q/|q| = q k - a/|p| and p/|p| + q/|q| = b/|p| - q k,
 // so the smaller of the two keeps full relative accuracy even when |p|, |q| are not exactly 1 in float64.
 static void quat_angle(const double* pp, const double* qq, double* o) {
-    // each input exactly rescaled by a power of two when its magnitude is extreme (the angle is scale-invariant)
-    const Quat pu = ordinary_magnitude(load4(pp)), qu = ordinary_magnitude(load4(qq));
+    // each input exactly rescaled by the power of two of its largest component (the angle is scale-invariant, the
+    // difference form below is most accurate for norms near 1, and the result is exactly the same at every scale)
+    const Quat pu = pow2_unit(load4(pp)), qu = pow2_unit(load4(qq));
     const double p[4] = {pu.x, pu.y, pu.z, pu.w}, q[4] = {qu.x, qu.y, qu.z, qu.w};
     const double np_ = norm4(pu), nq = norm4(qu);
     if (np_ == 0.0 || nq == 0.0) {

@@ -16,11 +16,11 @@ namespace {
 using lanes::v4;
 
 // The row kernels' magnitude test (common/kutil.hpp ordinary_sum) on one row and on four rows in lanes: the sum
-// of the absolute components, so no extreme value is squared before the test.
+// of the absolute components over 8, so no extreme value is squared before the test.
 bool ordinary(const double* r) { return ordinary_sum(abs_sum(r[0], r[1], r[2], r[3])); }
 v4 vabs(v4 x) { return (v4)((lanes::m4)x & 0x7fffffffffffffffLL); }
 bool ordinary(const lanes::Q4& a) {
-    const v4 s = vabs(a.x) + vabs(a.y) + vabs(a.z) + vabs(a.w);
+    const v4 s = vabs(a.x) * 0.125 + vabs(a.y) * 0.125 + vabs(a.z) * 0.125 + vabs(a.w) * 0.125;
     return lanes::all((s >= kOrdinaryLo) & (s <= kOrdinaryHi));
 }
 }  // namespace

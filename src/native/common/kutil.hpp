@@ -53,14 +53,15 @@ inline DualQuat neg(const DualQuat& s) { return {neg(s.r), neg(s.d)}; }
 inline Quat scale(double f, Quat q) { return {f * q.x, f * q.y, f * q.z, f * q.w}; }
 inline DualQuat scale(double f, const DualQuat& s) { return {scale(f, s.r), scale(f, s.d)}; }
 
-// The magnitude test every kernel shares: |x| + |y| + |z| + |w| in [2**-448, 2**448] (false for zero, inf and
-// NaN).  Then every square and |q|**2 lie in [1e-271, 1e271]: no underflow, no overflow (and no floating-point
-// overflow flag, so NumPy raises no RuntimeWarning).  Testing the components, not |q|**2, means extreme input is
-// never squared before it is rescaled.
-inline constexpr double kOrdinaryLo = 0x1p-448, kOrdinaryHi = 0x1p448;
-inline bool ordinary_sum(double a) { return a >= kOrdinaryLo && a <= kOrdinaryHi; }
+// The magnitude test every kernel shares: (|x| + |y| + |z| + |w|) / 8 in [2**-451, 2**445] (false for zero, inf
+// and NaN; the / 8 keeps the sum of four components near the largest double finite).  Then every square and |q|**2
+// lie in [1e-271, 1e271]: no underflow, no overflow (and no floating-point overflow flag, so NumPy raises no
+// RuntimeWarning).  Testing the components, not |q|**2, means extreme input is never squared before it is
+// rescaled; NaN is caught by the quiet a == a before any ordered comparison (which would raise the invalid flag).
+inline constexpr double kOrdinaryLo = 0x1p-451, kOrdinaryHi = 0x1p445;
+inline bool ordinary_sum(double a) { return a == a && a >= kOrdinaryLo && a <= kOrdinaryHi; }
 inline double abs_sum(double x, double y, double z, double w = 0.0) {
-    return std::fabs(x) + std::fabs(y) + std::fabs(z) + std::fabs(w);
+    return std::fabs(x) * 0.125 + std::fabs(y) * 0.125 + std::fabs(z) * 0.125 + std::fabs(w) * 0.125;
 }
 
 // sqrt(x² + y² + z² + w²) of a finite nonzero vector outside the ordinary range: computed on the components
@@ -151,7 +152,7 @@ inline Vec3 transform_point(const DualQuat& s, Vec3 p, double s2) {
 // lands at 2**-74, far inside the ordinary range.
 inline int extreme_exponent(double x, double y, double z, double w) {
     const double a = abs_sum(x, y, z, w);
-    if (ordinary_sum(a) || a != a || a == 0.0 || a == kInf) return 0;
+    if (a != a || ordinary_sum(a) || a == 0.0 || a == kInf) return 0;
     const double m = std::max(std::max(std::fabs(x), std::fabs(y)), std::max(std::fabs(z), std::fabs(w)));
     int e;
     std::frexp(m, &e);
@@ -161,6 +162,16 @@ inline int extreme_exponent(Quat q) { return extreme_exponent(q.x, q.y, q.z, q.w
 inline Quat ldexp4(Quat q, int e) {
     return {std::ldexp(q.x, e), std::ldexp(q.y, e), std::ldexp(q.z, e), std::ldexp(q.w, e)};
 }
+// q times the power of two that brings its largest |component| into [1/2, 1) (exact; q itself when zero or not
+// finite).
+inline Quat pow2_unit(Quat q) {
+    const double m = std::max(std::max(std::fabs(q.x), std::fabs(q.y)), std::max(std::fabs(q.z), std::fabs(q.w)));
+    if (!(m > 0.0 && m < kInf)) return q;  // zero, inf or NaN (NaN: the comparisons are false)
+    int e;
+    std::frexp(m, &e);
+    return ldexp4(q, -e);
+}
+
 // 2**e q with e = extreme_exponent(q): q itself unless its magnitude is extreme (see extreme_exponent).
 inline Quat ordinary_magnitude(Quat q) {
     const int e = extreme_exponent(q);

@@ -201,13 +201,14 @@ void stage(const Problems& pr, std::int64_t b, int method, Staged& st, Roots& rt
     // second moments of the centred data: s = Σ β p̃' p⁰'ᵀ + Σ α ñ n⁰ᵀ (a = measured, b = model), and the centred
     // sums g0 = Σβ p⁰', g1 = Σβ p̃' (Walker's C3)
     Moments mo = moments(pr, b, ax, ay, az, bx, by, bz, 1.0, 1.0);
-    // Scale normalisation: when the squared spread leaves the ordinary range (points scaled by 1e-160 underflow to
-    // a zero cost and an identity rotation; 1e160 overflow), solve on the centred points times 2**e, e the power of
-    // two bringing the largest centred coordinate near 1 (exact: no rounding), and the direction weights times
-    // 2**(2e) so the minimiser is unchanged; ordinary spreads keep e = 0 and bit-identical results.
+    // Scale normalisation: when the squared spread leaves [1e-30, 1e30] (the characteristic polynomial of the 4x4
+    // matrix holds its fourth powers, products of them lose digits below ~1e-50: points scaled by 1e-160
+    // underflow to a zero cost and an identity rotation, by 1e80 overflow it), solve on the centred points times 2**e, e the power of two bringing the largest centred
+    // coordinate near 1 (exact: no rounding), and the direction weights times 2**(2e) so the minimiser is
+    // unchanged; ordinary spreads keep e = 0 and bit-identical results.
     int e = 0;
     const double spread2 = mo.ss0 + mo.ss1;
-    if (std::isfinite(ax + ay + az + bx + by + bz) && !(spread2 >= 1e-250 && spread2 <= 1e250) && npt > 0) {
+    if (std::isfinite(ax + ay + az + bx + by + bz) && !(spread2 >= 1e-30 && spread2 <= 1e30) && npt > 0) {
         double m = 0.0;
         for (std::int64_t k = 0; k < npt; ++k) {
             m = pymax(m, pymax(std::fabs(p0[3 * k] - ax), pymax(std::fabs(p0[3 * k + 1] - ay), std::fabs(p0[3 * k + 2] - az))));
@@ -216,9 +217,15 @@ void stage(const Problems& pr, std::int64_t b, int method, Staged& st, Roots& rt
         if (m > 0.0 && std::isfinite(m)) {
             int em;
             std::frexp(m, &em);
-            // with directions, |e| <= 250 keeps 2**(2e) times ordinary direction weights finite
-            const int lim = pr.ndir > 0 ? 250 : 1000;
-            e = -em < -lim ? -lim : (-em > lim ? lim : -em);
+            // the direction weights times 2**(2e) stay below 2**900 (finite), and 2**e a normal double
+            const double* alpha = pr.alpha + b * pr.ndir;
+            double amax = 0.0;
+            for (std::int64_t k = 0; k < pr.ndir; ++k) amax = pymax(amax, alpha[k]);
+            int ea = 0;
+            if (amax > 0.0) std::frexp(amax, &ea);
+            const int hi = amax > 0.0 ? (900 - ea) / 2 : 1000;
+            e = -em < -1000 ? -1000 : -em;
+            e = e > 1000 ? 1000 : (e > hi ? hi : e);
             if (e != 0) mo = moments(pr, b, ax, ay, az, bx, by, bz, std::ldexp(1.0, e), std::ldexp(1.0, 2 * e));
         }
     }
