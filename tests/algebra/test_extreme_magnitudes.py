@@ -71,8 +71,8 @@ def test_log_norm_matches_mpmath_and_dual_quaternions_normalize(c, e):
         return  # the dual part of a subnormal scale loses its digits: not the same transform any more
     np.testing.assert_allclose(dp.dualquat_normalize(s), dp.dualquat_normalize(s_unit), rtol=1e-13, atol=1e-15)
     np.testing.assert_allclose(dp.qt_from_dualquat(s)[1], t, rtol=1e-13, atol=1e-14)
-    np.testing.assert_allclose(dp.dualquat_transform(s, [1.0, 2.0, 3.0]), dp.dualquat_transform(s_unit, [1.0, 2.0, 3.0]),
-                               rtol=1e-13, atol=1e-14)  # fmt: skip
+    p = [1.0, 2.0, 3.0]
+    np.testing.assert_allclose(dp.dualquat_transform(s, p), dp.dualquat_transform(s_unit, p), rtol=1e-13, atol=1e-14)
 
 
 def test_the_issue_examples_and_zero_and_non_finite_input():

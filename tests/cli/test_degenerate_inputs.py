@@ -93,7 +93,8 @@ def handeye_files(tmp_path_factory):
 
 
 def test_hand_eye_refuses_two_unrelated_recordings(handeye_files):
-    code, out, err = _run("calibrate", "hand-eye", str(handeye_files / "cam.csv"), str(handeye_files / "other_body.csv"))
+    cam, other = str(handeye_files / "cam.csv"), str(handeye_files / "other_body.csv")
+    code, out, err = _run("calibrate", "hand-eye", cam, other)
     assert code == 1 and out == ""
     line = _one_error_line(err, "dualpose calibrate hand-eye")
     assert "not credible" in line and "the streams' own noise predicts" in line

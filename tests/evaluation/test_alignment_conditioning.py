@@ -108,7 +108,7 @@ def test_the_issue_cases_and_the_dict():
     ref = np.array([1.0, 2.0, 3.0]) + rng.normal(0.0, 1e-4, (n, 3))  # 0.1 mm jitter
     est = _path(n, 1) * 0.5
     for method in ("se3", "sim3", "scale", "posyaw"):
-        with pytest.raises(ValueError, match=r"alignment \(%s\) is not determined by the data" % method):
+        with pytest.raises(ValueError, match=rf"alignment \({method}\) is not determined by the data"):
             align_positions(ref, est, method)
     good = align_positions(_path(200, 3), _path(200, 3) + rng.normal(0.0, 0.01, (200, 3)), "sim3")
     d = good.as_dict()["conditioning"]

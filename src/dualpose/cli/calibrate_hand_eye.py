@@ -6,8 +6,8 @@ Prints ``X`` (the camera pose in the body frame), the time offset ``τ`` (camera
 the RMS loop residuals (never above those of the closed form the final refinement started from, also printed), the
 residual the streams' own noise predicts and the coarse rate correlation, and first-order standard deviations; one
 JSON object with ``--json``.  Exit status 1 also when the match is not credible (a rotation residual far above the
-streams' noise: two unrelated recordings); a doubtful match is printed with a warning and ``"credibility"``.  The computation is
-:func:`dualpose.calibration.calibrate_hand_eye_streams`; see ``docs/hand-eye.md``.
+streams' noise: two unrelated recordings); a doubtful match is printed with a warning and ``"credibility"``.
+The computation is :func:`dualpose.calibration.calibrate_hand_eye_streams`; see ``docs/hand-eye.md``.
 """
 
 from __future__ import annotations

@@ -524,7 +524,8 @@ def evaluate(
     ------
     ValueError
         No matching stamps, a degenerate or undetermined alignment
-        (:func:`~dualpose.evaluation.align.check_alignment_rank`, :func:`~dualpose.evaluation.align.alignment_conditioning`), an
+        (:func:`~dualpose.evaluation.align.check_alignment_rank`,
+        :func:`~dualpose.evaluation.align.alignment_conditioning`), an
         RPE step that yields no pair, two poses at one stamp, or an empty crop window.
     """
     for name, t in (("reference", reference), ("estimate", estimate)):
