@@ -81,7 +81,7 @@ class AlignmentConditioning:
     noise_m : float
         Residual standard deviation per coordinate, ``sqrt(Σ|r_i|² / (3N - p))`` for ``p`` fitted parameters (6
         se3, 7 sim3 and scale, 4 posyaw), floored at the coordinates' rounding (``2.2e-16`` times the largest
-        |coordinate|), metres.
+        absolute coordinate), metres.
     rotation_std_rad : float
         Standard deviation of the rotation about its least determined axis, radians (``inf`` when no noise-free
         signal determines it).
