@@ -114,3 +114,17 @@ def test_the_issue_cases_and_the_dict():
     d = good.as_dict()["conditioning"]
     assert d["well_determined"] and d["rotation_std_deg"] < 0.5 and 0 < d["scale_std"] < 1e-2
     assert align_positions(ref, est, "none").conditioning is None
+
+
+def test_alignment_fields_must_describe_one_transform():
+    from dualpose.evaluation.align import Alignment
+
+    Alignment(np.eye(3), np.zeros(3), 1.0, "none")
+    for rotation, translation, scale in (
+        (2.0 * np.eye(3), np.zeros(3), 1.0),  # scaled: not a rotation (the scale has its own field)
+        (np.diag([1.0, 1.0, -1.0]), np.zeros(3), 1.0),  # a reflection
+        (np.eye(3), np.array([0.0, np.nan, 0.0]), 1.0),
+        (np.eye(3), np.zeros(3), 0.0),
+    ):
+        with pytest.raises(ValueError):
+            Alignment(rotation, translation, scale, "se3")
