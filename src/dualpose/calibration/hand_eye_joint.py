@@ -23,12 +23,26 @@ from scipy.optimize import least_squares, minimize
 
 import dualpose as dp
 from dualpose.calibration.hand_eye_residual import pair_motions, pair_residuals, select_pairs, squared_pair_residuals
-from dualpose.calibration.hand_eye_streams import CleaningReport, PoseStream, interpolate_stream, shift_stamps
+from dualpose.calibration.hand_eye_streams import (
+    CleaningReport,
+    PoseStream,
+    interpolate_stream,
+    rotation_noise,
+    shift_stamps,
+)
 from dualpose.calibration.hand_eye_time import coarse_time_offset
 from dualpose.registration import HandEyeWarning, calibrate_hand_eye
 from dualpose.registration.hand_eye_closed_form import HAND_EYE_CLOSED_FORMS, hand_eye_translation
 
-__all__ = ["HandEyeStreamResult", "calibrate_hand_eye_streams"]
+__all__ = ["HandEyeStreamResult", "calibrate_hand_eye_streams", "NOT_CREDIBLE_RATIO", "DOUBTFUL_RATIO",
+           "DOUBTFUL_CORRELATION"]
+
+#: rotation loop residual RMS over the one the streams' own noise predicts above which the match is refused as not
+#: credible (two unrelated recordings: 11-21; true pairs of the shared sets: 0.9-1.5), and above which it is doubtful
+NOT_CREDIBLE_RATIO = 5.0
+DOUBTFUL_RATIO = 2.5
+#: coarse rate correlation below which the match is doubtful (unrelated recordings: 0.27-0.40; true pairs: 0.92-0.97)
+DOUBTFUL_CORRELATION = 0.6
 
 _CHI2_3_MEDIAN = 2.365974  # median of χ²(3): robust scale of a 3-vector residual
 _CHI2_6_999 = 22.457744  # 0.999 quantile of χ²(6): inlier gate of the normalized 6-vector residual
@@ -96,6 +110,18 @@ class HandEyeStreamResult:
         First-order covariance of ``[δθ (rad, left perturbation of the rotation), t (m), τ (s)]``.
     rotation_sigma_deg : ndarray (3,), translation_sigma_m : ndarray (3,), time_offset_sigma : float
         Square roots of its diagonal (deg, m, s).
+    expected_rotation_rmse_deg : float
+        The rotation loop residual RMS the streams' own orientation noise predicts:
+        ``sqrt(6 (σ_camera² + σ_body²))`` (two samples of each stream per pair, three components) with the σ of
+        :func:`~dualpose.calibration.hand_eye_streams.rotation_noise` (deg; NaN when a stream is too short).
+    residual_to_noise : float
+        ``rotation_rmse_deg / expected_rotation_rmse_deg``: about 1 for a true pair; far above for streams whose
+        motions do not match (different recordings, a wrong time offset).
+    credible : bool
+        False when ``residual_to_noise > NOT_CREDIBLE_RATIO``: the streams do not record the same motion.
+    credibility : str
+        ``"credible"``, ``"doubtful"`` (``residual_to_noise > DOUBTFUL_RATIO`` or a coarse correlation below
+        ``DOUBTFUL_CORRELATION``) or ``"not credible"``, with the reason after a colon when not credible.
     camera_report, body_report : CleaningReport or None
         Filled in by callers that cleaned the streams (the CLI).
     """
@@ -121,6 +147,10 @@ class HandEyeStreamResult:
     start_rotation_rmse_deg: float
     start_translation_rmse_m: float
     start_time_offset: float
+    expected_rotation_rmse_deg: float = float("nan")
+    residual_to_noise: float = float("nan")
+    credible: bool = True
+    credibility: str = "credible"
     camera_report: CleaningReport | None = field(default=None)
     body_report: CleaningReport | None = field(default=None)
 
@@ -199,6 +229,12 @@ def calibrate_hand_eye_streams(
     ------
     ValueError
         No overlap of the streams after ``τ``, fewer than 3 usable pairs, or degenerate motion.
+
+    Warns
+    -----
+    HandEyeWarning
+        When the match is doubtful or not credible (``credibility``): the rotation loop residual far above the one
+        the streams' own noise predicts, or a weak coarse rate correlation.
     """
     if fix_time_offset and time_offset is None:
         raise ValueError("fix_time_offset needs a time_offset")
@@ -255,6 +291,10 @@ def calibrate_hand_eye_streams(
     qx, tx, tau, sol, sr, st, (start, ms0, tau_start), (ms_r, ms_t) = _refine_from_closed_form(
         camera, body, i, j, qx, tx, tau, fix_time_offset, max_gap, half_width
     )
+    noise = np.hypot(rotation_noise(camera), rotation_noise(body, max_gap))
+    expected_deg = float(np.degrees(np.sqrt(6.0) * noise))
+    rmse_deg = float(np.degrees(np.sqrt(ms_r)))
+    credible, credibility = _credibility(rmse_deg, expected_deg, coarse_corr)
     cov = _covariance(sol, fix_time_offset)
     sd = np.sqrt(np.diag(cov))
     x = dp.dualquat_canonical(dp.dualquat_from_qt(qx, tx))
@@ -270,7 +310,26 @@ def calibrate_hand_eye_streams(
         time_offset_sigma=float(sd[6]), start_method=start, start_rotation_rmse_deg=float(np.degrees(np.sqrt(ms0[0]))),
         start_translation_rmse_m=float(np.sqrt(ms0[1])),
         start_time_offset=float(time_offset) if fix_time_offset else tau_start + shift,
+        expected_rotation_rmse_deg=expected_deg, residual_to_noise=rmse_deg / expected_deg if expected_deg > 0 else
+        float("nan"), credible=credible, credibility=credibility,
     )  # fmt: skip
+
+
+def _credibility(rmse_deg: float, expected_deg: float, correlation: float) -> tuple[bool, str]:
+    """``(credible, credibility)`` of a hand–eye match (see :class:`HandEyeStreamResult`); warns unless credible."""
+    ratio = rmse_deg / expected_deg if expected_deg > 0 else float("nan")
+    text = (f"rotation loop residual {rmse_deg:.3g} deg is {ratio:.3g} x the {expected_deg:.3g} deg the streams' "
+            "own noise predicts")  # fmt: skip
+    corr = "" if np.isnan(correlation) else f", coarse rate correlation {correlation:.2f}"
+    if ratio > NOT_CREDIBLE_RATIO:
+        verdict = (False, f"not credible: {text}{corr}; the two streams do not record the same motion (different "
+                   "recordings, or a wrong time offset)")  # fmt: skip
+    elif ratio > DOUBTFUL_RATIO or correlation < DOUBTFUL_CORRELATION:
+        verdict = (True, f"doubtful: {text}{corr}")
+    else:
+        return True, "credible"
+    warnings.warn(f"hand-eye match {verdict[1]}", HandEyeWarning, stacklevel=3)
+    return verdict
 
 
 def _pair_residual_fun(camera, body, i, j, qx0, tau0, sr, st, fix_tau, max_gap):

@@ -200,6 +200,13 @@ def run(args: argparse.Namespace) -> int:
         + (f", scale {a.scale:.6f}" if a.method in ("sim3", "scale") else "")
         + (f" from the first {args.n_align} poses" if args.n_align and a.method not in ("none", "origin") else "")
     )
+    if a.conditioning is not None:
+        c = a.conditioning
+        print(
+            f"alignment  determined to rotation {math.degrees(c.rotation_std_rad):.3g} deg, translation "
+            f"{c.translation_std_m:.3g} m" + (f", scale {c.scale_std:.3g}" if a.method in ("sim3", "scale") else "")
+            + f" (1 sigma, residual noise {c.noise_m:.3g} m)" + ("" if c.well_determined else "; POORLY DETERMINED")
+        )
     print(f"RPE        {result['rpe_pairs']} pairs, delta {args.rpe_delta:g} {args.rpe_unit}\n")
     print(_table(result))
     if args.plot:

@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import dualpose as dp
-from dualpose.evaluation.align import Alignment, AlignMethod, align_positions, origin_alignment
+from dualpose.evaluation.align import Alignment, AlignMethod, Undetermined, align_positions, origin_alignment
 from dualpose.types.trajectory import Trajectory, as_positions, as_quats, check_same_length, interpolate_poses
 
 __all__ = [
@@ -499,6 +499,7 @@ def evaluate(
     rpe_pairs_from_reference: bool = False,
     t_start: float | None = None,
     t_end: float | None = None,
+    undetermined: Undetermined = "raise",
 ) -> Evaluation:
     """Associate, align and compute ATE, orientation error and RPE of ``estimate`` against ``reference``.
 
@@ -512,7 +513,9 @@ def evaluate(
     ``rpe_pairs_from_reference`` = ``--pairs_from_reference`` (by default the pairs are chosen on the aligned
     estimate).  RPE is unchanged by a rigid alignment; "sim3"/"scale" rescale the estimate's translations first.
     ``t_start``, ``t_end`` = ``--t_start``, ``--t_end``: only poses with stamps (the estimate's plus ``offset``) in
-    ``[t_start, t_end]`` are used.
+    ``[t_start, t_end]`` are used.  ``undetermined``: what an alignment the data do not determine against their
+    noise does (:func:`~dualpose.evaluation.align.umeyama_alignment`): "raise" or "warn" (flagged in
+    ``alignment.conditioning``).
 
     Both trajectories first go through :func:`prepare_trajectory`: unsorted stamps are sorted and exact duplicate
     poses dropped (each with a ``UserWarning``); the same stamp with two different poses is refused.
@@ -520,7 +523,9 @@ def evaluate(
     Raises
     ------
     ValueError
-        No matching stamps, a degenerate alignment (:func:`~dualpose.evaluation.align.check_alignment_rank`), an
+        No matching stamps, a degenerate or undetermined alignment
+        (:func:`~dualpose.evaluation.align.check_alignment_rank`,
+        :func:`~dualpose.evaluation.align.alignment_conditioning`), an
         RPE step that yields no pair, two poses at one stamp, or an empty crop window.
     """
     for name, t in (("reference", reference), ("estimate", estimate)):
@@ -548,7 +553,7 @@ def evaluate(
             if not (int(align_first_n) == align_first_n and align_first_n >= 1):
                 raise ValueError(f"align_first_n must be a whole number >= 1 or None; got {align_first_n!r}")
             n = min(int(align_first_n), n)
-        alignment = align_positions(p_ref[:n], p_est[:n], align)
+        alignment = align_positions(p_ref[:n], p_est[:n], align, undetermined)
     p_est, q_est = alignment.apply(p_est, q_est)
     pairs = rpe_pairs(p_ref if rpe_pairs_from_reference else p_est, rpe_delta, rpe_unit, rpe_all_pairs)
     if pairs.shape[0] == 0:

@@ -67,6 +67,7 @@ TRUTH_METRICS: tuple[str, ...] = (
     "rpe_rotation_rmse_deg",
     "position_rmse_unaligned_m",
     "orientation_rmse_unaligned_deg",
+    "alignment_well_determined",
 )
 
 #: RPE step, metres of travelled path
@@ -173,7 +174,8 @@ def _truth_metrics(truth: Trajectory | None, estimate: Trajectory) -> tuple[dict
     per-pose arrays ``(error_index, truth matched, position_error, orientation_error_deg)``."""
     if truth is None:
         return dict.fromkeys(TRUTH_METRICS), None, None
-    ev = evaluate(truth, estimate, align="se3", rpe_delta=_RPE_DELTA_M, rpe_unit="m")
+    # a diverged estimate has no determined alignment: keep its numbers, warned about and flagged
+    ev = evaluate(truth, estimate, align="se3", rpe_delta=_RPE_DELTA_M, rpe_unit="m", undetermined="warn")
     ed = ev.as_dict()
     out = {key: ed[key] for key in TRUTH_METRICS[:4]}
     matched = truth.take(ev.idx_ref)
@@ -181,6 +183,8 @@ def _truth_metrics(truth: Trajectory | None, estimate: Trajectory) -> tuple[dict
     ori_err = np.degrees(dp.quat_angle(estimate.quats[ev.idx_est], matched.quats))
     out["position_rmse_unaligned_m"] = float(np.sqrt(np.mean(np.sum(pos_err**2, axis=1))))
     out["orientation_rmse_unaligned_deg"] = float(np.sqrt(np.mean(ori_err**2)))
+    cond = ev.alignment.conditioning
+    out["alignment_well_determined"] = bool(cond is None or cond.well_determined)
     return out, ed, (ev.idx_est, matched, pos_err, ori_err)
 
 
