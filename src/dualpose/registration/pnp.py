@@ -22,8 +22,10 @@ import dualpose as dp
 __all__ = ["PnPBatch", "PnPResult", "pnp_dlt", "pnp_refine", "solve_pnp", "solve_pnp_batch", "solve_pnp_ransac",
            "PNP_UNDETERMINED_ROTATION_RAD"]
 
-#: a PnP pose whose rotation standard deviation (largest axis) exceeds this is refused (radians, ~29 deg)
-PNP_UNDETERMINED_ROTATION_RAD = 0.5
+#: a PnP pose whose rotation standard deviation (largest axis) exceeds this is refused (radians, ~11.5 deg: a pose
+#: that loose is of no use, and a solve on nearly collinear points can stop at a wrong pose whose own σ is smaller
+#: than the true one)
+PNP_UNDETERMINED_ROTATION_RAD = 0.2
 
 
 @dataclass
@@ -212,7 +214,7 @@ def solve_pnp(
     Solved on the points normalised to spread ~1 (the pose and its covariance mapped back), so the scene's scale
     does not matter.  Raises ``ValueError`` for points all at one place or on one line, and whenever the pose is not
     determined: the Gauss–Newton normal matrix singular to float64 precision (smallest eigenvalue at most ``1e-13``
-    times the largest), or a rotation standard deviation above ``PNP_UNDETERMINED_ROTATION_RAD`` (0.5 rad) at
+    times the largest), or a rotation standard deviation above ``PNP_UNDETERMINED_ROTATION_RAD`` (0.2 rad, 11.5°) at
     ``pixel_sigma`` (points nearly collinear, or a tiny target far away) -- the numbers would be fitted to the pixel
     noise.
     """
