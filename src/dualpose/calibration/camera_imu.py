@@ -37,8 +37,10 @@ import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 import dualpose as dp
 from dualpose.calibration._preintegration import (
@@ -53,10 +55,13 @@ from dualpose.calibration._preintegration import (
 from dualpose.calibration.time_offset import estimate_time_offset, gyro_mean_rates
 from dualpose.registration.pnp import solve_pnp, solve_pnp_batch
 from dualpose.types.camera import FrameCorrespondences
+from dualpose.types.camera_models import DistortedCamera
 from dualpose.types.imu import STANDARD_GRAVITY, ImuNoise
 
 __all__ = ["CameraImuCalibration", "calibrate_camera_imu"]
 
+#: a float64 array (the shapes are in the docstrings)
+_Arr = NDArray[np.float64]
 #: global unknowns after the frame states and bias knots: δε (3, body frame), δp_bc (3), δτ, δg (2)
 _NG = 9
 _BIAS_PRIOR = np.array([0.1, 0.1, 0.1, 1.0, 1.0, 1.0])  # rad/s, m/s²: only fixes the scale
@@ -118,13 +123,13 @@ class CameraImuCalibration:
     gyro_bias: np.ndarray
     accel_bias: np.ndarray
     gravity_target: np.ndarray
-    std: dict
+    std: dict[str, Any]
     covariance: np.ndarray
     reprojection_rms_px: float
     pixel_sigma: float
     imu_chi2_per_dof: float
-    outliers: dict
-    excitation: dict
+    outliers: dict[str, Any]
+    excitation: dict[str, Any]
     gyro_misalignment: np.ndarray
     accel_misalignment: np.ndarray
     frames_used: int
@@ -132,16 +137,17 @@ class CameraImuCalibration:
     runtime_s: float
     bias_t: np.ndarray
     bias_track: np.ndarray
-    initial: dict = field(default_factory=dict)
+    initial: dict[str, Any] = field(default_factory=dict)
     camera_parameters: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    imu_axes: tuple = ()
+    imu_axes: tuple[NDArray[np.float64], ...] = ()
     imu_axes_std: np.ndarray = field(default_factory=lambda: np.zeros(0))
     camera_parameters_std: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def rotation_matrix(self) -> np.ndarray:
         """``R_bc`` (3, 3)."""
-        return dp.matrix_from_quat(self.q_bc)
+        R: _Arr = dp.matrix_from_quat(self.q_bc)
+        return R
 
     @property
     def matrix(self) -> np.ndarray:
@@ -158,7 +164,8 @@ def _tangent_basis(g: np.ndarray) -> np.ndarray:
     a = np.array([1.0, 0.0, 0.0]) if abs(u[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     e1 = np.cross(u, a)
     e1 /= np.linalg.norm(e1)
-    return np.column_stack([e1, np.cross(u, e1)])
+    basis: _Arr = np.column_stack([e1, np.cross(u, e1)])
+    return basis
 
 
 def _cross_into(out: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
@@ -172,7 +179,8 @@ def _interp3(t: np.ndarray, x: np.ndarray, tq: np.ndarray) -> np.ndarray:
     return np.column_stack([np.interp(tq, t, x[:, c]) for c in range(3)])
 
 
-def _check_inputs(imu_t, gyro, accel, frames, camera):
+def _check_inputs(imu_t: ArrayLike, gyro: ArrayLike, accel: ArrayLike, frames: object,
+                  camera: object) -> tuple[_Arr, _Arr, _Arr]:  # fmt: skip
     imu_t = np.asarray(imu_t, dtype=np.float64)
     if imu_t.ndim != 1 or len(imu_t) < 10 or not np.all(np.isfinite(imu_t)) or np.any(np.diff(imu_t) <= 0):
         raise ValueError(f"imu_t must be a finite strictly increasing array of shape (N,), N >= 10; got {imu_t.shape}")
@@ -190,7 +198,8 @@ def _check_inputs(imu_t, gyro, accel, frames, camera):
     return imu_t, out[0], out[1]
 
 
-def _initial_poses(frames, keep, camera, min_corners):
+def _initial_poses(frames: FrameCorrespondences, keep: NDArray[np.intp], camera: DistortedCamera,
+                   min_corners: int) -> tuple[_Arr, _Arr, _Arr, NDArray[np.bool_]]:  # fmt: skip
     """PnP on the undistorted corners of the frames ``keep`` (indices); returns ``R_wc`` (F, 3, 3), ``c_w`` (F, 3),
     the PnP RMS (F,) (NaN where it failed)."""
     K = np.array([[camera.fx, 0.0, camera.cx], [0.0, camera.fy, camera.cy], [0.0, 0.0, 1.0]])
@@ -223,11 +232,18 @@ def _initial_poses(frames, keep, camera, min_corners):
     return R, c, rms, ok
 
 
+#: a copy of the state of :class:`_Problem`: R, p, v, bias, R_bc, p_bc, τ, g, camera, axis-model deviation
+_State = tuple[_Arr, _Arr, _Arr, _Arr, _Arr, _Arr, float, _Arr, DistortedCamera, _Arr]
+#: what the reprojection Jacobian is built from: D (N, M, 2, 3), E (N, 3, 3), Rᵀ (N, 3, 3), y, x_b, x_c (N, M, 3)
+_ReprojectionJacobian = tuple[_Arr, _Arr, _Arr, _Arr, _Arr, _Arr]
+
+
 class _Problem:
     """The batch: fixed data, current state, residuals/normal equations (module docstring)."""
 
-    def __init__(self, imu_t, gyro, accel, t_frames, offsets, pixels, points, camera, noise, gmag, bias_model,
-                 intrinsics=False, axes=False):  # fmt: skip
+    def __init__(self, imu_t: _Arr, gyro: _Arr, accel: _Arr, t_frames: _Arr, offsets: NDArray[np.intp], pixels: _Arr,
+                 points: _Arr, camera: DistortedCamera, noise: ImuNoise, gmag: float, bias_model: str,
+                 intrinsics: bool = False, axes: bool = False) -> None:  # fmt: skip
         self.imu_t, self.gyro, self.accel = imu_t, gyro, accel
         self.t = t_frames  # (N,) camera stamps of the nodes, s
         n = len(t_frames)
@@ -268,17 +284,18 @@ class _Problem:
         self.huber = 1.5  # in σ
 
     # ----- state ---------------------------------------------------------------------------------------------
-    def set_state(self, R, p, v, bias, R_bc, p_bc, tau, g, tau_ref):
+    def set_state(self, R: _Arr, p: _Arr, v: _Arr, bias: _Arr, R_bc: _Arr, p_bc: _Arr, tau: float, g: _Arr,
+                  tau_ref: float) -> None:  # fmt: skip
         self.R, self.p, self.v, self.bias = R, p, v, bias
         self.R_bc, self.p_bc, self.tau, self.g = R_bc, p_bc, tau, g
         self.tau_ref = tau_ref
         self.relinearize()
 
-    def state(self):
+    def state(self) -> _State:
         return (self.R.copy(), self.p.copy(), self.v.copy(), self.bias.copy(), self.R_bc.copy(), self.p_bc.copy(),
                 self.tau, self.g.copy(), self.camera, self.theta.copy())  # fmt: skip
 
-    def restore(self, s):
+    def restore(self, s: _State) -> None:
         self.R, self.p, self.v, self.bias, self.R_bc, self.p_bc, self.tau, self.g, self.camera, self.theta = s
 
     def axes_matrices(self) -> tuple[np.ndarray, np.ndarray]:
@@ -288,7 +305,7 @@ class _Problem:
         return ((np.eye(3) - gyro_axes_matrix(self.theta[:N_GYRO_AXES])) @ self.correct_g,
                 (np.eye(3) - accel_axes_matrix(self.theta[N_GYRO_AXES:])) @ self.correct_a)  # fmt: skip
 
-    def relinearize(self):
+    def relinearize(self) -> None:
         """Node times ``t + τ_ref``, body rates there and the preintegration at the current biases."""
         self.s = self.t + self.tau_ref
         self.correct_g, self.correct_a = self.axes_matrices()
@@ -308,7 +325,7 @@ class _Problem:
         rw = np.array([n.gyroscope_random_walk] * 3 + [n.accelerometer_random_walk] * 3)
         self.rw_scale = 1.0 / (rw[None, :] * np.sqrt(np.maximum(dt_knot, 1e-9))[:, None])
 
-    def reanchor(self):
+    def reanchor(self) -> None:
         """Move the node times to ``t + τ`` (first-order shift of each state) and re-preintegrate."""
         d = self.tau - self.tau_ref
         bn = self.bias[self.knot]
@@ -320,7 +337,7 @@ class _Problem:
         self.tau_ref = self.tau
         self.relinearize()
 
-    def retract(self, delta):
+    def retract(self, delta: _Arr) -> None:
         dn = delta[self.node_idx]
         self.R = self.R @ dp.so3_exp(dn[:, 0:3])
         self.p = self.p + dn[:, 3:6]
@@ -336,7 +353,7 @@ class _Problem:
             self.camera = _with_parameters(self.camera, self.camera.parameters + dg[_NG + self.n_axes :])
 
     # ----- residuals -----------------------------------------------------------------------------------------
-    def reprojection(self, jac):
+    def reprojection(self, jac: bool) -> tuple[_Arr, NDArray[np.bool_], _ReprojectionJacobian | None]:
         d = self.tau - self.tau_ref
         E = dp.so3_exp(self.omega * d)
         Rt = np.swapaxes(self.R, 1, 2)
@@ -345,53 +362,55 @@ class _Problem:
         xc = (xb - self.p_bc) @ self.R_bc  # R_bcᵀ (x_b − p_bc)
         front = xc[..., 2] > 1e-3
         xc_safe = np.where(front[..., None], xc, np.array([0.0, 0.0, 1.0]))
+        parts: _ReprojectionJacobian | None = None
         if jac:
             pred, D = self.camera.project_jacobian(xc_safe)
+            parts = (D, E, Rt, y, xb, xc_safe)
         else:
-            pred, D = self.camera.project(xc_safe), None
+            pred = self.camera.project(xc_safe)
         r = pred - self.pix
         use = self.inlier & front
-        return r, use, (D, E, Rt, y, xb, xc_safe) if jac else None
+        return r, use, parts
 
-    def robust(self, r, use):
+    def robust(self, r: _Arr, use: NDArray[np.bool_]) -> tuple[float, _Arr]:
         s = np.linalg.norm(r, axis=-1) / self.sigma_px
         c = self.huber
         rho = np.where(s <= c, s * s, 2 * c * s - c * c)
         w = np.where(s <= c, 1.0, c / np.maximum(s, 1e-300)) * use
         return float(np.sum(rho * use)), w
 
-    def cost(self):
+    def cost(self) -> float:
         r, use, _ = self.reprojection(False)
         c_cam = self.robust(r, use)[0]
         return c_cam + self._imu_cost()
 
-    def _imu_args(self):
+    def _imu_args(self) -> tuple[Preintegrated, _Arr, _Arr, _Arr, _Arr, _Arr, _Arr, _Arr, _Arr, _Arr, _Arr]:
         bk = self.bias[self.knot]
         return (self.pre, self.R[:-1], self.p[:-1], self.v[:-1], self.R[1:], self.p[1:], self.v[1:], bk[:-1, :3],
                 bk[:-1, 3:], self.g, _tangent_basis(self.g))  # fmt: skip
 
-    def imu_whitened(self, jac):
-        ax = {}
-        if self.n_axes:
-            ax = {"axes_gyro": self.theta[:N_GYRO_AXES], "axes_accel": self.theta[N_GYRO_AXES:]}
-        r, J = imu_factors(*self._imu_args(), jacobians=jac, **ax)
+    def imu_whitened(self, jac: bool) -> tuple[_Arr, _Arr | None]:
+        ag, aa = (self.theta[:N_GYRO_AXES], self.theta[N_GYRO_AXES:]) if self.n_axes else (None, None)
+        r, J = imu_factors(*self._imu_args(), jacobians=jac, axes_gyro=ag, axes_accel=aa)
         rw = np.einsum("kij,kj->ki", self.imu_whiten, r)
-        Jw = self.imu_whiten @ J if jac else None
+        Jw = self.imu_whiten @ J if J is not None else None
         return rw, Jw
 
-    def _imu_cost(self):
+    def _imu_cost(self) -> float:
         rw = self.imu_whitened(False)[0]
         rb = np.diff(self.bias, axis=0) * self.rw_scale
         rp = self.bias[0] / _BIAS_PRIOR
         return float(np.sum(rw**2) + np.sum(rb**2) + np.sum(rp**2) + np.sum((self.theta / _AXES_PRIOR) ** 2))
 
-    def normal_equations(self):
+    def normal_equations(self) -> tuple[_Normal, _Arr, float]:
         """``H = JᵀWJ`` as :class:`_Normal` (band + border), the gradient ``JᵀWr`` and the cost."""
         n, K, gb = self.N, self.K, self.gbase
-        rows, cols, vals = [], [], []
+        rows: list[NDArray[np.intp]] = []
+        cols: list[NDArray[np.intp]] = []
+        vals: list[_Arr] = []
         grad = np.zeros(self.nvar)
 
-        def add(idx, Jw, rw):
+        def add(idx: NDArray[np.intp], Jw: _Arr, rw: _Arr) -> None:
             H = np.swapaxes(Jw, 1, 2) @ Jw
             rows.append(np.broadcast_to(idx[:, :, None], H.shape).ravel())
             cols.append(np.broadcast_to(idx[:, None, :], H.shape).ravel())
@@ -399,7 +418,9 @@ class _Problem:
             grad[:] += np.bincount(idx.ravel(), np.einsum("bri,br->bi", Jw, rw).ravel(), minlength=len(grad))
 
         # reprojection: per corner 2 × 16 over [φ, p, v of its node, ε, p_bc, τ]
-        r, use, (D, E, Rt, y, xb, xc_safe) = self.reprojection(True)
+        r, use, parts = self.reprojection(True)
+        assert parts is not None  # with jac=True
+        D, E, Rt, y, xb, xc_safe = parts
         c_cam, w = self.robust(r, use)
         d = self.tau - self.tau_ref
         Rbc_t = self.R_bc.T
@@ -430,6 +451,7 @@ class _Problem:
         add(idx, Jw, rw)
         # IMU factors: 9 × 26 over [node i, node j, bias knot of i, δg]
         rI, JI = self.imu_whitened(True)
+        assert JI is not None  # with jac=True
         gidx = np.broadcast_to(gb + np.arange(7, _NG + self.n_axes), (n - 1, 2 + self.n_axes))
         kidx = self.knot_idx[self.knot[:-1]]
         idx = np.concatenate([self.node_idx[:-1], self.node_idx[1:], kidx, gidx], axis=1)
@@ -467,15 +489,16 @@ class _Normal:
         br, bc = r // s, c // s
         lin = br * (s * s) + (r % s) * s + c % s
 
-        def summed(sel, index, size):
-            return np.bincount(index[sel], v[sel], minlength=size)
+        def summed(sel: NDArray[np.bool_], index: NDArray[np.intp], size: int) -> _Arr:
+            out: _Arr = np.bincount(index[sel], v[sel], minlength=size).astype(np.float64, copy=False)
+            return out
 
         self.D = summed(inb & (br == bc), lin, n * s * s).reshape(n, s, s)
         self.U = summed(inb & (bc == br + 1), lin, max(n - 1, 0) * s * s).reshape(max(n - 1, 0), s, s)
         self.B = summed((r < nb) & (c >= nb), r * m + (c - nb), nb * m).reshape(nb, m)
         self.C = summed((r >= nb) & (c >= nb), (r - nb) * m + (c - nb), m * m).reshape(m, m)
 
-    def _factor_band(self, lam: float):
+    def _factor_band(self, lam: float) -> tuple[_Arr, _Arr]:
         n = len(self.D)
         Linv = np.empty_like(self.D)
         Lsub = np.empty_like(self.U)
@@ -487,7 +510,7 @@ class _Normal:
                 d = self.D[i + 1] + lam * np.diag(np.diag(self.D[i + 1])) - Lsub[i] @ Lsub[i].T
         return Linv, Lsub
 
-    def _solve_band(self, F, b: np.ndarray) -> np.ndarray:
+    def _solve_band(self, F: tuple[_Arr, _Arr], b: _Arr) -> _Arr:
         Linv, Lsub = F
         n, s = len(Linv), self.s
         bb = b.reshape((n, s) + b.shape[1:])
@@ -499,16 +522,17 @@ class _Normal:
         x[-1] = Linv[-1].T @ y[-1]
         for i in range(n - 2, -1, -1):
             x[i] = Linv[i].T @ (y[i] - Lsub[i].T @ x[i + 1])
-        return x.reshape(b.shape)
+        out: _Arr = x.reshape(b.shape)
+        return out
 
-    def factor(self, lam: float = 0.0):
+    def factor(self, lam: float = 0.0) -> tuple[tuple[_Arr, _Arr], _Arr, _Arr]:
         """Factor of the band (damped by ``1 + lam`` on the diagonal), ``A⁻¹B`` and the border's Schur complement."""
         F = self._factor_band(lam)
         XB = self._solve_band(F, self.B)
         S = self.C + lam * np.diag(np.diag(self.C)) - self.B.T @ XB
         return F, XB, S
 
-    def solve(self, g: np.ndarray, lam: float) -> np.ndarray:
+    def solve(self, g: _Arr, lam: float) -> _Arr:
         """``−(H + λ diag H)⁻¹ g``."""
         nb = len(self.B)
         F, XB, S = self.factor(lam)
@@ -528,7 +552,7 @@ class _Normal:
         return Sinv, band_combinations.T @ y + w.T @ Sinv @ w
 
 
-def _with_parameters(camera, params: np.ndarray):
+def _with_parameters(camera: DistortedCamera, params: _Arr) -> DistortedCamera:
     """The same camera model with ``parameters`` (fx, fy, cx, cy, 4 distortion coefficients) replaced."""
     names = ("fx", "fy", "cx", "cy", *camera.DISTORTION_NAMES)
     return dataclasses.replace(camera, **{k: float(v) for k, v in zip(names, params, strict=True)})
@@ -570,7 +594,8 @@ def _fit_misalignment(x_true: np.ndarray, x_meas: np.ndarray) -> np.ndarray:
     """Least-squares ``x_meas ≈ M x_true + b`` (rows); returns ``M − I`` (3, 3)."""
     A = np.column_stack([x_true, np.ones(len(x_true))])
     coef = np.linalg.lstsq(A, x_meas, rcond=None)[0]
-    return coef[:3].T - np.eye(3)
+    M: _Arr = coef[:3].T - np.eye(3)
+    return M
 
 
 def calibrate_camera_imu(
@@ -578,7 +603,7 @@ def calibrate_camera_imu(
     gyro: np.ndarray,
     accel: np.ndarray,
     frames: FrameCorrespondences,
-    camera,
+    camera: DistortedCamera,
     imu_noise: ImuNoise,
     gravity_magnitude: float = STANDARD_GRAVITY,
     bias_model: str = "random_walk",

@@ -9,8 +9,12 @@ Frames as in :mod:`dualpose.estimation`: world/scene ``w`` (the calibration patt
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
+
+from dualpose.types.camera import FrameCorrespondences, PinholeModel
+from dualpose.types.imu import ImuNoise
 
 __all__ = ["StaticPeriod", "static_period", "static_period_from_run", "static_periods", "stack_static_periods"]
 
@@ -88,7 +92,24 @@ def static_period(
     )
 
 
-def static_period_from_run(run, t_start: float | None = None, t_end: float | None = None) -> StaticPeriod:
+class _StaticRun(Protocol):
+    """The fields of a :class:`~dualpose.sim.SimulatedRun` that :func:`static_period_from_run` reads."""
+
+    @property
+    def t(self) -> np.ndarray: ...
+    @property
+    def accel(self) -> np.ndarray: ...
+    @property
+    def frames(self) -> FrameCorrespondences: ...
+    @property
+    def camera(self) -> PinholeModel: ...
+    @property
+    def imu_noise(self) -> ImuNoise: ...
+    @property
+    def pixel_sigma(self) -> float: ...
+
+
+def static_period_from_run(run: _StaticRun, t_start: float | None = None, t_end: float | None = None) -> StaticPeriod:
     """:func:`static_period` over ``[t_start, t_end]`` (s; default the whole run) of a
     :class:`~dualpose.sim.SimulatedRun` (or any object with its fields): the IMU samples and the camera
     frames stamped in the window.  The two clocks differ by the (unknown) time offset, so keep the window a few
