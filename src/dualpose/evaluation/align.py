@@ -10,7 +10,7 @@ the trajectory-specific checks and the other alignments evo offers.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -103,7 +103,7 @@ class Alignment:
         q = np.asarray(quats, dtype=np.float64)
         return self.scale * (p @ self.rotation.T) + self.translation, dp.quat_mul(self.quat, q)
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         return {
             "method": self.method,
             "scale": float(self.scale),
@@ -154,6 +154,7 @@ def _umeyama(source: ArrayLike, target: ArrayLike, with_scale: bool, names: tupl
     check_alignment_rank(x, y, names)
     fit = register_pose(x, y, method="svd", scale=with_scale)
     d = fit.singular_values
+    assert d is not None  # method="svd" reports them
     if d[1] <= max(d[0], 1e-300) * 1e-12:
         raise ValueError(
             f"alignment is degenerate: the cross-covariance has rank < 2 (singular values {(d / n).tolist()}); "
