@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -148,6 +148,15 @@ class FilterResult:
     nodes: FilterNodes | None = None
 
 
+class _SensorSource(Protocol):
+    """A recording, simulated run or sensor set-up (:class:`~dualpose.types.SensorSetup`): its IMU noise and the
+    filter keyword arguments of its sensors."""
+
+    @property
+    def imu_noise(self) -> ImuNoise: ...
+    def sensor_options(self) -> dict[str, Any]: ...
+
+
 class EskfStateAccessors(Estimator):
     """The named blocks of an error-state IMU state (:data:`~dualpose.estimation.state.ESKF_STATE` in ``self.x``,
     the (15, 15) ``covariance`` over :data:`~dualpose.estimation.state.ESKF_ERROR`), the world-frame attitude
@@ -274,7 +283,7 @@ class ErrorStateEKF(EskfStateAccessors, Estimator):
     @classmethod
     def for_run(
         cls,
-        run: SensorRun,
+        run: _SensorSource,
         position: np.ndarray,
         velocity: np.ndarray,
         quat: np.ndarray,
@@ -291,7 +300,7 @@ class ErrorStateEKF(EskfStateAccessors, Estimator):
         return cls(position, velocity, quat, cov, **opts)
 
     @classmethod
-    def from_state(cls, run: SensorRun, x: np.ndarray, covariance: np.ndarray, **kwargs: Any) -> ErrorStateEKF:
+    def from_state(cls, run: _SensorSource, x: np.ndarray, covariance: np.ndarray, **kwargs: Any) -> ErrorStateEKF:
         """:meth:`for_run` from a whole nominal state ``x`` (16,) (:data:`~dualpose.estimation.state.ESKF_STATE`)."""
         blocks = {name: ESKF_STATE.get(x, name) for name in ESKF_STATE.names}
         position, velocity, quat = blocks.pop("position"), blocks.pop("velocity"), blocks.pop("quat")

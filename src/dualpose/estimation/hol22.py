@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 import time as _time
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -105,6 +105,12 @@ class Hol22Result:
     wall_time: float
 
 
+class _SensorOptions(Protocol):
+    """A recording, simulated run or sensor set-up: what :meth:`Hol22EKF.from_eskf_state` reads of it."""
+
+    def sensor_options(self) -> dict[str, Any]: ...
+
+
 class Hol22EKF(Estimator):
     """Hol's 22-state EKF; an :class:`~dualpose.estimation.interface.Estimator` whose state and covariance both
     follow :data:`~dualpose.estimation.state.HOL22_STATE` (the quaternion ``q^{be}`` as four numbers).
@@ -166,7 +172,7 @@ class Hol22EKF(Estimator):
 
     @classmethod
     def from_eskf_state(
-        cls, x16: np.ndarray, P15: np.ndarray, run: SensorRun, omega: np.ndarray | None = None, **kwargs: Any
+        cls, x16: np.ndarray, P15: np.ndarray, run: _SensorOptions, omega: np.ndarray | None = None, **kwargs: Any
     ) -> Hol22EKF:
         """Start from an error-state filter's state/covariance (position, velocity, q_wb, biases) for ``run``'s
         sensors: b̈ = 0 and ω = 0 (or ``omega``) with wide priors, q^{be} = conj(q_wb)."""
