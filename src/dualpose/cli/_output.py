@@ -38,7 +38,7 @@ def _trial_write(directory: Path) -> str | None:
     return None
 
 
-def output_dir_problem(path: str | os.PathLike) -> str | None:
+def output_dir_problem(path: str | os.PathLike[str]) -> str | None:
     """None when ``path`` is a writable directory or can be created as one; otherwise a one-line message naming it."""
     out = Path(path)
     if out.exists():
@@ -55,7 +55,7 @@ def output_dir_problem(path: str | os.PathLike) -> str | None:
     return None if problem is None else f"{out}: cannot create the directory: {parent} is {problem}"
 
 
-def output_files_problem(path: str | os.PathLike, names: Iterable[str], force: bool) -> str | None:
+def output_files_problem(path: str | os.PathLike[str], names: Iterable[str], force: bool) -> str | None:
     """None when ``--out path`` can take the files ``names``: :func:`output_dir_problem` finds nothing and, unless
     ``force``, none of them exists; otherwise the one-line message (``--out ...`` or ``FILE: file exists; ...``)."""
     problem = output_dir_problem(path)

@@ -43,7 +43,7 @@ arguments; 141 when the reader of standard output goes away.
 """
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     """Register ``dualpose ahrs``."""
     p = subparsers.add_parser(
         "ahrs",
@@ -144,8 +144,8 @@ def run(args: argparse.Namespace) -> int:
     smoothed = scores = None
     try:
         if args.offline:
-            cal = "auto" if calibrate else None
-            smoothed, scores = smooth_broad_trial(trial, use_mag=args.mag, mag_calibration=cal)
+            mag_cal = "auto" if calibrate else None
+            smoothed, scores = smooth_broad_trial(trial, use_mag=args.mag, mag_calibration=mag_cal)
             result = smoothed.forward
         else:
             result = estimate_orientation(
@@ -179,7 +179,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.offline:
         scores = broad_scores(result.quat, trial, use_mag=args.mag)
     has_ref = scores is not None
-    if has_ref:
+    if scores is not None:
         out.update(scores)
     else:
         out.update(total_rmse_deg=None, heading_rmse_deg=None, inclination_rmse_deg=None)

@@ -14,6 +14,7 @@ import math
 import os
 import sys
 import warnings
+from typing import Any
 
 from dualpose.cli._args import add_bag_time_argument
 from dualpose.cli._progress import Progress, add_quiet_argument
@@ -21,7 +22,7 @@ from dualpose.cli._progress import Progress, add_quiet_argument
 _STAGES = ("read reference", "read estimate", "associate, align, ATE, RPE", "plot")
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     """Register ``dualpose eval``."""
     p = subparsers.add_parser(
         "eval",
@@ -72,7 +73,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     return p
 
 
-def _table(result: dict) -> str:
+def _table(result: dict[str, Any]) -> str:
     rows = [
         ("ATE translation [m]", result["ate_m"]),
         ("orientation [deg]", result["orientation_deg"]),

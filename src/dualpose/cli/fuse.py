@@ -32,9 +32,16 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any
 
 from dualpose.cli._args import seed
 from dualpose.cli._stream import write_flushed
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from dualpose.pipelines.fuse import FuseResult
 
 #: files ``--out`` writes
 OUTPUT_FILES: tuple[str, ...] = ("trajectory.tum", "metrics.json", "top_view.png", "errors.png", "nis.png")
@@ -83,7 +90,7 @@ def _outage(text: str) -> tuple[float, float]:
     return a, b
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     """Register ``dualpose fuse``."""
     p = subparsers.add_parser(
         "fuse",
@@ -145,7 +152,7 @@ _ERROR_ROWS = (
 )
 
 
-def _table(m: dict) -> str:
+def _table(m: dict[str, Any]) -> str:
     from dualpose.cli._output import aligned_rows
 
     def num(key: str, spec: str) -> str:
@@ -164,7 +171,7 @@ def _table(m: dict) -> str:
     return aligned_rows(rows)
 
 
-def _table_smoothed(m: dict, num) -> str:
+def _table_smoothed(m: dict[str, Any], num: Callable[[str, str], str]) -> str:
     """The summary table with a filter and a smoother column (``--smooth``)."""
     s = m["smoothed"]
     rows = [("data", m["data"], ""), ("method", "filter", "RTS smoother")]
@@ -188,7 +195,7 @@ def _output_files(smooth: bool) -> tuple[str, ...]:
     return OUTPUT_FILES + (("trajectory_smoothed.tum",) if smooth else ())
 
 
-def _run_job(args: argparse.Namespace):
+def _run_job(args: argparse.Namespace) -> FuseResult | None:
     """``run_fuse`` on ``--data`` with a progress bar; warnings about the input are printed one line each, a bad
     input is reported on stderr (file and line) and gives None."""
     import warnings
@@ -205,9 +212,10 @@ def _run_job(args: argparse.Namespace):
             bar.update(1)
 
         try:
-            result = run_fuse(data="sim" if args.data is None else args.data, filter=args.filter,
-                              seed=0 if args.seed is None else args.seed, progress=progress,
-                              smooth=args.smooth)  # fmt: skip
+            result: FuseResult | Exception = run_fuse(
+                data="sim" if args.data is None else args.data, filter=args.filter,
+                seed=0 if args.seed is None else args.seed, progress=progress, smooth=args.smooth,
+            )  # fmt: skip
         except (RecordingError, ValueError) as exc:
             result = exc
     for w in caught:
@@ -278,11 +286,11 @@ _TARGET_ROWS = (
 )
 
 
-def _target_table(m: dict) -> str:
+def _target_table(m: dict[str, Any]) -> str:
     from dualpose.cli._output import aligned_rows
 
-    def get(path):
-        v = m
+    def get(path: Sequence[str]) -> Any:
+        v: Any = m
         for k in path:
             v = None if v is None else v.get(k)
         return v
@@ -311,7 +319,9 @@ def _target_table(m: dict) -> str:
     return aligned_rows(rows)
 
 
-def _report(args: argparse.Namespace, result, paths: dict, table) -> int:
+def _report(
+    args: argparse.Namespace, result: FuseResult, paths: dict[str, Path], table: Callable[[dict[str, Any]], str]
+) -> int:
     """Write ``--out``'s files (``paths``: name -> path) of a :class:`~dualpose.pipelines.fuse.FuseResult` and print
     ``table(metrics)`` or, with ``--json``, the metrics (without the full evaluation)."""
     metrics = result.metrics
@@ -358,7 +368,7 @@ def run_target(args: argparse.Namespace) -> int:
         return _usage_error(f"{', '.join(used)}: not used with a calibration-target recording")
     if args.out_bag and not args.out:
         return _usage_error("--out-bag writes into the --out directory: give --out DIR")
-    paths: dict = {}
+    paths: dict[str, Path] = {}
     if args.out:
         out = Path(args.out)
         names = OUTPUT_FILES + ((f"trajectory.{args.out_bag}",) if args.out_bag else ())
