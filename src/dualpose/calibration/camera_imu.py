@@ -37,7 +37,7 @@ import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -58,7 +58,9 @@ from dualpose.types.camera import FrameCorrespondences
 from dualpose.types.camera_models import DistortedCamera
 from dualpose.types.imu import STANDARD_GRAVITY, ImuNoise
 
-__all__ = ["CameraImuCalibration", "calibrate_camera_imu"]
+__all__ = [
+    "CameraImuCalibration", "CameraImuExcitation", "CameraImuOutliers", "CameraImuStd", "calibrate_camera_imu"
+]
 
 #: a float64 array (the shapes are in the docstrings)
 _Arr = NDArray[np.float64]
@@ -66,6 +68,42 @@ _Arr = NDArray[np.float64]
 _NG = 9
 _BIAS_PRIOR = np.array([0.1, 0.1, 0.1, 1.0, 1.0, 1.0])  # rad/s, m/s²: only fixes the scale
 _AXES_PRIOR = 0.1  # the axis-model parameters (dimensionless), likewise
+
+
+class CameraImuStd(TypedDict):
+    """The ``std`` of :class:`CameraImuCalibration`: first-order standard deviations (see there)."""
+
+    rotation_deg: NDArray[np.float64]
+    translation_m: NDArray[np.float64]
+    time_offset_s: float
+    gyro_bias: NDArray[np.float64]
+    accel_bias: NDArray[np.float64]
+    gravity_target_deg: float
+
+
+class CameraImuOutliers(TypedDict):
+    """The ``outliers`` of :class:`CameraImuCalibration`: the frames not used (camera stamps, s) and the corners
+    rejected."""
+
+    frames_total: int
+    no_detections: list[float]
+    too_few_corners: list[float]
+    outside_imu: list[float]
+    pnp_failed: list[float]
+    corners_total: int
+    corners_rejected: int
+    corners_rejected_fraction: float
+    reject_threshold_px: float
+
+
+class CameraImuExcitation(TypedDict):
+    """The ``excitation`` of :class:`CameraImuCalibration`: how well the motion determined the lever arm and the
+    time offset."""
+
+    translation_std_m: NDArray[np.float64]
+    translation_directions: NDArray[np.float64]
+    time_offset_std_s: float
+    warnings: list[str]
 
 
 @dataclass
@@ -123,13 +161,13 @@ class CameraImuCalibration:
     gyro_bias: np.ndarray
     accel_bias: np.ndarray
     gravity_target: np.ndarray
-    std: dict[str, Any]
+    std: CameraImuStd
     covariance: np.ndarray
     reprojection_rms_px: float
     pixel_sigma: float
     imu_chi2_per_dof: float
-    outliers: dict[str, Any]
-    excitation: dict[str, Any]
+    outliers: CameraImuOutliers
+    excitation: CameraImuExcitation
     gyro_misalignment: np.ndarray
     accel_misalignment: np.ndarray
     frames_used: int
@@ -748,7 +786,7 @@ def calibrate_camera_imu(
     lam, vec = np.linalg.eigh(cov_g[3:6, 3:6])
     order = np.argsort(lam)[::-1]
     tr_std = np.sqrt(np.maximum(lam[order], 0.0))
-    warnings = []
+    warnings: list[str] = []
     if tr_std[0] > 0.005:
         worst = np.round(vec[:, order[0]], 3).tolist()
         warnings.append(f"translation poorly excited: std {1e3 * tr_std[0]:.1f} mm along {worst} (rotate the rig "
@@ -772,31 +810,31 @@ def calibrate_camera_imu(
     acc_M = _fit_misalignment(dv_true[short] / dt[short, None], pre_nb.dv[short] / dt[short, None])
 
     q_bc = dp.quat_from_matrix(prob.R_bc)
-    std = {
-        "rotation_deg": np.degrees(std_all[0:3]),
-        "translation_m": std_all[3:6],
-        "time_offset_s": float(std_all[6]),
-        "gyro_bias": std_all[_NG : _NG + 3],
-        "accel_bias": std_all[_NG + 3 : _NG + 6],
-        "gravity_target_deg": float(np.degrees(math.sqrt(max(cov_g[7, 7] + cov_g[8, 8], 0.0)))),
-    }
-    outliers = {
-        "frames_total": int(len(ft)),
-        "no_detections": ft[no_det].tolist(),
-        "too_few_corners": ft[few].tolist(),
-        "outside_imu": ft[~inside & ~no_det].tolist(),
-        "pnp_failed": ft[pnp_failed].tolist(),
-        "corners_total": int(prob.valid0.sum()),
-        "corners_rejected": n_rej,
-        "corners_rejected_fraction": n_rej / max(int(prob.valid0.sum()), 1),
-        "reject_threshold_px": reject_sigmas * prob.sigma_px,
-    }
-    excitation = {
-        "translation_std_m": tr_std,
-        "translation_directions": vec[:, order].T,
-        "time_offset_std_s": float(math.sqrt(max(ct[3, 3], 0.0))),
-        "warnings": warnings,
-    }
+    std = CameraImuStd(
+        rotation_deg=np.degrees(std_all[0:3]),
+        translation_m=std_all[3:6],
+        time_offset_s=float(std_all[6]),
+        gyro_bias=std_all[_NG : _NG + 3],
+        accel_bias=std_all[_NG + 3 : _NG + 6],
+        gravity_target_deg=float(np.degrees(math.sqrt(max(cov_g[7, 7] + cov_g[8, 8], 0.0)))),
+    )
+    outliers = CameraImuOutliers(
+        frames_total=int(len(ft)),
+        no_detections=ft[no_det].tolist(),
+        too_few_corners=ft[few].tolist(),
+        outside_imu=ft[~inside & ~no_det].tolist(),
+        pnp_failed=ft[pnp_failed].tolist(),
+        corners_total=int(prob.valid0.sum()),
+        corners_rejected=n_rej,
+        corners_rejected_fraction=n_rej / max(int(prob.valid0.sum()), 1),
+        reject_threshold_px=reject_sigmas * prob.sigma_px,
+    )
+    excitation = CameraImuExcitation(
+        translation_std_m=tr_std,
+        translation_directions=vec[:, order].T,
+        time_offset_std_s=float(math.sqrt(max(ct[3, 3], 0.0))),
+        warnings=warnings,
+    )
     return CameraImuCalibration(
         q_bc=q_bc, p_bc=prob.p_bc.copy(), time_offset=float(prob.tau), gyro_bias=prob.bias[:, :3].mean(axis=0),
         accel_bias=prob.bias[:, 3:].mean(axis=0), gravity_target=prob.g.copy(), std=std, covariance=cov_g,

@@ -61,7 +61,7 @@ MAG_CALIBRATION_MODELS = ("hard_iron", "diagonal", "symmetric")
 
 
 class MagCandidate(TypedDict):
-    """One fitted model of :attr:`MagCalibration.candidates`: the excess relative spread of ``|m|`` after it
+    """One fitted model of the ``candidates`` of :class:`MagCalibration`: the excess relative spread of ``|m|`` after it
     (``spread``) and of the raw samples it was fitted on (``spread_raw``), the largest standard errors of the offset
     (µT) and of a matrix entry, the offset ``b`` (3,) µT, the matrix ``A`` (3, 3) and the number of samples."""
 
