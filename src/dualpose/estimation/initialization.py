@@ -17,10 +17,9 @@ from scipy import sparse
 from scipy.sparse.linalg import splu
 
 import dualpose as dp
+from dualpose.calibration.static import _StaticRun
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
 from dualpose.registration.pnp import PnPResult, solve_pnp_ransac
-from dualpose.types.camera import FrameCorrespondences, PinholeModel
-from dualpose.types.imu import ImuNoise
 
 __all__ = [
     "StaticAlignment",
@@ -198,27 +197,16 @@ def detect_rest(
     return float(t[out * m - 1] - t[0]) if out * m - 1 < len(t) else float(t[-1] - t[0])
 
 
-class _RunAtRest(Protocol):
-    """The fields of a run :func:`initial_state_from_run` reads (``time_offset`` too when it has one)."""
+class _RunAtRest(_StaticRun, Protocol):
+    """The fields of a run :func:`initial_state_from_run` reads (``time_offset`` too when it has one): those of a
+    static period's run, the gyro and the extrinsic."""
 
     @property
-    def t(self) -> np.ndarray: ...
-    @property
     def gyro(self) -> np.ndarray: ...
-    @property
-    def accel(self) -> np.ndarray: ...
-    @property
-    def frames(self) -> FrameCorrespondences: ...
-    @property
-    def camera(self) -> PinholeModel: ...
-    @property
-    def pixel_sigma(self) -> float: ...
     @property
     def q_bc(self) -> np.ndarray: ...
     @property
     def p_bc(self) -> np.ndarray: ...
-    @property
-    def imu_noise(self) -> ImuNoise: ...
 
 
 def initial_state_from_run(run: _RunAtRest, rest_seconds: float | None = 0.9) -> tuple[np.ndarray, np.ndarray]:
