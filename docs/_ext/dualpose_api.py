@@ -324,7 +324,6 @@ EXTERNAL: dict[str, tuple[str, list[tuple[str, ...]]]] = {
         ("numpy.typing.ArrayLike", "py:class", "reference/typing.html#numpy.typing.ArrayLike"),
         ("numpy.random._generator.Generator", "py:class", "reference/random/generator.html#numpy.random.Generator"),
         ("numpy.typing.NDArray", "py:data", "reference/typing.html#numpy.typing.NDArray"),
-        ("numpy.typing.NDArray", "py:class", "reference/typing.html#numpy.typing.NDArray"),
         ("numpy.typing.DTypeLike", "py:data", "reference/typing.html#numpy.typing.DTypeLike"),
         *[(f"numpy.{n}", "py:function", f"reference/generated/numpy.{n}.html") for n in
           ("array", "asarray", "einsum", "linspace", "arctan2", "interp", "unwrap", "set_printoptions", "allclose",
@@ -504,24 +503,12 @@ def _name_of_alias(self) -> str:
     return self.name
 
 
-def _subscripted_alias(self, args: object) -> object:
-    """``NDArray[np.float64]`` with ``NDArray`` an ``autodoc_type_aliases`` alias: the alias of the subscripted name
-    (``numpy.typing.NDArray[numpy.float64]``), so that the signature keeps its annotations instead of falling back to
-    the source text for all of them (the alias alone cannot be subscripted)."""
-    from sphinx.util.inspect import TypeAliasForwardRef
-    from sphinx.util.typing import stringify_annotation
-
-    items = args if isinstance(args, tuple) else (args,)
-    return TypeAliasForwardRef(f"{self.name}[{', '.join(stringify_annotation(a, 'fully-qualified') for a in items)}]")
-
-
 def setup(app):
     # Sphinx writes an ``autodoc_type_aliases`` alias inside a union (``ArrayLike | None``) with its repr,
     # ``TypeAliasForwardRef('numpy.typing.ArrayLike')``; the alias's own name is what the signature should show
     from sphinx.util.inspect import TypeAliasForwardRef
 
     TypeAliasForwardRef.__repr__ = _name_of_alias
-    TypeAliasForwardRef.__getitem__ = _subscripted_alias
     app.connect("builder-inited", generate_api)
     app.connect("missing-reference", resolve_dualpose_reference)
     app.connect("env-updated", register_reexports)
