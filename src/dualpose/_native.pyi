@@ -217,12 +217,16 @@ matrix_from_dualquat: np.ufunc  # (8)->(4,4)
 matrix_from_quat: np.ufunc  # (4)->(3,3)
 def msckf_features(
     clones: Any, clones_fej: Any, q_bc: Any, p_bc: Any, offsets: Any, obs_clone: Any, obs_uv: Any, P: Any, sigma: Any,
-    chi2: Any, limits: Any, H: Any, r: Any, rvar: Any, status: Any, nis: Any, /
+    chi2: Any, limits: Any, H: Any, r: Any, rvar: Any, status: Any, nis: Any, points: Any, top: Any, /
 ) -> Any: ...
 def msckf_propagate(
     x: Any, x0: Any, P: Any, Phi: Any, gyro: Any, accel: Any, dt: Any, gravity: Any, noise: Any, X: Any, /
 ) -> Any: ...
-def msckf_update(x: Any, clones: Any, P: Any, H: Any, r: Any, sigma: Any, /) -> Any: ...
+def msckf_slam_rows(
+    clones: Any, clones_fej: Any, q_bc: Any, p_bc: Any, points: Any, points_fej: Any, idx: Any, clone: Any, uv: Any,
+    P: Any, sigma: Any, gate: Any, H: Any, r: Any, status: Any, r_all: Any, rvar: Any, /
+) -> Any: ...
+def msckf_update(x: Any, clones: Any, landmarks: Any, extra: Any, P: Any, H: Any, r: Any, sigma: Any, /) -> Any: ...
 omega_from_quat_derivative: np.ufunc  # (4),(4),()->(3)
 qt_conj: np.ufunc  # (4),(3)->(4),(3)
 qt_from_dualquat: np.ufunc  # (8)->(4),(3)
