@@ -10,6 +10,7 @@ import pytest
 
 import dualpose as dp
 from dualpose import sim
+from dualpose.calibration._preintegration import imu_factors, preintegrate
 from dualpose.calibration.camera_imu import calibrate_camera_imu
 from dualpose.types.camera import FrameCorrespondences
 from dualpose.types.camera_models import RadTanCamera
@@ -218,3 +219,19 @@ def test_euroc_cut_against_kalibr_and_stereo(euroc_cut):
     # a 15 s cut: 0.15° and 4.6 mm measured (the whole recording: 0.066°, 1.8 mm; docs/euroc.md)
     assert _angle_deg(stereo[:3, :3].T @ est[:3, :3]) < 0.25
     assert np.linalg.norm(est[:3, 3] - stereo[:3, 3]) < 0.008
+
+
+def test_imu_factors_with_axis_models_need_the_axis_jacobians_and_both_deviations():
+    t = np.linspace(0.0, 1.0, 101)
+    gyro, accel = np.zeros((101, 3)), np.tile([0.0, 0.0, 9.81], (101, 1))
+    s, zeros = np.array([0.1, 0.5, 0.9]), np.zeros((2, 3))
+    R = np.broadcast_to(np.eye(3), (2, 3, 3))
+    states = (R, zeros, zeros, R, zeros, zeros, zeros, zeros, np.array([0.0, 0.0, -9.81]), np.eye(3)[:, :2])
+    plain = preintegrate(t, gyro, accel, s, zeros, zeros, 1e-3, 1e-2)
+    with pytest.raises(ValueError, match="no axis-model Jacobians"):
+        imu_factors(plain, *states, axes_gyro=np.zeros(6), axes_accel=np.zeros(9))
+    with_axes = preintegrate(t, gyro, accel, s, zeros, zeros, 1e-3, 1e-2, axes=True)
+    with pytest.raises(ValueError, match="axes_accel must be given with axes_gyro"):
+        imu_factors(with_axes, *states, axes_gyro=np.zeros(6))
+    r, J = imu_factors(with_axes, *states, axes_gyro=np.zeros(6), axes_accel=np.zeros(9))
+    assert r.shape == (2, 9) and J is not None and J.shape == (2, 9, 41)

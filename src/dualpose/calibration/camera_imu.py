@@ -38,8 +38,10 @@ import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
+from typing import Any, Literal, TypedDict, overload
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 import dualpose as dp
 from dualpose import _native
@@ -55,17 +57,57 @@ from dualpose.calibration._preintegration import (
 from dualpose.calibration.time_offset import estimate_time_offset, gyro_mean_rates
 from dualpose.registration.pnp import solve_pnp, solve_pnp_batch
 from dualpose.types.camera import FrameCorrespondences
-from dualpose.types.camera_models import RadTanCamera
+from dualpose.types.camera_models import DistortedCamera, RadTanCamera
 from dualpose.types.imu import STANDARD_GRAVITY, ImuNoise
 
-__all__ = ["CameraImuCalibration", "calibrate_camera_imu"]
+__all__ = [
+    "CameraImuCalibration", "CameraImuExcitation", "CameraImuOutliers", "CameraImuStd", "calibrate_camera_imu"
+]
 
+#: a float64 array (the shapes are in the docstrings)
+_Arr = NDArray[np.float64]
 #: global unknowns after the frame states and bias knots: δε (3, body frame), δp_bc (3), δτ, δg (2)
 _NG = 9
 _BIAS_PRIOR = np.array([0.1, 0.1, 0.1, 1.0, 1.0, 1.0])  # rad/s, m/s²: only fixes the scale
 _AXES_PRIOR = 0.1  # the axis-model parameters (dimensionless), likewise
 #: relative cost decrease that ends the LM of a re-weighting pass (the final pass runs to 1e-7)
 _PASS_TOLERANCE = 1e-5
+
+
+class CameraImuStd(TypedDict):
+    """The ``std`` of :class:`CameraImuCalibration`: first-order standard deviations (see there)."""
+
+    rotation_deg: NDArray[np.float64]
+    translation_m: NDArray[np.float64]
+    time_offset_s: float
+    gyro_bias: NDArray[np.float64]
+    accel_bias: NDArray[np.float64]
+    gravity_target_deg: float
+
+
+class CameraImuOutliers(TypedDict):
+    """The ``outliers`` of :class:`CameraImuCalibration`: the frames not used (camera stamps, s) and the corners
+    rejected."""
+
+    frames_total: int
+    no_detections: list[float]
+    too_few_corners: list[float]
+    outside_imu: list[float]
+    pnp_failed: list[float]
+    corners_total: int
+    corners_rejected: int
+    corners_rejected_fraction: float
+    reject_threshold_px: float
+
+
+class CameraImuExcitation(TypedDict):
+    """The ``excitation`` of :class:`CameraImuCalibration`: how well the motion determined the lever arm and the
+    time offset."""
+
+    translation_std_m: NDArray[np.float64]
+    translation_directions: NDArray[np.float64]
+    time_offset_std_s: float
+    warnings: list[str]
 
 
 @dataclass
@@ -124,13 +166,13 @@ class CameraImuCalibration:
     gyro_bias: np.ndarray
     accel_bias: np.ndarray
     gravity_target: np.ndarray
-    std: dict
+    std: CameraImuStd
     covariance: np.ndarray
     reprojection_rms_px: float
     pixel_sigma: float
     imu_chi2_per_dof: float
-    outliers: dict
-    excitation: dict
+    outliers: CameraImuOutliers
+    excitation: CameraImuExcitation
     gyro_misalignment: np.ndarray
     accel_misalignment: np.ndarray
     frames_used: int
@@ -138,9 +180,9 @@ class CameraImuCalibration:
     runtime_s: float
     bias_t: np.ndarray
     bias_track: np.ndarray
-    initial: dict = field(default_factory=dict)
+    initial: dict[str, Any] = field(default_factory=dict)
     camera_parameters: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    imu_axes: tuple = ()
+    imu_axes: tuple[NDArray[np.float64], ...] = ()
     imu_axes_std: np.ndarray = field(default_factory=lambda: np.zeros(0))
     camera_parameters_std: np.ndarray = field(default_factory=lambda: np.zeros(0))
     blur_time_s: float = 0.0
@@ -148,7 +190,8 @@ class CameraImuCalibration:
     @property
     def rotation_matrix(self) -> np.ndarray:
         """``R_bc`` (3, 3)."""
-        return dp.matrix_from_quat(self.q_bc)
+        R: _Arr = dp.matrix_from_quat(self.q_bc)
+        return R
 
     @property
     def matrix(self) -> np.ndarray:
@@ -165,7 +208,8 @@ def _tangent_basis(g: np.ndarray) -> np.ndarray:
     a = np.array([1.0, 0.0, 0.0]) if abs(u[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     e1 = np.cross(u, a)
     e1 /= np.linalg.norm(e1)
-    return np.column_stack([e1, np.cross(u, e1)])
+    basis: _Arr = np.column_stack([e1, np.cross(u, e1)])
+    return basis
 
 
 def _cross_into(out: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
@@ -179,7 +223,8 @@ def _interp3(t: np.ndarray, x: np.ndarray, tq: np.ndarray) -> np.ndarray:
     return np.column_stack([np.interp(tq, t, x[:, c]) for c in range(3)])
 
 
-def _check_inputs(imu_t, gyro, accel, frames, camera):
+def _check_inputs(imu_t: ArrayLike, gyro: ArrayLike, accel: ArrayLike, frames: object,
+                  camera: object) -> tuple[_Arr, _Arr, _Arr]:  # fmt: skip
     imu_t = np.asarray(imu_t, dtype=np.float64)
     if imu_t.ndim != 1 or len(imu_t) < 10 or not np.all(np.isfinite(imu_t)) or np.any(np.diff(imu_t) <= 0):
         raise ValueError(f"imu_t must be a finite strictly increasing array of shape (N,), N >= 10; got {imu_t.shape}")
@@ -197,7 +242,8 @@ def _check_inputs(imu_t, gyro, accel, frames, camera):
     return imu_t, out[0], out[1]
 
 
-def _initial_poses(frames, keep, camera, min_corners):
+def _initial_poses(frames: FrameCorrespondences, keep: NDArray[np.intp], camera: DistortedCamera,
+                   min_corners: int) -> tuple[_Arr, _Arr, _Arr, NDArray[np.bool_]]:  # fmt: skip
     """PnP on the undistorted corners of the frames ``keep`` (indices); returns ``R_wc`` (F, 3, 3), ``c_w`` (F, 3),
     the PnP RMS (F,) (NaN where it failed)."""
     K = np.array([[camera.fx, 0.0, camera.cx], [0.0, camera.fy, camera.cy], [0.0, 0.0, 1.0]])
@@ -230,11 +276,18 @@ def _initial_poses(frames, keep, camera, min_corners):
     return R, c, rms, ok
 
 
+#: a copy of the state of :class:`_Problem`: R, p, v, bias, R_bc, p_bc, τ, g, camera, axis-model deviation
+_State = tuple[_Arr, _Arr, _Arr, _Arr, _Arr, _Arr, float, _Arr, DistortedCamera, _Arr]
+#: what the reprojection Jacobian is built from: D (N, M, 2, 3), E (N, 3, 3), Rᵀ (N, 3, 3), y, x_b, x_c (N, M, 3)
+_ReprojectionJacobian = tuple[_Arr, _Arr, _Arr, _Arr, _Arr, _Arr]
+
+
 class _Problem:
     """The batch: fixed data, current state, residuals/normal equations (module docstring)."""
 
-    def __init__(self, imu_t, gyro, accel, t_frames, offsets, pixels, points, camera, noise, gmag, bias_model,
-                 intrinsics=False, axes=False):  # fmt: skip
+    def __init__(self, imu_t: _Arr, gyro: _Arr, accel: _Arr, t_frames: _Arr, offsets: NDArray[np.intp], pixels: _Arr,
+                 points: _Arr, camera: DistortedCamera, noise: ImuNoise, gmag: float, bias_model: str,
+                 intrinsics: bool = False, axes: bool = False) -> None:  # fmt: skip
         self.imu_t, self.gyro, self.accel = imu_t, gyro, accel
         self.t = t_frames  # (N,) camera stamps of the nodes, s
         n = len(t_frames)
@@ -279,17 +332,18 @@ class _Problem:
         self.native = isinstance(camera, RadTanCamera) and not intrinsics
 
     # ----- state ---------------------------------------------------------------------------------------------
-    def set_state(self, R, p, v, bias, R_bc, p_bc, tau, g, tau_ref):
+    def set_state(self, R: _Arr, p: _Arr, v: _Arr, bias: _Arr, R_bc: _Arr, p_bc: _Arr, tau: float, g: _Arr,
+                  tau_ref: float) -> None:  # fmt: skip
         self.R, self.p, self.v, self.bias = R, p, v, bias
         self.R_bc, self.p_bc, self.tau, self.g = R_bc, p_bc, tau, g
         self.tau_ref = tau_ref
         self.relinearize()
 
-    def state(self):
+    def state(self) -> _State:
         return (self.R.copy(), self.p.copy(), self.v.copy(), self.bias.copy(), self.R_bc.copy(), self.p_bc.copy(),
                 self.tau, self.g.copy(), self.camera, self.theta.copy())  # fmt: skip
 
-    def restore(self, s):
+    def restore(self, s: _State) -> None:
         self.R, self.p, self.v, self.bias, self.R_bc, self.p_bc, self.tau, self.g, self.camera, self.theta = s
 
     def axes_matrices(self) -> tuple[np.ndarray, np.ndarray]:
@@ -299,7 +353,7 @@ class _Problem:
         return ((np.eye(3) - gyro_axes_matrix(self.theta[:N_GYRO_AXES])) @ self.correct_g,
                 (np.eye(3) - accel_axes_matrix(self.theta[N_GYRO_AXES:])) @ self.correct_a)  # fmt: skip
 
-    def relinearize(self):
+    def relinearize(self) -> None:
         """Node times ``t + τ_ref``, body rates there and the preintegration at the current biases."""
         self.s = self.t + self.tau_ref
         self.correct_g, self.correct_a = self.axes_matrices()
@@ -319,7 +373,7 @@ class _Problem:
         rw = np.array([n.gyroscope_random_walk] * 3 + [n.accelerometer_random_walk] * 3)
         self.rw_scale = 1.0 / (rw[None, :] * np.sqrt(np.maximum(dt_knot, 1e-9))[:, None])
 
-    def reanchor(self):
+    def reanchor(self) -> None:
         """Move the node times to ``t + τ`` (first-order shift of each state) and re-preintegrate."""
         d = self.tau - self.tau_ref
         bn = self.bias[self.knot]
@@ -331,7 +385,7 @@ class _Problem:
         self.tau_ref = self.tau
         self.relinearize()
 
-    def retract(self, delta):
+    def retract(self, delta: _Arr) -> None:
         dn = delta[self.node_idx]
         self.R = self.R @ dp.so3_exp(dn[:, 0:3])
         self.p = self.p + dn[:, 3:6]
@@ -347,7 +401,13 @@ class _Problem:
             self.camera = _with_parameters(self.camera, self.camera.parameters + dg[_NG + self.n_axes :])
 
     # ----- residuals -----------------------------------------------------------------------------------------
-    def reprojection(self, jac):
+    @overload
+    def reprojection(self, jac: Literal[True]) -> tuple[_Arr, NDArray[np.bool_], _ReprojectionJacobian]: ...
+
+    @overload
+    def reprojection(self, jac: Literal[False]) -> tuple[_Arr, NDArray[np.bool_], None]: ...
+
+    def reprojection(self, jac: bool) -> tuple[_Arr, NDArray[np.bool_], _ReprojectionJacobian | None]:
         d = self.tau - self.tau_ref
         E = dp.so3_exp(self.omega * d)
         Rt = np.swapaxes(self.R, 1, 2)
@@ -356,13 +416,15 @@ class _Problem:
         xc = (xb - self.p_bc) @ self.R_bc  # R_bcᵀ (x_b − p_bc)
         front = xc[..., 2] > 1e-3
         xc_safe = np.where(front[..., None], xc, np.array([0.0, 0.0, 1.0]))
+        parts: _ReprojectionJacobian | None = None
         if jac:
             pred, D = self.camera.project_jacobian(xc_safe)
+            parts = (D, E, Rt, y, xb, xc_safe)
         else:
-            pred, D = self.camera.project(xc_safe), None
+            pred = self.camera.project(xc_safe)
         r = pred - self.pix
         use = self.inlier & front
-        return r, use, (D, E, Rt, y, xb, xc_safe) if jac else None
+        return r, use, parts
 
     def robust(self, r: np.ndarray, use: np.ndarray) -> tuple[float, np.ndarray]:
         s = np.linalg.norm(r, axis=-1) / (self.sigma_px * self.corner_scale)
@@ -425,18 +487,16 @@ class _Problem:
         c_cam = self.robust(r, use)[0]
         return c_cam + self._imu_cost()
 
-    def _imu_args(self):
+    def _imu_args(self) -> tuple[Preintegrated, _Arr, _Arr, _Arr, _Arr, _Arr, _Arr, _Arr, _Arr, _Arr, _Arr]:
         bk = self.bias[self.knot]
         return (self.pre, self.R[:-1], self.p[:-1], self.v[:-1], self.R[1:], self.p[1:], self.v[1:], bk[:-1, :3],
                 bk[:-1, 3:], self.g, _tangent_basis(self.g))  # fmt: skip
 
-    def imu_whitened(self, jac):
-        ax = {}
-        if self.n_axes:
-            ax = {"axes_gyro": self.theta[:N_GYRO_AXES], "axes_accel": self.theta[N_GYRO_AXES:]}
-        r, J = imu_factors(*self._imu_args(), jacobians=jac, **ax)
+    def imu_whitened(self, jac: bool) -> tuple[_Arr, _Arr | None]:
+        ag, aa = (self.theta[:N_GYRO_AXES], self.theta[N_GYRO_AXES:]) if self.n_axes else (None, None)
+        r, J = imu_factors(*self._imu_args(), jacobians=jac, axes_gyro=ag, axes_accel=aa)
         rw = np.einsum("kij,kj->ki", self.imu_whiten, r)
-        Jw = self.imu_whiten @ J if jac else None
+        Jw = self.imu_whiten @ J if J is not None else None
         return rw, Jw
 
     def _imu_cost(self) -> float:
@@ -487,6 +547,7 @@ class _Problem:
         # IMU factors: 9 × 26 over [node i, node j, bias knot of i, δg]
         # IMU factors: 9 × 26 over [node i, node j, bias knot of i, δg]
         rI, JI = self.imu_whitened(True)
+        assert JI is not None  # with jac=True
         gidx = np.broadcast_to(gb + np.arange(7, _NG + self.n_axes), (n - 1, 2 + self.n_axes))
         kidx = self.knot_idx[self.knot[:-1]]
         idx = np.concatenate([self.node_idx[:-1], self.node_idx[1:], kidx, gidx], axis=1)
@@ -609,7 +670,7 @@ class _Normal:
         n, s = self.D.shape[:2]
         Linv = np.empty((n, s, s))
         Lsub = np.empty((max(n - 1, 0), s, s))
-        if not _native.block_tridiagonal_factor(np.ascontiguousarray(self.D), np.ascontiguousarray(self.U),
+        if not _native.block_tridiagonal_factor(np.ascontiguousarray(self.D), np.ascontiguousarray(self.U),  # type: ignore[func-returns-value]
                                                 float(lam), Linv, Lsub):  # fmt: skip
             raise np.linalg.LinAlgError("the frame band of the normal matrix is not positive definite")
         return Linv, Lsub
@@ -623,14 +684,14 @@ class _Normal:
         _native.block_tridiagonal_solve(Linv, Lsub, bb, x)
         return x.reshape(b.shape)
 
-    def factor(self, lam: float = 0.0):
+    def factor(self, lam: float = 0.0) -> tuple[tuple[_Arr, _Arr], _Arr, _Arr]:
         """Factor of the band (damped by ``1 + lam`` on the diagonal), ``A⁻¹B`` and the border's Schur complement."""
         F = self._factor_band(lam)
         XB = self._solve_band(F, self.B)
         S = self.C + lam * np.diag(np.diag(self.C)) - self.B.T @ XB
         return F, XB, S
 
-    def solve(self, g: np.ndarray, lam: float) -> np.ndarray:
+    def solve(self, g: _Arr, lam: float) -> _Arr:
         """``−(H + λ diag H)⁻¹ g``."""
         nb = len(self.B)
         F, XB, S = self.factor(lam)
@@ -650,7 +711,7 @@ class _Normal:
         return Sinv, band_combinations.T @ y + w.T @ Sinv @ w
 
 
-def _with_parameters(camera, params: np.ndarray):
+def _with_parameters(camera: DistortedCamera, params: _Arr) -> DistortedCamera:
     """The same camera model with ``parameters`` (fx, fy, cx, cy, 4 distortion coefficients) replaced."""
     names = ("fx", "fy", "cx", "cy", *camera.DISTORTION_NAMES)
     return dataclasses.replace(camera, **{k: float(v) for k, v in zip(names, params, strict=True)})
@@ -692,7 +753,8 @@ def _fit_misalignment(x_true: np.ndarray, x_meas: np.ndarray) -> np.ndarray:
     """Least-squares ``x_meas ≈ M x_true + b`` (rows); returns ``M − I`` (3, 3)."""
     A = np.column_stack([x_true, np.ones(len(x_true))])
     coef = np.linalg.lstsq(A, x_meas, rcond=None)[0]
-    return coef[:3].T - np.eye(3)
+    M: _Arr = coef[:3].T - np.eye(3)
+    return M
 
 
 def calibrate_camera_imu(
@@ -700,7 +762,7 @@ def calibrate_camera_imu(
     gyro: np.ndarray,
     accel: np.ndarray,
     frames: FrameCorrespondences,
-    camera,
+    camera: DistortedCamera,
     imu_noise: ImuNoise,
     gravity_magnitude: float = STANDARD_GRAVITY,
     bias_model: str = "random_walk",
@@ -859,7 +921,7 @@ def calibrate_camera_imu(
     lam, vec = np.linalg.eigh(cov_g[3:6, 3:6])
     order = np.argsort(lam)[::-1]
     tr_std = np.sqrt(np.maximum(lam[order], 0.0))
-    warnings = []
+    warnings: list[str] = []
     if tr_std[0] > 0.005:
         worst = np.round(vec[:, order[0]], 3).tolist()
         warnings.append(f"translation poorly excited: std {1e3 * tr_std[0]:.1f} mm along {worst} (rotate the rig "
@@ -883,31 +945,31 @@ def calibrate_camera_imu(
     acc_M = _fit_misalignment(dv_true[short] / dt[short, None], pre_nb.dv[short] / dt[short, None])
 
     q_bc = dp.quat_from_matrix(prob.R_bc)
-    std = {
-        "rotation_deg": np.degrees(std_all[0:3]),
-        "translation_m": std_all[3:6],
-        "time_offset_s": float(std_all[6]),
-        "gyro_bias": std_all[_NG : _NG + 3],
-        "accel_bias": std_all[_NG + 3 : _NG + 6],
-        "gravity_target_deg": float(np.degrees(math.sqrt(max(cov_g[7, 7] + cov_g[8, 8], 0.0)))),
-    }
-    outliers = {
-        "frames_total": int(len(ft)),
-        "no_detections": ft[no_det].tolist(),
-        "too_few_corners": ft[few].tolist(),
-        "outside_imu": ft[~inside & ~no_det].tolist(),
-        "pnp_failed": ft[pnp_failed].tolist(),
-        "corners_total": int(prob.valid0.sum()),
-        "corners_rejected": n_rej,
-        "corners_rejected_fraction": n_rej / max(int(prob.valid0.sum()), 1),
-        "reject_threshold_px": reject_sigmas * prob.sigma_px,
-    }
-    excitation = {
-        "translation_std_m": tr_std,
-        "translation_directions": vec[:, order].T,
-        "time_offset_std_s": float(math.sqrt(max(ct[3, 3], 0.0))),
-        "warnings": warnings,
-    }
+    std = CameraImuStd(
+        rotation_deg=np.degrees(std_all[0:3]),
+        translation_m=std_all[3:6],
+        time_offset_s=float(std_all[6]),
+        gyro_bias=std_all[_NG : _NG + 3],
+        accel_bias=std_all[_NG + 3 : _NG + 6],
+        gravity_target_deg=float(np.degrees(math.sqrt(max(cov_g[7, 7] + cov_g[8, 8], 0.0)))),
+    )
+    outliers = CameraImuOutliers(
+        frames_total=int(len(ft)),
+        no_detections=ft[no_det].tolist(),
+        too_few_corners=ft[few].tolist(),
+        outside_imu=ft[~inside & ~no_det].tolist(),
+        pnp_failed=ft[pnp_failed].tolist(),
+        corners_total=int(prob.valid0.sum()),
+        corners_rejected=n_rej,
+        corners_rejected_fraction=n_rej / max(int(prob.valid0.sum()), 1),
+        reject_threshold_px=reject_sigmas * prob.sigma_px,
+    )
+    excitation = CameraImuExcitation(
+        translation_std_m=tr_std,
+        translation_directions=vec[:, order].T,
+        time_offset_std_s=float(math.sqrt(max(ct[3, 3], 0.0))),
+        warnings=warnings,
+    )
     return CameraImuCalibration(
         q_bc=q_bc, p_bc=prob.p_bc.copy(), time_offset=float(prob.tau), gyro_bias=prob.bias[:, :3].mean(axis=0),
         accel_bias=prob.bias[:, 3:].mean(axis=0), gravity_target=prob.g.copy(), std=std, covariance=cov_g,

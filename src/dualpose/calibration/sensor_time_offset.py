@@ -38,6 +38,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 from dualpose.types._inputs import imu_rows
 
@@ -230,7 +231,8 @@ def shift_samples(x: np.ndarray, rate: float, offset: float) -> np.ndarray:
     if not np.isfinite(offset):
         raise ValueError(f"offset must be a finite number of seconds; got {offset}")
     if offset == 0.0:
-        return a.copy()
+        return np.array(a)  # a copy (typed; ndarray.copy is untyped before Python 3.11)
     grid = np.arange(a.shape[0], dtype=np.float64)
     ts = grid + offset * rate
-    return np.stack([np.interp(ts, grid, a[:, j]) for j in range(a.shape[1])], axis=1)
+    shifted: NDArray[np.float64] = np.stack([np.interp(ts, grid, a[:, j]) for j in range(a.shape[1])], axis=1)
+    return shifted

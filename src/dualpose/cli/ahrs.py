@@ -43,7 +43,7 @@ arguments; 141 when the reader of standard output goes away.
 """
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     """Register ``dualpose ahrs``."""
     p = subparsers.add_parser(
         "ahrs",
@@ -155,8 +155,8 @@ def run(args: argparse.Namespace) -> int:
         if not bag:
             trial.require_finite(("imu_gyr", "imu_acc", "imu_mag") if args.mag else ("imu_gyr", "imu_acc"))
         if args.offline:
-            cal = "auto" if calibrate else None
-            smoothed, scores = smooth_broad_trial(trial, use_mag=args.mag, mag_calibration=cal)
+            mag_cal = "auto" if calibrate else None
+            smoothed, scores = smooth_broad_trial(trial, use_mag=args.mag, mag_calibration=mag_cal)
             result = smoothed.forward
         else:
             result = estimate_orientation(
@@ -190,7 +190,7 @@ def run(args: argparse.Namespace) -> int:
     if args.mag and result.mag_calibration is not None:
         out.update(result.mag_calibration.as_dict())
     has_ref = scores is not None
-    if has_ref:
+    if scores is not None:
         out.update(scores)
     else:
         out.update(total_rmse_deg=None, heading_rmse_deg=None, inclination_rmse_deg=None)

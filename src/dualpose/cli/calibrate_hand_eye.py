@@ -17,13 +17,17 @@ import json
 import math
 import sys
 import warnings
+from typing import TYPE_CHECKING, Any
 
 from dualpose.cli._args import add_bag_time_argument
+
+if TYPE_CHECKING:
+    from dualpose.calibration import CleaningReport
 
 PROG = "dualpose calibrate hand-eye"
 
 
-def add_subparser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+def add_subparser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     """Register ``dualpose calibrate hand-eye`` under ``dualpose calibrate``."""
     p = subparsers.add_parser(
         "hand-eye",
@@ -57,7 +61,7 @@ def _usage_error(args: argparse.Namespace) -> str | None:
     return None
 
 
-def run_hand_eye(args: argparse.Namespace) -> dict:
+def run_hand_eye(args: argparse.Namespace) -> dict[str, Any]:
     """Read, clean and calibrate; returns the dictionary printed with ``--json``."""
     from dualpose.calibration import calibrate_hand_eye_streams, clean_pose_stream
     from dualpose.io.pose_csv import read_pose_stream
@@ -94,12 +98,12 @@ def run_hand_eye(args: argparse.Namespace) -> dict:
     }  # fmt: skip
 
 
-def _rows(rep) -> dict:
+def _rows(rep: CleaningReport) -> dict[str, Any]:
     return {"read": rep.rows_in, "kept": rep.rows_out, "exact_duplicates": rep.exact_duplicates,
             "merged_stamps": rep.merged_stamps, "was_sorted": rep.was_sorted}  # fmt: skip
 
 
-def _table(m: dict) -> str:
+def _table(m: dict[str, Any]) -> str:
     from dualpose.cli._output import aligned_rows
 
     q, t, sq, st = m["rotation_xyzw"], m["translation_m"], m["rotation_sigma_deg"], m["translation_sigma_m"]

@@ -13,6 +13,7 @@ import json
 import math
 import sys
 import warnings
+from typing import Any
 
 from dualpose.cli._args import add_bag_time_argument
 from dualpose.cli._progress import Progress, add_quiet_argument
@@ -20,7 +21,7 @@ from dualpose.cli._progress import Progress, add_quiet_argument
 _STAGES = ("read reference", "read estimate", "associate, align, ATE, RPE", "plot")
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     """Register ``dualpose eval``."""
     p = subparsers.add_parser(
         "eval",
@@ -71,7 +72,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     return p
 
 
-def _table(result: dict) -> str:
+def _table(result: dict[str, Any]) -> str:
     rows = [
         ("ATE translation [m]", result["ate_m"]),
         ("orientation [deg]", result["orientation_deg"]),

@@ -34,7 +34,7 @@ import argparse
 import json
 import os
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 from dualpose.cli._args import seed
@@ -42,6 +42,7 @@ from dualpose.cli._stream import EXIT_DOUBTFUL, write_flushed
 
 if TYPE_CHECKING:
     from dualpose.io._output import OutputDirectory
+    from dualpose.pipelines.fuse import FuseResult
 
 #: formats of ``--out-bag``
 _BAGS = ("bag", "db3", "mcap")
@@ -92,7 +93,7 @@ def _outage(text: str) -> tuple[float, float]:
     return a, b
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     """Register ``dualpose fuse``."""
     p = subparsers.add_parser(
         "fuse",
@@ -154,7 +155,7 @@ _ERROR_ROWS = (
 )
 
 
-def _table(m: dict) -> str:
+def _table(m: dict[str, Any]) -> str:
     from dualpose.cli._output import aligned_rows
 
     def num(key: str, spec: str) -> str:
@@ -175,7 +176,7 @@ def _table(m: dict) -> str:
     return aligned_rows(rows)
 
 
-def _table_smoothed(m: dict, num) -> str:
+def _table_smoothed(m: dict[str, Any], num: Callable[[str, str], str]) -> str:
     """The summary table with a filter and a smoother column (``--smooth``)."""
     s = m["smoothed"]
     rows = [("data", m["data"], ""), ("method", "filter", "RTS smoother")]
@@ -199,7 +200,7 @@ def _output_files(smooth: bool) -> tuple[str, ...]:
     return OUTPUT_FILES + (("trajectory_smoothed.tum",) if smooth else ())
 
 
-def _run_job(args: argparse.Namespace):
+def _run_job(args: argparse.Namespace) -> FuseResult | None:
     """``run_fuse`` on ``--data`` with a progress bar; warnings about the input are printed one line each, a bad
     input is reported on stderr (file and line) and gives None."""
     import warnings
@@ -216,9 +217,10 @@ def _run_job(args: argparse.Namespace):
             bar.update(1)
 
         try:
-            result = run_fuse(data="sim" if args.data is None else args.data, filter=args.filter,
-                              seed=0 if args.seed is None else args.seed, progress=progress,
-                              smooth=args.smooth)  # fmt: skip
+            result: FuseResult | Exception = run_fuse(
+                data="sim" if args.data is None else args.data, filter=args.filter,
+                seed=0 if args.seed is None else args.seed, progress=progress, smooth=args.smooth,
+            )  # fmt: skip
         except (RecordingError, ValueError) as exc:
             result = exc
     for w in caught:
@@ -295,11 +297,11 @@ _TARGET_ROWS = (
 )
 
 
-def _target_table(m: dict) -> str:
+def _target_table(m: dict[str, Any]) -> str:
     from dualpose.cli._output import aligned_rows
 
-    def get(path):
-        v = m
+    def get(path: Sequence[str]) -> Any:
+        v: Any = m
         for k in path:
             v = None if v is None else v.get(k)
         return v

@@ -27,14 +27,15 @@ from __future__ import annotations
 
 import abc
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
+from numpy.typing import NDArray
 
 from dualpose import _native
 from dualpose.estimation._stream import sample_block, saved_buffer, saved_quaternion, vec3
-from dualpose.estimation.interface import Estimator
 from dualpose.estimation.state import StateLayout
 from dualpose.types import _inputs
 
@@ -93,6 +94,26 @@ class BlockResult:
 _correspondences = _inputs.frame_points  # the camera-frame checks every path shares (docs/refusals.md)
 
 
+class _KernelFilter(Protocol):
+    """A batch filter a stream continues (:class:`~dualpose.estimation.eskf.ErrorStateEKF`,
+    :class:`~dualpose.estimation.hol22.Hol22EKF`): its state ``x``, covariance ``P``, camera time offset and the
+    constants of its compiled kernel."""
+
+    @property
+    def x(self) -> np.ndarray: ...
+    @property
+    def P(self) -> np.ndarray: ...
+    @property
+    def camera_time_offset(self) -> float: ...
+    def kernel_config(self) -> tuple[object, ...]: ...
+
+
+#: the native ``*_stream_imu`` (buffer, t, gyro, accel) -> state
+_StreamImu = Callable[[np.ndarray, float, Any, Any], NDArray[np.float64]]
+#: the native ``*_stream_get`` (buffer) -> (state, covariance flattened, first and last IMU time, samples)
+_StreamGet = Callable[[np.ndarray], tuple[NDArray[np.float64], NDArray[np.float64], float, float, int]]
+
+
 class FusionStream(abc.ABC):
     """What both streaming filters share: the queue of frames, blocks, saving and restoring (module docstring).
 
@@ -107,7 +128,7 @@ class FusionStream(abc.ABC):
     covariance_dim: ClassVar[int]
     LAYOUT_VERSION: ClassVar[int]
 
-    def __init__(self, filter: Estimator) -> None:
+    def __init__(self, filter: _KernelFilter) -> None:
         name = self._filter_type.__name__
         if not isinstance(filter, self._filter_type):
             article = "an" if name[0] in "AEIOU" else "a"
@@ -123,9 +144,9 @@ class FusionStream(abc.ABC):
         self.camera_time_offset = float(camera_time_offset)
         self._pending: list[FrameUpdate] = []
         ns = _native.__dict__
-        self._imu = ns[f"{self._kind}_stream_imu"]
-        self._run = ns[f"{self._kind}_stream_run"]
-        self._get = ns[f"{self._kind}_stream_get"]
+        self._imu: _StreamImu = ns[f"{self._kind}_stream_imu"]
+        self._run: Callable[..., int] = ns[f"{self._kind}_stream_run"]
+        self._get: _StreamGet = ns[f"{self._kind}_stream_get"]
 
     # ---- updates ------------------------------------------------------------------------------------------------
 

@@ -34,10 +34,11 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy.stats import chi2
 
 import dualpose as dp
@@ -45,7 +46,7 @@ from dualpose import _native
 from dualpose.estimation._stream import saved_quaternion
 from dualpose.estimation.eskf import EskfStateAccessors
 from dualpose.estimation.initialization import detect_rest, static_alignment
-from dualpose.estimation.interface import Estimator, UpdateResult
+from dualpose.estimation.interface import AttitudeFix, Estimator, LinearMeasurement, UpdateResult
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE, MSCKF_CLONE_ERROR
 from dualpose.types import CameraFrame, ImuNoise, _inputs
 from dualpose.types.features import TrackFrame, TrackRecording
@@ -187,10 +188,10 @@ class MsckfVio(EskfStateAccessors, Estimator):
         state: np.ndarray,
         covariance: np.ndarray,
         imu_noise: ImuNoise | None = None,
-        q_bc: np.ndarray = (0.0, 0.0, 0.0, 1.0),
-        p_bc: np.ndarray = (0.0, 0.0, 0.0),
+        q_bc: ArrayLike = (0.0, 0.0, 0.0, 1.0),
+        p_bc: ArrayLike = (0.0, 0.0, 0.0),
         feature_sigma: float = 1e-3,
-        gravity: np.ndarray = (0.0, 0.0, -9.81),
+        gravity: ArrayLike = (0.0, 0.0, -9.81),
         camera_time_offset: float = 0.0,
         options: MsckfOptions | None = None,
     ) -> None:
@@ -313,7 +314,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
         })  # fmt: skip
 
     @classmethod
-    def from_state_dict(cls, d) -> MsckfVio:
+    def from_state_dict(cls, d: Mapping[str, np.ndarray]) -> MsckfVio:
         """The filter saved by :meth:`state_dict` (a dict or an ``np.load`` of its ``np.savez``); ``ValueError`` for
         another layout version or missing entries."""
         try:
@@ -325,8 +326,8 @@ class MsckfVio(EskfStateAccessors, Estimator):
                                 float(o[7]), float(o[8]), int(o[9]), bool(o[10]), float(o[11]))
             noise = np.asarray(d["noise"], dtype=np.float64)
             sd = np.sqrt(noise)
-            imu = ImuNoise(*sd[[0, 2, 1, 3]].tolist(), gyroscope_scale_sigma=float(sd[4]),
-                           accelerometer_scale_sigma=float(sd[5]))  # fmt: skip
+            ng, rg, na, ra = (float(v) for v in sd[[0, 2, 1, 3]])
+            imu = ImuNoise(ng, rg, na, ra, gyroscope_scale_sigma=float(sd[4]), accelerometer_scale_sigma=float(sd[5]))
             P = np.array(d["P"], dtype=np.float64)
             f = cls(np.array(d["x"]), P[:_NE, :_NE], imu, d["q_bc"], d["p_bc"], float(d["nominal_sigma"]),
                     d["gravity"], float(d["camera_time_offset"]), opts)  # fmt: skip
@@ -391,20 +392,20 @@ class MsckfVio(EskfStateAccessors, Estimator):
     @property
     def state(self) -> np.ndarray:
         """IMU nominal state (16,) (:data:`~dualpose.estimation.state.ESKF_STATE`), a copy."""
-        return self.x.copy()
+        return np.copy(self.x, order="C")
 
     @property
     def covariance(self) -> np.ndarray:
         """IMU error covariance (15, 15), a copy (the window: :attr:`full_covariance`)."""
-        return self.P[:_NE, :_NE].copy()
+        return np.copy(self.P[:_NE, :_NE], order="C")
 
     @property
     def full_covariance(self) -> np.ndarray:
         """Covariance (15 + 6C + 3L + E, same) of the IMU error, the C clones' ``[δp, δθ]``, the L SLAM features'
         world points and, when estimated (E = 1), the camera time offset, a copy."""
-        return self.P.copy()
+        return np.copy(self.P, order="C")
 
-    def update(self, measurement) -> UpdateResult:
+    def update(self, measurement: LinearMeasurement | AttitudeFix | CameraFrame | TrackFrame) -> UpdateResult:
         """Fuse a :class:`~dualpose.types.TrackFrame` (feature tracks; the filter first propagates to its time), or
         any measurement of :meth:`Estimator.update` (``LinearMeasurement``, ``AttitudeFix``)."""
         if isinstance(measurement, TrackFrame):
@@ -439,7 +440,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
             self.P[_NE:, :_NE] = cross.T
         return X
 
-    def propagate(self, t: float, gyro: np.ndarray, accel: np.ndarray, mag: np.ndarray | None = None) -> None:
+    def propagate(self, t: float, gyro: ArrayLike, accel: ArrayLike, mag: ArrayLike | None = None) -> None:
         """Feed the IMU sample taken at ``t`` (as :meth:`ErrorStateEKF.propagate
         <dualpose.estimation.eskf.ErrorStateEKF.propagate>`: the mean of the held and the new sample over the
         step, then the new one held).  ``mag`` is not used."""
@@ -559,7 +560,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
             t = max(t, self.time)
         else:
             t = self._frame_time(frame.t, self.camera_time_offset)
-        if t > self.time:
+        if self.time is not None and t > self.time:  # (_frame_time set the time)
             self._steps(self._u[None, :3], self._u[None, 3:], np.array([t - self.time]))
             self.time = t
         return self._frame_update(frame.track_id, frame.uv)
@@ -570,6 +571,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
         observations of the SLAM features, marginalise the oldest clone; a frame's ``track_id`` (m,) int64 and
         normalised ``uv`` (m, 2)."""
         o = self.options
+        assert self.time is not None  # a frame update follows _frame_time or a propagation
         if len(self.slam_id):
             seen = _member(self.slam_id, track_id)
             if not seen.all():
@@ -780,7 +782,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
                 self._t_imu = self.time
             if j == len(ft):
                 break
-            if tf > self.time:
+            if self.time is not None and tf > self.time:  # (the time is set from t[start] on)
                 self._steps(self._u[None, :3], self._u[None, 3:], np.array([tf - self.time]))
                 self.time = float(tf)
             a, b = r.tracks.offsets[j], r.tracks.offsets[j + 1]  # the frame's rows (validated by FeatureTracks)
@@ -790,7 +792,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
             stats["used"] += int(np.sum(res.status == 1))
             stats["gated"] += int(np.sum(res.status == 0))
             stats["failed"] += int(np.sum(res.status == -1))
-            nis_all.append(res.nis[res.status == 1])
+            nis_all.append(np.asarray(res.nis)[res.status == 1])
             dof_all.append(res.feature_dof[res.status == 1])
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         blocks = {name: ESKF_STATE.get(X, name) for name in ESKF_STATE.names}

@@ -362,6 +362,7 @@ def _umeyama(
     check_alignment_rank(x, y, names)
     fit = register_pose(x, y, method="svd", scale=with_scale)
     d = fit.singular_values
+    assert d is not None  # method="svd" reports them
     if d[1] <= max(d[0], 1e-300) * 1e-12:
         raise ValueError(
             f"alignment is degenerate: the cross-covariance has rank < 2 (singular values {(d / n).tolist()}); "

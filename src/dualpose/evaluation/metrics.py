@@ -21,10 +21,10 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 import dualpose as dp
 from dualpose.evaluation.align import Alignment, AlignMethod, Undetermined, align_positions, origin_alignment
@@ -268,7 +268,8 @@ def ate_errors(positions_ref: ArrayLike, positions_est: ArrayLike) -> np.ndarray
     """
     a, b = as_positions(positions_ref, "positions_ref"), as_positions(positions_est, "positions_est")
     check_same_length(positions_ref=a, positions_est=b)
-    return np.linalg.norm(a - b, axis=1)
+    err: NDArray[np.float64] = np.linalg.norm(a - b, axis=1)
+    return err
 
 
 def orientation_errors_deg(quats_ref: ArrayLike, quats_est: ArrayLike) -> np.ndarray:
@@ -279,7 +280,8 @@ def orientation_errors_deg(quats_ref: ArrayLike, quats_est: ArrayLike) -> np.nda
     """
     a, b = as_quats(quats_ref, "quats_ref"), as_quats(quats_est, "quats_est")
     check_same_length(quats_ref=a, quats_est=b)
-    return np.degrees(dp.quat_angle(a, b))
+    deg: NDArray[np.float64] = np.degrees(dp.quat_angle(a, b))
+    return deg
 
 
 def _chain(nxt: np.ndarray) -> np.ndarray:
@@ -293,7 +295,8 @@ def _chain(nxt: np.ndarray) -> np.ndarray:
     while chain[-1] != n:
         chain = np.concatenate([chain, jump[chain]])
         jump = jump[jump]
-    return chain[chain < n]
+    out: NDArray[np.intp] = chain[chain < n]
+    return out
 
 
 def rpe_pairs(
@@ -445,7 +448,7 @@ class Evaluation:
     rpe_pairs: np.ndarray
     rpe_translation: np.ndarray
     rpe_rotation_deg: np.ndarray
-    settings: dict = field(default_factory=dict)
+    settings: dict[str, Any] = field(default_factory=dict)
 
     @property
     def ate_stats(self) -> ErrorStatistics:
@@ -463,7 +466,7 @@ class Evaluation:
     def rpe_rotation_stats(self) -> ErrorStatistics:
         return error_statistics(self.rpe_rotation_deg)
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         """JSON-ready summary: headline numbers (``ate_rmse_m``, ``orientation_rmse_deg``, ``rpe_rmse_m``,
         ``rpe_rotation_rmse_deg``) plus the full statistics, the alignment and the settings."""
         ate, ori = self.ate_stats, self.orientation_stats

@@ -10,9 +10,11 @@ Returns the dictionary printed with ``--json`` (the keys the tracking job reads:
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 import dualpose as dp
 from dualpose.calibration.camera_imu import CameraImuCalibration, calibrate_camera_imu
@@ -39,7 +41,7 @@ EUROC_KALIBR_T_BS = {
 }  # fmt: skip
 
 
-def pose_matrix(summary: dict) -> np.ndarray:
+def pose_matrix(summary: Mapping[str, Any]) -> np.ndarray:
     """The camera pose in the IMU frame ``T_bc`` (4, 4) of a :func:`calibration_summary` dictionary."""
     T = np.eye(4)
     T[:3, :3] = dp.matrix_from_quat(np.asarray(summary["rotation_xyzw"], dtype=np.float64))
@@ -51,11 +53,11 @@ class UnknownCamera(ValueError):
     """The camera name is not in the sensor file (a usage error of the command line)."""
 
 
-def _floats(x) -> list:
+def _floats(x: ArrayLike) -> list[float]:
     return [float(v) for v in np.asarray(x).ravel()]
 
 
-def calibration_summary(res: CameraImuCalibration, camera: str) -> dict:
+def calibration_summary(res: CameraImuCalibration, camera: str) -> dict[str, Any]:
     """The JSON-ready dictionary of a :class:`CameraImuCalibration` (all values plain floats, lists, dicts)."""
     o = res.outliers
     e = res.excitation
@@ -121,7 +123,7 @@ def calibrate_camera_imu_files(
     imu_model: str = "scale_misalignment",
     imu_noise_scale: float = 1.0,
     **options: Any,
-) -> dict:
+) -> dict[str, Any]:
     """Read the three files and calibrate ``camera`` against the IMU; returns :func:`calibration_summary`.
 
     ``frame_window`` (start, end) in seconds from the first IMU sample keeps only the frames and IMU samples inside

@@ -19,36 +19,36 @@ import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
+from typing import Any
 
 import numpy as np
 
 import dualpose as dp
 from dualpose import sim
 from dualpose.estimation import initialization
-from dualpose.estimation.eskf import ErrorStateEKF
-from dualpose.estimation.hol22 import Hol22EKF
-from dualpose.estimation.interface import Estimator
+from dualpose.estimation.eskf import ErrorStateEKF, FilterResult
+from dualpose.estimation.hol22 import Hol22EKF, Hol22Result
 from dualpose.estimation.smoother import rts_smooth
 from dualpose.evaluation.metrics import evaluate
 from dualpose.io import load_broad
 from dualpose.io.recording import RecordingError, read_recording
 from dualpose.pipelines._checks import check_before_fuse, check_gravity_after_alignment
 from dualpose.sim.broad_vision import recording_from_broad
-from dualpose.types import Recording, Trajectory
+from dualpose.types import Recording, SensorSetup, Trajectory
 
 __all__ = ["FILTERS", "EstimatorFactory", "FuseResult", "load_recording", "run_fuse"]
 
-#: ``factory(recording, x, P) -> Estimator``: a filter for the recording's sensors, started from the error-state
-#: start ``x`` (:data:`~dualpose.estimation.state.ESKF_STATE`) and ``P`` (over
+#: ``factory(recording, x, P) -> ErrorStateEKF | Hol22EKF``: a filter for the recording's sensors, started from
+#: the error-state start ``x`` (:data:`~dualpose.estimation.state.ESKF_STATE`) and ``P`` (over
 #: :data:`~dualpose.estimation.state.ESKF_ERROR`) of the static alignment and first-frame PnP
-EstimatorFactory = Callable[[Recording, np.ndarray, np.ndarray], Estimator]
+EstimatorFactory = Callable[[Recording | SensorSetup, np.ndarray, np.ndarray], ErrorStateEKF | Hol22EKF]
 
 
-def _eskf_for(rec: Recording, x: np.ndarray, P: np.ndarray) -> Estimator:
+def _eskf_for(rec: Recording | SensorSetup, x: np.ndarray, P: np.ndarray) -> ErrorStateEKF:
     return ErrorStateEKF.from_state(rec, x, P)
 
 
-def _hol22_for(rec: Recording, x: np.ndarray, P: np.ndarray) -> Estimator:
+def _hol22_for(rec: Recording | SensorSetup, x: np.ndarray, P: np.ndarray) -> Hol22EKF:
     return Hol22EKF.from_eskf_state(x, P, rec)
 
 
@@ -120,7 +120,7 @@ class FuseResult:
 
     estimate: Trajectory
     truth: Trajectory | None
-    metrics: dict
+    metrics: dict[str, Any]
     position_error: np.ndarray | None
     orientation_error_deg: np.ndarray | None
     position_sigma: np.ndarray
@@ -134,7 +134,7 @@ class FuseResult:
     error_index: np.ndarray | None = None
 
 
-def load_recording(data: str | os.PathLike | Recording = "sim", seed: int = 0) -> Recording:
+def load_recording(data: str | os.PathLike[str] | Recording = "sim", seed: int = 0) -> Recording:
     """The :class:`~dualpose.types.recording.Recording` ``dualpose fuse --data`` names.
 
     Parameters
@@ -158,7 +158,7 @@ def load_recording(data: str | os.PathLike | Recording = "sim", seed: int = 0) -
         raise TypeError(f"data must be 'sim', a path or a Recording; got {type(data).__name__}")
     if str(data).lower().endswith(".mat"):
         try:
-            trial = load_broad(data)
+            trial = load_broad(os.fspath(data))
         except (FileNotFoundError, ValueError) as exc:
             raise RecordingError(str(exc)) from None  # load_broad's messages name the file as given
         try:
@@ -169,7 +169,9 @@ def load_recording(data: str | os.PathLike | Recording = "sim", seed: int = 0) -
     return read_recording(data)
 
 
-def _truth_metrics(truth: Trajectory | None, estimate: Trajectory) -> tuple[dict, dict | None, tuple | None]:
+def _truth_metrics(
+    truth: Trajectory | None, estimate: Trajectory
+) -> tuple[dict[str, Any], dict[str, Any] | None, tuple[np.ndarray, Trajectory, np.ndarray, np.ndarray] | None]:
     """Metrics against the ground truth (``TRUTH_METRICS``, None without truth), the evaluation dict and the
     per-pose arrays ``(error_index, truth matched, position_error, orientation_error_deg)``."""
     if truth is None:
@@ -189,7 +191,7 @@ def _truth_metrics(truth: Trajectory | None, estimate: Trajectory) -> tuple[dict
 
 
 def run_fuse(
-    data: str | os.PathLike | Recording = "sim",
+    data: str | os.PathLike[str] | Recording = "sim",
     filter: str | EstimatorFactory = "eskf",
     seed: int = 0,
     progress: Callable[[int, int, str], None] | None = None,
@@ -258,7 +260,11 @@ def run_fuse(
     # load the compiled kernel on a throw-away two-sample run, so that ``realtime_factor`` times the filtering
     no_frames = (np.zeros(0), np.zeros(1, np.int64), np.zeros((0, 2)), np.zeros((0, 3)))
     factory(run, x, P0).run(run.t[:2], run.gyro[:2], run.accel[:2], *no_frames)
-    res = est.run_recording(run, record_nodes=True) if smooth else est.run_recording(run)
+    # smooth: an ErrorStateEKF (_check_smooth)
+    if smooth and isinstance(est, ErrorStateEKF):
+        res: FilterResult | Hol22Result = est.run_recording(run, record_nodes=True)
+    else:
+        res = est.run_recording(run)
     cov = est.covariance_layout
     pos_var = np.diagonal(cov.cov(res.covariance, "position"), axis1=1, axis2=2)
     ori_sigma = None
@@ -286,7 +292,8 @@ def run_fuse(
     for key in TRUTH_METRICS[4:]:
         metrics[key] = truth_metrics[key]
     metrics["evaluation"] = ed
-    smoothed = _smoothed_metrics(res, run.ground_truth, estimate) if smooth else {}
+    # (smooth: the error-state filter's result)
+    smoothed = _smoothed_metrics(res, run.ground_truth, estimate) if smooth and isinstance(res, FilterResult) else {}
     if smooth:
         metrics["smoothed"] = smoothed.pop("metrics")
     step(3)
@@ -316,7 +323,7 @@ def _check_smooth(kind: object, smooth: bool, name: str) -> None:
         )
 
 
-def _smoothed_metrics(res, truth: Trajectory | None, estimate: Trajectory) -> dict:
+def _smoothed_metrics(res: FilterResult, truth: Trajectory | None, estimate: Trajectory) -> dict[str, Any]:
     """RTS-smooth the filter result ``res`` (recorded nodes) and evaluate it like the filter.
 
     Returns the extra :class:`FuseResult` fields plus ``"metrics"``: the :data:`TRUTH_METRICS` of the smoothed

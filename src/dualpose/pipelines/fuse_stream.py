@@ -32,7 +32,8 @@ from dualpose.estimation.eskf import ErrorStateEKF, EskfStream, FrameUpdate, ini
 from dualpose.estimation.hol22 import Hol22EKF, Hol22Stream
 from dualpose.io.recording import read_sensor_setup
 from dualpose.pipelines._lines import StreamTimes, format_numbers, parse_numbers, split_fields
-from dualpose.types import SensorRun, SensorSetup
+from dualpose.sim import SimulatedRun
+from dualpose.types import Recording, SensorSetup
 from dualpose.types._inputs import Doubt, gravity_up_problem
 from dualpose.types.recording import RecordingWarning
 
@@ -106,7 +107,7 @@ def format_pose(t: float, position: np.ndarray, quat: np.ndarray) -> str:
     return format_numbers([t, *position.tolist(), *quat.tolist()])
 
 
-def filter_for_setup(setup: SensorSetup | str | os.PathLike, filter: str = "eskf") -> ErrorStateEKF | Hol22EKF:
+def filter_for_setup(setup: SensorSetup | str | os.PathLike[str], filter: str = "eskf") -> ErrorStateEKF | Hol22EKF:
     """The filter of a calibration: an :class:`~dualpose.estimation.eskf.ErrorStateEKF` at the set-up's start
     (diagonal covariance of :func:`~dualpose.estimation.eskf.initial_covariance` with the start's sigmas), or Hol's
     filter started from it (:meth:`Hol22EKF.from_eskf_state <dualpose.estimation.hol22.Hol22EKF.from_eskf_state>`,
@@ -129,14 +130,14 @@ def filter_for_setup(setup: SensorSetup | str | os.PathLike, filter: str = "eskf
     return eskf if filter == "eskf" else Hol22EKF.from_eskf_state(eskf.x, eskf.P, setup)
 
 
-def stream_filter(setup: SensorSetup | str | os.PathLike, filter: str = "eskf") -> EskfStream | Hol22Stream:
+def stream_filter(setup: SensorSetup | str | os.PathLike[str], filter: str = "eskf") -> EskfStream | Hol22Stream:
     """The streaming filter (:class:`~dualpose.estimation.eskf.EskfStream` or
     :class:`~dualpose.estimation.hol22.Hol22Stream`) of :func:`filter_for_setup`."""
     f = filter_for_setup(setup, filter)
     return EskfStream(f) if isinstance(f, ErrorStateEKF) else Hol22Stream(f)
 
 
-def recording_lines(recording: SensorRun) -> list[str]:
+def recording_lines(recording: Recording | SimulatedRun) -> list[str]:
     """A recording (or simulated run) as input lines of :func:`stream_fusion_lines`, in time order (on the IMU clock,
     a frame before the IMU sample at its time), every number as its exact ``repr``.
 

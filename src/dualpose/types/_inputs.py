@@ -329,7 +329,7 @@ def covariance_matrix(P: Any, name: str, n: int, psd_tolerance: float = 1e-9) ->
         raise ValueError(f"{name}: entries up to {scale:.3g} overflow the filter's arithmetic")
     if float(np.abs(a - a.T).max()) > 1e-9 * scale:
         raise ValueError(f"{name} must be symmetric; largest asymmetry {float(np.abs(a - a.T).max()):.3g}")
-    s = 0.5 * (a + a.T)
+    s: NDArray[np.float64] = 0.5 * (a + a.T)
     if scale > 0:
         lo = float(np.linalg.eigvalsh(s).min())
         if lo < -psd_tolerance * scale:

@@ -23,6 +23,7 @@ from dataclasses import asdict
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from dualpose import _native
 from dualpose.estimation._stream import sample_block, saved_buffer, saved_quaternion, vec3
@@ -107,7 +108,9 @@ class AhrsStream:
         rate = _inputs.check_rate(rate)
         n_rest = _inputs.check_rest_samples(_rest_length(rate, 0 if rest is not None else n_rest), rate)
         self._settings = _check_config(config)
-        self._lag = check_mag_time_offset(mag_time_offset, ("online",))
+        lag = check_mag_time_offset(mag_time_offset, ("online",))
+        assert not isinstance(lag, str)  # only "online" is allowed, which is None
+        self._lag = lag
         self._config = dict(rate=float(rate), use_mag=bool(use_mag), n_rest=int(n_rest), rest=rest,
                             mag_time_offset="online" if self._lag is None else self._lag)
         self._rate = float(rate)
@@ -197,8 +200,9 @@ class AhrsStream:
         self._samples += 1
         self._n_pending += 1
         if self._n_pending < max(self._n_rest, 1):
-            return self._rest_outputs(pg[k : k + 1], pa[k : k + 1], pm[k : k + 1])[0][0]
-        return self._finish_rest()[0].copy()
+            first: NDArray[np.float64] = self._rest_outputs(pg[k : k + 1], pa[k : k + 1], pm[k : k + 1])[0][0]
+            return first
+        return np.copy(self._finish_rest()[0], order="C")
 
     def _check_rest_force(self, a: np.ndarray, single: bool = False) -> None:
         """Refuse rest samples ``a`` (k, 3) after which the running mean specific force is zero (it has no direction
@@ -298,8 +302,11 @@ class AhrsStream:
 
     def _get(self, k: int) -> np.ndarray:
         if self._state is None:
-            return self._rest_out[k].copy() if k < 2 else np.full((4, 3, 36, _native.AHRS_N_STATS)[k], np.nan)
-        return _native.ahrs_stream_get(self._state)[k]
+            if k < 2:
+                return np.copy(self._rest_out[k], order="C")
+            return np.full((4, 3, 36, _native.AHRS_N_STATS)[k], np.nan)
+        out: NDArray[np.float64] = _native.ahrs_stream_get(self._state)[k]
+        return out
 
     @property
     def quat(self) -> np.ndarray:
@@ -341,7 +348,7 @@ class AhrsStream:
             ``rest_output`` (the last rest-period output) and ``config`` (the constructor's arguments, with
             ``config`` and ``rest`` as plain dicts).
         """
-        c = dict(self._config)
+        c: dict[str, Any] = dict(self._config)
         c["config"] = self._settings.as_dict()
         c["rest"] = self._rest_dict(c["rest"])
         pt, pg, pa, pm = self._pending_arrays()
@@ -360,7 +367,8 @@ class AhrsStream:
     def _pending_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The buffered rest samples as arrays t (k,), gyro, accel, mag (k, 3)."""
         k = self._n_pending
-        return tuple(x[:k].copy() for x in self._pending)  # type: ignore[return-value]
+        pt, pg, pa, pm = (np.copy(x[:k], order="C") for x in self._pending)
+        return pt, pg, pa, pm
 
     @staticmethod
     def _rest_dict(rest: RestStatistics | None) -> dict[str, Any] | None:
