@@ -1,0 +1,218 @@
+"""Run one pure function over many inputs on a dask scheduler, results in input order (docs/scaling.md, "Many runs").
+
+:func:`run_tasks` is the plumbing under every many-run job of :mod:`dualpose.jobs`: ``func(item)`` for each item, on
+
+* ``"serial"``: in this process, one after the other (no dask needed);
+* ``None`` / ``"processes"`` (default): a local pool of worker processes -- a ``dask.distributed.LocalCluster``
+  (one thread per worker process) when ``distributed`` is installed, otherwise dask's multiprocessing scheduler;
+* an address (``"tcp://host:8786"``, ``"host:8786"``): an existing ``dask.distributed`` cluster.
+
+Guarantees, whatever the scheduler:
+
+* **Order**: the outcome list is in the order of ``items``, however the tasks were scheduled.
+* **Failures stay in their row**: an exception inside ``func`` becomes a :class:`TaskFailure` with its reason in that
+  row; every other item still runs.
+* **Pure tasks**: ``func`` must depend on its item only (seeds are part of the item; no shared random state), so a
+  task recomputed on another process gives the same bits.  Nothing is written by a task: the client collects the
+  outcomes and the caller writes the outputs once.
+* **Lost workers** (distributed only): a task whose worker dies is recomputed on another worker by the dask
+  scheduler; its outcome is collected once, by its key, so nothing is lost or counted twice.
+
+dask and distributed are optional (``pip install 'dualpose[dask]'``) and are imported only when a parallel
+scheduler is asked for.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import traceback
+import uuid
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Generic, TypeVar
+
+__all__ = ["SCHEDULERS", "TaskFailure", "default_scheduler", "run_tasks"]
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+#: the scheduler names :func:`run_tasks` knows besides a cluster address
+SCHEDULERS: tuple[str, ...] = ("serial", "processes")
+
+#: how often the distributed scheduler retries a task that raised (the task functions catch their errors: this only
+#: covers failures outside them, such as a result that cannot be sent back)
+_RETRIES = 2
+
+
+@dataclass(frozen=True)
+class TaskFailure:
+    """The outcome of a task whose function raised: ``reason`` is ``"ExceptionType: message"`` (the message alone
+    for ``ValueError`` and ``OSError``, whose messages name the file and line in dualpose)."""
+
+    reason: str
+
+
+@dataclass(frozen=True)
+class _Guarded(Generic[T, R]):
+    """``func(item)``, with an exception turned into a :class:`TaskFailure` (picklable: ``func`` is module-level)."""
+
+    func: Callable[[T], R]
+
+    def __call__(self, item: T) -> R | TaskFailure:
+        try:
+            return self.func(item)
+        except (ValueError, OSError) as exc:
+            return TaskFailure(" ".join(str(exc).split()) or type(exc).__name__)
+        except Exception as exc:  # a failure of one row never stops the others; the type says what happened
+            last = traceback.extract_tb(exc.__traceback__)[-1:]
+            where = f" ({os.path.basename(last[0].filename)}:{last[0].lineno})" if last else ""
+            return TaskFailure(f"{type(exc).__name__}: {' '.join(str(exc).split())}{where}")
+
+
+def default_scheduler() -> str:
+    """``"processes"`` when dask is installed, else ``"serial"``."""
+    try:
+        import dask  # noqa: F401
+    except ImportError:
+        return "serial"
+    return "processes"
+
+
+def _check(scheduler: str | None, workers: int | None) -> str:
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+        raise ValueError(f"workers must be an integer >= 1; got {workers!r}")
+    if scheduler is None:
+        return "processes"
+    if not isinstance(scheduler, str) or not scheduler.strip():
+        raise ValueError(f"scheduler must be 'serial', 'processes' or a cluster address; got {scheduler!r}")
+    return scheduler.strip()
+
+
+def run_tasks(
+    func: Callable[[T], R],
+    items: Sequence[T],
+    *,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> list[R | TaskFailure]:
+    """``[func(item) for item in items]`` on a scheduler, failures kept per item.
+
+    Parameters
+    ----------
+    func : callable
+        A module-level function of one item (pickled by reference for worker processes), pure: its result depends
+        on the item only.
+    items : sequence
+        The task inputs (picklable).
+    scheduler : {"serial", "processes"}, address or None
+        Where to run (module docstring); None is ``"processes"``.
+    workers : int, optional
+        Worker processes of the local pool (default: the machine's CPU count); not used with ``"serial"`` or an
+        address.
+    progress : callable, optional
+        ``progress(done, total)`` after each finished task, in the calling thread.
+
+    Returns
+    -------
+    list
+        One outcome per item, in the order of ``items``: ``func``'s result or a :class:`TaskFailure`.
+
+    Raises
+    ------
+    ValueError
+        An unknown scheduler name or a bad ``workers``.
+    ImportError
+        A parallel scheduler without dask (``pip install 'dualpose[dask]'``), or an address without distributed.
+    OSError
+        A cluster address that cannot be reached.
+    """
+    kind = _check(scheduler, workers)
+    items = list(items)
+    guarded: _Guarded[T, R] = _Guarded(func)
+    total = len(items)
+    if total == 0:
+        return []
+    if kind == "serial":
+        out: list[R | TaskFailure] = []
+        for item in items:
+            out.append(guarded(item))
+            if progress is not None:
+                progress(len(out), total)
+        return out
+    if kind == "processes":
+        try:
+            from distributed import LocalCluster
+        except ImportError:
+            return _dask_processes(guarded, items, workers, progress)
+        n = workers or os.cpu_count() or 1
+        with LocalCluster(n_workers=min(n, total), threads_per_worker=1, processes=True, dashboard_address=":0",
+                          silence_logs=logging.ERROR) as cluster:  # fmt: skip
+            return _distributed(guarded, items, cluster, progress)
+    if kind in SCHEDULERS or "://" not in kind and ":" not in kind:
+        raise ValueError(f"scheduler must be 'serial', 'processes' or a cluster address (tcp://host:port); got {kind!r}")
+    try:
+        import distributed  # noqa: F401
+    except ImportError as exc:
+        raise ImportError(f"scheduler {kind!r} needs dask.distributed: pip install 'dualpose[dask]'") from exc
+    return _distributed(guarded, items, kind, progress)
+
+
+def _distributed(
+    guarded: _Guarded[T, R], items: list[T], where: object, progress: Callable[[int, int], None] | None
+) -> list[R | TaskFailure]:
+    """On a ``distributed`` cluster (a ``LocalCluster`` object or an address): one future per item, keyed by its
+    index, collected once each."""
+    from distributed import Client, as_completed
+
+    try:
+        client = Client(where, set_as_default=False, timeout="20s")
+    except (OSError, TimeoutError) as exc:
+        raise OSError(f"cannot reach the dask scheduler at {where}: {exc}") from None
+    with client:
+        prefix = f"dualpose-task-{uuid.uuid4().hex}"
+        futures = [client.submit(guarded, item, key=f"{prefix}-{i}", pure=False, retries=_RETRIES)
+                   for i, item in enumerate(items)]  # fmt: skip
+        index = {f.key: i for i, f in enumerate(futures)}
+        out: dict[int, R | TaskFailure] = {}
+        done = 0
+        for future in as_completed(futures, loop=client.loop):
+            i = index[future.key]
+            try:
+                out[i] = future.result()
+            except Exception as exc:  # lost more often than the scheduler allows (KilledWorker), or unpicklable
+                out[i] = TaskFailure(f"{type(exc).__name__}: {' '.join(str(exc).split())}")
+            future.release()
+            done += 1
+            if progress is not None:
+                progress(done, len(items))
+    return [out[i] for i in range(len(items))]
+
+
+def _dask_processes(
+    guarded: _Guarded[T, R], items: list[T], workers: int | None, progress: Callable[[int, int], None] | None
+) -> list[R | TaskFailure]:
+    """dask's multiprocessing scheduler (no ``distributed``): one delayed call per item, computed together."""
+    try:
+        import dask
+        from dask.callbacks import Callback
+    except ImportError as exc:
+        raise ImportError("the 'processes' scheduler needs dask: pip install 'dualpose[dask]' "
+                          "(or use the 'serial' scheduler)") from exc  # fmt: skip
+    tasks = [dask.delayed(guarded, pure=False)(item) for item in items]
+    total = len(items)
+
+    class _Count(Callback):  # type: ignore[misc]
+        def __init__(self) -> None:
+            super().__init__()
+            self.done = 0
+
+        def _posttask(self, key: object, result: object, dsk: object, state: object, worker_id: object) -> None:
+            self.done += 1
+            if progress is not None:
+                progress(min(self.done, total), total)
+
+    with _Count():
+        results = dask.compute(*tasks, scheduler="processes", num_workers=workers or os.cpu_count() or 1)
+    return list(results)
