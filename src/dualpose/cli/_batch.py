@@ -52,7 +52,7 @@ def scheduler_of(args: argparse.Namespace, command: str) -> str:
     return kind
 
 
-class job_progress:  # noqa: N801 - used as a context manager like progress_bar
+class job_progress:
     """``with job_progress(total, command, quiet) as step:`` -- ``step(done, total)`` advances a tqdm bar on a
     terminal, or writes a plain line every 5 % of the tasks (and at the last) off it."""
 
@@ -99,10 +99,13 @@ def summary_text(summary: object) -> str:
     columns = summary.columns  # type: ignore[attr-defined]
     rows = [[_fmt(r[c]) for c in columns] for r in summary.rows]  # type: ignore[attr-defined]
     widths = [max(len(c), *(len(r[i]) for r in rows)) if rows else len(c) for i, c in enumerate(columns)]
-    lines = ["  ".join(c.ljust(w) if i < 2 else c.rjust(w) for i, (c, w) in enumerate(zip(columns, widths, strict=True)))]
-    for r in rows:
-        lines.append("  ".join(v.ljust(w) if i < 2 else v.rjust(w) for i, (v, w) in enumerate(zip(r, widths, strict=True))))
-    return "\n".join(lines)
+    n_text = sum(1 for c in columns if c in ("dataset", "algorithm", "mode", "filter", "metric"))
+
+    def line(cells: list[str]) -> str:
+        return "  ".join(v.ljust(w) if i < n_text else v.rjust(w) for i, (v, w) in enumerate(zip(cells, widths,
+                                                                                                  strict=True)))
+
+    return "\n".join([line(list(columns))] + [line(r) for r in rows])
 
 
 def finish_job(

@@ -1,4 +1,5 @@
-"""Many trajectory evaluations at once: the job behind ``dualpose eval --batch MANIFEST`` (docs/scaling.md, "Many runs").
+"""Many trajectory evaluations at once: the job behind ``dualpose eval --batch MANIFEST`` (docs/scaling.md, "Many
+runs").
 
 The pairs come from a **manifest** (CSV, a header line naming the columns ``reference``, ``estimate``, ``algorithm``,
 ``dataset``, ``run``, in any order, more columns ignored; ``#`` comment lines and blank lines skipped; relative paths

@@ -84,6 +84,10 @@ def nees_plot(
     ax.axhline(dim, color="tab:green", lw=0.8, ls="--", label=f"expected ({dim})")
     ax.set_xlabel("time [s]")
     ax.set_ylabel(f"NEES ({dim} dof)")
+    from matplotlib.ticker import LogFormatter
+
+    ax.yaxis.set_major_formatter(LogFormatter(labelOnlyBase=False))
+    ax.yaxis.set_minor_formatter(LogFormatter(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize="small")
     ax.set_title("Monte-Carlo NEES of the error-state filter")
@@ -107,6 +111,7 @@ def distribution_plot(
             ax.axvline(float(np.median(v)), color="black", lw=1.0, label=f"median {np.median(v):.4g}")
             ax.legend(fontsize="x-small")
         ax.set_xlabel(label)
+        ax.tick_params(axis="x", labelrotation=30)
         ax.grid(alpha=0.3)
     axes[0][0].set_ylabel("runs")
     fig.tight_layout()

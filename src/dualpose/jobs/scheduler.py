@@ -40,6 +40,9 @@ R = TypeVar("R")
 #: the scheduler names :func:`run_tasks` knows besides a cluster address
 SCHEDULERS: tuple[str, ...] = ("serial", "processes")
 
+#: seconds to wait for a cluster address to answer
+CONNECT_TIMEOUT_S = 20.0
+
 #: how often the distributed scheduler retries a task that raised (the task functions catch their errors: this only
 #: covers failures outside them, such as a result that cannot be sent back)
 _RETRIES = 2
@@ -151,7 +154,8 @@ def run_tasks(
                           silence_logs=logging.ERROR) as cluster:  # fmt: skip
             return _distributed(guarded, items, cluster, progress)
     if kind in SCHEDULERS or "://" not in kind and ":" not in kind:
-        raise ValueError(f"scheduler must be 'serial', 'processes' or a cluster address (tcp://host:port); got {kind!r}")
+        raise ValueError(f"scheduler must be 'serial', 'processes' or a cluster address (tcp://HOST:PORT); "
+                         f"got {kind!r}")
     try:
         import distributed  # noqa: F401
     except ImportError as exc:
@@ -167,7 +171,7 @@ def _distributed(
     from distributed import Client, as_completed
 
     try:
-        client = Client(where, set_as_default=False, timeout="20s")
+        client = Client(where, set_as_default=False, timeout=f"{CONNECT_TIMEOUT_S}s")
     except (OSError, TimeoutError) as exc:
         raise OSError(f"cannot reach the dask scheduler at {where}: {exc}") from None
     with client:
