@@ -90,7 +90,7 @@ def test_killed_worker_loses_and_duplicates_nothing(cluster_address: str) -> Non
         assert killed, "no worker held a task when the job was two tasks in"
         lost = next(iter(killed.values()))
 
-        def processing_starts(dask_scheduler, keys):  # noqa: ANN001, ANN202 - runs on the scheduler
+        def processing_starts(dask_scheduler, keys):
             return {k: sum(1 for e in dask_scheduler.story(k) if len(e) > 2 and e[2] == "processing") for k in keys}
 
         starts = client.run_on_scheduler(processing_starts, keys=lost)
