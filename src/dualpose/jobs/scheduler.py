@@ -18,6 +18,10 @@ Guarantees, whatever the scheduler:
 * **Lost workers** (distributed only): a task whose worker dies is recomputed on another worker by the dask
   scheduler; its outcome is collected once, by its key, so nothing is lost or counted twice.
 
+On a cluster the items go to dask in chunks of a few (:func:`chunk_size`: about 8 tasks per worker, at most
+``MAX_CHUNK`` items a task), as the distributed scheduler costs about a millisecond per task; progress is then
+reported per chunk.
+
 dask and distributed are optional (``pip install 'dualpose[dask]'``) and are imported only when a parallel
 scheduler is asked for.
 """
@@ -42,6 +46,9 @@ SCHEDULERS: tuple[str, ...] = ("serial", "processes")
 
 #: seconds to wait for a cluster address to answer
 CONNECT_TIMEOUT_S = 20.0
+
+#: most items one dask task runs (:func:`chunk_size`)
+MAX_CHUNK = 16
 
 #: how often the distributed scheduler retries a task that raised (the task functions catch their errors: this only
 #: covers failures outside them, such as a result that cannot be sent back)
@@ -163,11 +170,27 @@ def run_tasks(
     return _distributed(guarded, items, kind, progress)
 
 
+@dataclass(frozen=True)
+class _Chunk(Generic[T, R]):
+    """``[guarded(item) for item in items]``: one dask task for a few items (picklable)."""
+
+    guarded: _Guarded[T, R]
+
+    def __call__(self, items: list[T]) -> list[R | TaskFailure]:
+        return [self.guarded(item) for item in items]
+
+
+def chunk_size(n_items: int, n_workers: int) -> int:
+    """Items per dask task: about 8 tasks per worker (balance while the tasks finish at different times), at most
+    ``MAX_CHUNK`` items, at least 1 -- the distributed scheduler costs ~1 ms a task."""
+    return max(1, min(MAX_CHUNK, n_items // (8 * max(n_workers, 1))))
+
+
 def _distributed(
     guarded: _Guarded[T, R], items: list[T], where: object, progress: Callable[[int, int], None] | None
 ) -> list[R | TaskFailure]:
-    """On a ``distributed`` cluster (a ``LocalCluster`` object or an address): one future per item, keyed by its
-    index, collected once each."""
+    """On a ``distributed`` cluster (a ``LocalCluster`` object or an address): one future per chunk of items
+    (:func:`chunk_size`), keyed by its first index, collected once each."""
     from distributed import Client, as_completed
 
     try:
@@ -175,22 +198,25 @@ def _distributed(
     except (OSError, TimeoutError) as exc:
         raise OSError(f"cannot reach the dask scheduler at {where}: {exc}") from None
     with client:
+        size = chunk_size(len(items), sum(client.nthreads().values()))
+        starts = range(0, len(items), size)
         prefix = f"dualpose-task-{uuid.uuid4().hex}"
-        futures = [client.submit(guarded, item, key=f"{prefix}-{i}", pure=False, retries=_RETRIES)
-                   for i, item in enumerate(items)]  # fmt: skip
-        index = {f.key: i for i, f in enumerate(futures)}
+        run_chunk = _Chunk(guarded)
+        futures = [client.submit(run_chunk, items[k : k + size], key=f"{prefix}-{k}", pure=False, retries=_RETRIES)
+                   for k in starts]  # fmt: skip
+        first = {f.key: k for k, f in zip(starts, futures, strict=True)}
         out: dict[int, R | TaskFailure] = {}
-        done = 0
         for future in as_completed(futures, loop=client.loop):
-            i = index[future.key]
+            k = first[future.key]
+            n = min(size, len(items) - k)
             try:
-                out[i] = future.result()
+                outcomes = future.result()
             except Exception as exc:  # lost more often than the scheduler allows (KilledWorker), or unpicklable
-                out[i] = TaskFailure(f"{type(exc).__name__}: {' '.join(str(exc).split())}")
+                outcomes = [TaskFailure(f"{type(exc).__name__}: {' '.join(str(exc).split())}")] * n
             future.release()
-            done += 1
+            out.update(zip(range(k, k + n), outcomes, strict=True))
             if progress is not None:
-                progress(done, len(items))
+                progress(len(out), len(items))
     return [out[i] for i in range(len(items))]
 
 
