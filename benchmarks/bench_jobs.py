@@ -22,6 +22,7 @@ import logging
 import math
 import os
 import platform
+import subprocess
 import sys
 import tempfile
 import time
@@ -66,6 +67,34 @@ def write_pairs(folder: Path, pairs: int, poses: int) -> Path:
     return path
 
 
+class SessionCluster:
+    """``dask scheduler`` and 2 ``dask worker --nthreads 1`` processes, each started in its own session (as services
+    or separate terminals run them), torn down on exit."""
+
+    def __init__(self, folder: Path) -> None:
+        self.file = folder / "scheduler.json"
+        dask = str(Path(sys.executable).with_name("dask"))
+        start = {"start_new_session": True, "stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
+        self.procs = [subprocess.Popen([dask, "scheduler", "--scheduler-file", str(self.file), "--port", "0",
+                                        "--no-dashboard"], **start)]  # type: ignore[call-overload]
+        while not self.file.exists():
+            time.sleep(0.1)
+        for _ in range(2):
+            self.procs.append(subprocess.Popen([dask, "worker", "--scheduler-file", str(self.file), "--nthreads", "1",
+                                                "--no-dashboard"], **start))  # type: ignore[call-overload]
+        from distributed import Client
+
+        with Client(scheduler_file=str(self.file), set_as_default=False) as c:
+            c.wait_for_workers(2, timeout=120)
+            self.address = str(c.scheduler.address)
+
+    def close(self) -> None:
+        for proc in reversed(self.procs):
+            proc.terminate()
+        for proc in self.procs:
+            proc.wait(timeout=60)
+
+
 def timed(fn: Callable[[], object]) -> tuple[float, float, object]:
     """(seconds, 1-minute load average before, result) of one call."""
     load = os.getloadavg()[0]
@@ -104,8 +133,10 @@ def main(argv: list[str] | None = None) -> int:
         pairs = read_eval_manifest(write_pairs(Path(tmp), args.pairs, args.poses))
         sec_start, load_start, cluster = timed(lambda: LocalCluster(
             n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=logging.ERROR))
+        sessions = SessionCluster(Path(tmp))
+        clusters = {"LocalCluster (worker processes of this session)": cluster,
+                    "`dask scheduler` + 2 `dask worker`, each its own session": sessions}  # fmt: skip
         try:
-            addr = cluster.scheduler_address  # type: ignore[attr-defined]
             jobs: dict[str, tuple[str, Callable[[str], object], int]] = {
                 "eval --batch": (f"{len(pairs)} pairs x {args.poses} poses",
                                  lambda s: run_eval_batch(pairs, scheduler=s).table.to_csv_text(), len(pairs)),
@@ -113,19 +144,27 @@ def main(argv: list[str] | None = None) -> int:
                                        .table.to_csv_text(), args.runs),
             }  # fmt: skip
             for name, (what, job, n) in jobs.items():
-                job(addr)  # warm-up: the workers import dualpose
-                res = interleaved({"serial": lambda j=job: j("serial"), "cluster": lambda j=job: j(addr)},
-                                  args.repeats)  # fmt: skip
-                assert res["serial"][2] == res["cluster"][2], f"{name}: serial and cluster tables differ"
-                (s_sec, s_load, _), (c_sec, c_load, _) = res["serial"], res["cluster"]
-                rows.append(f"| {name} | {what} | {s_sec:.2f} s ({1e3 * s_sec / n:.1f} ms/task) | {load_text(s_load)} "
-                            f"| {c_sec:.2f} s | {load_text(c_load)} | **{s_sec / c_sec:.2f} ×** |")  # fmt: skip
-                print(rows[-1], file=sys.stderr)
+                addrs = {label: c.scheduler_address if c is cluster else c.address  # type: ignore[attr-defined]
+                         for label, c in clusters.items()}  # fmt: skip
+                fns: dict[str, Callable[[], object]] = {"serial": lambda j=job: j("serial")}
+                for label, addr in addrs.items():
+                    job(addr)  # warm-up: the workers import dualpose
+                    fns[label] = lambda j=job, a=addr: j(a)
+                res = interleaved(fns, args.repeats)
+                s_sec, s_load, s_out = res.pop("serial")
+                for label, (c_sec, c_load, c_out) in res.items():
+                    assert c_out == s_out, f"{name}: serial and cluster tables differ"
+                    rows.append(f"| {name} | {what} | {s_sec:.2f} s ({1e3 * s_sec / n:.1f} ms/task) | "
+                                f"{load_text(s_load)} | {label} | {c_sec:.2f} s | {load_text(c_load)} | "
+                                f"**{s_sec / c_sec:.2f} ×** |")  # fmt: skip
+                    print(rows[-1], file=sys.stderr)
             items = [float(k) for k in range(2000)]
+            addr = cluster.scheduler_address  # type: ignore[attr-defined]
             over = interleaved({"serial": lambda: run_tasks(math.sqrt, items, scheduler="serial"),
                                 "cluster": lambda: run_tasks(math.sqrt, items, scheduler=addr)},
                                args.repeats)  # fmt: skip
         finally:
+            sessions.close()
             sec_close, _, _ = timed(cluster.close)  # type: ignore[attr-defined]
         sec_default, load_default, _ = timed(lambda: run_eval_batch(pairs, scheduler="processes", workers=2))
     s_serial = over["serial"][0] / len(items)
@@ -136,8 +175,8 @@ def main(argv: list[str] | None = None) -> int:
         f"jobs.  Command: `.venv/bin/python benchmarks/bench_jobs.py --pairs {args.pairs} --poses {args.poses} "
         f"--runs {args.runs} --repeats {args.repeats}" + (f" --markdown {args.markdown}`." if args.markdown else "`."),
         "",
-        "| job | tasks | serial (1 process) | load avg | LocalCluster, 2 worker processes | load avg | speed-up |",
-        "|---|---|---:|---:|---:|---:|---:|",
+        "| job | tasks | serial (1 process) | load avg | 2 worker processes | time | load avg | speed-up |",
+        "|---|---|---:|---:|---|---:|---:|---:|",
         *rows,
         "",
         "| overhead | time | load avg |",
