@@ -9,10 +9,10 @@ import math
 from pathlib import Path
 
 import pytest
-from realdata import data_dir
 
 from dualpose.cli.main import main
 from dualpose.jobs.ahrs_batch import AHRS_COLUMNS, AHRS_METRICS, ahrs_recordings, run_ahrs_batch
+from realdata import data_dir
 
 BROAD = data_dir("broad")
 EUROC_IMU = data_dir("euroc/imu_april") / "imu0.csv"

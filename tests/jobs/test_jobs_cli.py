@@ -7,10 +7,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from realdata import data_dir
 
 from dualpose.cli.main import main
 from dualpose.jobs.table import has_parquet
+from realdata import data_dir
 
 TABLES = ["results.csv", "summary.csv"] + (["results.parquet", "summary.parquet"] if has_parquet() else [])
 

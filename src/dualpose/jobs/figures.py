@@ -9,18 +9,19 @@ import math
 import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from dualpose.jobs.table import ResultsTable, atomic_path, has_parquet
+from dualpose.jobs.table import Cell, ResultsTable, atomic_path, has_parquet
 
 __all__ = ["box_plot", "distribution_plot", "job_output_names", "nees_plot", "write_job_outputs"]
 
 Plot = Callable[[Path], None]
 
 
-def _pyplot():  # type: ignore[no-untyped-def]
+def _pyplot() -> Any:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -31,7 +32,7 @@ def _pyplot():  # type: ignore[no-untyped-def]
 
 def box_plot(
     table: ResultsTable, metric: str, path: str | os.PathLike[str], *, group: str = "dataset",
-    hue: str = "algorithm", ok: Callable[[dict[str, object]], bool] | None = None, ylabel: str | None = None,
+    hue: str = "algorithm", ok: Callable[[dict[str, Cell]], bool] | None = None, ylabel: str | None = None,
 ) -> None:  # fmt: skip
     """Box plots of ``metric`` over the runs: one cluster per ``group`` value, one box per ``hue`` value in it
     (colours and legend by ``hue``), values of the rows ``ok`` accepts; written to ``path`` (format from the
@@ -45,7 +46,7 @@ def box_plot(
     for j, h in enumerate(hues):
         data, pos = [], []
         for i, g in enumerate(groups):
-            v = [float(r[metric]) for r in table.rows  # type: ignore[arg-type]
+            v = [float(r[metric]) for r in table.rows
                  if str(r[group]) == g and str(r[hue]) == h and (ok is None or ok(r))]  # fmt: skip
             v = [x for x in v if math.isfinite(x)]
             if v:
@@ -98,14 +99,14 @@ def nees_plot(
 
 def distribution_plot(
     table: ResultsTable, metrics: Sequence[tuple[str, str]], path: str | os.PathLike[str],
-    ok: Callable[[dict[str, object]], bool] | None = None,
+    ok: Callable[[dict[str, Cell]], bool] | None = None,
 ) -> None:  # fmt: skip
     """Histograms of per-run numbers side by side: ``metrics`` is ``(column, axis label)`` pairs."""
     plt = _pyplot()
     fig, axes = plt.subplots(1, len(metrics), figsize=(3.2 * len(metrics), 3.2), squeeze=False)
     for ax, (col, label) in zip(axes[0], metrics, strict=True):
-        v = np.array([float(r[col]) for r in table.rows if ok is None or ok(r)], dtype=float)  # type: ignore[arg-type]
-        v = v[np.isfinite(v)]
+        every = np.asarray([float(r[col]) for r in table.rows if ok is None or ok(r)], dtype=np.float64)
+        v: NDArray[np.float64] = every[np.isfinite(every)]
         if v.size:
             ax.hist(v, bins=min(30, max(5, int(np.sqrt(v.size)) + 1)), color="tab:blue", alpha=0.7)
             ax.axvline(float(np.median(v)), color="black", lw=1.0, label=f"median {np.median(v):.4g}")

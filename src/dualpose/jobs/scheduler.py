@@ -158,7 +158,7 @@ def run_tasks(
             return _dask_processes(guarded, items, workers, progress)
         n = workers or os.cpu_count() or 1
         with LocalCluster(n_workers=min(n, total), threads_per_worker=1, processes=True, dashboard_address=":0",
-                          silence_logs=logging.ERROR) as cluster:  # fmt: skip
+                          silence_logs=logging.ERROR) as cluster:  # type: ignore[no-untyped-call]  # fmt: skip
             return _distributed(guarded, items, cluster, progress)
     if kind in SCHEDULERS or "://" not in kind and ":" not in kind:
         raise ValueError(f"scheduler must be 'serial', 'processes' or a cluster address (tcp://HOST:PORT); "
@@ -194,11 +194,11 @@ def _distributed(
     from distributed import Client, as_completed
 
     try:
-        client = Client(where, set_as_default=False, timeout=f"{CONNECT_TIMEOUT_S}s")
+        client = Client(where, set_as_default=False, timeout=f"{CONNECT_TIMEOUT_S}s")  # type: ignore[no-untyped-call]
     except (OSError, TimeoutError) as exc:
         raise OSError(f"cannot reach the dask scheduler at {where}: {exc}") from None
     with client:
-        size = chunk_size(len(items), sum(client.nthreads().values()))
+        size = chunk_size(len(items), sum(client.nthreads().values()))  # type: ignore[no-untyped-call]
         starts = range(0, len(items), size)
         prefix = f"dualpose-task-{uuid.uuid4().hex}"
         run_chunk = _Chunk(guarded)
@@ -206,7 +206,7 @@ def _distributed(
                    for k in starts]  # fmt: skip
         first = {f.key: k for k, f in zip(starts, futures, strict=True)}
         out: dict[int, R | TaskFailure] = {}
-        for future in as_completed(futures, loop=client.loop):
+        for future in as_completed(futures, loop=client.loop):  # type: ignore[no-untyped-call]
             k = first[future.key]
             n = min(size, len(items) - k)
             try:
@@ -225,17 +225,18 @@ def _dask_processes(
 ) -> list[R | TaskFailure]:
     """dask's multiprocessing scheduler (no ``distributed``): one delayed call per item, computed together."""
     try:
-        import dask
+        from dask.base import compute
         from dask.callbacks import Callback
+        from dask.delayed import delayed
     except ImportError as exc:
         raise ImportError("the 'processes' scheduler needs dask: pip install 'dualpose[dask]' "
                           "(or use the 'serial' scheduler)") from exc  # fmt: skip
-    tasks = [dask.delayed(guarded, pure=False)(item) for item in items]
+    tasks = [delayed(guarded, pure=False)(item) for item in items]
     total = len(items)
 
-    class _Count(Callback):  # type: ignore[misc]
+    class _Count(Callback):
         def __init__(self) -> None:
-            super().__init__()
+            super().__init__()  # type: ignore[no-untyped-call]
             self.done = 0
 
         def _posttask(self, key: object, result: object, dsk: object, state: object, worker_id: object) -> None:
@@ -244,5 +245,5 @@ def _dask_processes(
                 progress(min(self.done, total), total)
 
     with _Count():
-        results = dask.compute(*tasks, scheduler="processes", num_workers=workers or os.cpu_count() or 1)
+        results = compute(*tasks, scheduler="processes", num_workers=workers or os.cpu_count() or 1)  # type: ignore[no-untyped-call]
     return list(results)

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 __all__ = ["SUMMARY_COLUMNS", "ResultsTable", "atomic_path", "has_parquet", "summarize"]
 
@@ -52,7 +53,7 @@ def atomic_path(path: str | os.PathLike[str], *, overwrite: bool = False) -> Ite
 def has_parquet() -> bool:
     """True when pyarrow is installed (the Parquet copy of the tables is then written)."""
     try:
-        import pyarrow  # noqa: F401
+        import pyarrow  # type: ignore[import-untyped, unused-ignore]  # noqa: F401
     except ImportError:
         return False
     return True
@@ -115,8 +116,8 @@ class ResultsTable:
     def write_parquet(self, path: str | os.PathLike[str], *, overwrite: bool = False) -> Path:
         """Write a Parquet file atomically (needs pyarrow); column types follow the values (str, int64, float64,
         bool)."""
-        import pyarrow as pa
-        import pyarrow.parquet as pq
+        import pyarrow as pa  # type: ignore[import-untyped, unused-ignore]
+        import pyarrow.parquet as pq  # type: ignore[import-untyped, unused-ignore]
 
         data = {}
         for c in self.columns:
@@ -129,9 +130,11 @@ class ResultsTable:
         return Path(path)
 
 
-def _finite(values: Sequence[Cell]) -> np.ndarray:
-    arr = np.array([float(v) for v in values if isinstance(v, (int, float)) and not isinstance(v, bool)], dtype=float)
-    return arr[np.isfinite(arr)]
+def _finite(values: Sequence[Cell]) -> NDArray[np.float64]:
+    arr = np.asarray([float(v) for v in values if isinstance(v, (int, float)) and not isinstance(v, bool)],
+                     dtype=np.float64)
+    out: NDArray[np.float64] = arr[np.isfinite(arr)]
+    return out
 
 
 def summarize(
@@ -167,8 +170,8 @@ def summarize(
                 (float(np.mean(v)), float(np.median(v)), float(np.std(v)), float(np.min(v)), float(np.max(v)))
                 if v.size else (math.nan,) * 5
             )  # fmt: skip
-            row: dict[str, Cell] = dict(zip(group_by, key, strict=True))
-            row.update(metric=metric, runs=int(v.size), failed=len(members) - len(good))
-            row.update(zip(("mean", "median", "std", "min", "max"), stats, strict=True))
-            rows.append(row)
+            out: dict[str, Cell] = dict(zip(group_by, key, strict=True))
+            out.update(metric=metric, runs=int(v.size), failed=len(members) - len(good))
+            out.update(zip(("mean", "median", "std", "min", "max"), stats, strict=True))
+            rows.append(out)
     return ResultsTable(tuple(group_by) + SUMMARY_COLUMNS, rows)
