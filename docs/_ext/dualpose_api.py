@@ -324,6 +324,7 @@ EXTERNAL: dict[str, tuple[str, list[tuple[str, ...]]]] = {
         ("numpy.typing.ArrayLike", "py:class", "reference/typing.html#numpy.typing.ArrayLike"),
         ("numpy.random._generator.Generator", "py:class", "reference/random/generator.html#numpy.random.Generator"),
         ("numpy.typing.NDArray", "py:data", "reference/typing.html#numpy.typing.NDArray"),
+        ("numpy.typing.NDArray", "py:class", "reference/typing.html#numpy.typing.NDArray"),
         ("numpy.typing.DTypeLike", "py:data", "reference/typing.html#numpy.typing.DTypeLike"),
         *[(f"numpy.{n}", "py:function", f"reference/generated/numpy.{n}.html") for n in
           ("array", "asarray", "einsum", "linspace", "arctan2", "interp", "unwrap", "set_printoptions", "allclose",
@@ -462,11 +463,23 @@ def register_reexports(app, env) -> list[str]:
     return []
 
 
+#: the import names of annotations (a dataclass field's ``NDArray[np.float64]`` is shown as written) -> full names
+_IMPORT_NAMES = {"np": "numpy", "NDArray": "numpy.typing.NDArray", "ArrayLike": "numpy.typing.ArrayLike"}
+
+
 def resolve_dualpose_reference(app, env, node, contnode):
-    """``missing-reference``: resolve a Python reference to a dualpose object named by a re-export or bare name."""
+    """``missing-reference``: resolve a Python reference to a dualpose object named by a re-export or bare name, or
+    to numpy by the names annotations import it under (``np.float64``, ``NDArray``)."""
     if node.get("refdomain") != "py":
         return None
     target = node["reftarget"]
+    head, dot, rest = target.partition(".")
+    if head in _IMPORT_NAMES:
+        from sphinx.ext import intersphinx
+
+        full = node.deepcopy()
+        full["reftarget"] = _IMPORT_NAMES[head] + dot + rest
+        return intersphinx.missing_reference(app, env, full, contnode)
     name = canonical_target(target, node.get("py:module"))
     if name is None or name == target:
         return None

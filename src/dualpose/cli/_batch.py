@@ -13,19 +13,14 @@ import math
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import Protocol
+from typing import TYPE_CHECKING
 
 from dualpose.cli._args import int_in
 
-__all__ = ["BatchResult", "add_scheduler_arguments", "finish_job", "job_progress"]
+if TYPE_CHECKING:
+    from dualpose.jobs.table import Cell, JobResult, ResultsTable
 
-
-class BatchResult(Protocol):
-    """What the jobs of :mod:`dualpose.jobs` return: ``table``, ``summary``, ``failed``."""
-
-    table: object
-    summary: object
-    failed: int
+__all__ = ["add_scheduler_arguments", "finish_job", "job_progress", "scheduler_of", "summary_text"]
 
 
 def add_scheduler_arguments(p: argparse.ArgumentParser) -> None:
@@ -94,10 +89,10 @@ def _fmt(v: object) -> str:
     return str(v)
 
 
-def summary_text(summary: object) -> str:
+def summary_text(summary: ResultsTable) -> str:
     """The summary table as aligned text columns."""
-    columns = summary.columns  # type: ignore[attr-defined]
-    rows = [[_fmt(r[c]) for c in columns] for r in summary.rows]  # type: ignore[attr-defined]
+    columns = summary.columns
+    rows = [[_fmt(r[c]) for c in columns] for r in summary.rows]
     widths = [max(len(c), *(len(r[i]) for r in rows)) if rows else len(c) for i, c in enumerate(columns)]
     n_text = sum(1 for c in columns if c in ("dataset", "algorithm", "mode", "filter", "metric"))
 
@@ -109,7 +104,7 @@ def summary_text(summary: object) -> str:
 
 
 def finish_job(
-    command: str, result: BatchResult, label: Callable[[dict[str, object]], str], out: str | None, force: bool,
+    command: str, result: JobResult, label: Callable[[dict[str, Cell]], str], out: str | None, force: bool,
     figures: dict[str, Callable[[Path], None]],
 ) -> int:  # fmt: skip
     """Report the failed rows (stderr), print the summary (stdout), write the outputs into ``out``; the exit
@@ -117,7 +112,7 @@ def finish_job(
     from dualpose.jobs.figures import write_job_outputs
 
     table = result.table
-    for row in table.rows:  # type: ignore[attr-defined]
+    for row in table.rows:
         if row["status"] != "ok":
             print(f"dualpose {command}: row {row['row' if 'row' in row else 'run']} ({label(row)}): {row['error']}",
                   file=sys.stderr)  # fmt: skip
@@ -125,14 +120,14 @@ def finish_job(
     code = 0
     if out is not None:
         try:
-            paths = write_job_outputs(out, table, result.summary, figures, overwrite=force)  # type: ignore[arg-type]
+            paths = write_job_outputs(out, table, result.summary, figures, overwrite=force)
         except (OSError, ImportError, ValueError) as exc:
             print(f"dualpose {command}: error: {exc}", file=sys.stderr)
             code = 1
         else:
             print(f"\nwritten to {out}: {', '.join(p.name for p in paths)}")
     if result.failed:
-        print(f"dualpose {command}: {result.failed} of {len(table.rows)} rows failed "  # type: ignore[attr-defined]
+        print(f"dualpose {command}: {result.failed} of {len(table.rows)} rows failed "
               "(reasons above; every other row completed)", file=sys.stderr)  # fmt: skip
         return 1
     return code

@@ -452,6 +452,7 @@ def run_monte_carlo(args: argparse.Namespace) -> int:
     from dualpose.estimation.state import ESKF_ERROR
     from dualpose.jobs.figures import distribution_plot, job_output_names, nees_plot
     from dualpose.jobs.monte_carlo import run_monte_carlo as run_mc
+    from dualpose.jobs.table import Cell
 
     used = [n for n, v in (("--data", args.data), ("--stream", args.stream), ("--calibration", args.calibration),
                            ("--camera", args.camera), ("--sensors", args.sensors), ("--outage", args.outage),
@@ -479,7 +480,7 @@ def run_monte_carlo(args: argparse.Namespace) -> int:
     print(f"{runs} runs (seeds {first}..{first + args.monte_carlo - 1}); average NEES inside its 95 % band "
           f"[{lo:.3f}, {hi:.3f}] at {100 * inside:.1f} % of the {result.t.size} IMU times\n")  # fmt: skip
 
-    def ok(r: dict) -> bool:
+    def ok(r: dict[str, Cell]) -> bool:
         return r["status"] == "ok"
 
     def nees_figure(path: Path) -> None:

@@ -35,11 +35,11 @@ from dualpose.estimation.ahrs import estimate_orientation
 from dualpose.io import detect_format, load_broad
 from dualpose.io.broad import BroadTrial
 from dualpose.io.euroc import read_euroc_imu
-from dualpose.jobs.scheduler import TaskFailure, run_tasks
-from dualpose.jobs.table import Cell, ResultsTable, summarize
+from dualpose.jobs.scheduler import run_tasks
+from dualpose.jobs.table import Cell, JobResult, ResultsTable, outcome_rows, summarize
 from dualpose.pipelines.ahrs_offline import broad_scores, smooth_broad_trial
 
-__all__ = ["AHRS_COLUMNS", "AHRS_METRICS", "AhrsBatchResult", "AhrsRecording", "ahrs_recordings", "ahrs_task",
+__all__ = ["AHRS_COLUMNS", "AHRS_METRICS", "AhrsRecording", "ahrs_recordings", "ahrs_task",
            "run_ahrs_batch"]  # fmt: skip
 
 #: the scored metrics (BROAD's, degrees over the movement samples)
@@ -167,7 +167,7 @@ def _euroc_trial(path: str) -> BroadTrial:
 def ahrs_task(rec: AhrsRecording) -> dict[str, Cell]:
     """Run the filter on one recording and score it (the task of :func:`run_ahrs_batch`; pure: reads one file).
 
-    Returns the columns of :data:`AHRS_COLUMNS` from ``mode`` on, without ``status`` and ``error``.
+    Returns the columns of :data:`AHRS_COLUMNS` from ``samples`` on.
 
     Raises
     ------
@@ -192,7 +192,6 @@ def ahrs_task(rec: AhrsRecording) -> dict[str, Cell]:
         scores = broad_scores(result.quat, trial, use_mag=rec.use_mag)
     offset = result.mag_time_offset_ms if rec.use_mag else None
     out: dict[str, Cell] = {
-        "mode": ("9D" if rec.use_mag else "6D") + (" offline" if rec.offline else ""),
         "samples": int(result.quat.shape[0]),
         "rate_hz": float(trial.rate),
         "acc_rejected": int(result.acc_rejected),
@@ -206,44 +205,28 @@ def ahrs_task(rec: AhrsRecording) -> dict[str, Cell]:
     return out
 
 
-@dataclass
-class AhrsBatchResult:
-    """Output of :func:`run_ahrs_batch`: the results table (a row per recording, in order), its summary per dataset
-    and mode, and the count of failed recordings."""
-
-    table: ResultsTable
-    summary: ResultsTable
-    failed: int
-
-
 def run_ahrs_batch(
     recordings: Sequence[AhrsRecording],
     *,
     scheduler: str | None = None,
     workers: int | None = None,
     progress: Callable[[int, int], None] | None = None,
-) -> AhrsBatchResult:
+) -> JobResult:
     """Run the filter on every recording on a scheduler (:func:`dualpose.jobs.scheduler.run_tasks`).
 
     Returns
     -------
-    AhrsBatchResult
+    JobResult
         ``status`` "ok" or "failed" (reason in ``error``, numbers NaN / 0) per recording; the same recordings give
         the same table, bit for bit, on any scheduler.
     """
     recs = list(recordings)
     outcomes = run_tasks(ahrs_task, recs, scheduler=scheduler, workers=workers, progress=progress)
-    rows: list[dict[str, Cell]] = []
-    for k, (rec, out) in enumerate(zip(recs, outcomes, strict=True)):
-        row: dict[str, Cell] = {"row": k, "dataset": rec.dataset, "recording": rec.path}
-        if isinstance(out, TaskFailure):
-            row.update(mode=("9D" if rec.use_mag else "6D") + (" offline" if rec.offline else ""), status="failed",
-                       error=out.reason, samples=0, rate_hz=math.nan, acc_rejected=0, mag_rejected=0,
-                       rest_samples=0, rest_updates=0, mag_time_offset_ms=math.nan)  # fmt: skip
-            row.update(dict.fromkeys(AHRS_METRICS, math.nan))
-        else:
-            row.update(status="ok", error="", **out)
-        rows.append(row)
+    base: list[dict[str, Cell]] = [{"row": k, "dataset": r.dataset, "recording": r.path,
+                                     "mode": ("9D" if r.use_mag else "6D") + (" offline" if r.offline else "")}
+                                    for k, r in enumerate(recs)]  # fmt: skip
+    rows = outcome_rows(AHRS_COLUMNS, base, outcomes, {"samples": 0, "acc_rejected": 0, "mag_rejected": 0,
+                                                        "rest_samples": 0, "rest_updates": 0})  # fmt: skip
     table = ResultsTable(AHRS_COLUMNS, rows)
     summary = summarize(table, ("dataset", "mode"), AHRS_METRICS, lambda r: r["status"] == "ok")
-    return AhrsBatchResult(table, summary, sum(r["status"] != "ok" for r in rows))
+    return JobResult(table, summary, sum(r["status"] != "ok" for r in rows))

@@ -22,7 +22,6 @@ all poses.  Every pair is evaluated with :func:`dualpose.evaluation.metrics.eval
 from __future__ import annotations
 
 import csv
-import math
 import os
 import re
 import warnings
@@ -32,8 +31,8 @@ from pathlib import Path
 
 from dualpose.evaluation.metrics import evaluate
 from dualpose.io import detect_format, read_trajectory
-from dualpose.jobs.scheduler import TaskFailure, run_tasks
-from dualpose.jobs.table import Cell, ResultsTable, summarize
+from dualpose.jobs.scheduler import run_tasks
+from dualpose.jobs.table import Cell, JobResult, ResultsTable, outcome_rows, summarize
 
 __all__ = [
     "EVAL_COLUMNS", "EVAL_METRICS", "MANIFEST_COLUMNS", "EvalPair", "EvalSettings", "evaluate_pair",
@@ -226,23 +225,13 @@ def evaluate_pair(pair: EvalPair) -> dict[str, Cell]:
     }
 
 
-@dataclass
-class EvalBatchResult:
-    """Output of :func:`run_eval_batch`: the results table (one row per pair, in manifest order), its summary
-    per dataset and algorithm (:func:`dualpose.jobs.table.summarize`) and the count of failed rows."""
-
-    table: ResultsTable
-    summary: ResultsTable
-    failed: int
-
-
 def run_eval_batch(
     pairs: list[EvalPair],
     *,
     scheduler: str | None = None,
     workers: int | None = None,
     progress: Callable[[int, int], None] | None = None,
-) -> EvalBatchResult:
+) -> JobResult:
     """Evaluate every pair on a scheduler (:func:`dualpose.jobs.scheduler.run_tasks`).
 
     Parameters
@@ -254,22 +243,15 @@ def run_eval_batch(
 
     Returns
     -------
-    EvalBatchResult
+    JobResult
         A row per pair with ``status`` "ok" or "failed" and, when failed, the reason in ``error`` (metrics NaN).
         The same pairs give the same table, bit for bit, on any scheduler.
     """
     outcomes = run_tasks(evaluate_pair, pairs, scheduler=scheduler, workers=workers, progress=progress)
-    rows: list[dict[str, Cell]] = []
-    for k, (pair, outcome) in enumerate(zip(pairs, outcomes, strict=True)):
-        row: dict[str, Cell] = {"row": k, "dataset": pair.dataset, "algorithm": pair.algorithm, "run": pair.run,
-                                "reference": pair.reference, "estimate": pair.estimate}  # fmt: skip
-        if isinstance(outcome, TaskFailure):
-            row.update(status="failed", error=outcome.reason, warnings="", alignment=pair.settings.align,
-                       scale=math.nan, matched_poses=0, rpe_pairs=0)  # fmt: skip
-            row.update(dict.fromkeys(EVAL_METRICS, math.nan))
-        else:
-            row.update(status="ok", error="", **outcome)
-        rows.append(row)
+    base: list[dict[str, Cell]] = [{"row": k, "dataset": p.dataset, "algorithm": p.algorithm, "run": p.run,
+                                     "reference": p.reference, "estimate": p.estimate} for k, p in enumerate(pairs)]
+    rows = outcome_rows(EVAL_COLUMNS, base, outcomes, {"warnings": "", "alignment": "", "matched_poses": 0,
+                                                        "rpe_pairs": 0})  # fmt: skip
     table = ResultsTable(EVAL_COLUMNS, rows)
     summary = summarize(table, ("dataset", "algorithm"), EVAL_METRICS, lambda r: r["status"] == "ok")
-    return EvalBatchResult(table, summary, sum(r["status"] != "ok" for r in rows))
+    return JobResult(table, summary, sum(r["status"] != "ok" for r in rows))

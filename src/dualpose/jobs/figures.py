@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from dualpose.jobs.table import Cell, ResultsTable, atomic_path, has_parquet
 
@@ -72,11 +72,13 @@ def box_plot(
 
 
 def nees_plot(
-    t: NDArray[np.float64], average_nees: NDArray[np.float64], band: tuple[float, float], runs: int, dim: int,
+    t: ArrayLike, average_nees: ArrayLike, band: tuple[float, float], runs: int, dim: int,
     path: str | os.PathLike[str],
 ) -> None:  # fmt: skip
     """The Monte-Carlo average NEES (``runs`` runs, ``dim``-dimensional state) over time ``t`` (s) with its
-    two-sided 95 % band and the expected value ``dim``; log scale."""
+    two-sided 95 % band and the expected value ``dim``; log scale.  ``t`` and ``average_nees``: shape (N,)."""
+    t = np.asarray(t, dtype=np.float64)
+    average_nees = np.asarray(average_nees, dtype=np.float64)
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(8.0, 4.0))
     inside = float(np.mean((average_nees >= band[0]) & (average_nees <= band[1]))) if average_nees.size else math.nan

@@ -13,7 +13,6 @@ average NEES at every time with its two-sided 95 % band ``χ²_{runs·15}`` / ru
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -25,7 +24,7 @@ from dualpose.estimation import consistency
 from dualpose.estimation.state import ESKF_ERROR
 from dualpose.evaluation.metrics import evaluate
 from dualpose.jobs.scheduler import TaskFailure, run_tasks
-from dualpose.jobs.table import Cell, ResultsTable, summarize
+from dualpose.jobs.table import Cell, JobResult, ResultsTable, outcome_rows, summarize
 from dualpose.types import Trajectory
 
 __all__ = ["MC_COLUMNS", "MC_METRICS", "MonteCarloResult", "monte_carlo_run", "run_monte_carlo"]
@@ -79,7 +78,7 @@ def monte_carlo_run(seed: int) -> dict[str, object]:
 
 
 @dataclass
-class MonteCarloResult:
+class MonteCarloResult(JobResult):
     """Output of :func:`run_monte_carlo`.
 
     Attributes
@@ -99,12 +98,9 @@ class MonteCarloResult:
         Runs that failed.
     """
 
-    table: ResultsTable
-    summary: ResultsTable
     t: NDArray[np.float64]
     average_nees: NDArray[np.float64]
     nees_band: tuple[float, float]
-    failed: int
 
 
 def run_monte_carlo(
@@ -141,26 +137,20 @@ def run_monte_carlo(
             raise ValueError(f"{name} must be an integer >= {low}; got {value!r}")
     seeds = [int(seed) + k for k in range(int(runs))]
     outcomes = run_tasks(monte_carlo_run, seeds, scheduler=scheduler, workers=workers, progress=progress)
-    rows: list[dict[str, Cell]] = []
+    base: list[dict[str, Cell]] = [{"run": k, "seed": s, "filter": "eskf"} for k, s in enumerate(seeds)]
+    rows = outcome_rows(MC_COLUMNS, base, outcomes, {"imu_samples": 0, "n_correspondences": 0, "n_rejected": 0})
     total: NDArray[np.float64] | None = None
     t: NDArray[np.float64] = np.zeros(0)
-    for k, (s, out) in enumerate(zip(seeds, outcomes, strict=True)):
-        row: dict[str, Cell] = {"run": k, "seed": s, "filter": "eskf"}
-        if isinstance(out, TaskFailure):
-            row.update(status="failed", error=out.reason, imu_samples=0, n_correspondences=0, n_rejected=0)
-            row.update(dict.fromkeys(MC_METRICS, math.nan))
-        else:
+    for out in outcomes:  # the average NEES, summed in seed order
+        if not isinstance(out, TaskFailure):
             nees = np.asarray(out["nees"], dtype=np.float64)
             if total is None:
                 total, t = nees.copy(), np.asarray(out["t"], dtype=np.float64)
             else:
                 total += nees
-            row.update(status="ok", error="")
-            row.update({c: out[c] for c in MC_COLUMNS[5:]})  # type: ignore[misc]
-        rows.append(row)
     ok = sum(r["status"] == "ok" for r in rows)
     table = ResultsTable(MC_COLUMNS, rows)
     summary = summarize(table, ("filter",), MC_METRICS, lambda r: r["status"] == "ok")
     average = total / ok if total is not None else np.zeros(0)
     band = consistency.nees_band(ESKF_ERROR.dim, max(ok, 1), _P)
-    return MonteCarloResult(table, summary, t, average, band, len(rows) - ok)
+    return MonteCarloResult(table, summary, len(rows) - ok, t, average, band)

@@ -36,10 +36,10 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Generic, TypeVar
 
-__all__ = ["SCHEDULERS", "TaskFailure", "default_scheduler", "run_tasks"]
+__all__ = ["SCHEDULERS", "TaskFailure", "chunk_size", "default_scheduler", "run_tasks"]
 
-T = TypeVar("T")
-R = TypeVar("R")
+_T = TypeVar("_T")
+_R = TypeVar("_R")
 
 #: the scheduler names :func:`run_tasks` knows besides a cluster address
 SCHEDULERS: tuple[str, ...] = ("serial", "processes")
@@ -64,12 +64,12 @@ class TaskFailure:
 
 
 @dataclass(frozen=True)
-class _Guarded(Generic[T, R]):
+class _Guarded(Generic[_T, _R]):
     """``func(item)``, with an exception turned into a :class:`TaskFailure` (picklable: ``func`` is module-level)."""
 
-    func: Callable[[T], R]
+    func: Callable[[_T], _R]
 
-    def __call__(self, item: T) -> R | TaskFailure:
+    def __call__(self, item: _T) -> _R | TaskFailure:
         try:
             return self.func(item)
         except (ValueError, OSError) as exc:
@@ -100,13 +100,13 @@ def _check(scheduler: str | None, workers: int | None) -> str:
 
 
 def run_tasks(
-    func: Callable[[T], R],
-    items: Sequence[T],
+    func: Callable[[_T], _R],
+    items: Sequence[_T],
     *,
     scheduler: str | None = None,
     workers: int | None = None,
     progress: Callable[[int, int], None] | None = None,
-) -> list[R | TaskFailure]:
+) -> list[_R | TaskFailure]:
     """``[func(item) for item in items]`` on a scheduler, failures kept per item.
 
     Parameters
@@ -140,12 +140,12 @@ def run_tasks(
     """
     kind = _check(scheduler, workers)
     items = list(items)
-    guarded: _Guarded[T, R] = _Guarded(func)
+    guarded: _Guarded[_T, _R] = _Guarded(func)
     total = len(items)
     if total == 0:
         return []
     if kind == "serial":
-        out: list[R | TaskFailure] = []
+        out: list[_R | TaskFailure] = []
         for item in items:
             out.append(guarded(item))
             if progress is not None:
@@ -171,12 +171,12 @@ def run_tasks(
 
 
 @dataclass(frozen=True)
-class _Chunk(Generic[T, R]):
+class _Chunk(Generic[_T, _R]):
     """``[guarded(item) for item in items]``: one dask task for a few items (picklable)."""
 
-    guarded: _Guarded[T, R]
+    guarded: _Guarded[_T, _R]
 
-    def __call__(self, items: list[T]) -> list[R | TaskFailure]:
+    def __call__(self, items: list[_T]) -> list[_R | TaskFailure]:
         return [self.guarded(item) for item in items]
 
 
@@ -187,8 +187,8 @@ def chunk_size(n_items: int, n_workers: int) -> int:
 
 
 def _distributed(
-    guarded: _Guarded[T, R], items: list[T], where: object, progress: Callable[[int, int], None] | None
-) -> list[R | TaskFailure]:
+    guarded: _Guarded[_T, _R], items: list[_T], where: object, progress: Callable[[int, int], None] | None
+) -> list[_R | TaskFailure]:
     """On a ``distributed`` cluster (a ``LocalCluster`` object or an address): one future per chunk of items
     (:func:`chunk_size`), keyed by its first index, collected once each."""
     from distributed import Client, as_completed
@@ -205,7 +205,7 @@ def _distributed(
         futures = [client.submit(run_chunk, items[k : k + size], key=f"{prefix}-{k}", pure=False, retries=_RETRIES)
                    for k in starts]  # fmt: skip
         first = {f.key: k for k, f in zip(starts, futures, strict=True)}
-        out: dict[int, R | TaskFailure] = {}
+        out: dict[int, _R | TaskFailure] = {}
         for future in as_completed(futures, loop=client.loop):  # type: ignore[no-untyped-call]
             k = first[future.key]
             n = min(size, len(items) - k)
@@ -221,8 +221,8 @@ def _distributed(
 
 
 def _dask_processes(
-    guarded: _Guarded[T, R], items: list[T], workers: int | None, progress: Callable[[int, int], None] | None
-) -> list[R | TaskFailure]:
+    guarded: _Guarded[_T, _R], items: list[_T], workers: int | None, progress: Callable[[int, int], None] | None
+) -> list[_R | TaskFailure]:
     """dask's multiprocessing scheduler (no ``distributed``): one delayed call per item, computed together."""
     try:
         from dask.base import compute

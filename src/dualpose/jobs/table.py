@@ -13,7 +13,7 @@ import csv
 import io
 import math
 import os
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,7 +21,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["SUMMARY_COLUMNS", "ResultsTable", "atomic_path", "has_parquet", "summarize"]
+from dualpose.jobs.scheduler import TaskFailure
+
+__all__ = ["SUMMARY_COLUMNS", "JobResult", "ResultsTable", "atomic_path", "has_parquet", "outcome_rows", "summarize"]
 
 Cell = str | int | float | bool
 
@@ -128,6 +130,36 @@ class ResultsTable:
         with atomic_path(path, overwrite=overwrite) as tmp:
             pq.write_table(pa.table(data), tmp)
         return Path(path)
+
+
+@dataclass
+class JobResult:
+    """Output of a many-run job: the results table (a row per task, in input order), its summary per group
+    (:func:`summarize`) and the count of failed rows."""
+
+    table: ResultsTable
+    summary: ResultsTable
+    failed: int
+
+
+def outcome_rows(
+    columns: Sequence[str], base: Sequence[dict[str, Cell]], outcomes: Sequence[Mapping[str, object] | TaskFailure],
+    failed: Mapping[str, Cell],
+) -> list[dict[str, Cell]]:  # fmt: skip
+    """The rows of a job's results table: row k is ``base[k]`` (its labels) with ``status`` "ok", ``error`` "" and
+    the remaining ``columns`` from ``outcomes[k]``, or -- for a :class:`~dualpose.jobs.scheduler.TaskFailure` --
+    ``status`` "failed", the reason in ``error``, the values of ``failed`` and NaN in every other column."""
+    rows: list[dict[str, Cell]] = []
+    for labels, out in zip(base, outcomes, strict=True):
+        row: dict[str, Cell] = dict(labels)
+        if isinstance(out, TaskFailure):
+            row.update(status="failed", error=out.reason, **failed)
+            row.update({c: math.nan for c in columns if c not in row})
+        else:
+            row.update(status="ok", error="")
+            row.update({c: out[c] for c in columns if c not in row})  # type: ignore[misc]
+        rows.append(row)
+    return rows
 
 
 def _finite(values: Sequence[Cell]) -> NDArray[np.float64]:
