@@ -80,3 +80,14 @@ def test_ahrs_batch_counts_the_bad_file(tmp_path: Path, capsys: pytest.CaptureFi
     err = capsys.readouterr().err
     assert "none.mat: no such file" in err and "1 of 2 rows failed" in err
     assert (out / "rmse.png").is_file() and (out / "results.csv").read_text(encoding="utf-8").count("\n") == 3
+
+
+def test_without_dask_the_job_runs_serially(monkeypatch: pytest.MonkeyPatch,
+                                            capsys: pytest.CaptureFixture[str]) -> None:  # fmt: skip
+    from dualpose.jobs import scheduler
+
+    monkeypatch.setattr(scheduler, "default_scheduler", lambda: "serial")  # as without dask installed
+    assert main(["fuse", "--monte-carlo", "2"]) == 0
+    out, err = capsys.readouterr()
+    assert "dask is not installed (pip install 'dualpose[dask]'): running the tasks serially" in err
+    assert "2 runs (seeds 0..1)" in out
