@@ -36,6 +36,7 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(VENV)/bin/ruff check $(RUFF_PATHS)
+	$(VENV)/bin/mypy
 	$(PY) -m pytest -q -n 2 -p no:cacheprovider
 
 bench: $(BSTAMP)
@@ -54,4 +55,4 @@ lint: $(STAMP)
 	$(VENV)/bin/ruff check $(RUFF_PATHS)
 
 clean:
-	rm -rf $(VENV) build src/*.egg-info docs/_build docs/api docs/auto_examples docs/sg_execution_times.rst
+	rm -rf $(VENV) .mypy_cache build src/*.egg-info docs/_build docs/api docs/auto_examples docs/sg_execution_times.rst

@@ -8,6 +8,7 @@ import importlib.util
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from dualpose import _native
 
@@ -57,3 +58,15 @@ def test_parameters_read_from_the_docstring() -> None:
 
 def test_package_is_marked_typed() -> None:
     assert (ROOT / "src" / "dualpose" / "py.typed").is_file()
+
+
+def test_return_types_read_from_the_docstring() -> None:
+    maker = _maker()
+    assert maker._return_type("f", "f(x, P (15, 15)): in place.") == "None"
+    assert maker._return_type("f", "f(a, b) -> int: count.") == "int"
+    assert maker._return_type("f", "f(state, t) -> x (16,): the state.") == "NDArray[np.float64]"
+    assert maker._return_type("f", "f(state) -> (x (16,), P (225,), t0, tc, samples): copies.") == (
+        "tuple[NDArray[np.float64], NDArray[np.float64], float, float, int]"
+    )
+    with pytest.raises(ValueError, match="not a word"):
+        maker._return_type("f", "f(a) -> something: ?")

@@ -325,6 +325,8 @@ EXTERNAL: dict[str, tuple[str, list[tuple[str, ...]]]] = {
         ("numpy.random._generator.Generator", "py:class", "reference/random/generator.html#numpy.random.Generator"),
         ("numpy.typing.NDArray", "py:data", "reference/typing.html#numpy.typing.NDArray"),
         ("numpy.typing.NDArray", "py:class", "reference/typing.html#numpy.typing.NDArray"),
+        *[(f"numpy.{n}", "py:class", f"reference/arrays.scalars.html#numpy.{n}") for n in
+          ("int64", "intp", "uint8", "uint32", "int32", "bool_", "generic", "number")],
         ("numpy.typing.DTypeLike", "py:data", "reference/typing.html#numpy.typing.DTypeLike"),
         *[(f"numpy.{n}", "py:function", f"reference/generated/numpy.{n}.html") for n in
           ("array", "asarray", "einsum", "linspace", "arctan2", "interp", "unwrap", "set_printoptions", "allclose",
@@ -463,23 +465,34 @@ def register_reexports(app, env) -> list[str]:
     return []
 
 
-#: the import names of annotations (a dataclass field's ``NDArray[np.float64]`` is shown as written) -> full names
-_IMPORT_NAMES = {"np": "numpy", "NDArray": "numpy.typing.NDArray", "ArrayLike": "numpy.typing.ArrayLike"}
+#: names as the source writes them in annotations (``ArrayLike``, ``np.float64``) -> their documented names; autodoc
+#: leaves an overload's annotations as written
+_SOURCE_NAMES = {"ArrayLike": "numpy.typing.ArrayLike", "NDArray": "numpy.typing.NDArray"}
 
 
-def resolve_dualpose_reference(app, env, node, contnode):
-    """``missing-reference``: resolve a Python reference to a dualpose object named by a re-export or bare name, or
-    to numpy by the names annotations import it under (``np.float64``, ``NDArray``)."""
+def resolve_source_name(app, env, node, contnode):
+    """``missing-reference``: ``np.X`` and the :mod:`numpy.typing` aliases, as written in an annotation, through the
+    numpy inventory."""
     if node.get("refdomain") != "py":
         return None
     target = node["reftarget"]
-    head, dot, rest = target.partition(".")
-    if head in _IMPORT_NAMES:
-        from sphinx.ext import intersphinx
+    name = _SOURCE_NAMES.get(target) or ("numpy." + target[3:] if target.startswith("np.") else None)
+    if name is None:
+        return None
+    from sphinx.ext.intersphinx import missing_reference
 
-        full = node.deepcopy()
-        full["reftarget"] = _IMPORT_NAMES[head] + dot + rest
-        return intersphinx.missing_reference(app, env, full, contnode)
+    node["reftarget"] = name
+    found = missing_reference(app, env, node, contnode)
+    if found is None:
+        node["reftarget"] = target
+    return found
+
+
+def resolve_dualpose_reference(app, env, node, contnode):
+    """``missing-reference``: resolve a Python reference to a dualpose object named by a re-export or bare name."""
+    if node.get("refdomain") != "py":
+        return None
+    target = node["reftarget"]
     name = canonical_target(target, node.get("py:module"))
     if name is None or name == target:
         return None
@@ -516,14 +529,30 @@ def _name_of_alias(self) -> str:
     return self.name
 
 
+def _subscript_alias(self, item):
+    """``NDArray[np.float64]`` with ``NDArray`` an ``autodoc_type_aliases`` alias: the alias of the whole expression
+    (``numpy.typing.NDArray[numpy.float64]``), which the signature shows with a link for each name.  Without it
+    the subscript raises inside ``typing.get_type_hints`` and autodoc leaves every annotation of the function
+    unevaluated."""
+    from sphinx.util.inspect import TypeAliasForwardRef
+    from sphinx.util.typing import stringify_annotation
+
+    items = item if isinstance(item, tuple) else (item,)
+    names = ", ".join(i.name if isinstance(i, TypeAliasForwardRef) else stringify_annotation(i, "fully-qualified")
+                      for i in items)
+    return TypeAliasForwardRef(f"{self.name}[{names}]")
+
+
 def setup(app):
     # Sphinx writes an ``autodoc_type_aliases`` alias inside a union (``ArrayLike | None``) with its repr,
     # ``TypeAliasForwardRef('numpy.typing.ArrayLike')``; the alias's own name is what the signature should show
     from sphinx.util.inspect import TypeAliasForwardRef
 
     TypeAliasForwardRef.__repr__ = _name_of_alias
+    TypeAliasForwardRef.__getitem__ = _subscript_alias
     app.connect("builder-inited", generate_api)
     app.connect("missing-reference", resolve_dualpose_reference)
+    app.connect("missing-reference", resolve_source_name)
     app.connect("env-updated", register_reexports)
     app.connect("autodoc-process-bases", public_bases)
     app.connect("autodoc-process-signature", factory_defaults)

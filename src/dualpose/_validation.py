@@ -10,11 +10,15 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
-__all__ = ["identity_array", "as_array", "as_scalar_array", "call_kernel", "raise_if_zero_norm", "check_finite"]
+__all__ = [
+    "identity_array", "as_array", "as_scalar_array", "call_kernel", "call_kernel_pair", "raise_if_zero_norm",
+    "check_finite",
+]
 
 
-def _convert(x: Any, name: str) -> np.ndarray:
+def _convert(x: Any, name: str) -> NDArray[np.float64]:
     try:
         arr = np.asarray(x)
     except (ValueError, TypeError) as exc:  # ragged lists and the like
@@ -30,7 +34,7 @@ def _convert(x: Any, name: str) -> np.ndarray:
     raise TypeError(f"{name} must be a real numeric array; got dtype {arr.dtype}")
 
 
-def as_array(x: Any, name: str, size: int | tuple[int, ...]) -> np.ndarray:
+def as_array(x: Any, name: str, size: int | tuple[int, ...]) -> NDArray[np.float64]:
     """Return ``x`` as a float64 array whose trailing axes are ``size``.
 
     Raises
@@ -40,26 +44,28 @@ def as_array(x: Any, name: str, size: int | tuple[int, ...]) -> np.ndarray:
     ValueError
         When the trailing shape is not ``size``.
     """
-    if type(x) is not np.ndarray or x.dtype != np.float64:
-        x = _convert(x, name)
+    a: NDArray[np.float64] = _convert(x, name) if type(x) is not np.ndarray or x.dtype != np.float64 else x
     if isinstance(size, int):
-        if x.shape[-1:] != (size,):
-            raise ValueError(f"{name} must have shape (..., {size}); got shape {x.shape}")
+        if a.shape[-1:] != (size,):
+            raise ValueError(f"{name} must have shape (..., {size}); got shape {a.shape}")
     else:
         k = len(size)
-        if x.shape[x.ndim - k :] != size or x.ndim < k:
+        if a.shape[a.ndim - k :] != size or a.ndim < k:
             dims = ", ".join(str(s) for s in size)
-            raise ValueError(f"{name} must have shape (..., {dims}); got shape {x.shape}")
-    return x
+            raise ValueError(f"{name} must have shape (..., {dims}); got shape {a.shape}")
+    return a
 
 
-def as_scalar_array(x: Any, name: str) -> np.ndarray:
-    """Return ``x`` (a scalar or an array of scalars, shape ``(...)``) as float64."""
+def as_scalar_array(x: Any, name: str) -> NDArray[np.float64] | np.float64:
+    """Return ``x`` (a scalar or an array of scalars, shape ``(...)``) as float64 (a Python float as
+    :class:`numpy.float64`)."""
     if type(x) is not np.ndarray or x.dtype != np.float64:
         if isinstance(x, float):
-            return np.float64(x)  # type: ignore[return-value]
-        x = _convert(x, name)
-    return x
+            result: NDArray[np.float64] | np.float64 = np.float64(float(x))
+            return result
+        return _convert(x, name)
+    a: NDArray[np.float64] = x
+    return a
 
 
 def _core_ndim(ufunc: np.ufunc, index: int) -> int:
@@ -83,11 +89,25 @@ def shape_error(ufunc: np.ufunc, args: Sequence[np.ndarray], names: Sequence[str
     return ValueError(f"batch shapes do not broadcast: {desc}")
 
 
-def call_kernel(ufunc: np.ufunc, args: tuple, names: Sequence[str], out: np.ndarray | None = None) -> Any:
-    """Call a (g)ufunc, translating numpy's broadcasting error into one that names the arguments.
+def call_kernel(ufunc: np.ufunc, args: tuple[Any, ...], names: Sequence[str],
+                out: np.ndarray | None = None) -> NDArray[np.float64]:
+    """Call a (g)ufunc with one float64 output, translating numpy's broadcasting error into one that names the
+    arguments.
 
     ``out`` (optional) is a preallocated float64 array for the result, as for NumPy ufuncs.
     """
+    result: NDArray[np.float64] = _call(ufunc, args, names, out)
+    return result
+
+
+def call_kernel_pair(ufunc: np.ufunc, args: tuple[Any, ...],
+                     names: Sequence[str]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`call_kernel` for a (g)ufunc with two float64 outputs."""
+    first, second = _call(ufunc, args, names, None)
+    return first, second
+
+
+def _call(ufunc: np.ufunc, args: tuple[Any, ...], names: Sequence[str], out: np.ndarray | None) -> Any:
     if out is None:
         try:
             return ufunc(*args)
@@ -107,7 +127,7 @@ FLAT_MIN_ELEMENTS = 64
 
 
 def try_flat_kernel(kernel: Callable[..., int], arrays: tuple[np.ndarray, ...], out: np.ndarray | None,
-                    width: int) -> tuple[np.ndarray, int] | None:
+                    width: int) -> tuple[NDArray[np.float64], int] | None:
     """Run a flat row loop of :mod:`dualpose._native` (``flat_*``) when the inputs allow it.
 
     Applies when every array is C-contiguous with the same leading shape (no broadcasting), there are at least
@@ -153,7 +173,7 @@ def check_finite(x: np.ndarray, name: str) -> None:
         raise ValueError(f"{name} contains NaN or infinity; conversions need finite input")
 
 
-def identity_array(shape: int | tuple[int, ...], size: int) -> np.ndarray:
+def identity_array(shape: int | tuple[int, ...], size: int) -> NDArray[np.float64]:
     """Identity (dual) quaternions: zeros of shape ``shape + (size,)`` with component 3 (``w``) set to 1."""
     lead = (shape,) if isinstance(shape, int) else tuple(shape)
     out = np.zeros((*lead, size))

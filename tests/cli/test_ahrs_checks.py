@@ -54,7 +54,8 @@ def test_nan_gyro_sample_is_a_one_line_error_in_ahrs_and_fuse(tmp_path, capsys):
     gyr[400, 1] = np.nan
     path = write_synthetic_trial(tmp_path / "nan.mat", imu_gyr=gyr)
     assert main(["ahrs", str(path), "--json"]) == 1
-    assert "nan.mat" in _one_error(capsys)
+    assert "nan.mat: field imu_gyr: sample 400 " in _one_error(capsys)
     assert main(["fuse", "--data", str(path)]) == 1
     line = [s for s in capsys.readouterr().err.splitlines() if "error" in s]
-    assert len(line) == 1 and "nan.mat" in line[0] and "gyro: sample" in line[0] and "not finite" in line[0]
+    assert len(line) == 1 and line[0].count("nan.mat") == 1 and "not finite" in line[0]
+    assert "field imu_gyr: sample 400 " in line[0]  # the trial's own sample number, not the recording's

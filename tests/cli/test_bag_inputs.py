@@ -133,6 +133,6 @@ def test_fuse_out_bag_writes_the_estimate(tmp_path, capsys):
     np.testing.assert_array_equal(bag.quats, tum.quats)
     np.testing.assert_allclose(bag.stamps, tum.stamps, atol=1e-9)
     assert main(["fuse", "--out", str(out), "--out-bag", "mcap"]) == 2  # never replaced without --force
-    assert "file exists" in capsys.readouterr().err
+    assert "earlier run's output" in capsys.readouterr().err
     assert main(["fuse", "--out-bag", "bag"]) == 2
     assert "--out-bag writes into the --out directory" in capsys.readouterr().err

@@ -57,7 +57,7 @@ def test_plot_written_and_never_overwritten_without_force(files, tmp_path, capsy
     assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20_000
     capsys.readouterr()
     png.write_bytes(b"mine")
-    assert main(["eval", ref, est, "--plot", str(png)]) == 1
+    assert main(["eval", ref, est, "--plot", str(png)]) == 2  # refused before anything is read
     assert "file exists" in capsys.readouterr().err and png.read_bytes() == b"mine"
     assert main(["eval", ref, est, "--plot", str(png), "--force", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["plot"] == str(png)

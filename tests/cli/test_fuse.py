@@ -39,7 +39,7 @@ def test_out_writes_files_refuses_overwrite_and_force_replaces(tmp_path, capsys)
     before = (out / "metrics.json").stat().st_mtime_ns
     assert main(["fuse", "--filter", "hol22", "--out", str(out)]) == 2
     err = capsys.readouterr().err
-    assert "file exists" in err and "--force" in err and str(out) in err
+    assert "holds an earlier run's output" in err and "--force" in err and str(out) in err
     assert (out / "metrics.json").stat().st_mtime_ns == before
 
     (out / "metrics.json").write_text("{}")

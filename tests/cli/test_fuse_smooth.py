@@ -32,7 +32,7 @@ def test_table_and_out_files(tmp_path, capsys):
     rows = [r for r in (out / "trajectory_smoothed.tum").read_text().splitlines() if not r.startswith("#")]
     assert len(rows) == metrics["imu_samples"] and len(rows[0].split()) == 8
     assert rows != [r for r in (out / "trajectory.tum").read_text().splitlines() if not r.startswith("#")]
-    # only the smoothed trajectory exists: still refused without --force
+    # only the smoothed trajectory is left of the earlier set: still refused without --force
     for name in OUTPUT_FILES:
         (out / name).unlink()
     assert main(["fuse", "--smooth", "--out", str(out)]) == 2

@@ -12,7 +12,7 @@ import dualpose as dp
 from dualpose import _native, sim
 from dualpose.estimation.consistency import nees_band
 from dualpose.estimation.eskf import initial_covariance
-from dualpose.estimation.msckf import MsckfVio, TrackUpdate
+from dualpose.estimation.msckf import MsckfOptions, MsckfVio, TrackUpdate
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
 from dualpose.types import ImuNoise
 from dualpose.types.features import TrackFrame
@@ -37,11 +37,12 @@ def test_features_kernel_on_exact_geometry(rng: np.random.Generator) -> None:
     n = 15 + 6 * C
     P = np.eye(n) * 1e-4
     H, r, rvar = np.empty((2 * C - 3, n)), np.empty(2 * C - 3), np.empty(2 * C - 3)
-    status, nis = np.empty(1, np.int64), np.empty(1)
+    status, nis, points, top = np.empty(1, np.int64), np.empty(1), np.empty((1, 3)), np.empty((1, 3, n + 4))
     gates = np.r_[np.inf, chi2.ppf(0.95, np.arange(1, 40))]
     rows = _native.msckf_features(clones, clones.copy(), q_bc, p_bc, np.array([0, C]), np.arange(C), uv, P, 1e-3,
-                                  gates, np.array([0.1, 60.0, 0.01]), H, r, rvar, status, nis)  # fmt: skip
+                                  gates, np.array([0.1, 60.0, 0.01]), H, r, rvar, status, nis, points, top)  # fmt: skip
     assert rows == 2 * C - 3 and status[0] == 1
+    np.testing.assert_allclose(points[0], pw, atol=1e-9)
     np.testing.assert_allclose(r, 0.0, atol=1e-9)
     np.testing.assert_allclose(rvar, np.einsum("ij,jk,ik->i", H, P, H), rtol=1e-10)
     assert nis[0] < 1e-9
@@ -53,8 +54,9 @@ def test_features_kernel_on_exact_geometry(rng: np.random.Generator) -> None:
     # no baseline: the same pose for every clone fails triangulation
     same = np.repeat(clones[:1], C, 0)
     rows = _native.msckf_features(same, same, q_bc, p_bc, np.array([0, C]), np.arange(C), np.repeat(uv[:1], C, 0),
-                                  P, 1e-3, gates, np.array([0.1, 60.0, 0.01]), H, r, rvar, status, nis)  # fmt: skip
-    assert rows == 0 and status[0] == -1
+                                  P, 1e-3, gates, np.array([0.1, 60.0, 0.01]), H, r, rvar, status, nis,
+                                  points, top)  # fmt: skip
+    assert rows == 0 and status[0] == -1 and np.isnan(points[0]).all()
 
 
 def test_features_kernel_checks_the_gate_table(rng: np.random.Generator) -> None:
@@ -69,10 +71,11 @@ def test_features_kernel_checks_the_gate_table(rng: np.random.Generator) -> None
     with pytest.raises(ValueError, match="chi2"):
         _native.msckf_features(clones, clones.copy(), q_bc, p_bc, np.array([0, C]), np.arange(C), uv,
                                np.eye(n) * 1e-4, 1e-3, np.empty(0), np.array([0.1, 60.0, 0.01]), H, r, rvar,
-                               np.empty(1, np.int64), np.empty(1))  # fmt: skip
+                               np.empty(1, np.int64), np.empty(1), np.empty((1, 3)),
+                               np.empty((1, 3, n + 4)))  # fmt: skip
 
 
-def _start(run: sim.SimulatedRun, rec, rng: np.random.Generator) -> MsckfVio:
+def _start(run: sim.SimulatedRun, rec, rng: np.random.Generator, options: MsckfOptions | None = None) -> MsckfVio:
     """The filter at t[0] from a draw of its prior around the truth (the estimator never sees the landmarks)."""
     tr = run.truth
     P0 = initial_covariance(imu_noise=run.imu_noise)
@@ -81,7 +84,7 @@ def _start(run: sim.SimulatedRun, rec, rng: np.random.Generator) -> MsckfVio:
                             quat=dp.quat_mul(tr["quat"][0], dp.quat_from_rotvec(e[6:9])),
                             gyro_bias=tr["gyro_bias"][0] + e[9:12],
                             accel_bias=tr["accel_bias"][0] + e[12:15])  # fmt: skip
-    f = MsckfVio(x, P0, run.imu_noise, run.q_bc, run.p_bc, rec.feature_sigma)
+    f = MsckfVio(x, P0, run.imu_noise, run.q_bc, run.p_bc, rec.feature_sigma, options=options)
     f.time, f._u = float(run.t[0]), np.r_[run.gyro[0], run.accel[0]]
     return f
 
@@ -118,9 +121,10 @@ def test_accuracy_and_nees_with_unknown_landmarks() -> None:
 
 
 def _unobservable_directions(f: MsckfVio) -> np.ndarray:
-    """(15 + 6C, 4) the error-state directions of a global translation (3) and a rotation about the vertical
+    """(15 + 6C + 3L + 1, 4) the error-state directions of a global translation (3) and a rotation about the vertical
     through the origin (1) (Hesch et al. 2014), at the first estimates (the IMU state before a pending update, the
-    clones as taken); gravity along −z.  Local attitude error: a world rotation δψ ẑ is ``δθ = Rᵀ ẑ δψ``."""
+    clones as taken, the SLAM features as initialised; the time offset, observable, has none); gravity along −z.
+    Local attitude error: a world rotation δψ ẑ is ``δθ = Rᵀ ẑ δψ``."""
     z = np.array([0.0, 0.0, 1.0])
     x = f.x if f._x_fej is None else f._x_fej
     N = np.zeros((f.P.shape[0], 4))
@@ -132,6 +136,10 @@ def _unobservable_directions(f: MsckfVio) -> np.ndarray:
         N[o : o + 3, :3] = np.eye(3)
         N[o : o + 3, 3] = np.cross(z, clone[:3])
         N[o + 3 : o + 6, 3] = dp.matrix_from_quat(clone[3:]).T @ z
+    o = 15 + 6 * len(f.clones)
+    for i, p in enumerate(f.slam_fej):  # SLAM features: world points
+        N[o + 3 * i : o + 3 * i + 3, :3] = np.eye(3)
+        N[o + 3 * i : o + 3 * i + 3, 3] = np.cross(z, p)
     return N
 
 
@@ -157,6 +165,7 @@ def test_position_and_yaw_stay_unobservable() -> None:
     growth = [np.linalg.eigvalsh(info[i + 1] - info[i]).max() / np.linalg.eigvalsh(info[i]).max()
               for i in range(len(info) - 1)]  # fmt: skip
     assert max(growth) < 1e-9, max(growth)
+    assert f.n_slam_init > 5  # SLAM features were initialised, updated and marginalised along the way
     assert info[-1][3, 3] < info[0][3, 3]  # process noise only loses yaw information
     P = f.covariance
     pos = ESKF_ERROR.slice("position")
@@ -174,7 +183,7 @@ def test_feature_sigma_adapts_to_the_tracks() -> None:
     run, rec = sim.simulate_tracks(sim.random_motion(5, duration=3.0), seed=5, imu_noise=ImuNoise(update_rate=100.0),
                                    n_landmarks=120)  # fmt: skip
     for start in (3.0, 1.0, 0.3):
-        f = _start(run, rec, np.random.default_rng(6))
+        f = _start(run, rec, np.random.default_rng(6), MsckfOptions(adaptive_sigma=True))
         f.feature_sigma = f.nominal_sigma = start * rec.feature_sigma
         f.run(rec, 0)
         assert f.feature_sigma == pytest.approx(rec.feature_sigma, rel=0.1), (start, f.feature_sigma)
@@ -191,12 +200,13 @@ def test_track_frames_go_through_the_interface() -> None:
         while k < len(run.t) and run.t[k] <= frame.t:
             f.propagate(run.t[k], run.gyro[k], run.accel[k])
             k += 1
+        t_before, td = f.time, f.camera_time_offset  # the time offset is estimated online (default)
         res = f.update(frame)
-        assert isinstance(res, TrackUpdate) and f.time == pytest.approx(frame.t)
+        assert isinstance(res, TrackUpdate) and f.time == pytest.approx(max(frame.t + td, t_before))
         assert len(f.clones) <= f.options.max_clones
         used += int(np.sum(res.accepted))
     assert used > 50
-    assert f.full_covariance.shape == (15 + 6 * len(f.clones),) * 2
+    assert f.full_covariance.shape == (15 + 6 * len(f.clones) + 3 * len(f.slam_id) + 1,) * 2  # + time offset
     with pytest.raises(TypeError, match="no model for a CameraFrame"):
         f.update(run.frames.camera_frame(0))
     with pytest.raises(ValueError, match="older than the filter time"):
@@ -212,20 +222,22 @@ def test_euroc_v101_from_rest(euroc_v101) -> None:
     out = run_vio(csv, truth=gt)
     m = out.metrics
     assert 4.0 < m["rest_s"] < 5.2
-    assert m["ate_rmse_4dof_m"] < 0.045 and m["orientation_rmse_4dof_deg"] < 1.3 and m["final_drift_percent"] < 0.8
-    assert m["features_used"] > 5 * m["features_gated"]
-    assert 0.1 < m["adapted_sigma_px"] < 0.6 < m["feature_sigma_px"]  # KLT tracks are sub-pixel; 1 px the start
+    assert m["ate_rmse_4dof_m"] < 0.025 and m["orientation_rmse_4dof_deg"] < 1.1 and m["final_drift_percent"] < 0.4
+    assert m["features_used"] > 5 * m["features_gated"] and m["slam_features"] > 50
+    assert m["adapted_sigma_px"] == m["feature_sigma_px"] == pytest.approx(1.0)  # OpenVINS' 1 px, not adapted
 
 
 def test_options_are_checked() -> None:
-    from dualpose.estimation.msckf import MsckfOptions
-
     with pytest.raises(ValueError, match="max_clones"):
         MsckfOptions(max_clones=1)
     with pytest.raises(ValueError, match="gate_probability"):
         MsckfOptions(gate_probability=1.0)
     with pytest.raises(ValueError, match="sigma_floor"):
         MsckfOptions(sigma_floor=0.0)
+    with pytest.raises(ValueError, match="max_slam"):
+        MsckfOptions(max_slam=-1)
+    with pytest.raises(ValueError, match="time_offset_sigma"):
+        MsckfOptions(time_offset_sigma=0.0)
 
 
 def test_saved_state_continues_bit_for_bit(tmp_path) -> None:
@@ -266,3 +278,58 @@ def test_saved_state_continues_bit_for_bit(tmp_path) -> None:
     np.testing.assert_array_equal(c.clones, a.clones)
     with pytest.raises(ValueError, match="layout version 99"):
         MsckfVio.from_state_dict({**a.state_dict(), "version": np.array(99)})
+
+
+def test_time_offset_is_estimated_online() -> None:
+    """The camera–IMU time offset in the state (MsckfOptions.estimate_time_offset): started at 0 with its 10 ms prior
+    σ on a run whose camera stamps are 8 ms early (sim: ``t_imu = t_cam + 0.008``), the estimate comes within 1.5 ms of
+    the truth with a σ below 1 ms, and the final position is better than with the offset fixed at 0; started at the
+    truth it stays there."""
+    run = sim.simulate(sim.random_motion(1, duration=6.0), seed=1, imu_noise=ImuNoise(update_rate=100.0),
+                       camera_rate=20.0, n_landmarks=120, time_offset=0.008)  # fmt: skip
+    rec = sim.track_recording(run, 1e-3, 1)
+    tr = run.truth
+    x = ESKF_STATE.assemble(position=tr["position"][0], velocity=tr["velocity"][0], quat=tr["quat"][0],
+                            gyro_bias=tr["gyro_bias"][0], accel_bias=tr["accel_bias"][0])  # fmt: skip
+    P0 = initial_covariance(imu_noise=run.imu_noise)
+    out = {}
+    for start, online in ((0.0, True), (0.0, False), (0.008, True)):
+        f = MsckfVio(x, P0, run.imu_noise, run.q_bc, run.p_bc, rec.feature_sigma, camera_time_offset=start,
+                     options=MsckfOptions(estimate_time_offset=online))  # fmt: skip
+        f.time, f._u = float(run.t[0]), np.r_[run.gyro[0], run.accel[0]]
+        f.run(rec, 0)
+        out[start, online] = (f.camera_time_offset, np.linalg.norm(tr["position"][-1] - f.position), f)
+    td, err, f = out[0.0, True]
+    assert abs(td - 0.008) < 0.0015 and np.sqrt(f.P[-1, -1]) < 0.001, (td, f.P[-1, -1])
+    assert err < out[0.0, False][1], (err, out[0.0, False][1])
+    assert out[0.0, False][0] == 0.0 and abs(out[0.008, True][0] - 0.008) < 0.0005
+
+
+def test_slam_rows_kernel_is_the_linearised_projection(rng: np.random.Generator) -> None:
+    """``msckf_slam_rows``: the residual of an observation made at a slightly different clone pose and point is the
+    kernel's two rows times the difference, ``r = H δx`` to first order (δx = truth − estimate, local attitude error
+    ``q = q̂ ⊗ Exp(δθ)``), the rows sit in the newest clone's and the point's columns, and a gate of 0 rejects."""
+    C, L = 4, 2
+    clones = _clone_poses(rng, C)
+    q_bc, p_bc = np.array([0.0, 0.0, 0.0, 1.0]), np.array([0.05, -0.02, 0.01])
+    c = C - 1
+    R = dp.matrix_from_quat(clones[c, 3:])
+    points = clones[c, :3] + np.array([[0.2, -0.1, 3.0], [-0.3, 0.2, 2.0]]) @ R.T  # in front of the clone
+    d = 1e-6 * rng.standard_normal(9)  # [δp, δθ] of the clone, δp_f of point 1
+    q_true = dp.quat_mul(clones[c, 3:], dp.quat_from_rotvec(d[3:6]))
+    pc = sim.camera_points(q_true, clones[c, :3] + d[:3], q_bc, p_bc, (points[1] + d[6:])[None, :])
+    uv = pc[:, :2] / pc[:, 2:3]
+    n = 15 + 6 * C + 3 * L + 1  # the time offset last
+    P = np.eye(n) * 1e-4
+    H, r, r_all, rvar = np.empty((2, n)), np.empty(2), np.empty(2), np.empty(2)
+    status = np.empty(1, np.int64)
+    rows, front = _native.msckf_slam_rows(clones, clones.copy(), q_bc, p_bc, points, points.copy(), np.array([1]), c,
+                                          uv, P, 1e-3, np.inf, H, r, status, r_all, rvar)  # fmt: skip
+    assert rows == 2 and front == 1 and status[0] == 1
+    cols = np.r_[15 + 6 * c : 21 + 6 * c, 15 + 6 * C + 3 : 15 + 6 * C + 6]
+    np.testing.assert_allclose(r, H[:, cols] @ d, rtol=1e-4, atol=1e-12)
+    assert np.count_nonzero(H[:, np.setdiff1d(np.arange(n), cols)]) == 0
+    np.testing.assert_allclose(rvar, np.einsum("ij,jk,ik->i", H, P, H), rtol=1e-12)
+    rows, _ = _native.msckf_slam_rows(clones, clones.copy(), q_bc, p_bc, points, points.copy(), np.array([1]), c,
+                                      uv + 0.01, P, 1e-3, 0.0, H, r, status, r_all, rvar)  # fmt: skip
+    assert rows == 0 and status[0] == 0

@@ -112,3 +112,32 @@ def test_empty_mat_and_missing_magnetometer(tmp_path):
     nan_gyro = np.zeros((600, 3))
     nan_gyro[100, 0] = np.nan  # a dropout: kept (refused later, naming the sample, by the AHRS and by fuse)
     assert np.isnan(load_broad(write_synthetic_trial(tmp_path / "nan.mat", imu_gyr=nan_gyro)).gyr[100, 0])
+
+
+def test_shape_and_storage_defects_are_named(tmp_path):
+    """A transposed imu_gyr is named (not the field compared with it); a MATLAB sparse field is read as the dense
+    matrix it stores; the file is named once, as given."""
+    import scipy.sparse
+
+    gyr = np.random.default_rng(1).normal(0.0, 1e-3, (600, 3))
+    path = write_synthetic_trial(tmp_path / "t.mat", imu_gyr=gyr.T)
+    with pytest.raises(ValueError, match=r"field imu_gyr has shape \(3, 600\).*transposed") as exc:
+        load_broad(path)
+    assert str(exc.value).count("t.mat") == 1
+    path = write_synthetic_trial(tmp_path / "t2.mat", imu_mag=np.zeros((3, 600)))
+    with pytest.raises(ValueError, match=r"field imu_mag must have shape \(600, 3\).*transposed"):
+        load_broad(path)
+    dense = load_broad(write_synthetic_trial(tmp_path / "dense.mat", imu_gyr=gyr))
+    sparse = load_broad(write_synthetic_trial(tmp_path / "sparse.mat", imu_gyr=scipy.sparse.csc_matrix(gyr),
+                                              sampling_rate=scipy.sparse.csc_matrix([[2000.0 / 7.0]])))  # fmt: skip
+    np.testing.assert_array_equal(sparse.gyr, dense.gyr)
+    assert sparse.rate == dense.rate
+
+
+def test_require_finite_names_the_field_and_the_trials_sample(tmp_path):
+    gyr = np.zeros((600, 3))
+    gyr[400, 1] = np.nan
+    t = load_broad(write_synthetic_trial(tmp_path / "nan.mat", imu_gyr=gyr))
+    t.require_finite(start=401)  # nothing left to refuse from sample 401 on
+    with pytest.raises(ValueError, match=r"field imu_gyr: sample 400 \(t = 1\.400000 s\) is not finite"):
+        t.require_finite(start=10)

@@ -72,11 +72,13 @@ def test_bad_lines_still_name_file_and_line(tmp_path, line, message):
         read_tum(f)
 
 
-def test_accepts_what_the_line_reader_accepts(tmp_path):
+def test_python_only_float_literals_are_refused_by_both_paths(tmp_path):
+    """'1_0' is a Python float literal, not a number of the file formats: the fast path hands it to the line reader,
+    which refuses it with the file and line (docs/refusals.md, "Files and messages")."""
     f = tmp_path / "odd.txt"
-    f.write_text("0 0 0 0 0 0 0 1_0\n1\t0 0 0 0 0 0 1\n")  # '1_0' is a Python float literal: slow path
-    tr = read_tum(f)
-    assert tr.quats[0, 3] == 10.0 and len(tr) == 2
+    f.write_text("0 0 0 0 0 0 0 1\n1\t0 0 0 0 0 0 1_0\n")
+    with pytest.raises(ValueError, match=r"odd\.txt:2: .*'1_0' is not a number"):
+        read_tum(f)
 
 
 def test_long_mantissas_are_correctly_rounded(tmp_path):

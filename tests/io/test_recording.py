@@ -178,6 +178,15 @@ def test_bad_sensor_values_name_the_key_and_its_line(copy, edit, key, match):
     assert f"{SENSORS_FILE}:{_line_of(copy / SENSORS_FILE, key)}:" in str(exc.value)
 
 
+def test_value_checks_of_the_types_layer_name_the_sensor_file_keys(copy):
+    """A value refused by the recording's own checks is named by its key in the sensor file (``imu.``, not the
+    dataclass's ``imu_noise.``)."""
+    _edit_json(copy / SENSORS_FILE, lambda c: c["imu"].update(accelerometer_noise_density=1e300))
+    with pytest.raises(RecordingError, match=r"sensors\.json: imu\.accelerometer_noise_density must be") as exc:
+        read_recording(copy)
+    assert "imu_noise" not in str(exc.value)
+
+
 def test_missing_things_are_named(copy, tmp_path):
     with pytest.raises(RecordingError, match="no such file or directory"):
         read_recording(tmp_path / "nowhere")

@@ -25,14 +25,15 @@ def test_eval_batch_on_the_local_pool_equals_serial(eval_manifest: Path, tmp_pat
     assert "dualpose eval: 1 of 13 rows failed" in err
     assert "dualpose eval: 13/13 tasks done" in err  # plain progress lines off a terminal
     assert out.splitlines()[0].split()[:4] == ["dataset", "algorithm", "metric", "runs"]
-    assert sorted(p.name for p in pool.iterdir()) == sorted([*TABLES, "ate_rmse.png", "rpe_translation.png"])
+    assert sorted(p.name for p in pool.iterdir()) == sorted([*TABLES, "ate_rmse.png", "rpe_translation.png",
+                                                             "manifest.json"])  # fmt: skip
     assert main(["eval", "--batch", str(eval_manifest), "--align", "sim3", "--out", str(serial), "--scheduler",
                  "serial", "--quiet"]) == 1  # fmt: skip
     assert "tasks done" not in capsys.readouterr().err
     for name in TABLES:
         assert (pool / name).read_bytes() == (serial / name).read_bytes(), name
     assert main(["eval", "--batch", str(eval_manifest), "--out", str(serial), "--scheduler", "serial"]) == 2
-    assert "results.csv: file exists; use --force" in capsys.readouterr().err
+    assert "holds an earlier run's output" in capsys.readouterr().err
     assert main(["eval", "--batch", str(eval_manifest), "--out", str(serial), "--scheduler", "serial", "--force"]) == 1
 
 
@@ -65,7 +66,7 @@ def test_fuse_monte_carlo_writes_tables_and_figures(tmp_path: Path, capsys: pyte
     assert main(["fuse", "--monte-carlo", "3", "--seed", "5", "--scheduler", "serial", "--out", str(out)]) == 0
     text = capsys.readouterr().out
     assert "3 runs (seeds 5..7); average NEES inside its 95 % band" in text and "mean_nees" in text
-    assert sorted(p.name for p in out.iterdir()) == sorted([*TABLES, "nees.png", "runs.png"])
+    assert sorted(p.name for p in out.iterdir()) == sorted([*TABLES, "nees.png", "runs.png", "manifest.json"])
     lines = (out / "results.csv").read_text(encoding="utf-8").splitlines()
     assert [line.split(",")[1] for line in lines[1:]] == ["5", "6", "7"]
 

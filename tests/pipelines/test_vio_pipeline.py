@@ -29,7 +29,7 @@ def test_fuse_runs_the_msckf_on_feature_tracks(tmp_path, euroc_v101) -> None:
     np.testing.assert_allclose(traj.positions[0], 0.0, atol=1e-2)  # the gravity-aligned start frame
     assert (out / "trajectory.png").stat().st_size < 300_000
     again = _fuse("--data", str(csv), "--out", str(out))
-    assert again.returncode == 2 and "exists" in again.stderr
+    assert again.returncode == 2 and "earlier run's output" in again.stderr
     bad = _fuse("--data", str(csv), "--smooth")
     assert bad.returncode == 2 and "--smooth" in bad.stderr
 

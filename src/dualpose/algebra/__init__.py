@@ -19,12 +19,12 @@ from dualpose.algebra.interop import *  # noqa: F403
 from dualpose.algebra.lie import *  # noqa: F403
 from dualpose.algebra.quat import *  # noqa: F403
 
-__all__ = [
-    *quat.__all__,
-    *dualquat.__all__,
-    *implicit.__all__,
-    *lie.__all__,
-    *derivatives.__all__,
-    *classes.__all__,
-    *interop.__all__,
-]
+# `__all__ +=` of each module's list (rather than one literal with `*` unpacking): type checkers read this form
+__all__: list[str] = []
+__all__ += quat.__all__
+__all__ += dualquat.__all__
+__all__ += implicit.__all__
+__all__ += lie.__all__
+__all__ += derivatives.__all__
+__all__ += classes.__all__
+__all__ += interop.__all__

@@ -36,7 +36,7 @@ from __future__ import annotations
 import re
 import sys
 from collections.abc import Callable
-from typing import Any, TypeVar
+from typing import Any, TypeVar, cast
 
 import numpy as np
 
@@ -53,8 +53,8 @@ def fast_path(kernel: np.ufunc, *, nan_declines: bool = False, max_rows: int = -
 
     def wrap(func: _F) -> _F:
         lazy = _lazy_route(kernel, func, kernel.nin - len(fixed))
-        return _native.FastPath(kernel, func, nan_declines, max_rows, fixed, takes_out,  # type: ignore[return-value]
-                                lazy)
+        # the FastPath object stands in for func: called as func, read as func (name, docstring, signature)
+        return cast(_F, _native.FastPath(kernel, func, nan_declines, max_rows, fixed, takes_out, lazy))
 
     return wrap
 
@@ -65,6 +65,8 @@ def _is_dask(x: object) -> bool:
 
 def _lazy_route(kernel: np.ufunc, func: Callable[..., Any], n_in: int) -> Callable[..., Any]:
     """The call ``FastPath`` makes instead of ``func`` when an argument is a dask array (see the module text)."""
+    if kernel.signature is None:
+        raise TypeError(f"fast_path needs a generalized ufunc; {kernel.__name__} is elementwise")
     cores = re.findall(r"\(([^)]*)\)", kernel.signature.split("->")[0])[:n_in]
     signature = ",".join(f"({c})" for c in cores) + "->" + kernel.signature.split("->")[1]
     out_types = [np.dtype(c) for c in kernel.types[0].split("->")[1]]

@@ -30,7 +30,7 @@ from collections.abc import Iterator
 from typing import Any, Literal, TypeVar
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from dualpose import _native
 from dualpose._validation import as_array
@@ -81,7 +81,7 @@ class _Batch(_native.Facade):
 
     # -- container protocol -------------------------------------------------------------------------------------
     @property
-    def array(self) -> np.ndarray:
+    def array(self) -> NDArray[np.float64]:
         """The stored float64 array of shape ``shape + (size,)`` -- the object itself, not a copy."""
         return self._a
 
@@ -98,7 +98,8 @@ class _Batch(_native.Facade):
     def __len__(self) -> int:
         if self._a.ndim == 1:
             raise TypeError(f"Single {self._noun} has no len().")
-        return self._a.shape[0]
+        result: int = self._a.shape[0]
+        return result
 
     def __bool__(self) -> bool:  # like scipy: an object is truthy even when its batch is empty
         return True
@@ -108,7 +109,7 @@ class _Batch(_native.Facade):
             raise TypeError(f"Single {self._noun} is not subscriptable.")
         # Index the batch axes only: the trailing full slice always lands on the component axis or before it.
         key = key if isinstance(key, tuple) else (key,)
-        return type(self)._wrap(self._a[(*key, slice(None))])
+        return type(self)._wrap(self._a[key + (slice(None),)])
 
     def __iter__(self: _B) -> Iterator[_B]:
         if self._a.ndim == 1:
@@ -116,7 +117,7 @@ class _Batch(_native.Facade):
         wrap = type(self)._wrap
         return (wrap(row) for row in self._a)
 
-    def __array__(self, dtype: Any = None, copy: bool | None = None) -> np.ndarray:
+    def __array__(self, dtype: Any = None, copy: bool | None = None) -> NDArray[np.float64]:
         if copy:
             return np.array(self._a, dtype=dtype, copy=True)
         if dtype is None or np.dtype(dtype) == self._a.dtype:
@@ -144,7 +145,7 @@ class _Batch(_native.Facade):
         shown = [fmt(r) for r in rows] if len(rows) <= 4 else [*map(fmt, rows[:2]), "...", *map(fmt, rows[-2:])]
         return head + ",\n    " + ",\n    ".join(shown) + ")"
 
-    def approx_equal(self, other: _Batch | ArrayLike, atol: float = 1e-12) -> np.ndarray:
+    def approx_equal(self, other: _Batch | ArrayLike, atol: float = 1e-12) -> NDArray[np.float64]:
         """Elementwise equality up to the double cover: ``min(max|a − b|, max|a + b|) <= atol``.
 
         The maximum runs over the component axis, so ``a`` and ``−a`` (the same rotation / rigid transform) compare
@@ -154,7 +155,8 @@ class _Batch(_native.Facade):
         a = self._a
         b = as_array(_arr(other), "other", self._size)
         d = np.minimum(np.abs(a - b).max(axis=-1), np.abs(a + b).max(axis=-1))
-        return d <= atol
+        result: NDArray[np.float64] = d <= atol
+        return result
 
 
 class Quaternion(_Batch):
@@ -209,15 +211,15 @@ class Quaternion(_Batch):
         return cls._wrap(_interop.quat_from_scipy(rotation))
 
     # -- conversions --------------------------------------------------------------------------------------------
-    def as_rotvec(self) -> np.ndarray:
+    def as_rotvec(self) -> NDArray[np.float64]:
         """Rotation vectors (..., 3) with angle in [0, π], radians."""
         return _q.rotvec_from_quat(self._a)
 
-    def as_matrix(self) -> np.ndarray:
+    def as_matrix(self) -> NDArray[np.float64]:
         """Rotation matrices (..., 3, 3) with ``R @ v == self.apply(v)``."""
         return _q.matrix_from_quat(self._a)
 
-    def as_axis_angle(self) -> tuple[np.ndarray, np.ndarray]:
+    def as_axis_angle(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Unit axes (..., 3) and angles (...) in [0, π]; the identity gets axis ``[1, 0, 0]``."""
         return _q.axis_angle_from_quat(self._a)
 
@@ -231,7 +233,7 @@ class Quaternion(_Batch):
             return NotImplemented
         return Quaternion._wrap(_q.quat_pow(self._a, t))
 
-    def apply(self, vectors: ArrayLike) -> np.ndarray:
+    def apply(self, vectors: ArrayLike) -> NDArray[np.float64]:
         """Rotate vectors (..., 3) actively: ``q (x) v (x) q*`` (non-unit ``q`` is normalized)."""
         return _q.quat_rotate(self._a, vectors)
 
@@ -243,7 +245,7 @@ class Quaternion(_Batch):
         """Conjugate ``[-x, -y, -z, w]``."""
         return Quaternion._wrap(_q.quat_conj(self._a))
 
-    def norm(self) -> np.ndarray:
+    def norm(self) -> NDArray[np.float64]:
         """Euclidean norms, shape ``self.shape``."""
         return _q.quat_norm(self._a)
 
@@ -259,7 +261,7 @@ class Quaternion(_Batch):
         """Shorter-arc spherical interpolation from ``self`` (t = 0) to ``other`` (t = 1)."""
         return Quaternion._wrap(_q.quat_slerp(self._a, _arr(other), t))
 
-    def angle_to(self, other: Quaternion | ArrayLike) -> np.ndarray:
+    def angle_to(self, other: Quaternion | ArrayLike) -> NDArray[np.float64]:
         """Rotation angle between ``self`` and ``other`` in [0, π] radians (sign-invariant, atan2 form)."""
         return _q.quat_angle(self._a, _arr(other))
 
@@ -336,19 +338,19 @@ class DualQuaternion(_Batch):
         return cls._wrap(_interop.dualquat_from_scipy(transform))
 
     # -- conversions --------------------------------------------------------------------------------------------
-    def as_matrix(self) -> np.ndarray:
+    def as_matrix(self) -> NDArray[np.float64]:
         """Homogeneous transforms (..., 4, 4)."""
         return _dualquat.matrix_from_dualquat(self._a)
 
-    def as_qt(self) -> tuple[np.ndarray, np.ndarray]:
+    def as_qt(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Rotations (..., 4, xyzw) and translations (..., 3)."""
         return _dualquat.qt_from_dualquat(self._a)
 
-    def as_twist(self) -> np.ndarray:
+    def as_twist(self) -> NDArray[np.float64]:
         """Exponential coordinates ``[ω, v]`` (..., 6) (scipy ``as_exp_coords`` order)."""
         return _dualquat.twist_from_dualquat(self._a)
 
-    def as_screw(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def as_screw(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """Walker screw parameters ``(axis n, point p ⊥ n, distance d, angle θ)``.
 
         Shapes (..., 3), (..., 3), (...), (...); ``d`` is a length, θ in radians (Walker 1991 eqs. (8)-(12)).
@@ -361,7 +363,7 @@ class DualQuaternion(_Batch):
         return Quaternion._wrap(self._a[..., :4])
 
     @property
-    def translation(self) -> np.ndarray:
+    def translation(self) -> NDArray[np.float64]:
         """Translations (..., 3), ``t = 2 vec(dual (x) real*)`` for unit input."""
         return _dualquat.qt_from_dualquat(self._a)[1]
 
@@ -375,7 +377,7 @@ class DualQuaternion(_Batch):
             return NotImplemented
         return DualQuaternion._wrap(_dualquat.dualquat_pow(self._a, t))
 
-    def apply(self, points: ArrayLike) -> np.ndarray:
+    def apply(self, points: ArrayLike) -> NDArray[np.float64]:
         """Transform points (..., 3): ``R p + t``."""
         return _dualquat.dualquat_transform(self._a, points)
 
@@ -387,7 +389,7 @@ class DualQuaternion(_Batch):
         """Quaternion conjugate of both parts, ``[r*, s*]`` (the inverse of a unit dual quaternion)."""
         return DualQuaternion._wrap(_dualquat.dualquat_conj(self._a))
 
-    def norm(self) -> np.ndarray:
+    def norm(self) -> NDArray[np.float64]:
         """Dual-number norms ``[|r|, r·d/|r|]``, shape ``self.shape + (2,)``; ``[1, 0]`` for unit input."""
         return _dualquat.dualquat_norm(self._a)
 
@@ -410,7 +412,7 @@ class DualQuaternion(_Batch):
         """
         return DualQuaternion._wrap(_dualquat.dualquat_integrate(self._a, twist, dt, frame))
 
-    def angle_to(self, other: DualQuaternion | ArrayLike) -> np.ndarray:
+    def angle_to(self, other: DualQuaternion | ArrayLike) -> NDArray[np.float64]:
         """Rotation angle in [0, π] between the orientations (real parts) of ``self`` and ``other``."""
         return _q.quat_angle(self._a[..., :4], as_array(_arr(other), "other", 8)[..., :4])
 

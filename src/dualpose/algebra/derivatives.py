@@ -22,7 +22,7 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from dualpose import _native
 from dualpose._validation import as_array, call_kernel, raise_if_zero_norm
@@ -55,7 +55,7 @@ def _body_flag(frame: str) -> float:
 
 
 @fast_path(_native.quat_derivative, fixed=(0.0,))
-def quat_derivative(q: ArrayLike, omega: ArrayLike, frame: Frame = "space") -> np.ndarray:
+def quat_derivative(q: ArrayLike, omega: ArrayLike, frame: Frame = "space") -> NDArray[np.float64]:
     """Quaternion time derivative of a rotating frame: ``q̇ = ½ ω (x) q`` (space) or ``½ q (x) ω`` (body).
 
     Dantam 2014 eq. (46) (space frame); the body-frame form follows from ``ω_space = q (x) ω_body (x) q*``.
@@ -79,7 +79,7 @@ def quat_derivative(q: ArrayLike, omega: ArrayLike, frame: Frame = "space") -> n
 
 
 @fast_path(_native.omega_from_quat_derivative, nan_declines=True, fixed=(0.0,))
-def omega_from_quat_derivative(q: ArrayLike, qdot: ArrayLike, frame: Frame = "space") -> np.ndarray:
+def omega_from_quat_derivative(q: ArrayLike, qdot: ArrayLike, frame: Frame = "space") -> NDArray[np.float64]:
     """Angular velocity from a quaternion derivative: ``ω = 2 vec(q̇ (x) q*) / |q|²`` (space) or
     ``2 vec(q* (x) q̇) / |q|²`` (body).
 
@@ -110,7 +110,7 @@ def omega_from_quat_derivative(q: ArrayLike, qdot: ArrayLike, frame: Frame = "sp
 @fast_path(_native.quat_second_derivative, fixed=(0.0,))
 def quat_second_derivative(
     q: ArrayLike, omega: ArrayLike, omega_dot: ArrayLike, frame: Frame = "space"
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """Second time derivative ``q̈ = ½ (ω̇ (x) q + ω (x) q̇)`` with ``q̇ = ½ ω (x) q`` (Dantam 2014 eq. (48)).
 
     In the body frame ``q̈ = ½ (q̇ (x) ω + q (x) ω̇)`` with ``q̇ = ½ q (x) ω``.  Both equal
@@ -143,7 +143,7 @@ def quat_second_derivative(
 @fast_path(_native.angular_acceleration_from_quat, nan_declines=True, fixed=(0.0,))
 def angular_acceleration_from_quat(
     q: ArrayLike, qdot: ArrayLike, qddot: ArrayLike, frame: Frame = "space"
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """Angular acceleration from ``q, q̇, q̈``: the time derivative of :func:`omega_from_quat_derivative`.
 
     For unit ``q`` this is Dantam 2014 eq. (49), ``ω̇ = 2 (q̈ (x) q* + q̇ (x) q̇*)`` (whose second term is the real
@@ -174,7 +174,7 @@ def angular_acceleration_from_quat(
 
 
 @fast_path(_native.quat_exp_derivative)
-def quat_exp_derivative(q: ArrayLike, qdot: ArrayLike) -> np.ndarray:
+def quat_exp_derivative(q: ArrayLike, qdot: ArrayLike) -> NDArray[np.float64]:
     """Time derivative of the exponential of a general quaternion, ``d/dt exp(q(t))``.
 
     With ``q = [v, w]`` and ``φ = |v|`` (Dantam 2014 eqs. (32)-(37) for the pure part, times ``e^w``)::
@@ -202,7 +202,7 @@ def quat_exp_derivative(q: ArrayLike, qdot: ArrayLike) -> np.ndarray:
 
 
 @fast_path(_native.quat_exp_jacobian)
-def quat_exp_jacobian(q: ArrayLike) -> np.ndarray:
+def quat_exp_jacobian(q: ArrayLike) -> NDArray[np.float64]:
     """Jacobian of the quaternion exponential (Dantam 2014 eq. (22)) at ``q = [v, w]``.
 
     In block form::
@@ -221,11 +221,12 @@ def quat_exp_jacobian(q: ArrayLike) -> np.ndarray:
         ``J[..., i, j] = ∂(e^q)_i/∂q_j`` (xyzw rows and columns).
     """
     q = as_array(q, "q", 4)
-    return _native.quat_exp_jacobian(q)
+    result: NDArray[np.float64] = _native.quat_exp_jacobian(q)
+    return result
 
 
 @fast_path(_native.quat_log_jacobian, nan_declines=True)
-def quat_log_jacobian(q: ArrayLike) -> np.ndarray:
+def quat_log_jacobian(q: ArrayLike) -> NDArray[np.float64]:
     """Jacobian of the principal quaternion logarithm (Dantam 2014 eq. (26)) at a general nonzero ``q``.
 
     With ``q = [v, w]``, ``n = |q|``, ``s = |v|``, ``φ = atan2(s, w)``, ``ln q = [g v, ln n]`` where
@@ -259,11 +260,12 @@ def quat_log_jacobian(q: ArrayLike) -> np.ndarray:
     q = as_array(q, "q", 4)
     out = _native.quat_log_jacobian(q)
     raise_if_zero_norm(out, q, "q")
-    return out
+    value: NDArray[np.float64] = out
+    return value
 
 
 @fast_path(_native.quat_log_derivative, nan_declines=True)
-def quat_log_derivative(q: ArrayLike, qdot: ArrayLike) -> np.ndarray:
+def quat_log_derivative(q: ArrayLike, qdot: ArrayLike) -> NDArray[np.float64]:
     """Time derivative of the principal logarithm, ``d/dt ln q(t) = quat_log_jacobian(q) @ q̇``.
 
     Dantam 2014 eqs. (38)-(40) for unit ``q`` (see :func:`quat_log_jacobian` for the general form and its
@@ -289,7 +291,7 @@ def quat_log_derivative(q: ArrayLike, qdot: ArrayLike) -> np.ndarray:
 
 
 @fast_path(_native.quat_derivative_from_rotvec_rate)
-def quat_derivative_from_rotvec_rate(rotvec: ArrayLike, rotvec_dot: ArrayLike) -> np.ndarray:
+def quat_derivative_from_rotvec_rate(rotvec: ArrayLike, rotvec_dot: ArrayLike) -> NDArray[np.float64]:
     """``q̇`` of ``q = exp(v/2)`` (:func:`~dualpose.algebra.quat.quat_from_rotvec`) given ``v`` and ``v̇``.
 
     Dantam 2014 eqs. (54)-(57), with ``y = v/2``, ``ẏ = v̇/2``, ``φ = |y|``::
@@ -317,7 +319,7 @@ def quat_derivative_from_rotvec_rate(rotvec: ArrayLike, rotvec_dot: ArrayLike) -
 
 
 @fast_path(_native.so3_jacobian_apply, fixed=(1.0, 0.0))
-def omega_from_rotvec_rate(rotvec: ArrayLike, rotvec_dot: ArrayLike, frame: Frame = "space") -> np.ndarray:
+def omega_from_rotvec_rate(rotvec: ArrayLike, rotvec_dot: ArrayLike, frame: Frame = "space") -> NDArray[np.float64]:
     """Angular velocity of ``R(t) = exp(v(t)×)``: ``ω_space = J_l(v) v̇``, ``ω_body = J_r(v) v̇``.
 
     ``J_l``/``J_r`` are the SO(3) Jacobians of :mod:`dualpose.algebra.lie`; this equals
@@ -343,7 +345,7 @@ def omega_from_rotvec_rate(rotvec: ArrayLike, rotvec_dot: ArrayLike, frame: Fram
 
 
 @fast_path(_native.so3_jacobian_apply, fixed=(1.0, 1.0))
-def rotvec_rate_from_omega(rotvec: ArrayLike, omega: ArrayLike, frame: Frame = "space") -> np.ndarray:
+def rotvec_rate_from_omega(rotvec: ArrayLike, omega: ArrayLike, frame: Frame = "space") -> NDArray[np.float64]:
     """Rotation-vector rate ``v̇ = J_l(v)⁻¹ ω_space = J_r(v)⁻¹ ω_body`` (inverse of :func:`omega_from_rotvec_rate`).
 
     Singular at ``|v| = 2π k`` (k ≥ 1) only; regular on the principal ball ``|v| <= π`` and at ``v = 0``.

@@ -18,7 +18,7 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from dualpose import _native
 from dualpose._validation import (
@@ -60,8 +60,8 @@ __all__ = [
 #: the flat row loops (dualpose._validation.try_flat_kernel) by name; the tests substitute this look-up to count them
 _FLAT = {"dualquat_mul": _native.flat_dualquat_mul, "dualquat_transform": _native.flat_dualquat_transform}
 _fk = _FLAT.__getitem__
-_CONJ = np.array([-1.0, -1.0, -1.0, 1.0, -1.0, -1.0, -1.0, 1.0])
-_BOTTOM = np.array([0.0, 0.0, 0.0, 1.0])
+_CONJ = np.array([-1.0, -1.0, -1.0, 1.0, -1.0, -1.0, -1.0, 1.0], dtype=np.float64)
+_BOTTOM = np.array([0.0, 0.0, 0.0, 1.0], dtype=np.float64)
 _NONZERO = "a dual quaternion with a nonzero real part"
 
 
@@ -69,13 +69,13 @@ def _raise_zero(out: np.ndarray, s: np.ndarray, name: str) -> None:
     raise_if_zero_norm(out, s, name, _NONZERO)
 
 
-def dualquat_identity(shape: int | tuple[int, ...] = ()) -> np.ndarray:
+def dualquat_identity(shape: int | tuple[int, ...] = ()) -> NDArray[np.float64]:
     """Identity dual quaternions ``[0, 0, 0, 1, 0, 0, 0, 0]`` of shape ``shape + (8,)``."""
     return identity_array(shape, 8)
 
 
 @fast_path(_native.dualquat_mul, takes_out=True)
-def dualquat_mul(a: ArrayLike, b: ArrayLike, out: np.ndarray | None = None) -> np.ndarray:
+def dualquat_mul(a: ArrayLike, b: ArrayLike, out: np.ndarray | None = None) -> NDArray[np.float64]:
     """Dual-quaternion product ``a (x) b = (a_r b_r, a_r b_d + a_d b_r)`` (Dantam 2014 eq. (79)).
 
     Parameters
@@ -98,7 +98,7 @@ def dualquat_mul(a: ArrayLike, b: ArrayLike, out: np.ndarray | None = None) -> n
     return call_kernel(_native.dualquat_mul, (a, b), ("a", "b"), out)
 
 
-def dualquat_conj(s: ArrayLike) -> np.ndarray:
+def dualquat_conj(s: ArrayLike) -> NDArray[np.float64]:
     """Quaternion conjugate of both parts, ``(r*, d*)`` (Dantam 2014 eq. (81)); (..., 8) -> (..., 8).
 
     For a unit dual quaternion this is the inverse transform ``p -> Rᵀ (p − t)``.
@@ -108,7 +108,7 @@ def dualquat_conj(s: ArrayLike) -> np.ndarray:
 
 
 @fast_path(_native.dualquat_inv, nan_declines=True)
-def dualquat_inv(s: ArrayLike) -> np.ndarray:
+def dualquat_inv(s: ArrayLike) -> NDArray[np.float64]:
     """Multiplicative inverse ``(r⁻¹, −r⁻¹ d r⁻¹)`` of a dual quaternion with any nonzero real part.
 
     ``dualquat_mul(s, dualquat_inv(s))`` is the identity ``[0, 0, 0, 1, 0, 0, 0, 0]``; for unit ``s`` this equals
@@ -117,11 +117,12 @@ def dualquat_inv(s: ArrayLike) -> np.ndarray:
     s = as_array(s, "s", 8)
     out = _native.dualquat_inv(s)
     _raise_zero(out, s, "s")
-    return out
+    result: NDArray[np.float64] = out
+    return result
 
 
 @fast_path(_native.dualquat_norm, nan_declines=True)
-def dualquat_norm(s: ArrayLike) -> np.ndarray:
+def dualquat_norm(s: ArrayLike) -> NDArray[np.float64]:
     """Dual-number norm ``|S| = sqrt(S S*) = |r| + ε (r·d)/|r|`` as ``[|r|, r·d/|r|]``, shape (..., 8) -> (..., 2).
 
     A unit dual quaternion has norm ``[1, 0]`` (Walker 1991 eqs. (13)-(14)).  The dual component is undefined for
@@ -130,11 +131,12 @@ def dualquat_norm(s: ArrayLike) -> np.ndarray:
     s = as_array(s, "s", 8)
     out = _native.dualquat_norm(s)
     _raise_zero(out, s, "s")
-    return out
+    result: NDArray[np.float64] = out
+    return result
 
 
 @fast_path(_native.dualquat_normalize, nan_declines=True)
-def dualquat_normalize(s: ArrayLike) -> np.ndarray:
+def dualquat_normalize(s: ArrayLike) -> NDArray[np.float64]:
     """The unit dual quaternion ``S / |S|`` (dual-number division), shape (..., 8) -> (..., 8).
 
     ``r' = r/|r|`` and ``d' = d/|r| − r' (r'·d)/|r|``, so ``|r'| = 1`` and ``r'·d' = 0`` (Walker 1991 eqs.
@@ -144,22 +146,24 @@ def dualquat_normalize(s: ArrayLike) -> np.ndarray:
     s = as_array(s, "s", 8)
     out = _native.dualquat_normalize(s)
     _raise_zero(out, s, "s")
-    return out
+    result: NDArray[np.float64] = out
+    return result
 
 
 @fast_path(_native.dualquat_canonical)
-def dualquat_canonical(s: ArrayLike) -> np.ndarray:
+def dualquat_canonical(s: ArrayLike) -> NDArray[np.float64]:
     """The sign representative whose real part has ``w > 0`` (ties as :func:`~dualpose.algebra.quat.quat_canonical`).
 
     ``S`` and ``−S`` are the same rigid transform.  Both parts are negated together: the dual part is
     ``½ t (x) r``, so flipping only the real part would negate the translation.  Shape (..., 8) -> (..., 8).
     """
     s = as_array(s, "s", 8)
-    return _native.dualquat_canonical(s)
+    result: NDArray[np.float64] = _native.dualquat_canonical(s)
+    return result
 
 
 @fast_path(_native.dualquat_from_qt, nan_declines=True)
-def dualquat_from_qt(q: ArrayLike, t: ArrayLike) -> np.ndarray:
+def dualquat_from_qt(q: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
     """Dual quaternion ``[r, ½ t (x) r]`` with ``r = q/|q|`` (Dantam 2014 eqs. (76)-(77)).
 
     Parameters
@@ -192,7 +196,7 @@ def dualquat_from_qt(q: ArrayLike, t: ArrayLike) -> np.ndarray:
 
 
 @fast_path(_native.qt_from_dualquat, nan_declines=True)
-def qt_from_dualquat(s: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+def qt_from_dualquat(s: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Rotation and translation of dual quaternions (Dantam 2014 eq. (78); Walker 1991 eq. (19)).
 
     Parameters
@@ -213,7 +217,7 @@ def qt_from_dualquat(s: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     return q, t
 
 
-def dualquat_from_matrix(matrix: ArrayLike) -> np.ndarray:
+def dualquat_from_matrix(matrix: ArrayLike) -> NDArray[np.float64]:
     """Unit dual quaternions of homogeneous transforms ``[[R, t], [0, 1]]`` (Walker 1991 §2.2.2).
 
     ``r`` is :func:`~dualpose.algebra.quat.quat_from_matrix` of ``R`` (Shepperd's method, ``w >= 0``) and the dual
@@ -242,11 +246,12 @@ def dualquat_from_matrix(matrix: ArrayLike) -> np.ndarray:
     r = _native.quat_from_matrix(m[..., :3, :3])
     if np.isnan(r).any():
         raise_not_rotation(r, m[..., :3, :3], "matrix")
-    return _native.dualquat_from_rt(m, r)
+    result: NDArray[np.float64] = _native.dualquat_from_rt(m, r)
+    return result
 
 
 @fast_path(_native.matrix_from_dualquat, nan_declines=True)
-def matrix_from_dualquat(s: ArrayLike) -> np.ndarray:
+def matrix_from_dualquat(s: ArrayLike) -> NDArray[np.float64]:
     """Homogeneous transforms ``[[R, t], [0, 1]]`` of dual quaternions (Walker 1991 eqs. (17)-(19); Dantam (109)).
 
     ``s`` has shape (..., 8); a non-unit real part is normalized (``R`` uses ``2/|r|²``, ``t`` as in
@@ -256,11 +261,12 @@ def matrix_from_dualquat(s: ArrayLike) -> np.ndarray:
     s = as_array(s, "s", 8)
     out = _native.matrix_from_dualquat(s)
     _raise_zero(out, s, "s")
-    return out
+    result: NDArray[np.float64] = out
+    return result
 
 
 @fast_path(_native.dualquat_transform, nan_declines=True, takes_out=True)
-def dualquat_transform(s: ArrayLike, points: ArrayLike, out: np.ndarray | None = None) -> np.ndarray:
+def dualquat_transform(s: ArrayLike, points: ArrayLike, out: np.ndarray | None = None) -> NDArray[np.float64]:
     """Transform points: ``p' = R p + t`` (Dantam 2014 eq. (95), evaluated in the implicit form (106)).
 
     Parameters
@@ -301,7 +307,7 @@ def dualquat_transform(s: ArrayLike, points: ArrayLike, out: np.ndarray | None =
 
 
 @fast_path(_native.dualquat_exp)
-def dualquat_exp(s: ArrayLike) -> np.ndarray:
+def dualquat_exp(s: ArrayLike) -> NDArray[np.float64]:
     """Exponential of a general dual quaternion (Dantam 2014 eqs. (82)-(85)).
 
     With ``φ = |r_v|`` and ``k = r_v·d_v``::
@@ -317,11 +323,12 @@ def dualquat_exp(s: ArrayLike) -> np.ndarray:
     the result is backward stable there.
     """
     s = as_array(s, "s", 8)
-    return _native.dualquat_exp(s)
+    value: NDArray[np.float64] = _native.dualquat_exp(s)
+    return value
 
 
 @fast_path(_native.dualquat_log, nan_declines=True)
-def dualquat_log(s: ArrayLike) -> np.ndarray:
+def dualquat_log(s: ArrayLike) -> NDArray[np.float64]:
     """Principal logarithm of a general dual quaternion (Dantam 2014 eqs. (86)-(92)); (..., 8) -> (..., 8).
 
     With ``φ = atan2(|r_v|, r_w)`` (the real part's principal angle, in [0, π]), ``k = r_v·d_v`` and
@@ -346,11 +353,12 @@ def dualquat_log(s: ArrayLike) -> np.ndarray:
     s = as_array(s, "s", 8)
     out = _native.dualquat_log(s)
     _raise_zero(out, s, "s")
-    return out
+    result: NDArray[np.float64] = out
+    return result
 
 
 @fast_path(_native.dualquat_pow, nan_declines=True)
-def dualquat_pow(s: ArrayLike, t: ArrayLike) -> np.ndarray:
+def dualquat_pow(s: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
     """Power ``S**t = exp(t ln S)`` with the principal logarithm of :func:`dualquat_log`, in float64.
 
     Parameters
@@ -375,7 +383,7 @@ def dualquat_pow(s: ArrayLike, t: ArrayLike) -> np.ndarray:
 
 
 @fast_path(_native.dualquat_from_twist)
-def dualquat_from_twist(xi: ArrayLike) -> np.ndarray:
+def dualquat_from_twist(xi: ArrayLike) -> NDArray[np.float64]:
     """Rigid transform of exponential coordinates: ``dualquat_exp(½(ω + ε v))`` (Dantam 2014 eq. (84)).
 
     Parameters
@@ -390,11 +398,12 @@ def dualquat_from_twist(xi: ArrayLike) -> np.ndarray:
         (the SO(3) left Jacobian -- not ``R v``).  Equals scipy's ``RigidTransform.from_exp_coords`` up to sign.
     """
     xi = as_array(xi, "xi", 6)
-    return _native.dualquat_from_twist(xi)
+    result: NDArray[np.float64] = _native.dualquat_from_twist(xi)
+    return result
 
 
 @fast_path(_native.twist_from_dualquat, nan_declines=True)
-def twist_from_dualquat(s: ArrayLike) -> np.ndarray:
+def twist_from_dualquat(s: ArrayLike) -> NDArray[np.float64]:
     """Exponential coordinates ``[ω, v]`` (..., 6) of rigid transforms ``s`` (..., 8).
 
     ``s`` is normalized (:func:`dualquat_normalize`) and canonicalised (``r_w >= 0``), then ``2 ln s`` is taken
@@ -405,11 +414,12 @@ def twist_from_dualquat(s: ArrayLike) -> np.ndarray:
     s = as_array(s, "s", 8)
     out = _native.twist_from_dualquat(s)
     _raise_zero(out, s, "s")
-    return out
+    result: NDArray[np.float64] = out
+    return result
 
 
 @fast_path(_native.dualquat_sclerp, nan_declines=True)
-def dualquat_sclerp(s0: ArrayLike, s1: ArrayLike, t: ArrayLike) -> np.ndarray:
+def dualquat_sclerp(s0: ArrayLike, s1: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
     """Screw linear interpolation ``s0 (x) (canonical(s0* (x) s1))**t`` along the shortest screw.
 
     Parameters
@@ -451,7 +461,9 @@ def dualquat_sclerp(s0: ArrayLike, s1: ArrayLike, t: ArrayLike) -> np.ndarray:
 
 
 @fast_path(_native.dualquat_from_screw, nan_declines=True)
-def dualquat_from_screw(axis: ArrayLike, point: ArrayLike, pitch_distance: ArrayLike, angle: ArrayLike) -> np.ndarray:
+def dualquat_from_screw(
+    axis: ArrayLike, point: ArrayLike, pitch_distance: ArrayLike, angle: ArrayLike,
+) -> NDArray[np.float64]:
     """Dual quaternions of screw motions (Walker 1991 eqs. (8)-(12)).
 
     ``r = [sin(θ/2) n, cos(θ/2)]`` and ``s = [(d/2) cos(θ/2) n + sin(θ/2) (p × n), −(d/2) sin(θ/2)]``: rotation by
@@ -486,7 +498,9 @@ def dualquat_from_screw(axis: ArrayLike, point: ArrayLike, pitch_distance: Array
 
 
 @fast_path(_native.screw_from_dualquat, nan_declines=True)
-def screw_from_dualquat(s: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def screw_from_dualquat(
+    s: ArrayLike,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Walker screw parameters ``(n, p, d, θ)`` of rigid transforms (Walker 1991 Appendix 3, stable form).
 
     ``s`` (..., 8) is normalized and canonicalised (``r_w >= 0``), then ``θ = 2 atan2(|r_v|, r_w)`` ∈ [0, π],
@@ -518,7 +532,7 @@ def screw_from_dualquat(s: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarra
 @fast_path(_native.dualquat_integrate_space)
 def dualquat_integrate(
     s: ArrayLike, twist: ArrayLike, dt: ArrayLike, frame: Literal["space", "body"] = "space"
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """Integrate a constant twist over ``dt`` exactly (Dantam 2014 eqs. (101)-(102)).
 
     Parameters

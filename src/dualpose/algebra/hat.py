@@ -7,14 +7,14 @@ module (Walker's Q/W matrices) and the Lie-group module both build on these, so 
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from dualpose._validation import as_array
 
 __all__ = ["so3_hat", "so3_vee"]
 
 
-def so3_hat(v: ArrayLike) -> np.ndarray:
+def so3_hat(v: ArrayLike) -> NDArray[np.float64]:
     """Skew-symmetric matrix ``[v]×`` with ``[v]× u = v × u``.
 
     Parameters
@@ -35,7 +35,7 @@ def so3_hat(v: ArrayLike) -> np.ndarray:
     return o
 
 
-def so3_vee(matrix: ArrayLike) -> np.ndarray:
+def so3_vee(matrix: ArrayLike) -> NDArray[np.float64]:
     """Inverse of :func:`so3_hat`: the vector of the skew-symmetric part ``½ (M − Mᵀ)``.
 
     Parameters

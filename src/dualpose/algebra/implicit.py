@@ -16,10 +16,10 @@ where a rotation is needed raises ``ValueError``.
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from dualpose import _native
-from dualpose._validation import as_array, call_kernel, raise_if_zero_norm
+from dualpose._validation import as_array, call_kernel, call_kernel_pair, raise_if_zero_norm
 from dualpose.algebra._fastpath import fast_path
 
 __all__ = [
@@ -34,7 +34,9 @@ __all__ = [
 
 
 @fast_path(_native.qt_mul, nan_declines=True)
-def qt_mul(q1: ArrayLike, t1: ArrayLike, q2: ArrayLike, t2: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+def qt_mul(
+    q1: ArrayLike, t1: ArrayLike, q2: ArrayLike, t2: ArrayLike,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Compose implicit dual quaternions: ``(q1, t1)(q2, t2) = (q1 (x) q2, rot(q1, t2) + t1)``.
 
     Dantam 2014 eqs. (104)-(105): the same as the dual-quaternion product of eq. (79) and as the 4x4 product
@@ -58,13 +60,13 @@ def qt_mul(q1: ArrayLike, t1: ArrayLike, q2: ArrayLike, t2: ArrayLike) -> tuple[
     t1 = as_array(t1, "t1", 3)
     q2 = as_array(q2, "q2", 4)
     t2 = as_array(t2, "t2", 3)
-    q, t = call_kernel(_native.qt_mul, (q1, t1, q2, t2), ("q1", "t1", "q2", "t2"))
+    q, t = call_kernel_pair(_native.qt_mul, (q1, t1, q2, t2), ("q1", "t1", "q2", "t2"))
     raise_if_zero_norm(t, q1, "q1")
     return q, t
 
 
 @fast_path(_native.qt_transform, nan_declines=True)
-def qt_transform(q: ArrayLike, t: ArrayLike, points: ArrayLike) -> np.ndarray:
+def qt_transform(q: ArrayLike, t: ArrayLike, points: ArrayLike) -> NDArray[np.float64]:
     """Transform points: ``p' = rot(q, p) + t`` (Dantam 2014 eq. (106)).
 
     Parameters
@@ -90,7 +92,7 @@ def qt_transform(q: ArrayLike, t: ArrayLike, points: ArrayLike) -> np.ndarray:
 
 
 @fast_path(_native.qt_conj, nan_declines=True)
-def qt_conj(q: ArrayLike, t: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+def qt_conj(q: ArrayLike, t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Conjugate ``(q*, −rot(q*, t))`` (Dantam 2014 §V-C); the inverse transform for a unit ``q``.
 
     Parameters
@@ -109,13 +111,13 @@ def qt_conj(q: ArrayLike, t: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """
     q = as_array(q, "q", 4)
     t = as_array(t, "t", 3)
-    qc, tc = call_kernel(_native.qt_conj, (q, t), ("q", "t"))
+    qc, tc = call_kernel_pair(_native.qt_conj, (q, t), ("q", "t"))
     raise_if_zero_norm(tc, q, "q")
     return qc, tc
 
 
 @fast_path(_native.qt_from_twist)
-def qt_from_twist(xi: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+def qt_from_twist(xi: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Exponential of twists as implicit dual quaternions: ``q = exp(ω/2)``, ``t = J_l(ω) v``.
 
     The pair is ``exp([[ω×, v], [0, 0]])`` (scipy's ``RigidTransform.from_exp_coords``), equivalently the
@@ -134,11 +136,12 @@ def qt_from_twist(xi: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         Translation, using the guarded left Jacobian (:func:`~dualpose.algebra.lie.so3_left_jacobian`).
     """
     xi = as_array(xi, "xi", 6)
-    return _native.qt_from_twist(xi)
+    result: tuple[NDArray[np.float64], NDArray[np.float64]] = _native.qt_from_twist(xi)
+    return result
 
 
 @fast_path(_native.twist_from_qt, nan_declines=True)
-def twist_from_qt(q: ArrayLike, t: ArrayLike) -> np.ndarray:
+def twist_from_qt(q: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
     """Principal twist ``[ω, v]`` of ``(q, t)``: ``ω = 2 ln(±q)`` with ``|ω| <= π``, ``v = J_l(ω)⁻¹ t``.
 
     Inverse of :func:`qt_from_twist` on ``|ω| < π`` (scipy's ``RigidTransform.as_exp_coords``).  The sign of
@@ -173,7 +176,7 @@ def qt_mul_derivative(
     t2: ArrayLike,
     q2dot: ArrayLike,
     t2dot: ArrayLike,
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Time derivative of :func:`qt_mul` (Dantam 2014 eq. (107)).
 
     ``d/dt (q1 (x) q2) = q̇1 (x) q2 + q1 (x) q̇2`` and
@@ -203,6 +206,6 @@ def qt_mul_derivative(
         as_array(a, n, s)
         for a, n, s in zip((q1, t1, q1dot, t1dot, q2, t2, q2dot, t2dot), names, (4, 3) * 4, strict=True)
     )
-    qd, td = call_kernel(_native.qt_mul_derivative, args, names)
+    qd, td = call_kernel_pair(_native.qt_mul_derivative, args, names)
     raise_if_zero_norm(td, args[0], "q1")
     return qd, td

@@ -17,7 +17,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from dualpose._validation import as_array, check_finite
 from dualpose.algebra import dualquat as _dualquat
@@ -43,7 +43,7 @@ def _raise_if_zero(q: np.ndarray, name: str) -> None:
         raise ValueError(f"{name} must be a nonzero quaternion; element {idx} is zero")
 
 
-def quat_from_scipy(rotation: Any) -> np.ndarray:
+def quat_from_scipy(rotation: Any) -> NDArray[np.float64]:
     """Quaternions (..., 4), xyzw, of a :class:`scipy.spatial.transform.Rotation`.
 
     scipy's default ``as_quat()`` order is dualpose's (scalar last) and it returns the sign it stores (the sign
@@ -71,7 +71,7 @@ def scipy_from_quat(q: ArrayLike) -> Any:
     return Rotation.from_quat(q)
 
 
-def dualquat_from_scipy(transform: Any) -> np.ndarray:
+def dualquat_from_scipy(transform: Any) -> NDArray[np.float64]:
     """Unit dual quaternions (..., 8) ``[real xyzw, dual xyzw]`` of a :class:`scipy.spatial.transform.RigidTransform`.
 
     This is ``transform.as_dual_quat()``, whose default (scalar-last) layout and ``dual = ½ t (x) real`` are
@@ -102,7 +102,7 @@ def scipy_from_dualquat(dq: ArrayLike) -> Any:
     return RigidTransform.from_components(t, Rotation.from_quat(q))
 
 
-def pq_from_dualquat(dq: ArrayLike) -> np.ndarray:
+def pq_from_dualquat(dq: ArrayLike) -> NDArray[np.float64]:
     """pytransform3d position–quaternion ``[x, y, z, qw, qx, qy, qz]`` (..., 7) of dual quaternions (..., 8).
 
     The translation is :func:`~dualpose.algebra.dualquat.qt_from_dualquat`'s; the quaternion is the real part
@@ -112,7 +112,7 @@ def pq_from_dualquat(dq: ArrayLike) -> np.ndarray:
     return np.concatenate([t, q[..., _WXYZ]], axis=-1)
 
 
-def dualquat_from_pq(pq: ArrayLike) -> np.ndarray:
+def dualquat_from_pq(pq: ArrayLike) -> NDArray[np.float64]:
     """Dual quaternions (..., 8) from pytransform3d position–quaternions ``[x, y, z, qw, qx, qy, qz]`` (..., 7).
 
     Equivalent to ``dualquat_from_qt(pq[..., [4, 5, 6, 3]], pq[..., :3])``; pytransform3d is not imported.

@@ -38,7 +38,7 @@ Every function broadcasts over leading axes, accepts array-likes and returns flo
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from dualpose import _native
 from dualpose._validation import as_array, call_kernel, check_finite, raise_if_zero_norm
@@ -76,7 +76,7 @@ __all__ = [
 # ---------------------------------------------------------------------------------------------------------------
 
 
-def se3_hat(xi: ArrayLike) -> np.ndarray:
+def se3_hat(xi: ArrayLike) -> NDArray[np.float64]:
     """se(3) matrix ``[[ω×, v], [0, 0]]`` of twists ``ξ = [ω, v]``; shape (..., 6) -> (..., 4, 4)."""
     xi = as_array(xi, "xi", 6)
     o = np.zeros(xi.shape[:-1] + (4, 4))
@@ -85,7 +85,7 @@ def se3_hat(xi: ArrayLike) -> np.ndarray:
     return o
 
 
-def se3_vee(matrix: ArrayLike) -> np.ndarray:
+def se3_vee(matrix: ArrayLike) -> NDArray[np.float64]:
     """Inverse of :func:`se3_hat`: ``[vee(½(A − Aᵀ)), b]`` of ``[[A, b], [·, ·]]``; (..., 4, 4) -> (..., 6)."""
     m = as_array(matrix, "matrix", (4, 4))
     return np.concatenate([so3_vee(m[..., :3, :3]), m[..., :3, 3]], axis=-1)
@@ -97,7 +97,7 @@ def se3_vee(matrix: ArrayLike) -> np.ndarray:
 
 
 @fast_path(_native.so3_exp)
-def so3_exp(phi: ArrayLike) -> np.ndarray:
+def so3_exp(phi: ArrayLike) -> NDArray[np.float64]:
     """Rotation matrix ``exp([φ]×) = cos θ I + sinc(θ) Φ + cosc2(θ) φφᵀ`` (Rodrigues).
 
     Parameters
@@ -111,10 +111,11 @@ def so3_exp(phi: ArrayLike) -> np.ndarray:
         Equal to ``matrix_from_quat(quat_from_rotvec(phi))`` (Dantam 2014 eqs. (50), (108)).
     """
     phi = as_array(phi, "phi", 3)
-    return _native.so3_exp(phi)
+    result: NDArray[np.float64] = _native.so3_exp(phi)
+    return result
 
 
-def so3_log(matrix: ArrayLike) -> np.ndarray:
+def so3_log(matrix: ArrayLike) -> NDArray[np.float64]:
     """Rotation vector of rotation matrices, angle in [0, π]; shape (..., 3, 3) -> (..., 3), radians.
 
     Computed as ``rotvec_from_quat(quat_from_matrix(R))`` (Shepperd, then the atan2 form of Dantam 2014 eq. (51)),
@@ -124,7 +125,7 @@ def so3_log(matrix: ArrayLike) -> np.ndarray:
 
 
 @fast_path(_native.se3_exp)
-def se3_exp(xi: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+def se3_exp(xi: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Exponential of twists: ``exp([[ω×, v], [0, 0]]) = [[R, t], [0, 1]]``.
 
     Parameters
@@ -140,10 +141,11 @@ def se3_exp(xi: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         ``J_l(ω) v`` — the *left Jacobian*, not ``R`` (the small-angle trap of some libraries).
     """
     xi = as_array(xi, "xi", 6)
-    return _native.se3_exp(xi)
+    result: tuple[NDArray[np.float64], NDArray[np.float64]] = _native.se3_exp(xi)
+    return result
 
 
-def se3_log(rotation: ArrayLike, translation: ArrayLike) -> np.ndarray:
+def se3_log(rotation: ArrayLike, translation: ArrayLike) -> NDArray[np.float64]:
     """Twist ``[ω, v]`` with ``|ω| <= π`` of the transform ``[[R, t], [0, 1]]``: ``ω = log R``, ``v = J_l(ω)⁻¹ t``.
 
     Parameters
@@ -168,18 +170,20 @@ def se3_log(rotation: ArrayLike, translation: ArrayLike) -> np.ndarray:
 # ---------------------------------------------------------------------------------------------------------------
 
 
-def _so3_jac(phi: ArrayLike, sgn: float, inv: float) -> np.ndarray:
+def _so3_jac(phi: ArrayLike, sgn: float, inv: float) -> NDArray[np.float64]:
     phi = as_array(phi, "phi", 3)
-    return _native.so3_jacobian(phi, sgn, inv)
+    result: NDArray[np.float64] = _native.so3_jacobian(phi, sgn, inv)
+    return result
 
 
-def _se3_jac(xi: ArrayLike, sgn: float, inv: float) -> np.ndarray:
+def _se3_jac(xi: ArrayLike, sgn: float, inv: float) -> NDArray[np.float64]:
     xi = as_array(xi, "xi", 6)
-    return _native.se3_jacobian(xi, sgn, inv)
+    result: NDArray[np.float64] = _native.se3_jacobian(xi, sgn, inv)
+    return result
 
 
 @fast_path(_native.so3_jacobian, fixed=(1.0, 0.0))
-def so3_left_jacobian(phi: ArrayLike) -> np.ndarray:
+def so3_left_jacobian(phi: ArrayLike) -> NDArray[np.float64]:
     """SO(3) left Jacobian ``J_l(φ) = I + (1 − cos θ)/θ² Φ + (θ − sin θ)/θ³ Φ²``.
 
     Defined by ``exp((φ + δ)×) ≈ exp((J_l δ)×) exp(φ×)``; it also maps a rotation-vector rate to the space-frame
@@ -198,7 +202,7 @@ def so3_left_jacobian(phi: ArrayLike) -> np.ndarray:
 
 
 @fast_path(_native.so3_jacobian, fixed=(-1.0, 0.0))
-def so3_right_jacobian(phi: ArrayLike) -> np.ndarray:
+def so3_right_jacobian(phi: ArrayLike) -> NDArray[np.float64]:
     """SO(3) right Jacobian ``J_r(φ) = J_l(−φ)``: ``exp((φ + δ)×) ≈ exp(φ×) exp((J_r δ)×)``; (..., 3) -> (..., 3, 3).
 
     ``ω_body = J_r(φ) φ̇``.
@@ -207,7 +211,7 @@ def so3_right_jacobian(phi: ArrayLike) -> np.ndarray:
 
 
 @fast_path(_native.so3_jacobian, fixed=(1.0, 1.0))
-def so3_left_jacobian_inv(phi: ArrayLike) -> np.ndarray:
+def so3_left_jacobian_inv(phi: ArrayLike) -> NDArray[np.float64]:
     """Inverse left Jacobian ``J_l(φ)⁻¹ = I − ½ Φ + (1 − (θ/2) cot(θ/2))/θ² Φ²``; (..., 3) -> (..., 3, 3).
 
     Singular only at θ = 2πk, k ≥ 1 (so regular on the principal ball θ ≤ π).
@@ -216,13 +220,13 @@ def so3_left_jacobian_inv(phi: ArrayLike) -> np.ndarray:
 
 
 @fast_path(_native.so3_jacobian, fixed=(-1.0, 1.0))
-def so3_right_jacobian_inv(phi: ArrayLike) -> np.ndarray:
+def so3_right_jacobian_inv(phi: ArrayLike) -> NDArray[np.float64]:
     """Inverse right Jacobian ``J_r(φ)⁻¹ = J_l(−φ)⁻¹ = I + ½ Φ + jinv(θ) Φ²``; (..., 3) -> (..., 3, 3)."""
     return _so3_jac(phi, -1.0, 1.0)
 
 
 @fast_path(_native.se3_jacobian, fixed=(1.0, 0.0))
-def se3_left_jacobian(xi: ArrayLike) -> np.ndarray:
+def se3_left_jacobian(xi: ArrayLike) -> NDArray[np.float64]:
     """SE(3) left Jacobian in the ``[ω, v]`` order: ``[[J_l(ω), 0], [Q(ω, v), J_l(ω)]]``.
 
     Defined by ``exp((ξ + δ)^) ≈ exp((J_l(ξ) δ)^) exp(ξ^)``; equal to ``Σ_k ad_ξ^k / (k+1)!``.  ``Q`` is Barfoot's
@@ -241,19 +245,19 @@ def se3_left_jacobian(xi: ArrayLike) -> np.ndarray:
 
 
 @fast_path(_native.se3_jacobian, fixed=(-1.0, 0.0))
-def se3_right_jacobian(xi: ArrayLike) -> np.ndarray:
+def se3_right_jacobian(xi: ArrayLike) -> NDArray[np.float64]:
     """SE(3) right Jacobian ``J_r(ξ) = J_l(−ξ)``: ``exp((ξ + δ)^) ≈ exp(ξ^) exp((J_r δ)^)``; (..., 6) -> (..., 6, 6)."""
     return _se3_jac(xi, -1.0, 0.0)
 
 
 @fast_path(_native.se3_jacobian, fixed=(1.0, 1.0))
-def se3_left_jacobian_inv(xi: ArrayLike) -> np.ndarray:
+def se3_left_jacobian_inv(xi: ArrayLike) -> NDArray[np.float64]:
     """Inverse SE(3) left Jacobian ``[[J⁻¹, 0], [−J⁻¹ Q J⁻¹, J⁻¹]]`` (``J = J_l(ω)``); (..., 6) -> (..., 6, 6)."""
     return _se3_jac(xi, 1.0, 1.0)
 
 
 @fast_path(_native.se3_jacobian, fixed=(-1.0, 1.0))
-def se3_right_jacobian_inv(xi: ArrayLike) -> np.ndarray:
+def se3_right_jacobian_inv(xi: ArrayLike) -> NDArray[np.float64]:
     """Inverse SE(3) right Jacobian ``J_l(−ξ)⁻¹``; (..., 6) -> (..., 6, 6)."""
     return _se3_jac(xi, -1.0, 1.0)
 
@@ -263,7 +267,7 @@ def se3_right_jacobian_inv(xi: ArrayLike) -> np.ndarray:
 # ---------------------------------------------------------------------------------------------------------------
 
 
-def so3_adjoint(q: ArrayLike) -> np.ndarray:
+def so3_adjoint(q: ArrayLike) -> NDArray[np.float64]:
     """Adjoint of SO(3): ``Ad_R = R``, so ``exp((R φ)×) = R exp(φ×) Rᵀ``.
 
     ``q`` is (..., 4) xyzw (normalized inside; zero raises); returns (..., 3, 3) = :func:`matrix_from_quat`.
@@ -272,7 +276,7 @@ def so3_adjoint(q: ArrayLike) -> np.ndarray:
 
 
 @fast_path(_native.se3_adjoint, nan_declines=True)
-def se3_adjoint(q: ArrayLike, t: ArrayLike) -> np.ndarray:
+def se3_adjoint(q: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
     """Adjoint of the transform ``T = (R(q), t)`` acting on ``[ω, v]`` twists: ``[[R, 0], [t× R, R]]``.
 
     ``exp((Ad_T ξ)^) = T exp(ξ^) T⁻¹``: it maps a twist expressed in the body frame of ``T`` to the world frame.
@@ -295,7 +299,7 @@ def se3_adjoint(q: ArrayLike, t: ArrayLike) -> np.ndarray:
     return out
 
 
-def se3_adjoint_from_matrix(matrix: ArrayLike) -> np.ndarray:
+def se3_adjoint_from_matrix(matrix: ArrayLike) -> NDArray[np.float64]:
     """:func:`se3_adjoint` of homogeneous transforms ``[[R, t], [0, 1]]``; (..., 4, 4) -> (..., 6, 6).
 
     ``R`` is used as given (not re-orthogonalised); input must be finite.
@@ -310,7 +314,7 @@ def se3_adjoint_from_matrix(matrix: ArrayLike) -> np.ndarray:
     return o
 
 
-def se3_ad(xi: ArrayLike) -> np.ndarray:
+def se3_ad(xi: ArrayLike) -> NDArray[np.float64]:
     """Small adjoint ``ad_ξ = [[ω×, 0], [v×, ω×]]`` (the Lie bracket ``[ξ^, η^] = (ad_ξ η)^``); (..., 6) -> (..., 6, 6).
 
     ``Ad(exp ξ^) = exp(ad_ξ)`` and ``J_l(ξ) = Σ_k ad_ξ^k / (k+1)!``.

@@ -14,7 +14,7 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from dualpose import _native
 from dualpose._validation import (
@@ -58,16 +58,16 @@ __all__ = [
 
 #: largest accepted |RᵀR − I| entry of quat_from_matrix (defined once, in the kernel)
 _ORTHO_TOL = _native.QUAT_FROM_MATRIX_ORTHOGONALITY_TOL
-_CONJ = np.array([-1.0, -1.0, -1.0, 1.0])
+_CONJ = np.array([-1.0, -1.0, -1.0, 1.0], dtype=np.float64)
 
 
-def quat_identity(shape: int | tuple[int, ...] = ()) -> np.ndarray:
+def quat_identity(shape: int | tuple[int, ...] = ()) -> NDArray[np.float64]:
     """Identity quaternions ``[0, 0, 0, 1]`` (xyzw) of shape ``shape + (4,)``."""
     return identity_array(shape, 4)
 
 
 @fast_path(_native.quat_mul, takes_out=True)
-def quat_mul(p: ArrayLike, q: ArrayLike, out: np.ndarray | None = None) -> np.ndarray:
+def quat_mul(p: ArrayLike, q: ArrayLike, out: np.ndarray | None = None) -> NDArray[np.float64]:
     """Hamilton product ``p (x) q`` (Dantam 2014 eq. (11); Walker 1991 ``Q(p) q = W(q) p``).
 
     Parameters
@@ -96,60 +96,65 @@ def quat_mul(p: ArrayLike, q: ArrayLike, out: np.ndarray | None = None) -> np.nd
     return call_kernel(_native.quat_mul, (p, q), ("p", "q"), out)
 
 
-def quat_conj(q: ArrayLike) -> np.ndarray:
+def quat_conj(q: ArrayLike) -> NDArray[np.float64]:
     """Conjugate ``q* = [-x, -y, -z, w]`` (Dantam 2014 eq. (13)); shape (..., 4) -> (..., 4), xyzw."""
     q = as_array(q, "q", 4)
     return q * _CONJ
 
 
 @fast_path(_native.quat_norm)
-def quat_norm(q: ArrayLike) -> np.ndarray:
+def quat_norm(q: ArrayLike) -> NDArray[np.float64]:
     """Euclidean norm ``|q|`` (Dantam 2014 eq. (12)), computed without underflow/overflow; (..., 4) -> (...)."""
     q = as_array(q, "q", 4)
-    return _native.quat_norm(q)
+    result: NDArray[np.float64] = _native.quat_norm(q)
+    return result
 
 
 @fast_path(_native.quat_normalize, nan_declines=True)
-def quat_normalize(q: ArrayLike) -> np.ndarray:
+def quat_normalize(q: ArrayLike) -> NDArray[np.float64]:
     """``q / |q|``; shape (..., 4), xyzw.  Raises ``ValueError`` for a zero quaternion."""
     q = as_array(q, "q", 4)
     out = _native.quat_normalize(q)
     raise_if_zero_norm(out, q, "q")
-    return out
+    result: NDArray[np.float64] = out
+    return result
 
 
 @fast_path(_native.quat_inv, nan_declines=True)
-def quat_inv(q: ArrayLike) -> np.ndarray:
+def quat_inv(q: ArrayLike) -> NDArray[np.float64]:
     """Inverse ``q* / |q|**2`` (Dantam 2014 eq. (17)); shape (..., 4), xyzw.  Zero raises ``ValueError``."""
     q = as_array(q, "q", 4)
     out = _native.quat_inv(q)
     raise_if_zero_norm(out, q, "q")
-    return out
+    result: NDArray[np.float64] = out
+    return result
 
 
 @fast_path(_native.quat_canonical)
-def quat_canonical(q: ArrayLike) -> np.ndarray:
+def quat_canonical(q: ArrayLike) -> NDArray[np.float64]:
     """The sign representative with ``w > 0`` (ties broken by the first nonzero of x, y, z being positive).
 
     ``q`` and ``-q`` are the same rotation; this picks one.  Shape (..., 4), xyzw.
     """
     q = as_array(q, "q", 4)
-    return _native.quat_canonical(q)
+    result: NDArray[np.float64] = _native.quat_canonical(q)
+    return result
 
 
 @fast_path(_native.quat_exp)
-def quat_exp(q: ArrayLike) -> np.ndarray:
+def quat_exp(q: ArrayLike) -> NDArray[np.float64]:
     """Quaternion exponential ``e**q = e**w [sin|v| v/|v|, cos|v|]`` (Dantam 2014 eqs. (22)-(24)).
 
     The factor ``sin|v|/|v|`` uses the guarded series :func:`dualpose.algebra.series.sinc`.  For a pure
     quaternion ``[θu/2, 0]`` this is the unit quaternion rotating by θ about u.  Shape (..., 4), xyzw.
     """
     q = as_array(q, "q", 4)
-    return _native.quat_exp(q)
+    result: NDArray[np.float64] = _native.quat_exp(q)
+    return result
 
 
 @fast_path(_native.quat_log, nan_declines=True, max_rows=FLAT_MIN_ELEMENTS - 1)
-def quat_log(q: ArrayLike) -> np.ndarray:
+def quat_log(q: ArrayLike) -> NDArray[np.float64]:
     """Principal quaternion logarithm ``[φ v/|v|, ln|q|]`` with ``φ = atan2(|v|, w)`` (Dantam 2014 (25)-(28)).
 
     ``φ/|v|`` comes from the guarded :func:`~dualpose.algebra.series.atan2c`, so tiny angles (down to 1e-300)
@@ -162,10 +167,11 @@ def quat_log(q: ArrayLike) -> np.ndarray:
         return _quat_log_flat(q)
     out = _native.quat_log(q)
     raise_if_zero_norm(out, q, "q")
-    return out
+    result: NDArray[np.float64] = out
+    return result
 
 
-def _quat_log_flat(q: np.ndarray) -> np.ndarray:
+def _quat_log_flat(q: np.ndarray) -> NDArray[np.float64]:
     """:func:`quat_log` of a C-contiguous (..., 4) array in three vectorised passes.
 
     The angle comes from NumPy's ``arctan2``, which uses SIMD (≤ 1 ulp) where the CPU has it: one libm ``atan2``
@@ -183,7 +189,7 @@ def _quat_log_flat(q: np.ndarray) -> np.ndarray:
 
 
 @fast_path(_native.quat_pow, nan_declines=True)
-def quat_pow(q: ArrayLike, t: ArrayLike) -> np.ndarray:
+def quat_pow(q: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
     """Power ``q**t = exp(t ln q)`` with the principal logarithm (Dantam 2014 eq. (30)).
 
     Parameters
@@ -207,7 +213,7 @@ def quat_pow(q: ArrayLike, t: ArrayLike) -> np.ndarray:
 
 
 @fast_path(_native.quat_rotate, nan_declines=True, takes_out=True)
-def quat_rotate(q: ArrayLike, v: ArrayLike, out: np.ndarray | None = None) -> np.ndarray:
+def quat_rotate(q: ArrayLike, v: ArrayLike, out: np.ndarray | None = None) -> NDArray[np.float64]:
     """Rotate vectors actively: ``v' = q (x) v (x) q*`` (Dantam 2014 eqs. (44)-(45)).
 
     Parameters
@@ -249,7 +255,7 @@ def quat_rotate(q: ArrayLike, v: ArrayLike, out: np.ndarray | None = None) -> np
 
 
 @fast_path(_native.quat_from_rotvec)
-def quat_from_rotvec(rotvec: ArrayLike) -> np.ndarray:
+def quat_from_rotvec(rotvec: ArrayLike) -> NDArray[np.float64]:
     """Unit quaternion ``exp(v/2) = [sin(|v|/2) v/|v|, cos(|v|/2)]`` of rotation vectors (Dantam 2014 eq. (50)).
 
     Parameters
@@ -270,11 +276,12 @@ def quat_from_rotvec(rotvec: ArrayLike) -> np.ndarray:
            [1., 0., 0., 0.]])
     """
     v = as_array(rotvec, "rotvec", 3)
-    return _native.quat_from_rotvec(v)
+    result: NDArray[np.float64] = _native.quat_from_rotvec(v)
+    return result
 
 
 @fast_path(_native.rotvec_from_quat, nan_declines=True)
-def rotvec_from_quat(q: ArrayLike) -> np.ndarray:
+def rotvec_from_quat(q: ArrayLike) -> NDArray[np.float64]:
     """Rotation vector ``2 ln q`` with angle in [0, π] (Dantam 2014 eqs. (51)-(53), atan2 form).
 
     ``q`` and ``-q`` give the same result; non-unit input is treated as its normalization (the map is scale
@@ -283,11 +290,12 @@ def rotvec_from_quat(q: ArrayLike) -> np.ndarray:
     q = as_array(q, "q", 4)
     out = _native.rotvec_from_quat(q)
     raise_if_zero_norm(out, q, "q")
-    return out
+    value: NDArray[np.float64] = out
+    return value
 
 
 @fast_path(_native.quat_from_axis_angle, nan_declines=True)
-def quat_from_axis_angle(axis: ArrayLike, angle: ArrayLike) -> np.ndarray:
+def quat_from_axis_angle(axis: ArrayLike, angle: ArrayLike) -> NDArray[np.float64]:
     """Quaternion ``[sin(θ/2) u, cos(θ/2)]`` of an axis (normalized here) and angle θ in radians.
 
     ``axis`` has shape (..., 3), ``angle`` shape (...); they broadcast.  Returns (..., 4), xyzw.  A zero axis
@@ -302,7 +310,7 @@ def quat_from_axis_angle(axis: ArrayLike, angle: ArrayLike) -> np.ndarray:
 
 
 @fast_path(_native.axis_angle_from_quat, nan_declines=True)
-def axis_angle_from_quat(q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+def axis_angle_from_quat(q: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Unit axis (..., 3) and angle θ ∈ [0, π] (...) of rotations ``q`` (..., 4, xyzw).
 
     The sign of ``q`` is chosen so that θ ≤ π; the identity returns axis ``[1, 0, 0]`` and θ = 0 (any axis is
@@ -315,7 +323,7 @@ def axis_angle_from_quat(q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
 
 
 @fast_path(_native.matrix_from_quat, nan_declines=True)
-def matrix_from_quat(q: ArrayLike) -> np.ndarray:
+def matrix_from_quat(q: ArrayLike) -> NDArray[np.float64]:
     """Rotation matrix of quaternions (Dantam 2014 eq. (108); Walker 1991 eq. (4)).
 
     ``q`` has shape (..., 4), xyzw; non-unit input is normalized, zero raises.  Returns (..., 3, 3) with
@@ -324,11 +332,12 @@ def matrix_from_quat(q: ArrayLike) -> np.ndarray:
     q = as_array(q, "q", 4)
     out = _native.matrix_from_quat(q)
     raise_if_zero_norm(out, q, "q")
-    return out
+    result: NDArray[np.float64] = out
+    return result
 
 
 @fast_path(_native.quat_from_matrix, nan_declines=True)
-def quat_from_matrix(matrix: ArrayLike) -> np.ndarray:
+def quat_from_matrix(matrix: ArrayLike) -> NDArray[np.float64]:
     """Unit quaternion (xyzw, ``w >= 0``) of rotation matrices, shape (..., 3, 3) -> (..., 4).
 
     Shepperd's method (Walker 1991 eqs. (21)-(24) made stable by branching on the largest of the trace and the
@@ -347,7 +356,8 @@ def quat_from_matrix(matrix: ArrayLike) -> np.ndarray:
     out = _native.quat_from_matrix(m)
     if np.isnan(out).any():
         raise_not_rotation(out, m, "matrix")
-    return out
+    result: NDArray[np.float64] = out
+    return result
 
 
 def raise_not_rotation(out: np.ndarray, m: np.ndarray, name: str) -> None:
@@ -367,7 +377,7 @@ def raise_not_rotation(out: np.ndarray, m: np.ndarray, name: str) -> None:
 
 
 @fast_path(_native.quat_slerp, nan_declines=True)
-def quat_slerp(q0: ArrayLike, q1: ArrayLike, t: ArrayLike) -> np.ndarray:
+def quat_slerp(q0: ArrayLike, q1: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
     """Spherical linear interpolation ``q0 (x) (q0* (x) q1)**t`` on the shorter arc (Dantam 2014 eq. (58)).
 
     Parameters
@@ -393,7 +403,7 @@ def quat_slerp(q0: ArrayLike, q1: ArrayLike, t: ArrayLike) -> np.ndarray:
 
 
 @fast_path(_native.quat_angle, nan_declines=True)
-def quat_angle(p: ArrayLike, q: ArrayLike) -> np.ndarray:
+def quat_angle(p: ArrayLike, q: ArrayLike) -> NDArray[np.float64]:
     """Rotation angle between orientations ``p`` and ``q``, in [0, π] radians.
 
     Computed as ``4 atan2(min(|p−q|, |p+q|), max(|p−q|, |p+q|))`` on the normalized inputs: Kahan's atan2 form
@@ -413,7 +423,7 @@ def quat_angle(p: ArrayLike, q: ArrayLike) -> np.ndarray:
 @fast_path(_native.quat_integrate_space)
 def quat_integrate(
     q: ArrayLike, omega: ArrayLike, dt: ArrayLike, frame: Literal["space", "body"] = "space"
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """Integrate a constant angular velocity over ``dt`` exactly (Dantam 2014 eq. (62)).
 
     Parameters
@@ -442,7 +452,7 @@ def quat_integrate(
     return call_kernel(kern, (q, omega, dt), ("q", "omega", "dt"))
 
 
-def _qw_matrix(q: np.ndarray, sign: float) -> np.ndarray:
+def _qw_matrix(q: np.ndarray, sign: float) -> NDArray[np.float64]:
     v, w = q[..., :3], q[..., 3]
     out = np.empty(q.shape[:-1] + (4, 4))
     out[..., :3, :3] = w[..., None, None] * np.eye(3) + sign * so3_hat(v)
@@ -452,7 +462,7 @@ def _qw_matrix(q: np.ndarray, sign: float) -> np.ndarray:
     return out
 
 
-def quat_left_matrix(q: ArrayLike) -> np.ndarray:
+def quat_left_matrix(q: ArrayLike) -> NDArray[np.float64]:
     """Walker's ``Q(q)`` (Walker 1991 eq. (15)): the 4x4 matrix with ``Q(p) @ q == quat_mul(p, q)``.
 
     ``Q(q) = [[w I + K(v), v], [-vᵀ, w]]`` in xyzw order (Walker's scalar-last layout is dualpose's).
@@ -461,7 +471,7 @@ def quat_left_matrix(q: ArrayLike) -> np.ndarray:
     return _qw_matrix(as_array(q, "q", 4), 1.0)
 
 
-def quat_right_matrix(q: ArrayLike) -> np.ndarray:
+def quat_right_matrix(q: ArrayLike) -> NDArray[np.float64]:
     """Walker's ``W(q)`` (Walker 1991 eq. (16)): the 4x4 matrix with ``W(q) @ p == quat_mul(p, q)``.
 
     ``W(q) = [[w I - K(v), v], [-vᵀ, w]]`` in xyzw order.  Shape (..., 4) -> (..., 4, 4).
@@ -469,7 +479,7 @@ def quat_right_matrix(q: ArrayLike) -> np.ndarray:
     return _qw_matrix(as_array(q, "q", 4), -1.0)
 
 
-def quat_mean(quats: ArrayLike, weights: ArrayLike | None = None) -> np.ndarray:
+def quat_mean(quats: ArrayLike, weights: ArrayLike | None = None) -> NDArray[np.float64]:
     """Weighted average orientation (Markley, Cheng, Crassidis & Oshman 2007).
 
     The maximiser of ``Σ w_i (q·q_i)²`` over unit q: the eigenvector of the largest eigenvalue of
@@ -495,12 +505,12 @@ def quat_mean(quats: ArrayLike, weights: ArrayLike | None = None) -> np.ndarray:
     if weights is None:
         w = np.ones(qs.shape[:-1])
     else:
-        w = as_scalar_array(weights, "weights")
+        given = as_scalar_array(weights, "weights")
         try:
-            w = np.broadcast_to(w, qs.shape[:-1])
+            w = np.broadcast_to(given, qs.shape[:-1])
         except ValueError:
             raise ValueError(
-                f"weights must have shape (..., n) matching quats {qs.shape[:-1]}; got {np.shape(w)}"
+                f"weights must have shape (..., n) matching quats {qs.shape[:-1]}; got {np.shape(given)}"
             ) from None
         check_finite(w, "weights")
         if np.any(w < 0) or np.any(w.sum(axis=-1) == 0):

@@ -73,7 +73,7 @@ def _bernoulli(n: int) -> list[Fraction]:
     b = [Fraction(0)] * (n + 1)
     b[0] = Fraction(1)
     for m in range(1, n + 1):
-        b[m] = -sum(math.comb(m + 1, k) * b[k] for k in range(m)) / (m + 1)
+        b[m] = -sum((math.comb(m + 1, k) * b[k] for k in range(m)), Fraction(0)) / (m + 1)
     return b
 
 

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 from dualpose.cli._args import int_in
 
 if TYPE_CHECKING:
+    from dualpose.io._output import OutputDirectory
     from dualpose.jobs.table import Cell, JobResult, ResultsTable
 
 __all__ = ["add_scheduler_arguments", "finish_job", "job_progress", "scheduler_of", "summary_text"]
@@ -104,11 +105,12 @@ def summary_text(summary: ResultsTable) -> str:
 
 
 def finish_job(
-    command: str, result: JobResult, label: Callable[[dict[str, Cell]], str], out: str | None, force: bool,
+    command: str, result: JobResult, label: Callable[[dict[str, Cell]], str], out: OutputDirectory | None,
     figures: dict[str, Callable[[Path], None]],
 ) -> int:  # fmt: skip
-    """Report the failed rows (stderr), print the summary (stdout), write the outputs into ``out``; the exit
-    status (0, or 1 with failed rows or an output that could not be written)."""
+    """Report the failed rows (stderr), print the summary (stdout), write the outputs into ``out`` (checked
+    before the job ran; written as one set with its manifest, :mod:`dualpose.cli._output`); the exit status (0,
+    or 1 with failed rows or an output that could not be written)."""
     from dualpose.jobs.figures import write_job_outputs
 
     table = result.table
@@ -120,12 +122,13 @@ def finish_job(
     code = 0
     if out is not None:
         try:
-            paths = write_job_outputs(out, table, result.summary, figures, overwrite=force)
+            with out.writing() as stage:
+                paths = write_job_outputs(stage, table, result.summary, figures, overwrite=True)
         except (OSError, ImportError, ValueError) as exc:
             print(f"dualpose {command}: error: {exc}", file=sys.stderr)
             code = 1
         else:
-            print(f"\nwritten to {out}: {', '.join(p.name for p in paths)}")
+            print(f"\nwritten to {out.path}: {', '.join(p.name for p in paths)}")
     if result.failed:
         print(f"dualpose {command}: {result.failed} of {len(table.rows)} rows failed "
               "(reasons above; every other row completed)", file=sys.stderr)  # fmt: skip

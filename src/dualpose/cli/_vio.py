@@ -31,9 +31,7 @@ def _table(m: dict) -> str:
 
 def run_vio_job(args: argparse.Namespace) -> int:
     """Run the VIO job for ``dualpose fuse`` (arguments of :mod:`dualpose.cli.fuse`)."""
-    from pathlib import Path
-
-    from dualpose.cli._output import output_files_problem
+    from dualpose.cli._output import OutputError, output_directory
     from dualpose.pipelines.vio import OUTPUT_FILES, run_vio, trajectory_figure
 
     unused = [name for name, given in (("--smooth", args.smooth), ("--seed", args.seed is not None),
@@ -43,30 +41,29 @@ def run_vio_job(args: argparse.Namespace) -> int:
         print(f"dualpose fuse: error: {', '.join(unused)}: not used with feature-track data (the MSCKF runs)",
               file=sys.stderr)  # fmt: skip
         return 2
-    paths = {}
+    out = None
     if args.out:
-        out = Path(args.out)
-        problem = output_files_problem(out, OUTPUT_FILES, args.force)
-        if problem is not None:
-            print(f"dualpose fuse: error: {problem}", file=sys.stderr)
+        try:
+            out = output_directory(args.out, OUTPUT_FILES, args.force, [args.data, args.truth])
+        except OutputError as exc:
+            print(f"dualpose fuse: error: {exc}", file=sys.stderr)
             return 2
-        paths = {name: out / name for name in OUTPUT_FILES}
     try:
         run = run_vio(args.data, truth=args.truth)
     except (ValueError, OSError) as exc:
         print(f"dualpose fuse: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1
-    if paths:
+    if out is not None:
         from dualpose.io import write_tum
 
-        out.mkdir(parents=True, exist_ok=True)
-        write_tum(paths["trajectory.tum"], run.estimate, overwrite=args.force)
-        paths["metrics.json"].write_text(json.dumps(run.metrics, indent=2) + "\n")
-        trajectory_figure(run, paths["trajectory.png"])
+        with out.writing() as stage:
+            write_tum(stage / "trajectory.tum", run.estimate)
+            (stage / "metrics.json").write_text(json.dumps(run.metrics, indent=2) + "\n")
+            trajectory_figure(run, stage / "trajectory.png")
     if args.json:
-        print(json.dumps({**run.metrics, **({"out": str(out)} if paths else {})}, indent=2))
+        print(json.dumps({**run.metrics, **({"out": str(out.path)} if out is not None else {})}, indent=2))
         return 0
     print(_table(run.metrics))
-    if paths:
-        print(f"\nwritten to {out}: " + ", ".join(paths))
+    if out is not None:
+        print(f"\nwritten to {out.path}: " + ", ".join((*OUTPUT_FILES, "manifest.json")))
     return 0

@@ -108,7 +108,9 @@ def run_stream(args: argparse.Namespace) -> int:
     if 0 < n_rest < 10:
         return _usage_error(f"--rest-seconds {rest_seconds:g} at --rate {args.rate:g} is {n_rest} samples; "
                             "the rest period needs at least 10 samples, or 0 for none")  # fmt: skip
-    return write_flushed(stream_ahrs_lines(sys.stdin, args.rate, use_mag=args.mag, n_rest=n_rest), "ahrs")
+    from dualpose.io._text import bounded_lines
+
+    return write_flushed(stream_ahrs_lines(bounded_lines(), args.rate, use_mag=args.mag, n_rest=n_rest), "ahrs")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -158,6 +160,8 @@ def run(args: argparse.Namespace) -> int:
     calibrate = bool(args.mag_calibration)
     smoothed = scores = None
     try:
+        if not bag:
+            trial.require_finite(("imu_gyr", "imu_acc", "imu_mag") if args.mag else ("imu_gyr", "imu_acc"))
         if args.offline:
             cal = "auto" if calibrate else None
             smoothed, scores = smooth_broad_trial(trial, use_mag=args.mag, mag_calibration=cal)
@@ -167,6 +171,8 @@ def run(args: argparse.Namespace) -> int:
                 trial.gyr, trial.acc, trial.mag if args.mag else None, trial.rate, use_mag=args.mag,
                 n_rest=max(trial.static_start, 10), mag_calibration="auto" if calibrate else None,
             )  # fmt: skip
+        if not args.offline:
+            scores = broad_scores(result.quat, trial, use_mag=args.mag)
     except ValueError as exc:
         print(f"dualpose ahrs: error: {args.file}: {exc}", file=sys.stderr)
         return 1
@@ -191,8 +197,6 @@ def run(args: argparse.Namespace) -> int:
     }
     if args.mag and result.mag_calibration is not None:
         out.update(result.mag_calibration.as_dict())
-    if not args.offline:
-        scores = broad_scores(result.quat, trial, use_mag=args.mag)
     has_ref = scores is not None
     if has_ref:
         out.update(scores)
@@ -229,7 +233,7 @@ def run_batch(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from dualpose.cli._batch import finish_job, job_progress, scheduler_of
-    from dualpose.cli._output import output_files_problem
+    from dualpose.cli._output import OutputError, output_directory
     from dualpose.jobs.ahrs_batch import ahrs_recordings, run_ahrs_batch
     from dualpose.jobs.figures import box_plot, job_output_names
 
@@ -238,10 +242,11 @@ def run_batch(args: argparse.Namespace) -> int:
                            ("--json", args.json)) if v]  # fmt: skip
     if used:
         return _usage_error(f"--batch names its recordings: not with {', '.join(used)}")
-    if args.out is not None:
-        problem = output_files_problem(args.out, job_output_names(("rmse.png",)), args.force)
-        if problem:
-            return _usage_error(problem)
+    try:
+        out = None if args.out is None else output_directory(args.out, job_output_names(("rmse.png",)), args.force,
+                                                             args.batch)  # fmt: skip
+    except OutputError as exc:
+        return _usage_error(str(exc))
     try:
         recs = ahrs_recordings(args.batch, use_mag=args.mag, offline=args.offline,
                                mag_calibration=bool(args.mag_calibration))  # fmt: skip
@@ -255,4 +260,4 @@ def run_batch(args: argparse.Namespace) -> int:
         box_plot(result.table, "total_rmse_deg", path, hue="mode", ok=lambda r: r["status"] == "ok",
                  ylabel="total orientation RMSE [deg]")  # fmt: skip
 
-    return finish_job("ahrs", result, lambda r: str(r["recording"]), args.out, args.force, {"rmse.png": rmse_figure})
+    return finish_job("ahrs", result, lambda r: str(r["recording"]), out, {"rmse.png": rmse_figure})

@@ -11,7 +11,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import sys
 import warnings
 
@@ -99,19 +98,16 @@ def _error(message: object, code: int) -> int:
     return code
 
 
-def _same_file(a: str, b: str) -> bool:
-    try:
-        return os.path.samefile(a, b)
-    except OSError:
-        return os.path.realpath(a) == os.path.realpath(b)
-
-
 def _usage_problem(args: argparse.Namespace) -> str | None:
     """The first contradictory or invalid option, or None."""
     for name in ("max_diff", "offset", "rpe_delta", "t_start", "t_end"):
         v = getattr(args, name)
         if v is not None and not math.isfinite(v):
             return f"--{name.replace('_', '-')} must be a finite number; got {v}"
+    if args.rpe_unit == "frames" and not (args.rpe_delta >= 1 and args.rpe_delta == int(args.rpe_delta)):
+        return f"--rpe-delta must be a whole number of frames >= 1 (--rpe-unit frames); got {args.rpe_delta:g}"
+    if args.rpe_unit == "m" and not args.rpe_delta > 0:
+        return f"--rpe-delta must be a distance > 0 m (--rpe-unit m); got {args.rpe_delta:g}"
     if args.max_diff < 0:
         return f"--max-diff must be >= 0; got {args.max_diff}"
     if args.t_start is not None and args.t_end is not None and args.t_start >= args.t_end:
@@ -125,10 +121,6 @@ def _usage_problem(args: argparse.Namespace) -> str | None:
     if args.plot:
         from pathlib import Path
 
-        for name in ("reference", "estimate", "ref_times", "est_times"):
-            other = getattr(args, name)
-            if other and _same_file(args.plot, other):
-                return f"--plot {args.plot} is the {name.replace('_', ' ')} input file; it is never overwritten"
         ext = Path(args.plot).suffix.lower().lstrip(".")
         known = ("png", "pdf", "svg", "svgz", "eps", "ps", "jpg", "jpeg", "tif", "tiff", "webp", "pgf")
         if ext not in known:
@@ -138,11 +130,18 @@ def _usage_problem(args: argparse.Namespace) -> str | None:
 
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``dualpose eval``."""
-    from pathlib import Path
-
     from dualpose.evaluation.metrics import evaluate
     from dualpose.io import detect_format, read_trajectory
 
+    plot_file = None
+    if args.plot:
+        from dualpose.cli._output import OutputError, output_file
+
+        try:  # checked before anything is read or computed
+            plot_file = output_file(args.plot, "--plot", args.force,
+                                    [args.reference, args.estimate, args.ref_times, args.est_times])  # fmt: skip
+        except OutputError as exc:
+            return _error(exc, 2)
     problem = _usage_problem(args)
     if problem:
         return _error(problem, 2)
@@ -153,8 +152,6 @@ def run(args: argparse.Namespace) -> int:
     used = [n for n, v in (("--out", args.out), ("--scheduler", args.scheduler), ("--workers", args.workers)) if v]
     if used:
         return _error(f"{', '.join(used)}: only used with --batch", 2)
-    if args.plot and Path(args.plot).exists() and not args.force:
-        return _error(f"{args.plot}: file exists; use --force to replace it", 1)
     stages = _STAGES if args.plot else _STAGES[:-1]
     with warnings.catch_warnings(record=True) as caught, Progress(
         "eval", stages, enabled=False if args.quiet else None
@@ -191,12 +188,12 @@ def run(args: argparse.Namespace) -> int:
         result = ev.as_dict()
         result["settings"]["reference_format"] = fmt_ref
         result["settings"]["estimate_format"] = fmt_est
-        if args.plot:
+        if plot_file is not None:
             from dualpose.evaluation.plot import plot_evaluation
 
             try:
-                with progress.stage("plot"):
-                    plot_evaluation(ev, args.plot, overwrite=args.force)
+                with progress.stage("plot"), plot_file.writing() as tmp:
+                    plot_evaluation(ev, tmp, overwrite=True)
             except (OSError, ImportError, ValueError) as exc:
                 return _error(exc, 1)
             result["plot"] = str(args.plot)
@@ -237,7 +234,7 @@ def run_batch(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from dualpose.cli._batch import finish_job, job_progress, scheduler_of
-    from dualpose.cli._output import output_files_problem
+    from dualpose.cli._output import OutputError, output_directory
     from dualpose.jobs.eval_batch import EvalSettings, read_eval_manifest, run_eval_batch
     from dualpose.jobs.figures import box_plot, job_output_names
 
@@ -246,10 +243,11 @@ def run_batch(args: argparse.Namespace) -> int:
             if v]  # fmt: skip
     if used:
         return _error(f"--batch reads the pairs from its manifest: not with {', '.join(used)}", 2)
-    if args.out is not None:
-        problem = output_files_problem(args.out, job_output_names(tuple(_BATCH_FIGURES)), args.force)
-        if problem:
-            return _error(problem, 2)
+    try:
+        out = None if args.out is None else output_directory(args.out, job_output_names(tuple(_BATCH_FIGURES)),
+                                                             args.force, [args.batch])  # fmt: skip
+    except OutputError as exc:
+        return _error(exc, 2)
     settings = EvalSettings(
         align=args.align, n_align=args.n_align, max_diff=args.max_diff, offset=args.offset,
         interpolate=args.interpolate, rpe_delta=args.rpe_delta, rpe_unit=args.rpe_unit,
@@ -266,5 +264,5 @@ def run_batch(args: argparse.Namespace) -> int:
         return lambda path: box_plot(result.table, metric, path, ok=lambda r: r["status"] == "ok", ylabel=label)
 
     figures = {name: figure(metric, label) for name, (metric, label) in _BATCH_FIGURES.items()}
-    return finish_job("eval", result, lambda r: f"{r['dataset']} / {r['algorithm']} / run {r['run']}", args.out,
-                      args.force, figures)  # fmt: skip
+    return finish_job("eval", result, lambda r: f"{r['dataset']} / {r['algorithm']} / run {r['run']}", out,
+                      figures)

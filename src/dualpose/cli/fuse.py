@@ -4,7 +4,8 @@ ground truth when there is one.
 ``--data`` is "sim" (default), a recording directory or its ``sensors.json`` (format: ``docs/fusion.md``), or a BROAD
 trial ``.mat`` (pseudo-vision, ``docs/broad-pose.md``). Prints a summary table (or one JSON object with ``--json``);
 with ``--out DIR`` writes ``trajectory.tum`` (the estimate, TUM format), ``metrics.json`` and PNG figures (top view,
-errors with 3σ bounds, NIS vs χ² bounds). An existing output file is never replaced unless ``--force``. ``--smooth``
+errors with 3σ bounds, NIS vs χ² bounds) and ``manifest.json``, as one set renamed into place when complete; an
+earlier run's set is replaced as a whole with ``--force`` and never otherwise (docs/refusals.md). ``--smooth``
 (ESKF only) also runs the offline RTS smoother: the table and JSON (``"smoothed"``) report filter and smoother side
 by side and ``--out`` adds ``trajectory_smoothed.tum``.  The output directory is checked (a directory or creatable,
 writable) before anything is computed.  Warnings about the input (IMU gaps, a doubtful gravity vector; docs/fusion.md
@@ -31,13 +32,21 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 from dualpose.cli._args import int_in, seed
 from dualpose.cli._batch import add_scheduler_arguments
 from dualpose.cli._stream import write_flushed
 
-#: files ``--out`` writes
+if TYPE_CHECKING:
+    from dualpose.io._output import OutputDirectory
+
+#: formats of ``--out-bag``
+_BAGS = ("bag", "db3", "mcap")
+#: files ``--out`` writes (besides ``manifest.json``, docs/refusals.md "Outputs")
 OUTPUT_FILES: tuple[str, ...] = ("trajectory.tum", "metrics.json", "top_view.png", "errors.png", "nis.png")
 
 
@@ -125,10 +134,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
                    "nees.png and runs.png (docs/scaling.md)")  # fmt: skip
     add_scheduler_arguments(p)
     p.add_argument("--out", metavar="DIR", help="write trajectory.tum, metrics.json and PNG figures into DIR")
-    p.add_argument("--out-bag", choices=("bag", "db3", "mcap"), metavar="FORMAT",
+    p.add_argument("--out-bag", choices=_BAGS, metavar="FORMAT",
                    help="with --out: also write the estimate as DIR/trajectory.FORMAT, a ROS bag (bag: ROS 1; db3, "
                    "mcap: ROS 2) of geometry_msgs/PoseStamped on /dualpose/pose in frame world")  # fmt: skip
-    p.add_argument("--force", action="store_true", help="replace existing output files")
+    p.add_argument("--force", action="store_true", help="replace an earlier run's --out directory as a whole")
     p.add_argument("--truth", metavar="FILE",
                    help="ground-truth trajectory (TUM, EuRoC) to score feature-track (VIO) data against")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
@@ -254,7 +263,9 @@ def run_stream(args: argparse.Namespace) -> int:
     except (RecordingError, ValueError) as exc:
         print(f"dualpose fuse: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1
-    return write_flushed(stream_fusion_lines(sys.stdin, stream), "fuse")
+    from dualpose.io._text import bounded_lines
+
+    return write_flushed(stream_fusion_lines(bounded_lines(), stream), "fuse")
 
 
 def _run_target_stream(args: argparse.Namespace) -> int:
@@ -271,7 +282,9 @@ def _run_target_stream(args: argparse.Namespace) -> int:
     except (RecordingError, ValueError, OSError) as exc:
         print(f"dualpose fuse: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1
-    return write_flushed(stream_track_lines(sys.stdin, stream), "fuse")
+    from dualpose.io._text import bounded_lines
+
+    return write_flushed(stream_track_lines(bounded_lines(), stream), "fuse")
 
 
 #: rows of the target-tracking summary: label, metrics key path, format
@@ -317,43 +330,66 @@ def _target_table(m: dict) -> str:
     return aligned_rows(rows)
 
 
-def _report(args: argparse.Namespace, result, paths: dict, table) -> int:
-    """Write ``--out``'s files (``paths``: name -> path) of a :class:`~dualpose.pipelines.fuse.FuseResult` and print
-    ``table(metrics)`` or, with ``--json``, the metrics (without the full evaluation)."""
+def _report(args: argparse.Namespace, result: Any, out: OutputDirectory | None,
+            table: Callable[[dict[str, Any]], str]) -> int:  # fmt: skip
+    """Write ``--out``'s files (``out``: the :class:`~dualpose.io._output.OutputDirectory`, or None) of a
+    :class:`~dualpose.pipelines.fuse.FuseResult` and print ``table(metrics)`` or, with ``--json``, the metrics
+    (without the full evaluation)."""
     metrics = result.metrics
-    if paths:
+    written: list[str] = []
+    if out is not None:
         from dualpose.evaluation.fuse_figures import fuse_figures
         from dualpose.io import write_tum
 
-        out = paths["trajectory.tum"].parent
-        out.mkdir(parents=True, exist_ok=True)
-        write_tum(paths["trajectory.tum"], result.estimate, overwrite=args.force)
-        if result.smoothed is not None:
-            write_tum(paths["trajectory_smoothed.tum"], result.smoothed, overwrite=args.force)
-        if args.out_bag:
-            from dualpose.io.rosbag import write_trajectory_bag
+        with out.writing() as stage:
+            write_tum(stage / "trajectory.tum", result.estimate)
+            if result.smoothed is not None:
+                write_tum(stage / "trajectory_smoothed.tum", result.smoothed)
+            if args.out_bag:
+                from dualpose.io.rosbag import write_trajectory_bag
 
-            bag = paths[f"trajectory.{args.out_bag}"]
-            write_trajectory_bag(bag, result.estimate, "/dualpose/pose", "world", overwrite=args.force)
-        paths["metrics.json"].write_text(json.dumps(metrics, indent=2) + "\n")
-        fuse_figures(result, paths["top_view.png"], paths["errors.png"], paths["nis.png"])
+                bag = stage / f"trajectory.{args.out_bag}"
+                write_trajectory_bag(bag, result.estimate, "/dualpose/pose", "world")
+            (stage / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+            fuse_figures(result, stage / "top_view.png", stage / "errors.png", stage / "nis.png")
+            written = sorted(os.listdir(stage))
     if args.json:
         summary = {k: v for k, v in metrics.items() if k != "evaluation"}
-        if paths:
-            summary["out"] = str(out)
+        if out is not None:
+            summary["out"] = str(out.path)
         print(json.dumps(summary, indent=2))
         return 0
     print(table(metrics))
-    if paths:
-        print(f"\nwritten to {out}: " + ", ".join(paths))
+    if out is not None:
+        print(f"\nwritten to {out.path}: " + ", ".join(written + ["manifest.json"]))
     return 0
+
+
+def _inputs(args: argparse.Namespace) -> list[str | None]:
+    """The input files and directories of ``args`` (a recording's sensor file stands for its directory too)."""
+    from pathlib import Path
+
+    from dualpose.io.recording import SENSORS_FILE
+
+    data = None if args.data in (None, "sim") else args.data
+    found = [data, args.calibration, args.sensors, args.truth]
+    if data is not None and Path(data).name == SENSORS_FILE:
+        found.append(str(Path(data).parent))
+    return found
+
+
+def _output(args: argparse.Namespace, names: tuple[str, ...]) -> OutputDirectory | None:
+    """The ``--out`` directory for ``names`` (None without ``--out``); :class:`OutputError` when it cannot take
+    them."""
+    from dualpose.cli._output import output_directory
+
+    if not args.out:
+        return None
+    return output_directory(args.out, names, args.force, _inputs(args))
 
 
 def run_target(args: argparse.Namespace) -> int:
     """``dualpose fuse --data DIR --camera NAME --calibration CALIB.json`` on a calibration-target recording."""
-    from pathlib import Path
-
-    from dualpose.cli._output import output_files_problem
 
     if args.calibration is None:
         return _usage_error(f"{args.data} is a calibration-target recording: give the camera-IMU calibration with "
@@ -364,14 +400,12 @@ def run_target(args: argparse.Namespace) -> int:
         return _usage_error(f"{', '.join(used)}: not used with a calibration-target recording")
     if args.out_bag and not args.out:
         return _usage_error("--out-bag writes into the --out directory: give --out DIR")
-    paths: dict = {}
-    if args.out:
-        out = Path(args.out)
-        names = OUTPUT_FILES + ((f"trajectory.{args.out_bag}",) if args.out_bag else ())
-        problem = output_files_problem(out, names, args.force)
-        if problem is not None:
-            return _usage_error(problem)
-        paths = {name: out / name for name in names}
+    from dualpose.cli._output import OutputError
+
+    try:
+        out = _output(args, OUTPUT_FILES + tuple(f"trajectory.{b}" for b in _BAGS))
+    except OutputError as exc:
+        return _usage_error(str(exc))
     from dualpose.io.recording import RecordingError
     from dualpose.pipelines.track_target import prepare_track, run_track
 
@@ -382,14 +416,12 @@ def run_target(args: argparse.Namespace) -> int:
     except (RecordingError, ValueError) as exc:
         print(f"dualpose fuse: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1
-    return _report(args, result, paths, _target_table)
+    return _report(args, result, out, _target_table)
 
 
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``dualpose fuse``."""
-    from pathlib import Path
-
-    from dualpose.cli._output import output_files_problem
+    from dualpose.cli._output import OutputError
     from dualpose.io.target.recording import is_target_recording
 
     if args.monte_carlo is not None:
@@ -423,20 +455,16 @@ def run(args: argparse.Namespace) -> int:
         print(f"dualpose fuse: error: --smooth needs --filter eskf (got {args.filter!r}): the RTS smoother runs "
               "over the error-state filter's stored nodes", file=sys.stderr)  # fmt: skip
         return 2
-    paths: dict[str, Path] = {}
     if args.out_bag and not args.out:
         return _usage_error("--out-bag writes into the --out directory: give --out DIR")
-    if args.out:
-        out = Path(args.out)
-        names = _output_files(args.smooth) + ((f"trajectory.{args.out_bag}",) if args.out_bag else ())
-        problem = output_files_problem(out, names, args.force)
-        if problem is not None:
-            return _usage_error(problem)
-        paths = {name: out / name for name in names}
+    try:
+        out = _output(args, _output_files(True) + tuple(f"trajectory.{b}" for b in _BAGS))
+    except OutputError as exc:
+        return _usage_error(str(exc))
     result = _run_job(args)
     if result is None:
         return 1
-    return _report(args, result, paths, _table)
+    return _report(args, result, out, _table)
 
 
 #: figures of ``fuse --monte-carlo --out``
@@ -448,7 +476,7 @@ def run_monte_carlo(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from dualpose.cli._batch import finish_job, job_progress, scheduler_of
-    from dualpose.cli._output import output_files_problem
+    from dualpose.cli._output import OutputError, output_directory
     from dualpose.estimation.state import ESKF_ERROR
     from dualpose.jobs.figures import distribution_plot, job_output_names, nees_plot
     from dualpose.jobs.monte_carlo import run_monte_carlo as run_mc
@@ -462,10 +490,10 @@ def run_monte_carlo(args: argparse.Namespace) -> int:
         return _usage_error(f"--monte-carlo runs the simulator: not with {', '.join(used)}")
     if args.filter != "eskf":
         return _usage_error(f"--monte-carlo runs the error-state filter (15-state NEES); got --filter {args.filter}")
-    if args.out is not None:
-        problem = output_files_problem(args.out, job_output_names(_MC_FIGURES), args.force)
-        if problem:
-            return _usage_error(problem)
+    try:
+        out = None if args.out is None else output_directory(args.out, job_output_names(_MC_FIGURES), args.force, [])
+    except OutputError as exc:
+        return _usage_error(str(exc))
     first = 0 if args.seed is None else args.seed
     try:
         with job_progress(args.monte_carlo, "fuse") as step:
@@ -492,5 +520,5 @@ def run_monte_carlo(args: argparse.Namespace) -> int:
                                                                           "orientation RMSE [deg]")),
                           path, ok=ok)  # fmt: skip
 
-    return finish_job("fuse", result, lambda r: f"seed {r['seed']}", args.out, args.force,
+    return finish_job("fuse", result, lambda r: f"seed {r['seed']}", out,
                       {"nees.png": nees_figure, "runs.png": runs_figure})

@@ -14,6 +14,12 @@ The standard streams are made safe before a command runs (:func:`guard_standard_
 reads as empty, a closed standard output or error writes nowhere, and characters the output's encoding cannot carry
 (``σ``, ``≈`` or a file name on a ``cp1252`` / ``ascii`` terminal) are written as backslash escapes (``σ`` as
 ``\\u03c3``) instead of raising ``UnicodeEncodeError``.
+
+Messages are one line each (:func:`one_line_warnings`): a warning that reaches the entry point (a NumPy
+``RuntimeWarning`` a command did not turn into its own message) is printed as ``dualpose CMD: warning: TEXT``, without
+the source line Python shows by default, and an exception no command expected as
+``dualpose CMD: error: internal error (TYPE: TEXT)`` with exit status 1 (``DUALPOSE_TRACEBACK=1`` shows the
+traceback instead, for a bug report).
 """
 
 from __future__ import annotations
@@ -22,7 +28,9 @@ import argparse
 import io
 import os
 import sys
+import warnings
 from types import ModuleType
+from typing import TextIO
 
 from dualpose.cli import ahrs, calibrate, demo, eval, fuse, register, reproduce
 
@@ -61,8 +69,42 @@ def guard_standard_streams() -> None:
             stream.reconfigure(errors="backslashreplace")
 
 
+def _command(argv: list[str] | None) -> str:
+    """``dualpose`` and the subcommand named in ``argv`` (or ``sys.argv``), for messages."""
+    words = sys.argv[1:] if argv is None else argv
+    names = {m.__name__.rsplit(".", 1)[-1] for m in SUBCOMMANDS}
+    sub = next((w for w in words if w in names), None)
+    return "dualpose" if sub is None else f"dualpose {sub}"
+
+
+def one_line_warnings(prog: str) -> None:
+    """Print every warning that reaches the default handler as one line ``PROG: warning: TEXT`` on stderr (the
+    handler stays until :func:`main` returns)."""
+
+    def show(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+             file: TextIO | None = None, line: str | None = None) -> None:  # fmt: skip
+        text = " ".join(str(message).split())
+        kind = "" if category is UserWarning else f" ({category.__name__})"
+        try:
+            print(f"{prog}: warning: {text}{kind}", file=sys.stderr if file is None else file)
+        except (OSError, ValueError):
+            pass
+
+    warnings.showwarning = show
+
+
 def main(argv: list[str] | None = None) -> int:
     guard_standard_streams()
+    prog = _command(argv)
+    shown = warnings.showwarning
+    one_line_warnings(prog)
+    try:
+        return _main(argv, prog)
+    finally:
+        warnings.showwarning = shown
+
+
+def _main(argv: list[str] | None, prog: str) -> int:
     try:
         args = build_parser().parse_args(argv)
         code = int(args._run(args))
@@ -84,6 +126,13 @@ def main(argv: list[str] | None = None) -> int:
         except (OSError, ValueError):
             pass
         return EXIT_INTERRUPTED
+    except Exception as exc:  # the last resort: one line, never a traceback (unless asked for)
+        if os.environ.get("DUALPOSE_TRACEBACK"):
+            raise
+        text = " ".join(str(exc).split())
+        print(f"{prog}: error: internal error ({type(exc).__name__}: {text}); DUALPOSE_TRACEBACK=1 shows where",
+              file=sys.stderr)  # fmt: skip
+        return 1
 
 
 if __name__ == "__main__":

@@ -38,7 +38,7 @@ def add_target(targets: Any) -> argparse.ArgumentParser:
                            formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
     p.add_argument("--out", type=Path, help="directory for PNG figures and summary.json")
     p.add_argument("--json", action="store_true", help="print the summary as JSON instead of a table")
-    p.add_argument("--force", action="store_true", help="overwrite existing files in --out")
+    p.add_argument("--force", action="store_true", help="replace an earlier run's --out directory as a whole")
     p.add_argument("--duration", type=float_in(0.0, MAX_DURATION_S, lo_open=True), default=200.0,
                    help=f"seconds simulated per algorithm (default 200; > 0, <= {MAX_DURATION_S:g})")
     p.add_argument("--long-duration", type=float_in(0.0, MAX_DURATION_S), default=1e5,
@@ -121,7 +121,7 @@ def _table(summary: dict[str, Any]) -> str:
 def run_screw_vector(args: argparse.Namespace) -> int:
     from dataclasses import asdict
 
-    from dualpose.cli._output import output_files_problem
+    from dualpose.cli._output import OutputError, output_directory
     from dualpose.pipelines.reproduce.screw_vector import Scenario, summarize
 
     out: Path | None = args.out
@@ -136,11 +136,11 @@ def run_screw_vector(args: argparse.Namespace) -> int:
             print(f"{_PROG}: error: --out writes PNG figures, which need matplotlib: pip install 'dualpose[plot]'",
                   file=sys.stderr)  # fmt: skip
             return 2
-        problem = output_files_problem(out, names, args.force)
-        if problem is not None:
-            print(f"{_PROG}: error: {problem}", file=sys.stderr)
+        try:
+            target = output_directory(out, names + ["screw_vector_long_run.png"], args.force, ())
+        except OutputError as exc:
+            print(f"{_PROG}: error: {exc}", file=sys.stderr)
             return 2
-        out.mkdir(parents=True, exist_ok=True)
     sc = Scenario()
     show = not args.no_progress
     runs = {n: _simulate(sc, n, args.duration, f"{n}-sample, {args.duration:g} s", show) for n in args.samples}
@@ -159,9 +159,10 @@ def run_screw_vector(args: argparse.Namespace) -> int:
     if long_run is not None:
         summary["runs"]["3-sample long run"] = summarize(long_run)
     if out is not None:
-        files = _figures(out, runs, long_run)
-        (out / "summary.json").write_text(json.dumps(summary, indent=2))
-        summary["files"] = [str(f) for f in [*files, out / "summary.json"]]
+        with target.writing() as stage:
+            files = _figures(stage, runs, long_run)
+            (stage / "summary.json").write_text(json.dumps(summary, indent=2))
+        summary["files"] = [str(out / f.name) for f in files] + [str(out / "summary.json"), str(out / "manifest.json")]
     if args.json:
         print(json.dumps(summary, indent=2))
     else:

@@ -20,7 +20,7 @@ def add_target(targets: argparse._SubParsersAction) -> argparse.ArgumentParser:
     p = targets.add_parser("walker1991", help="Walker, Shao & Volz (1991) §4: SVD vs DQ pose accuracy and timing")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
     p.add_argument("--out", metavar="DIR", help="write walker1991.md/.json/.png into DIR")
-    p.add_argument("--force", action="store_true", help="overwrite existing files in --out")
+    p.add_argument("--force", action="store_true", help="replace an earlier run's --out directory as a whole")
     p.add_argument("--quick", action="store_true", help="fewer trials (a smoke run)")
     return p
 
@@ -112,25 +112,28 @@ def _plot(res: dict, path: Path) -> bool:
 
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``dualpose reproduce walker1991``."""
-    from dualpose.cli._output import output_files_problem
+    from dualpose.cli._output import OutputError, output_directory
     from dualpose.cli._progress import FractionSteps, progress_bar
     from dualpose.pipelines.reproduce import walker1991
 
     out_dir = Path(args.out) if args.out else None
     names = ("walker1991.md", "walker1991.json", "walker1991.png")
+    target = None
     if out_dir is not None:
-        problem = output_files_problem(out_dir, names, args.force)
-        if problem is not None:
-            print(f"dualpose reproduce walker1991: error: {problem}", file=sys.stderr)
+        try:
+            target = output_directory(out_dir, names, args.force, ())
+        except OutputError as exc:
+            print(f"dualpose reproduce walker1991: error: {exc}", file=sys.stderr)
             return 2
     with progress_bar(20, "dualpose reproduce walker1991") as bar:  # 5 % steps
         res = walker1991.run(quick=args.quick, progress=FractionSteps(bar, 20))
     md = markdown(res)
-    if out_dir is not None:
-        out_dir.mkdir(parents=True, exist_ok=True)
-        (out_dir / names[0]).write_text(md, encoding="utf-8")
-        (out_dir / names[1]).write_text(json.dumps(res, indent=2) + "\n", encoding="utf-8")
-        if not _plot(res, out_dir / names[2]):
+    if target is not None:
+        with target.writing() as stage:
+            (stage / names[0]).write_text(md, encoding="utf-8")
+            (stage / names[1]).write_text(json.dumps(res, indent=2) + "\n", encoding="utf-8")
+            plotted = _plot(res, stage / names[2])
+        if not plotted:
             print("dualpose reproduce: note: walker1991.png not written (needs matplotlib)", file=sys.stderr)
     if args.json:
         print(json.dumps(res, indent=2))

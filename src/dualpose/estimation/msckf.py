@@ -9,18 +9,21 @@ State (docs/vio.md):
   (:mod:`dualpose.estimation.eskf`, Solà 2017; local attitude error ``q = q̂ ⊗ Exp(δθ)``), propagated by the same
   native kernel (``msckf_propagate``, ``src/native/estimation/msckf.cpp``);
 * a sliding window of ``C ≤ max_clones`` clones of the IMU pose ``[p_wb (3), q_wb (4)]`` taken at the camera
-  times (stochastic cloning), each with a 6-dof error ``[δp, δθ]`` (:data:`MSCKF_CLONE_ERROR`); the full
-  covariance is ``(15 + 6C, 15 + 6C)``.
+  times (stochastic cloning), each with a 6-dof error ``[δp, δθ]`` (:data:`MSCKF_CLONE_ERROR`);
+* up to ``max_slam`` long-lived features as world points (OpenVINS' SLAM features, 3 each) and the camera–IMU time
+  offset (1); the full covariance is ``(15 + 6C + 3L + 1)²`` in that order.
 
-No landmark enters the state. A feature is used once, when its track ends or when its oldest observation would leave
+A feature that is not a SLAM feature is used once, when its track ends or when its oldest observation would leave
 the window: it is triangulated from the window (linear midpoint, then Gauss–Newton on the inverse depth in its first
 camera), its reprojection residuals are linearised at the clones' *first estimates* (FEJ, Huang et al. 2010: the
 values the clones had when they were taken) and the propagation's transition at the IMU state's first estimate (the
 propagated state before an update), so that the four unobservable directions -- position and yaw -- stay
 unobservable; the feature Jacobian is removed by projecting onto its left nullspace (Givens rotations), and the
 ``2m − 3`` projected rows pass a per-feature χ² gate. The accepted rows of all features of a frame are stacked,
-compressed by a QR decomposition when they outnumber the state, and fused in one EKF update (Joseph form). All
-per-feature work is the native ``msckf_features``.
+compressed by a QR decomposition when they outnumber the state, and fused in one EKF update. A track that spans the
+whole window becomes a SLAM feature (delayed initialisation from the three rows the projection sets aside), updated
+at every frame it is seen in and marginalised when it ends.  All per-feature work is native (``msckf_features``,
+``msckf_slam_rows``, ``msckf_update``).
 
 The filter initialises itself from the rest period at the start (:meth:`MsckfVio.from_rest`): gravity direction
 and gyro bias from the static samples (:func:`~dualpose.estimation.initialization.static_alignment`), zero velocity,
@@ -33,6 +36,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import NDArray
 from scipy.stats import chi2
 
 import dualpose as dp
@@ -52,6 +56,20 @@ _REST_GUARD = 0.2  # s, one window of detect_rest
 _POSE_ROWS = np.r_[np.arange(3) + ESKF_ERROR.offset("position"), np.arange(3) + ESKF_ERROR.offset("attitude")]
 
 
+def _member(a: NDArray[np.int64], b: NDArray[np.int64]) -> NDArray[np.bool_]:
+    """``np.isin(a, b)`` for the non-negative int64 track ids of a frame and a window: a lookup table when the ids are
+    small (a few µs instead of a sort per call), ``np.isin`` otherwise."""
+    if len(a) == 0 or len(b) == 0:
+        return np.zeros(len(a), bool)
+    top = max(int(a.max()), int(b.max()))
+    if top >= 1 << 22 or min(int(a.min()), int(b.min())) < 0:
+        return np.isin(a, b)
+    table = np.zeros(top + 1, bool)
+    table[b] = True
+    found: NDArray[np.bool_] = table[a]
+    return found
+
+
 @dataclass(frozen=True)
 class MsckfOptions:
     """Settings of :class:`MsckfVio` (one set of defaults, those of OpenVINS where it has one).
@@ -64,6 +82,16 @@ class MsckfOptions:
     Mehra 1972; Mohamed & Schwarz 1999; docs/vio.md "Measurement noise"): the given σ is the starting value,
     ``sigma_floor`` (a fraction of it) the lowest value, ``sigma_memory`` the number of residual rows the running
     estimate remembers (its adaptation time constant in rows).
+
+    ``max_slam`` the most long-lived features kept in the state as world points (OpenVINS' hybrid MSCKF/SLAM
+    features, ``max_slam``; docs/vio.md "SLAM features"): a track still seen when it has spanned the whole window
+    is initialised into the state instead of being used once, updated at every frame it is seen in, and
+    marginalised when its track ends or its update fails the χ² gate; 0 gives the pure MSCKF.
+
+    ``estimate_time_offset`` adds the camera–IMU time offset ``t_imu = t_cam + t_d`` to the state (the last error
+    element, prior σ ``time_offset_sigma`` s around the given offset; OpenVINS ``calib_cam_timeoffset``, Li &
+    Mourikis, "Online temporal calibration for camera-aided inertial navigation", IJRR 2014): each clone is the
+    IMU pose at ``t_cam + t̂_d``, so its error gains ``[v_w, ω_b] δt_d`` (docs/vio.md "Time offset").
     """
 
     max_clones: int = 11
@@ -72,9 +100,12 @@ class MsckfOptions:
     min_depth: float = 0.1
     max_depth: float = 60.0
     min_parallax: float = 0.01
-    adaptive_sigma: bool = True
+    adaptive_sigma: bool = False
     sigma_floor: float = 0.1
     sigma_memory: float = 1000.0
+    max_slam: int = 25
+    estimate_time_offset: bool = True
+    time_offset_sigma: float = 0.01
 
     def __post_init__(self) -> None:
         if int(self.max_clones) != self.max_clones or self.max_clones < 2:
@@ -86,6 +117,10 @@ class MsckfOptions:
         if not 0.0 < self.min_depth < self.max_depth or not self.min_parallax >= 0.0:
             raise ValueError("need 0 < min_depth < max_depth and min_parallax >= 0; got "
                              f"{self.min_depth!r}, {self.max_depth!r}, {self.min_parallax!r}")  # fmt: skip
+        if int(self.max_slam) != self.max_slam or self.max_slam < 0:
+            raise ValueError(f"max_slam must be a whole number >= 0; got {self.max_slam!r}")
+        if not self.time_offset_sigma > 0.0:
+            raise ValueError(f"time_offset_sigma must be > 0 s; got {self.time_offset_sigma!r}")
         if not 0.0 < self.sigma_floor <= 1.0 or not self.sigma_memory > 0.0:
             raise ValueError("need 0 < sigma_floor <= 1 and sigma_memory > 0; got "
                              f"{self.sigma_floor!r}, {self.sigma_memory!r}")  # fmt: skip
@@ -106,7 +141,8 @@ class VioResult:
     """Output of :meth:`MsckfVio.run`: IMU-rate states ``t`` (N,) s, ``position`` (N, 3), ``velocity`` (N, 3),
     ``quat`` (N, 4) ``q_wb``, ``gyro_bias``, ``accel_bias`` (N, 3) (constant at the start pose during the rest
     period before ``t_start``); ``t_start`` the filter start (end of rest); feature statistics ``n_used``,
-    ``n_gated``, ``n_failed``; ``nis`` and ``nis_dof`` of the accepted features; ``wall_time`` of the filter, s."""
+    ``n_gated``, ``n_failed``; ``nis`` and ``nis_dof`` of the accepted features; ``wall_time`` and ``cpu_time`` (the
+    process's CPU time: what the filter costs on a shared machine) of the filter, s."""
 
     t: np.ndarray
     position: np.ndarray
@@ -121,6 +157,7 @@ class VioResult:
     nis: np.ndarray
     nis_dof: np.ndarray
     wall_time: float
+    cpu_time: float = float("nan")
 
 
 class MsckfVio(EskfStateAccessors, Estimator):
@@ -182,10 +219,18 @@ class MsckfVio(EskfStateAccessors, Estimator):
         self.camera_time_offset = float(camera_time_offset)
         self.options = MsckfOptions() if options is None else options
         o = self.options
+        # scalar states after the SLAM features (the time offset), updated in place by msckf_update
+        self._extra = np.array([self.camera_time_offset]) if o.estimate_time_offset else np.zeros(0)
+        if o.estimate_time_offset:
+            P = np.zeros((_NE + 1, _NE + 1))
+            P[:_NE, :_NE] = self.P
+            P[_NE, _NE] = o.time_offset_sigma**2
+            self.P = P
         self._chi2 = np.r_[np.inf, chi2.ppf(o.gate_probability, np.arange(1, 2 * o.max_clones + 8))]
         self._open_gate = np.full_like(self._chi2, np.inf)
         self._limits = np.array([o.min_depth, o.max_depth, o.min_parallax])
         self.time: float | None = None
+        self._t_imu: float | None = None  # the last IMU sample's time
         self._u = np.zeros(6)
         self._x_fej: np.ndarray | None = None  # the state before the updates since the last propagation (FEJ)
         self.clones = np.zeros((0, 7))  # [p_wb, q_wb] per clone, oldest first
@@ -196,6 +241,11 @@ class MsckfVio(EskfStateAccessors, Estimator):
         self._ob_track = np.zeros(0, np.int64)  # the window's feature observations
         self._ob_clone = np.zeros(0, np.int64)
         self._ob_uv = np.zeros((0, 2))
+        self.slam_id = np.zeros(0, np.int64)  # SLAM features in the state: track id, world point, first estimate
+        self.slam_p = np.zeros((0, 3))
+        self.slam_fej = np.zeros((0, 3))
+        self._chi2_2 = float(chi2.ppf(self.options.gate_probability, 2))
+        self.n_slam_init = 0  # SLAM features initialised so far
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -228,19 +278,20 @@ class MsckfVio(EskfStateAccessors, Estimator):
             accel_bias=np.full(3, n.accelerometer_initial_bias_sigma**2),
         ))  # fmt: skip
         f = cls(x, P, n, r.q_bc, r.p_bc, r.feature_sigma, camera_time_offset=r.time_offset, options=options)
-        f.time = float(r.t[k])
+        f.time = f._t_imu = float(r.t[k])
         f._u = np.r_[r.gyro[k], r.accel[k]]
         return f, k
 
     # ------------------------------------------------------------------ savable state (streaming)
     #: version of :meth:`state_dict`'s layout
-    STATE_VERSION = 2
+    STATE_VERSION = 3
 
     def state_dict(self) -> dict[str, np.ndarray]:
         """Everything the filter needs to continue, as arrays (``np.savez`` writes it): the IMU state, its first
         estimate (``x_fej``, NaN when none is pending) and the held sample, the window (clones, first estimates,
-        times, ids), the window's feature observations, the full covariance, the current and nominal feature σ, the
-        settings.  :meth:`from_state_dict` continues bit for bit (one sample / frame at a time)."""
+        times, ids), the window's feature observations, the SLAM features, the full covariance, the current and
+        nominal feature σ, the settings.  :meth:`from_state_dict` continues bit for bit (one sample / frame at a
+        time)."""
         o = self.options
         return {
             "version": np.array(self.STATE_VERSION), "x": self.x.copy(), "P": self.P.copy(), "u": self._u.copy(),
@@ -250,11 +301,14 @@ class MsckfVio(EskfStateAccessors, Estimator):
             "clones_fej": self.clones_fej.copy(), "clone_t": self.clone_t.copy(), "clone_id": self._clone_id.copy(),
             "next_clone": np.array(self._next_clone), "ob_track": self._ob_track.copy(),
             "ob_clone": self._ob_clone.copy(), "ob_uv": self._ob_uv.copy(), "noise": self.noise.copy(),
+            "slam_id": self.slam_id.copy(), "slam_p": self.slam_p.copy(), "slam_fej": self.slam_fej.copy(),
             "q_bc": self.q_bc.copy(), "p_bc": self.p_bc.copy(), "gravity": self.gravity.copy(),
             "feature_sigma": np.array(self.feature_sigma), "nominal_sigma": np.array(self.nominal_sigma),
-            "camera_time_offset": np.array(self.camera_time_offset),
+            "camera_time_offset": np.array(self.camera_time_offset), "extra": self._extra.copy(),
+            "t_imu": np.array(np.nan if self._t_imu is None else self._t_imu),
             "options": np.array([o.max_clones, o.min_track, o.gate_probability, o.min_depth, o.max_depth,
-                                 o.min_parallax, float(o.adaptive_sigma), o.sigma_floor, o.sigma_memory]),
+                                 o.min_parallax, float(o.adaptive_sigma), o.sigma_floor, o.sigma_memory,
+                                 o.max_slam, float(o.estimate_time_offset), o.time_offset_sigma]),
         }  # fmt: skip
 
     @classmethod
@@ -267,7 +321,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
                                  f"{cls.STATE_VERSION}")  # fmt: skip
             o = np.asarray(d["options"], dtype=np.float64)
             opts = MsckfOptions(int(o[0]), int(o[1]), float(o[2]), float(o[3]), float(o[4]), float(o[5]), bool(o[6]),
-                                float(o[7]), float(o[8]))
+                                float(o[7]), float(o[8]), int(o[9]), bool(o[10]), float(o[11]))
             noise = np.asarray(d["noise"], dtype=np.float64)
             sd = np.sqrt(noise)
             imu = ImuNoise(*sd[[0, 2, 1, 3]].tolist(), gyroscope_scale_sigma=float(sd[4]),
@@ -293,10 +347,17 @@ class MsckfVio(EskfStateAccessors, Estimator):
             f._ob_track = np.array(d["ob_track"], dtype=np.int64)
             f._ob_clone = np.array(d["ob_clone"], dtype=np.int64)
             f._ob_uv = np.array(d["ob_uv"], dtype=np.float64).reshape(-1, 2)
+            f.slam_id = np.array(d["slam_id"], dtype=np.int64)
+            f.slam_p = np.array(d["slam_p"], dtype=np.float64).reshape(-1, 3)
+            f.slam_fej = np.array(d["slam_fej"], dtype=np.float64).reshape(-1, 3)
+            f._extra = np.array(d["extra"], dtype=np.float64).reshape(-1)
+            t_imu = float(d["t_imu"])
+            f._t_imu = None if np.isnan(t_imu) else t_imu
         except KeyError as exc:
             raise ValueError(f"saved MSCKF state lacks {exc}") from None
-        if f.P.shape != (_NE + _CE * len(f.clones),) * 2:
-            raise ValueError(f"saved MSCKF state: covariance {f.P.shape} does not match {len(f.clones)} clones")
+        if f.P.shape != (_NE + _CE * len(f.clones) + 3 * len(f.slam_id) + len(f._extra),) * 2:
+            raise ValueError(f"saved MSCKF state: covariance {f.P.shape} does not match {len(f.clones)} clones and "
+                             f"{len(f.slam_id)} SLAM features")  # fmt: skip
         return f
 
     # ------------------------------------------------------------------ the estimator interface
@@ -312,7 +373,8 @@ class MsckfVio(EskfStateAccessors, Estimator):
 
     @property
     def full_covariance(self) -> np.ndarray:
-        """Covariance (15 + 6C, 15 + 6C) of the IMU error and the C clones' ``[δp, δθ]``, a copy."""
+        """Covariance (15 + 6C + 3L + E, same) of the IMU error, the C clones' ``[δp, δθ]``, the L SLAM features'
+        world points and, when estimated (E = 1), the camera time offset, a copy."""
         return self.P.copy()
 
     def update(self, measurement) -> UpdateResult:
@@ -355,22 +417,35 @@ class MsckfVio(EskfStateAccessors, Estimator):
         <dualpose.estimation.eskf.ErrorStateEKF.propagate>`: the mean of the held and the new sample over the
         step, then the new one held).  ``mag`` is not used."""
         u = np.r_[np.asarray(gyro, float).reshape(3), np.asarray(accel, float).reshape(3)]
+        if (len(self._extra) and self.time is not None and t < self.time
+                and (self._t_imu is None or t > self._t_imu)):  # fmt: skip
+            # a frame at the estimated time offset took the clock past this sample: its interval was covered by the
+            # held sample; hold the new one
+            self._u, self._t_imu = u, float(t)
+            return
         dt = self._elapsed(t, f"IMU sample at t={t}")
         if dt > 0:
             mid = 0.5 * (self._u + u)
             self._steps(mid[None, :3], mid[None, 3:], np.array([dt]))
-        self.time = float(t)
+        self.time = self._t_imu = float(t)
         self._u = u
 
     # ------------------------------------------------------------------ the window
     def _clone(self, t: float) -> None:
         n = self.P.shape[0]
+        k = _NE + _CE * len(self.clones)  # the new clone's columns, before the SLAM features
         JP = self.P[_POSE_ROWS]  # J P with J selecting the pose rows [δp, δθ] of the IMU error
+        block = JP[:, _POSE_ROWS]
+        if len(self._extra):  # the clone is the pose at t_cam + t̂_d: its error gains u δt_d, u = [v_w, ω_b]
+            u = np.r_[ESKF_STATE.get(self.x, "velocity"), self._u[:3] - ESKF_STATE.get(self.x, "gyro_bias")]
+            JP = JP + np.outer(u, self.P[n - 1])
+            block = JP[:, _POSE_ROWS] + np.outer(JP[:, n - 1], u)
         P = np.empty((n + _CE, n + _CE))
-        P[:n, :n] = self.P
-        P[n:, :n] = JP
-        P[:n, n:] = JP.T
-        P[n:, n:] = JP[:, _POSE_ROWS]
+        e = k + _CE
+        P[:k, :k], P[:k, e:], P[e:, :k], P[e:, e:] = self.P[:k, :k], self.P[:k, k:], self.P[k:, :k], self.P[k:, k:]
+        P[k:e, :k], P[k:e, e:] = JP[:, :k], JP[:, k:]
+        P[:k, k:e], P[e:, k:e] = JP[:, :k].T, JP[:, k:].T
+        P[k:e, k:e] = 0.5 * (block + block.T)
         self.P = P
         c = np.concatenate([ESKF_STATE.get(self.x, "position"), ESKF_STATE.get(self.x, "quat")])
         self.clones = np.vstack([self.clones, c])
@@ -432,8 +507,13 @@ class MsckfVio(EskfStateAccessors, Estimator):
             ESKF_STATE.get(x, name)[:] += ESKF_ERROR.get(dx[:_NE], name)
         q = ESKF_STATE.get(x, "quat")
         q[:] = dp.quat_normalize(dp.quat_mul(q, dp.quat_from_rotvec(ESKF_ERROR.get(dx[:_NE], "attitude"))))
+        k = _NE + _CE * len(self.clones)
+        self.slam_p += dx[k : k + 3 * len(self.slam_id)].reshape(-1, 3)
+        if len(self._extra):
+            self._extra += dx[len(dx) - len(self._extra) :]
+            self.camera_time_offset = float(self._extra[0])
         if len(self.clones):
-            d = dx[_NE:].reshape(-1, _CE)
+            d = dx[_NE:k].reshape(-1, _CE)
             self.clones[:, :3] += MSCKF_CLONE_ERROR.get(d, "position")
             self.clones[:, 3:] = dp.quat_normalize(
                 dp.quat_mul(self.clones[:, 3:], dp.quat_from_rotvec(MSCKF_CLONE_ERROR.get(d, "attitude")))
@@ -443,77 +523,190 @@ class MsckfVio(EskfStateAccessors, Estimator):
         """Propagate to the frame (the last IMU sample held), clone the IMU pose, and update with every feature whose
         track ended or whose oldest observation leaves the window; then drop the oldest clone if the window is
         over ``max_clones``."""
-        t = self._frame_time(frame.t, self.camera_time_offset)
+        if len(self._extra) and self.time is not None:
+            # with the offset estimated, a frame may fall a little before the filter time (the clock ran ahead at
+            # an earlier estimate): it is taken at the filter time, within 3 prior σ of the offset
+            t = frame.t + self.camera_time_offset
+            if t < self.time - 3.0 * self.options.time_offset_sigma:
+                self._elapsed(t, f"frame at IMU time {t}")
+            t = max(t, self.time)
+        else:
+            t = self._frame_time(frame.t, self.camera_time_offset)
         if t > self.time:
             self._steps(self._u[None, :3], self._u[None, 3:], np.array([t - self.time]))
             self.time = t
         return self._frame_update(frame.track_id, frame.uv)
 
     def _frame_update(self, track_id: np.ndarray, uv: np.ndarray) -> TrackUpdate:
-        """Clone, update with the tracks that end or leave the window, marginalise; a frame's ``track_id`` (m,)
-        int64 and normalised ``uv`` (m, 2)."""
+        """Marginalise the SLAM features whose track ended, clone, update with the tracks that end or leave the window
+        (the long ones among them initialised as SLAM features while there is room) and with this frame's
+        observations of the SLAM features, marginalise the oldest clone; a frame's ``track_id`` (m,) int64 and
+        normalised ``uv`` (m, 2)."""
         o = self.options
+        if len(self.slam_id):
+            seen = _member(self.slam_id, track_id)
+            if not seen.all():
+                self._drop_landmarks(~seen)
         self._clone(self.time)
         cid = self._clone_id[-1]
+        in_slam = _member(track_id, self.slam_id) if len(self.slam_id) else np.zeros(len(track_id), bool)
+        slam_track, slam_uv = track_id[in_slam], uv[in_slam]
+        if in_slam.any():
+            track_id, uv = track_id[~in_slam], uv[~in_slam]
         use = np.zeros(len(self._ob_track) + len(track_id), bool)  # the observations of the tracks to use
-        use[: len(self._ob_track)] = ~np.isin(self._ob_track, track_id)  # tracks that ended
+        use[: len(self._ob_track)] = ~_member(self._ob_track, track_id)  # tracks that ended
         self._ob_track = np.concatenate([self._ob_track, track_id])
         self._ob_clone = np.concatenate([self._ob_clone, np.full(len(track_id), cid)])
         self._ob_uv = np.concatenate([self._ob_uv, uv])
         full = len(self.clones) > o.max_clones
         if full:  # and the tracks seen in the oldest clone, which leaves the window
-            use |= np.isin(self._ob_track, self._ob_track[self._ob_clone == self._clone_id[0]])
-        result = self._features_update(use)
+            use |= _member(self._ob_track, self._ob_track[self._ob_clone == self._clone_id[0]])
+        result = self._features_update(use, track_id if full else None, slam_track, slam_uv)
         self._keep_obs(~use)
         if full:
             self._drop_oldest_clone()
         return result
 
-    def _features_update(self, use: np.ndarray) -> TrackUpdate:
-        """Update with the window's observations ``use`` (boolean, per observation; whole tracks)."""
-        empty = TrackUpdate(np.zeros(0), 0, np.zeros(0, bool))
+    def _features_update(self, use: np.ndarray, current: np.ndarray | None, slam_track: np.ndarray,
+                         slam_uv: np.ndarray) -> TrackUpdate:  # fmt: skip
+        """One EKF update with the window's observations ``use`` (boolean, per observation; whole tracks), of which
+        the tracks still seen in this frame (``current`` track ids; None when the window is not full) may become
+        SLAM features, and with the observations ``slam_uv`` of the SLAM features ``slam_track`` in the newest
+        clone."""
+        o = self.options
+        status = np.zeros(0, np.int64)
+        nis = np.zeros(0)
+        dof = np.zeros(0, np.int64)
+        blocks: list[tuple[np.ndarray, np.ndarray]] = []  # (H, r) rows, H over the state before any SLAM init
+        resid: list[tuple[np.ndarray, np.ndarray]] = []  # every row before the gate and its (H P Hᵀ)_ii (σ estimate)
         rows = np.flatnonzero(use)
-        if len(rows) == 0:
-            return empty
-        order = rows[np.argsort(self._ob_track[rows], kind="stable")]
-        _, count = np.unique(self._ob_track[order], return_counts=True)
-        enough = count >= self.options.min_track
-        if not enough.any():
-            return empty
-        sel = order[np.repeat(enough, count)]  # the rows of the tracks long enough, grouped by track in time order
-        offsets = np.zeros(int(enough.sum()) + 1, np.int64)
-        np.cumsum(count[enough], out=offsets[1:])
-        obs_clone = np.searchsorted(self._clone_id, self._ob_clone[sel]).astype(np.int64)
-        g = len(offsets) - 1
-        n = self.P.shape[0]
-        cap = int(np.sum(2 * count[enough] - 3))
-        H = np.empty((cap, n))
-        r = np.empty(cap)
-        rvar = np.empty(cap)
-        status = np.empty(g, np.int64)
-        nis = np.empty(g)
-        P = np.ascontiguousarray(self.P)
-        # the kernel with an open gate returns the rows of every triangulated feature: the σ estimate sees them all
-        # (a gate at the current σ would keep the small residuals and bias it low), the χ² gate is applied here
-        m = _native.msckf_features(np.ascontiguousarray(self.clones), np.ascontiguousarray(self.clones_fej),
-                                   self.q_bc, self.p_bc, offsets, obs_clone, np.ascontiguousarray(self._ob_uv[sel]),
-                                   P, self.feature_sigma, self._open_gate, self._limits, H, r, rvar, status,
-                                   nis)  # fmt: skip
-        dof = 2 * count[enough] - 3
-        solved = status == 1
-        gated = solved & (nis > self._chi2[np.minimum(dof, len(self._chi2) - 1)])
-        status[gated] = 0
+        if len(rows):
+            order = rows[np.argsort(self._ob_track[rows], kind="stable")]
+            ids, count = np.unique(self._ob_track[order], return_counts=True)
+            enough = count >= o.min_track
+            if enough.any():
+                sel = order[np.repeat(enough, count)]  # the rows of the tracks long enough, grouped by track
+                offsets = np.zeros(int(enough.sum()) + 1, np.int64)
+                np.cumsum(count[enough], out=offsets[1:])
+                obs_clone = np.searchsorted(self._clone_id, self._ob_clone[sel]).astype(np.int64)
+                g = len(offsets) - 1
+                n = self.P.shape[0]
+                cap = int(np.sum(2 * count[enough] - 3))
+                H = np.empty((cap, n))
+                r = np.empty(cap)
+                rvar = np.empty(cap)
+                status = np.empty(g, np.int64)
+                nis = np.empty(g)
+                points = np.empty((g, 3))
+                top = np.empty((g, 3, n + 4))
+                uv_sel = np.ascontiguousarray(self._ob_uv[sel])
+                # the kernel with an open gate returns the rows of every triangulated feature: the σ estimate sees
+                # them all (a gate at the current σ would keep the small residuals and bias it low); the χ² gate is
+                # applied here
+                m = _native.msckf_features(np.ascontiguousarray(self.clones), np.ascontiguousarray(self.clones_fej),
+                                           self.q_bc, self.p_bc, offsets, obs_clone, uv_sel, self.P,
+                                           self.feature_sigma, self._open_gate, self._limits, H, r, rvar, status, nis,
+                                           points, top)  # fmt: skip
+                dof = 2 * count[enough] - 3
+                solved = status == 1
+                gated = solved & (nis > self._chi2[np.minimum(dof, len(self._chi2) - 1)])
+                status[gated] = 0
+                accepted = status == 1
+                if m > 0:
+                    resid.append((r[:m].copy(), rvar[:m].copy()))
+                    keep = np.repeat(accepted[solved], dof[solved])
+                    if keep.any():
+                        blocks.append((H[:m], r[:m]) if keep.all() else (H[:m][keep], r[:m][keep]))
+                    room = o.max_slam - len(self.slam_id)
+                    if current is not None and room > 0:  # long tracks (seen in the oldest clone and now): SLAM
+                        gid = ids[enough]
+                        for f in np.flatnonzero(accepted & _member(gid, current))[:room]:
+                            self._init_landmark(int(gid[f]), points[f], top[f])
+        drop = np.zeros(len(self.slam_id), bool)
+        if len(slam_track):
+            Hs, rs, idx, ok, r_all, rvar_all = self._slam_rows(slam_track, slam_uv)
+            resid.append((r_all, rvar_all))
+            if len(rs):
+                blocks.append((Hs, rs))
+            drop[idx[~ok]] = True  # a SLAM feature whose update fails the gate is marginalised
+        if blocks:
+            n = self.P.shape[0]
+            if len(blocks) == 1 and blocks[0][0].shape[1] == n:  # one block over the whole state: as it is
+                Hk, rk = np.ascontiguousarray(blocks[0][0]), np.ascontiguousarray(blocks[0][1])
+            else:  # stacked; rows from before a SLAM initialisation in this frame are zero in its columns
+                Hk = np.zeros((sum(len(b[1]) for b in blocks), n))
+                rk = np.concatenate([b[1] for b in blocks])
+                i = 0
+                for Hb, _ in blocks:
+                    Hk[i : i + len(Hb), : Hb.shape[1]] = Hb
+                    i += len(Hb)
+            self._keep_first_estimate()  # one update of all accepted rows (QR-compressed in the kernel when m > n)
+            _native.msckf_update(self.x, self.clones, self.slam_p, self._extra, self.P, Hk, rk, self.feature_sigma)
+            if len(self._extra):
+                self.camera_time_offset = float(self._extra[0])
+        if drop.any():
+            self._drop_landmarks(drop)
+        if o.adaptive_sigma and resid:
+            self.feature_sigma = self._adapted_sigma(np.concatenate([a for a, _ in resid]),
+                                                     np.concatenate([b for _, b in resid]))  # fmt: skip
         accepted = status == 1
-        if m > 0:
-            self.P = P
-            sigma_next = self._adapted_sigma(r[:m], rvar[:m]) if self.options.adaptive_sigma else self.feature_sigma
-            keep = np.repeat(accepted[solved], dof[solved])
-            if keep.any():  # one update of all accepted rows (QR-compressed in the kernel when m > n)
-                self._keep_first_estimate()
-                Hk, rk = (H[:m], r[:m]) if keep.all() else (np.ascontiguousarray(H[:m][keep]), r[:m][keep])
-                _native.msckf_update(self.x, self.clones, self.P, Hk, rk, self.feature_sigma)
-            self.feature_sigma = sigma_next
         return TrackUpdate(nis, int(dof[accepted].sum()), accepted, feature_dof=dof, status=status)
+
+    # ------------------------------------------------------------------ SLAM features
+    def _init_landmark(self, track: int, pw: np.ndarray, top: np.ndarray) -> None:
+        """Put the feature ``track``, triangulated at ``pw`` (3,), into the state (delayed initialisation, Li &
+        Mourikis, "Optimization-based estimator design for vision-aided inertial navigation", RSS 2012; OpenVINS
+        ``StateHelper::initialize_invertible``) from the three rows ``top`` (3, n + 4) = ``[H_x1 | R | r1]`` that
+        the nullspace projection of ``msckf_features`` sets aside (``r1 = H_x1 δx + R δf + n1``, ``R`` upper
+        triangular; the other ``2m − 3`` rows are the MSCKF rows of the same update): the point
+        ``pw + R⁻¹ r1``, its covariance ``A P Aᵀ + σ² R⁻¹ R⁻ᵀ`` and its cross-covariance ``−A P`` with
+        ``A = R⁻¹ H_x1``; its first estimate is ``pw`` (where the Jacobians were taken)."""
+        n, nt, E = self.P.shape[0], top.shape[1] - 4, len(self._extra)
+        Rinv = np.linalg.inv(top[:, nt : nt + 3])
+        A = np.zeros((3, n))  # R⁻¹ H_x1 in the current layout (points initialised before in this frame: zero)
+        A[:, : nt - E] = Rinv @ top[:, : nt - E]
+        A[:, n - E :] = Rinv @ top[:, nt - E : nt]
+        AP = A @ self.P
+        Pff = AP @ A.T + self.feature_sigma**2 * (Rinv @ Rinv.T)
+        k, e = n - E, n - E + 3  # the point goes after the other points, before the scalar states
+        P = np.empty((n + 3, n + 3))
+        P[:k, :k], P[:k, e:], P[e:, :k], P[e:, e:] = self.P[:k, :k], self.P[:k, k:], self.P[k:, :k], self.P[k:, k:]
+        P[k:e, :k], P[k:e, e:] = -AP[:, :k], -AP[:, k:]
+        P[:k, k:e], P[e:, k:e] = -AP[:, :k].T, -AP[:, k:].T
+        P[k:e, k:e] = 0.5 * (Pff + Pff.T)
+        self.P = P
+        self.slam_id = np.append(self.slam_id, track)
+        self.slam_p = np.vstack([self.slam_p, pw + Rinv @ top[:, nt + 3]])
+        self.slam_fej = np.vstack([self.slam_fej, pw])
+        self.n_slam_init += 1
+
+    def _slam_rows(
+        self, track: np.ndarray, uv: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The rows (2 per feature) of the SLAM features ``track`` (k,) seen at ``uv`` (k, 2) in the newest clone
+        that pass the χ² gate (2 dof) — ``H`` (2a, n), ``r`` (2a,) —, the features' indices in the state (k,),
+        which of them passed (k,), and the residuals and their prior variances ``(H P Hᵀ)_ii`` of every feature
+        in front of the camera, before the gate (for the σ estimate); the native ``msckf_slam_rows``."""
+        srt = np.argsort(self.slam_id)
+        idx = srt[np.searchsorted(self.slam_id, track, sorter=srt)].astype(np.int64)
+        k = len(idx)
+        H = np.empty((2 * k, self.P.shape[0]))
+        r, r_all, rvar = np.empty(2 * k), np.empty(2 * k), np.empty(2 * k)
+        status = np.empty(k, np.int64)
+        rows, front = _native.msckf_slam_rows(self.clones, self.clones_fej, self.q_bc, self.p_bc, self.slam_p,
+                                              self.slam_fej, idx, len(self.clones) - 1,
+                                              np.ascontiguousarray(uv, dtype=np.float64), self.P, self.feature_sigma,
+                                              self._chi2_2, H, r, status, r_all, rvar)  # fmt: skip
+        return H[:rows], r[:rows], idx, status == 1, r_all[: 2 * front], rvar[: 2 * front]
+
+    def _drop_landmarks(self, drop: np.ndarray) -> None:
+        """Marginalise the SLAM features ``drop`` (L,) bool: delete their rows and columns."""
+        k0 = _NE + _CE * len(self.clones)
+        n = self.P.shape[0]
+        keep = np.r_[np.arange(k0), (k0 + 3 * np.flatnonzero(~drop)[:, None] + np.arange(3)).reshape(-1),
+                     np.arange(n - len(self._extra), n)]  # fmt: skip
+        self.P = np.ascontiguousarray(self.P[keep][:, keep])
+        self.slam_id, self.slam_p, self.slam_fej = self.slam_id[~drop], self.slam_p[~drop], self.slam_fej[~drop]
 
     def _adapted_sigma(self, r: np.ndarray, rvar: np.ndarray) -> float:
         """The feature σ after this frame's residual rows ``r`` (m,) of every triangulated feature, before the
@@ -546,9 +739,10 @@ class MsckfVio(EskfStateAccessors, Estimator):
         k = start  # last IMU sample consumed
         stats = {"used": 0, "gated": 0, "failed": 0}
         nis_all, dof_all = [], []
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         for j in range(first, len(ft) + 1):
-            tf = ft[j] if j < len(ft) else np.inf
+            # the frame on the IMU clock with the current offset estimate (online: never before the filter time)
+            tf = max(r.tracks.t[j] + self.camera_time_offset, self.time) if j < len(ft) else np.inf
             k1 = int(np.searchsorted(t, tf, side="right")) - 1  # last sample at or before the frame
             if k1 > k:
                 mid = 0.5 * (u[k:k1] + u[k + 1 : k1 + 1])
@@ -556,11 +750,12 @@ class MsckfVio(EskfStateAccessors, Estimator):
                 dts[0] = t[k + 1] - self.time
                 X[k + 1 : k1 + 1] = self._steps(mid[:, :3], mid[:, 3:], dts)
                 self.time, self._u, k = float(t[k1]), u[k1].copy(), k1
+                self._t_imu = self.time
             if j == len(ft):
                 break
-            if ft[j] > self.time:
-                self._steps(self._u[None, :3], self._u[None, 3:], np.array([ft[j] - self.time]))
-                self.time = float(ft[j])
+            if tf > self.time:
+                self._steps(self._u[None, :3], self._u[None, 3:], np.array([tf - self.time]))
+                self.time = float(tf)
             a, b = r.tracks.offsets[j], r.tracks.offsets[j + 1]  # the frame's rows (validated by FeatureTracks)
             res = self._frame_update(r.tracks.track_id[a:b], r.tracks.uv[a:b])
             if self.time == t[k]:  # a frame at an IMU stamp: the output there is the state after the update
@@ -570,10 +765,10 @@ class MsckfVio(EskfStateAccessors, Estimator):
             stats["failed"] += int(np.sum(res.status == -1))
             nis_all.append(res.nis[res.status == 1])
             dof_all.append(res.feature_dof[res.status == 1])
-        wall = time.perf_counter() - t0
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         blocks = {name: ESKF_STATE.get(X, name) for name in ESKF_STATE.names}
         return VioResult(
             t=t, **blocks, t_start=float(t[start]), n_used=stats["used"], n_gated=stats["gated"],
             n_failed=stats["failed"], nis=np.concatenate(nis_all) if nis_all else np.zeros(0),
-            nis_dof=np.concatenate(dof_all) if dof_all else np.zeros(0, np.int64), wall_time=wall,
+            nis_dof=np.concatenate(dof_all) if dof_all else np.zeros(0, np.int64), wall_time=wall, cpu_time=cpu,
         )  # fmt: skip

@@ -27,6 +27,7 @@ from __future__ import annotations
 from fractions import Fraction as Fr
 
 import numpy as np
+from numpy.typing import NDArray
 
 __all__ = ["FAMILIES", "MAX_SAMPLES", "coning_coefficients", "PREVIOUS_COEFFICIENT"]
 
@@ -77,7 +78,7 @@ def check_algorithm(samples: object, coefficients: object) -> tuple[int, str]:
     return samples, str(coefficients)
 
 
-def coning_coefficients(samples: int, coefficients: str = "coning-optimal", exact: bool = False) -> np.ndarray:
+def coning_coefficients(samples: int, coefficients: str = "coning-optimal", exact: bool = False) -> NDArray[np.float64]:
     """Matrix ``K`` (shape ``(N, N)``, strictly upper triangular) with ``Φ = Σ θ_i + Σ_{i<j} K[i, j] θ_i × θ_j``.
 
     Parameters

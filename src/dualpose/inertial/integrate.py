@@ -25,7 +25,7 @@ from collections.abc import Callable
 from typing import Any, Literal
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 import dualpose as dp
 from dualpose import _native
@@ -53,7 +53,7 @@ def _frame_sign(frame: object) -> float:
     raise ValueError(f"frame must be 'body' or 'space' (as in dualpose.quat_integrate); got {frame!r}")
 
 
-def _split_updates(x: np.ndarray, name: str, samples: int) -> np.ndarray:
+def _split_updates(x: np.ndarray, name: str, samples: int) -> NDArray[np.float64]:
     """Check (..., M, w) increments: M a positive multiple of samples, finite values."""
     if x.ndim < 2:
         raise ValueError(f"{name} must have shape (..., K*N, {x.shape[-1]}); got shape {x.shape}")
@@ -64,13 +64,15 @@ def _split_updates(x: np.ndarray, name: str, samples: int) -> np.ndarray:
     return x
 
 
-def _algorithm(samples: int, coefficients: str, frame: object) -> tuple[np.ndarray, float, float]:
+def _algorithm(samples: int, coefficients: str, frame: object) -> tuple[NDArray[np.float64], float, float]:
     samples, coefficients = check_algorithm(samples, coefficients)
     cprev = float(PREVIOUS_COEFFICIENT) if coefficients == "one-plus-previous" else 0.0
     return np.ascontiguousarray(coning_coefficients(samples, coefficients)), cprev, _frame_sign(frame)
 
 
-def _batch(x0: np.ndarray | None, x: np.ndarray) -> tuple[tuple[int, ...], np.ndarray | None, np.ndarray]:
+def _batch(
+    x0: np.ndarray | None, x: np.ndarray,
+) -> tuple[tuple[int, ...], NDArray[np.float64] | None, NDArray[np.float64]]:
     """Broadcast the leading axes of x0 (..., w0) and x (..., M, w); flatten them to one batch axis."""
     lead = x.shape[:-2] if x0 is None else np.broadcast_shapes(x0.shape[:-1], x.shape[:-2])
     xb = np.ascontiguousarray(np.broadcast_to(x, (*lead, *x.shape[-2:])).reshape(-1, *x.shape[-2:]))
@@ -80,7 +82,7 @@ def _batch(x0: np.ndarray | None, x: np.ndarray) -> tuple[tuple[int, ...], np.nd
     return lead, x0b, xb
 
 
-def _update_vectors(x: np.ndarray, samples: int, coefficients: str, frame: object) -> np.ndarray:
+def _update_vectors(x: np.ndarray, samples: int, coefficients: str, frame: object) -> NDArray[np.float64]:
     kmat, cprev, sgn = _algorithm(samples, coefficients, frame)
     lead, _, xb = _batch(None, x)
     out = np.empty((xb.shape[0], x.shape[-2] // kmat.shape[0], x.shape[-1]))
@@ -90,7 +92,7 @@ def _update_vectors(x: np.ndarray, samples: int, coefficients: str, frame: objec
 
 def rotation_vector(
     dtheta: ArrayLike, samples: int = 1, coefficients: Family = "coning-optimal", frame: Frame = "body"
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """Rotation vector of each update from N angle increments (paper eqs. (17)-(21); docs/inertial.md §2).
 
     ``Φ_k = Σ_i θ_i + s Σ_{i<j} k_ij θ_i × θ_j`` with ``s = +1`` (body) or ``−1`` (inertial).  For
@@ -119,7 +121,7 @@ def rotation_vector(
 
 def screw_vector(
     dual_increments: ArrayLike, samples: int = 1, coefficients: Family = "coning-optimal", frame: Frame = "body"
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """Screw vector ``Φ̂ = σ + εσ′`` of each update from N dual increments (paper eqs. (25)-(31); docs/inertial.md §2).
 
     The rotation-vector formula over dual numbers: ``σ`` is :func:`rotation_vector` of the ``Δθ`` and
@@ -142,7 +144,7 @@ def screw_vector(
     return _update_vectors(x, samples, coefficients, frame)
 
 
-def screw_exp(screw: ArrayLike) -> np.ndarray:
+def screw_exp(screw: ArrayLike) -> NDArray[np.float64]:
     """Unit dual quaternion ``exp(Φ̂/2)`` of screw vectors ``Φ̂ = σ + εσ′`` (docs/inertial.md §2; paper eq. (23)).
 
     ``r = exp(σ/2)`` (:func:`dualpose.quat_from_rotvec`), ``Δt = J_l(σ) σ′`` (:func:`dualpose.so3_left_jacobian`)
@@ -167,7 +169,7 @@ def screw_exp(screw: ArrayLike) -> np.ndarray:
 
 def _fold(
     x0: np.ndarray, name0: str, x: np.ndarray, name: str, samples: int, coefficients: str, frame: object
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     kmat, cprev, sgn = _algorithm(samples, coefficients, frame)
     x = _split_updates(x, name, samples)
     check_finite(x0, name0)
@@ -208,7 +210,7 @@ def _lazy_fold(integrate: Callable[..., np.ndarray], x0: Any, name0: str, x: Any
     n_lead = max(x0.ndim - 1, x.ndim - 2)
     lead = tuple(f"l{i}" for i in range(n_lead))
 
-    def block(b0: Any, b: Any) -> np.ndarray:
+    def block(b0: Any, b: Any) -> NDArray[np.float64]:
         while isinstance(b0, list):  # the one-chunk axes missing from the output come as nested lists
             b0 = b0[0]
         while isinstance(b, list):
@@ -226,7 +228,7 @@ def integrate_attitude(
     samples: int = 1,
     coefficients: Family = "coning-optimal",
     frame: Frame = "body",
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """Attitude quaternions from gyro angle increments with an N-sample rotation-vector algorithm.
 
     ``q_{k+1} = q_k (x) exp(Φ_k/2)`` (body) or ``exp(Φ_k/2) (x) q_k`` (inertial), renormalized each update, with
@@ -249,7 +251,10 @@ def integrate_attitude(
         (integration is sequential along time; docs/scaling.md, "Lazy and out-of-core").
     """
     if _is_dask(q0) or _is_dask(dtheta):
-        return _lazy_fold(integrate_attitude, q0, "q0", dtheta, "dtheta", 4, 3, samples, coefficients, frame)
+        result: NDArray[np.float64] = (
+            _lazy_fold(integrate_attitude, q0, "q0", dtheta, "dtheta", 4, 3, samples, coefficients, frame)
+        )
+        return result
     q0 = as_array(q0, "q0", 4)
     return _fold(q0, "q0", as_array(dtheta, "dtheta", 3), "dtheta", samples, coefficients, frame)
 
@@ -260,7 +265,7 @@ def integrate_pose(
     samples: int = 1,
     coefficients: Family = "coning-optimal",
     frame: Frame = "body",
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """Pose dual quaternions from dual increments ``[Δθ, Δu]`` with an N-sample screw-vector algorithm.
 
     ``q̂_{k+1} = q̂_k (x) exp(Φ̂_k/2)`` (body) or ``exp(Φ̂_k/2) (x) q̂_k`` (inertial), renormalized each update
@@ -284,14 +289,16 @@ def integrate_pose(
         :func:`integrate_attitude`.
     """
     if _is_dask(dq0) or _is_dask(dual_increments):
-        return _lazy_fold(integrate_pose, dq0, "dq0", dual_increments, "dual_increments", 8, 6, samples,
-                          coefficients, frame)
+        result: NDArray[np.float64] = _lazy_fold(
+            integrate_pose, dq0, "dq0", dual_increments, "dual_increments", 8, 6, samples, coefficients, frame
+        )
+        return result
     dq0 = as_array(dq0, "dq0", 8)
     x = as_array(dual_increments, "dual_increments", 6)
     return _fold(dq0, "dq0", x, "dual_increments", samples, coefficients, frame)
 
 
-def relative_pose(leader: ArrayLike, follower: ArrayLike) -> np.ndarray:
+def relative_pose(leader: ArrayLike, follower: ArrayLike) -> NDArray[np.float64]:
     """Pose of the follower in the leader frame, ``q̂_LF = q̂_L* (x) q̂_F`` (paper eqs. (32)-(34)).
 
     Parameters

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 import dualpose as dp
 
@@ -28,15 +28,17 @@ __all__ = ["Motion", "Coning", "ConstantTwist", "SmoothTrajectory", "sample_time
 CONING_RHO = {1: 1 / 12, 2: 1 / 960, 3: 1 / 204120, 4: 1 / 82575360}
 
 Frame = Literal["body", "space"]
+#: an ``(M, 3)`` table of parameters as nested tuples (one row per harmonic)
+_Rows = tuple[tuple[float, float, float], ...]
 
 
-def sample_times(t0: float, h: float, n: int) -> np.ndarray:
+def sample_times(t0: float, h: float, n: int) -> NDArray[np.float64]:
     """Boundaries ``t0 + j h``, j = 0..n (shape (n+1,)), of n sub-intervals of length h (seconds)."""
     if not (h > 0 and math.isfinite(h)):
         raise ValueError(f"h must be a positive finite step in seconds; got {h!r}")
     if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 1:
         raise ValueError(f"n must be a positive integer number of sub-intervals; got {n!r}")
-    return t0 + h * np.arange(n + 1)
+    return t0 + h * np.arange(n + 1, dtype=np.float64)
 
 
 def coning_drift(a: float, Omega: float, T: float, samples: int) -> float:
@@ -60,22 +62,22 @@ class Motion(abc.ABC):
     nodes: int = 8
 
     @abc.abstractmethod
-    def pose(self, t: ArrayLike) -> np.ndarray:
+    def pose(self, t: ArrayLike) -> NDArray[np.float64]:
         """Pose dual quaternion at times ``t`` (seconds), shape ``t.shape + (8,)``."""
 
     @abc.abstractmethod
-    def twist(self, t: ArrayLike, frame: Frame = "body") -> np.ndarray:
+    def twist(self, t: ArrayLike, frame: Frame = "body") -> NDArray[np.float64]:
         """Twist ``[ω, v]`` (rad/s, m/s) at times ``t``, shape ``t.shape + (6,)``, in ``frame`` (module doc)."""
 
-    def attitude(self, t: ArrayLike) -> np.ndarray:
+    def attitude(self, t: ArrayLike) -> NDArray[np.float64]:
         """Attitude ``q_b^i`` (xyzw) at times ``t``, shape ``t.shape + (4,)``."""
         return self.pose(t)[..., :4]
 
-    def position(self, t: ArrayLike) -> np.ndarray:
+    def position(self, t: ArrayLike) -> NDArray[np.float64]:
         """Origin position ``t^i`` (metres) at times ``t``, shape ``t.shape + (3,)``."""
         return dp.qt_from_dualquat(self.pose(t))[1]
 
-    def dual_increments(self, t0: float, h: float, n: int, frame: Frame = "body") -> np.ndarray:
+    def dual_increments(self, t0: float, h: float, n: int, frame: Frame = "body") -> NDArray[np.float64]:
         """``∫ [ω, v] dt`` over ``[t0 + j h, t0 + (j+1) h]``, j = 0..n−1: shape (n, 6) (rad, m).
 
         Gauss–Legendre quadrature with ``nodes`` points per sub-interval.
@@ -84,9 +86,10 @@ class Motion(abc.ABC):
         x, w = np.polynomial.legendre.leggauss(self.nodes)
         mid = 0.5 * (edges[:-1] + edges[1:])
         t = mid[:, None] + 0.5 * h * x[None, :]
-        return 0.5 * h * np.einsum("m,nmk->nk", w, self.twist(t, frame))
+        result: NDArray[np.float64] = 0.5 * h * np.einsum("m,nmk->nk", w, self.twist(t, frame))
+        return result
 
-    def increments(self, t0: float, h: float, n: int, frame: Frame = "body") -> np.ndarray:
+    def increments(self, t0: float, h: float, n: int, frame: Frame = "body") -> NDArray[np.float64]:
         """Angle increments ``∫ ω dt`` (rad), shape (n, 3): the first three columns of :meth:`dual_increments`."""
         return self.dual_increments(t0, h, n, frame)[:, :3]
 
@@ -106,7 +109,7 @@ class Coning(Motion):
     Omega: float
     d: float = 0.0
 
-    def pose(self, t: ArrayLike) -> np.ndarray:
+    def pose(self, t: ArrayLike) -> NDArray[np.float64]:
         t = np.asarray(t, dtype=float)
         s, c = math.sin(0.5 * self.a), math.cos(0.5 * self.a)
         ct, st = np.cos(self.Omega * t), np.sin(self.Omega * t)
@@ -121,7 +124,7 @@ class Coning(Motion):
         sx = -1.0 if _check_frame(frame) else 1.0
         return sx * 2.0 * math.sin(0.5 * self.a) ** 2, sx * math.sin(self.a), math.sin(self.a), math.cos(self.a)
 
-    def twist(self, t: ArrayLike, frame: Frame = "body") -> np.ndarray:
+    def twist(self, t: ArrayLike, frame: Frame = "body") -> NDArray[np.float64]:
         t = np.asarray(t, dtype=float)
         x, dx, yz, dyz = self._terms(frame)
         om, d = self.Omega, self.d
@@ -129,7 +132,7 @@ class Coning(Motion):
         one = np.ones_like(t)
         return om * np.stack([x * one, -yz * st, yz * ct, d * dx * one, -d * dyz * st, d * dyz * ct], axis=-1)
 
-    def dual_increments(self, t0: float, h: float, n: int, frame: Frame = "body") -> np.ndarray:
+    def dual_increments(self, t0: float, h: float, n: int, frame: Frame = "body") -> NDArray[np.float64]:
         """Exact: ``(x Ωh, −2 A sin(Ωh/2) sin Ω(t+h/2), 2 A sin(Ωh/2) cos Ω(t+h/2))`` and its d ∂/∂a."""
         edges = sample_times(t0, h, n)
         mid = edges[:-1] + 0.5 * h
@@ -155,19 +158,20 @@ class ConstantTwist(Motion):
     dq0: tuple[float, ...] = (0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0)
     frame: Frame = "body"
 
-    def pose(self, t: ArrayLike) -> np.ndarray:
+    def pose(self, t: ArrayLike) -> NDArray[np.float64]:
         t = np.asarray(t, dtype=float)
         step = dp.dualquat_from_twist(t[..., None] * np.asarray(self.twist_vector))
         dq0 = np.asarray(self.dq0, dtype=float)
         return dp.dualquat_mul(dq0, step) if _check_frame(self.frame) else dp.dualquat_mul(step, dq0)
 
-    def twist(self, t: ArrayLike, frame: Frame = "body") -> np.ndarray:
+    def twist(self, t: ArrayLike, frame: Frame = "body") -> NDArray[np.float64]:
         if frame != self.frame:
             raise ValueError(f"this ConstantTwist is constant in the {self.frame!r} frame; got frame={frame!r}")
         t = np.asarray(t, dtype=float)
-        return np.broadcast_to(np.asarray(self.twist_vector, dtype=float), (*t.shape, 6)).copy()
+        result: NDArray[np.float64] = np.broadcast_to(np.asarray(self.twist_vector, dtype=float), (*t.shape, 6)).copy()
+        return result
 
-    def dual_increments(self, t0: float, h: float, n: int, frame: Frame = "body") -> np.ndarray:
+    def dual_increments(self, t0: float, h: float, n: int, frame: Frame = "body") -> NDArray[np.float64]:
         """Exact: every row is ``h [ω, v]``."""
         sample_times(t0, h, n)
         return self.twist(np.zeros(n), frame) * h
@@ -185,27 +189,29 @@ class SmoothTrajectory(Motion):
     ``pos_amp``, ``pos_freq``, ``pos_phase``.
     """
 
-    rot_amp: tuple = ((0.6, 0.4, 0.5), (0.2, 0.3, 0.1))
-    rot_freq: tuple = ((0.7, 1.1, 0.9), (2.3, 1.9, 2.9))
-    rot_phase: tuple = ((0.1, 0.5, 1.0), (0.3, 0.2, 0.7))
-    pos_amp: tuple = ((2.0, 1.5, 0.5), (0.3, 0.2, 0.4))
-    pos_freq: tuple = ((0.5, 0.8, 1.3), (2.1, 1.7, 2.5))
-    pos_phase: tuple = ((0.0, 1.0, 0.4), (0.9, 0.1, 0.6))
+    rot_amp: _Rows = ((0.6, 0.4, 0.5), (0.2, 0.3, 0.1))
+    rot_freq: _Rows = ((0.7, 1.1, 0.9), (2.3, 1.9, 2.9))
+    rot_phase: _Rows = ((0.1, 0.5, 1.0), (0.3, 0.2, 0.7))
+    pos_amp: _Rows = ((2.0, 1.5, 0.5), (0.3, 0.2, 0.4))
+    pos_freq: _Rows = ((0.5, 0.8, 1.3), (2.1, 1.7, 2.5))
+    pos_phase: _Rows = ((0.0, 1.0, 0.4), (0.9, 0.1, 0.6))
     nodes: int = 8
 
     @staticmethod
-    def _series(t: np.ndarray, amp: tuple, freq: tuple, phase: tuple) -> tuple[np.ndarray, np.ndarray]:
+    def _series(
+        t: np.ndarray, amp: _Rows, freq: _Rows, phase: _Rows,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         a, f, p = (np.asarray(x, dtype=float) for x in (amp, freq, phase))
         arg = t[..., None, None] * f + p
         return (a * np.sin(arg)).sum(axis=-2), (a * f * np.cos(arg)).sum(axis=-2)
 
-    def pose(self, t: ArrayLike) -> np.ndarray:
+    def pose(self, t: ArrayLike) -> NDArray[np.float64]:
         t = np.asarray(t, dtype=float)
         r, _ = self._series(t, self.rot_amp, self.rot_freq, self.rot_phase)
         p, _ = self._series(t, self.pos_amp, self.pos_freq, self.pos_phase)
         return dp.dualquat_from_qt(dp.quat_from_rotvec(r), p)
 
-    def twist(self, t: ArrayLike, frame: Frame = "body") -> np.ndarray:
+    def twist(self, t: ArrayLike, frame: Frame = "body") -> NDArray[np.float64]:
         body = _check_frame(frame)
         t = np.asarray(t, dtype=float)
         r, rdot = self._series(t, self.rot_amp, self.rot_freq, self.rot_phase)

@@ -4,11 +4,17 @@ the message fields read with NumPy for all messages at once (:class:`Fields`).  
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from itertools import islice
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import NDArray
+
+if TYPE_CHECKING:  # rosbags is optional (the ros extra): imported where a bag is opened
+    from rosbags.highlevel import AnyReader, AnyReaderError
 
 __all__ = [
     "Bag", "BagError", "Fields", "check_rosbags", "open_bag",
@@ -28,6 +34,9 @@ TRAJECTORY_TYPES = (POSE, POSE_COV, TRANSFORM, ODOMETRY)
 
 #: messages parsed per block (bounds the temporary memory next to the output arrays)
 BLOCK = 1 << 14
+#: a block of messages: receive ns (n,) int64, the buffer (uint8) holding them, the start and end byte of each
+#: message in it (n,) int64, and the first message's raw bytes (rosbags' reader) or None (ROS 1 bags)
+Block = tuple[NDArray[np.int64], NDArray[np.uint8], NDArray[np.int64], NDArray[np.int64], bytes | None]
 
 
 class BagError(ValueError):
@@ -37,7 +46,7 @@ class BagError(ValueError):
 # ------------------------------------------------------------------------------------------------ opening
 
 
-def check_rosbags():
+def check_rosbags() -> tuple[type[AnyReader], type[AnyReaderError]]:
     """The ``rosbags`` modules, or a clear ImportError."""
     try:
         from rosbags.highlevel import AnyReader, AnyReaderError
@@ -70,7 +79,7 @@ class Bag:
         self.reader.close()
 
     def topics(self) -> dict[str, str]:
-        return {name: info.msgtype for name, info in sorted(self.reader.topics.items())}
+        return {name: str(info.msgtype) for name, info in sorted(self.reader.topics.items())}
 
     def listing(self) -> str:
         topics = self.topics()
@@ -78,7 +87,7 @@ class Bag:
             return "the bag has no topics"
         return "topics in the bag: " + ", ".join(f"{t} ({m.replace('/msg/', '/')})" for t, m in topics.items())
 
-    def connections(self, topic: str | None, types: tuple[str, ...], what: str) -> list:
+    def connections(self, topic: str | None, types: tuple[str, ...], what: str) -> list[Any]:
         """The connections of ``topic``; BagError listing the topics when it is absent, or its type not in
         ``types``."""
         if topic is None:
@@ -95,10 +104,11 @@ class Bag:
             )
         return conns
 
-    def all_connections(self) -> list:
+    def all_connections(self) -> list[Any]:
+        """The bag's connections: rosbags' ``Connection`` objects (here) or ``_Conn1`` records (ROS 1 bags)."""
         return list(self.reader.connections)
 
-    def blocks(self, conns: list):
+    def blocks(self, conns: list[Any]) -> Iterator[Block]:
         """(receive ns, buffer, starts, ends, first raw message) of ``conns`` in bag order, in blocks of at most
         ``BLOCK`` messages: message k of a block is ``buffer[starts[k]:ends[k]]``."""
         gen = self.reader.messages(connections=conns)
@@ -113,8 +123,10 @@ class Bag:
             buf = np.frombuffer(b"".join(raws), np.uint8)
             yield np.fromiter(times, np.int64, len(times)), buf, ends - sizes, ends, raws[0]
 
-    def verify(self, conns: list, msgtype: str, first: bytes, values: np.ndarray, where: str) -> None:
+    def verify(self, conns: list[Any], msgtype: str, first: bytes | None, values: np.ndarray, where: str) -> None:
         """Compare the values parsed from the first message with rosbags' own deserializer."""
+        if first is None:  # blocks() of this reader always hands the first raw message
+            raise BagError(f"{where}: no raw message to verify the layout with")
         _check_first(self.reader.deserialize(first, msgtype), msgtype, values, where)
 
 
@@ -204,18 +216,18 @@ class _Ros1Bag(Bag):
             else:
                 self.file.seek(pos + size)
         totals: dict[int, int] = {}
-        for _, counts in self.chunks:
-            for cid, n in counts.items():
+        for _, chunk_counts in self.chunks:
+            for cid, n in chunk_counts.items():
                 totals[cid] = totals.get(cid, 0) + n
         self.conns = [_Conn1(cid, t, m, h, totals.get(cid, 0)) for cid, (t, m, h) in sorted(conns.items())]
 
-    def all_connections(self) -> list:
+    def all_connections(self) -> list[Any]:
         return list(self.conns)
 
     def topics(self) -> dict[str, str]:
         return dict(sorted({c.topic: c.msgtype for c in self.conns}.items()))
 
-    def blocks(self, conns: list):
+    def blocks(self, conns: list[Any]) -> Iterator[Block]:
         """(receive ns, chunk buffer, starts, ends, None) of the messages of ``conns`` chunk by chunk."""
         ids = {c.id for c in conns}
         for chunk_pos, counts in self.chunks:
@@ -265,7 +277,7 @@ class _Ros1Bag(Bag):
                 raise BagError(f"{self.path}: a message record runs past its chunk (byte {chunk_pos}): corrupt bag")
             yield recv, buf, starts, ends, None
 
-    def verify(self, conns: list, msgtype: str, first: bytes | None, values: np.ndarray, where: str) -> None:
+    def verify(self, conns: list[Any], msgtype: str, first: bytes | None, values: np.ndarray, where: str) -> None:
         """The connections' md5 sums (of the message definitions) must be the standard type's."""
         want = _ros1_md5(msgtype)
         bad = [c for c in conns if c.md5sum != want]
@@ -292,7 +304,7 @@ def _header_fields(raw: bytes) -> dict[str, bytes]:
     return fields
 
 
-def _u32_at(buf: np.ndarray, pos: np.ndarray, path: Path) -> np.ndarray:
+def _u32_at(buf: np.ndarray, pos: np.ndarray, path: Path) -> NDArray[np.int64]:
     """The little-endian uint32 at byte ``pos[i]`` of ``buf``, int64 (n,)."""
     if pos.shape[0] and (pos.min() < 0 or pos.max() + 4 > buf.shape[0]):
         raise BagError(f"{path}: an index entry points outside its chunk: corrupt bag")
@@ -355,7 +367,7 @@ class Fields:
         if self.cdr and size > 1:
             self.pos = self.origin + (self.pos - self.origin + size - 1) // size * size
 
-    def take(self, pos: np.ndarray, nbytes: int) -> np.ndarray:
+    def take(self, pos: np.ndarray, nbytes: int) -> NDArray[np.uint8]:
         """Bytes ``pos[i]:pos[i] + nbytes`` of every message, uint8 (n, nbytes): a strided view of the buffer when
         the offsets are evenly spaced (messages of one layout, back to back or in equal records), else gathered."""
         n = pos.shape[0]
@@ -366,7 +378,7 @@ class Fields:
                 return np.lib.stride_tricks.as_strided(view, (n, nbytes), (step, 1), writeable=False)
         return self.buf[pos[:, None] + np.arange(nbytes)]
 
-    def read(self, dtype: str, count: int = 1) -> np.ndarray:
+    def read(self, dtype: str, count: int = 1) -> NDArray[Any]:
         """``count`` values of ``dtype`` ('<u4', '<i4', '<f8') per message, shape (n, count); advances."""
         size = np.dtype(dtype).itemsize
         self.align(size)
@@ -381,7 +393,7 @@ class Fields:
         self.align(size)
         self.pos = self.pos + size * count
 
-    def string(self) -> tuple[np.ndarray, np.ndarray]:
+    def string(self) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
         """Offsets and lengths (without a NUL) of a string field of every message; advances."""
         length = self.read("<u4")[:, 0].astype(np.int64)
         text = self.pos
@@ -389,7 +401,7 @@ class Fields:
         self._check(self.pos)
         return text, length - 1 if self.cdr else length
 
-    def header(self) -> np.ndarray:
+    def header(self) -> NDArray[np.int64]:
         """``std_msgs/Header``: the stamp, int64 ns (n,); the frame id's offsets and lengths go to ``frame_id``."""
         if not self.cdr:
             self.skip("<u4", 1)  # seq
@@ -399,7 +411,7 @@ class Fields:
         return sec * 1_000_000_000 + nsec
 
 
-def _check_first(msg: object, msgtype: str, values: np.ndarray, where: str) -> None:
+def _check_first(msg: Any, msgtype: str, values: np.ndarray, where: str) -> None:
     """Compare the values parsed from the first message (stamp ns, then the fields) with rosbags' message."""
     if msgtype == IMU:
         ref = [*_xyz(msg.angular_velocity), *_xyz(msg.linear_acceleration)]
@@ -420,5 +432,5 @@ def _check_first(msg: object, msgtype: str, values: np.ndarray, where: str) -> N
                        "decodes differently); not read")  # fmt: skip
 
 
-def _xyz(v) -> list[float]:
+def _xyz(v: Any) -> list[float]:
     return [v.x, v.y, v.z]

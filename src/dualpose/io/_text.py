@@ -5,17 +5,36 @@ read in blocks and parsed by the native kernel ``_native.io_parse_block``, ``src
 one preallocated array; no Python object per number), and :func:`read_table` + :func:`parse_float_columns` the
 line-by-line reader that names the file and line of any problem.  The fast path hands anything it does not fully
 understand to the line reader, so both accept the same files and give the same numbers and the same errors.
+
+One number grammar for every text format (:func:`parse_number`, :data:`NUMBER`): ``[+-] digits [. digits]
+[(e|E) [+-] digits]`` in ASCII, at least one digit before the exponent (``1``, ``-2.5``, ``.5``, ``5.``, ``1e-3``),
+the grammar of the native kernel.  ``nan``, ``inf`` and ``infinity`` are recognised only to be reported as
+non-finite; everything else Python's ``float()`` also takes (``1_000``, ``0x1p3`` via ``float.fromhex``, Unicode
+digits, surrounding blanks inside a field) is not a number.
+
+Inputs are opened through :func:`open_input`: a directory, a device (``/dev/zero``) or a socket is refused with its
+kind named; a pipe (``/dev/stdin``, ``<(...)``, or ``-`` for standard input) is read once, up to
+:data:`MAX_PIPE_BYTES`, and kept, so a reader that opens its input twice sees the same bytes and seeking works.
+Streams read standard input through :func:`bounded_lines`: one line at a time, at most :data:`MAX_LINE_BYTES`
+each, UTF-8 with an optional BOM like files.
 """
 
 from __future__ import annotations
 
+import contextlib
+import io
 import os
-from pathlib import Path
+import re
+import stat
+import sys
+from collections.abc import Iterator
 from typing import IO
 
 import numpy as np
+from numpy.typing import NDArray
 
 from dualpose import _native
+from dualpose.io._output import atomic_text_file
 
 __all__ = [
     "Table",
@@ -27,16 +46,146 @@ __all__ = [
     "parse_int_column",
     "open_for_writing",
     "check_path",
+    "NUMBER",
+    "parse_number",
+    "all_numbers",
+    "open_input",
+    "bounded_lines",
+    "MAX_LINE_BYTES",
+    "MAX_PIPE_BYTES",
 ]
+
+#: one number of a text file (module docstring); ASCII only
+NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+_NONFINITE = re.compile(r"[+-]?(?:nan|inf|infinity)", re.IGNORECASE)
+#: the longest line a stream accepts, bytes
+MAX_LINE_BYTES = 1 << 20
+#: the most a pipe given as an input file may hold, bytes
+MAX_PIPE_BYTES = 1 << 31
 
 _BLOCK = 1 << 24  # bytes read and parsed at a time
 
 
 def check_path(path: object, name: str = "path") -> str:
-    """``path`` as a str; a ``TypeError`` naming ``name`` for anything that is not a str or ``os.PathLike``."""
+    """``path`` as a str; a ``TypeError`` naming ``name`` for anything that is not a str or ``os.PathLike[str]``."""
     if isinstance(path, bytes) or not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"{name} must be a str or os.PathLike file path; got {type(path).__name__}")
     return os.fspath(path)
+
+
+def parse_number(text: str) -> float:
+    """The float of one field in the number grammar (module docstring); ``nan`` / ``inf`` words give NaN / inf
+    (the caller reports them as non-finite).  ``ValueError("'x' is not a number")`` for anything else."""
+    if NUMBER.fullmatch(text) or _NONFINITE.fullmatch(text):
+        return float(text)
+    raise ValueError(f"{text!r} is not a number")
+
+
+_TOKEN = rf"(?:{NUMBER.pattern}|{_NONFINITE.pattern})"
+_MANY = re.compile(rf"(?:{_TOKEN}\n)*{_TOKEN}", re.IGNORECASE)
+
+
+def all_numbers(cells: list[str]) -> bool:
+    """Whether every string of ``cells`` (none holds a line end) is in the number grammar or a non-finite word: one
+    regex pass over them all."""
+    return not cells or _MANY.fullmatch("\n".join(cells)) is not None
+
+
+#: where the bytes of each pipe read as an input went, by (device, inode): a pipe can be read only once
+_PIPES: dict[tuple[int, int] | str, bytes] = {}
+
+
+def _kind(mode: int) -> str:
+    if stat.S_ISDIR(mode):
+        return "a directory"
+    if stat.S_ISCHR(mode):
+        return "a character device"
+    if stat.S_ISBLK(mode):
+        return "a block device"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    return "not a regular file"
+
+
+def _read_pipe(f: IO[bytes] | io.BufferedReader, name: str) -> bytes:
+    data = f.read(MAX_PIPE_BYTES + 1)
+    if len(data) > MAX_PIPE_BYTES:
+        raise ValueError(f"{name}: a pipe holding more than {MAX_PIPE_BYTES} bytes; give a regular file")
+    return data
+
+
+def open_input(path: str | os.PathLike[str], what: str = "a file") -> io.BufferedReader | io.BytesIO:
+    """``path`` opened for reading bytes, refusing anything that is not a file of data.
+
+    A regular file is opened as it is.  A pipe (``-`` is standard input; ``/dev/stdin``, ``<(...)``) is read once,
+    up to :data:`MAX_PIPE_BYTES`, and its bytes are returned (again at every later call: a pipe can be read only
+    once) as a seekable in-memory file.  A directory, a device (``/dev/zero``, a terminal) or a socket is a
+    ``ValueError`` naming the path and its kind (``what`` says what was expected), before anything is read.
+    """
+    p = check_path(path)
+    if p == "-":
+        if "-" not in _PIPES:
+            stdin = sys.stdin.buffer if sys.stdin is not None and hasattr(sys.stdin, "buffer") else io.BytesIO()
+            _PIPES["-"] = _read_pipe(stdin, "standard input")
+        return io.BytesIO(_PIPES["-"])
+    try:
+        mode = os.stat(p).st_mode
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{p}: no such file") from None
+    if stat.S_ISFIFO(mode):
+        st = os.stat(p)
+        key = (st.st_dev, st.st_ino)
+        if key not in _PIPES:
+            with open(p, "rb") as f:
+                _PIPES[key] = _read_pipe(f, p)
+        return io.BytesIO(_PIPES[key])
+    if not stat.S_ISREG(mode):
+        raise ValueError(f"{p}: {_kind(mode)}, not {what}")
+    f = open(p, "rb")
+    mode = os.fstat(f.fileno()).st_mode  # the file opened is the file checked
+    if not stat.S_ISREG(mode):  # pragma: no cover - replaced between the two calls
+        f.close()
+        raise ValueError(f"{p}: {_kind(mode)}, not {what}")
+    return f
+
+
+def input_size(f: io.BufferedReader | io.BytesIO) -> int:
+    """The number of bytes of an input opened by :func:`open_input`."""
+    if isinstance(f, io.BytesIO):
+        return len(f.getbuffer())
+    return os.fstat(f.fileno()).st_size
+
+
+def bounded_lines(stream: IO[str] | IO[bytes] | None = None, source: str = "stdin") -> Iterator[str]:
+    """The lines of a stream (default standard input), read one at a time as they come, each at most
+    :data:`MAX_LINE_BYTES` long, decoded as UTF-8 (a BOM at the start is dropped, as for files).
+
+    Raises
+    ------
+    ValueError
+        ``"{source} line N: ..."`` for a line that is too long or not UTF-8 text.
+    """
+    if stream is None:
+        stream = sys.stdin
+    raw = getattr(stream, "buffer", stream)
+    lineno = 0
+    while True:
+        line = raw.readline(MAX_LINE_BYTES + 1)
+        if not line:
+            return
+        lineno += 1
+        if len(line) > MAX_LINE_BYTES:
+            raise ValueError(f"{source} line {lineno}: longer than {MAX_LINE_BYTES} bytes (no line end)")
+        if isinstance(line, bytes):
+            if lineno == 1 and line.startswith(b"\xef\xbb\xbf"):
+                line = line[3:]
+            try:
+                text = line.decode("utf-8")
+            except UnicodeDecodeError as exc:
+                raise ValueError(f"{source} line {lineno}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+        else:
+            text = line[1:] if lineno == 1 and line.startswith("\ufeff") else line
+        yield text
 
 
 class Table:
@@ -71,7 +220,7 @@ def split_fields(line: str, delimiter: str | None) -> list[str] | None:
     return s.split(delimiter) if delimiter is None else [x.strip() for x in s.split(delimiter)]
 
 
-def read_table(path: str | os.PathLike, delimiter: str | None, ncols: tuple[int, int], what: str) -> Table:
+def read_table(path: str | os.PathLike[str], delimiter: str | None, ncols: tuple[int, int], what: str) -> Table:
     """Read a text table: ``#`` starts a comment (a whole line, or the rest of a data line); blank lines are skipped.
 
     Parameters
@@ -95,7 +244,7 @@ def read_table(path: str | os.PathLike, delimiter: str | None, ncols: tuple[int,
     rows: list[list[str]] = []
     linenos: list[int] = []
     comments: list[str] = []
-    with open(p, encoding="utf-8-sig", newline=None) as f:
+    with open_input(p) as raw, io.TextIOWrapper(raw, encoding="utf-8-sig", newline=None) as f:
         try:
             lines = f.read().splitlines()
         except UnicodeDecodeError as exc:
@@ -131,17 +280,22 @@ def _last_newline(buf: np.ndarray, start: int, stop: int) -> int:
     return -1
 
 
-def _float_table_fast(path: str, ncols: int, comma: bool) -> np.ndarray | None:
+def _float_table_fast(path: str, ncols: int, comma: bool) -> NDArray[np.float64] | None:
     """The numbers of a text table with exactly ``ncols`` fields per data line, or None when the kernel declines."""
-    with open(path, "rb") as f:
-        size = os.fstat(f.fileno()).st_size
+    with open_input(path) as f:
+        size = input_size(f)
         out = np.empty((max(min(size, _BLOCK) // (2 * ncols), 16), ncols))
         buf = np.empty(min(size, _BLOCK) + 1, dtype=np.uint8)  # the bytes being parsed, reused block after block
         have, row, first = 0, 0, True
         while True:
             if have == buf.shape[0]:  # one line longer than the block
+                if have > MAX_LINE_BYTES:
+                    start_of_line = f.tell() - have
+                    f.seek(0)
+                    lineno = f.read(start_of_line).count(b"\n") + 1
+                    raise ValueError(f"{path}:{lineno}: line longer than {MAX_LINE_BYTES} bytes")
                 buf = np.concatenate([buf, np.empty_like(buf)])
-            got = f.readinto(memoryview(buf)[have:])
+            got = f.readinto(buf.data[have:])
             eof = not got
             have += got or 0
             start = 0
@@ -180,14 +334,14 @@ def _float_table_fast(path: str, ncols: int, comma: bool) -> np.ndarray | None:
     return data if out.shape[0] <= row + row // 2 + 1024 else data.copy()
 
 
-def read_float_table(path: str | os.PathLike, ncols: int, delimiter: str | None, what: str) -> np.ndarray:
+def read_float_table(path: str | os.PathLike[str], ncols: int, delimiter: str | None, what: str) -> NDArray[np.float64]:
     """All fields of a numeric text table with exactly ``ncols`` fields per data line, as finite float64 (N, ncols).
 
     ``delimiter`` is ``None`` (runs of whitespace) or ``","``.  Comments (``#`` to the end of a line), blank
     lines, a UTF-8 BOM and CRLF line ends are accepted as by :func:`read_table`.  Big files take the fast path
     (see the module docstring; ~1 pass over the bytes, peak memory the output plus a 16 MiB block); whatever it
     does not accept is read again by :func:`read_table` / :func:`parse_float_columns`, whose errors name the file
-    and line.  The numbers are those ``float()`` gives.
+    and line.  The numbers are in the grammar of the module docstring (those ``float()`` gives for them).
     """
     p = check_path(path)
     if delimiter not in (None, ","):
@@ -201,15 +355,15 @@ def read_float_table(path: str | os.PathLike, ncols: int, delimiter: str | None,
 
 def first_line_delimiter(path: str) -> str | None:
     """``","`` when the first data line of ``path`` has a comma before any comment, else None (whitespace)."""
-    with open(path, "rb") as f:
-        for raw in f:
+    with open_input(path) as f:
+        for raw in iter(lambda: f.readline(MAX_LINE_BYTES), b""):
             line = raw.split(b"#", 1)[0].strip()
             if line:
                 return "," if b"," in line else None
     return None
 
 
-def read_pose_rows(path: str | os.PathLike, what: str) -> np.ndarray:
+def read_pose_rows(path: str | os.PathLike[str], what: str) -> NDArray[np.float64]:
     """The rows ``t x y z qx qy qz qw`` of a pose file (separator of its first data line), float64 (N, 8), in file
     order; ``path:line: ...`` errors as :func:`read_float_table`'s, and for a zero quaternion."""
     p = check_path(path)
@@ -222,20 +376,22 @@ def read_pose_rows(path: str | os.PathLike, what: str) -> np.ndarray:
     return data
 
 
-def parse_float_columns(table: Table, columns: slice, what: str) -> np.ndarray:
+def parse_float_columns(table: Table, columns: slice, what: str) -> NDArray[np.float64]:
     """Columns ``columns`` of every row as finite float64, shape (N, k); errors name the file and line."""
     cells = [r[columns] for r in table.rows]
-    try:
-        out = np.array(cells, dtype=np.float64)
-    except ValueError:
-        out = None
+    out = None
+    if all_numbers([c for row in cells for c in row]):
+        try:
+            out = np.array(cells, dtype=np.float64)
+        except ValueError:
+            out = None
     if out is None or out.ndim != 2:
         for k, row in enumerate(cells):
             for c in row:
                 try:
-                    float(c)
-                except ValueError:
-                    raise table.error(k, f"{what}: {c!r} is not a number") from None
+                    parse_number(c)
+                except ValueError as exc:
+                    raise table.error(k, f"{what}: {exc}") from None
         raise table.error(0, f"{what}: rows of unequal length")  # pragma: no cover - read_table prevents it
     bad = ~np.isfinite(out).all(axis=1)
     if bad.any():
@@ -244,7 +400,7 @@ def parse_float_columns(table: Table, columns: slice, what: str) -> np.ndarray:
     return out
 
 
-def parse_int_column(table: Table, column: int, what: str) -> np.ndarray:
+def parse_int_column(table: Table, column: int, what: str) -> NDArray[np.int64]:
     """Column ``column`` as exact int64 (no float round trip), shape (N,); errors name the file and line."""
     cells = [r[column] for r in table.rows]
     try:
@@ -260,10 +416,8 @@ def parse_int_column(table: Table, column: int, what: str) -> np.ndarray:
         raise  # pragma: no cover
 
 
-def open_for_writing(path: str | os.PathLike, overwrite: bool) -> IO[str]:
-    """Open ``path`` for text output; an existing file is an error unless ``overwrite`` is true."""
-    p = Path(path)
-    try:
-        return open(p, "w" if overwrite else "x", encoding="utf-8", newline="\n")
-    except FileExistsError:
-        raise FileExistsError(f"{p}: file exists; pass overwrite=True (CLI: --force) to replace it") from None
+def open_for_writing(path: str | os.PathLike[str], overwrite: bool) -> contextlib.AbstractContextManager[IO[str]]:
+    """Open ``path`` for text output, as a context manager: the file appears complete when the block ends, or not at
+    all (written into a temporary sibling, :func:`dualpose.io._output.atomic_text_file`); an existing file is an
+    error unless ``overwrite`` is true."""
+    return atomic_text_file(check_path(path), overwrite)

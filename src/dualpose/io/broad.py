@@ -28,10 +28,15 @@ they are (the AHRS and :func:`dualpose.sim.broad_vision.recording_from_broad` re
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
+
+from dualpose.io._text import open_input
 
 __all__ = ["BroadTrial", "load_broad"]
 
@@ -84,7 +89,7 @@ class BroadTrial:
     has_mag: bool = True
 
     @property
-    def time(self) -> np.ndarray:
+    def time(self) -> NDArray[np.float64]:
         """Sample times, seconds from the first sample, shape (n,)."""
         return np.arange(self.gyr.shape[0]) / self.rate
 
@@ -94,28 +99,43 @@ class BroadTrial:
         idx = np.flatnonzero(self.movement)
         return int(idx[0]) if idx.size else self.movement.size
 
+    def require_finite(self, fields: tuple[str, ...] = ("imu_gyr", "imu_acc"), start: int = 0) -> None:
+        """Raise ``ValueError`` naming the file's field and the trial's own sample number (0-based) of the first
+        non-finite sample of ``fields`` (of ``imu_gyr``, ``imu_acc``, ``imu_mag``) from sample ``start`` on."""
+        arrays = {"imu_gyr": self.gyr, "imu_acc": self.acc, "imu_mag": self.mag}
+        for key in fields:
+            bad = np.flatnonzero(~np.isfinite(arrays[key][start:]).all(axis=1))
+            if bad.size:
+                k = start + int(bad[0])
+                where = f" from sample {start} on, where the run starts" if start else ""
+                raise ValueError(f"field {key}: sample {k} (t = {k / self.rate:.6f} s) is not finite ({bad.size} "
+                                 f"such{where}); drop or interpolate the missing samples")  # fmt: skip
 
-def _read_mat(path: Path) -> dict[str, np.ndarray]:
-    with open(path, "rb") as fh:
+
+def _read_mat(path: Path) -> dict[str, NDArray[Any]]:
+    with open_input(path, "a MATLAB .mat file") as fh:  # refuses a directory or a device; a pipe is read once
         head = fh.read(512)
-    if b"\x89HDF" in head or head[:8] == b"\x89HDF\r\n\x1a\n":
-        try:
-            import h5py
-        except ImportError:
-            msg = f"{path} is a MATLAB v7.3 (HDF5) file; reading it needs h5py (pip install h5py)"
-            raise ImportError(msg) from None
-        with h5py.File(path, "r") as f:
-            out = {}
-            for k in _FIELDS + ("info",):
-                if k in f:
-                    a = np.asarray(f[k])
-                    out[k] = a.T if a.ndim == 2 else a  # MATLAB writes column-major
-            if "info" in out and out["info"].dtype.kind in "ui":
-                out["info"] = np.array(["".join(map(chr, out["info"].ravel()))])
-            return out
-    from scipy.io import loadmat
+        fh.seek(0)
+        if b"\x89HDF" in head or head[:8] == b"\x89HDF\r\n\x1a\n":
+            try:
+                import h5py
+            except ImportError:
+                msg = f"{path} is a MATLAB v7.3 (HDF5) file; reading it needs h5py (pip install h5py)"
+                raise ImportError(msg) from None
+            with h5py.File(fh, "r") as f:
+                out = {}
+                for k in _FIELDS + ("info",):
+                    if k in f:
+                        a = np.asarray(f[k])
+                        out[k] = a.T if a.ndim == 2 else a  # MATLAB writes column-major
+                if "info" in out and out["info"].dtype.kind in "ui":
+                    out["info"] = np.array(["".join(map(chr, out["info"].ravel()))])
+                return out
+        from scipy.io import loadmat
 
-    return loadmat(path)
+        raw = loadmat(fh)  # type: ignore[arg-type]  # scipy-stubs admit paths only; loadmat reads file objects
+    # a MATLAB sparse matrix is a numeric matrix stored another way: read it as the dense one
+    return {k: v.toarray() if hasattr(v, "toarray") else v for k, v in raw.items()}
 
 
 def load_broad(path: str | Path) -> BroadTrial:
@@ -139,40 +159,47 @@ def load_broad(path: str | Path) -> BroadTrial:
     ValueError
         When a required field is missing or has the wrong shape.
     """
+    name = os.fspath(path)  # as given: messages name the file the way the user did
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no BROAD trial file at {path}")
+    if not path.exists():
+        raise FileNotFoundError(f"no BROAD trial file at {name}")
+    open_input(name, "a MATLAB .mat file").close()  # a directory or a device: named as such, nothing read
     try:
         raw = _read_mat(path)
     except ImportError:
         raise
     except Exception as exc:  # scipy.io / h5py raise assorted errors on files that are not MATLAB files
-        raise ValueError(f"{path.name}: not a readable MATLAB .mat file ({exc})") from None
+        raise ValueError(f"{name}: not a readable MATLAB .mat file ({exc})") from None
     missing = [k for k in _FIELDS if k not in raw and k not in _OPTIONAL]
     if missing:
-        raise ValueError(f"{path.name} is not a BROAD trial: missing fields {missing}")
-    n = np.asarray(raw["imu_gyr"]).shape[0] if np.ndim(raw["imu_gyr"]) else 0
+        raise ValueError(f"{name} is not a BROAD trial: missing fields {missing}")
+    gyr_shape = np.shape(raw["imu_gyr"])
+    n = gyr_shape[0] if len(gyr_shape) else 0
+    if len(gyr_shape) == 2 and gyr_shape[0] == 3 and gyr_shape[1] > 3:
+        raise ValueError(f"{name}: field imu_gyr has shape {gyr_shape}: samples must be rows, ({gyr_shape[1]}, 3); "
+                         "is it transposed?")  # fmt: skip
     if n < 2:
-        raise ValueError(f"{path.name}: field imu_gyr: no samples (got shape {np.shape(raw['imu_gyr'])})")
+        raise ValueError(f"{name}: field imu_gyr: no samples (got shape {np.shape(raw['imu_gyr'])})")
     rate = np.asarray(raw["sampling_rate"], dtype=np.float64).ravel()
     if rate.size != 1 or not (np.isfinite(rate[0]) and rate[0] > 0):
-        raise ValueError(f"{path.name}: field sampling_rate must be one finite number > 0 (Hz); got {rate.tolist()}")
+        raise ValueError(f"{name}: field sampling_rate must be one finite number > 0 (Hz); got {rate.tolist()}")
 
-    def vec(key: str, width: int) -> np.ndarray:
+    def vec(key: str, width: int) -> NDArray[np.float64]:
         if key not in raw:
             return np.full((n, width), np.nan)
         try:
             a = np.asarray(raw[key], dtype=np.float64)
         except (TypeError, ValueError):
-            raise ValueError(f"{path.name}: field {key} must be numeric") from None
+            raise ValueError(f"{name}: field {key} must be numeric") from None
         if a.shape != (n, width):
-            raise ValueError(f"{path.name}: field {key} must have shape ({n}, {width}); got {a.shape}")
+            hint = "; is it transposed?" if a.shape == (width, n) else ""
+            raise ValueError(f"{name}: field {key} must have shape ({n}, {width}) like imu_gyr; got {a.shape}{hint}")
         limit = _IMU_LIMITS.get(key)
         if limit is not None:
             bad = np.flatnonzero((np.abs(a) > limit).any(axis=1))  # infinities too; NaN samples are kept
             if bad.size:
                 k = int(bad[0])
-                raise ValueError(f"{path.name}: field {key}: sample {k} has |value| {np.abs(a[k]).max():.3g} > "
+                raise ValueError(f"{name}: field {key}: sample {k} has |value| {np.abs(a[k]).max():.3g} > "
                                  f"{limit:g}: a corrupt sample ({bad.size} such)")  # fmt: skip
         return a
 
@@ -183,7 +210,7 @@ def load_broad(path: str | Path) -> BroadTrial:
     if off.size:
         k = int(np.flatnonzero(tracked)[off[0]])
         raise ValueError(
-            f"{path.name}: field opt_quat: {off.size} of {int(tracked.sum())} reference quaternions are not unit "
+            f"{name}: field opt_quat: {off.size} of {int(tracked.sum())} reference quaternions are not unit "
             f"(sample {k} has norm {np.linalg.norm(wxyz[k]):.3g}); untracked samples must be NaN"
         )
     info = raw.get("info", "")
@@ -195,7 +222,7 @@ def load_broad(path: str | Path) -> BroadTrial:
         description, groups = entry.get("description", ""), tuple(entry.get("groups", ()))
     movement = np.asarray(raw["movement"]).ravel().astype(bool)
     if movement.shape != (n,):
-        raise ValueError(f"{path.name}: field movement must have {n} samples; got {movement.shape}")
+        raise ValueError(f"{name}: field movement must have {n} samples; got {movement.shape}")
     return BroadTrial(
         name=path.stem,
         rate=float(rate[0]),

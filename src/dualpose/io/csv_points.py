@@ -10,6 +10,9 @@ import csv
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
+
+from dualpose.io._text import open_input, parse_number
 
 __all__ = ["CsvFormatError", "read_columns"]
 
@@ -20,13 +23,13 @@ class CsvFormatError(ValueError):
 
 def _number(cell: str) -> float | None:
     try:
-        value = float(cell)
+        value = parse_number(cell)
     except ValueError:
         return None
     return value
 
 
-def read_columns(path: str | Path, ncols: int, what: str = "values") -> np.ndarray:
+def read_columns(path: str | Path, ncols: int, what: str = "values") -> NDArray[np.float64]:
     """Rows of ``ncols`` numbers from the CSV file ``path``: shape ``(n, ncols)`` (``(n,)`` when ``ncols == 1``).
 
     Parameters
@@ -45,7 +48,10 @@ def read_columns(path: str | Path, ncols: int, what: str = "values") -> np.ndarr
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8-sig")
+        with open_input(path) as f:
+            text = f.read().decode("utf-8-sig")
+    except ValueError as exc:
+        raise CsvFormatError(str(exc)) from None
     except OSError as exc:
         raise CsvFormatError(f"{path}: cannot read ({exc.strerror or exc})") from None
     except UnicodeDecodeError:
@@ -72,7 +78,7 @@ def read_columns(path: str | Path, ncols: int, what: str = "values") -> np.ndarr
                 raise CsvFormatError(f"{path}, line {lineno}, column {col}: {cell!r} is not a number")
             if not np.isfinite(v):
                 raise CsvFormatError(f"{path}, line {lineno}, column {col}: {cell!r} is not finite")
-        rows.append(values)  # type: ignore[arg-type]
+        rows.append([v for v in values if v is not None])  # all of them: each was checked above
     if not rows:
         raise CsvFormatError(f"{path}: no data rows of {what}")
     arr = np.array(rows, dtype=np.float64)

@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
+import io
 import os
-from itertools import islice
 from typing import Literal
 
-from dualpose.io._text import check_path
+from dualpose.io._text import MAX_LINE_BYTES, check_path, open_input
 from dualpose.io.euroc import read_euroc_groundtruth
 from dualpose.io.kitti import read_kitti
 from dualpose.io.rosbag import is_bag_source, read_bag_trajectory
@@ -26,7 +26,7 @@ _FORMATS = (
 )
 
 
-def detect_format(path: str | os.PathLike) -> Format:
+def detect_format(path: str | os.PathLike[str]) -> Format:
     """Tell a TUM trajectory, a KITTI pose file, an EuRoC ground-truth CSV, an EuRoC IMU CSV and a ROS bag apart.
 
     A bag source ``BAG:/topic`` (:func:`dualpose.io.rosbag.parse_bag_source`) is ``"rosbag"`` without opening it.
@@ -49,10 +49,10 @@ def detect_format(path: str | os.PathLike) -> Format:
     if is_bag_source(path):
         return "rosbag"
     p = check_path(path)
-    with open(p, encoding="utf-8-sig", errors="replace") as f:
-        head = list(islice(f, 200))
-    for i, raw in enumerate(head, start=1):
-        line = raw.strip()
+    with open_input(p) as raw, io.TextIOWrapper(raw, encoding="utf-8-sig", errors="replace") as f:
+        head = [f.readline(MAX_LINE_BYTES) for _ in range(200)]
+    for i, text in enumerate(head, start=1):
+        line = text.strip()
         if not line:
             continue
         if line.startswith("#"):
@@ -82,9 +82,9 @@ def detect_format(path: str | os.PathLike) -> Format:
 
 
 def read_trajectory(
-    path: str | os.PathLike,
+    path: str | os.PathLike[str],
     fmt: Format | None = None,
-    times: str | os.PathLike | None = None,
+    times: str | os.PathLike[str] | None = None,
     *,
     bag_time: Literal["header", "receive"] = "header",
 ) -> Trajectory:

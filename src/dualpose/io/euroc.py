@@ -64,7 +64,7 @@ class ImuData:
         return int(self.stamps_ns.shape[0])
 
 
-def read_euroc_imu(path: str | os.PathLike) -> ImuData:
+def read_euroc_imu(path: str | os.PathLike[str]) -> ImuData:
     """Read an EuRoC IMU CSV (7 comma-separated columns).
 
     Raises
@@ -78,14 +78,14 @@ def read_euroc_imu(path: str | os.PathLike) -> ImuData:
     return ImuData(ns, seconds_from_ns(ns), data[:, 0:3], data[:, 3:6], table.path)
 
 
-def write_euroc_imu(path: str | os.PathLike, imu: ImuData, *, overwrite: bool = False) -> None:
+def write_euroc_imu(path: str | os.PathLike[str], imu: ImuData, *, overwrite: bool = False) -> None:
     """Write ``imu`` as an EuRoC IMU CSV (header line, exact nanosecond stamps, 17 significant digits)."""
     if not isinstance(imu, ImuData):
         raise TypeError(f"imu must be a dualpose.io.ImuData; got {type(imu).__name__}")
     _write_csv(path, _IMU_HEADER, imu.stamps_ns, np.hstack([imu.gyro, imu.accel]), overwrite)
 
 
-def read_euroc_groundtruth(path: str | os.PathLike) -> Trajectory:
+def read_euroc_groundtruth(path: str | os.PathLike[str]) -> Trajectory:
     """Read an EuRoC ground-truth CSV (at least 8 columns; the standard file has 17).
 
     Returns
@@ -119,7 +119,7 @@ def read_euroc_groundtruth(path: str | os.PathLike) -> Trajectory:
     return Trajectory(seconds_from_ns(ns), data[:, 0:3], wxyz[:, [1, 2, 3, 0]], ns, table.path, extra)
 
 
-def write_euroc_groundtruth(path: str | os.PathLike, trajectory: Trajectory, *, overwrite: bool = False) -> None:
+def write_euroc_groundtruth(path: str | os.PathLike[str], trajectory: Trajectory, *, overwrite: bool = False) -> None:
     """Write ``trajectory`` as an EuRoC ground-truth CSV (quaternion written wxyz).
 
     Needs ``stamps_ns``.  Writes 17 columns when ``extra`` has ``velocity``, ``gyro_bias`` and ``accel_bias``,
@@ -139,7 +139,7 @@ def write_euroc_groundtruth(path: str | os.PathLike, trajectory: Trajectory, *, 
 
 
 def _write_csv(
-    path: str | os.PathLike, header: str, stamps_ns: np.ndarray, values: np.ndarray, overwrite: bool
+    path: str | os.PathLike[str], header: str, stamps_ns: np.ndarray, values: np.ndarray, overwrite: bool
 ) -> None:
     lines = [
         f"{t}," + ",".join(f"{v:.17g}" for v in row)

@@ -18,16 +18,20 @@ Kalibr ``camchain.yaml``, :func:`~dualpose.io.read_rig_sensors`) of :func:`read_
 
 from __future__ import annotations
 
+import io
 import math
 import os
 from collections.abc import Iterator
+from typing import NoReturn
 
 import numpy as np
+from numpy.typing import NDArray
 
 import dualpose as dp
-from dualpose.io._text import check_path, open_for_writing, parse_float_columns, read_table
+from dualpose.io._text import check_path, open_for_writing, open_input, parse_float_columns, parse_number, read_table
 from dualpose.io.euroc import read_euroc_imu
 from dualpose.io.sensors_yaml import read_rig_sensors
+from dualpose.types.camera import PinholeModel
 from dualpose.types.features import FeatureTracks, TrackFrame, TrackRecording
 from dualpose.types.imu import ImuNoise
 
@@ -39,16 +43,16 @@ EQVIO_HEADER = ("row_type,t_abs,t_rel,seq,frame_idx,landmark_id,gx,gy,gz,ax,ay,a
 _TRACK_LAYOUT = "t, track_id, u, v"
 
 
-def is_eqvio_csv(path: str | os.PathLike) -> bool:
+def is_eqvio_csv(path: str | os.PathLike[str]) -> bool:
     """Whether the first line of ``path`` is the EqVIO replay CSV header."""
     try:
-        with open(check_path(path), encoding="utf-8-sig") as f:
-            return f.readline().strip().replace(" ", "") == EQVIO_HEADER
-    except (OSError, UnicodeDecodeError):
+        with open_input(check_path(path)) as f:
+            return f.readline(4096).decode("utf-8-sig").strip().replace(" ", "") == EQVIO_HEADER
+    except (OSError, ValueError):
         return False
 
 
-def read_eqvio_csv(path: str | os.PathLike, _checked: bool = False) -> TrackRecording:
+def read_eqvio_csv(path: str | os.PathLike[str], _checked: bool = False) -> TrackRecording:
     """Read GTSAM's EqVIO replay CSV (module docstring) into a :class:`~dualpose.types.TrackRecording`.
 
     Times are ``t_abs`` minus the first row's ``t_abs`` (``TrackRecording.t0`` keeps it); ``q_bc``, ``p_bc`` from
@@ -58,6 +62,8 @@ def read_eqvio_csv(path: str | os.PathLike, _checked: bool = False) -> TrackReco
     through the line-by-line reader, which names the file and line of the problem.
     """
     fast = None if _checked else _eqvio_fast(path)
+    imu_lines: list[int] | None
+    vis_lines: list[int] | None
     if fast is None:  # something unusual: the line-by-line reader names the file and line of the problem
         p, meta, imu, imu_lines, vis, vis_lines = _eqvio_checked(path)
     else:
@@ -123,22 +129,24 @@ def read_eqvio_csv(path: str | os.PathLike, _checked: bool = False) -> TrackReco
     )  # fmt: skip
 
 
-def _raise(message: str):
+def _raise(message: str) -> NoReturn:
     raise ValueError(message)
 
 
-def _read_eqvio_checked(path: str | os.PathLike) -> TrackRecording:
+def _read_eqvio_checked(path: str | os.PathLike[str]) -> TrackRecording:
     """:func:`read_eqvio_csv` through the line-by-line reader only (every error names file and line)."""
     return read_eqvio_csv(path, _checked=True)
 
 
-def _eqvio_fast(path: str | os.PathLike):
+def _eqvio_fast(
+    path: str | os.PathLike[str],
+) -> tuple[str, dict[str, str], NDArray[np.float64], NDArray[np.float64]] | None:
     """``(path, meta, imu (N, 7), vision (M, 4))`` parsed in bulk (numpy's C reader over the rows of each kind), or
     None when anything is unusual (the caller then uses the line-by-line reader)."""
     p = check_path(path)
     try:
-        with open(p, encoding="utf-8-sig") as f:
-            lines = f.read().splitlines()
+        with open_input(p) as f:
+            lines = f.read().decode("utf-8-sig").splitlines()
         if not lines or lines[0].strip().replace(" ", "") != EQVIO_HEADER:
             return None
         body = lines[1:]
@@ -159,7 +167,9 @@ def _eqvio_fast(path: str | os.PathLike):
     return p, meta, a, b
 
 
-def _eqvio_checked(path: str | os.PathLike):
+def _eqvio_checked(
+    path: str | os.PathLike[str],
+) -> tuple[str, dict[str, str], NDArray[np.float64], list[int], NDArray[np.float64], list[int]]:
     """The line-by-line parse of :func:`read_eqvio_csv` (errors name file and line)."""
     table = read_table(path, ",", (22, 22), EQVIO_HEADER)
     p = table.path
@@ -172,7 +182,7 @@ def _eqvio_checked(path: str | os.PathLike):
         raise table.error(k, f"unknown row_type {kinds[k]!r} (expected imu, vision_feature or meta)")
     meta = {table.rows[k][20]: table.rows[k][21] for k in np.flatnonzero(kinds == "meta")}
 
-    def sub(kind: str, cols: list[int], what: str) -> tuple[np.ndarray, list[int]]:
+    def sub(kind: str, cols: list[int], what: str) -> tuple[NDArray[np.float64], list[int]]:
         idx = np.flatnonzero(kinds == kind)
         if len(idx) == 0:
             raise ValueError(f"{p}: no {kind!r} rows")
@@ -196,7 +206,9 @@ def _coordinates(comments: list[str], path: str) -> str | None:
     return None
 
 
-def read_track_csv(path: str | os.PathLike, camera=None, coordinates: str | None = None) -> FeatureTracks:
+def read_track_csv(
+    path: str | os.PathLike[str], camera: PinholeModel | None = None, coordinates: str | None = None,
+) -> FeatureTracks:
     """Read a plain track CSV (``t, track_id, u, v``; module docstring).
 
     ``coordinates`` (``"normalized"`` / ``"pixels"``) overrides the file's ``# coordinates:`` comment; pixels are
@@ -233,12 +245,12 @@ def read_track_csv(path: str | os.PathLike, camera=None, coordinates: str | None
     return FeatureTracks(t[starts], offsets, ids, data[:, 2:4])
 
 
-def iter_track_csv(path: str | os.PathLike) -> Iterator[TrackFrame]:
+def iter_track_csv(path: str | os.PathLike[str]) -> Iterator[TrackFrame]:
     """The frames of a plain track CSV in normalised coordinates, one :class:`~dualpose.types.TrackFrame` at a
     time, reading the file line by line (for streaming; a frame is yielded when the next one starts)."""
     p = check_path(path)
     t_cur, ids, uv = None, [], []
-    with open(p, encoding="utf-8-sig") as f:
+    with open_input(p) as raw, io.TextIOWrapper(raw, encoding="utf-8-sig") as f:
         for lineno, line in enumerate(f, start=1):
             s = line.split("#", 1)[0].strip()
             if not s or s.replace(" ", "").lower() == "t,track_id,u,v":
@@ -247,7 +259,7 @@ def iter_track_csv(path: str | os.PathLike) -> Iterator[TrackFrame]:
             try:
                 if len(fields) != 4:
                     raise ValueError
-                t, i, u, v = (float(x) for x in fields)
+                t, i, u, v = (parse_number(x.strip()) for x in fields)
                 if not all(map(math.isfinite, (t, u, v))) or i != round(i):
                     raise ValueError
             except ValueError:
@@ -265,7 +277,7 @@ def iter_track_csv(path: str | os.PathLike) -> Iterator[TrackFrame]:
         yield TrackFrame(t_cur, np.array(ids), np.array(uv))
 
 
-def write_track_csv(path: str | os.PathLike, tracks: FeatureTracks, *, overwrite: bool = False) -> None:
+def write_track_csv(path: str | os.PathLike[str], tracks: FeatureTracks, *, overwrite: bool = False) -> None:
     """Write ``tracks`` as a plain track CSV in normalised coordinates (17 significant digits)."""
     if not isinstance(tracks, FeatureTracks):
         raise TypeError(f"tracks must be a dualpose.types.FeatureTracks; got {type(tracks).__name__}")
@@ -276,7 +288,7 @@ def write_track_csv(path: str | os.PathLike, tracks: FeatureTracks, *, overwrite
             f.write(f"{a!r},{i},{u!r},{v!r}\n")
 
 
-def read_track_recording(tracks: str | os.PathLike, imu: str | os.PathLike, sensors: str | os.PathLike,
+def read_track_recording(tracks: str | os.PathLike[str], imu: str | os.PathLike[str], sensors: str | os.PathLike[str],
                          camera: str = "cam0", pixel_sigma: float = 1.0) -> TrackRecording:  # fmt: skip
     """A :class:`~dualpose.types.TrackRecording` from a plain track CSV, an EuRoC IMU CSV and a sensors file.
 

@@ -24,7 +24,7 @@ __all__ = ["read_kitti", "write_kitti"]
 _LAYOUT = "r11 r12 r13 tx r21 r22 r23 ty r31 r32 r33 tz"
 
 
-def read_kitti(path: str | os.PathLike, times: str | os.PathLike | None = None) -> Trajectory:
+def read_kitti(path: str | os.PathLike[str], times: str | os.PathLike[str] | None = None) -> Trajectory:
     """Read a KITTI pose file (and its stamps from ``times``, one number of seconds per line).
 
     Returns
@@ -68,7 +68,7 @@ def _first_bad_rotation(r: np.ndarray) -> int:
     return int(np.argmax(bad))
 
 
-def write_kitti(path: str | os.PathLike, trajectory: Trajectory, *, overwrite: bool = False) -> None:
+def write_kitti(path: str | os.PathLike[str], trajectory: Trajectory, *, overwrite: bool = False) -> None:
     """Write ``trajectory`` as a KITTI pose file (17 significant digits; the stamps are not written).
 
     An existing file raises ``FileExistsError`` unless ``overwrite`` is true.

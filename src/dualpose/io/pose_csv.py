@@ -14,6 +14,7 @@ import os
 from typing import Literal
 
 import numpy as np
+from numpy.typing import NDArray
 
 from dualpose.io._text import read_pose_rows
 from dualpose.io.rosbag import is_bag_source, read_bag_trajectory
@@ -23,7 +24,7 @@ __all__ = ["read_pose_csv", "read_pose_stream"]
 _LAYOUT = "t, x, y, z, qx, qy, qz, qw"
 
 
-def read_pose_csv(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def read_pose_csv(path: str | os.PathLike[str]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Read a ``t, x, y, z, qx, qy, qz, qw`` pose file.
 
     Parameters
@@ -55,8 +56,8 @@ def read_pose_csv(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.n
 
 
 def read_pose_stream(
-    path: str | os.PathLike, *, bag_time: Literal["header", "receive"] = "header"
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    path: str | os.PathLike[str], *, bag_time: Literal["header", "receive"] = "header"
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """:func:`read_pose_csv`, or the poses of a ROS bag topic ``BAG:/topic`` / ``BAG:/tf:PARENT:CHILD``
     (:func:`dualpose.io.rosbag.read_bag_trajectory` with ``stamps=bag_time``), in the same layout and, like the
     file's rows, in bag order with any duplicate stamps (float seconds from the exact nanoseconds)."""

@@ -17,18 +17,30 @@ dualpose; EuRoC ground truth stores wxyz and is converted by its reader.
 
 from __future__ import annotations
 
+import io
 import json
 import math
 import os
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
-from dualpose.io._text import check_path, open_for_writing, parse_float_columns, parse_int_column, read_table
+from dualpose.io._text import (
+    Table,
+    check_path,
+    open_for_writing,
+    open_input,
+    parse_float_columns,
+    parse_int_column,
+    parse_number,
+    read_table,
+)
 from dualpose.io.detect import read_trajectory
 from dualpose.io.euroc import ImuData, read_euroc_imu, write_euroc_groundtruth, write_euroc_imu
-from dualpose.io.rosbag import is_bag_source, read_bag_imu
+from dualpose.io.rosbag import Stamps, is_bag_source, read_bag_imu
 from dualpose.types import (
     CameraIntrinsics,
     FilterStart,
@@ -169,9 +181,11 @@ class _SensorFile:
         ln = self.line(dotted)
         return RecordingError(f"{self.path}{'' if ln is None else f':{ln}'}: {dotted}: {message}")
 
-    def section(self, data: dict, prefix: str, schema: dict) -> dict:
+    def section(
+        self, data: dict[str, Any], prefix: str, schema: dict[str, tuple[bool, str, str]],
+    ) -> dict[str, Any]:
         """Validate ``data`` against ``schema`` (unknown keys, missing keys, kinds); returns converted values."""
-        out = {}
+        out: dict[str, Any] = {}
         for key in data:
             if key not in schema:
                 raise self.error(f"{prefix}{key}", f"unknown key (expected: {', '.join(schema)})")
@@ -185,7 +199,10 @@ class _SensorFile:
             out[key] = self._convert(name, data[key], kind, what)
         return out
 
-    def _convert(self, name: str, v: object, kind: str, what: str) -> object:
+    def _convert(self, name: str, v: Any, kind: str, what: str) -> Any:
+        """``v`` (a parsed JSON value) converted to ``kind``: a dict, str, float64 array (3,) or unit quaternion
+        (4,), int or float."""
+
         def is_num(x: object) -> bool:
             return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
 
@@ -222,7 +239,7 @@ class _SensorFile:
         return float(v)
 
 
-def _sensor_path(name: str | os.PathLike) -> Path:
+def _sensor_path(name: str | os.PathLike[str]) -> Path:
     path = Path(name)
     if path.is_dir():
         for name in (SENSORS_FILE, "sensors.yaml", "sensors.yml"):
@@ -239,9 +256,9 @@ def _sensor_path(name: str | os.PathLike) -> Path:
 # ------------------------------------------------------------------------------------------------ data files
 
 
-def _row_line(path: str | os.PathLike, k: int) -> int:
+def _row_line(path: str | os.PathLike[str], k: int) -> int:
     """1-based line number of the k-th data row (not blank, not a ``#`` comment) of a text file."""
-    with open(path, encoding="utf-8-sig") as f:
+    with open_input(path) as raw, io.TextIOWrapper(raw, encoding="utf-8-sig") as f:
         j = -1
         for i, line in enumerate(f, start=1):
             s = line.strip()
@@ -252,7 +269,7 @@ def _row_line(path: str | os.PathLike, k: int) -> int:
     return 0  # pragma: no cover - k is always a valid row index
 
 
-def _check_increasing(path: str | os.PathLike, ns: np.ndarray, strict: bool, what: str) -> None:
+def _check_increasing(path: str | os.PathLike[str], ns: np.ndarray, strict: bool, what: str) -> None:
     d = np.diff(ns)
     bad = (d <= 0) if strict else (d < 0)
     if bad.any():
@@ -263,7 +280,7 @@ def _check_increasing(path: str | os.PathLike, ns: np.ndarray, strict: bool, wha
         )
 
 
-def _ns_from_decimal_seconds(table, column: int) -> np.ndarray:
+def _ns_from_decimal_seconds(table: Table, column: int) -> NDArray[np.int64]:
     """Exact int64 nanoseconds from decimal-second strings (``"1403636579.763555584"``); exponent notation is
     converted through float64."""
     out = np.empty(len(table.rows), np.int64)
@@ -276,7 +293,7 @@ def _ns_from_decimal_seconds(table, column: int) -> np.ndarray:
                 v = int(m.group(2) or "0") * 1_000_000_000 + int(frac)
                 out[k] = -v if m.group(1) == "-" else v
             else:
-                x = float(cell)
+                x = parse_number(cell)
                 if not math.isfinite(x):
                     raise ValueError
                 out[k] = round(x * 1e9)
@@ -285,7 +302,7 @@ def _ns_from_decimal_seconds(table, column: int) -> np.ndarray:
     return out
 
 
-def read_imu(path: str | os.PathLike, *, bag_time: str = "header") -> ImuData:
+def read_imu(path: str | os.PathLike[str], *, bag_time: Stamps = "header") -> ImuData:
     """Read an IMU file: an EuRoC CSV (comma-separated, integer ns stamps) or a whitespace-separated text file
     ``t wx wy wz ax ay az`` with ``t`` in seconds (the TUM style), or the ``sensor_msgs/Imu`` topic of a ROS bag
     ``BAG:/topic`` (:func:`dualpose.io.rosbag.read_bag_imu` with ``stamps=bag_time``, ``"header"`` or
@@ -305,7 +322,7 @@ def read_imu(path: str | os.PathLike, *, bag_time: str = "header") -> ImuData:
         except (ValueError, ImportError) as exc:
             raise RecordingError(str(exc)) from None
     try:
-        with open(p, encoding="utf-8-sig") as f:
+        with open_input(p) as raw, io.TextIOWrapper(raw, encoding="utf-8-sig") as f:
             first = next((s.strip() for s in f if s.strip() and not s.strip().startswith("#")), "")
         if "," in first:
             imu = read_euroc_imu(p)
@@ -326,7 +343,9 @@ def read_imu(path: str | os.PathLike, *, bag_time: str = "header") -> ImuData:
     return imu
 
 
-def read_correspondences(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def read_correspondences(
+    path: str | os.PathLike[str],
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
     """Read a correspondence CSV: ``timestamp [ns], u [px], v [px], X [m], Y [m], Z [m]`` per row.
 
     A first line whose first field is not an integer is taken as a header; ``#`` lines are comments.  Rows with
@@ -376,7 +395,7 @@ def read_correspondences(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarra
     return ns[starts], offsets, data[:, 0:2].copy(), data[:, 2:5].copy()
 
 
-def _setup_sections(sf: _SensorFile) -> tuple[dict, dict, dict]:
+def _setup_sections(sf: _SensorFile) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any]]:
     """The checked top level, ``camera`` and ``imu`` sections of a sensor file."""
     top = sf.section(sf.data, "", _TOP_KEYS)
     if top.get("format", FORMAT_NAME) != FORMAT_NAME:
@@ -386,7 +405,7 @@ def _setup_sections(sf: _SensorFile) -> tuple[dict, dict, dict]:
     return top, sf.section(top["camera"], "camera.", _CAMERA_KEYS), sf.section(top["imu"], "imu.", _IMU_KEYS)
 
 
-def _imu_noise(imu_cfg: dict, rate: float) -> ImuNoise:
+def _imu_noise(imu_cfg: dict[str, Any], rate: float) -> ImuNoise:
     default_noise = ImuNoise()
     return ImuNoise(
         gyroscope_noise_density=imu_cfg["gyroscope_noise_density"],
@@ -403,7 +422,22 @@ def _imu_noise(imu_cfg: dict, rate: float) -> ImuNoise:
     )
 
 
-def _sensor_fields(top: dict, cam: dict) -> dict:
+#: the sensor file's key for each field of the types layer's messages (the user wrote the file, not the dataclass)
+_FILE_KEYS = {
+    "imu_noise.update_rate": "imu.update_rate", "imu_noise.": "imu.", "q_bc": "camera.q_bc", "p_bc": "camera.p_bc",
+    "pixel_sigma": "camera.pixel_sigma", "time_offset": "camera.timeshift_cam_imu", "rest_seconds": "rest_duration_s",
+}  # fmt: skip
+_FIELD = re.compile(r"(?<![\w.])(?:" + "|".join(re.escape(k) + ("" if k.endswith(".") else r"(?!\w)")
+                                                 for k in _FILE_KEYS) + ")")  # fmt: skip
+
+
+def _in_file_keys(message: str) -> str:
+    """``message`` of a types-layer check with each dataclass field named by its key in the sensor file
+    (``imu_noise.update_rate`` -> ``imu.update_rate``, ``time_offset`` -> ``camera.timeshift_cam_imu``)."""
+    return _FIELD.sub(lambda m: _FILE_KEYS[m.group(0)], message)
+
+
+def _sensor_fields(top: dict[str, Any], cam: dict[str, Any]) -> dict[str, Any]:
     """The fields :class:`~dualpose.types.recording.Recording` and :class:`~dualpose.types.recording.SensorSetup`
     share, from the checked top level and ``camera`` section: camera, extrinsic, pixel sigma, time offset, gravity."""
     return {
@@ -414,7 +448,7 @@ def _sensor_fields(top: dict, cam: dict) -> dict:
     }  # fmt: skip
 
 
-def read_sensor_setup(path: str | os.PathLike) -> SensorSetup:
+def read_sensor_setup(path: str | os.PathLike[str]) -> SensorSetup:
     """Read the sensor set-up and the filter start of a sensor file (``dualpose fuse --stream --calibration``).
 
     The file is a recording's sensor file (docs/fusion.md; ``camera``, ``imu``, ``gravity`` as there, ``files`` and
@@ -441,13 +475,13 @@ def read_sensor_setup(path: str | os.PathLike) -> SensorSetup:
             **_sensor_fields(top, cam),
         )  # fmt: skip
     except ValueError as exc:
-        raise RecordingError(f"{sf.path}: {exc}") from None
+        raise RecordingError(f"{sf.path}: {_in_file_keys(str(exc))}") from None
 
 
 # ------------------------------------------------------------------------------------------------ recording
 
 
-def read_recording(path: str | os.PathLike):
+def read_recording(path: str | os.PathLike[str]) -> Recording:
     """Read a recording (directory or sensor file) into a :class:`~dualpose.types.recording.Recording`.
 
     Times are float seconds on the IMU clock's epoch (``seconds_from_ns`` of the files' nanoseconds); the exact
@@ -488,14 +522,14 @@ def read_recording(path: str | os.PathLike):
         )  # fmt: skip
     except ValueError as exc:
         src = base / files["imu"] if str(exc).startswith(("gyro", "accel", "t ")) else sf.path
-        raise RecordingError(f"{src}: {exc}") from None
+        raise RecordingError(f"{src}: {_in_file_keys(str(exc))}") from None
 
 
-def _ns(seconds: np.ndarray) -> np.ndarray:
+def _ns(seconds: np.ndarray) -> NDArray[np.int64]:
     return np.round(np.asarray(seconds, dtype=np.float64) * 1e9).astype(np.int64)
 
 
-def write_recording(directory: str | os.PathLike, recording: Recording, *, overwrite: bool = False) -> Path:
+def write_recording(directory: str | os.PathLike[str], recording: Recording, *, overwrite: bool = False) -> Path:
     """Write a :class:`~dualpose.types.recording.Recording` as a recording directory that :func:`read_recording`
     (and ``dualpose fuse --data DIR``) reads back.
 
@@ -561,7 +595,7 @@ def write_recording(directory: str | os.PathLike, recording: Recording, *, overw
     return out / SENSORS_FILE
 
 
-def _setup_dict(rec: Recording | SensorSetup, files: dict | None) -> dict:
+def _setup_dict(rec: Recording | SensorSetup, files: dict[str, str] | None) -> dict[str, Any]:
     """The sensor file's ``format``, ``version``, (``files``,) ``camera``, ``imu`` and ``gravity`` of ``rec``."""
     c, n = rec.camera, rec.imu_noise
     return {
@@ -579,7 +613,7 @@ def _setup_dict(rec: Recording | SensorSetup, files: dict | None) -> dict:
     }  # fmt: skip
 
 
-def write_sensor_setup(path: str | os.PathLike, setup: SensorSetup, *, overwrite: bool = False) -> Path:
+def write_sensor_setup(path: str | os.PathLike[str], setup: SensorSetup, *, overwrite: bool = False) -> Path:
     """Write a :class:`~dualpose.types.recording.SensorSetup` as the sensor file :func:`read_sensor_setup` (and
     ``dualpose fuse --stream --calibration FILE``) reads back exactly (JSON, numbers as their shortest exact text).
 

@@ -48,13 +48,19 @@ import os
 import shutil
 import tempfile
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
+from numpy.typing import NDArray
 
 import dualpose as dp
+
+if TYPE_CHECKING:  # rosbags is optional (the ros extra): imported where a bag is written
+    from rosbags.rosbag1 import Writer as Writer1
+    from rosbags.rosbag2 import Writer as Writer2
 from dualpose.io._bagfile import (
     IMU,
     MAG,
@@ -125,7 +131,7 @@ def _is_bag_path(path: Path) -> bool:
     return path.suffix.lower() in BAG_SUFFIXES or (path.is_dir() and (path / "metadata.yaml").is_file())
 
 
-def parse_bag_source(source: str | os.PathLike | BagSource) -> BagSource | None:
+def parse_bag_source(source: str | os.PathLike[str] | BagSource) -> BagSource | None:
     """The bag source named by ``source``, or None when it names an ordinary file.
 
     ``source`` is ``BAG``, ``BAG:/topic`` or ``BAG:/tf:PARENT:CHILD`` where ``BAG`` is a path ending in ``.bag``,
@@ -172,14 +178,14 @@ def is_bag_source(source: object) -> bool:
         return True
 
 
-def bag_topics(path: str | os.PathLike) -> dict[str, str]:
+def bag_topics(path: str | os.PathLike[str]) -> dict[str, str]:
     """The topics of a bag and their message types (``"geometry_msgs/msg/PoseStamped"``), sorted by topic."""
     src = parse_bag_source(path) if isinstance(path, str) else None
     with open_bag(src.path if src is not None else Path(os.fspath(path))) as bag:
         return bag.topics()
 
 
-def _pose_fields(f: Fields, msgtype: str) -> tuple[np.ndarray, np.ndarray]:
+def _pose_fields(f: Fields, msgtype: str) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
     """Header stamps (n,) ns and the 7 pose values ``x y z qx qy qz qw`` (n, 7) of trajectory messages."""
     stamps = f.header()
     if msgtype in (TRANSFORM, ODOMETRY):
@@ -187,7 +193,15 @@ def _pose_fields(f: Fields, msgtype: str) -> tuple[np.ndarray, np.ndarray]:
     return stamps, f.read("<f8", 7)
 
 
-def _read_records(bag: Bag, conns: list, msgtype: str, where: str, parse) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+#: what a message parser returns: header stamps ns (n,) and the values (n, k)
+_Parsed = tuple[NDArray[np.int64], NDArray[np.float64]]
+#: the tf edges (parent, child) -> their (topic, stamps ns (n,), values x y z qx qy qz qw (n, 7)) series
+_Edges = dict[tuple[str, str], list[tuple[str, NDArray[np.int64], NDArray[np.float64]]]]
+
+
+def _read_records(
+    bag: Bag, conns: list[Any], msgtype: str, where: str, parse: Callable[[Fields], _Parsed],
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
     """Receive ns (N,), header ns (N,) and the parsed values (N, k) of all messages of ``conns``.
 
     The outputs are allocated once from the bag's message counts and filled block by block (peak memory: the
@@ -227,11 +241,11 @@ def _read_records(bag: Bag, conns: list, msgtype: str, where: str, parse) -> tup
     return recv, head, vals
 
 
-def _cat(parts: list[np.ndarray]) -> np.ndarray:
+def _cat(parts: list[NDArray[Any]]) -> NDArray[Any]:
     return parts[0] if len(parts) == 1 else np.concatenate(parts)
 
 
-def _stamps(recv: np.ndarray, head: np.ndarray, stamps: str, where: str, strict: bool) -> np.ndarray:
+def _stamps(recv: np.ndarray, head: np.ndarray, stamps: str, where: str, strict: bool) -> NDArray[np.int64]:
     if stamps not in ("header", "receive"):
         raise ValueError(f"stamps must be 'header' or 'receive'; got {stamps!r}")
     ns = head if stamps == "header" else recv
@@ -250,16 +264,17 @@ def _stamps(recv: np.ndarray, head: np.ndarray, stamps: str, where: str, strict:
 # ------------------------------------------------------------------------------------------------ readers
 
 
-def _source(source: str | os.PathLike | BagSource) -> BagSource:
+def _source(source: str | os.PathLike[str] | BagSource) -> BagSource:
     src = parse_bag_source(source)
     if src is None:
-        raise BagError(f"{os.fspath(source)}: not a bag (expected a .bag, .db3 or .mcap file or a ROS 2 bag "
+        name = str(source) if isinstance(source, BagSource) else os.fspath(source)
+        raise BagError(f"{name}: not a bag (expected a .bag, .db3 or .mcap file or a ROS 2 bag "
                        "directory, with :/topic)")  # fmt: skip
     return src
 
 
 def read_bag_trajectory(
-    source: str | os.PathLike | BagSource, *, stamps: Stamps = "header", strict: bool = True
+    source: str | os.PathLike[str] | BagSource, *, stamps: Stamps = "header", strict: bool = True
 ) -> Trajectory:
     """Read the poses of a bag topic, or of a /tf frame chain, as a :class:`~dualpose.types.Trajectory`.
 
@@ -300,7 +315,7 @@ def read_bag_trajectory(
                 raise BagError(f"{src}: the topic mixes message types {sorted({c.msgtype for c in conns})}")
             msgtype = conns[0].msgtype
 
-            def parse(f: Fields) -> tuple[np.ndarray, np.ndarray]:
+            def parse(f: Fields) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
                 return _pose_fields(f, msgtype)
 
             recv, head, vals = _read_records(bag, conns, msgtype, str(src), parse)
@@ -312,7 +327,7 @@ def read_bag_trajectory(
         raise BagError(f"{src}: {exc}") from None
 
 
-def read_bag_imu(source: str | os.PathLike | BagSource, *, stamps: Stamps = "header") -> ImuData:
+def read_bag_imu(source: str | os.PathLike[str] | BagSource, *, stamps: Stamps = "header") -> ImuData:
     """Read the ``sensor_msgs/Imu`` messages of a bag topic.
 
     Returns
@@ -331,7 +346,7 @@ def read_bag_imu(source: str | os.PathLike | BagSource, *, stamps: Stamps = "hea
     with open_bag(src.path) as bag:
         conns = bag.connections(src.topic, (IMU,), "IMU samples")
 
-        def parse(f: Fields) -> tuple[np.ndarray, np.ndarray]:
+        def parse(f: Fields) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
             head = f.header()
             f.skip("<f8", 4 + 9)  # orientation, orientation_covariance
             gyro = f.read("<f8", 3)
@@ -347,8 +362,8 @@ def read_bag_imu(source: str | os.PathLike | BagSource, *, stamps: Stamps = "hea
 
 
 def read_bag_magnetic_field(
-    source: str | os.PathLike | BagSource, *, stamps: Stamps = "header"
-) -> tuple[np.ndarray, np.ndarray]:
+    source: str | os.PathLike[str] | BagSource, *, stamps: Stamps = "header"
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
     """Read the ``sensor_msgs/MagneticField`` messages of a bag topic.
 
     Returns
@@ -368,7 +383,7 @@ def read_bag_magnetic_field(
     with open_bag(src.path) as bag:
         conns = bag.connections(src.topic, (MAG,), "a magnetic field")
 
-        def parse(f: Fields) -> tuple[np.ndarray, np.ndarray]:
+        def parse(f: Fields) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
             return f.header(), f.read("<f8", 3)
 
         recv, head, vals = _read_records(bag, conns, MAG, str(src), parse)
@@ -378,8 +393,8 @@ def read_bag_magnetic_field(
 
 
 def read_bag_imu_trial(
-    source: str | os.PathLike | BagSource,
-    mag_source: str | os.PathLike | BagSource | None = None,
+    source: str | os.PathLike[str] | BagSource,
+    mag_source: str | os.PathLike[str] | BagSource | None = None,
     *,
     stamps: Stamps = "header",
     rest_seconds: float = 1.0,
@@ -443,11 +458,20 @@ def _finite(vals: np.ndarray, src: BagSource, what: str) -> None:
 # ------------------------------------------------------------------------------------------------ /tf chains
 
 
-def _tf_records(bag: Bag, conns: list, where: str):
+#: the transforms of /tf connections (see _tf_records)
+_TfRecords = tuple[
+    NDArray[np.int64], NDArray[np.int64], NDArray[np.intp], NDArray[np.intp], NDArray[np.float64], list[str]
+]
+
+
+def _tf_records(bag: Bag, conns: list[Any], where: str) -> _TfRecords | None:
     """All transforms of ``tf2_msgs/TFMessage`` connections: receive ns and header ns of each transform, parent
     and child frame ids (indices into the returned names), and the 7 values ``x y z qx qy qz qw``."""
-    recv, head, offs, vals = [], [], [], []
-    bufs: list[np.ndarray] = []
+    recv: list[NDArray[np.int64]] = []
+    head: list[NDArray[np.int64]] = []
+    offs: list[NDArray[np.int64]] = []
+    vals: list[NDArray[np.float64]] = []
+    bufs: list[NDArray[np.uint8]] = []
     for times, buf, starts, ends, _ in bag.blocks(conns):
         f = Fields(buf, starts, ends, bag.is2, where, "tf2_msgs/TFMessage")
         count = f.read("<u4")[:, 0].astype(np.int64)
@@ -468,13 +492,13 @@ def _tf_records(bag: Bag, conns: list, where: str):
     if not vals:
         return None
     allbuf = _cat(bufs)
-    offs = _cat(offs)
-    names, ids = _frame_ids(allbuf, np.concatenate([offs[:, 0:2], offs[:, 2:4]]))
-    m = offs.shape[0]
+    spans = _cat(offs)
+    names, ids = _frame_ids(allbuf, np.concatenate([spans[:, 0:2], spans[:, 2:4]]))
+    m = spans.shape[0]
     return _cat(recv), _cat(head), ids[:m], ids[m:], _cat(vals), names
 
 
-def _frame_ids(buf: np.ndarray, spans: np.ndarray) -> tuple[list[str], np.ndarray]:
+def _frame_ids(buf: np.ndarray, spans: np.ndarray) -> tuple[list[str], NDArray[np.intp]]:
     """Frame names (leading '/' dropped) and the index of each span's name: spans (m, 2) offset, length."""
     off, length = spans[:, 0].copy(), spans[:, 1].copy()
     slash = (length > 0) & (buf[np.minimum(off, buf.shape[0] - 1)] == ord("/"))
@@ -490,12 +514,16 @@ def _frame_ids(buf: np.ndarray, spans: np.ndarray) -> tuple[list[str], np.ndarra
     return names, ids.ravel()
 
 
-def _compose(q1: np.ndarray, t1: np.ndarray, q2: np.ndarray, t2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _compose(
+    q1: np.ndarray, t1: np.ndarray, q2: np.ndarray, t2: np.ndarray,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``(q1, t1) ∘ (q2, t2)``: the pose of frame 2 in frame 0 from frame 1 in 0 and frame 2 in 1."""
     return dp.quat_mul(q1, q2), t1 + dp.quat_rotate(q1, t2)
 
 
-def _tf_chain(src: BagSource, stamps: str, strict: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _tf_chain(
+    src: BagSource, stamps: str, strict: bool,
+) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
     """Stamps (ns), positions and xyzw quaternions of ``src.child`` in ``src.parent`` through /tf and /tf_static.
 
     Every tf edge on the frame path is a time series (``/tf``) or a constant (only in ``/tf_static``: its last
@@ -523,7 +551,7 @@ def _tf_chain(src: BagSource, stamps: str, strict: bool) -> tuple[np.ndarray, np
     for rec in parts.values():
         if rec is not None:
             names = sorted(set(names) | set(rec[5]))
-    edges: dict[tuple[str, str], list] = {}
+    edges: _Edges = {}
     for topic, rec in parts.items():
         if rec is None:
             continue
@@ -533,6 +561,8 @@ def _tf_chain(src: BagSource, stamps: str, strict: bool) -> tuple[np.ndarray, np
         for a, b in np.unique(pairs, axis=0).tolist():
             sel = (pid == a) & (cid == b)
             edges.setdefault((local[a], local[b]), []).append((topic, ns[sel], vals[sel]))
+    if src.parent is None or src.child is None:  # parse_bag_source sets both for /tf:parent:child
+        raise BagError(f"{where}: a /tf chain needs its parent and child frames (FILE:/tf:parent:child)")
     path = _frame_path(edges, src.parent, src.child)
     if path is None:
         known = ", ".join(f"{a}->{b}" for a, b in sorted(edges)) or "none"
@@ -584,21 +614,23 @@ def _tf_chain(src: BagSource, stamps: str, strict: bool) -> tuple[np.ndarray, np
     return t_ns, p, q
 
 
-def _frame_path(edges: dict, start: str, goal: str) -> list[tuple[str, str, bool]] | None:
+def _frame_path(edges: _Edges, start: str, goal: str) -> list[tuple[str, str, bool]] | None:
     """Edges (parent, child, inverted) from ``start`` to ``goal``, breadth first over the tf edges both ways."""
-    links: dict[str, list] = {}
+    links: dict[str, list[tuple[str, tuple[str, str, bool]]]] = {}
     for a, b in edges:
         links.setdefault(a, []).append((b, (a, b, False)))
         links.setdefault(b, []).append((a, (a, b, True)))
-    prev: dict[str, tuple] = {start: ()}
+    prev: dict[str, tuple[str, tuple[str, str, bool]] | None] = {start: None}
     todo = deque([start])
     while todo:
         node = todo.popleft()
         if node == goal:
             out = []
-            while prev[node]:
-                node, edge = prev[node]
+            step = prev[node]
+            while step is not None:
+                node, edge = step
                 out.append(edge)
+                step = prev[node]
             return out[::-1]
         for nxt, edge in links.get(node, []):
             if nxt not in prev:
@@ -610,7 +642,7 @@ def _frame_path(edges: dict, start: str, goal: str) -> list[tuple[str, str, bool
 # ------------------------------------------------------------------------------------------------ writer
 
 
-def _pose_stamped_bytes(trajectory: Trajectory, ns: np.ndarray, frame_id: bytes, cdr: bool) -> np.ndarray:
+def _pose_stamped_bytes(trajectory: Trajectory, ns: np.ndarray, frame_id: bytes, cdr: bool) -> NDArray[np.uint8]:
     """The serialized ``geometry_msgs/PoseStamped`` messages, uint8 (N, size)."""
     n, flen = len(trajectory), len(frame_id)
     if cdr:  # encapsulation, sec int32, nanosec uint32, frame_id (uint32 length with NUL), pad to 8, 7 float64
@@ -642,7 +674,7 @@ def _pose_stamped_bytes(trajectory: Trajectory, ns: np.ndarray, frame_id: bytes,
 
 
 def write_trajectory_bag(
-    path: str | os.PathLike,
+    path: str | os.PathLike[str],
     trajectory: Trajectory,
     topic: str = "/pose",
     frame_id: str = "world",
@@ -706,7 +738,7 @@ def write_trajectory_bag(
             from rosbags.rosbag1 import Writer as Writer1
 
             made = tmp / "out.bag"
-            writer = Writer1(made)
+            writer: Writer1 | Writer2 = Writer1(made)
             store = get_typestore(Stores.ROS1_NOETIC)
         else:
             from rosbags.rosbag2 import StoragePlugin

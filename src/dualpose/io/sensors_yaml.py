@@ -37,13 +37,21 @@ from __future__ import annotations
 import math
 import os
 import re
+from typing import Any
 
 import numpy as np
 import yaml
+from numpy.typing import NDArray
 
-from dualpose.io._text import check_path
+from dualpose.io._text import check_path, open_input
 from dualpose.io.recording import RecordingError
-from dualpose.types.camera_models import CAMERA_MODEL_NAMES, camera_from_parameters
+from dualpose.types.camera_models import (
+    CAMERA_MODEL_NAMES,
+    DistortedCamera,
+    EquidistantCamera,
+    RadTanCamera,
+    camera_from_parameters,
+)
 from dualpose.types.imu import ImuNoise
 from dualpose.types.target import RigSensors
 
@@ -59,14 +67,18 @@ _NOISE_KEYS = (
 )
 
 
+#: the path of an entry in the YAML document (mapping keys from the top)
+_Keys = tuple[str, ...]
+
+
 class _Doc:
     """The parsed YAML with the node tree, so that errors can name the line of a key."""
 
     def __init__(self, path: str) -> None:
         self.path = path
         try:
-            with open(path, encoding="utf-8-sig") as f:
-                text = f.read()
+            with open_input(path) as f:
+                text = f.read().decode("utf-8-sig")
         except UnicodeDecodeError as exc:
             raise RecordingError(f"{path}: not a UTF-8 text file ({exc})") from None
         try:
@@ -79,7 +91,7 @@ class _Doc:
         if not isinstance(self.data, dict):
             raise RecordingError(f"{path}:1: the sensor file must hold a mapping at the top level")
 
-    def line(self, keys: tuple) -> int:
+    def line(self, keys: _Keys) -> int:
         """1-based line of the entry at ``keys`` (the deepest one that exists)."""
         node, line = self.node, 1
         for key in keys:
@@ -93,11 +105,12 @@ class _Doc:
                 break
         return line
 
-    def error(self, keys: tuple, message: str) -> RecordingError:
+    def error(self, keys: _Keys, message: str) -> RecordingError:
         return RecordingError(f"{self.path}:{self.line(keys)}: {'.'.join(map(str, keys))}: {message}")
 
-    def get(self, keys: tuple, kind: str, required: bool = True, default=None):
-        """The value at ``keys`` checked as ``kind``: "map", "number", "int", "numbers:N", "matrix4", "str"."""
+    def get(self, keys: _Keys, kind: str, required: bool = True, default: Any = None) -> Any:
+        """The value at ``keys`` checked as ``kind``: "map" (dict), "number" (float or int), "int", "numbers:N"
+        (float64 (N,)), "matrix4" (float64 (4, 4)), "str"; ``default`` when absent and not ``required``."""
         value = self.data
         for key in keys:
             if not isinstance(value, dict) or key not in value:
@@ -107,7 +120,7 @@ class _Doc:
             value = value[key]
         return self.check(keys, value, kind)
 
-    def check(self, keys: tuple, value, kind: str):
+    def check(self, keys: _Keys, value: Any, kind: str) -> Any:
         if kind == "map":
             if not isinstance(value, dict):
                 raise self.error(keys, f"must be a mapping; got {type(value).__name__}")
@@ -142,7 +155,7 @@ class _Doc:
             return a
         raise AssertionError(kind)  # pragma: no cover
 
-    def _array(self, keys: tuple, value) -> np.ndarray:
+    def _array(self, keys: _Keys, value: Any) -> NDArray[np.float64]:
         if isinstance(value, list):
             value = [[_yaml11_number(v) for v in r] if isinstance(r, list) else _yaml11_number(r) for r in value]
         flat = value if isinstance(value, list) else [value]
@@ -157,7 +170,7 @@ class _Doc:
         return a
 
 
-def _yaml11_number(value):
+def _yaml11_number(value: Any) -> Any:
     """A number written without a decimal point in an exponent (``1e-4``), which YAML 1.1 (PyYAML) reads as a
     string, as the float it denotes; anything else unchanged."""
     if isinstance(value, str):
@@ -168,7 +181,7 @@ def _yaml11_number(value):
     return value
 
 
-def _camera(doc: _Doc, name: str):
+def _camera(doc: _Doc, name: str) -> RadTanCamera | EquidistantCamera:
     cam = doc.get((name,), "map")
     kalibr = "intrinsics" in cam
     model_key = "distortion_model"
@@ -195,7 +208,7 @@ def _camera(doc: _Doc, name: str):
         raise doc.error((name,), str(exc)) from None
 
 
-def read_rig_sensors(path: str | os.PathLike) -> RigSensors:
+def read_rig_sensors(path: str | os.PathLike[str]) -> RigSensors:
     """Read a rig's sensor file, ``sensors.yaml`` or Kalibr ``camchain.yaml`` layout (module docstring).
 
     Returns
@@ -216,16 +229,17 @@ def read_rig_sensors(path: str | os.PathLike) -> RigSensors:
     names = [k for k in doc.data if isinstance(k, str) and _CAMERA_KEY.match(k)]
     if not names:
         raise RecordingError(f"{p}:1: no camera sections (cam0, cam1, ...)")
-    cameras = {n: _camera(doc, n) for n in names}
+    cameras: dict[str, DistortedCamera] = {n: _camera(doc, n) for n in names}
     rates = {n: float(doc.get((n, "rate_hz"), "number", required=False, default=math.nan)) for n in names}
-    extrinsics: dict = {}
+    extrinsics: dict[tuple[str, str], NDArray[np.float64]] = {}
     for key in doc.data:
         m = _PAIR_KEY.match(str(key))
         if m:
             for cam in m.groups():
                 if cam not in cameras:
                     raise doc.error((key,), f"names camera {cam!r}, which the file does not define")
-            extrinsics[m.groups()] = doc.get((key,), "matrix4")
+            cam_a, cam_b = m.groups()
+            extrinsics[(cam_a, cam_b)] = doc.get((key,), "matrix4")
     t_cam_imu, shifts = {}, {}
     for i, n in enumerate(names):
         if "T_cam_imu" in doc.data[n]:

@@ -20,7 +20,7 @@ __all__ = ["read_tum", "write_tum"]
 _LAYOUT = "t tx ty tz qx qy qz qw"
 
 
-def read_tum(path: str | os.PathLike) -> Trajectory:
+def read_tum(path: str | os.PathLike[str]) -> Trajectory:
     """Read a TUM trajectory file.
 
     Returns
@@ -40,7 +40,9 @@ def read_tum(path: str | os.PathLike) -> Trajectory:
     return Trajectory(data[:, 0], data[:, 1:4], data[:, 4:8], name=p)
 
 
-def write_tum(path: str | os.PathLike, trajectory: Trajectory, *, overwrite: bool = False, header: bool = True) -> None:
+def write_tum(
+    path: str | os.PathLike[str], trajectory: Trajectory, *, overwrite: bool = False, header: bool = True,
+) -> None:
     """Write ``trajectory`` as a TUM file.
 
     Timestamps are written exactly: from ``stamps_ns`` as ``seconds.nanoseconds`` when present, otherwise with 17

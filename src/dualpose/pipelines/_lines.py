@@ -2,8 +2,9 @@
 numbers out.
 
 Input fields are separated by commas or by whitespace (:func:`dualpose.io._text.split_fields` with ``"auto"``);
-``#`` starts a comment.  Output numbers are Python's ``repr`` of the float64 (the shortest text that reads back to
-the same value), so a line read back gives the filter's numbers bit for bit.
+``#`` starts a comment; numbers are in the grammar of the file readers (:func:`dualpose.io._text.parse_number`).
+Output numbers are Python's ``repr`` of the float64 (the shortest text that reads back to the same value), so a
+line read back gives the filter's numbers bit for bit.
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable, Sequence
 
-from dualpose.io._text import split_fields
+from dualpose.io._text import all_numbers, parse_number, split_fields
 
 __all__ = ["format_numbers", "parse_numbers", "split_fields"]
 
@@ -33,16 +34,14 @@ def parse_numbers(fields: Sequence[str], names: Sequence[str] | Callable[[int], 
     ValueError
         ``field K (name): 'x' is not a number`` or ``field K (name): non-finite value 'inf'``.
     """
-    try:
+    if all_numbers(list(fields)):
         values = list(map(float, fields))
         if all(map(math.isfinite, values)):
             return values
-    except ValueError:
-        pass
     name = names if callable(names) else names.__getitem__
     for k, text in enumerate(fields):  # the first bad field, for the message
         try:
-            v = float(text)
+            v = parse_number(text)
         except ValueError:
             raise ValueError(f"field {first + k} ({name(k)}): {text!r} is not a number") from None
         if not math.isfinite(v):

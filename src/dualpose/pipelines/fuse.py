@@ -157,11 +157,12 @@ def load_recording(data: str | os.PathLike | Recording = "sim", seed: int = 0) -
         try:
             trial = load_broad(data)
         except (FileNotFoundError, ValueError) as exc:
-            raise RecordingError(f"{data}: {exc}") from None
+            raise RecordingError(str(exc)) from None  # load_broad's messages name the file as given
         try:
             return recording_from_broad(trial, seed=int(seed), name=str(data))
         except ValueError as exc:
-            raise RecordingError(f"{data}: {exc}") from None
+            text = str(exc).removeprefix(f"{trial.name}: ")  # the file once, not the file and the trial's name
+            raise RecordingError(f"{data}: {text}") from None
     return read_recording(data)
 
 

@@ -28,8 +28,8 @@ from dualpose.types.trajectory import Trajectory
 
 __all__ = ["VioRun", "is_track_data", "run_vio", "vio_metrics", "PIXEL_SIGMA", "OUTPUT_FILES"]
 
-#: starting σ of a tracked feature, pixels (OpenVINS' default ``up_msckf_sigma_px``), over the focal length; the
-#: filter then estimates it from its residuals (``MsckfOptions.adaptive_sigma``, docs/vio.md)
+#: σ of a tracked feature, pixels (OpenVINS' default ``up_msckf_sigma_px`` and ``up_slam_sigma_px``), over the focal
+#: length (docs/vio.md "Measurement noise"; ``MsckfOptions.adaptive_sigma`` estimates it online instead)
 PIXEL_SIGMA = 1.0
 #: files ``--out`` writes
 OUTPUT_FILES = ("trajectory.tum", "metrics.json", "trajectory.png")
@@ -77,9 +77,9 @@ def run_vio(data: str | os.PathLike | TrackRecording, truth: str | os.PathLike |
             options: MsckfOptions | None = None, pixel_sigma: float = PIXEL_SIGMA) -> VioRun:  # fmt: skip
     """Run the MSCKF on feature-track ``data`` (an EqVIO replay CSV or a :class:`~dualpose.types.TrackRecording`),
     scored against ``truth`` (a trajectory file any :func:`~dualpose.io.read_trajectory` format reads, e.g. EuRoC
-    ground truth, or a Trajectory) when given.  The starting feature σ is ``pixel_sigma`` over the focal length
-    when the recording knows it, the recording's own ``feature_sigma`` otherwise; the filter adapts it online
-    (metrics ``adapted_sigma_px``: its final value)."""
+    ground truth, or a Trajectory) when given.  The feature σ is ``pixel_sigma`` over the focal length when the
+    recording knows it, the recording's own ``feature_sigma`` otherwise (metrics ``adapted_sigma_px``: its final
+    value, the same unless ``options.adaptive_sigma``)."""
     gt = None  # read first: a bad truth file is reported before the filter runs
     if truth is not None:
         gt = truth if isinstance(truth, Trajectory) else read_trajectory(truth)
@@ -96,10 +96,13 @@ def run_vio(data: str | os.PathLike | TrackRecording, truth: str | os.PathLike |
     metrics: dict = {
         "data": rec.name, "estimator": "msckf", "start_s": float(rec.t[k]), "rest_s": float(rec.t[k] - rec.t[0]),
         "features_used": res.n_used, "features_gated": res.n_gated, "features_failed": res.n_failed,
+        "slam_features": f.n_slam_init,
         "mean_nis_per_dof": float(np.mean(res.nis / res.nis_dof)) if len(res.nis) else None,
         "feature_sigma_px": float(rec.feature_sigma * rec.focal_length),
         "adapted_sigma_px": float(f.feature_sigma * rec.focal_length), "read_s": t_read,
         "filter_s": res.wall_time, "realtime_factor": duration / res.wall_time if res.wall_time > 0 else float("inf"),
+        "filter_cpu_s": res.cpu_time,
+        "realtime_factor_cpu": duration / res.cpu_time if res.cpu_time > 0 else float("inf"),
     }  # fmt: skip
     if gt is not None:
         metrics.update(vio_metrics(gt, est))

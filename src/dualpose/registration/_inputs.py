@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from dualpose._validation import as_array
 
@@ -24,7 +25,7 @@ def method_code(method: str) -> int:
         raise ValueError(f"method must be one of {sorted(METHODS)}; got {method!r}") from None
 
 
-def _vectors(x: Any, name: str, lead: int) -> np.ndarray:
+def _vectors(x: Any, name: str, lead: int) -> NDArray[np.float64]:
     """``x`` as a C-contiguous float64 array of shape ``lead-dims + (n, 3)``; finite."""
     arr = as_array(x, name, 3)
     if arr.ndim != lead + 2:
@@ -33,7 +34,7 @@ def _vectors(x: Any, name: str, lead: int) -> np.ndarray:
     return np.ascontiguousarray(arr)  # finiteness is checked by the solver kernel (one pass)
 
 
-def _weights(w: Any, name: str, shape: tuple[int, ...]) -> np.ndarray:
+def _weights(w: Any, name: str, shape: tuple[int, ...]) -> NDArray[np.float64]:
     if w is None:
         return _EMPTY if shape == (0,) else np.ones(shape)
     try:
@@ -47,7 +48,7 @@ def _weights(w: Any, name: str, shape: tuple[int, ...]) -> np.ndarray:
     return np.array(arr, dtype=np.float64, order="C")  # a writeable C-contiguous copy
 
 
-def _unit(d: np.ndarray, name: str) -> np.ndarray:
+def _unit(d: np.ndarray, name: str) -> NDArray[np.float64]:
     if d.size == 0:
         return d
     if not np.isfinite(d).all():
@@ -56,14 +57,17 @@ def _unit(d: np.ndarray, name: str) -> np.ndarray:
     if (norms == 0).any():
         idx = tuple(int(i) for i in np.argwhere(norms == 0)[0])
         raise ValueError(f"{name} must be nonzero direction vectors; entry {idx} is zero")
-    return d / norms[..., None]
+    result: NDArray[np.float64] = d / norms[..., None]
+    return result
 
 
-def _pair(a: Any, b: Any, names: tuple[str, str], lead: int) -> tuple[np.ndarray | None, np.ndarray | None]:
+def _pair(
+    a: Any, b: Any, names: tuple[str, str], lead: int,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
     if (a is None) != (b is None):
         raise ValueError(f"{names[0]} and {names[1]} must be given together")
     if a is None:
-        return None, None
+        return None
     a, b = _vectors(a, names[0], lead), _vectors(b, names[1], lead)
     if a.shape != b.shape:
         raise ValueError(f"{names[0]} and {names[1]} must have the same shape; got {a.shape} and {b.shape}")
@@ -85,30 +89,44 @@ def check_minimum_data(n_points: int, n_directions: int) -> None:
         )
 
 
+#: ``(p0, p1, beta, n0, n1, alpha)``: points, point weights, unit directions, direction weights (float64)
+Problem = tuple[
+    NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+    NDArray[np.float64],
+]
+
+
 def _prepare(
+    lead: int,
     model_points: Any,
     measured_points: Any,
     model_directions: Any,
     measured_directions: Any,
     point_weights: Any,
     direction_weights: Any,
-    lead: int,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    p0, p1 = _pair(model_points, measured_points, ("model_points", "measured_points"), lead)
-    n0, n1 = _pair(model_directions, measured_directions, ("model_directions", "measured_directions"), lead)
-    if p0 is None and n0 is None:
+) -> Problem:
+    given_p = _pair(model_points, measured_points, ("model_points", "measured_points"), lead)
+    given_n = _pair(model_directions, measured_directions, ("model_directions", "measured_directions"), lead)
+    if given_p is not None:
+        batch = given_p[0].shape[:lead]
+    elif given_n is not None:
+        batch = given_n[0].shape[:lead]
+    else:
         raise ValueError("give model_points/measured_points, model_directions/measured_directions, or both")
-    batch = (p0 if p0 is not None else n0).shape[:lead]
-    if p0 is not None and n0 is not None and p0.shape[:lead] != n0.shape[:lead]:
-        raise ValueError(f"points have batch shape {p0.shape[:lead]} but directions {n0.shape[:lead]}")
-    if p0 is None:
+    if given_p is not None and given_n is not None and given_p[0].shape[:lead] != given_n[0].shape[:lead]:
+        raise ValueError(f"points have batch shape {given_p[0].shape[:lead]} but directions {given_n[0].shape[:lead]}")
+    if given_p is None:
         p0 = p1 = np.zeros((*batch, 0, 3)) if batch else _EMPTY3
         if point_weights is not None:
             raise ValueError("point_weights given without points")
-    if n0 is None:
+    else:
+        p0, p1 = given_p
+    if given_n is None:
         n0 = n1 = np.zeros((*batch, 0, 3)) if batch else _EMPTY3
         if direction_weights is not None:
             raise ValueError("direction_weights given without directions")
+    else:
+        n0, n1 = given_n
     beta = _weights(point_weights, "point_weights", p0.shape[:-1])
     alpha = _weights(direction_weights, "direction_weights", n0.shape[:-1])
     n0, n1 = _unit(n0, "model_directions"), _unit(n1, "measured_directions")
@@ -127,11 +145,11 @@ def _prepare(
     return p0, p1, beta, n0, n1, alpha
 
 
-def prepare_single(*args: Any) -> tuple[np.ndarray, ...]:
+def prepare_single(*args: Any) -> Problem:
     """Checked ``(p0, p1, beta, n0, n1, alpha)`` for one problem (shapes (n, 3), (n,), (m, 3), (m,))."""
-    return _prepare(*args, lead=0)
+    return _prepare(0, *args)
 
 
-def prepare_batch(*args: Any) -> tuple[np.ndarray, ...]:
+def prepare_batch(*args: Any) -> Problem:
     """Checked ``(p0, p1, beta, n0, n1, alpha)`` for B problems (shapes (B, n, 3), (B, n), (B, m, 3), (B, m))."""
-    return _prepare(*args, lead=1)
+    return _prepare(1, *args)

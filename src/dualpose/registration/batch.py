@@ -8,7 +8,7 @@ Layouts: quaternions ``(B, 4)`` xyzw, dual quaternions ``(B, 8)`` ``[real xyzw, 
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from dualpose import _native
 from dualpose.registration import _row as R
@@ -44,7 +44,8 @@ class PoseBatch:
         self.method = method
 
     def __len__(self) -> int:
-        return self._rows.shape[0]
+        result: int = self._rows.shape[0]
+        return result
 
     def __getitem__(self, i: int) -> PoseEstimate:
         i = range(len(self))[i]  # bounds and negative indices
@@ -58,24 +59,25 @@ class PoseBatch:
     rotation_unique = property(lambda self: self._rows[:, R.UNIQUE] != 0.0, doc="Unique optimum (B,) bool.")
 
     @property
-    def rmsd(self) -> np.ndarray:
+    def rmsd(self) -> NDArray[np.float64]:
         """Weighted RMS point residuals (B,) (over directions for problems without points)."""
         bsum = self._data[2].sum(axis=-1)
         asum = self._data[5].sum(axis=-1)
         pts = np.sqrt(np.maximum(self._rows[:, R.POINT_COST], 0.0) / np.where(bsum > 0, bsum, 1.0))
         dir_cost = np.maximum(self._rows[:, R.COST] - self._rows[:, R.POINT_COST], 0.0)
         dirs = np.sqrt(dir_cost / np.where(asum > 0, asum, 1.0))
-        return np.where(bsum > 0, pts, dirs)
+        result: NDArray[np.float64] = np.where(bsum > 0, pts, dirs)
+        return result
 
     @property
-    def rotation_matrix(self) -> np.ndarray:
+    def rotation_matrix(self) -> NDArray[np.float64]:
         """Rotation matrices (B, 3, 3)."""
         import dualpose as dp
 
         return dp.matrix_from_quat(self.quat)
 
     @property
-    def dualquat(self) -> np.ndarray:
+    def dualquat(self) -> NDArray[np.float64]:
         """Unit dual quaternions (B, 8) of the rigid parts ``p ↦ R p + t``."""
         import dualpose as dp
 

@@ -14,11 +14,11 @@ Directions are normalized to unit length on input.
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from dualpose import _native
 from dualpose.registration import _row as R
-from dualpose.registration._inputs import _EMPTY, _EMPTY3, method_code, prepare_single
+from dualpose.registration._inputs import _EMPTY, _EMPTY3, Problem, method_code, prepare_single
 
 __all__ = ["PoseEstimate", "register_pose", "classify_degeneracy"]
 
@@ -104,7 +104,7 @@ class PoseEstimate:
 
     __slots__ = ("_row", "_data", "method", "n_points", "n_directions", "_degeneracy")
 
-    def __init__(self, row: np.ndarray, method: str, data: tuple[np.ndarray, ...]) -> None:
+    def __init__(self, row: NDArray[np.float64], method: str, data: Problem) -> None:
         self._row = row
         self._data = data
         self.method = method
@@ -126,7 +126,7 @@ class PoseEstimate:
     )
 
     @property
-    def scatter_eigenvalues(self) -> np.ndarray:
+    def scatter_eigenvalues(self) -> NDArray[np.float64]:
         """Eigenvalues (3,), descending, of the model scatter ``Σβ p⁰'p⁰'ᵀ + Σα n⁰n⁰ᵀ`` (centred points)."""
         p0, _, beta, n0, _, alpha = self._data
         c = beta @ p0 / beta.sum() if beta.sum() > 0 else np.zeros(3)
@@ -135,7 +135,7 @@ class PoseEstimate:
         return np.linalg.eigvalsh(m)[::-1]
 
     @property
-    def singular_values(self) -> np.ndarray | None:
+    def singular_values(self) -> NDArray[np.float64] | None:
         """Singular values of ``H`` (``"svd"`` only)."""
         return self._row[R.SINGULAR] if self.method == "svd" else None
 
@@ -170,21 +170,21 @@ class PoseEstimate:
 
     # ---- derived representations -------------------------------------------------------------------------
     @property
-    def rotation_matrix(self) -> np.ndarray:
+    def rotation_matrix(self) -> NDArray[np.float64]:
         """``R``, shape (3, 3): ``matrix_from_quat(quat)``."""
         import dualpose as dp
 
         return dp.matrix_from_quat(self.quat)
 
     @property
-    def dualquat(self) -> np.ndarray:
+    def dualquat(self) -> NDArray[np.float64]:
         """Unit dual quaternion (8,) ``[q, ½ t (x) q]`` of the rigid part ``p ↦ R p + t`` (the scale is not in it:
         the full estimate is ``dualquat_transform(dualquat, scale * p)``)."""
         import dualpose as dp
 
         return dp.dualquat_from_qt(self.quat, self.translation)
 
-    def as_matrix(self) -> np.ndarray:
+    def as_matrix(self) -> NDArray[np.float64]:
         """Homogeneous 4x4 ``[[s R, t], [0, 1]]``."""
         m = np.eye(4)
         m[:3, :3] = self.scale * self.rotation_matrix
@@ -193,7 +193,7 @@ class PoseEstimate:
 
     # ---- residuals -----------------------------------------------------------------------------------------
     @property
-    def point_residuals(self) -> np.ndarray:
+    def point_residuals(self) -> NDArray[np.float64]:
         """``s R p⁰_i + t − p̃_i``, shape (n, 3), evaluated on centred data (exact at large offsets)."""
         p0, p1, beta = self._data[:3]
         if p0.shape[0] == 0 or beta.sum() == 0:
@@ -202,16 +202,18 @@ class PoseEstimate:
         c1 = beta @ p1 / beta.sum()
         r = self.rotation_matrix
         t_c = self.translation - (c1 - self.scale * r @ c0)  # ~0: Walker's centred translation, if any
-        return self.scale * (p0 - c0) @ r.T + t_c - (p1 - c1)
+        result: NDArray[np.float64] = self.scale * (p0 - c0) @ r.T + t_c - (p1 - c1)
+        return result
 
     @property
-    def direction_residuals(self) -> np.ndarray:
+    def direction_residuals(self) -> NDArray[np.float64]:
         """``R n⁰_j − ñ_j`` for the unit directions, shape (m, 3)."""
         n0, n1 = self._data[3], self._data[4]
-        return n0 @ self.rotation_matrix.T - n1
+        result: NDArray[np.float64] = n0 @ self.rotation_matrix.T - n1
+        return result
 
     # ---- uncertainty ---------------------------------------------------------------------------------------
-    def covariance(self, sigma_points: float, sigma_directions: float = 0.0) -> np.ndarray:
+    def covariance(self, sigma_points: float, sigma_directions: float = 0.0) -> NDArray[np.float64]:
         """First-order covariance (6, 6) of ``[δθ, δt]`` for isotropic noise on the *measured* data.
 
         The perturbation is on the left (measured frame): ``R_true = exp(δθ×) R̂``, ``t_true = t̂ + δt``.  With the
@@ -258,9 +260,10 @@ class PoseEstimate:
         # u is uncorrelated with δθ on centred data; δt = u + (R c0)× δθ
         t_map = np.eye(6)
         t_map[3:, :3] = dp.so3_hat(r @ c0)
-        return t_map @ cov @ t_map.T
+        result: NDArray[np.float64] = t_map @ cov @ t_map.T
+        return result
 
-    def _rotation_information(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _rotation_information(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """``(gram_q (n, 3, 3), gram_u (m, 3, 3), H_rot⁻¹ (3, 3))`` on centred points: ``gram = (x×)ᵀ(x×)`` of the
         rotated centred model points ``q`` and rotated model directions ``u``; ``H_rot = Σβ gram_q + Σα gram_u``."""
         import dualpose as dp
@@ -279,7 +282,7 @@ class PoseEstimate:
             raise ValueError("covariance undefined: the rotation information matrix is singular") from None
         return gram_q, gram_u, h_inv
 
-    def direction_influence(self) -> np.ndarray:
+    def direction_influence(self) -> NDArray[np.float64]:
         """First-order influence (m, 3, 3) of an error on each *measured* direction on the rotation error.
 
         With ``ñ_j = ñ_j,true + e_j``, the estimate moves by ``R̂ = exp(ε×) R_true`` (left, measured frame; ``ε`` is
@@ -304,14 +307,15 @@ class PoseEstimate:
         _, _, h_inv = self._rotation_information()
         n0, alpha = self._data[3], self._data[5]
         ku = dp.so3_hat(n0 @ self.rotation_matrix.T)  # (m, 3, 3), (u×)ᵀ = −(u×)
-        return np.einsum("ij,m,mjk->mik", h_inv, alpha, ku)
+        result: NDArray[np.float64] = np.einsum("ij,m,mjk->mik", h_inv, alpha, ku)
+        return result
 
     def rotation_covariance(
         self,
         sigma_points: float = 0.0,
         sigma_directions: float = 0.0,
         direction_covariances: np.ndarray | None = None,
-    ) -> np.ndarray:
+    ) -> NDArray[np.float64]:
         """First-order covariance (3, 3) of the rotation error ``δθ`` alone (left perturbation, measured frame).
 
         Unlike :meth:`covariance` it needs only a unique rotation, so it covers the directions-only (Wahba) case.
@@ -337,7 +341,8 @@ class PoseEstimate:
         beta = self._data[2]
         cov = sigma_points**2 * h_inv @ np.einsum("n,nij->ij", beta**2, gram_q) @ h_inv
         cov = cov + np.einsum("mij,mjk,mlk->il", g, cd, g)
-        return 0.5 * (cov + cov.T)
+        result: NDArray[np.float64] = 0.5 * (cov + cov.T)
+        return result
 
     def __repr__(self) -> str:
         with np.printoptions(precision=6, suppress=True):
@@ -347,9 +352,9 @@ class PoseEstimate:
             )
 
 
-def _plain_points(p0: object, p1: object) -> bool:
-    """True for two C-contiguous float64 ndarrays of the same shape (n, 3) with n >= 3."""
-    return (
+def _plain_points(p0: object, p1: object) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+    """``(p0, p1)`` when both are C-contiguous float64 ndarrays of the same shape (n, 3) with n >= 3, else None."""
+    if (
         type(p0) is np.ndarray
         and type(p1) is np.ndarray
         and p0.dtype == np.float64
@@ -360,7 +365,9 @@ def _plain_points(p0: object, p1: object) -> bool:
         and p0.shape[0] >= 3
         and p0.flags.c_contiguous
         and p1.flags.c_contiguous
-    )
+    ):
+        return p0, p1
+    return None
 
 
 def register_pose(
@@ -427,10 +434,12 @@ def register_pose(
     (True, array([1., 0., 0.]))
     """
     code = method_code(method)
-    if _plain_points(model_points, measured_points) and (
+    plain = _plain_points(model_points, measured_points)
+    data: Problem
+    if plain is not None and (
         model_directions is None and measured_directions is None and point_weights is None and direction_weights is None
     ):  # fast path: the same checks, cheaper (a single problem of 10 points costs a few microseconds)
-        data = (model_points, measured_points, np.ones(model_points.shape[0]), _EMPTY3, _EMPTY3, _EMPTY)
+        data = (plain[0], plain[1], np.ones(plain[0].shape[0]), _EMPTY3, _EMPTY3, _EMPTY)
     else:
         data = prepare_single(
             model_points, measured_points, model_directions, measured_directions, point_weights, direction_weights

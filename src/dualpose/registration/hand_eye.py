@@ -13,7 +13,7 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 __all__ = ["HandEyeResult", "HandEyeWarning", "calibrate_hand_eye", "hand_eye_motions"]
 
@@ -62,7 +62,7 @@ class HandEyeResult:
     covariance: np.ndarray
 
 
-def _as_dualquats(m: ArrayLike, name: str) -> np.ndarray:
+def _as_dualquats(m: ArrayLike, name: str) -> NDArray[np.float64]:
     import dualpose as dp
 
     arr = np.asarray(m, dtype=np.float64)
@@ -74,7 +74,7 @@ def _as_dualquats(m: ArrayLike, name: str) -> np.ndarray:
                      f"got {arr.shape}")  # fmt: skip
 
 
-def checked_motion_pairs(A_motions: ArrayLike, B_motions: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+def checked_motion_pairs(A_motions: ArrayLike, B_motions: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``A_motions`` and ``B_motions`` as unit dual quaternions (n, 8) after the checks every hand–eye solver needs:
     shapes ``(n, 4, 4)`` or ``(n, 8)``, equal counts, ``n >= 2``, finite values (ValueError naming the argument)."""
     a = _as_dualquats(A_motions, "A_motions")
@@ -90,7 +90,7 @@ def checked_motion_pairs(A_motions: ArrayLike, B_motions: ArrayLike) -> tuple[np
 
 def hand_eye_motions(
     gripper_to_base: ArrayLike, target_to_camera: ArrayLike, pairs: str = "all"
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Relative motions ``A = G_i⁻¹ G_j``, ``B = C_i C_j⁻¹`` (dual quaternions (m, 8)) from absolute poses.
 
     ``gripper_to_base`` and ``target_to_camera``: (n, 4, 4) or (n, 8).  ``pairs``: ``"all"`` (i < j) or
@@ -114,7 +114,7 @@ def hand_eye_motions(
     return a, b
 
 
-def _residual_twists(a: np.ndarray, b: np.ndarray, x: np.ndarray) -> np.ndarray:
+def _residual_twists(a: np.ndarray, b: np.ndarray, x: np.ndarray) -> NDArray[np.float64]:
     import dualpose as dp
 
     lhs = dp.dualquat_mul(a, x)
@@ -248,13 +248,13 @@ def calibrate_hand_eye(
     )  # fmt: skip
 
 
-def _covariance(a: np.ndarray, b: np.ndarray, x: np.ndarray) -> np.ndarray:
+def _covariance(a: np.ndarray, b: np.ndarray, x: np.ndarray) -> NDArray[np.float64]:
     """``σ̂² (JᵀJ)⁻¹`` for the stacked twist residuals, with a central-difference Jacobian in ``[δθ, δt]``."""
     import dualpose as dp
 
     q0, t0 = dp.qt_from_dualquat(x)
 
-    def perturbed(d: np.ndarray) -> np.ndarray:
+    def perturbed(d: np.ndarray) -> NDArray[np.float64]:
         q = dp.quat_mul(dp.quat_from_rotvec(d[:3]), q0)
         return dp.dualquat_from_qt(q, t0 + d[3:])
 

@@ -31,7 +31,7 @@ import warnings
 from collections.abc import Callable
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 import dualpose as dp
 from dualpose.registration.hand_eye import HandEyeWarning, calibrate_hand_eye, checked_motion_pairs
@@ -47,7 +47,9 @@ __all__ = [
 ]
 
 
-def _motions(A_motions: ArrayLike, B_motions: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _motions(
+    A_motions: ArrayLike, B_motions: ArrayLike,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Rotations (canonical quaternions, ``w >= 0``) and translations of the motions, after the shape checks."""
     a, b = checked_motion_pairs(A_motions, B_motions)
     qa, ta = dp.qt_from_dualquat(a)
@@ -55,7 +57,7 @@ def _motions(A_motions: ArrayLike, B_motions: ArrayLike) -> tuple[np.ndarray, np
     return dp.quat_canonical(qa), ta, dp.quat_canonical(qb), tb
 
 
-def hand_eye_translation(A_motions: ArrayLike, B_motions: ArrayLike, quat: ArrayLike) -> np.ndarray:
+def hand_eye_translation(A_motions: ArrayLike, B_motions: ArrayLike, quat: ArrayLike) -> NDArray[np.float64]:
     """Translation of ``X`` (input units) for a given rotation: least squares of ``(R_A − I) t_X = R_X t_B − t_A``.
 
     This is the second step of Tsai & Lenz (1989); ``|(R_A − I) t_X − R_X t_B + t_A|`` is also the norm of the
@@ -76,13 +78,14 @@ def hand_eye_translation(A_motions: ArrayLike, B_motions: ArrayLike, quat: Array
     return _translation(qa, ta, tb, np.asarray(quat, dtype=np.float64))
 
 
-def _translation(qa: np.ndarray, ta: np.ndarray, tb: np.ndarray, qx: np.ndarray) -> np.ndarray:
+def _translation(qa: np.ndarray, ta: np.ndarray, tb: np.ndarray, qx: np.ndarray) -> NDArray[np.float64]:
     lhs = dp.matrix_from_quat(qa) - np.eye(3)
     rhs = dp.quat_rotate(qx, tb) - ta
-    return np.linalg.lstsq(lhs.reshape(-1, 3), rhs.reshape(-1), rcond=None)[0]
+    result: NDArray[np.float64] = np.linalg.lstsq(lhs.reshape(-1, 3), rhs.reshape(-1), rcond=None)[0]
+    return result
 
 
-def hand_eye_tsai_lenz(A_motions: ArrayLike, B_motions: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+def hand_eye_tsai_lenz(A_motions: ArrayLike, B_motions: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``X`` by Tsai & Lenz (1989).
 
     Parameters
@@ -105,7 +108,7 @@ def hand_eye_tsai_lenz(A_motions: ArrayLike, B_motions: ArrayLike) -> tuple[np.n
     return qx, _translation(qa, ta, tb, qx)
 
 
-def hand_eye_park_martin(A_motions: ArrayLike, B_motions: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+def hand_eye_park_martin(A_motions: ArrayLike, B_motions: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``X`` by Park & Martin (1994); parameters and returns as :func:`hand_eye_tsai_lenz`."""
     qa, ta, qb, tb = _motions(A_motions, B_motions)
     alpha, beta = dp.rotvec_from_quat(qa), dp.rotvec_from_quat(qb)
@@ -118,7 +121,9 @@ def hand_eye_park_martin(A_motions: ArrayLike, B_motions: ArrayLike) -> tuple[np
     return qx, _translation(qa, ta, tb, qx)
 
 
-def hand_eye_horaud_dornaika(A_motions: ArrayLike, B_motions: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+def hand_eye_horaud_dornaika(
+    A_motions: ArrayLike, B_motions: ArrayLike,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``X`` by Horaud & Dornaika (1995), linear rotation; parameters and returns as :func:`hand_eye_tsai_lenz`."""
     qa, ta, qb, tb = _motions(A_motions, B_motions)
     c = dp.quat_left_matrix(qa) - dp.quat_right_matrix(qb)
@@ -127,7 +132,7 @@ def hand_eye_horaud_dornaika(A_motions: ArrayLike, B_motions: ArrayLike) -> tupl
     return qx, _translation(qa, ta, tb, qx)
 
 
-def hand_eye_andreff(A_motions: ArrayLike, B_motions: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+def hand_eye_andreff(A_motions: ArrayLike, B_motions: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``X`` by Andreff et al. (1999); parameters and returns as :func:`hand_eye_tsai_lenz`."""
     qa, ta, qb, tb = _motions(A_motions, B_motions)
     ra, rb = dp.matrix_from_quat(qa), dp.matrix_from_quat(qb)
@@ -149,7 +154,7 @@ def hand_eye_andreff(A_motions: ArrayLike, B_motions: ArrayLike) -> tuple[np.nda
     return dp.quat_canonical(dp.quat_from_matrix(rx)), z[9:].copy()
 
 
-def hand_eye_daniilidis(A_motions: ArrayLike, B_motions: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+def hand_eye_daniilidis(A_motions: ArrayLike, B_motions: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``X`` by Daniilidis (1999), :func:`~dualpose.registration.calibrate_hand_eye` without its warnings;
     parameters and returns as :func:`hand_eye_tsai_lenz`."""
     with warnings.catch_warnings():

@@ -15,6 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 import dualpose as dp
 
@@ -34,7 +35,9 @@ class PnPResult:
     iterations: int
 
 
-def _check(pixels: np.ndarray, points: np.ndarray, K: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _check(
+    pixels: ArrayLike, points: ArrayLike, K: ArrayLike,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     pixels = np.asarray(pixels, dtype=np.float64)
     points = np.asarray(points, dtype=np.float64)
     K = np.asarray(K, dtype=np.float64)
@@ -46,17 +49,37 @@ def _check(pixels: np.ndarray, points: np.ndarray, K: np.ndarray) -> tuple[np.nd
         raise ValueError(f"K must have shape (3, 3); got {K.shape}")
     if len(pixels) < 6:
         raise ValueError(f"PnP (DLT) needs at least 6 correspondences; got {len(pixels)}")
+    if not (np.isfinite(pixels).all() and np.isfinite(points).all()):
+        raise ValueError("pixels and points must be finite")
     return pixels, points, K
 
 
-def pnp_dlt(pixels: np.ndarray, points: np.ndarray, K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _normalised(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    """``(points − mu) / r`` with the centroid ``mu`` and the largest coordinate spread ``r``, and ``mu``, ``r``:
+    the projection does not change with the scale of the scene, so PnP is solved on points of spread ~1 (no
+    overflow for 1e200 m, no underflow for 1e-200 m).  ``ValueError`` for points all at one place or on one line
+    (the pose is then undetermined)."""
+    mu = points.mean(axis=0)
+    d = points - mu
+    r = float(np.abs(d).max())
+    if not r > 0.0:
+        raise ValueError("points: every correspondence has the same world point; PnP needs points spread in space")
+    d = d / r
+    sv = np.linalg.svd(d, compute_uv=False)
+    if not sv[1] > 1e-9 * sv[0]:
+        raise ValueError("points: the world points lie on one line; the rotation about it is undetermined")
+    return d, mu, r
+
+
+def pnp_dlt(pixels: ArrayLike, points: ArrayLike, K: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Linear PnP: returns ``(R_cw (3, 3), t (3,))`` with ``X_c = R_cw X_w + t``.
 
     Non-coplanar points: 12-unknown DLT.  When the points are close to a plane (smallest/largest spread < 0.2,
     e.g. a frame seeing mostly one of two walls) the plane-homography solution is computed as well and the
     candidate with the lower reprojection error is returned; exactly coplanar points use the homography only.
     """
-    pixels, points, K = _check(pixels, points, K)
+    pixels, world, K = _check(pixels, points, K)
+    points, mu_w, r_w = _normalised(world)  # solved at spread ~1; the pose mapped back below
     xn = np.linalg.solve(K, np.column_stack([pixels, np.ones(len(pixels))]).T).T[:, :2]
     mu = points.mean(axis=0)
     _, sv_pts, vt_pts = np.linalg.svd(points - mu, full_matrices=False)
@@ -70,10 +93,11 @@ def pnp_dlt(pixels: np.ndarray, points: np.ndarray, K: np.ndarray) -> tuple[np.n
     if flatness < 0.2 or not candidates:
         candidates.append(_planar_dlt(xn, points, mu, vt_pts))
     costs = [np.sum(_residuals(R, t, pixels, points, K)[0] ** 2) for R, t in candidates]
-    return candidates[int(np.nanargmin(costs))]
+    R, t = candidates[int(np.nanargmin(costs))]
+    return R, r_w * t - R @ mu_w  # X_c = R X_w + t with X_w = r_w X_n + mu_w
 
 
-def _dlt_design(xn: np.ndarray, X: np.ndarray) -> np.ndarray:
+def _dlt_design(xn: np.ndarray, X: np.ndarray) -> NDArray[np.float64]:
     """DLT design matrix (2m, 3k) of ``x ~ M X`` for normalized image points ``xn`` (m, 2) and homogeneous ``X``
     (m, k): rows ``[Xᵀ, 0, −u Xᵀ]`` and ``[0, Xᵀ, −v Xᵀ]`` (k = 4: the 3x4 projection, k = 3: a homography)."""
     m, k = X.shape
@@ -85,7 +109,7 @@ def _dlt_design(xn: np.ndarray, X: np.ndarray) -> np.ndarray:
     return A
 
 
-def _general_dlt(xn: np.ndarray, points: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _general_dlt(xn: np.ndarray, points: np.ndarray, mu: np.ndarray) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     s = np.sqrt(3.0) / np.mean(np.linalg.norm(points - mu, axis=1))
     Xh = np.column_stack([(points - mu) * s, np.ones(len(points))])
     _, _, vt = np.linalg.svd(_dlt_design(xn, Xh), full_matrices=False)
@@ -102,7 +126,9 @@ def _general_dlt(xn: np.ndarray, points: np.ndarray, mu: np.ndarray) -> tuple[np
     return R, t / sv.mean()
 
 
-def _planar_dlt(xn: np.ndarray, points: np.ndarray, mu: np.ndarray, vt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _planar_dlt(
+    xn: np.ndarray, points: np.ndarray, mu: np.ndarray, vt: np.ndarray,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Pose from a plane-to-image homography (Zhang 2000 §2-3): ``H ∝ [r1 r2 t]`` in plane coordinates."""
     B = vt.T.copy()  # columns: in-plane axes e1, e2 and the normal
     B[:, 2] = np.cross(B[:, 0], B[:, 1])
@@ -120,7 +146,11 @@ def _planar_dlt(xn: np.ndarray, points: np.ndarray, mu: np.ndarray, vt: np.ndarr
     return R, tp - R @ mu
 
 
-def _residuals(R: np.ndarray, t: np.ndarray, pixels: np.ndarray, points: np.ndarray, K: np.ndarray):
+def _residuals(
+    R: NDArray[np.float64], t: NDArray[np.float64], pixels: NDArray[np.float64], points: NDArray[np.float64],
+    K: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Reprojection residuals ``(M, 2)`` px and camera-frame points ``(M, 3)`` of the pose ``(R, t)``."""
     pc = points @ R.T + t
     z = np.where(np.abs(pc[:, 2]) > 1e-12, pc[:, 2], 1e-12)  # RANSAC candidates may put a point on the plane Z = 0
     fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
@@ -136,7 +166,7 @@ def pnp_refine(
     K: np.ndarray,
     iterations: int = 10,
     tol: float = 1e-10,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], int]:
     """Gauss–Newton on the reprojection error; returns ``(R_cw, t, JᵀJ (6, 6), iterations used)``.
 
     Parameters ``[δφ, δt]`` update ``R ← Exp(δφ) R`` and ``t ← t + δt``;
@@ -157,7 +187,7 @@ def pnp_refine(
         Jp[:, 1, 1] = fy / Z
         Jp[:, 1, 2] = -fy * Y / Z**2
         rx = pc - t
-        J = np.empty((len(pc), 2, 6))  # ∂π/∂[δφ, δt]
+        J: NDArray[np.float64] = np.empty((len(pc), 2, 6))  # ∂π/∂[δφ, δt]
         J[:, :, 0:3] = -np.einsum("mij,mjk->mik", Jp, dp.so3_hat(rx))
         J[:, :, 3:6] = Jp
         J = J.reshape(-1, 6)
@@ -173,21 +203,31 @@ def pnp_refine(
 def solve_pnp(
     pixels: np.ndarray, points: np.ndarray, K: np.ndarray, pixel_sigma: float = 1.0, iterations: int = 10
 ) -> PnPResult:
-    """DLT initial guess + Gauss–Newton refinement; the camera pose in the world with its covariance."""
+    """DLT initial guess + Gauss–Newton refinement; the camera pose in the world with its covariance.
+
+    Solved on the points normalised to spread ~1 (the pose and its covariance mapped back), so the scene's scale
+    does not matter; ``ValueError`` for points all at one place or on one line."""
+    pixels, world, K = _check(pixels, points, K)
+    points, mu_w, r_w = _normalised(world)
     R, t = pnp_dlt(pixels, points, K)
     R, t, JtJ, its = pnp_refine(R, t, pixels, points, K, iterations=iterations)
-    r, _ = _residuals(R, t, np.asarray(pixels, float), np.asarray(points, float), K)
-    cov_lt = np.linalg.inv(JtJ) * pixel_sigma**2  # over [δφ (world→camera, left), δt]
+    r, _ = _residuals(R, t, pixels, points, K)
+    cov_lt = np.linalg.inv(JtJ) * pixel_sigma**2  # over [δφ (world→camera, left), δt], normalised points
     # R_wc = Rᵀ ← Rᵀ Exp(−δφ): camera-frame rotation error δθ_c = −δφ;
     # c = −Rᵀ t ← −(Exp(δφ) R)ᵀ (t + δt) ≈ c − Rᵀ δt − Rᵀ [t]× δφ
     Jc = np.zeros((6, 6))
     Jc[0:3, 0:3] = -np.eye(3)
     Jc[3:6, 0:3] = -R.T @ dp.so3_hat(t)
     Jc[3:6, 3:6] = -R.T
-    cov = Jc @ cov_lt @ Jc.T
+    Jc[3:6] *= r_w  # the centre in the world: c_w = r_w c_n + mu_w
+    with np.errstate(over="ignore", invalid="ignore"):  # checked just below
+        cov = Jc @ cov_lt @ Jc.T
+    if not np.isfinite(cov).all():
+        raise ValueError(f"points: spread {r_w:.3g} (world units): the pose covariance overflows float64 at this "
+                         "scale; express the points in larger units")  # fmt: skip
     return PnPResult(
         q_wc=dp.quat_from_matrix(R.T),
-        c_w=-R.T @ t,
+        c_w=-r_w * (R.T @ t) + mu_w,
         covariance=0.5 * (cov + cov.T),
         rms_px=float(np.sqrt(np.mean(r**2))),
         iterations=its,
@@ -202,7 +242,7 @@ def solve_pnp_ransac(
     threshold_px: float = 6.0,
     iterations: int = 200,
     seed: int = 0,
-) -> tuple[PnPResult, np.ndarray]:
+) -> tuple[PnPResult, NDArray[np.float64]]:
     """Robust PnP: RANSAC over minimal 6-point DLT samples (seeded), then :func:`solve_pnp` on the largest consensus
     set (reprojection error < ``threshold_px``).  Returns the result and the inlier mask (M,)."""
     pixels, points, K = _check(pixels, points, K)
@@ -246,7 +286,10 @@ class PnPBatch:
     inliers: np.ndarray
 
 
-def _gauss_newton_batch(R, t, pixels, points, w, K, iterations, tol):
+def _gauss_newton_batch(
+    R: NDArray[np.float64], t: NDArray[np.float64], pixels: NDArray[np.float64], points: NDArray[np.float64],
+    w: NDArray[np.float64], K: NDArray[np.float64], iterations: int, tol: float,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Batched :func:`pnp_refine` over rows weighted by ``w`` (B, M) (0 / 1); returns ``(R, t, JᵀJ, r, Z)``."""
     points = np.ascontiguousarray(points)
     fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
@@ -259,7 +302,7 @@ def _gauss_newton_batch(R, t, pixels, points, w, K, iterations, tol):
         A, C = fx / Z, -fx * pc[..., 0] / Z**2
         D, E = fy / Z, -fy * pc[..., 1] / Z**2
         p, q, s = rx[..., 0], rx[..., 1], rx[..., 2]
-        J = np.zeros(pc.shape[:2] + (2, 6))
+        J: NDArray[np.float64] = np.zeros(pc.shape[:2] + (2, 6))
         J[..., 0, 0], J[..., 0, 1], J[..., 0, 2] = q * C, s * A - p * C, -q * A
         J[..., 1, 0], J[..., 1, 1], J[..., 1, 2] = q * E - s * D, -p * E, p * D
         J[..., 0, 3], J[..., 0, 5], J[..., 1, 4], J[..., 1, 5] = A, C, D, E

@@ -10,7 +10,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from dualpose.registration._inputs import method_code, prepare_single
 from dualpose.registration.batch import register_pose_batch
@@ -63,14 +63,15 @@ def ransac_iterations(inlier_ratio: float, confidence: float, sample_size: int =
     return int(math.ceil(math.log(1.0 - confidence) / math.log1p(-ws)))
 
 
-def _residual_norms(quat: np.ndarray, trans: np.ndarray, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
+def _residual_norms(quat: np.ndarray, trans: np.ndarray, p0: np.ndarray, p1: np.ndarray) -> NDArray[np.float64]:
     """‖R_h p0_i + t_h − p1_i‖ for hypotheses h (H, 4)/(H, 3) and points i: shape (H, n)."""
     import dualpose as dp
 
     r = dp.matrix_from_quat(quat)  # (H, 3, 3)
     pred = np.einsum("hij,nj->hni", r, p0) + trans[:, None, :]
     d = pred - p1[None]
-    return np.sqrt(np.einsum("hni,hni->hn", d, d))
+    result: NDArray[np.float64] = np.sqrt(np.einsum("hni,hni->hn", d, d))
+    return result
 
 
 def register_pose_ransac(
@@ -136,12 +137,14 @@ def register_pose_ransac(
         raise ValueError("model_points and measured_points must be finite")
     rng = np.random.default_rng(seed)
     n = p0.shape[0]
+    if n < 3:
+        raise ValueError(f"RANSAC draws triples of correspondences: needs at least 3 points; got {n}")
     best_count, best_sum, best = -1, np.inf, None
     needed, drawn = max_iterations, 0
     while drawn < min(needed, max_iterations):
         h = min(batch_size, min(needed, max_iterations) - drawn)
         # distinct triples: the first 3 of a random key's argsort per row (vectorised sampling without replacement)
-        idx = np.argpartition(rng.random((h, n)), 3, axis=1)[:, :3]
+        idx = np.argpartition(rng.random((h, n)), 2, axis=1)[:, :3]  # kth=2: the 3 smallest keys come first
         hyp = register_pose_batch(p0[idx], p1[idx], method=method)
         drawn += h
         res = _residual_norms(hyp.quat, hyp.translation, p0, p1)
@@ -177,10 +180,11 @@ def register_pose_ransac(
     return RobustEstimate(pose, mask, weights, drawn, threshold)
 
 
-def _robust_weights(r: np.ndarray, loss: str, c: float) -> np.ndarray:
+def _robust_weights(r: np.ndarray, loss: str, c: float) -> NDArray[np.float64]:
     """IRLS weights ``ψ(r)/r``: Huber ``min(1, c/r)``, Cauchy ``1 / (1 + (r/c)²)``."""
     if loss == "huber":
-        return np.minimum(1.0, c / np.maximum(r, 1e-300))
+        result: NDArray[np.float64] = np.minimum(1.0, c / np.maximum(r, 1e-300))
+        return result
     return 1.0 / (1.0 + (r / c) ** 2)
 
 
@@ -223,8 +227,9 @@ def register_pose_irls(
     p0, p1, beta, _, _, _ = prepare_single(model_points, measured_points, None, None, point_weights, None)
     pose = initial if initial is not None else register_pose(p0, p1, point_weights=beta, method=method)
 
-    def resid(est: PoseEstimate) -> np.ndarray:
-        return np.linalg.norm(p0 @ est.rotation_matrix.T + est.translation - p1, axis=1)
+    def resid(est: PoseEstimate) -> NDArray[np.float64]:
+        result: NDArray[np.float64] = np.linalg.norm(p0 @ est.rotation_matrix.T + est.translation - p1, axis=1)
+        return result
 
     r = resid(pose)
     if c is None:

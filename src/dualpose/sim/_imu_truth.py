@@ -6,6 +6,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
+from numpy.typing import NDArray
 
 import dualpose as dp
 
@@ -15,7 +16,9 @@ __all__ = ["FIELD_ENU", "central_body_rate"]
 FIELD_ENU = np.array([0.0, 20.0, -44.0])
 
 
-def central_body_rate(quat_at: Callable[[np.ndarray], np.ndarray], t: np.ndarray, h: float = 1e-6) -> np.ndarray:
+def central_body_rate(
+    quat_at: Callable[[np.ndarray], np.ndarray], t: np.ndarray, h: float = 1e-6,
+) -> NDArray[np.float64]:
     """Body-frame angular rate ``2 Im(q* ⊗ q̇)``, rad/s, shape (n, 3), of the orientation ``quat_at`` (times (n,) in s
     to xyzw quaternions (n, 4)) at the times ``t``; ``q̇`` by central difference with step ``h`` (s)."""
     q = quat_at(t)

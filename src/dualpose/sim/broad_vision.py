@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import NDArray
 
 from dualpose.io.broad import BroadTrial
 from dualpose.sim.camera_imu import observe_landmarks
@@ -109,7 +110,7 @@ def imu_noise_from_rest(gyr: np.ndarray, acc: np.ndarray, rate: float, inflation
 
 def landmark_shell(
     rng: np.random.Generator, center: np.ndarray, n: int = N_LANDMARKS, radii: tuple[float, float] = SHELL_RADII
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """``n`` landmarks (n, 3) uniformly distributed in the spherical shell ``radii`` (m) around ``center`` (3,):
     a virtual room that a camera pointing anywhere from inside sees (~9 % of them in the 74° × 59° view)."""
     d = rng.normal(size=(n, 3))
@@ -167,8 +168,9 @@ def pseudo_vision(
     return FrameCorrespondences(tf, obs["offsets"], obs["pixels"], obs["points"])
 
 
-def _finite_reference(trial: BroadTrial) -> np.ndarray:
-    return np.isfinite(trial.quat).all(axis=1) & np.isfinite(trial.pos).all(axis=1)
+def _finite_reference(trial: BroadTrial) -> NDArray[np.bool_]:
+    result: NDArray[np.bool_] = np.isfinite(trial.quat).all(axis=1) & np.isfinite(trial.pos).all(axis=1)
+    return result
 
 
 def reference_on_imu_clock(trial: BroadTrial, offset: float = REFERENCE_TIME_OFFSET) -> Trajectory:
@@ -237,6 +239,7 @@ def recording_from_broad(
     i0 = max(int(np.searchsorted(t, frames.t[0] + time_offset, side="right")) - 1, 0)
     if n_rest - i0 < 3:
         raise ValueError(f"{trial.name}: the first reference pose comes after the static start; cannot initialise")
+    trial.require_finite(start=i0)  # named by the trial's own sample numbers
     q_bc, p_bc = default_extrinsic()
     truth = reference_on_imu_clock(trial, time_offset)
     truth = truth.take(np.flatnonzero(truth.stamps >= t[i0]))

@@ -10,8 +10,10 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 import dualpose as dp
 from dualpose.sim import camera_imu, motion
@@ -30,7 +32,7 @@ __all__ = [
 ]
 
 
-def static_motion(q_wb: np.ndarray, p_wb: np.ndarray, duration: float) -> motion.SmoothMotion:
+def static_motion(q_wb: ArrayLike, p_wb: ArrayLike, duration: float) -> motion.SmoothMotion:
     """A :class:`~dualpose.sim.motion.SmoothMotion` at rest at body pose ``(q_wb (4,) xyzw, p_wb (3,) m)``."""
     z = np.zeros((1, 3))
     return motion.SmoothMotion(
@@ -39,7 +41,9 @@ def static_motion(q_wb: np.ndarray, p_wb: np.ndarray, duration: float) -> motion
     )  # fmt: skip
 
 
-def calibration_camera_poses(n_poses: int, seed: int, max_roll_deg: float = 40.0) -> tuple[np.ndarray, np.ndarray]:
+def calibration_camera_poses(
+    n_poses: int, seed: int, max_roll_deg: float = 40.0,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``n_poses`` camera poses ``(q_wc (n, 4), c_w (n, 3))`` looking at the scene from different heights and
     sides, rolled about the optical axis by up to ``max_roll_deg`` (so the gravity direction differs between poses
     about two axes), seeded."""
@@ -57,7 +61,7 @@ def calibration_camera_poses(n_poses: int, seed: int, max_roll_deg: float = 40.0
     return q, eye
 
 
-def random_extrinsic(seed: int) -> tuple[np.ndarray, np.ndarray]:
+def random_extrinsic(seed: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """A random camera→body rotation near a forward-looking mount (±25° about each axis) and lever arm (±5 cm)."""
     rng = np.random.default_rng(seed)
     q_nominal, _ = motion.default_extrinsic()
@@ -72,7 +76,7 @@ def simulate_static_poses(
     duration: float = 1.0,
     max_roll_deg: float = 40.0,
     pose_seed: int | None = None,
-    **simulate_kwargs,
+    **simulate_kwargs: Any,
 ) -> list[camera_imu.SimulatedRun]:
     """One :class:`~dualpose.sim.camera_imu.SimulatedRun` at rest per pose of :func:`calibration_camera_poses`.
 

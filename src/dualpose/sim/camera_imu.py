@@ -19,8 +19,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 import dualpose as dp
 from dualpose.sim.motion import SmoothMotion, eight_motion, extrinsic_arrays
@@ -40,7 +42,7 @@ __all__ = [
     "recording_from_simulation",
 ]
 
-def two_plane_landmarks(rng: np.random.Generator, n: int = 300) -> np.ndarray:
+def two_plane_landmarks(rng: np.random.Generator, n: int = 300) -> NDArray[np.float64]:
     """``n`` landmarks (world frame, metres) on two orthogonal textured planes: the wall y = 0 (x ∈ [−1.2, 1.2],
     z ∈ [0, 1.6]) and the floor z = 0 (x ∈ [−1.2, 1.2], y ∈ [0, 1.0]); shape (n, 3)."""
     n_wall = n // 2
@@ -92,7 +94,7 @@ class SimulatedRun:
     motion: SmoothMotion
     magnetic_field: np.ndarray = field(default_factory=lambda: np.array([0.4, 0.0, -0.9]))
 
-    def sensor_options(self) -> dict:
+    def sensor_options(self) -> dict[str, Any]:
         """Keyword arguments giving a filter this run's sensor set-up (IMU noise, camera, extrinsic, pixel σ, offset).
 
         Shared by ``ErrorStateEKF.from_simulation`` and ``Hol22EKF.from_simulation``.
@@ -215,14 +217,19 @@ def simulate(
     )  # fmt: skip
 
 
-def camera_points(q_wb: np.ndarray, p_wb: np.ndarray, q_bc: np.ndarray, p_bc: np.ndarray, pts_w: np.ndarray):
+def camera_points(
+    q_wb: NDArray[np.float64], p_wb: NDArray[np.float64], q_bc: NDArray[np.float64], p_bc: NDArray[np.float64],
+    pts_w: NDArray[np.float64],
+) -> NDArray[np.float64]:
     """World points ``(M, 3)`` in the camera frame ``(M, 3)`` for body pose ``(q_wb, p_wb)`` and extrinsic."""
     pts_b = dp.quat_rotate(dp.quat_conj(q_wb), pts_w - p_wb)
     return dp.quat_rotate(dp.quat_conj(q_bc), pts_b - p_bc)
 
 
 def _make_frames(
-    traj, landmarks, camera, q_bc, p_bc, rng, rate, phase, sigma, per_frame, outlier_fraction, dropouts, offset
+    traj: SmoothMotion, landmarks: NDArray[np.float64], camera: PinholeModel, q_bc: NDArray[np.float64],
+    p_bc: NDArray[np.float64], rng: np.random.Generator, rate: float, phase: float, sigma: float, per_frame: int,
+    outlier_fraction: float, dropouts: tuple[tuple[float, float], ...], offset: float,
 ) -> CameraFrames:
     t_true = np.arange(phase, traj.duration + 1e-12, 1.0 / rate)
     keep = np.ones(len(t_true), bool)
@@ -294,7 +301,7 @@ def observe_landmarks(
     }
 
 
-def simulate_eight(seed: int = 0, **kwargs) -> SimulatedRun:
+def simulate_eight(seed: int = 0, **kwargs: Any) -> SimulatedRun:
     """Hol's eight-shaped run (:func:`eight_motion`) with the default sensors; ``kwargs`` go to :func:`simulate`."""
     return simulate(eight_motion(), seed=seed, **kwargs)
 

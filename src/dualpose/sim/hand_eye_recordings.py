@@ -20,9 +20,11 @@ stream's own clock (the body clock starts at 1.6e9 s).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 import dualpose as dp
 
@@ -65,11 +67,15 @@ class HandEyeRecording:
     time_offset: float
 
 
-def _waypoint_motion(rng: np.random.Generator, duration: float, n: int, rot_amp: float, pos_amp: float, dwell: float):
+def _waypoint_motion(
+    rng: np.random.Generator, duration: float, n: int, rot_amp: float, pos_amp: float, dwell: float,
+) -> Callable[[NDArray[np.float64]], tuple[NDArray[np.float64], NDArray[np.float64]]]:
+    """``pose(t)``: ``(q (n, 4) xyzw, p (n, 3) m)`` through ``n`` random waypoints, dwelling ``dwell`` of each
+    segment (``duration`` s in all)."""
     rv, pos = rng.normal(scale=rot_amp, size=(n, 3)), rng.normal(scale=pos_amp, size=(n, 3))
     seg = duration / (n - 1)
 
-    def pose(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def pose(t: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         k = np.clip((t // seg).astype(int), 0, n - 2)
         u = np.clip((t - k * seg - dwell * seg) / ((1.0 - dwell) * seg), 0.0, 1.0)
         s = 10 * u**3 - 15 * u**4 + 6 * u**5

@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 import dualpose as dp
 from dualpose.sim._imu_truth import FIELD_ENU, central_body_rate
@@ -20,7 +21,7 @@ from dualpose.types.imu import STANDARD_GRAVITY
 __all__ = ["FIELD_ENU", "LaggedRecording", "tumbling_quat", "tumbling_body_rate", "lagged_recording"]
 
 
-def tumbling_quat(t: np.ndarray) -> np.ndarray:
+def tumbling_quat(t: ArrayLike) -> NDArray[np.float64]:
     """Orientation body → ENU, xyzw, shape (n, 4), at the times ``t`` (s, shape (n,))."""
     t = np.asarray(t, dtype=np.float64)
     phi = np.stack(
@@ -34,7 +35,7 @@ def tumbling_quat(t: np.ndarray) -> np.ndarray:
     return dp.quat_from_rotvec(phi)
 
 
-def tumbling_body_rate(t: np.ndarray) -> np.ndarray:
+def tumbling_body_rate(t: ArrayLike) -> NDArray[np.float64]:
     """Body-frame angular rate, rad/s, shape (n, 3), of :func:`tumbling_quat` at the times ``t`` (s, shape (n,))."""
     return central_body_rate(tumbling_quat, np.asarray(t, dtype=np.float64))
 
@@ -66,7 +67,7 @@ class LaggedRecording:
     rate: float
 
 
-def _motion_time(t: np.ndarray, ramp: float) -> tuple[np.ndarray, np.ndarray]:
+def _motion_time(t: np.ndarray, ramp: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Motion time s(t) and its rate ds/dt (both (n,)): 0 before t = 0; with ``ramp`` > 0 the rate rises as
     (1 − cos(π t / ramp)) / 2 to 1 (continuous angular rate and acceleration), else it jumps to 1 at t = 0."""
     started = t >= 0.0

@@ -15,6 +15,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 import dualpose as dp
 
@@ -22,7 +23,7 @@ __all__ = ["SmoothMotion", "eight_motion", "random_motion", "look_at_quat", "def
            "CAMERA_HOME"]
 
 
-def _smoothstep(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _smoothstep(tau: np.ndarray) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Quintic smoothstep ``S = 10τ³ − 15τ⁴ + 6τ⁵`` clipped to [0, 1] and its first two derivatives."""
     inside = (tau > 0.0) & (tau < 1.0)
     t = np.clip(tau, 0.0, 1.0)
@@ -70,7 +71,7 @@ class SmoothMotion:
     period: float = 1.0
     duration: float = 1.0
 
-    def phase(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def phase(self, t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """θ(t), θ'(t), θ''(t) for times ``t`` (s), each shaped like ``t``."""
         t = np.asarray(t, dtype=np.float64)
         if self.phase_kind == "linear":
@@ -80,7 +81,7 @@ class SmoothMotion:
         return k * s, k * ds / self.period, k * dds / self.period**2
 
     @staticmethod
-    def _series(amp: np.ndarray, harm: np.ndarray, ph: np.ndarray, th: np.ndarray) -> tuple[np.ndarray, ...]:
+    def _series(amp: np.ndarray, harm: np.ndarray, ph: np.ndarray, th: np.ndarray) -> tuple[NDArray[np.float64], ...]:
         arg = harm[:, None] * th[..., None, None] + ph  # (..., K, 3)
         s, c = np.sin(arg), np.cos(arg)
         f = np.sum(amp * (s - np.sin(ph)), axis=-2)
@@ -88,7 +89,7 @@ class SmoothMotion:
         ddf = -np.sum(amp * harm[:, None] ** 2 * s, axis=-2)
         return f, df, ddf
 
-    def kinematics(self, t: np.ndarray) -> dict[str, np.ndarray]:
+    def kinematics(self, t: np.ndarray) -> dict[str, NDArray[np.float64]]:
         """Exact ground truth at times ``t`` (shape (N,)).
 
         Returns
@@ -109,7 +110,7 @@ class SmoothMotion:
         return {"position": pos, "velocity": vel, "acceleration": acc, "quat": q, "omega": omega}
 
 
-def look_at_quat(eye: np.ndarray, target: np.ndarray, up: np.ndarray = (0.0, 0.0, 1.0)) -> np.ndarray:
+def look_at_quat(eye: ArrayLike, target: ArrayLike, up: ArrayLike = (0.0, 0.0, 1.0)) -> NDArray[np.float64]:
     """``q_wc`` (xyzw) of a camera at ``eye`` looking at ``target`` (z forward, x right, y down, world ``up``);
     ``eye`` and ``target`` may be batches ``(..., 3)`` (then the result is ``(..., 4)``)."""
     z = np.asarray(target, float) - np.asarray(eye, float)
@@ -120,7 +121,7 @@ def look_at_quat(eye: np.ndarray, target: np.ndarray, up: np.ndarray = (0.0, 0.0
     return dp.quat_from_matrix(np.stack([x, y, z], axis=-1))
 
 
-def default_extrinsic() -> tuple[np.ndarray, np.ndarray]:
+def default_extrinsic() -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Body→camera extrinsic ``(q_bc, p_bc)``: camera axes in the body frame (IMU x ≈ optical axis, z ≈ up,
     tilted by a few degrees) and the camera centre in the body frame (metres)."""
     r_nominal = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])  # columns: x_c, y_c, z_c in b
@@ -128,7 +129,9 @@ def default_extrinsic() -> tuple[np.ndarray, np.ndarray]:
     return q, np.array([0.03, -0.012, 0.021])
 
 
-def extrinsic_arrays(extrinsic: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
+def extrinsic_arrays(
+    extrinsic: tuple[np.ndarray, np.ndarray] | None,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The extrinsic ``(q_bc (4,) xyzw, p_bc (3,) m)`` as float arrays; :func:`default_extrinsic` when None."""
     q_bc, p_bc = default_extrinsic() if extrinsic is None else extrinsic
     return np.asarray(q_bc, float), np.asarray(p_bc, float)
@@ -136,7 +139,7 @@ def extrinsic_arrays(extrinsic: tuple[np.ndarray, np.ndarray] | None) -> tuple[n
 
 def body_from_camera(
     q_wc: np.ndarray, c_w: np.ndarray, q_bc: np.ndarray, p_bc: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Body poses ``(q_wb (..., 4) xyzw, p_wb (..., 3) m)`` of camera poses ``(q_wc (..., 4), c_w (..., 3))`` with
     the extrinsic ``(q_bc, p_bc)`` (camera axes and centre in the body frame)."""
     q_wb = dp.quat_mul(q_wc, dp.quat_conj(q_bc))
@@ -147,7 +150,7 @@ SCENE_TARGET = np.array([0.0, 0.35, 0.35])
 CAMERA_HOME = np.array([0.0, 1.45, 0.85])
 
 
-def _home_body_pose(extrinsic: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
+def _home_body_pose(extrinsic: tuple[np.ndarray, np.ndarray] | None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Body pose ``(q_wb, p_wb)`` whose camera (extrinsic, default :func:`default_extrinsic`) sits at
     :data:`CAMERA_HOME` looking at :data:`SCENE_TARGET`: where the motions start."""
     q_bc, p_bc = default_extrinsic() if extrinsic is None else extrinsic

@@ -23,6 +23,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 import dualpose as dp
 from dualpose.sim._imu_truth import FIELD_ENU, central_body_rate
@@ -69,14 +70,14 @@ class RestBreakRecording:
     mag_sigma: float
 
     @property
-    def scored(self) -> np.ndarray:
+    def scored(self) -> NDArray[np.bool_]:
         """Samples after the initial rest period (segments and breaks), bool (n,)."""
         s = np.zeros(self.gyr.shape[0], dtype=bool)
         s[self.n_rest :] = True
         return s
 
 
-def _motion_clock(t: np.ndarray, segments: np.ndarray, ramp: float) -> np.ndarray:
+def _motion_clock(t: np.ndarray, segments: np.ndarray, ramp: float) -> NDArray[np.float64]:
     """u(t) (s): the time spent moving so far, with u̇ = sin²(π τ / 2) over the ``ramp`` seconds at each end."""
     u = np.zeros_like(t)
     for s, e in segments:  # a handful of segments: a loop over segments, not samples
@@ -94,7 +95,7 @@ def _motion_clock(t: np.ndarray, segments: np.ndarray, ramp: float) -> np.ndarra
     return u
 
 
-def _rotvec(u: np.ndarray) -> np.ndarray:
+def _rotvec(u: np.ndarray) -> NDArray[np.float64]:
     return np.stack(
         [
             1.0 * np.sin(2 * np.pi * 0.031 * u + 0.3),
@@ -169,7 +170,7 @@ def rest_break_recording(
     ends = segments[:-1, 1]
     creep_rates = np.zeros((n_breaks, 3))
 
-    def quat_at(times: np.ndarray) -> np.ndarray:
+    def quat_at(times: np.ndarray) -> NDArray[np.float64]:
         q = dp.quat_from_rotvec(_rotvec(_motion_clock(times, segments, ramp)))
         if not creep:
             return q

@@ -10,14 +10,17 @@ the filters' ``camera_time_offset``).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 __all__ = ["CameraImuCalibration"]
 
 
-def _vector(value: object, name: str, n: int) -> np.ndarray:
+def _vector(value: object, name: str, n: int) -> NDArray[np.float64]:
     a = np.asarray(value, dtype=np.float64)
     if a.shape != (n,) or not np.isfinite(a).all():
         raise ValueError(f"{name} must be {n} finite numbers; got {value!r}")
@@ -61,7 +64,7 @@ class CameraImuCalibration:
     gyro_bias: np.ndarray | None = None
     accel_bias: np.ndarray | None = None
     gravity_target: np.ndarray | None = None
-    std: dict = field(default_factory=dict)
+    std: dict[str, Any] = field(default_factory=dict)
     gyro_axes_matrix: np.ndarray | None = None
     accel_axes_matrix: np.ndarray | None = None
 
@@ -101,9 +104,9 @@ class CameraImuCalibration:
         if not isinstance(self.std, dict):
             raise ValueError(f"std must be a mapping of names to standard deviations; got {type(self.std).__name__}")
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         """The JSON-ready mapping of the calibration file (keys as the attributes; None for absent biases)."""
-        def arr(v):
+        def arr(v: Iterable[float] | None) -> list[float] | None:
             return None if v is None else [float(x) for x in v]
 
         return {
@@ -120,7 +123,7 @@ class CameraImuCalibration:
             "accel_axes_matrix": None if self.accel_axes_matrix is None else [arr(r) for r in self.accel_axes_matrix],
         }
 
-    def corrected_imu(self, gyro: np.ndarray, accel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def corrected_imu(self, gyro: ArrayLike, accel: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The IMU samples with the axis models removed: ``(M_g⁻¹ ω̃, M_a⁻¹ f̃)`` (each (..., 3), rad/s and m/s²,
         body axes; the biases stay in, in the corrected axes, as the filters model them).  Unchanged copies (as
         float64) when the calibration states no axis model.  Elementwise arithmetic in a fixed order, so one sample
@@ -128,11 +131,11 @@ class CameraImuCalibration:
         return _apply_inverse(self.gyro_axes_matrix, gyro), _apply_inverse(self.accel_axes_matrix, accel)
 
 
-def _apply_inverse(M: np.ndarray | None, x) -> np.ndarray:
-    x = np.array(x, dtype=np.float64)
+def _apply_inverse(M: np.ndarray | None, samples: ArrayLike) -> NDArray[np.float64]:
+    x = np.array(samples, dtype=np.float64)
     if M is None:
         return x
     if x.shape[-1:] != (3,):
         raise ValueError(f"IMU samples must have 3 components on the last axis; got shape {x.shape}")
-    W = np.linalg.inv(M)
+    W = np.linalg.inv(np.asarray(M, dtype=np.float64))
     return x[..., 0:1] * W[:, 0] + x[..., 1:2] * W[:, 1] + x[..., 2:3] * W[:, 2]

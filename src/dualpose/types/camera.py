@@ -8,8 +8,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 __all__ = ["PinholeModel", "PinholeCamera", "CameraIntrinsics", "CameraFrame", "FrameCorrespondences"]
 
@@ -18,12 +20,27 @@ class PinholeModel:
     """Projection shared by the pinhole cameras; a subclass provides ``fx``, ``fy``, ``cx``, ``cy`` (pixels) and
     ``width``, ``height``.  Pixel ``u = fx X/Z + cx``, ``v = fy Y/Z + cy`` (camera frame, metres)."""
 
+    if TYPE_CHECKING:  # what every subclass provides (dataclass fields or properties), declared for type checkers
+
+        @property
+        def fx(self) -> float: ...
+        @property
+        def fy(self) -> float: ...
+        @property
+        def cx(self) -> float: ...
+        @property
+        def cy(self) -> float: ...
+        @property
+        def width(self) -> int: ...
+        @property
+        def height(self) -> int: ...
+
     @property
-    def matrix(self) -> np.ndarray:
+    def matrix(self) -> NDArray[np.float64]:
         """Intrinsic matrix ``K``, shape (3, 3), pixels."""
         return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
 
-    def project(self, points_c: np.ndarray) -> np.ndarray:
+    def project(self, points_c: ArrayLike) -> NDArray[np.float64]:
         """Pixels ``(..., 2)`` of camera-frame points ``(..., 3)`` (metres; Z must be > 0)."""
         p = np.asarray(points_c, dtype=np.float64)
         if p.shape[-1:] != (3,):
@@ -135,7 +152,7 @@ class FrameCorrespondences:
     def __len__(self) -> int:
         return len(self.t)
 
-    def frame(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+    def frame(self, k: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``(pixels (m, 2), points (m, 3))`` of frame ``k``."""
         a, b = self.offsets[k], self.offsets[k + 1]
         return self.pixels[a:b], self.points[a:b]
@@ -145,6 +162,6 @@ class FrameCorrespondences:
         return CameraFrame(float(self.t[k]), *self.frame(k))
 
     @property
-    def counts(self) -> np.ndarray:
+    def counts(self) -> NDArray[np.int64]:
         """Number of correspondences per frame, shape (F,)."""
         return np.diff(self.offsets)

@@ -33,10 +33,12 @@ raise a ``ValueError`` (or, with ``return_valid=True``, come back as NaN with ``
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, Literal, overload
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from dualpose import _native
 from dualpose.types.camera import CameraIntrinsics, PinholeModel
@@ -57,9 +59,11 @@ UNDISTORT_TOLERANCE = 1e-12
 UNDISTORT_MAX_ITERATIONS = 50
 # outputs of the compiled inversion (src/native/types/cameras.cpp)
 _UNDISTORTED, _RAY, _IDEAL_PIXELS = 0, 1, 2
+#: the inverse with ``return_valid=True``: the values (NaN where invalid) and the bool mask of the valid points
+_WithValid = tuple[NDArray[np.float64], NDArray[np.bool_]]
 
 
-def _points(points_c: object, name: str = "points_c") -> np.ndarray:
+def _points(points_c: object, name: str = "points_c") -> NDArray[np.float64]:
     p = np.asarray(points_c, dtype=np.float64)
     if p.shape[-1:] != (3,):
         raise ValueError(f"{name} must have shape (..., 3) (camera-frame X, Y, Z in metres); got {p.shape}")
@@ -68,7 +72,7 @@ def _points(points_c: object, name: str = "points_c") -> np.ndarray:
     return p
 
 
-def _planar(xy: object, name: str, what: str) -> np.ndarray:
+def _planar(xy: object, name: str, what: str) -> NDArray[np.float64]:
     a = np.asarray(xy, dtype=np.float64)
     if a.shape[-1:] != (2,):
         raise ValueError(f"{name} must have shape (..., 2) ({what}); got {a.shape}")
@@ -82,8 +86,17 @@ def _first_bad(bad: np.ndarray) -> str:
     return f"{int(bad.sum())} of {bad.size} (first at index {tuple(int(i) for i in idx)})"
 
 
+class _KernelRow(PinholeModel):
+    """What :class:`DistortedCamera` sets in ``__post_init__`` besides its dataclass fields (declared here, in a
+    class that is not a dataclass, so that they stay out of the fields): the kernels' parameter row and the bound
+    of the invertible region."""
+
+    _params: NDArray[np.float64]
+    _bound: float
+
+
 @dataclass(frozen=True)
-class DistortedCamera(PinholeModel):
+class DistortedCamera(_KernelRow):
     """What the distorted pinhole cameras share (the projection API); see the module docstring for the models.
 
     A subclass is a frozen dataclass that adds the fields ``<4 distortion coefficients>, width, height`` to
@@ -103,6 +116,7 @@ class DistortedCamera(PinholeModel):
     DISTORTION_NAMES: ClassVar[tuple[str, str, str, str]]
     _KERNELS: ClassVar[str]
     _PROJECTABLE: ClassVar[str]
+    _MODEL_ID: ClassVar[int]
 
     def __post_init__(self) -> None:
         for name in ("fx", "fy", "cx", "cy", *self.DISTORTION_NAMES):
@@ -122,25 +136,28 @@ class DistortedCamera(PinholeModel):
         object.__setattr__(self, "_bound", self._limit())
 
     def _kernel(self, name: str) -> np.ufunc:
-        return getattr(_native, f"{self._KERNELS}_{name}")
+        result: np.ufunc = getattr(_native, f"{self._KERNELS}_{name}")
+        return result
 
     # ------------------------------------------------------------------ parameters
     @property
     def distortion(self) -> tuple[float, float, float, float]:
         """The four distortion coefficients, in the order of ``DISTORTION_NAMES``."""
-        return tuple(getattr(self, n) for n in self.DISTORTION_NAMES)  # type: ignore[return-value]
+        d1, d2, d3, d4 = (getattr(self, n) for n in self.DISTORTION_NAMES)
+        return d1, d2, d3, d4
 
     @property
-    def parameters(self) -> np.ndarray:
+    def parameters(self) -> NDArray[np.float64]:
         """``[fx, fy, cx, cy, d1, d2, d3, d4]``, shape (8,): the order of :meth:`intrinsics_jacobian`'s columns."""
-        return self._params.copy()
+        result: NDArray[np.float64] = self._params.copy()
+        return result
 
     def pinhole(self) -> CameraIntrinsics:
         """The undistorted pinhole camera with the same ``fx, fy, cx, cy, width, height``."""
         return CameraIntrinsics(self.fx, self.fy, self.cx, self.cy, self.width, self.height)
 
     # ------------------------------------------------------------------ projection
-    def project(self, points_c: np.ndarray) -> np.ndarray:
+    def project(self, points_c: ArrayLike) -> NDArray[np.float64]:
         """Pixels ``(..., 2)`` of camera-frame points ``points_c`` ``(..., 3)`` (metres).
 
         Raises
@@ -149,28 +166,52 @@ class DistortedCamera(PinholeModel):
             Shape not ``(..., 3)``, non-finite values, or points the model cannot project (radtan: Z <= 0;
             equi: on the optical axis behind or at the centre, ``X = Y = 0, Z <= 0``), naming ``points_c``.
         """
-        return self._kernel("project")(self._params, self._checked_points(points_c))
+        result: NDArray[np.float64] = self._kernel("project")(self._params, self._checked_points(points_c))
+        return result
 
-    def project_jacobian(self, points_c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def project_jacobian(self, points_c: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Pixels ``(..., 2)`` and their derivative with respect to the camera-frame point, ``(..., 2, 3)``
         (pixels per metre; rows ``u, v``, columns ``X, Y, Z``).  Same input rules as :meth:`project`."""
-        return self._kernel("project_jacobian")(self._params, self._checked_points(points_c))
+        result: tuple[NDArray[np.float64], NDArray[np.float64]] = (
+            self._kernel("project_jacobian")(self._params, self._checked_points(points_c))
+        )
+        return result
 
-    def intrinsics_jacobian(self, points_c: np.ndarray) -> np.ndarray:
+    def intrinsics_jacobian(self, points_c: ArrayLike) -> NDArray[np.float64]:
         """Derivative of the pixels of ``points_c`` ``(..., 3)`` with respect to :attr:`parameters`
         ``(fx, fy, cx, cy, d1, d2, d3, d4)``, shape ``(..., 2, 8)`` (rows ``u, v``)."""
-        return self._kernel("intrinsics_jacobian")(self._params, self._checked_points(points_c))
+        result: NDArray[np.float64] = self._kernel("intrinsics_jacobian")(self._params, self._checked_points(points_c))
+        return result
 
-    def distort(self, xy: np.ndarray) -> np.ndarray:
+    def distort(self, xy: ArrayLike) -> NDArray[np.float64]:
         """Distorted normalised coordinates ``(..., 2)`` of undistorted normalised ``xy = (X/Z, Y/Z)`` ``(..., 2)``."""
-        return self._kernel("distort")(self._params, _planar(xy, "xy", "undistorted normalised x, y"))[0]
+        result: NDArray[np.float64] = (
+            self._kernel("distort")(self._params, _planar(xy, "xy", "undistorted normalised x, y"))[0]
+        )
+        return result
 
-    def distort_jacobian(self, xy: np.ndarray) -> np.ndarray:
+    def distort_jacobian(self, xy: ArrayLike) -> NDArray[np.float64]:
         """``d distort(xy) / d xy``, shape ``(..., 2, 2)`` (rows ``x_d, y_d``, columns ``x, y``)."""
-        return self._kernel("distort")(self._params, _planar(xy, "xy", "undistorted normalised x, y"))[1]
+        result: NDArray[np.float64] = (
+            self._kernel("distort")(self._params, _planar(xy, "xy", "undistorted normalised x, y"))[1]
+        )
+        return result
+
+    # ------------------------------------------------------------------ model (each subclass)
+    def _limit(self) -> float:
+        """The bound of the invertible region (radtan: largest undistorted r², equi: largest θ)."""
+        raise NotImplementedError
+
+    def _unprojectable(self, p: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """True where the camera-frame point ``p`` (..., 3) cannot be projected by the model."""
+        raise NotImplementedError
 
     # ------------------------------------------------------------------ inverse
-    def undistort(self, xy_d: np.ndarray, *, return_valid: bool = False):
+    @overload
+    def undistort(self, xy_d: ArrayLike, *, return_valid: Literal[False] = False) -> NDArray[np.float64]: ...
+    @overload
+    def undistort(self, xy_d: ArrayLike, *, return_valid: Literal[True]) -> _WithValid: ...
+    def undistort(self, xy_d: ArrayLike, *, return_valid: bool = False) -> NDArray[np.float64] | _WithValid:
         """Undistorted normalised coordinates ``(..., 2)`` of distorted normalised ``xy_d`` ``(..., 2)`` (the inverse
         of :meth:`distort`, by Newton's method to a residual below :data:`UNDISTORT_TOLERANCE`).
 
@@ -188,23 +229,35 @@ class DistortedCamera(PinholeModel):
         """
         return self._invert(_planar(xy_d, "xy_d", "distorted normalised x_d, y_d"), False, _UNDISTORTED, return_valid)
 
-    def unproject(self, pixels: np.ndarray, *, return_valid: bool = False):
+    @overload
+    def unproject(self, pixels: ArrayLike, *, return_valid: Literal[False] = False) -> NDArray[np.float64]: ...
+    @overload
+    def unproject(self, pixels: ArrayLike, *, return_valid: Literal[True]) -> _WithValid: ...
+    def unproject(self, pixels: ArrayLike, *, return_valid: bool = False) -> NDArray[np.float64] | _WithValid:
         """Undistorted normalised coordinates ``(X/Z, Y/Z)`` ``(..., 2)`` of ``pixels`` ``(..., 2)``; failure rules
         of :meth:`undistort` (naming ``pixels``)."""
         return self._invert(_planar(pixels, "pixels", "u, v in pixels"), True, _UNDISTORTED, return_valid)
 
-    def bearing(self, pixels: np.ndarray, *, return_valid: bool = False):
+    @overload
+    def bearing(self, pixels: ArrayLike, *, return_valid: Literal[False] = False) -> NDArray[np.float64]: ...
+    @overload
+    def bearing(self, pixels: ArrayLike, *, return_valid: Literal[True]) -> _WithValid: ...
+    def bearing(self, pixels: ArrayLike, *, return_valid: bool = False) -> NDArray[np.float64] | _WithValid:
         """Unit rays ``(..., 3)`` in the camera frame through ``pixels`` ``(..., 2)``; failure rules of
         :meth:`undistort` (naming ``pixels``)."""
         return self._invert(_planar(pixels, "pixels", "u, v in pixels"), True, _RAY, return_valid)
 
-    def ideal_pixels(self, pixels: np.ndarray, *, return_valid: bool = False):
+    @overload
+    def ideal_pixels(self, pixels: ArrayLike, *, return_valid: Literal[False] = False) -> NDArray[np.float64]: ...
+    @overload
+    def ideal_pixels(self, pixels: ArrayLike, *, return_valid: Literal[True]) -> _WithValid: ...
+    def ideal_pixels(self, pixels: ArrayLike, *, return_valid: bool = False) -> NDArray[np.float64] | _WithValid:
         """The pixels ``(..., 2)`` of the same rays in the undistorted pinhole camera :meth:`pinhole`
         (``K · unproject(pixels)``): what the pinhole-model filters consume.  Failure rules of :meth:`undistort`."""
         return self._invert(_planar(pixels, "pixels", "u, v in pixels"), True, _IDEAL_PIXELS, return_valid)
 
     # ------------------------------------------------------------------ helpers
-    def _checked_points(self, points_c: object) -> np.ndarray:
+    def _checked_points(self, points_c: object) -> NDArray[np.float64]:
         p = _points(points_c)
         bad = self._unprojectable(p)
         if bad.any():
@@ -214,11 +267,13 @@ class DistortedCamera(PinholeModel):
             )
         return p
 
-    def _invert(self, src: np.ndarray, from_pixels: bool, output: int, return_valid: bool):
+    def _invert(
+        self, src: NDArray[np.float64], from_pixels: bool, output: int, return_valid: bool,
+    ) -> NDArray[np.float64] | _WithValid:
         """The compiled Newton inversion (``_native.camera_invert``) of ``src`` (..., 2): pixels or distorted
         normalised coordinates, to undistorted normalised coordinates, unit rays or ideal pixels."""
         flat = np.ascontiguousarray(src.reshape(-1, 2))
-        out = np.empty((len(flat), 3 if output == _RAY else 2))
+        out: NDArray[np.float64] = np.empty((len(flat), 3 if output == _RAY else 2))
         valid = np.empty(len(flat), dtype=np.int64)
         _native.camera_invert(self._MODEL_ID, int(from_pixels), output, self._params, self._bound, flat, out, valid)
         out = out.reshape(src.shape[:-1] + out.shape[-1:])
@@ -269,13 +324,14 @@ class RadTanCamera(DistortedCamera):
     @property
     def max_radius2(self) -> float:
         """Largest undistorted ``r² = x² + y²`` of the invertible region (inf when the radial part is monotone)."""
-        return self._bound
+        result: float = self._bound
+        return result
 
     def _limit(self) -> float:
         # the first r² where d/dr [r (1 + k1 r² + k2 r⁴)] = 1 + 3 k1 r² + 5 k2 r⁴ vanishes
         return _first_positive_root([5.0 * self.k2, 3.0 * self.k1, 1.0])
 
-    def _unprojectable(self, p: np.ndarray) -> np.ndarray:
+    def _unprojectable(self, p: np.ndarray) -> NDArray[np.bool_]:
         return ~(p[..., 2] > 0.0)
 
 
@@ -308,21 +364,23 @@ class EquidistantCamera(DistortedCamera):
     def max_angle(self) -> float:
         """Largest ray angle θ from the optical axis (radians) of the invertible region: the first zero of
         ``dθ_d/dθ``, or π."""
-        return self._bound
+        result: float = self._bound
+        return result
 
     def _limit(self) -> float:
         # the first θ in (0, π) where dθ_d/dθ = 1 + 3 k1 θ² + 5 k2 θ⁴ + 7 k3 θ⁶ + 9 k4 θ⁸ vanishes, else π
         s = _first_positive_root([9.0 * self.k4, 7.0 * self.k3, 5.0 * self.k2, 3.0 * self.k1, 1.0])
         return min(math.sqrt(s), math.pi)
 
-    def _unprojectable(self, p: np.ndarray) -> np.ndarray:
-        return (p[..., 0] == 0.0) & (p[..., 1] == 0.0) & ~(p[..., 2] > 0.0)
+    def _unprojectable(self, p: np.ndarray) -> NDArray[np.bool_]:
+        result: NDArray[np.bool_] = (p[..., 0] == 0.0) & (p[..., 1] == 0.0) & ~(p[..., 2] > 0.0)
+        return result
 
 
 # ---------------------------------------------------------------------------------------------- factory
 
 #: accepted model names (lower case) -> camera class
-CAMERA_MODEL_NAMES: dict[str, type[DistortedCamera]] = {
+CAMERA_MODEL_NAMES: dict[str, type[RadTanCamera] | type[EquidistantCamera]] = {
     "radtan": RadTanCamera,
     "radial-tangential": RadTanCamera,
     "pinhole-radtan": RadTanCamera,
@@ -335,7 +393,7 @@ CAMERA_MODEL_NAMES: dict[str, type[DistortedCamera]] = {
 
 
 def camera_from_parameters(
-    model: str, intrinsics, distortion, width: int, height: int
+    model: str, intrinsics: Iterable[float], distortion: Iterable[float], width: int, height: int
 ) -> RadTanCamera | EquidistantCamera:
     """A distorted camera from a calibration file's fields.
 
@@ -354,7 +412,7 @@ def camera_from_parameters(
     if not isinstance(model, str) or model.strip().lower() not in CAMERA_MODEL_NAMES:
         raise ValueError(f"model must be one of {sorted(CAMERA_MODEL_NAMES)}; got {model!r}")
     cls = CAMERA_MODEL_NAMES[model.strip().lower()]
-    values = {}
+    values: dict[str, list[float]] = {}
     for name, seq, n in (("intrinsics", intrinsics, 4), ("distortion", distortion, 4)):
         try:
             a = [float(v) for v in seq]
@@ -363,4 +421,5 @@ def camera_from_parameters(
         if len(a) != n:
             raise ValueError(f"{name} must have {n} values for the {cls.model} model; got {len(a)}")
         values[name] = a
-    return cls(*values["intrinsics"], *values["distortion"], width, height)  # type: ignore[call-arg]
+    (fx, fy, cx, cy), (d1, d2, d3, d4) = values["intrinsics"], values["distortion"]
+    return cls(fx, fy, cx, cy, d1, d2, d3, d4, width, height)

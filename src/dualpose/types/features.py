@@ -14,10 +14,14 @@ with a camera model (:mod:`dualpose.types.camera_models`, its ``unproject``).  T
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
+from dualpose.types.camera import PinholeModel
 from dualpose.types.imu import ImuNoise
 
 __all__ = ["TrackFrame", "FeatureTracks", "TrackRecording"]
@@ -97,11 +101,11 @@ class FeatureTracks:
         a, b = self.offsets[k], self.offsets[k + 1]
         return TrackFrame(float(self.t[k]), self.track_id[a:b], self.uv[a:b])
 
-    def __iter__(self):
+    def __iter__(self) -> Iterator[TrackFrame]:
         return (self.frame(k) for k in range(len(self)))
 
     @property
-    def counts(self) -> np.ndarray:
+    def counts(self) -> NDArray[np.int64]:
         """Observations per frame (F,)."""
         return np.diff(self.offsets)
 
@@ -116,7 +120,7 @@ class FeatureTracks:
 
     @classmethod
     def from_pixels(cls, t: np.ndarray, offsets: np.ndarray, track_id: np.ndarray, pixels: np.ndarray,
-                    camera) -> FeatureTracks:  # fmt: skip
+                    camera: PinholeModel) -> FeatureTracks:  # fmt: skip
         """Tracks from raw pixels (M, 2) and a camera model with ``unproject(pixels, return_valid=True)`` returning
         normalised coordinates (:class:`~dualpose.types.RadTanCamera`, :class:`~dualpose.types.EquidistantCamera`) or
         a pinhole with ``fx, fy, cx, cy``.  Pixels the model cannot undistort raise a ``ValueError``."""
@@ -172,7 +176,7 @@ class TrackRecording:
     time_offset: float = 0.0
     focal_length: float = float("nan")
     t0: float = 0.0
-    meta: dict = field(default_factory=dict)
+    meta: dict[str, Any] = field(default_factory=dict)
     name: str = ""
 
     def __post_init__(self) -> None:

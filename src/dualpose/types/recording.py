@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field, fields
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -60,7 +60,7 @@ class SensorRun(Protocol):
     frames: FrameCorrespondences
     imu_noise: ImuNoise
 
-    def sensor_options(self) -> dict:
+    def sensor_options(self) -> dict[str, Any]:
         """Keyword arguments for a filter: ``imu_noise``, ``camera``, ``q_bc``, ``p_bc``, ``pixel_sigma``,
         ``camera_time_offset``."""
         ...
@@ -123,7 +123,7 @@ class Recording:
     ground_truth: Trajectory | None = None
     stamps_ns: np.ndarray | None = None
     name: str = ""
-    info: dict = field(default_factory=dict)
+    info: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.t = np.ascontiguousarray(self.t, dtype=np.float64)
@@ -155,7 +155,7 @@ class Recording:
         """``t[-1] − t[0]``, seconds."""
         return float(self.t[-1] - self.t[0])
 
-    def sensor_options(self) -> dict:
+    def sensor_options(self) -> dict[str, Any]:
         """Keyword arguments configuring a filter for this recording (IMU noise, gravity, camera, extrinsic,
         pixel σ, time offset); the counterpart of :meth:`SimulatedRun.sensor_options
         <dualpose.sim.SimulatedRun.sensor_options>`."""
@@ -257,7 +257,7 @@ def _check_setup(s: Recording | SensorSetup) -> None:
         raise ValueError(f"imu_noise.update_rate must be > 0 Hz; got {s.imu_noise.update_rate!r}")
 
 
-def _sensor_options(s: Recording | SensorSetup) -> dict:
+def _sensor_options(s: Recording | SensorSetup) -> dict[str, Any]:
     return {
         "imu_noise": s.imu_noise,
         "gravity": s.gravity,
@@ -325,6 +325,6 @@ class SensorSetup:
         return cls(camera=r.camera, q_bc=r.q_bc, p_bc=r.p_bc, pixel_sigma=r.pixel_sigma, imu_noise=r.imu_noise,
                    start=start, time_offset=r.time_offset, gravity=r.gravity)  # fmt: skip
 
-    def sensor_options(self) -> dict:
+    def sensor_options(self) -> dict[str, Any]:
         """Keyword arguments configuring a filter for this set-up (as :meth:`Recording.sensor_options`)."""
         return _sensor_options(self)

@@ -8,8 +8,10 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from dualpose.types.camera import FrameCorrespondences
 from dualpose.types.camera_models import DistortedCamera
@@ -71,11 +73,11 @@ class TargetDetections:
         return len(self.stamps_ns)
 
     @property
-    def counts(self) -> np.ndarray:
+    def counts(self) -> NDArray[np.int64]:
         """Corners per frame, shape (F,) int64."""
         return np.diff(self.offsets)
 
-    def frame(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+    def frame(self, k: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``(pixels (m, 2), points (m, 3))`` of frame ``k``."""
         a, b = self.offsets[k], self.offsets[k + 1]
         return self.pixels[a:b], self.points[a:b]
@@ -105,7 +107,7 @@ class TargetDetections:
         offsets = np.concatenate([[0], np.cumsum(np.bincount(frame_of_row[valid], minlength=len(self)))])
         return FrameCorrespondences(self.t.copy(), offsets.astype(np.int64), pixels[valid], self.points[valid])
 
-    def select(self, frames: np.ndarray) -> TargetDetections:
+    def select(self, frames: ArrayLike) -> TargetDetections:
         """A new :class:`TargetDetections` with the frames where the boolean mask ``frames`` (F,) is true."""
         mask = np.asarray(frames)
         if mask.dtype != bool or mask.shape != (len(self),):
@@ -147,15 +149,15 @@ class RigSensors:
     path : str
     """
 
-    cameras: dict
-    camera_rates: dict
+    cameras: dict[str, DistortedCamera]
+    camera_rates: dict[str, float]
     imu_noise: ImuNoise | None
     imu_rate: float
     gravity_magnitude: float
-    camera_extrinsics: dict
-    T_cam_imu: dict = field(default_factory=dict)
-    time_offsets: dict = field(default_factory=dict)
-    target: dict = field(default_factory=dict)
+    camera_extrinsics: dict[tuple[str, str], NDArray[np.float64]]
+    T_cam_imu: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+    time_offsets: dict[str, float] = field(default_factory=dict)
+    target: dict[str, Any] = field(default_factory=dict)
     path: str = ""
 
     def camera(self, name: str) -> DistortedCamera:
@@ -165,11 +167,11 @@ class RigSensors:
         return self.cameras[name]
 
     @property
-    def T_cam0_cam1(self) -> np.ndarray:
+    def T_cam0_cam1(self) -> NDArray[np.float64]:
         """Pose of ``cam1`` in ``cam0``, (4, 4) (``x_cam0 = T x_cam1``)."""
         return self.relative_pose("cam0", "cam1")
 
-    def relative_pose(self, a: str, b: str) -> np.ndarray:
+    def relative_pose(self, a: str, b: str) -> NDArray[np.float64]:
         """``T_a_b`` (4, 4): the pose of camera ``b`` in camera ``a`` (``x_a = T_a_b x_b``), from the stated
         extrinsics (directly, inverted, or chained through the cameras' ``T_cam_imu``)."""
         for name in (a, b):
@@ -183,11 +185,12 @@ class RigSensors:
         if a in self.T_cam_imu and b in self.T_cam_imu:
             return self.T_cam_imu[a] @ _inverse(self.T_cam_imu[b])
         # chain along stated pairs (breadth-first over the camera graph)
-        edges: dict[str, list[tuple[str, np.ndarray]]] = {}
+        edges: dict[str, list[tuple[str, NDArray[np.float64]]]] = {}
         for (p, q), t in self.camera_extrinsics.items():
-            edges.setdefault(p, []).append((q, np.asarray(t)))
+            edges.setdefault(p, []).append((q, np.asarray(t, dtype=np.float64)))
             edges.setdefault(q, []).append((p, _inverse(t)))
-        frontier, seen = [(a, np.eye(4))], {a}
+        frontier: list[tuple[str, NDArray[np.float64]]] = [(a, np.eye(4))]
+        seen = {a}
         while frontier:
             nxt = []
             for node, t_a_node in frontier:
@@ -203,7 +206,7 @@ class RigSensors:
         raise ValueError(f"no relative pose between cameras {a!r} and {b!r} in {self.path or 'the sensor file'}")
 
 
-def _inverse(t: np.ndarray) -> np.ndarray:
+def _inverse(t: np.ndarray) -> NDArray[np.float64]:
     t = np.asarray(t, dtype=np.float64)
     r = t[:3, :3]
     out = np.eye(4)

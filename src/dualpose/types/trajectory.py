@@ -11,14 +11,14 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 import dualpose as dp
 
 __all__ = ["Trajectory", "seconds_from_ns", "interpolate_poses", "as_positions", "as_quats", "check_same_length"]
 
 
-def seconds_from_ns(stamps_ns: ArrayLike) -> np.ndarray:
+def seconds_from_ns(stamps_ns: ArrayLike) -> NDArray[np.float64]:
     """Integer nanoseconds ``(N,)`` int64 -> float64 seconds ``(N,)``.
 
     The whole seconds and the nanosecond remainder are converted separately, so the only rounding is the final
@@ -112,7 +112,7 @@ class Trajectory:
         )
 
 
-def as_positions(x: ArrayLike, name: str) -> np.ndarray:
+def as_positions(x: ArrayLike, name: str) -> NDArray[np.float64]:
     """``x`` as finite float64 positions (N, 3), metres; errors name ``name``."""
     a = np.asarray(x, dtype=np.float64)
     if a.ndim != 2 or a.shape[1] != 3:
@@ -122,7 +122,7 @@ def as_positions(x: ArrayLike, name: str) -> np.ndarray:
     return a
 
 
-def as_quats(x: ArrayLike, name: str) -> np.ndarray:
+def as_quats(x: ArrayLike, name: str) -> NDArray[np.float64]:
     """``x`` as finite quaternions (N, 4) xyzw, normalized to unit length; errors name ``name``."""
     a = np.asarray(x, dtype=np.float64)
     if a.ndim != 2 or a.shape[1] != 4:
@@ -141,7 +141,7 @@ def check_same_length(**arrays: np.ndarray) -> None:
 
 def interpolate_poses(
     stamps: ArrayLike, positions: ArrayLike, quats: ArrayLike, at: ArrayLike
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Poses of a trajectory at other times: linear in position, slerp in orientation.
 
     Parameters

@@ -167,6 +167,44 @@ bool triangulate(const std::vector<CamPose>& cams, const std::int64_t* ci, const
     return true;
 }
 
+// One observation (normalised uv) of the world point pw in a clone: the residual res = uv − π(p_c) at the clone's
+// current pose (cl = [p_wb, q_wb], Rwb) and pw, and the Jacobians at the clone's first estimate (fe, Rf) and the
+// point's first estimate pf: Hc (2x6, row-major) with respect to the clone error [δp, δθ], Hf (2x3) with respect to
+// the world point.  False when the point is behind the camera at either linearisation point.
+inline bool observe(const double* cl, const double* Rwb, const double* fe, const double* Rf, const double* Rbc,
+                    const double* p_bc, const double* pw, const double* pf, const double* uv, double* res, double* Hc,
+                    double* Hf) {
+    double d[3] = {pw[0] - cl[0], pw[1] - cl[1], pw[2] - cl[2]}, pb[3], pc[3];
+    mul_t3(Rwb, d, pb);
+    for (int i = 0; i < 3; ++i) pb[i] -= p_bc[i];
+    mul_t3(Rbc, pb, pc);
+    if (!(pc[2] > 0.0)) return false;
+    res[0] = uv[0] - pc[0] / pc[2];
+    res[1] = uv[1] - pc[1] / pc[2];
+    for (int i = 0; i < 3; ++i) d[i] = pf[i] - fe[i];
+    mul_t3(Rf, d, pb);
+    const double pbc[3] = {pb[0] - p_bc[0], pb[1] - p_bc[1], pb[2] - p_bc[2]};
+    mul_t3(Rbc, pbc, pc);
+    if (!(pc[2] > 0.0)) return false;
+    const double iz = 1.0 / pc[2];
+    const double Jp[6] = {iz, 0.0, -pc[0] * iz * iz, 0.0, iz, -pc[1] * iz * iz};
+    double JB[6];  // ∂z/∂p_b = Jp R_bcᵀ, ∂z/∂p_w = JB R_wbᵀ
+    for (int i = 0; i < 2; ++i)
+        for (int k = 0; k < 3; ++k)
+            JB[3 * i + k] = Jp[3 * i] * Rbc[3 * k] + Jp[3 * i + 1] * Rbc[3 * k + 1] + Jp[3 * i + 2] * Rbc[3 * k + 2];
+    for (int i = 0; i < 2; ++i) {
+        const double* jb = JB + 3 * i;
+        for (int k = 0; k < 3; ++k) {
+            Hf[3 * i + k] = jb[0] * Rf[3 * k] + jb[1] * Rf[3 * k + 1] + jb[2] * Rf[3 * k + 2];
+            Hc[6 * i + k] = -Hf[3 * i + k];
+        }
+        Hc[6 * i + 3] = jb[1] * pb[2] - jb[2] * pb[1];  // ∂p_b/∂δθ = [p_b]×
+        Hc[6 * i + 4] = jb[2] * pb[0] - jb[0] * pb[2];
+        Hc[6 * i + 5] = jb[0] * pb[1] - jb[1] * pb[0];
+    }
+    return true;
+}
+
 // One propagation step (eskf::predict_transition's nominal state) whose transition F is evaluated at the first
 // estimates x0 of the start position, velocity and attitude (FEJ; Huang, Mourikis & Roumeliotis 2010; OpenVINS'
 // propagator): with R0 = R(q0) and the new state x,
@@ -240,32 +278,44 @@ PyObject* py_propagate(PyObject*, PyObject* args) {
 
 // msckf_features(clones (C, 7), clones_fej (C, 7), q_bc, p_bc, offsets (G + 1,), obs_clone (M,), obs_uv (M, 2), P
 // (n, n), sigma, chi2 (D,), limits (3,) = [min_depth, max_depth, min_parallax], H (R, n), r (R,), rvar (R,),
-// status (G,), nis (G,)) -> rows: the stacked nullspace-projected rows of the accepted features (rvar their prior
-// variances (H P Hᵀ)_ii, without the noise) (status 1 accepted, 0 rejected
-// by the gate, -1 triangulation failed, -2 too few observations); chi2[d] the gate for d degrees of freedom.
+// status (G,), nis (G,), points (G, 3), top (G, 3, n + 4)) -> rows: the stacked nullspace-projected rows of the accepted features (rvar
+// their prior variances (H P Hᵀ)_ii, without the noise) (status 1 accepted, 0 rejected by the gate, -1 triangulation
+// failed, -2 too few observations); chi2[d] the gate for d degrees of freedom; points the triangulated world points
+// (NaN where none); top the three rows the nullspace projection sets aside, which determine the point (delayed
+// initialisation): per feature [H_x1 (3, n) | R (3, 3) upper triangular | r1 (3, 1)] (the Givens-rotated H_x, H_f and
+// residual), for every triangulated feature.  P (n, n) may carry other states after the clones (landmarks, the time
+// offset: n >= 15 + 6C); their columns of H are zero.
 PyObject* py_features(PyObject*, PyObject* args) {
     Array<double, 2> clones, fej, uv, Pm;
     Array<double, 1> q_bc, p_bc, chi2, limits;
     Array<std::int64_t, 1> offsets, oc;
     Array<double, 2, true> Hout;
     Array<double, 1, true> rout, rvar, nis;
+    Array<double, 2, true> points;
+    Array<double, 3, true> top;
     Array<std::int64_t, 1, true> status;
     double sigma;
-    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&O&dO&O&O&O&O&O&O&:msckf_features", convert<double, 2>, &clones,
+    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&O&dO&O&O&O&O&O&O&O&O&:msckf_features", convert<double, 2>, &clones,
                           convert<double, 2>, &fej, convert<double, 1>, &q_bc, convert<double, 1>, &p_bc,
                           convert<std::int64_t, 1>, &offsets, convert<std::int64_t, 1>, &oc, convert<double, 2>, &uv,
                           convert<double, 2>, &Pm, &sigma, convert<double, 1>, &chi2, convert<double, 1>, &limits,
                           convert<double, 2, true>, &Hout, convert<double, 1, true>, &rout,
-                          convert<double, 1, true>, &rvar, convert<std::int64_t, 1, true>, &status, convert<double, 1, true>, &nis))
+                          convert<double, 1, true>, &rvar, convert<std::int64_t, 1, true>, &status, convert<double, 1, true>, &nis,
+                          convert<double, 2, true>, &points, convert<double, 3, true>, &top))
         return nullptr;
     const npy_intp nc = clones.shape[0], n = Pm.shape[0], g = offsets.shape[0] - 1, m_all = oc.shape[0];
     if (!shape_is("clones", clones, {-1, 7}) || !shape_is("clones_fej", fej, {nc, 7}) ||
         !shape_is("q_bc", q_bc, {4}) || !shape_is("p_bc", p_bc, {3}) || !shape_is("obs_uv", uv, {m_all, 2}) ||
-        !shape_is("P", Pm, {NE + 6 * nc, NE + 6 * nc}) || !shape_is("limits", limits, {3}) ||
+        !shape_is("P", Pm, {n, n}) || !shape_is("limits", limits, {3}) || !shape_is("points", points, {g, 3}) ||
+        !shape_is("top", top, {g, 3, n + 4}) ||
         !shape_is("H", Hout, {-1, n}) || !shape_is("r", rout, {Hout.shape[0]}) ||
         !shape_is("rvar", rvar, {Hout.shape[0]}) || !shape_is("status", status, {g}) ||
         !shape_is("nis", nis, {g}))
         return nullptr;
+    if (n < NE + 6 * nc) {
+        PyErr_SetString(PyExc_ValueError, "P must have at least 15 + 6C rows (IMU, C clones, then any other states)");
+        return nullptr;
+    }
     if (chi2.shape[0] < 1) {  // the gate reads chi2[min(dof, D - 1)]
         PyErr_SetString(PyExc_ValueError, "chi2 must have shape (D,) with D >= 1; got (0,)");
         return nullptr;
@@ -304,7 +354,8 @@ PyObject* py_features(PyObject*, PyObject* args) {
             status[f] = -2;
             continue;
         }
-        double pw[3];
+        double* pw = points.row(f);
+        pw[0] = pw[1] = pw[2] = NAN;
         if (!triangulate(cams, oc.data + a, uv.data + 2 * a, m, limits[0], limits[1], limits[2], pw)) {
             status[f] = -1;
             continue;
@@ -316,49 +367,12 @@ PyObject* py_features(PyObject*, PyObject* args) {
         bool ok = true;
         for (npy_intp j = 0; j < m && ok; ++j) {
             const npy_intp c = oc[a + j];
-            // residual at the current estimate
-            const double* cl = clones.row(c);
-            double d[3] = {pw[0] - cl[0], pw[1] - cl[1], pw[2] - cl[2]}, pb[3], pc[3];
-            mul_t3(&Rwb[9 * c], d, pb);
-            for (int i = 0; i < 3; ++i) pb[i] -= p_bc[i];
-            mul_t3(Rbc, pb, pc);
-            if (!(pc[2] > 0.0)) {
-                ok = false;
-                break;
-            }
-            res[2 * j] = uv(a + j, 0) - pc[0] / pc[2];
-            res[2 * j + 1] = uv(a + j, 1) - pc[1] / pc[2];
-            // Jacobians at the first estimate of the clone
-            const double* fe = fej.row(c);
-            const double* Rf = &Rwb_fej[9 * c];
-            for (int i = 0; i < 3; ++i) d[i] = pw[i] - fe[i];
-            mul_t3(Rf, d, pb);
-            double pbc[3] = {pb[0] - p_bc[0], pb[1] - p_bc[1], pb[2] - p_bc[2]};
-            mul_t3(Rbc, pbc, pc);
-            if (!(pc[2] > 0.0)) {
-                ok = false;
-                break;
-            }
-            const double iz = 1.0 / pc[2];
-            const double Jp[6] = {iz, 0.0, -pc[0] * iz * iz, 0.0, iz, -pc[1] * iz * iz};
-            double JB[6], JW[6];  // ∂z/∂p_b = Jp R_bcᵀ, ∂z/∂p_w = JB R_wbᵀ
-            for (int i = 0; i < 2; ++i)
-                for (int k = 0; k < 3; ++k) {
-                    JB[3 * i + k] = Jp[3 * i] * Rbc[3 * k] + Jp[3 * i + 1] * Rbc[3 * k + 1] + Jp[3 * i + 2] * Rbc[3 * k + 2];
-                }
-            for (int i = 0; i < 2; ++i)
-                for (int k = 0; k < 3; ++k)
-                    JW[3 * i + k] = JB[3 * i] * Rf[3 * k] + JB[3 * i + 1] * Rf[3 * k + 1] + JB[3 * i + 2] * Rf[3 * k + 2];
-            for (int i = 0; i < 2; ++i) {
-                double* hx = &Hx[(2 * j + i) * n + NE + 6 * c];
-                const double* jb = JB + 3 * i;
-                for (int k = 0; k < 3; ++k) {
-                    hx[k] = -JW[3 * i + k];
-                    Hf[(2 * j + i) * 3 + k] = JW[3 * i + k];
-                }
-                hx[3] = jb[1] * pb[2] - jb[2] * pb[1];  // ∂p_b/∂δθ = [p_b]×
-                hx[4] = jb[2] * pb[0] - jb[0] * pb[2];
-                hx[5] = jb[0] * pb[1] - jb[1] * pb[0];
+            double Hc[12], Hfj[6];
+            ok = observe(clones.row(c), &Rwb[9 * c], fej.row(c), &Rwb_fej[9 * c], Rbc, p_bc.data, pw, pw,
+                         uv.row(a + j), &res[2 * j], Hc, Hfj);
+            for (int i = 0; i < 2 && ok; ++i) {
+                std::copy(Hc + 6 * i, Hc + 6 * i + 6, &Hx[(2 * j + i) * n + NE + 6 * c]);
+                std::copy(Hfj + 3 * i, Hfj + 3 * i + 3, &Hf[(2 * j + i) * 3]);
             }
         }
         if (!ok) {
@@ -387,6 +401,12 @@ PyObject* py_features(PyObject*, PyObject* args) {
                 res[k - 1] = cs * u + sn * v;
                 res[k] = -sn * u + cs * v;
             }
+        for (int i = 0; i < 3; ++i) {  // the rows that determine the feature: [H_x1 | R | r1]
+            double* t = top.row(f) + i * (n + 4);
+            std::copy(&Hx[i * n], &Hx[i * n] + n, t);
+            std::copy(&Hf[i * 3], &Hf[i * 3] + 3, t + n);
+            t[n + 3] = res[i];
+        }
         const npy_intp dof = nr - 3;
         if (dof < 1) {
             status[f] = -2;
@@ -439,23 +459,135 @@ PyObject* py_features(PyObject*, PyObject* args) {
 }
 
 
-// msckf_update(x (16,), clones (C, 7), P (n, n), H (m, n), r (m,), sigma) -> nis: the EKF update with r = H δx + e,
-// e ~ N(0, σ² I), of the IMU state and the clones, in place.  When m > n the rows are first compressed by a
+// msckf_slam_rows(clones (C, 7), clones_fej (C, 7), q_bc, p_bc, points (L, 3), points_fej (L, 3), idx (k,), clone,
+// uv (k, 2), P (n, n), sigma, gate, H (2k, n), r (2k,), status (k,), r_all (2k,), rvar (2k,)) -> (rows, front):
+// the observations uv of the SLAM features idx (world points at columns 15 + 6C + 3l of P, n >= 15 + 6C + 3L) in the
+// clone `clone`: per feature the two rows (residual at the current estimates, Jacobians at the first estimates of
+// the clone and the point, as msckf_features), its NIS rᵀ (H P Hᵀ + σ² I)⁻¹ r against `gate`; the accepted rows
+// stacked in H and r (rows of them), status 1 accepted, 0 gated, -1 behind the camera; r_all and rvar the residuals
+// and prior variances (H P Hᵀ)_ii of the features in front of the camera (2 · front entries), before the gate.
+PyObject* py_slam_rows(PyObject*, PyObject* args) {
+    Array<double, 2> clones, fej, pts, pts_fej, uv, Pm;
+    Array<double, 1> q_bc, p_bc;
+    Array<std::int64_t, 1> idx;
+    Array<double, 2, true> Hout;
+    Array<double, 1, true> rout, rall, rvar;
+    Array<std::int64_t, 1, true> status;
+    Py_ssize_t clone;
+    double sigma, gate;
+    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&nO&O&ddO&O&O&O&O&:msckf_slam_rows", convert<double, 2>, &clones,
+                          convert<double, 2>, &fej, convert<double, 1>, &q_bc, convert<double, 1>, &p_bc,
+                          convert<double, 2>, &pts, convert<double, 2>, &pts_fej, convert<std::int64_t, 1>, &idx,
+                          &clone, convert<double, 2>, &uv, convert<double, 2>, &Pm, &sigma, &gate,
+                          convert<double, 2, true>, &Hout, convert<double, 1, true>, &rout,
+                          convert<std::int64_t, 1, true>, &status, convert<double, 1, true>, &rall,
+                          convert<double, 1, true>, &rvar))
+        return nullptr;
+    const npy_intp nc = clones.shape[0], nl = pts.shape[0], k = idx.shape[0], n = Pm.shape[0];
+    if (!shape_is("clones", clones, {-1, 7}) || !shape_is("clones_fej", fej, {nc, 7}) ||
+        !shape_is("q_bc", q_bc, {4}) || !shape_is("p_bc", p_bc, {3}) || !shape_is("points", pts, {-1, 3}) ||
+        !shape_is("points_fej", pts_fej, {nl, 3}) || !shape_is("uv", uv, {k, 2}) || !shape_is("P", Pm, {n, n}) ||
+        !shape_is("H", Hout, {2 * k, n}) || !shape_is("r", rout, {2 * k}) || !shape_is("status", status, {k}) ||
+        !shape_is("r_all", rall, {2 * k}) || !shape_is("rvar", rvar, {2 * k}))
+        return nullptr;
+    if (n < NE + 6 * nc + 3 * nl) {
+        PyErr_SetString(PyExc_ValueError, "P must have at least 15 + 6C + 3L rows (IMU, clones, points)");
+        return nullptr;
+    }
+    if (clone < 0 || clone >= nc) {
+        PyErr_SetString(PyExc_ValueError, "clone must index the clones");
+        return nullptr;
+    }
+    for (npy_intp j = 0; j < k; ++j)
+        if (idx[j] < 0 || idx[j] >= nl) {
+            PyErr_SetString(PyExc_ValueError, "idx must index the points");
+            return nullptr;
+        }
+    npy_intp rows = 0, front = 0;
+    Py_BEGIN_ALLOW_THREADS;
+    double Rbc[9], Rwb[9], Rf[9];
+    rotmat_xyzw(q_bc[0], q_bc[1], q_bc[2], q_bc[3], Rbc);
+    const double* cl = clones.row(clone);
+    const double* fe = fej.row(clone);
+    rotmat_xyzw(cl[3], cl[4], cl[5], cl[6], Rwb);
+    rotmat_xyzw(fe[3], fe[4], fe[5], fe[6], Rf);
+    const double s2 = sigma * sigma;
+    for (npy_intp j = 0; j < k; ++j) {
+        const npy_intp l = idx[j];
+        double res[2], Hc[12], Hf[6];
+        if (!observe(cl, Rwb, fe, Rf, Rbc, p_bc.data, pts.row(l), pts_fej.row(l), uv.row(j), res, Hc, Hf)) {
+            status[j] = -1;
+            continue;
+        }
+        npy_intp cols[9];
+        double Hs[18];  // 2 x 9 over cols
+        for (int i = 0; i < 6; ++i) cols[i] = NE + 6 * clone + i;
+        for (int i = 0; i < 3; ++i) cols[6 + i] = NE + 6 * nc + 3 * l + i;
+        for (int i = 0; i < 2; ++i) {
+            std::copy(Hc + 6 * i, Hc + 6 * i + 6, Hs + 9 * i);
+            std::copy(Hf + 3 * i, Hf + 3 * i + 3, Hs + 9 * i + 6);
+        }
+        double HP[18] = {};
+        for (int i = 0; i < 2; ++i)
+            for (int b = 0; b < 9; ++b) {
+                double acc = 0.0;
+                for (int a = 0; a < 9; ++a) acc += Hs[9 * i + a] * Pm(cols[a], cols[b]);
+                HP[9 * i + b] = acc;
+            }
+        double S[4];
+        for (int i = 0; i < 2; ++i)
+            for (int jj = 0; jj < 2; ++jj) {
+                double acc = 0.0;
+                for (int b = 0; b < 9; ++b) acc += HP[9 * i + b] * Hs[9 * jj + b];
+                S[2 * i + jj] = acc;
+            }
+        rall[2 * front] = res[0];
+        rall[2 * front + 1] = res[1];
+        rvar[2 * front] = S[0];
+        rvar[2 * front + 1] = S[3];
+        ++front;
+        S[0] += s2;
+        S[3] += s2;
+        const double det = S[0] * S[3] - S[1] * S[2];
+        const double q = (S[3] * res[0] * res[0] - (S[1] + S[2]) * res[0] * res[1] + S[0] * res[1] * res[1]) / det;
+        if (!(det > 0.0) || !(q <= gate)) {
+            status[j] = 0;
+            continue;
+        }
+        status[j] = 1;
+        for (int i = 0; i < 2; ++i) {
+            double* h = Hout.row(rows + i);
+            std::fill(h, h + n, 0.0);
+            for (int a = 0; a < 9; ++a) h[cols[a]] = Hs[9 * i + a];
+            rout[rows + i] = res[i];
+        }
+        rows += 2;
+    }
+    Py_END_ALLOW_THREADS;
+    return Py_BuildValue("nn", rows, front);
+}
+
+// msckf_update(x (16,), clones (C, 7), landmarks (L, 3), extra (E,), P (n, n), H (m, n), r (m,), sigma) -> nis: the
+// EKF update with r = H δx + e, e ~ N(0, σ² I), of the IMU state, the clones, the landmarks (world points, additive
+// error at columns 15 + 6C + 3l) and E scalar states after them (additive; the camera time offset; n = 15 + 6C + 3L
+// + E), in place.  When m > n the rows are first compressed by a
 // Householder QR (H = Q T, r <- Q₁ᵀ r; Mourikis & Roumeliotis 2007 §III-D).  P <- P − P Hᵀ S⁻¹ H P (symmetrised),
 // then δx = P Hᵀ S⁻¹ r is injected (IMU: additive blocks, q ⊗ Exp(δθ); clones: p + δp, q ⊗ Exp(δθ)).  Returns the
 // NIS rᵀ S⁻¹ r, or raises numpy's LinAlgError if S is not positive definite.
 PyObject* py_update(PyObject*, PyObject* args) {
-    Array<double, 1, true> x, r;
-    Array<double, 2, true> clones, Pm, H;
+    Array<double, 1, true> x, r, extra;
+    Array<double, 2, true> clones, lm, Pm, H;
     double sigma;
-    if (!PyArg_ParseTuple(args, "O&O&O&O&O&d:msckf_update", convert<double, 1, true>, &x, convert<double, 2, true>,
-                          &clones, convert<double, 2, true>, &Pm, convert<double, 2, true>, &H,
-                          convert<double, 1, true>, &r, &sigma))
+    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&d:msckf_update", convert<double, 1, true>, &x,
+                          convert<double, 2, true>, &clones, convert<double, 2, true>, &lm,
+                          convert<double, 1, true>, &extra, convert<double, 2, true>, &Pm,
+                          convert<double, 2, true>, &H, convert<double, 1, true>, &r, &sigma))
         return nullptr;
-    const npy_intp nc = clones.shape[0], n = NE + 6 * nc;
+    const npy_intp nc = clones.shape[0], nl = lm.shape[0], ne = extra.shape[0], n0 = NE + 6 * nc + 3 * nl, n = n0 + ne;
     npy_intp m = H.shape[0];
     const npy_intp m_all = m;
-    if (!shape_is("x", x, {NX}) || !shape_is("clones", clones, {-1, 7}) || !shape_is("P", Pm, {n, n}) ||
+    if (!shape_is("x", x, {NX}) || !shape_is("clones", clones, {-1, 7}) || !shape_is("landmarks", lm, {-1, 3}) ||
+        !shape_is("P", Pm, {n, n}) ||
         !shape_is("H", H, {-1, n}) || !shape_is("r", r, {m}))
         return nullptr;
     bool ok = true;
@@ -506,26 +638,36 @@ PyObject* py_update(PyObject*, PyObject* args) {
             for (npy_intp j = 0; j < nw; ++j) h[i * n + c0 + j] = Ht[j * m_all + i];
         }
     }
-    // HP (m, n) = H P (P symmetric: row i of P is its column i);  S = H P Hᵀ + σ² I
-    std::vector<double> W(m * n), S(m * m), L;
+    // W (m, n) = H P (P symmetric: W_j = Σ_k h_jk P_k, over the nonzero h_jk only: a SLAM feature's rows have 9,
+    // an MSCKF feature's those of its clones);  S = H P Hᵀ + σ² I = W Hᵀ over the same nonzeros
+    std::vector<double> W(m * n, 0.0), S(m * m), L;
+    std::vector<npy_intp> nzc;
+    std::vector<npy_intp> nz_off(m + 1, 0);
     for (npy_intp j = 0; j < m; ++j) {
         const double* hr = h + j * n;
-        for (npy_intp i = 0; i < n; ++i) {
-            const double* pr = Pm.row(i);
+        double* wr = &W[j * n];
+        for (npy_intp k = c0; k < n; ++k) {
+            const double hk = hr[k];
+            if (hk == 0.0) continue;
+            nzc.push_back(k);
+            const double* pr = Pm.row(k);
+            for (npy_intp i = 0; i < n; ++i) wr[i] += hk * pr[i];
+        }
+        nz_off[j + 1] = static_cast<npy_intp>(nzc.size());
+    }
+    for (npy_intp i = 0; i < m; ++i) {
+        const double* hr = h + i * n;
+        for (npy_intp j = 0; j < m; ++j) {
             double s = 0.0;
-            for (npy_intp k = c0; k < n; ++k) s += pr[k] * hr[k];
-            W[j * n + i] = s;
+            const double* wr = &W[j * n];
+            for (npy_intp q = nz_off[i]; q < nz_off[i + 1]; ++q) s += hr[nzc[q]] * wr[nzc[q]];
+            S[i * m + j] = s;
         }
     }
-    for (npy_intp i = 0; i < m; ++i)
-        for (npy_intp j = 0; j <= i; ++j) {
-            double s = 0.0;
-            const double* hr = h + i * n;
-            const double* wr = &W[j * n];
-            for (npy_intp k = c0; k < n; ++k) s += hr[k] * wr[k];
-            if (i == j) s += sigma * sigma;
-            S[i * m + j] = S[j * m + i] = s;
-        }
+    for (npy_intp i = 0; i < m; ++i) {  // symmetrise (rounding) and add the noise
+        for (npy_intp j = 0; j < i; ++j) S[i * m + j] = S[j * m + i] = 0.5 * (S[i * m + j] + S[j * m + i]);
+        S[i * m + i] += sigma * sigma;
+    }
     // Cholesky S = L Lᵀ (lower, in place)
     L = S;
     for (npy_intp j = 0; j < m && ok; ++j) {
@@ -562,7 +704,18 @@ PyObject* py_update(PyObject*, PyObject* args) {
             nis += y[j] * y[j];
             for (npy_intp i = 0; i < n; ++i) dx[i] += W[j * n + i] * y[j];
         }
-        for (npy_intp j = 0; j < m; ++j) {  // P −= Wᵀ W, upper triangle, one row of W at a time
+        // P −= Wᵀ W, upper triangle, four rows of W per pass over P (P is read and written m/4 times, not m)
+        npy_intp j = 0;
+        for (; j + 4 <= m; j += 4) {
+            const double *w0 = &W[j * n], *w1 = w0 + n, *w2 = w1 + n, *w3 = w2 + n;
+            for (npy_intp i = 0; i < n; ++i) {
+                const double a0 = w0[i], a1 = w1[i], a2 = w2[i], a3 = w3[i];
+                if (a0 == 0.0 && a1 == 0.0 && a2 == 0.0 && a3 == 0.0) continue;
+                double* pr = Pm.row(i);
+                for (npy_intp k = i; k < n; ++k) pr[k] -= (a0 * w0[k] + a1 * w1[k]) + (a2 * w2[k] + a3 * w3[k]);
+            }
+        }
+        for (; j < m; ++j) {
             const double* w = &W[j * n];
             for (npy_intp i = 0; i < n; ++i) {
                 const double wi = w[i];
@@ -586,6 +739,9 @@ PyObject* py_update(PyObject*, PyObject* args) {
             for (int i = 0; i < 3; ++i) cl[i] += d[i];
             quat_mul_exp_inplace(cl + 3, d[3], d[4], d[5]);
         }
+        for (npy_intp l = 0; l < nl; ++l)
+            for (int i = 0; i < 3; ++i) lm(l, i) += dx[NE + 6 * nc + 3 * l + i];
+        for (npy_intp e = 0; e < ne; ++e) extra[e] += dx[n0 + e];
     }
     Py_END_ALLOW_THREADS;
     if (!ok) return raise_linalg_error("the innovation covariance is not positive definite");
@@ -598,11 +754,17 @@ PyMethodDef methods[] = {
      "and P (15, 15); Phi (15, 15) the product of the step transitions, X (k, 16) the state after every step."},
     {"msckf_features", py_features, METH_VARARGS,
      "msckf_features(clones, clones_fej, q_bc, p_bc, offsets, obs_clone, obs_uv, P, sigma, chi2, limits, H, r, rvar, "
-     "status, nis) -> rows: triangulate, linearise (FEJ), nullspace-project and gate every feature; the accepted "
-     "rows stacked in H (R, n) and r (R,), their prior variances (H P Hᵀ)_ii in rvar (R,)."},
+     "status, nis, points, top) -> rows: triangulate, linearise (FEJ), nullspace-project and gate every feature; "
+     "the accepted rows stacked in H (R, n) and r (R,), their prior variances (H P Hᵀ)_ii in rvar (R,), the "
+     "triangulated points in points (G, 3), the rows that determine each point in top (G, 3, n + 4)."},
+    {"msckf_slam_rows", py_slam_rows, METH_VARARGS,
+     "msckf_slam_rows(clones, clones_fej, q_bc, p_bc, points, points_fej, idx, clone, uv, P, sigma, gate, H, r, status, "
+     "r_all, rvar) -> (rows, front): the gated update rows of SLAM features observed in one clone (FEJ Jacobians), "
+     "and the residuals and prior variances of those in front of the camera."},
     {"msckf_update", py_update, METH_VARARGS,
-     "msckf_update(x, clones, P, H, r, sigma) -> nis: EKF update (QR-compressed when H has more rows than columns) "
-     "of the IMU state x (16,), the clones (C, 7) and P (15 + 6C, 15 + 6C) in place, noise sigma² I."},
+     "msckf_update(x, clones, landmarks, extra, P, H, r, sigma) -> nis: EKF update (QR-compressed when H has more rows "
+     "than columns) of the IMU state x (16,), the clones (C, 7), the landmarks (L, 3), the scalar states extra (E,) "
+     "and P (15 + 6C + 3L + E, same) in place, noise sigma² I."},
     {nullptr, nullptr, 0, nullptr},
 };
 

@@ -59,14 +59,15 @@ PyObject* registration_solve_one(PyObject*, PyObject* args) { return solve<2>(ar
 
 PyMethodDef methods[] = {
     {"registration_solve_batch", registration_solve_batch, METH_VARARGS,
-     "registration_solve_batch(p0, p1, beta, n0, n1, alpha, method, want_scale, out): solve B independent "
-     "problems, p0, p1 (B, n, 3), beta (B, n), n0, n1 (B, m, 3), alpha (B, m), method 0 = dq (Walker 1991), "
-     "1 = horn (Horn 1987), 2 = svd (Arun 1987 / Umeyama 1991); out (B, REGISTRATION_ROW_SIZE) rows with the layout "
-     "of dualpose.registration._row.  Returns the index of the first problem whose row holds a BAD_INPUT code, or -1."},
+     "registration_solve_batch(p0, p1, beta, n0, n1, alpha, method, want_scale, out) -> int: solve B "
+     "independent problems, p0, p1 (B, n, 3), beta (B, n), n0, n1 (B, m, 3), alpha (B, m), method 0 = dq "
+     "(Walker 1991), 1 = horn (Horn 1987), 2 = svd (Arun 1987 / Umeyama 1991); out (B, REGISTRATION_ROW_SIZE) "
+     "rows with the layout of dualpose.registration._row.  Returns the index of the first problem whose row holds a "
+     "BAD_INPUT code, or -1."},
     {"registration_solve_one", registration_solve_one, METH_VARARGS,
-     "registration_solve_one(p0, p1, beta, n0, n1, alpha, method, want_scale, out): one problem, p0, p1 (n, 3), "
-     "beta (n,), n0, n1 (m, 3), alpha (m,); out (REGISTRATION_ROW_SIZE,).  Returns 0 if the row holds a BAD_INPUT code, "
-     "else -1."},
+     "registration_solve_one(p0, p1, beta, n0, n1, alpha, method, want_scale, out) -> int: one problem, "
+     "p0, p1 (n, 3), beta (n,), n0, n1 (m, 3), alpha (m,); out (REGISTRATION_ROW_SIZE,).  Returns 0 if the row "
+     "holds a BAD_INPUT code, else -1."},
     {nullptr, nullptr, 0, nullptr}};
 
 }  // namespace

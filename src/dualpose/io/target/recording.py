@@ -28,7 +28,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from dualpose.io._text import check_path, open_for_writing
+from dualpose.io._text import check_path, open_for_writing, open_input
 from dualpose.io.euroc import ImuData
 from dualpose.io.recording import RecordingError, read_imu
 from dualpose.io.sensors_yaml import read_rig_sensors
@@ -75,12 +75,12 @@ class TargetRecording:
     """
 
     imu: ImuData
-    detections: dict
+    detections: dict[str, TargetDetections]
     rig: RigSensors
     path: str
 
 
-def is_target_recording(path: str | os.PathLike) -> bool:
+def is_target_recording(path: str | os.PathLike[str]) -> bool:
     """True when ``path`` is a directory in this layout: it holds a ``camN_aprilgrid.csv``, or both ``imu0.csv`` and
     ``sensors.yaml`` without a ``correspondences.csv`` (a dualpose recording directory, docs/fusion.md, may name its
     IMU file ``imu0.csv`` and its sensor file ``sensors.yaml`` too); :func:`read_target_recording` then names
@@ -93,7 +93,7 @@ def is_target_recording(path: str | os.PathLike) -> bool:
     return (p / SENSORS_YAML).is_file() and (p / IMU_FILE).is_file() and not (p / "correspondences.csv").exists()
 
 
-def read_target_recording(directory: str | os.PathLike, cameras: tuple[str, ...] | None = None) -> TargetRecording:
+def read_target_recording(directory: str | os.PathLike[str], cameras: tuple[str, ...] | None = None) -> TargetRecording:
     """Read a target-recording directory (module docstring).
 
     Parameters
@@ -142,7 +142,7 @@ def read_target_recording(directory: str | os.PathLike, cameras: tuple[str, ...]
     return TargetRecording(imu=imu, detections=detections, rig=rig, path=str(d))
 
 
-def read_camera_imu_calibration(path: str | os.PathLike) -> CameraImuCalibration:
+def read_camera_imu_calibration(path: str | os.PathLike[str]) -> CameraImuCalibration:
     """Read a camera–IMU calibration JSON (module docstring).
 
     Raises
@@ -153,8 +153,8 @@ def read_camera_imu_calibration(path: str | os.PathLike) -> CameraImuCalibration
     """
     p = check_path(path, "calibration")
     try:
-        with open(p, encoding="utf-8") as f:
-            data = json.load(f)
+        with open_input(p) as f:
+            data = json.loads(f.read().decode("utf-8"))
     except FileNotFoundError:
         raise RecordingError(f"{p}: calibration file not found") from None
     except json.JSONDecodeError as exc:
@@ -178,7 +178,7 @@ def read_camera_imu_calibration(path: str | os.PathLike) -> CameraImuCalibration
 
 
 def write_camera_imu_calibration(
-    path: str | os.PathLike, calibration: CameraImuCalibration, *, overwrite: bool = False
+    path: str | os.PathLike[str], calibration: CameraImuCalibration, *, overwrite: bool = False
 ) -> Path:
     """Write ``calibration`` as the JSON :func:`read_camera_imu_calibration` reads; refuses to replace an existing
     file unless ``overwrite``.  Returns the path."""

@@ -1,0 +1,360 @@
+"""Output written as a unit: every file a command writes goes into a temporary sibling of its destination (same
+directory, so the same file system) and is renamed into place only when complete.
+
+* :class:`OutputFile`: one file (``eval --plot FILE``, the writers of :mod:`dualpose.io`).  An interrupted or failed
+  run leaves the previous file, or none, never a partial or empty one.
+* :class:`OutputDirectory`: an output directory as a unit (``fuse --out DIR``, ``reproduce ... --out DIR``).  The run's
+  files are written into ``.DIR.dualpose-tmp-XXXX`` beside ``DIR`` with a ``manifest.json`` (each file's name, size
+  and SHA-256, the command, the dualpose version, the time), then that directory takes the place of ``DIR``.  With
+  ``force`` an earlier output set is replaced as a whole (no file of an earlier run survives next to the new
+  ones); a directory holding anything the command did not write is never replaced.
+
+Both check the destination when they are made, before any computation: the place must be writable (a trial file is
+created and removed: permission bits do not tell the whole story; ``/proc`` and read-only mounts refuse root too),
+must not exist unless ``force`` is given, and must not be, lie inside, or contain an input (real paths compared, so a
+symbolic link or ``..`` does not hide an input).  Problems raise :class:`OutputError` with a one-line message naming
+the path and the reason.  Ctrl-C (``SIGINT``) is held back while the finished output is renamed into place.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime
+import hashlib
+import json
+import os
+import shutil
+import signal
+import stat
+import tempfile
+import threading
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+from typing import IO, Any
+
+__all__ = ["OutputError", "OutputFile", "OutputDirectory", "MANIFEST", "atomic_text_file"]
+
+#: name of the manifest in every output directory
+MANIFEST = "manifest.json"
+_TMP = ".dualpose-tmp-"
+
+
+class OutputError(ValueError):
+    """An output location that cannot take the output: the message names the path and the reason."""
+
+
+def _real(path: str | os.PathLike[str]) -> Path:
+    return Path(os.path.realpath(os.fspath(path)))
+
+
+def _inside(child: Path, parent: Path) -> bool:
+    return child == parent or parent in child.parents
+
+
+def _input_problem(out: Path, inputs: Iterable[str | os.PathLike[str] | None], option: str) -> str | None:
+    """The message when the real path of ``out`` is, lies inside, or contains one of the existing ``inputs``."""
+    real_out = _real(out)
+    for given in inputs:
+        if given is None or not os.path.exists(given):
+            continue
+        real_in = _real(given)
+        kind = "directory" if real_in.is_dir() else "file"
+        if real_out == real_in:
+            return f"{option} {out} is the input {kind} {given}; an input is never overwritten"
+        if _inside(real_out, real_in):
+            return f"{option} {out} lies inside the input directory {given}; write the output elsewhere"
+        if _inside(real_in, real_out):
+            return f"{option} {out} contains the input {kind} {given}; replacing it would destroy the input"
+    return None
+
+
+def _trial_write(directory: Path) -> str | None:
+    """None when a file can be created in ``directory``, else the reason."""
+    if not os.access(directory, os.W_OK | os.X_OK):
+        return "not writable"
+    try:
+        fd, name = tempfile.mkstemp(prefix=f"{_TMP}write-test-", dir=directory)
+    except OSError as exc:
+        return f"not writable ({exc.strerror or exc})"
+    os.close(fd)
+    with contextlib.suppress(OSError):
+        os.unlink(name)
+    return None
+
+
+def _parent_problem(out: Path, option: str) -> str | None:
+    """None when the parent directory of ``out`` exists (or can be created) and is writable: the output is written
+    beside ``out`` and renamed into place, so the parent must take a new entry even when ``out`` exists."""
+    parent = out.absolute().parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir():
+        return f"{option} {out}: cannot be created: {parent} is not a directory"
+    problem = _trial_write(parent)
+    if problem is None:
+        return None
+    if out.exists():
+        return (f"{option} {out}: its directory {parent} is {problem} (the output is written beside it and renamed "
+                "into place)")  # fmt: skip
+    return f"{option} {out}: cannot be created: {parent} is {problem}"
+
+
+@contextlib.contextmanager
+def _signals_held() -> Iterator[None]:
+    """Hold ``SIGINT`` back (main thread only) while the output is renamed into place; it is delivered after."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+class OutputFile:
+    """One output file, written into a temporary sibling and renamed into place when complete.
+
+    Parameters
+    ----------
+    path : path-like
+        The destination file.
+    force : bool
+        Replace an existing file; otherwise an existing file is an :class:`OutputError`.
+    inputs : iterable of path-like or None
+        The command's input files and directories; ``path`` must not be one of them or lie inside one.
+    option : str
+        How the message names the destination (``"--plot"``; ``""`` for a plain path).
+
+    Raises
+    ------
+    OutputError
+        At construction, before anything is computed: the destination exists (without ``force``), is a directory or
+        an input, or its directory is not writable.
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        *,
+        force: bool = False,
+        inputs: Iterable[str | os.PathLike[str] | None] = (),
+        option: str = "",
+    ) -> None:
+        self.path = Path(path)
+        self.force = force
+        label = f"{option} " if option else ""
+        problem = _input_problem(self.path, inputs, option or "output")
+        if problem is None and (self.path.exists() or self.path.is_symlink()):
+            if self.path.is_dir():
+                problem = f"{label}{self.path}: is a directory, not a file"
+            elif not force:
+                problem = f"{label}{self.path}: file exists; use --force to replace it"
+        if problem is None:
+            problem = _parent_problem(self.path, option or "output")
+        if problem is not None:
+            raise OutputError(problem)
+
+    def writing(self) -> contextlib.AbstractContextManager[Path]:
+        """The temporary path to write; renamed to :attr:`path` when the block ends normally, removed otherwise."""
+        return _file_in_place(self.path, self.force)
+
+
+@contextlib.contextmanager
+def _file_in_place(path: Path, force: bool) -> Iterator[Path]:
+    """A temporary sibling of ``path`` to write, renamed to ``path`` when the block ends normally (an existing file
+    is replaced only with ``force``: ``FileExistsError`` otherwise), removed on an error or Ctrl-C."""
+    directory = path.absolute().parent  # the temporary file keeps the suffix: writers that go by it see the same
+    directory.mkdir(parents=True, exist_ok=True)
+    fd, name = tempfile.mkstemp(prefix=f".{path.name}{_TMP}", suffix=path.suffix, dir=directory)
+    os.close(fd)
+    tmp = Path(name)
+    try:
+        yield tmp
+        os.chmod(tmp, 0o666 & ~_umask())
+        with _signals_held():
+            if force:
+                os.replace(tmp, path)
+            else:
+                try:
+                    os.link(tmp, path)  # FileExistsError if the file appeared meanwhile: never replaced unasked
+                except FileExistsError:
+                    raise
+                except OSError:  # a file system without hard links (FAT, some network mounts)
+                    if path.exists():
+                        raise FileExistsError(f"{path}: file exists") from None
+                    os.replace(tmp, path)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+@contextlib.contextmanager
+def atomic_text_file(path: str | os.PathLike[str], overwrite: bool) -> Iterator[IO[str]]:
+    """A text file (UTF-8, ``\\n`` line ends) that appears at ``path`` complete or not at all.
+
+    An existing file is a ``FileExistsError`` unless ``overwrite``; so is ``path`` being a directory.
+    """
+    p = Path(path)
+    if p.is_dir():
+        raise IsADirectoryError(f"{p}: is a directory, not a file")
+    if p.exists() and not overwrite:
+        raise FileExistsError(f"{p}: file exists; pass overwrite=True (CLI: --force) to replace it")
+    try:
+        with _file_in_place(p, overwrite) as tmp, open(tmp, "w", encoding="utf-8", newline="\n") as f:
+            yield f
+    except FileExistsError:
+        raise FileExistsError(f"{p}: file exists; pass overwrite=True (CLI: --force) to replace it") from None
+
+
+def _some(names: list[str]) -> str:
+    """The first few of ``names`` for a message."""
+    return ", ".join(names[:4]) + (f" and {len(names) - 4} more" if len(names) > 4 else "")
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("dualpose")
+    except PackageNotFoundError:  # pragma: no cover - running from a source tree without installing
+        return "unknown"
+
+
+class OutputDirectory:
+    """An output directory written as a unit, with a ``manifest.json`` of what the run wrote.
+
+    Parameters
+    ----------
+    path : path-like
+        The destination directory.
+    names : iterable of str
+        Every file name the command can write there (the files of an older set written before manifests existed
+        are recognised by these names).
+    command : str
+        The command line, recorded in the manifest.
+    force : bool
+        Replace an existing output set as a whole; otherwise an existing non-empty directory is an
+        :class:`OutputError`.  A directory holding anything the command did not write (by its manifest, or by
+        ``names`` when it has none) is never replaced.
+    inputs : iterable of path-like or None
+        The command's input files and directories: ``path`` must not be one, lie inside one or contain one.
+    option : str
+        How the message names the destination (``"--out"``).
+
+    Raises
+    ------
+    OutputError
+        At construction, before anything is computed, with the reason.
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        *,
+        names: Iterable[str],
+        command: str,
+        force: bool = False,
+        inputs: Iterable[str | os.PathLike[str] | None] = (),
+        option: str = "--out",
+    ) -> None:
+        self.path = Path(path)
+        self.names = frozenset(names)
+        self.command = command
+        self.force = force
+        problem = _input_problem(self.path, inputs, option)
+        if problem is None and _inside(_real(os.getcwd()), _real(self.path)):
+            problem = f"{option} {self.path}: is or contains the current directory; give another directory"
+        problem = problem or self._existing_problem(option)
+        if problem is None:
+            problem = _parent_problem(self.path, option)
+        if problem is None and self.path.is_dir():
+            reason = _trial_write(self.path)
+            problem = None if reason is None else f"{option} {self.path}: {reason}"
+        if problem is not None:
+            raise OutputError(problem)
+
+    def _existing_problem(self, option: str) -> str | None:
+        p = self.path
+        if not (p.exists() or p.is_symlink()):
+            return None
+        if p.is_symlink() or not p.is_dir():
+            what = "a symbolic link" if p.is_symlink() else "not a directory"
+            return f"{option} {p}: {what}; give a new or empty directory"
+        entries = sorted(os.listdir(p))
+        if not entries:
+            return None
+        foreign = [e for e in entries if e not in self._earlier_set()]
+        if foreign:
+            return (f"{option} {p}: holds files dualpose did not write there ({_some(foreign)}); give a new or "
+                    "empty directory")  # fmt: skip
+        if not self.force:
+            return f"{option} {p}: holds an earlier run's output ({_some(entries)}); use --force to replace it"
+        return None
+
+    def _earlier_set(self) -> frozenset[str]:
+        """The names an earlier output set in :attr:`path` may hold: its manifest's files, else :attr:`names`."""
+        manifest = self.path / MANIFEST
+        try:
+            with open(manifest, encoding="utf-8") as f:
+                files = json.load(f)["files"]
+            return frozenset([MANIFEST, *(str(entry["name"]) for entry in files)])
+        except (OSError, ValueError, KeyError, TypeError):
+            return self.names
+
+    @contextlib.contextmanager
+    def writing(self) -> Iterator[Path]:
+        """The temporary directory to write the files into; on a normal end it gets ``manifest.json`` and takes
+        the place of :attr:`path` (an earlier set is removed); on an error or Ctrl-C it is removed and :attr:`path`
+        is left as it was."""
+        target = Path(os.path.abspath(self.path))  # "run/." and "run/" name the directory "run"
+        parent = target.parent
+        parent.mkdir(parents=True, exist_ok=True)
+        stage = Path(tempfile.mkdtemp(prefix=f".{target.name}{_TMP}", dir=parent))
+        old: Path | None = None
+        try:
+            yield stage
+            self._write_manifest(stage)
+            os.chmod(stage, 0o777 & ~_umask())
+            with _signals_held():
+                if target.exists():
+                    if self._existing_problem("--out") is not None:  # changed while the command ran
+                        raise OutputError(f"{self.path}: changed while the command ran; nothing was replaced")
+                    old = Path(tempfile.mkdtemp(prefix=f".{target.name}.dualpose-old-", dir=parent))
+                    os.replace(target, old / "set")
+                    os.replace(stage, target)
+                else:
+                    os.rename(stage, target)
+        finally:
+            shutil.rmtree(stage, ignore_errors=True)
+            if old is not None:
+                shutil.rmtree(old, ignore_errors=True)
+
+    def _write_manifest(self, stage: Path) -> None:
+        files: list[dict[str, Any]] = []
+        for name in sorted(os.listdir(stage)):
+            f = stage / name
+            if name == MANIFEST or not stat.S_ISREG(f.lstat().st_mode):
+                continue
+            files.append({"name": name, "bytes": f.stat().st_size, "sha256": _sha256(f)})
+        manifest = {
+            "command": self.command,
+            "dualpose_version": _version(),
+            "written_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+            "files": files,
+        }
+        (stage / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
