@@ -24,6 +24,7 @@ import json
 import sys
 
 from dualpose.cli._args import add_bag_time_argument, float_in
+from dualpose.cli._batch import add_scheduler_arguments
 from dualpose.cli._stream import write_flushed
 
 _STREAM_HELP = """\
@@ -74,6 +75,14 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
                    help="self-calibrate the magnetometer (hard/soft iron) when the recording supports it "
                    "(default: off)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
+    p.add_argument("--batch", nargs="+", metavar="SOURCE",
+                   help="run over many recordings: BROAD .mat files, EuRoC IMU CSVs (imu0/data.csv), directories of "
+                   "them, glob patterns, or a manifest CSV with a 'recording' (and 'dataset') column; prints the "
+                   "summary per dataset, --out DIR writes the tables and rmse.png (docs/scaling.md)")  # fmt: skip
+    p.add_argument("--out", metavar="DIR", help="with --batch: write results.csv, summary.csv (and .parquet with "
+                   "pyarrow) and rmse.png into DIR")  # fmt: skip
+    p.add_argument("--force", action="store_true", help="with --batch --out: replace existing output files")
+    add_scheduler_arguments(p)
     return p
 
 
@@ -113,6 +122,12 @@ def run_stream(args: argparse.Namespace) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``dualpose ahrs``."""
+    if args.batch is not None:
+        return run_batch(args)
+    used = [n for n, v in (("--out", args.out), ("--force", args.force), ("--scheduler", args.scheduler),
+                           ("--workers", args.workers)) if v]  # fmt: skip
+    if used:
+        return _usage_error(f"{', '.join(used)}: only used with --batch")
     if args.stream:
         return run_stream(args)
     if args.file is None:
@@ -218,3 +233,38 @@ def run(args: argparse.Namespace) -> int:
     print(f"  {'smoother' if args.offline else 'filter'} time{'' if args.offline else '  '}     "
           f"{out['us_per_sample']:8.3f} us/sample")
     return 0
+
+
+def run_batch(args: argparse.Namespace) -> int:
+    """``dualpose ahrs --batch SOURCE... [--no-mag] [--offline] [--out DIR]``: the filter over many recordings."""
+    from pathlib import Path
+
+    from dualpose.cli._batch import finish_job, job_progress, scheduler_of
+    from dualpose.cli._output import OutputError, output_directory
+    from dualpose.jobs.ahrs_batch import ahrs_recordings, run_ahrs_batch
+    from dualpose.jobs.figures import box_plot, job_output_names
+
+    used = [n for n, v in (("a file argument", args.file), ("--stream", args.stream), ("--rate", args.rate is not None),
+                           ("--rest-seconds", args.rest_seconds is not None), ("--mag-topic", args.mag_topic),
+                           ("--json", args.json)) if v]  # fmt: skip
+    if used:
+        return _usage_error(f"--batch names its recordings: not with {', '.join(used)}")
+    try:
+        out = None if args.out is None else output_directory(args.out, job_output_names(("rmse.png",)), args.force,
+                                                             args.batch)  # fmt: skip
+    except OutputError as exc:
+        return _usage_error(str(exc))
+    try:
+        recs = ahrs_recordings(args.batch, use_mag=args.mag, offline=args.offline,
+                               mag_calibration=bool(args.mag_calibration))  # fmt: skip
+        with job_progress(len(recs), "ahrs") as step:
+            result = run_ahrs_batch(recs, scheduler=scheduler_of(args, "ahrs"), workers=args.workers, progress=step)
+    except (OSError, ValueError, ImportError) as exc:
+        print(f"dualpose ahrs: error: {exc}", file=sys.stderr)
+        return 1
+
+    def rmse_figure(path: Path) -> None:
+        box_plot(result.table, "total_rmse_deg", path, hue="mode", ok=lambda r: r["status"] == "ok",
+                 ylabel="total orientation RMSE [deg]")  # fmt: skip
+
+    return finish_job("ahrs", result, lambda r: str(r["recording"]), out, {"rmse.png": rmse_figure})

@@ -37,7 +37,8 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
-from dualpose.cli._args import seed
+from dualpose.cli._args import int_in, seed
+from dualpose.cli._batch import add_scheduler_arguments
 from dualpose.cli._stream import EXIT_DOUBTFUL, write_flushed
 
 if TYPE_CHECKING:
@@ -128,6 +129,11 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     p.add_argument("--outage", metavar="A:B", action="append", type=_outage, default=None,
                    help="target recordings: delete the camera's detections over [A, B) s from the first IMU sample "
                    "(repeatable)")
+    p.add_argument("--monte-carlo", type=int_in(1, 10**6), metavar="N", default=None,
+                   help="N Monte-Carlo runs of the error-state filter on the simulator, seeds S..S+N-1 (--seed S, "
+                   "default 0): NEES / NIS consistency and ATE distributions; --out DIR writes the tables, "
+                   "nees.png and runs.png (docs/scaling.md)")  # fmt: skip
+    add_scheduler_arguments(p)
     p.add_argument("--out", metavar="DIR", help="write trajectory.tum, metrics.json and PNG figures into DIR")
     p.add_argument("--out-bag", choices=_BAGS, metavar="FORMAT",
                    help="with --out: also write the estimate as DIR/trajectory.FORMAT, a ROS bag (bag: ROS 1; db3, "
@@ -424,6 +430,11 @@ def run(args: argparse.Namespace) -> int:
     from dualpose.cli._output import OutputError
     from dualpose.io.target.recording import is_target_recording
 
+    if args.monte_carlo is not None:
+        return run_monte_carlo(args)
+    used = [n for n, v in (("--scheduler", args.scheduler), ("--workers", args.workers)) if v]
+    if used:
+        return _usage_error(f"{', '.join(used)}: only used with --monte-carlo")
     if args.stream:
         return run_stream(args)
     if args.data is not None and is_target_recording(args.data):
@@ -461,3 +472,60 @@ def run(args: argparse.Namespace) -> int:
         return 1
     code = _report(args, result, out, _table)
     return EXIT_DOUBTFUL if code == 0 and result.metrics.get("input_doubts") else code
+
+
+#: figures of ``fuse --monte-carlo --out``
+_MC_FIGURES = ("nees.png", "runs.png")
+
+
+def run_monte_carlo(args: argparse.Namespace) -> int:
+    """``dualpose fuse --monte-carlo N [--seed S] [--out DIR]``: N seeded runs of the filter on the simulator."""
+    from pathlib import Path
+
+    from dualpose.cli._batch import finish_job, job_progress, scheduler_of
+    from dualpose.cli._output import OutputError, output_directory
+    from dualpose.estimation.state import ESKF_ERROR
+    from dualpose.jobs.figures import distribution_plot, job_output_names, nees_plot
+    from dualpose.jobs.monte_carlo import run_monte_carlo as run_mc
+    from dualpose.jobs.table import Cell
+
+    used = [n for n, v in (("--data", args.data), ("--stream", args.stream), ("--calibration", args.calibration),
+                           ("--camera", args.camera), ("--sensors", args.sensors), ("--outage", args.outage),
+                           ("--out-bag", args.out_bag), ("--truth", args.truth), ("--json", args.json),
+                           ("--smooth", args.smooth)) if v]  # fmt: skip
+    if used:
+        return _usage_error(f"--monte-carlo runs the simulator: not with {', '.join(used)}")
+    if args.filter != "eskf":
+        return _usage_error(f"--monte-carlo runs the error-state filter (15-state NEES); got --filter {args.filter}")
+    try:
+        out = None if args.out is None else output_directory(args.out, job_output_names(_MC_FIGURES), args.force, [])
+    except OutputError as exc:
+        return _usage_error(str(exc))
+    first = 0 if args.seed is None else args.seed
+    try:
+        with job_progress(args.monte_carlo, "fuse") as step:
+            result = run_mc(args.monte_carlo, first, scheduler=scheduler_of(args, "fuse"), workers=args.workers,
+                            progress=step)  # fmt: skip
+    except (OSError, ValueError, ImportError) as exc:
+        print(f"dualpose fuse: error: {exc}", file=sys.stderr)
+        return 1
+    runs = len(result.table) - result.failed
+    lo, hi = result.nees_band
+    inside = float(((result.average_nees >= lo) & (result.average_nees <= hi)).mean()) if runs else float("nan")
+    print(f"{runs} runs (seeds {first}..{first + args.monte_carlo - 1}); average NEES inside its 95 % band "
+          f"[{lo:.3f}, {hi:.3f}] at {100 * inside:.1f} % of the {result.t.size} IMU times\n")  # fmt: skip
+
+    def ok(r: dict[str, Cell]) -> bool:
+        return r["status"] == "ok"
+
+    def nees_figure(path: Path) -> None:
+        nees_plot(result.t, result.average_nees, result.nees_band, runs, ESKF_ERROR.dim, path)
+
+    def runs_figure(path: Path) -> None:
+        distribution_plot(result.table, (("mean_nees", "mean NEES (15 dof)"), ("mean_nis", "mean NIS (2 dof)"),
+                                         ("ate_rmse_m", "ATE RMSE [m]"), ("orientation_rmse_deg",
+                                                                          "orientation RMSE [deg]")),
+                          path, ok=ok)  # fmt: skip
+
+    return finish_job("fuse", result, lambda r: f"seed {r['seed']}", out,
+                      {"nees.png": nees_figure, "runs.png": runs_figure})

@@ -48,11 +48,17 @@ class SensorRun(Protocol):
     correspondences, ``imu_noise``, and :meth:`sensor_options`: the filter keyword arguments of the sensor set-up.
     """
 
-    t: np.ndarray
-    gyro: np.ndarray
-    accel: np.ndarray
-    frames: FrameCorrespondences
-    imu_noise: ImuNoise
+    # read-only members: a run whose attributes are subtypes (a simulator's frames) is one too
+    @property
+    def t(self) -> np.ndarray: ...
+    @property
+    def gyro(self) -> np.ndarray: ...
+    @property
+    def accel(self) -> np.ndarray: ...
+    @property
+    def frames(self) -> FrameCorrespondences: ...
+    @property
+    def imu_noise(self) -> ImuNoise: ...
 
     def sensor_options(self) -> dict[str, Any]:
         """Keyword arguments for a filter: ``imu_noise``, ``camera``, ``q_bc``, ``p_bc``, ``pixel_sigma``,
