@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dualpose.jobs.table import ResultsTable, atomic_path, summarize
+from dualpose.io._output import atomic_path
+from dualpose.jobs.table import ResultsTable, summarize
 
 ROWS = [
     {"dataset": "a", "algorithm": "x", "status": "ok", "v": 0.1, "n": 3},

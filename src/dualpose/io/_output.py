@@ -32,7 +32,7 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import IO, Any
 
-__all__ = ["OutputError", "OutputFile", "OutputDirectory", "MANIFEST", "atomic_text_file"]
+__all__ = ["OutputError", "OutputFile", "OutputDirectory", "MANIFEST", "atomic_path", "atomic_text_file"]
 
 #: name of the manifest in every output directory
 MANIFEST = "manifest.json"
@@ -187,6 +187,20 @@ def _file_in_place(path: Path, force: bool) -> Iterator[Path]:
     finally:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike[str], overwrite: bool = False) -> Iterator[Path]:
+    """A temporary sibling of ``path`` (same suffix) for a writer that takes a file name (matplotlib, pyarrow); the
+    file appears at ``path`` complete when the block ends normally, or not at all.  An existing file is a
+    ``FileExistsError`` unless ``overwrite``; so is ``path`` being a directory."""
+    p = Path(path)
+    if p.is_dir():
+        raise IsADirectoryError(f"{p}: is a directory, not a file")
+    if p.exists() and not overwrite:
+        raise FileExistsError(f"{p}: file exists; pass overwrite=True (CLI: --force) to replace it")
+    with _file_in_place(p, overwrite) as tmp:
+        yield tmp
 
 
 def _umask() -> int:

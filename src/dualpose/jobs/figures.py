@@ -1,6 +1,6 @@
 """Figures and the output folder of a many-run job: box plots per dataset and algorithm, the Monte-Carlo NEES over
 time with its χ² band, the distributions of per-run numbers; :func:`write_job_outputs` writes the tables and figures
-of one job into a folder, each file atomically (:func:`dualpose.jobs.table.atomic_path`).  matplotlib is needed for
+of one job into a folder, each file atomically (``dualpose.io._output.atomic_path``).  matplotlib is needed for
 the figures only (``pip install 'dualpose[plot]'``)."""
 
 from __future__ import annotations
@@ -14,7 +14,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from dualpose.jobs.table import Cell, ResultsTable, atomic_path, has_parquet
+from dualpose.io._output import atomic_path
+from dualpose.jobs.table import Cell, ResultsTable, has_parquet
 
 __all__ = ["box_plot", "distribution_plot", "job_output_names", "nees_plot", "write_job_outputs"]
 

@@ -4,7 +4,8 @@ One row per task, in task order; columns fixed by the job.  Values are ``str``, 
 (NaN where a metric does not exist: a failed row, a recording without reference).  CSV cells hold floats as
 ``repr`` -- the shortest text that reads back as the same float64 -- so two runs with the same numbers write the
 same bytes.  Every file is written to a temporary sibling and renamed over the target (an interrupted job leaves
-either the old file or the new one, never half a file); an existing file is replaced only with ``overwrite=True``.
+either the old file or the new one, never half a file: ``dualpose.io._output.atomic_path``); an existing file
+is replaced only with ``overwrite=True``.
 """
 
 from __future__ import annotations
@@ -13,43 +14,22 @@ import csv
 import io
 import math
 import os
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from contextlib import contextmanager
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
+from dualpose.io._output import atomic_path
 from dualpose.jobs.scheduler import TaskFailure
 
-__all__ = ["SUMMARY_COLUMNS", "JobResult", "ResultsTable", "atomic_path", "has_parquet", "outcome_rows", "summarize"]
+__all__ = ["SUMMARY_COLUMNS", "JobResult", "ResultsTable", "has_parquet", "outcome_rows", "summarize"]
 
 Cell = str | int | float | bool
 
 #: columns of :func:`summarize`'s table after the group columns
 SUMMARY_COLUMNS: tuple[str, ...] = ("metric", "runs", "failed", "mean", "median", "std", "min", "max")
-
-
-@contextmanager
-def atomic_path(path: str | os.PathLike[str], *, overwrite: bool = False) -> Iterator[Path]:
-    """Yield a temporary sibling of ``path`` to write; on success it is renamed to ``path`` (removed on error).
-
-    Raises
-    ------
-    FileExistsError
-        ``path`` exists and ``overwrite`` is False.
-    """
-    target = Path(path)
-    if target.exists() and not overwrite:
-        raise FileExistsError(f"{target}: file exists (replace it with overwrite=True / --force)")
-    tmp = target.with_name(f".{target.stem}.tmp-{os.getpid()}{target.suffix}")
-    try:
-        yield tmp
-        os.replace(tmp, target)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
 
 
 def has_parquet() -> bool:
