@@ -13,6 +13,7 @@
 // q_bc, p_bc (camera axes and centre in the IMU frame); observations are normalised coordinates (X/Z, Y/Z).
 #include "eskf_args.hpp"
 #include "eskf_kernels.hpp"
+#include "../common/dispatch.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -567,33 +568,18 @@ PyObject* py_slam_rows(PyObject*, PyObject* args) {
     return Py_BuildValue("nn", rows, front);
 }
 
-// msckf_update(x (16,), clones (C, 7), landmarks (L, 3), extra (E,), P (n, n), H (m, n), r (m,), sigma) -> nis: the
-// EKF update with r = H δx + e, e ~ N(0, σ² I), of the IMU state, the clones, the landmarks (world points, additive
-// error at columns 15 + 6C + 3l) and E scalar states after them (additive; the camera time offset; n = 15 + 6C + 3L
-// + E), in place.  When m > n the rows are first compressed by a
-// Householder QR (H = Q T, r <- Q₁ᵀ r; Mourikis & Roumeliotis 2007 §III-D).  P <- P − P Hᵀ S⁻¹ H P (symmetrised),
-// then δx = P Hᵀ S⁻¹ r is injected (IMU: additive blocks, q ⊗ Exp(δθ); clones: p + δp, q ⊗ Exp(δθ)).  Returns the
-// NIS rᵀ S⁻¹ r, or raises numpy's LinAlgError if S is not positive definite.
-PyObject* py_update(PyObject*, PyObject* args) {
-    Array<double, 1, true> x, r, extra;
-    Array<double, 2, true> clones, lm, Pm, H;
-    double sigma;
-    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&d:msckf_update", convert<double, 1, true>, &x,
-                          convert<double, 2, true>, &clones, convert<double, 2, true>, &lm,
-                          convert<double, 1, true>, &extra, convert<double, 2, true>, &Pm,
-                          convert<double, 2, true>, &H, convert<double, 1, true>, &r, &sigma))
-        return nullptr;
-    const npy_intp nc = clones.shape[0], nl = lm.shape[0], ne = extra.shape[0], n0 = NE + 6 * nc + 3 * nl, n = n0 + ne;
-    npy_intp m = H.shape[0];
+// The arithmetic of msckf_update (below) on raw arrays: x (16,), clones (nc, 7), landmarks lm (nl, 3), extra (ne,), P
+// (n, n), H (m, n) and r (m,) (both overwritten by the QR compression when m > n); nis <- rᵀ S⁻¹ r; false when S is
+// not positive definite.  Cloned for AVX2 and AVX-512 (dispatch.hpp): every clone rounds as the baseline (the
+// vectorised loops are elementwise; no reduction is reordered, no FMA).
+DUALPOSE_CLONES_V4
+bool msckf_update_core(double* x, double* clones_p, double* lm_p, double* extra_p, double* Pp, double* H, double* r,
+                       npy_intp nc, npy_intp nl, npy_intp ne, npy_intp m, double sigma, double& nis) {
+    const npy_intp n0 = NE + 6 * nc + 3 * nl, n = n0 + ne;
     const npy_intp m_all = m;
-    if (!shape_is("x", x, {NX}) || !shape_is("clones", clones, {-1, 7}) || !shape_is("landmarks", lm, {-1, 3}) ||
-        !shape_is("P", Pm, {n, n}) ||
-        !shape_is("H", H, {-1, n}) || !shape_is("r", r, {m}))
-        return nullptr;
+    auto Prow = [&](npy_intp i) { return Pp + i * n; };
     bool ok = true;
-    double nis = 0.0;
-    Py_BEGIN_ALLOW_THREADS;
-    double* h = H.data;
+    double* h = H;
     // the first column that can be nonzero: feature rows leave the IMU columns zero
     npy_intp c0 = NE;
     for (npy_intp i = 0; i < m && c0 > 0; ++i)
@@ -650,7 +636,7 @@ PyObject* py_update(PyObject*, PyObject* args) {
             const double hk = hr[k];
             if (hk == 0.0) continue;
             nzc.push_back(k);
-            const double* pr = Pm.row(k);
+            const double* pr = Prow(k);
             for (npy_intp i = 0; i < n; ++i) wr[i] += hk * pr[i];
         }
         nz_off[j + 1] = static_cast<npy_intp>(nzc.size());
@@ -687,7 +673,7 @@ PyObject* py_update(PyObject*, PyObject* args) {
     }
     if (ok) {
         // W = L⁻¹ (H P) (m, n), y = L⁻¹ r: then P <- P − Wᵀ W, δx = Wᵀ y, NIS = yᵀ y
-        std::vector<double> y(r.data, r.data + m);
+        std::vector<double> y(r, r + m);
         for (npy_intp j = 0; j < m; ++j) {
             const double d = L[j * m + j];
             for (npy_intp k = 0; k < j; ++k) {
@@ -711,7 +697,7 @@ PyObject* py_update(PyObject*, PyObject* args) {
             for (npy_intp i = 0; i < n; ++i) {
                 const double a0 = w0[i], a1 = w1[i], a2 = w2[i], a3 = w3[i];
                 if (a0 == 0.0 && a1 == 0.0 && a2 == 0.0 && a3 == 0.0) continue;
-                double* pr = Pm.row(i);
+                double* pr = Prow(i);
                 for (npy_intp k = i; k < n; ++k) pr[k] -= (a0 * w0[k] + a1 * w1[k]) + (a2 * w2[k] + a3 * w3[k]);
             }
         }
@@ -720,29 +706,59 @@ PyObject* py_update(PyObject*, PyObject* args) {
             for (npy_intp i = 0; i < n; ++i) {
                 const double wi = w[i];
                 if (wi == 0.0) continue;
-                double* pr = Pm.row(i);
+                double* pr = Prow(i);
                 for (npy_intp k = i; k < n; ++k) pr[k] -= wi * w[k];
             }
         }
         for (npy_intp i = 0; i < n; ++i)
-            for (npy_intp k = i + 1; k < n; ++k) Pm(k, i) = Pm(i, k);
+            for (npy_intp k = i + 1; k < n; ++k) Pp[k * n + i] = Pp[i * n + k];
         for (int i = 0; i < 3; ++i) {
             x[P + i] += dx[DP + i];
             x[V + i] += dx[DV + i];
             x[BG + i] += dx[DBG + i];
             x[BA + i] += dx[DBA + i];
         }
-        quat_mul_exp_inplace(x.data + Q, dx[DTH], dx[DTH + 1], dx[DTH + 2]);
+        quat_mul_exp_inplace(x + Q, dx[DTH], dx[DTH + 1], dx[DTH + 2]);
         for (npy_intp c = 0; c < nc; ++c) {
-            double* cl = clones.row(c);
+            double* cl = clones_p + 7 * c;
             const double* d = &dx[NE + 6 * c];
             for (int i = 0; i < 3; ++i) cl[i] += d[i];
             quat_mul_exp_inplace(cl + 3, d[3], d[4], d[5]);
         }
         for (npy_intp l = 0; l < nl; ++l)
-            for (int i = 0; i < 3; ++i) lm(l, i) += dx[NE + 6 * nc + 3 * l + i];
-        for (npy_intp e = 0; e < ne; ++e) extra[e] += dx[n0 + e];
+            for (int i = 0; i < 3; ++i) lm_p[3 * l + i] += dx[NE + 6 * nc + 3 * l + i];
+        for (npy_intp e = 0; e < ne; ++e) extra_p[e] += dx[n0 + e];
     }
+    return ok;
+}
+
+// msckf_update(x (16,), clones (C, 7), landmarks (L, 3), extra (E,), P (n, n), H (m, n), r (m,), sigma) -> nis: the
+// EKF update with r = H δx + e, e ~ N(0, σ² I), of the IMU state, the clones, the landmarks (world points, additive
+// error at columns 15 + 6C + 3l) and E scalar states after them (additive; the camera time offset; n = 15 + 6C + 3L
+// + E), in place.  When m > n the rows are first compressed by a
+// Householder QR (H = Q T, r <- Q₁ᵀ r; Mourikis & Roumeliotis 2007 §III-D).  P <- P − P Hᵀ S⁻¹ H P (symmetrised),
+// then δx = P Hᵀ S⁻¹ r is injected (IMU: additive blocks, q ⊗ Exp(δθ); clones: p + δp, q ⊗ Exp(δθ)).  Returns the
+// NIS rᵀ S⁻¹ r, or raises numpy's LinAlgError if S is not positive definite.
+PyObject* py_update(PyObject*, PyObject* args) {
+    Array<double, 1, true> x, r, extra;
+    Array<double, 2, true> clones, lm, Pm, H;
+    double sigma;
+    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&d:msckf_update", convert<double, 1, true>, &x,
+                          convert<double, 2, true>, &clones, convert<double, 2, true>, &lm,
+                          convert<double, 1, true>, &extra, convert<double, 2, true>, &Pm,
+                          convert<double, 2, true>, &H, convert<double, 1, true>, &r, &sigma))
+        return nullptr;
+    const npy_intp nc = clones.shape[0], nl = lm.shape[0], ne = extra.shape[0], n0 = NE + 6 * nc + 3 * nl, n = n0 + ne;
+    const npy_intp m = H.shape[0];
+    if (!shape_is("x", x, {NX}) || !shape_is("clones", clones, {-1, 7}) || !shape_is("landmarks", lm, {-1, 3}) ||
+        !shape_is("P", Pm, {n, n}) ||
+        !shape_is("H", H, {-1, n}) || !shape_is("r", r, {m}))
+        return nullptr;
+    double nis = 0.0;
+    bool ok;
+    Py_BEGIN_ALLOW_THREADS;
+    ok = msckf_update_core(x.data, clones.data, lm.data, extra.data, Pm.data, H.data, r.data, nc, nl, ne, m, sigma,
+                           nis);
     Py_END_ALLOW_THREADS;
     if (!ok) return raise_linalg_error("the innovation covariance is not positive definite");
     return PyFloat_FromDouble(nis);
