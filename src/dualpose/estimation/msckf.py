@@ -54,6 +54,9 @@ _NE = ESKF_ERROR.dim
 _CE = MSCKF_CLONE_ERROR.dim
 _REST_GUARD = 0.2  # s, one window of detect_rest
 _POSE_ROWS = np.r_[np.arange(3) + ESKF_ERROR.offset("position"), np.arange(3) + ESKF_ERROR.offset("attitude")]
+_NO_OFFSET = np.zeros(0)
+_IMU_ROWS = np.arange(_NE)
+_VEL, _BG = ESKF_STATE.slice("velocity"), ESKF_STATE.slice("gyro_bias")
 
 
 def _member(a: NDArray[np.int64], b: NDArray[np.int64]) -> NDArray[np.bool_]:
@@ -399,17 +402,10 @@ class MsckfVio(EskfStateAccessors, Estimator):
         X = np.empty((k, ESKF_STATE.dim))
         if k == 0:
             return X
-        Pii = np.ascontiguousarray(self.P[:_NE, :_NE])
-        Phi = np.empty((_NE, _NE))
         x0 = self.x.copy() if self._x_fej is None else self._x_fej
-        _native.msckf_propagate(self.x, x0, Pii, Phi, np.ascontiguousarray(gyro), np.ascontiguousarray(accel),
+        _native.msckf_propagate(self.x, x0, self.P, np.ascontiguousarray(gyro), np.ascontiguousarray(accel),
                                 np.ascontiguousarray(dt, dtype=np.float64), self.gravity, self.noise, X)  # fmt: skip
         self._x_fej = None
-        self.P[:_NE, :_NE] = Pii
-        if self.P.shape[0] > _NE:
-            cross = Phi @ self.P[:_NE, _NE:]
-            self.P[:_NE, _NE:] = cross
-            self.P[_NE:, :_NE] = cross.T
         return X
 
     def propagate(self, t: float, gyro: np.ndarray, accel: np.ndarray, mag: np.ndarray | None = None) -> None:
@@ -434,18 +430,10 @@ class MsckfVio(EskfStateAccessors, Estimator):
     def _clone(self, t: float) -> None:
         n = self.P.shape[0]
         k = _NE + _CE * len(self.clones)  # the new clone's columns, before the SLAM features
-        JP = self.P[_POSE_ROWS]  # J P with J selecting the pose rows [δp, δθ] of the IMU error
-        block = JP[:, _POSE_ROWS]
-        if len(self._extra):  # the clone is the pose at t_cam + t̂_d: its error gains u δt_d, u = [v_w, ω_b]
-            u = np.r_[ESKF_STATE.get(self.x, "velocity"), self._u[:3] - ESKF_STATE.get(self.x, "gyro_bias")]
-            JP = JP + np.outer(u, self.P[n - 1])
-            block = JP[:, _POSE_ROWS] + np.outer(JP[:, n - 1], u)
+        # the clone is the pose at t_cam + t̂_d when the offset is estimated: its error gains u δt_d, u = [v_w, ω_b]
+        u = np.concatenate((self.x[_VEL], self._u[:3] - self.x[_BG])) if len(self._extra) else _NO_OFFSET
         P = np.empty((n + _CE, n + _CE))
-        e = k + _CE
-        P[:k, :k], P[:k, e:], P[e:, :k], P[e:, e:] = self.P[:k, :k], self.P[:k, k:], self.P[k:, :k], self.P[k:, k:]
-        P[k:e, :k], P[k:e, e:] = JP[:, :k], JP[:, k:]
-        P[:k, k:e], P[e:, k:e] = JP[:, :k].T, JP[:, k:].T
-        P[k:e, k:e] = 0.5 * (block + block.T)
+        _native.msckf_clone(self.P, _POSE_ROWS, k, u, P)
         self.P = P
         c = np.concatenate([ESKF_STATE.get(self.x, "position"), ESKF_STATE.get(self.x, "quat")])
         self.clones = np.vstack([self.clones, c])
@@ -457,10 +445,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
     def _drop_oldest_clone(self) -> None:
         n = self.P.shape[0]
         P = np.empty((n - _CE, n - _CE))
-        P[:_NE, :_NE] = self.P[:_NE, :_NE]
-        P[:_NE, _NE:] = self.P[:_NE, _NE + _CE :]
-        P[_NE:, :_NE] = self.P[_NE + _CE :, :_NE]
-        P[_NE:, _NE:] = self.P[_NE + _CE :, _NE + _CE :]
+        _native.msckf_select(self.P, np.concatenate((_IMU_ROWS, np.arange(_NE + _CE, n))), P)
         self.P = P
         gone = self._clone_id[0]
         self.clones, self.clones_fej = self.clones[1:], self.clones_fej[1:]
@@ -705,7 +690,9 @@ class MsckfVio(EskfStateAccessors, Estimator):
         n = self.P.shape[0]
         keep = np.r_[np.arange(k0), (k0 + 3 * np.flatnonzero(~drop)[:, None] + np.arange(3)).reshape(-1),
                      np.arange(n - len(self._extra), n)]  # fmt: skip
-        self.P = np.ascontiguousarray(self.P[keep][:, keep])
+        P = np.empty((len(keep), len(keep)))
+        _native.msckf_select(self.P, keep, P)
+        self.P = P
         self.slam_id, self.slam_p, self.slam_fej = self.slam_id[~drop], self.slam_p[~drop], self.slam_fej[~drop]
 
     def _adapted_sigma(self, r: np.ndarray, rvar: np.ndarray) -> float:

@@ -2,11 +2,15 @@
 // used by dualpose.estimation.msckf:
 //
 //   msckf_propagate  the IMU error-state propagation of eskf_kernels.hpp over k steps, with the states at every
-//                    step and the product Φ of the step transitions (for the IMU–clone cross-covariance);
+//                    step, the IMU rows of the cross-covariance multiplied by the product Φ of the step transitions;
+//   msckf_clone      the covariance augmented by a clone of the IMU pose (stochastic cloning);
+//   msckf_select     the covariance of a subset of the states (marginalisation of a clone or of SLAM points);
 //   msckf_features   per feature: Gauss–Newton triangulation on inverse depth in the anchor (first) camera, the
 //                    reprojection residuals and Jacobians at the clones' first estimates (FEJ), the left-nullspace
 //                    projection of the feature Jacobian by Givens rotations, and the χ² gate; the accepted rows
-//                    stacked for one EKF update.
+//                    stacked for one EKF update;
+//   msckf_slam_rows  the gated update rows of the SLAM features seen in one clone;
+//   msckf_update     one EKF update of the whole state (QR-compressed when the rows outnumber the states).
 //
 // Layouts: IMU nominal x (16,) and error (15,) as eskf_layout.hpp; clone c = [p_wb (3), q_wb (4, xyzw)] of the IMU
 // pose, its error [δp (3), δθ (3)] (local: q = q̂ ⊗ Exp(δθ)) at columns 15 + 6c of the covariance.  Camera:
@@ -241,38 +245,142 @@ inline void fej_step(double* x, const double* x0, double* Pm, const double* gyro
     add_process_noise(Pm, noise, dt, w2, f2);
 }
 
-// msckf_propagate(x, x0, P, Phi, gyro (k, 3), accel (k, 3), dt (k,), gravity, noise, X (k, 16)): k steps of the ESKF
-// prediction with constant input per step, in place on x (16,) and the IMU covariance P (15, 15), the transitions
-// at first estimates (fej_step): x0 (16,) those of the start (the state before the last update), then each step's
-// own start; Phi (15, 15) <- the product of the step transitions, X[i] the state after step i.
+// msckf_propagate(x, x0, P, gyro (k, 3), accel (k, 3), dt (k,), gravity, noise, X (k, 16)): k steps of the ESKF
+// prediction with constant input per step, in place on x (16,) and the covariance P (n, n), n >= 15, whose first 15
+// rows and columns are the IMU error and the others states that do not move (clones, points, the time offset); the
+// transitions at first estimates (fej_step): x0 (16,) those of the start (the state before the last update), then
+// each step's own start; the IMU rows of the cross-covariance are multiplied by the product Φ of the step
+// transitions (P_IO <- Φ P_IO), X[i] the state after step i.
 PyObject* py_propagate(PyObject*, PyObject* args) {
     Array<double, 1, true> x;
-    Array<double, 2, true> Pm, Phi, X;
+    Array<double, 2, true> Pm, X;
     Array<double, 2> gyro, accel;
     Array<double, 1> x0, dt, gravity, noise;
-    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&O&O&O&:msckf_propagate", convert<double, 1, true>, &x,
-                          convert<double, 1>, &x0, convert<double, 2, true>, &Pm, convert<double, 2, true>, &Phi,
-                          convert<double, 2>, &gyro, convert<double, 2>, &accel, convert<double, 1>, &dt,
-                          convert<double, 1>, &gravity, convert<double, 1>, &noise, convert<double, 2, true>, &X))
+    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&O&O&:msckf_propagate", convert<double, 1, true>, &x,
+                          convert<double, 1>, &x0, convert<double, 2, true>, &Pm, convert<double, 2>, &gyro,
+                          convert<double, 2>, &accel, convert<double, 1>, &dt, convert<double, 1>, &gravity,
+                          convert<double, 1>, &noise, convert<double, 2, true>, &X))
         return nullptr;
-    const npy_intp k = dt.shape[0];
-    if (!shape_is("x", x, {NX}) || !shape_is("x0", x0, {NX}) || !shape_is("P", Pm, {NE, NE}) ||
-        !shape_is("Phi", Phi, {NE, NE}) || !shape_is("gyro", gyro, {k, 3}) || !shape_is("accel", accel, {k, 3}) ||
+    const npy_intp k = dt.shape[0], n = Pm.shape[0];
+    if (!shape_is("x", x, {NX}) || !shape_is("x0", x0, {NX}) || !shape_is("P", Pm, {n, n}) ||
+        !shape_is("gyro", gyro, {k, 3}) || !shape_is("accel", accel, {k, 3}) ||
         !shape_is("gravity", gravity, {3}) || !shape_is("noise", noise, {6}) || !shape_is("X", X, {k, NX}))
         return nullptr;
-    double F[NE * NE], T[NE * NE], start[NX];
-    std::fill(Phi.data, Phi.data + NE * NE, 0.0);
-    for (int i = 0; i < NE; ++i) Phi.data[i * (NE + 1)] = 1.0;
+    if (n < NE) {
+        PyErr_SetString(PyExc_ValueError, "P must have at least 15 rows (the IMU error first)");
+        return nullptr;
+    }
+    double F[NE * NE], T[NE * NE], Phi[NE * NE], Pii[NE * NE], start[NX];
     Py_BEGIN_ALLOW_THREADS;
+    std::fill(Phi, Phi + NE * NE, 0.0);
+    for (int i = 0; i < NE; ++i) Phi[i * (NE + 1)] = 1.0;
+    for (int i = 0; i < NE; ++i) std::copy(Pm.row(i), Pm.row(i) + NE, Pii + NE * i);
     std::copy(x0.data, x0.data + NX, start);
     for (npy_intp s = 0; s < k; ++s) {
-        fej_step(x.data, start, Pm.data, gyro.row(s), accel.row(s), dt[s], gravity.data, noise.data, F);
+        fej_step(x.data, start, Pii, gyro.row(s), accel.row(s), dt[s], gravity.data, noise.data, F);
         std::copy(x.data, x.data + NX, start);
-        mul_sparse_left<NE, NE, NE>(F, Phi.data, T);
-        std::copy(T, T + NE * NE, Phi.data);
+        mul_sparse_left<NE, NE, NE>(F, Phi, T);
+        std::copy(T, T + NE * NE, Phi);
         std::copy(x.data, x.data + NX, X.row(s));
     }
-    symmetrize<NE>(Pm.data);
+    symmetrize<NE>(Pii);
+    for (int i = 0; i < NE; ++i) std::copy(Pii + NE * i, Pii + NE * i + NE, Pm.row(i));
+    if (k > 0 && n > NE) {  // P_IO <- Φ P_IO and its transpose
+        std::vector<double> C(NE * (n - NE));
+        for (int i = 0; i < NE; ++i) {
+            double* c = &C[i * (n - NE)];
+            for (int q = 0; q < NE; ++q) {
+                const double f = Phi[i * NE + q];
+                const double* pr = Pm.row(q) + NE;
+                for (npy_intp j = 0; j < n - NE; ++j) c[j] += f * pr[j];
+            }
+        }
+        for (int i = 0; i < NE; ++i) {
+            std::copy(&C[i * (n - NE)], &C[(i + 1) * (n - NE)], Pm.row(i) + NE);
+            for (npy_intp j = 0; j < n - NE; ++j) Pm(NE + j, i) = C[i * (n - NE) + j];
+        }
+    }
+    Py_END_ALLOW_THREADS;
+    Py_RETURN_NONE;
+}
+
+// msckf_clone(P (n, n), rows (6,), k, u (U,), Pout (n + 6, n + 6)): the covariance with a clone of the pose error
+// J δx (rows: the IMU error's [δp, δθ] rows) inserted at row and column k (15 + 6C, after the clones).  With the
+// time offset (the last state; U = 6) the clone is the pose at t_cam + t̂_d and its error gains u δt_d,
+// u = [v_w, ω_b]: J P becomes J P + u P_(n-1), and the clone block (J P Jᵀ + …) its symmetric part.  U = 0: no
+// time offset.
+PyObject* py_clone(PyObject*, PyObject* args) {
+    Array<double, 2> Pm;
+    Array<std::int64_t, 1> rows;
+    Array<double, 1> u;
+    Array<double, 2, true> out;
+    Py_ssize_t k;
+    if (!PyArg_ParseTuple(args, "O&O&nO&O&:msckf_clone", convert<double, 2>, &Pm, convert<std::int64_t, 1>, &rows,
+                          &k, convert<double, 1>, &u, convert<double, 2, true>, &out))
+        return nullptr;
+    const npy_intp n = Pm.shape[0], N = n + 6, nu = u.shape[0];
+    if (!shape_is("P", Pm, {n, n}) || !shape_is("rows", rows, {6}) || !shape_is("Pout", out, {N, N}))
+        return nullptr;
+    if (nu != 0 && nu != 6) {
+        PyErr_SetString(PyExc_ValueError, "u must have shape (0,) or (6,)");
+        return nullptr;
+    }
+    if (k < 0 || k > n) {
+        PyErr_SetString(PyExc_ValueError, "k must be within [0, len(P)]");
+        return nullptr;
+    }
+    for (int i = 0; i < 6; ++i)
+        if (rows[i] < 0 || rows[i] >= n) {
+            PyErr_SetString(PyExc_ValueError, "rows must index P");
+            return nullptr;
+        }
+    Py_BEGIN_ALLOW_THREADS;
+    auto o = [&](npy_intp j) { return j < k ? j : j + 6; };  // old index -> new index
+    for (npy_intp i = 0; i < n; ++i) {
+        const double* pr = Pm.row(i);
+        double* orow = out.row(o(i));
+        std::copy(pr, pr + k, orow);
+        std::copy(pr + k, pr + n, orow + k + 6);
+    }
+    std::vector<double> JP(6 * n);
+    for (int i = 0; i < 6; ++i) {
+        const double* pr = Pm.row(rows[i]);
+        const double* pl = Pm.row(n - 1);
+        for (npy_intp j = 0; j < n; ++j) JP[i * n + j] = nu ? pr[j] + u[i] * pl[j] : pr[j];
+    }
+    double B[36];
+    for (int i = 0; i < 6; ++i)
+        for (int j = 0; j < 6; ++j)
+            B[6 * i + j] = nu ? JP[i * n + rows[j]] + JP[i * n + n - 1] * u[j] : JP[i * n + rows[j]];
+    for (int i = 0; i < 6; ++i) {
+        for (npy_intp j = 0; j < n; ++j) out(k + i, o(j)) = out(o(j), k + i) = JP[i * n + j];
+        for (int j = 0; j < 6; ++j) out(k + i, k + j) = 0.5 * (B[6 * i + j] + B[6 * j + i]);
+    }
+    Py_END_ALLOW_THREADS;
+    Py_RETURN_NONE;
+}
+
+// msckf_select(P (n, n), keep (k,), Pout (k, k)): Pout = P[keep][:, keep] (marginalising the states not kept).
+PyObject* py_select(PyObject*, PyObject* args) {
+    Array<double, 2> Pm;
+    Array<std::int64_t, 1> keep;
+    Array<double, 2, true> out;
+    if (!PyArg_ParseTuple(args, "O&O&O&:msckf_select", convert<double, 2>, &Pm, convert<std::int64_t, 1>, &keep,
+                          convert<double, 2, true>, &out))
+        return nullptr;
+    const npy_intp n = Pm.shape[0], k = keep.shape[0];
+    if (!shape_is("P", Pm, {n, n}) || !shape_is("Pout", out, {k, k})) return nullptr;
+    for (npy_intp i = 0; i < k; ++i)
+        if (keep[i] < 0 || keep[i] >= n) {
+            PyErr_SetString(PyExc_ValueError, "keep must index P");
+            return nullptr;
+        }
+    Py_BEGIN_ALLOW_THREADS;
+    for (npy_intp i = 0; i < k; ++i) {
+        const double* pr = Pm.row(keep[i]);
+        double* orow = out.row(i);
+        for (npy_intp j = 0; j < k; ++j) orow[j] = pr[keep[j]];
+    }
     Py_END_ALLOW_THREADS;
     Py_RETURN_NONE;
 }
@@ -766,8 +874,14 @@ PyObject* py_update(PyObject*, PyObject* args) {
 
 PyMethodDef methods[] = {
     {"msckf_propagate", py_propagate, METH_VARARGS,
-     "msckf_propagate(x, x0, P, Phi, gyro, accel, dt, gravity, noise, X): k ESKF prediction steps in place on x (16,) "
-     "and P (15, 15); Phi (15, 15) the product of the step transitions, X (k, 16) the state after every step."},
+     "msckf_propagate(x, x0, P, gyro, accel, dt, gravity, noise, X): k ESKF prediction steps in place on x (16,) "
+     "and P (n, n) (IMU error first, the other states static), X (k, 16) the state after every step."},
+    {"msckf_clone", py_clone, METH_VARARGS,
+     "msckf_clone(P, rows, k, u, Pout): the covariance P (n, n) with a clone of the IMU pose error (rows (6,)) "
+     "inserted at row and column k into Pout (n + 6, n + 6); u (6,) = [v_w, ω_b] with the time offset last in P, "
+     "(0,) without."},
+    {"msckf_select", py_select, METH_VARARGS,
+     "msckf_select(P, keep, Pout): Pout (k, k) = P[keep][:, keep], keep (k,) int64."},
     {"msckf_features", py_features, METH_VARARGS,
      "msckf_features(clones, clones_fej, q_bc, p_bc, offsets, obs_clone, obs_uv, P, sigma, chi2, limits, H, r, rvar, "
      "status, nis, points, top) -> rows: triangulate, linearise (FEJ), nullspace-project and gate every feature; "
