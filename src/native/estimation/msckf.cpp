@@ -749,13 +749,19 @@ bool msckf_update_core(double* x, double* clones_p, double* lm_p, double* extra_
         }
         nz_off[j + 1] = static_cast<npy_intp>(nzc.size());
     }
+    // S_i = Σ_k h_ik (Wᵀ)_k over the nonzeros of row i in increasing k: each S_ij sums in the order of a dot product
+    // of the two rows, as axpys over the rows of Wᵀ (vectorised; no chain of dependent additions)
+    std::vector<double> Wt((n - c0) * m);
+    for (npy_intp j = 0; j < m; ++j)
+        for (npy_intp k = c0; k < n; ++k) Wt[(k - c0) * m + j] = W[j * n + k];
+    std::fill(S.begin(), S.end(), 0.0);
     for (npy_intp i = 0; i < m; ++i) {
         const double* hr = h + i * n;
-        for (npy_intp j = 0; j < m; ++j) {
-            double s = 0.0;
-            const double* wr = &W[j * n];
-            for (npy_intp q = nz_off[i]; q < nz_off[i + 1]; ++q) s += hr[nzc[q]] * wr[nzc[q]];
-            S[i * m + j] = s;
+        double* sr = &S[i * m];
+        for (npy_intp q = nz_off[i]; q < nz_off[i + 1]; ++q) {
+            const double hk = hr[nzc[q]];
+            const double* wt = &Wt[(nzc[q] - c0) * m];
+            for (npy_intp j = 0; j < m; ++j) sr[j] += hk * wt[j];
         }
     }
     for (npy_intp i = 0; i < m; ++i) {  // symmetrise (rounding) and add the noise
