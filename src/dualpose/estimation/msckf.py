@@ -59,18 +59,35 @@ _IMU_ROWS = np.arange(_NE)
 _VEL, _BG = ESKF_STATE.slice("velocity"), ESKF_STATE.slice("gyro_bias")
 
 
-def _member(a: NDArray[np.int64], b: NDArray[np.int64]) -> NDArray[np.bool_]:
-    """``np.isin(a, b)`` for the non-negative int64 track ids of a frame and a window: a lookup table when the ids are
-    small (a few µs instead of a sort per call), ``np.isin`` otherwise."""
-    if len(a) == 0 or len(b) == 0:
-        return np.zeros(len(a), bool)
-    top = max(int(a.max()), int(b.max()))
-    if top >= 1 << 22 or min(int(a.min()), int(b.min())) < 0:
-        return np.isin(a, b)
-    table = np.zeros(top + 1, bool)
-    table[b] = True
-    found: NDArray[np.bool_] = table[a]
-    return found
+class _TrackTable:
+    """``np.isin`` for the non-negative int64 track ids of the frames and the window by a lookup table (three array
+    operations, no sort, no allocation): :meth:`cover` must have seen every id a query holds; ids the table cannot
+    hold (negative or from 2²² on) switch it to ``np.isin`` for good."""
+
+    LIMIT = 1 << 22
+
+    def __init__(self) -> None:
+        self.table = np.zeros(0, bool)
+        self.direct = True
+
+    def cover(self, ids: NDArray[np.int64]) -> None:
+        if not self.direct or len(ids) == 0:
+            return
+        lo, hi = int(ids.min()), int(ids.max())
+        if lo < 0 or hi >= self.LIMIT:
+            self.direct = False
+        elif hi >= len(self.table):
+            self.table = np.zeros(max(hi + 1, 2 * len(self.table)), bool)
+
+    def member(self, a: NDArray[np.int64], b: NDArray[np.int64]) -> NDArray[np.bool_]:
+        """Whether each of ``a`` is in ``b``."""
+        if not self.direct:
+            return np.isin(a, b)
+        t = self.table
+        t[b] = True
+        found: NDArray[np.bool_] = t[a]
+        t[b] = False
+        return found
 
 
 @dataclass(frozen=True)
@@ -249,6 +266,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
         self.slam_fej = np.zeros((0, 3))
         self._chi2_2 = float(chi2.ppf(self.options.gate_probability, 2))
         self.n_slam_init = 0  # SLAM features initialised so far
+        self._ids = _TrackTable()  # membership of the track ids seen
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -354,6 +372,8 @@ class MsckfVio(EskfStateAccessors, Estimator):
             f.slam_p = np.array(d["slam_p"], dtype=np.float64).reshape(-1, 3)
             f.slam_fej = np.array(d["slam_fej"], dtype=np.float64).reshape(-1, 3)
             f._extra = np.array(d["extra"], dtype=np.float64).reshape(-1)
+            f._ids.cover(f._ob_track)
+            f._ids.cover(f.slam_id)
             t_imu = float(d["t_imu"])
             f._t_imu = None if np.isnan(t_imu) else t_imu
         except KeyError as exc:
@@ -528,24 +548,25 @@ class MsckfVio(EskfStateAccessors, Estimator):
         observations of the SLAM features, marginalise the oldest clone; a frame's ``track_id`` (m,) int64 and
         normalised ``uv`` (m, 2)."""
         o = self.options
+        self._ids.cover(track_id)
         if len(self.slam_id):
-            seen = _member(self.slam_id, track_id)
+            seen = self._ids.member(self.slam_id, track_id)
             if not seen.all():
                 self._drop_landmarks(~seen)
         self._clone(self.time)
         cid = self._clone_id[-1]
-        in_slam = _member(track_id, self.slam_id) if len(self.slam_id) else np.zeros(len(track_id), bool)
+        in_slam = self._ids.member(track_id, self.slam_id)
         slam_track, slam_uv = track_id[in_slam], uv[in_slam]
         if in_slam.any():
             track_id, uv = track_id[~in_slam], uv[~in_slam]
         use = np.zeros(len(self._ob_track) + len(track_id), bool)  # the observations of the tracks to use
-        use[: len(self._ob_track)] = ~_member(self._ob_track, track_id)  # tracks that ended
+        use[: len(self._ob_track)] = ~self._ids.member(self._ob_track, track_id)  # tracks that ended
         self._ob_track = np.concatenate([self._ob_track, track_id])
         self._ob_clone = np.concatenate([self._ob_clone, np.full(len(track_id), cid)])
         self._ob_uv = np.concatenate([self._ob_uv, uv])
         full = len(self.clones) > o.max_clones
         if full:  # and the tracks seen in the oldest clone, which leaves the window
-            use |= _member(self._ob_track, self._ob_track[self._ob_clone == self._clone_id[0]])
+            use |= self._ids.member(self._ob_track, self._ob_track[self._ob_clone == self._clone_id[0]])
         result = self._features_update(use, track_id if full else None, slam_track, slam_uv)
         self._keep_obs(~use)
         if full:
@@ -605,7 +626,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
                     room = o.max_slam - len(self.slam_id)
                     if current is not None and room > 0:  # long tracks (seen in the oldest clone and now): SLAM
                         gid = ids[enough]
-                        for f in np.flatnonzero(accepted & _member(gid, current))[:room]:
+                        for f in np.flatnonzero(accepted & self._ids.member(gid, current))[:room]:
                             self._init_landmark(int(gid[f]), points[f], top[f])
         drop = np.zeros(len(self.slam_id), bool)
         if len(slam_track):
@@ -747,11 +768,13 @@ class MsckfVio(EskfStateAccessors, Estimator):
             res = self._frame_update(r.tracks.track_id[a:b], r.tracks.uv[a:b])
             if self.time == t[k]:  # a frame at an IMU stamp: the output there is the state after the update
                 X[k] = self.x
-            stats["used"] += int(np.sum(res.status == 1))
-            stats["gated"] += int(np.sum(res.status == 0))
-            stats["failed"] += int(np.sum(res.status == -1))
-            nis_all.append(res.nis[res.status == 1])
-            dof_all.append(res.feature_dof[res.status == 1])
+            if len(res.status):
+                acc = res.status == 1
+                stats["used"] += int(np.count_nonzero(acc))
+                stats["gated"] += int(np.count_nonzero(res.status == 0))
+                stats["failed"] += int(np.count_nonzero(res.status == -1))
+                nis_all.append(res.nis[acc])
+                dof_all.append(res.feature_dof[acc])
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         blocks = {name: ESKF_STATE.get(X, name) for name in ESKF_STATE.names}
         return VioResult(
