@@ -456,10 +456,10 @@ class MsckfVio(EskfStateAccessors, Estimator):
         _native.msckf_clone(self.P, _POSE_ROWS, k, u, P)
         self.P = P
         c = np.concatenate([ESKF_STATE.get(self.x, "position"), ESKF_STATE.get(self.x, "quat")])
-        self.clones = np.vstack([self.clones, c])
-        self.clones_fej = np.vstack([self.clones_fej, c])
-        self.clone_t = np.append(self.clone_t, t)
-        self._clone_id = np.append(self._clone_id, self._next_clone)
+        self.clones = np.concatenate((self.clones, c[None]))
+        self.clones_fej = np.concatenate((self.clones_fej, c[None]))
+        self.clone_t = np.concatenate((self.clone_t, (t,)))
+        self._clone_id = np.concatenate((self._clone_id, (self._next_clone,)))
         self._next_clone += 1
 
     def _drop_oldest_clone(self) -> None:
@@ -467,10 +467,9 @@ class MsckfVio(EskfStateAccessors, Estimator):
         P = np.empty((n - _CE, n - _CE))
         _native.msckf_select(self.P, np.concatenate((_IMU_ROWS, np.arange(_NE + _CE, n))), P)
         self.P = P
-        gone = self._clone_id[0]
+        # the window's observations in the clone went with the update of their tracks (_frame_update)
         self.clones, self.clones_fej = self.clones[1:], self.clones_fej[1:]
         self.clone_t, self._clone_id = self.clone_t[1:], self._clone_id[1:]
-        self._keep_obs(self._ob_clone != gone)
 
     def _keep_obs(self, keep: np.ndarray) -> None:
         self._ob_track, self._ob_clone, self._ob_uv = self._ob_track[keep], self._ob_clone[keep], self._ob_uv[keep]
@@ -748,15 +747,16 @@ class MsckfVio(EskfStateAccessors, Estimator):
         stats = {"used": 0, "gated": 0, "failed": 0}
         nis_all, dof_all = [], []
         t0, c0 = time.perf_counter(), time.process_time()
+        mid = 0.5 * (u[:-1] + u[1:])  # the mean of consecutive samples, per step
+        gyro_mid, accel_mid, dt_all = np.ascontiguousarray(mid[:, :3]), np.ascontiguousarray(mid[:, 3:]), np.diff(t)
         for j in range(first, len(ft) + 1):
             # the frame on the IMU clock with the current offset estimate (online: never before the filter time)
             tf = max(r.tracks.t[j] + self.camera_time_offset, self.time) if j < len(ft) else np.inf
             k1 = int(np.searchsorted(t, tf, side="right")) - 1  # last sample at or before the frame
             if k1 > k:
-                mid = 0.5 * (u[k:k1] + u[k + 1 : k1 + 1])
-                dts = np.diff(t[k : k1 + 1])
+                dts = dt_all[k:k1].copy()
                 dts[0] = t[k + 1] - self.time
-                X[k + 1 : k1 + 1] = self._steps(mid[:, :3], mid[:, 3:], dts)
+                X[k + 1 : k1 + 1] = self._steps(gyro_mid[k:k1], accel_mid[k:k1], dts)
                 self.time, self._u, k = float(t[k1]), u[k1].copy(), k1
                 self._t_imu = self.time
             if j == len(ft):
