@@ -804,7 +804,9 @@ bool msckf_update_core(double* x, double* clones_p, double* lm_p, double* extra_
             nis += y[j] * y[j];
             for (npy_intp i = 0; i < n; ++i) dx[i] += W[j * n + i] * y[j];
         }
-        // P −= Wᵀ W, upper triangle, four rows of W per pass over P (P is read and written m/4 times, not m)
+        // P −= Wᵀ W, four rows of W per pass over P (P is read and written m/4 times, not m); the whole square in
+        // contiguous rows (a mirrored triangle would write P by columns): P stays exactly symmetric, the products of
+        // entries (i, k) and (k, i) being the same numbers summed in the same order
         npy_intp j = 0;
         for (; j + 4 <= m; j += 4) {
             const double *w0 = &W[j * n], *w1 = w0 + n, *w2 = w1 + n, *w3 = w2 + n;
@@ -812,7 +814,7 @@ bool msckf_update_core(double* x, double* clones_p, double* lm_p, double* extra_
                 const double a0 = w0[i], a1 = w1[i], a2 = w2[i], a3 = w3[i];
                 if (a0 == 0.0 && a1 == 0.0 && a2 == 0.0 && a3 == 0.0) continue;
                 double* pr = Prow(i);
-                for (npy_intp k = i; k < n; ++k) pr[k] -= (a0 * w0[k] + a1 * w1[k]) + (a2 * w2[k] + a3 * w3[k]);
+                for (npy_intp k = 0; k < n; ++k) pr[k] -= (a0 * w0[k] + a1 * w1[k]) + (a2 * w2[k] + a3 * w3[k]);
             }
         }
         for (; j < m; ++j) {
@@ -821,11 +823,9 @@ bool msckf_update_core(double* x, double* clones_p, double* lm_p, double* extra_
                 const double wi = w[i];
                 if (wi == 0.0) continue;
                 double* pr = Prow(i);
-                for (npy_intp k = i; k < n; ++k) pr[k] -= wi * w[k];
+                for (npy_intp k = 0; k < n; ++k) pr[k] -= wi * w[k];
             }
         }
-        for (npy_intp i = 0; i < n; ++i)
-            for (npy_intp k = i + 1; k < n; ++k) Pp[k * n + i] = Pp[i * n + k];
         for (int i = 0; i < 3; ++i) {
             x[P + i] += dx[DP + i];
             x[V + i] += dx[DV + i];
