@@ -787,17 +787,45 @@ bool msckf_update_core(double* x, double* clones_p, double* lm_p, double* extra_
     }
     if (ok) {
         // W = L⁻¹ (H P) (m, n), y = L⁻¹ r: then P <- P − Wᵀ W, δx = Wᵀ y, NIS = yᵀ y
+        // (forward substitution by blocks of four rows: the rows above a block are applied to its four rows in one
+        // pass, reading each once; every row still takes its terms in increasing k, as one row at a time would)
         std::vector<double> y(r, r + m);
-        for (npy_intp j = 0; j < m; ++j) {
-            const double d = L[j * m + j];
-            for (npy_intp k = 0; k < j; ++k) {
-                const double l = L[j * m + k];
-                if (l == 0.0) continue;
-                for (npy_intp i = 0; i < n; ++i) W[j * n + i] -= l * W[k * n + i];
-                y[j] -= l * y[k];
+        auto sub = [&](npy_intp j, npy_intp k) {  // row j -= L_jk row k
+            const double l = L[j * m + k];
+            if (l == 0.0) return;
+            for (npy_intp i = 0; i < n; ++i) W[j * n + i] -= l * W[k * n + i];
+            y[j] -= l * y[k];
+        };
+        for (npy_intp jb = 0; jb < m; jb += 4) {
+            const npy_intp je = std::min<npy_intp>(jb + 4, m);
+            for (npy_intp k = 0; k < jb; ++k) {
+                const double* lk = &L[k];
+                if (je - jb < 4 || lk[jb * m] == 0.0 || lk[(jb + 1) * m] == 0.0 || lk[(jb + 2) * m] == 0.0 ||
+                    lk[(jb + 3) * m] == 0.0) {
+                    for (npy_intp j = jb; j < je; ++j) sub(j, k);
+                    continue;
+                }
+                const double l0 = lk[jb * m], l1 = lk[(jb + 1) * m], l2 = lk[(jb + 2) * m], l3 = lk[(jb + 3) * m];
+                const double* wk = &W[k * n];
+                double *w0 = &W[jb * n], *w1 = w0 + n, *w2 = w1 + n, *w3 = w2 + n;
+                for (npy_intp i = 0; i < n; ++i) {
+                    const double v = wk[i];
+                    w0[i] -= l0 * v;
+                    w1[i] -= l1 * v;
+                    w2[i] -= l2 * v;
+                    w3[i] -= l3 * v;
+                }
+                y[jb] -= l0 * y[k];
+                y[jb + 1] -= l1 * y[k];
+                y[jb + 2] -= l2 * y[k];
+                y[jb + 3] -= l3 * y[k];
             }
-            for (npy_intp i = 0; i < n; ++i) W[j * n + i] /= d;
-            y[j] /= d;
+            for (npy_intp j = jb; j < je; ++j) {
+                for (npy_intp k = jb; k < j; ++k) sub(j, k);
+                const double d = L[j * m + j];
+                for (npy_intp i = 0; i < n; ++i) W[j * n + i] /= d;
+                y[j] /= d;
+            }
         }
         std::vector<double> dx(n, 0.0);
         for (npy_intp j = 0; j < m; ++j) {
