@@ -708,8 +708,8 @@ class MsckfVio(EskfStateAccessors, Estimator):
         """Marginalise the SLAM features ``drop`` (L,) bool: delete their rows and columns."""
         k0 = _NE + _CE * len(self.clones)
         n = self.P.shape[0]
-        keep = np.r_[np.arange(k0), (k0 + 3 * np.flatnonzero(~drop)[:, None] + np.arange(3)).reshape(-1),
-                     np.arange(n - len(self._extra), n)]  # fmt: skip
+        keep = np.concatenate((np.arange(k0), (k0 + 3 * np.flatnonzero(~drop)[:, None] + np.arange(3)).reshape(-1),
+                               np.arange(n - len(self._extra), n)))  # fmt: skip
         P = np.empty((len(keep), len(keep)))
         _native.msckf_select(self.P, keep, P)
         self.P = P
