@@ -12,7 +12,11 @@ Without ``--calibration`` the calibration is EuRoC's published Kalibr cam0 extri
 output of ``dualpose calibrate camera-imu ... --json``).
 
 Run ``nice .venv/bin/python benchmarks/track_euroc.py [--calibration CALIB.json] [--axes-from CALIB.json]
-[--scale-sigmas none|mems] [--markdown PATH] [--figure PNG]``.
+[--scale-sigmas none|mems] [--structure] [--markdown PATH] [--figure PNG]``.  The table also has the ESKF run
+offline through the RTS smoother (``estimation.smoother.rts_smooth``; one filter run without re-locking).
+``--structure`` adds the error-structure diagnosis of docs/fusion.md: each camera's frame-to-frame PnP error with the
+motion taken out by the IMU over one frame interval (white-noise σ and the correlation between the cameras), and
+the split of each method's error against the reference into its mean, a slow part (9-frame running mean) and the rest.
 """
 
 from __future__ import annotations
@@ -26,14 +30,19 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+from scipy.ndimage import uniform_filter1d
 
+import dualpose as dp
 from _common import emit
+from dualpose.calibration._preintegration import preintegrate
+from dualpose.estimation.smoother import rts_smooth
 from dualpose.evaluation.target_reference import body_trajectory, errors_against
 from dualpose.io.target.recording import (
     read_camera_imu_calibration,
     read_target_recording,
     write_camera_imu_calibration,
 )
+from dualpose.pipelines.fuse import FILTERS
 from dualpose.pipelines.track_target import (
     EUROC_T_BS,
     extrinsic_from_matrix,
@@ -42,6 +51,7 @@ from dualpose.pipelines.track_target import (
     run_relocking,
     run_track,
 )
+from dualpose.types import Trajectory
 from dualpose.types.calibration import CameraImuCalibration
 
 DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "euroc" / "imu_april"
@@ -75,6 +85,7 @@ def main() -> int:
                     help="IMU scale-factor uncertainties of the ESKF: none (Kalibr's model) or the MEMS class values")
     ap.add_argument("--axes-from", help="take the IMU axis matrices from this calibration JSON (with the extrinsic "
                     "of --calibration / the fixture)")
+    ap.add_argument("--structure", action="store_true", help="add the error-structure diagnosis (docs/fusion.md)")
     ap.add_argument("--markdown", help="also write the tables to this file (never overwritten)")
     ap.add_argument("--figure", help="write the trajectory figure (PNG) here")
     args = ap.parse_args()
@@ -137,6 +148,10 @@ def main() -> int:
     pnp = m["camera_pnp"]
     lines.append(f"| cam0-only per-frame PnP | {_mm(pnp['position_rmse_m'])} | {_deg(pnp['rotation_rmse_deg'])} | "
                  "| | | | | |")  # fmt: skip
+    smoothed = _smoothed(setup)
+    sm = errors_against(setup.cache["reference", "cam1"][0], smoothed)
+    lines.append(f"| ESKF + RTS smoother (offline, no re-lock) | {_mm(sm.position_rmse_m)} | "
+                 f"{_deg(sm.rotation_rmse_deg)} | | | | | | |")  # fmt: skip
     io = imu_only(setup, (0.5, 1.0, 2.0))
     for k, v in io.items():
         lines.append(f"| IMU only, first {k} after the start | {_mm(v['position_rmse_m'])} | "
@@ -171,10 +186,135 @@ def main() -> int:
     lines.append("worst outage error: " + "; ".join(f"{n}: {1e3 * p:.1f} mm, {r:.3f}°" for n, (p, r) in worst.items())
                  + f" (runs with the outages: ESKF {1e3 * out_runs['eskf'].metrics['position_rmse_m']:.2f} mm / "
                  f"{out_runs['eskf'].metrics['rotation_rmse_deg']:.3f}° overall)")  # fmt: skip
+    if args.structure:
+        lines += [""] + _structure(setup, {"ESKF": runs["eskf"].estimate, "ESKF + RTS smoother": smoothed})
+        lines += [""] + _outage_offsets(setup, out_setup, out_runs["eskf"].estimate)
     if args.figure:
         _figure(runs["eskf"], setup, args.figure)
         lines.append(f"figure: {args.figure}")
     return emit("\n".join(lines), args.markdown)
+
+
+def _smoothed(setup) -> Trajectory:
+    """The ESKF run from the set-up's start over the whole recording (no re-lock), RTS-smoothed."""
+    rec, st = setup.recording, setup.start
+    fr = FILTERS["eskf"](rec, st.x, st.P).run_recording(rec, record_nodes=True)
+    sm = rts_smooth(fr)
+    return Trajectory(sm.t, sm.position, sm.quat, rec.stamps_ns, name="ESKF + RTS smoother")
+
+
+def _split(e: np.ndarray, scale: float) -> str:
+    """Mean, slow part (9-frame running mean of the rest) and fast part (the remainder) of errors (K, 3), RMS per
+    axis."""
+    c = e - e.mean(axis=0)
+    slow = uniform_filter1d(c, 9, axis=0)
+    rms = lambda x: " ".join(f"{scale * v:.2f}" for v in np.sqrt(np.mean(x**2, axis=0)))  # noqa: E731
+    return f"{' '.join(f'{scale * v:+.2f}' for v in e.mean(axis=0))} | {rms(slow)} | {rms(c - slow)}"
+
+
+def _structure(setup, tracks: dict) -> list[str]:
+    """Error structure of the per-frame PnP poses of both cameras and of the tracks against the reference."""
+    src = setup.source
+    imu = src.imu
+    t_imu = (imu.stamps_ns - imu.stamps_ns[0]) * 1e-9
+    ref, kept = setup.cache["reference", "cam1"]
+    cal = setup.calibration
+    poses = {"cam0": setup.cache["own"], "cam1": kept}
+    ext = {"cam0": (cal.rotation_xyzw, cal.translation_m), "cam1": extrinsic_from_matrix(EUROC_T_BS["cam1"])}
+    common = np.intersect1d(poses["cam0"].stamps_ns, poses["cam1"].stamps_ns)
+    body = {}
+    for c, ps in poses.items():
+        i = np.searchsorted(ps.stamps_ns, common)
+        tr = body_trajectory(ps, *ext[c])
+        body[c] = (dp.matrix_from_quat(tr.quats[i]), tr.positions[i])
+    # frame triples 50 ms apart: the IMU carries the pose from frame k-1 (and k) to k (k+1)
+    s = (common - imu.stamps_ns[0]) * 1e-9 + cal.time_offset_s
+    step = np.abs(np.diff(common) - 50_000_000) < 1_000_000
+    k = np.flatnonzero(step[:-1] & step[1:]) + 1
+    al = setup.start.alignment
+    bg = np.asarray(cal.gyro_bias if cal.gyro_bias is not None else al.gyro_bias, dtype=np.float64)
+    ba = np.asarray(cal.accel_bias if cal.accel_bias is not None else al.accel_bias, dtype=np.float64)
+    gyro, accel = imu.gyro, imu.accel
+    if cal.gyro_axes_matrix is not None:
+        gyro = gyro @ np.linalg.inv(np.asarray(cal.gyro_axes_matrix)).T
+        accel = accel @ np.linalg.inv(np.asarray(cal.accel_axes_matrix)).T
+    pre = preintegrate(t_imu, gyro, accel, s, np.broadcast_to(bg, (len(s) - 1, 3)),
+                       np.broadcast_to(ba, (len(s) - 1, 3)), 0.0, 0.0)  # fmt: skip
+    g = np.asarray(setup.start.alignment.gravity)
+    white = {}
+    for c, (R, p) in body.items():
+        eR = dp.so3_log(np.swapaxes(pre.dR[k - 1], 1, 2) @ np.swapaxes(R[k - 1], 1, 2) @ R[k])
+        T1, T2 = pre.dt[k - 1][:, None], pre.dt[k][:, None]
+        v0 = (p[k] - p[k - 1] - 0.5 * g * T1**2 - np.einsum("kij,kj->ki", R[k - 1], pre.dp[k - 1])) / T1
+        v1 = v0 + g * T1 + np.einsum("kij,kj->ki", R[k - 1], pre.dv[k - 1])
+        ep = p[k + 1] - (p[k] + v1 * T2 + 0.5 * g * T2**2 + np.einsum("kij,kj->ki", R[k], pre.dp[k]))
+        white[c] = (eR, ep)
+    out = [f"Per-frame PnP error with the motion removed by the IMU ({len(k)} frame triples 50 ms apart; rotation: "
+           "relative rotation over one interval, σ = RMS/√2; position: second difference, σ = RMS/√6; body axes):",
+           "", "| quantity | cam0 σ (x y z) | cam1 σ (x y z) | correlation cam0–cam1 (x y z) |",
+           "|---|---|---|---|"]  # fmt: skip
+    for name, j, scale, div in (("rotation [deg]", 0, np.degrees(1.0), np.sqrt(2)), ("position [mm]", 1, 1e3,
+                                                                                          np.sqrt(6))):  # fmt: skip
+        a, b = white["cam0"][j], white["cam1"][j]
+        corr = [np.corrcoef(a[:, i], b[:, i])[0, 1] for i in range(3)]
+        out.append(f"| {name} | {' '.join(f'{scale * v / div:.3f}' for v in a.std(axis=0))} | "
+                   f"{' '.join(f'{scale * v / div:.3f}' for v in b.std(axis=0))} | "
+                   f"{' '.join(f'{v:+.2f}' for v in corr)} |")  # fmt: skip
+    out += ["", "Errors against the reference (cam1 PnP), split: mean, slow part (9-frame running mean), fast part "
+            "(rest); RMS per axis (target frame for positions, body frame for rotations):", "",
+            "| track | position mean [mm] | slow [mm] | fast [mm] | rotation mean [deg] | slow [deg] | fast [deg] | "
+            "implied lag rotation / position [ms] |",
+            "|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    items = dict(tracks)
+    items["cam0-only per-frame PnP"] = body_trajectory(poses["cam0"], *ext["cam0"], cal.time_offset_s)
+    for name, tr in items.items():
+        e = errors_against(ref, tr)
+        rq = dp.matrix_from_quat(ref.quats[e.index])
+        ev = dp.so3_log(np.swapaxes(rq, 1, 2) @ dp.matrix_from_quat(e.estimate.quats))
+        # a track late by δ has errors ≈ −ω δ (body) and −v δ: the least-squares δ of each
+        tt = ref.stamps[e.index]
+        w = np.column_stack([np.interp(tt, imu.stamps, imu.gyro[:, i]) for i in range(3)])
+        v = np.gradient(ref.positions[e.index], tt, axis=0)
+        lag_r = -float(np.sum((ev - ev.mean(axis=0)) * w) / np.sum(w * w))
+        lag_p = -float(np.sum((e.position - e.position.mean(axis=0)) * v) / np.sum(v * v))
+        out.append(f"| {name} | {_split(e.position, 1e3)} | {_split(ev, np.degrees(1.0))} | "
+                   f"{1e3 * lag_r:+.2f} / {1e3 * lag_p:+.2f} |")  # fmt: skip
+    return out
+
+
+def _rotation_errors(ref: Trajectory, track: Trajectory):
+    """Errors of ``track`` at the reference frames: stamps (K,), position (K, 3) m, rotation vectors (K, 3) rad
+    (body frame)."""
+    e = errors_against(ref, track)
+    rq = dp.matrix_from_quat(ref.quats[e.index])
+    return e.estimate.stamps, e.position, dp.so3_log(np.swapaxes(rq, 1, 2) @ dp.matrix_from_quat(e.estimate.quats))
+
+
+def _outage_offsets(setup, out_setup, eskf_out: Trajectory) -> list[str]:
+    """Inside each outage window: the largest errors of the ESKF and of the RTS-smoothed ESKF of the run with the
+    outages, the rotation also with the run's constant rotation offset (its mean error vector) removed, and cam0's
+    PnP the same way (no outage)."""
+    ref, _ = setup.cache["reference", "cam1"]
+    t0 = float(setup.source.imu.stamps[0])
+    cal = setup.calibration
+    tracks = {"ESKF": eskf_out, "RTS": _smoothed(out_setup),
+              "PnP": body_trajectory(setup.cache["own"], cal.rotation_xyzw, cal.translation_m, cal.time_offset_s)}
+    errs = {k: _rotation_errors(ref, tr) for k, tr in tracks.items()}
+    out = ["Outage windows (cam0 deleted; PnP: no outage) — largest errors inside, and the largest rotation error with "
+           "the run's constant rotation offset (mean error vector over all reference frames) removed:", "",
+           "| outage [s] | ESKF position [mm] / rotation [deg] / offset removed | RTS-smoothed: position / rotation / "
+           "offset removed | cam0 PnP rotation / offset removed [deg] |", "|---|---|---|---|"]  # fmt: skip
+    for a, b in OUTAGES:
+        cells = []
+        for k in ("ESKF", "RTS", "PnP"):
+            st, pe, ev = errs[k]
+            m = (st - t0 >= a) & (st - t0 < b)
+            rot = np.degrees(np.linalg.norm(ev[m], axis=1).max())
+            rot0 = np.degrees(np.linalg.norm(ev[m] - ev.mean(axis=0), axis=1).max())
+            pos = 1e3 * np.linalg.norm(pe[m], axis=1).max()
+            cells.append(f"{rot:.3f} / {rot0:.3f}" if k == "PnP" else f"{pos:.1f} / {rot:.3f} / {rot0:.3f}")
+        out.append(f"| {a:g}–{b:g} | " + " | ".join(cells) + " |")
+    return out
 
 
 def _figure(result, setup, path: str) -> None:

@@ -32,8 +32,10 @@ ALLOWED: dict[str, set[str]] = {
     "evaluation": BASE | {"algebra", "types", "registration"},
     "pipelines": BASE | {"algebra", "types", "registration", "inertial", "io", "sim", "calibration", "estimation",
                          "evaluation"},
+    "jobs": BASE | {"algebra", "types", "registration", "inertial", "io", "sim", "calibration", "estimation",
+                    "evaluation", "pipelines"},
     "cli": BASE | {"algebra", "types", "registration", "inertial", "io", "sim", "calibration", "estimation",
-                   "evaluation", "pipelines"},
+                   "evaluation", "pipelines", "jobs"},
 }
 MAX_PUBLIC_MODULES = 12
 

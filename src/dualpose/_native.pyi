@@ -111,6 +111,7 @@ REGISTRATION_EIGEN_GAP: int
 REGISTRATION_GAP_TOLERANCE: int
 REGISTRATION_N_BAD_INPUT_NAMES: int
 REGISTRATION_POINT_COST: int
+REGISTRATION_POINT_EXPONENT: int
 REGISTRATION_QUAT_AT: int
 REGISTRATION_REFLECTION: int
 REGISTRATION_ROW_SIZE: int
@@ -141,6 +142,12 @@ def ahrs_stream_step(state: Any, gyr: Any, acc: Any, mag: Any, /) -> NDArray[np.
 angular_acceleration_from_quat: np.ufunc  # (4),(4),(4),()->(3)
 atan2c: np.ufunc  # elementwise
 axis_angle_from_quat: np.ufunc  # (4)->(3),()
+def block_tridiagonal_factor(D: Any, U: Any, lam: Any, Linv: Any, Lsub: Any, /) -> None: ...
+def block_tridiagonal_solve(Linv: Any, Lsub: Any, b: Any, x: Any, /) -> None: ...
+def camera_imu_reprojection(
+    params: Any, R: Any, p: Any, v: Any, omega: Any, E: Any, R_bc: Any, p_bc: Any, points: Any, pixels: Any,
+    weight: Any, sigma: Any, d: Any, huber: Any, jacobians: Any, H: Any, g: Any, cost: Any, /
+) -> None: ...
 def camera_invert(
     model: Any, from_pixels: Any, output: Any, params: Any, limit: Any, src: Any, out: Any, valid: Any, /
 ) -> None: ...

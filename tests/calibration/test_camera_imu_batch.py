@@ -10,6 +10,7 @@ import pytest
 
 import dualpose as dp
 from dualpose import sim
+from dualpose.calibration._preintegration import imu_factors, preintegrate
 from dualpose.calibration.camera_imu import calibrate_camera_imu
 from dualpose.types.camera import FrameCorrespondences
 from dualpose.types.camera_models import RadTanCamera
@@ -93,8 +94,85 @@ def test_imu_axis_model_recovers_misaligned_imu():
     assert float(dt @ np.linalg.solve(res.covariance[3:6, 3:6], dt)) < 16.3
 
 
+def test_motion_noise_model_on_a_sharp_run(simulated):
+    """Without motion blur the fitted blur duration is negligible and the extrinsic is that of the uniform σ."""
+    run, uniform = simulated
+    _, cam, noise, frames = _simulated(1)
+    res = calibrate_camera_imu(run.t, run.gyro, run.accel, frames, cam, noise, min_frames=20, imu_model="calibrated",
+                               noise_model="motion")  # fmt: skip
+    # white noise only: the fit finds 0.25 ms, i.e. κ |u̇| of a few hundredths of a pixel at this run's image
+    # speeds, against σ₀ = 0.3 px
+    assert res.blur_time_s < 5e-4
+    assert res.pixel_sigma == pytest.approx(0.3, rel=0.1)
+    assert np.degrees(dp.quat_angle(res.q_bc, uniform.q_bc)) < np.max(uniform.std["rotation_deg"])
+    assert np.all(np.abs(res.p_bc - uniform.p_bc) < uniform.std["translation_m"])
+
+
+class _Captured(Exception):
+    pass
+
+
+def test_compiled_reprojection_blocks_equal_the_numpy_path(monkeypatch):
+    """The compiled per-frame reprojection blocks (``_native.camera_imu_reprojection``) against the NumPy
+    Jacobians of the same problem, with a time shift, per-corner σ and rejected corners."""
+    import dualpose.calibration.camera_imu as ci
+
+    run, cam, noise, frames = _simulated(2)
+    box = {}
+
+    def capture(prob, *args, **kwargs):
+        box["prob"] = prob
+        raise _Captured
+
+    monkeypatch.setattr(ci, "_levenberg_marquardt", capture)
+    with pytest.raises(_Captured):
+        calibrate_camera_imu(run.t, run.gyro, run.accel, frames, cam, noise, min_frames=20)
+    prob = box["prob"]
+    assert prob.native
+    rng = np.random.default_rng(5)
+    prob.corner_scale = 1.0 + rng.random(prob.corner_scale.shape)
+    prob.inlier[:, ::5] = False
+    prob.tau = prob.tau_ref + 0.003
+    out = {}
+    for native in (True, False):
+        prob.native = native
+        H, g, cost = prob.normal_equations()
+        out[native] = (H.D, H.U, H.B, H.C, g, cost, prob.cost())
+    for a, b in zip(out[True], out[False], strict=True):
+        np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-10 * np.max(np.abs(b)))
+
+
+def test_block_tridiagonal_factor_solves_the_damped_system():
+    from dualpose.calibration.camera_imu import _Normal
+
+    rng = np.random.default_rng(1)
+    n, s = 30, 15
+    A = np.zeros((n * s, n * s))
+    for i in range(n):
+        X = rng.normal(size=(s, 2 * s))
+        A[i * s : (i + 1) * s, i * s : (i + 1) * s] = X @ X.T
+        if i + 1 < n:
+            Y = 0.3 * rng.normal(size=(s, s))
+            A[i * s : (i + 1) * s, (i + 1) * s : (i + 2) * s] = Y
+            A[(i + 1) * s : (i + 2) * s, i * s : (i + 1) * s] = Y.T
+    D = np.stack([A[i * s : (i + 1) * s, i * s : (i + 1) * s] for i in range(n)])
+    U = np.stack([A[i * s : (i + 1) * s, (i + 1) * s : (i + 2) * s] for i in range(n - 1)])
+    N = _Normal(D, U, np.zeros((n * s, 2)), np.eye(2), np.zeros(n * s + 2))
+    b = rng.normal(size=(n * s, 3))
+    F = N._factor_band(0.1)
+    expected = np.linalg.solve(A + 0.1 * np.diag(np.diag(A)), b)
+    np.testing.assert_allclose(N._solve_band(F, b), expected, atol=1e-12)
+    np.testing.assert_allclose(N._solve_band(F, b[:, 0]), expected[:, 0], atol=1e-12)
+    with pytest.raises(np.linalg.LinAlgError, match="not positive definite"):
+        _Normal(-D, U, np.zeros((n * s, 2)), np.eye(2), np.zeros(n * s + 2))._factor_band(0.0)
+
+
 def test_refusals():
     run, cam, noise, frames = _simulated(2)
+    with pytest.raises(ValueError, match="noise_model"):
+        calibrate_camera_imu(run.t, run.gyro, run.accel, frames, cam, noise, noise_model="blur")
+    with pytest.raises(ValueError, match="huber"):
+        calibrate_camera_imu(run.t, run.gyro, run.accel, frames, cam, noise, huber=0.0)
     with pytest.raises(ValueError, match="imu_model"):
         calibrate_camera_imu(run.t, run.gyro, run.accel, frames, cam, noise, imu_model="full")
     with pytest.raises(ValueError, match="bias_model"):
@@ -141,3 +219,19 @@ def test_euroc_cut_against_kalibr_and_stereo(euroc_cut):
     # a 15 s cut: 0.15° and 4.6 mm measured (the whole recording: 0.066°, 1.8 mm; docs/euroc.md)
     assert _angle_deg(stereo[:3, :3].T @ est[:3, :3]) < 0.25
     assert np.linalg.norm(est[:3, 3] - stereo[:3, 3]) < 0.008
+
+
+def test_imu_factors_with_axis_models_need_the_axis_jacobians_and_both_deviations():
+    t = np.linspace(0.0, 1.0, 101)
+    gyro, accel = np.zeros((101, 3)), np.tile([0.0, 0.0, 9.81], (101, 1))
+    s, zeros = np.array([0.1, 0.5, 0.9]), np.zeros((2, 3))
+    R = np.broadcast_to(np.eye(3), (2, 3, 3))
+    states = (R, zeros, zeros, R, zeros, zeros, zeros, zeros, np.array([0.0, 0.0, -9.81]), np.eye(3)[:, :2])
+    plain = preintegrate(t, gyro, accel, s, zeros, zeros, 1e-3, 1e-2)
+    with pytest.raises(ValueError, match="no axis-model Jacobians"):
+        imu_factors(plain, *states, axes_gyro=np.zeros(6), axes_accel=np.zeros(9))
+    with_axes = preintegrate(t, gyro, accel, s, zeros, zeros, 1e-3, 1e-2, axes=True)
+    with pytest.raises(ValueError, match="axes_accel must be given with axes_gyro"):
+        imu_factors(with_axes, *states, axes_gyro=np.zeros(6))
+    r, J = imu_factors(with_axes, *states, axes_gyro=np.zeros(6), axes_accel=np.zeros(9))
+    assert r.shape == (2, 9) and J is not None and J.shape == (2, 9, 41)

@@ -148,7 +148,7 @@ def test_one_flushed_line_per_input_line():
         ("0.1 2 3\n", f"stdin line 153: {FIELDS_6D}, got 3"),
         ("9.0, 0, 0, nope, 0, 0, 9.81\n", "stdin line 153: field 4 (gz): 'nope' is not a number"),
         ("9.0, 0, 0, 0, 0, nan, 9.81\n", "stdin line 153: field 6 (ay): non-finite value 'nan'"),
-        ("1.0, 0, 0, 0, 0, 0, 9.81\n", "stdin line 153: time 1.0 does not increase (previous 1.49)"),
+        ("1.0, 0, 0, 0, 0, 0, 9.81\n", "stdin line 153: t must be finite and increase strictly: got 1.0 after 1.49"),
     ],
 )
 def test_malformed_line_in_the_middle(bad, message):

@@ -85,10 +85,14 @@ def test_imu_gap_is_warned_with_its_times(good, tmp_path, capsys):
     d = _copy(good, tmp_path)
     head, rows = _imu_rows(d)
     (d / "imu.csv").write_text("\n".join(head + rows[:300] + rows[500:]) + "\n")  # 2 s without IMU data
-    assert main(["fuse", "--data", str(d), "--json"]) == 0
-    err = capsys.readouterr().err
+    assert main(["fuse", "--data", str(d), "--json"]) == 3  # finished, on an input it doubts
+    out, err = capsys.readouterr()
     warn = [s for s in err.splitlines() if s.startswith("dualpose fuse: warning: ")]
-    assert len(warn) == 1 and "1 IMU gap(s)" in warn[0] and "2.990-5.000 s" in warn[0]
+    assert any("1 IMU gap(s)" in w and "2.990-5.000 s" in w for w in warn)
+    assert [d["code"] for d in json.loads(out)["input_doubts"]] == ["imu_gap"]
+    # the estimate drifts across the gap: its se3 alignment to the truth is not determined, warned about and flagged
+    assert len(warn) == 2 and any("alignment (se3) is not determined" in w for w in warn)
+    assert json.loads(out)["alignment_well_determined"] is False
     assert "\r" not in err  # progress: plain lines off a terminal
     assert "dualpose fuse: 4/4 evaluate" in err
 

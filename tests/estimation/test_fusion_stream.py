@@ -246,7 +246,7 @@ def test_refuses_non_finite_samples_and_changes_nothing(kind):
         a.update_imu(0.01, np.array([np.nan, 0.0, 0.0]), [0.0, 0.0, 9.81])  # the native fast path
     with pytest.raises(ValueError, match="accel must be finite"):
         a.update_imu(0.01, [0.0, 0.0, 0.0], [0.0, np.inf, 9.81])
-    with pytest.raises(ValueError, match=r"gyro must be finite; row 1 is \[nan, 0.0, 0.0\]"):
+    with pytest.raises(ValueError, match=r"gyro must be finite: row 1 is \[nan, 0.0, 0.0\]"):
         a.update_batch([0.01, 0.02], [[0.0, 0.0, 0.0], [np.nan, 0.0, 0.0]], np.tile([0.0, 0.0, 9.81], (2, 1)))
     with pytest.raises(ValueError, match="pixels and points must be finite"):
         a.update_camera(0.015, np.array([[np.nan, 1.0]]), np.ones((1, 3)))

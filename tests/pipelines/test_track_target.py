@@ -25,6 +25,7 @@ from dualpose.pipelines.track_target import (
     run_relocking,
     run_track,
     stream_track_lines,
+    track_imu_noise,
 )
 from dualpose.types import ImuNoise, RadTanCamera, Trajectory
 from dualpose.types.calibration import CameraImuCalibration
@@ -243,3 +244,16 @@ def test_an_outage_window_without_frames_is_refused(simulated):
     src, cal, _, _ = simulated
     with pytest.raises(ValueError, match=r"outage 10000:10001 s holds no frame"):
         prepare_track(src, cal, "cam0", outages=[(3.0, 4.0), (1e4, 1e4 + 1.0)])
+
+
+@pytest.mark.parametrize("bad", ["ab", "xyz", "MEMS", (0.1, float("nan")), (-0.1, 0.0)])
+def test_scale_sigmas_other_than_two_numbers_or_mems_are_refused_by_name(simulated, bad):
+    src, _, _, _ = simulated
+    with pytest.raises(ValueError, match=r"scale_sigmas must be two finite numbers >= 0 \(or 'mems'\)"):
+        track_imu_noise(src.rig, bad)
+
+
+def test_a_rig_without_imu_noise_is_refused_naming_the_sensor_file(simulated):
+    src, _, _, _ = simulated
+    with pytest.raises(ValueError, match=r"no IMU noise densities \(imu0\)"):
+        track_imu_noise(dataclasses.replace(src.rig, imu_noise=None), "mems")

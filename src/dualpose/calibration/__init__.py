@@ -36,6 +36,7 @@ from dualpose.calibration.hand_eye_streams import (
 )
 from dualpose.calibration.hand_eye_time import CoarseOffset, angular_rate_signal, coarse_time_offset
 from dualpose.calibration.static import (
+    StaticArrays,
     StaticPeriod,
     stack_static_periods,
     static_period,
@@ -62,6 +63,7 @@ __all__ = [
     "LoopResidual",
     "PoseStream",
     "SceneGravity",
+    "StaticArrays",
     "StaticPeriod",
     "TimeOffsetEstimate",
     "angular_rate_signal",

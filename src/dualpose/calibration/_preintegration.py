@@ -87,6 +87,12 @@ class Preintegrated:
     v_Ma: np.ndarray | None = None
     p_Ma: np.ndarray | None = None
 
+    def axis_jacobians(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(R_Mg, v_Mg, p_Mg, v_Ma, p_Ma)``; ValueError when preintegrated without ``axes=True``."""
+        if self.R_Mg is None or self.v_Mg is None or self.p_Mg is None or self.v_Ma is None or self.p_Ma is None:
+            raise ValueError("the preintegration holds no axis-model Jacobians (preintegrate with axes=True)")
+        return self.R_Mg, self.v_Mg, self.p_Mg, self.v_Ma, self.p_Ma
+
 
 def _substeps(imu_t: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Break points (I, n+1) of every interval ``[a, b]`` at the sample times inside it (padded with ``b``)."""
@@ -223,10 +229,13 @@ def imu_factors(
     dvc = pre.dv + np.einsum("kij,kj->ki", pre.v_bg, dbg) + np.einsum("kij,kj->ki", pre.v_ba, dba)
     dpc = pre.dp + np.einsum("kij,kj->ki", pre.p_bg, dbg) + np.einsum("kij,kj->ki", pre.p_ba, dba)
     axes = axes_gyro is not None
-    if axes:
-        corr = corr + pre.R_Mg @ axes_gyro
-        dvc = dvc + pre.v_Mg @ axes_gyro + pre.v_Ma @ axes_accel
-        dpc = dpc + pre.p_Mg @ axes_gyro + pre.p_Ma @ axes_accel
+    if axes_gyro is not None:
+        if axes_accel is None:
+            raise ValueError("axes_accel must be given with axes_gyro")
+        R_Mg, v_Mg, p_Mg, v_Ma, p_Ma = pre.axis_jacobians()
+        corr = corr + R_Mg @ axes_gyro
+        dvc = dvc + v_Mg @ axes_gyro + v_Ma @ axes_accel
+        dpc = dpc + p_Mg @ axes_gyro + p_Ma @ axes_accel
     dRc = pre.dR @ dp.so3_exp(corr)
     Rit = np.swapaxes(R_i, 1, 2)
     T = pre.dt[:, None]
@@ -244,11 +253,12 @@ def imu_factors(
     JrotB = -Jinv @ np.swapaxes(dp.so3_exp(rR), 1, 2) @ dp.so3_right_jacobian(corr)
     J[:, 0:3, 18:21] = JrotB @ pre.R_bg
     if axes:
-        J[:, 0:3, 26:32] = JrotB @ pre.R_Mg
-        J[:, 3:6, 26:32] = -pre.v_Mg
-        J[:, 3:6, 32:41] = -pre.v_Ma
-        J[:, 6:9, 26:32] = -pre.p_Mg
-        J[:, 6:9, 32:41] = -pre.p_Ma
+        R_Mg, v_Mg, p_Mg, v_Ma, p_Ma = pre.axis_jacobians()
+        J[:, 0:3, 26:32] = JrotB @ R_Mg
+        J[:, 3:6, 26:32] = -v_Mg
+        J[:, 3:6, 32:41] = -v_Ma
+        J[:, 6:9, 26:32] = -p_Mg
+        J[:, 6:9, 32:41] = -p_Ma
     J[:, 3:6, 0:3] = dp.so3_hat(yv)
     J[:, 3:6, 6:9] = -Rit
     J[:, 3:6, 15:18] = Rit

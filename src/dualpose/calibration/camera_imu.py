@@ -18,9 +18,10 @@ a-posteriori batch, as in Kalibr, Furgale et al. 2013, but in discrete time):
 * bias random-walk factors ``b_k+1 − b_k ~ N(0, σ_rw² Δt)`` (or one constant bias), and weak priors on the first
   bias (0 ± 0.1 rad/s, 0 ± 1 m/s²) and the axis models (0 ± 0.1) that only fix the scale of the problem.
 
-It is solved by Levenberg–Marquardt on the normal equations (block Jacobians assembled with NumPy; the
-reprojection blocks are summed per frame with batched matrix products; the block-tridiagonal frame part is
-factored by the block Cholesky recursion and the globals by their Schur complement).  Between
+It is solved by Levenberg–Marquardt on the normal equations (the reprojection blocks of every frame summed corner
+by corner in a compiled kernel, ``_native.camera_imu_reprojection``, with a NumPy path for other camera models and
+refined intrinsics; the IMU blocks in NumPy; the block-tridiagonal frame part factored by the compiled block
+Cholesky recursion and the globals by their Schur complement).  Between
 passes the frame states are re-anchored at ``t_k + τ`` and the IMU re-preintegrated at the current biases.
 
 Start from no prior: per-frame PnP on the undistorted corners (:func:`dualpose.registration.pnp.solve_pnp_batch`),
@@ -37,10 +38,13 @@ import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
+from typing import Any, Literal, TypedDict, overload
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 import dualpose as dp
+from dualpose import _native
 from dualpose.calibration._preintegration import (
     N_ACCEL_AXES,
     N_GYRO_AXES,
@@ -53,14 +57,57 @@ from dualpose.calibration._preintegration import (
 from dualpose.calibration.time_offset import estimate_time_offset, gyro_mean_rates
 from dualpose.registration.pnp import solve_pnp, solve_pnp_batch
 from dualpose.types.camera import FrameCorrespondences
+from dualpose.types.camera_models import DistortedCamera, RadTanCamera
 from dualpose.types.imu import STANDARD_GRAVITY, ImuNoise
 
-__all__ = ["CameraImuCalibration", "calibrate_camera_imu"]
+__all__ = [
+    "CameraImuCalibration", "CameraImuExcitation", "CameraImuOutliers", "CameraImuStd", "calibrate_camera_imu"
+]
 
+#: a float64 array (the shapes are in the docstrings)
+_Arr = NDArray[np.float64]
 #: global unknowns after the frame states and bias knots: δε (3, body frame), δp_bc (3), δτ, δg (2)
 _NG = 9
 _BIAS_PRIOR = np.array([0.1, 0.1, 0.1, 1.0, 1.0, 1.0])  # rad/s, m/s²: only fixes the scale
 _AXES_PRIOR = 0.1  # the axis-model parameters (dimensionless), likewise
+#: relative cost decrease that ends the LM of a re-weighting pass (the final pass runs to 1e-7)
+_PASS_TOLERANCE = 1e-5
+
+
+class CameraImuStd(TypedDict):
+    """The ``std`` of :class:`CameraImuCalibration`: first-order standard deviations (see there)."""
+
+    rotation_deg: NDArray[np.float64]
+    translation_m: NDArray[np.float64]
+    time_offset_s: float
+    gyro_bias: NDArray[np.float64]
+    accel_bias: NDArray[np.float64]
+    gravity_target_deg: float
+
+
+class CameraImuOutliers(TypedDict):
+    """The ``outliers`` of :class:`CameraImuCalibration`: the frames not used (camera stamps, s) and the corners
+    rejected."""
+
+    frames_total: int
+    no_detections: list[float]
+    too_few_corners: list[float]
+    outside_imu: list[float]
+    pnp_failed: list[float]
+    corners_total: int
+    corners_rejected: int
+    corners_rejected_fraction: float
+    reject_threshold_px: float
+
+
+class CameraImuExcitation(TypedDict):
+    """The ``excitation`` of :class:`CameraImuCalibration`: how well the motion determined the lever arm and the
+    time offset."""
+
+    translation_std_m: NDArray[np.float64]
+    translation_directions: NDArray[np.float64]
+    time_offset_std_s: float
+    warnings: list[str]
 
 
 @dataclass
@@ -89,7 +136,8 @@ class CameraImuCalibration:
     covariance : ndarray (9, 9)
         Covariance of ``[ε (3), p_bc (3), τ, δg (2)]`` (rad, m, s, rad; ``gravity_basis`` spans δg).
     reprojection_rms_px : float
-        RMS of the corner residuals (both axes) of the inlier corners, px.  ``pixel_sigma`` the robust (MAD) σ, px.
+        RMS of the corner residuals (both axes) of the inlier corners, px.  ``pixel_sigma`` the robust (MAD) σ, px
+        (``σ₀`` with ``noise_model="motion"``, whose ``κ`` is ``blur_time_s``, s; 0 otherwise).
     imu_chi2_per_dof : float
         Mean ``rᵀ Σ⁻¹ r / 9`` of the preintegration factors (≈ 1 when the IMU noise densities fit).
     outliers : dict
@@ -118,13 +166,13 @@ class CameraImuCalibration:
     gyro_bias: np.ndarray
     accel_bias: np.ndarray
     gravity_target: np.ndarray
-    std: dict
+    std: CameraImuStd
     covariance: np.ndarray
     reprojection_rms_px: float
     pixel_sigma: float
     imu_chi2_per_dof: float
-    outliers: dict
-    excitation: dict
+    outliers: CameraImuOutliers
+    excitation: CameraImuExcitation
     gyro_misalignment: np.ndarray
     accel_misalignment: np.ndarray
     frames_used: int
@@ -132,16 +180,18 @@ class CameraImuCalibration:
     runtime_s: float
     bias_t: np.ndarray
     bias_track: np.ndarray
-    initial: dict = field(default_factory=dict)
+    initial: dict[str, Any] = field(default_factory=dict)
     camera_parameters: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    imu_axes: tuple = ()
+    imu_axes: tuple[NDArray[np.float64], ...] = ()
     imu_axes_std: np.ndarray = field(default_factory=lambda: np.zeros(0))
     camera_parameters_std: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    blur_time_s: float = 0.0
 
     @property
     def rotation_matrix(self) -> np.ndarray:
         """``R_bc`` (3, 3)."""
-        return dp.matrix_from_quat(self.q_bc)
+        R: _Arr = dp.matrix_from_quat(self.q_bc)
+        return R
 
     @property
     def matrix(self) -> np.ndarray:
@@ -158,7 +208,8 @@ def _tangent_basis(g: np.ndarray) -> np.ndarray:
     a = np.array([1.0, 0.0, 0.0]) if abs(u[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     e1 = np.cross(u, a)
     e1 /= np.linalg.norm(e1)
-    return np.column_stack([e1, np.cross(u, e1)])
+    basis: _Arr = np.column_stack([e1, np.cross(u, e1)])
+    return basis
 
 
 def _cross_into(out: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
@@ -172,7 +223,8 @@ def _interp3(t: np.ndarray, x: np.ndarray, tq: np.ndarray) -> np.ndarray:
     return np.column_stack([np.interp(tq, t, x[:, c]) for c in range(3)])
 
 
-def _check_inputs(imu_t, gyro, accel, frames, camera):
+def _check_inputs(imu_t: ArrayLike, gyro: ArrayLike, accel: ArrayLike, frames: object,
+                  camera: object) -> tuple[_Arr, _Arr, _Arr]:  # fmt: skip
     imu_t = np.asarray(imu_t, dtype=np.float64)
     if imu_t.ndim != 1 or len(imu_t) < 10 or not np.all(np.isfinite(imu_t)) or np.any(np.diff(imu_t) <= 0):
         raise ValueError(f"imu_t must be a finite strictly increasing array of shape (N,), N >= 10; got {imu_t.shape}")
@@ -190,7 +242,8 @@ def _check_inputs(imu_t, gyro, accel, frames, camera):
     return imu_t, out[0], out[1]
 
 
-def _initial_poses(frames, keep, camera, min_corners):
+def _initial_poses(frames: FrameCorrespondences, keep: NDArray[np.intp], camera: DistortedCamera,
+                   min_corners: int) -> tuple[_Arr, _Arr, _Arr, NDArray[np.bool_]]:  # fmt: skip
     """PnP on the undistorted corners of the frames ``keep`` (indices); returns ``R_wc`` (F, 3, 3), ``c_w`` (F, 3),
     the PnP RMS (F,) (NaN where it failed)."""
     K = np.array([[camera.fx, 0.0, camera.cx], [0.0, camera.fy, camera.cy], [0.0, 0.0, 1.0]])
@@ -223,11 +276,18 @@ def _initial_poses(frames, keep, camera, min_corners):
     return R, c, rms, ok
 
 
+#: a copy of the state of :class:`_Problem`: R, p, v, bias, R_bc, p_bc, τ, g, camera, axis-model deviation
+_State = tuple[_Arr, _Arr, _Arr, _Arr, _Arr, _Arr, float, _Arr, DistortedCamera, _Arr]
+#: what the reprojection Jacobian is built from: D (N, M, 2, 3), E (N, 3, 3), Rᵀ (N, 3, 3), y, x_b, x_c (N, M, 3)
+_ReprojectionJacobian = tuple[_Arr, _Arr, _Arr, _Arr, _Arr, _Arr]
+
+
 class _Problem:
     """The batch: fixed data, current state, residuals/normal equations (module docstring)."""
 
-    def __init__(self, imu_t, gyro, accel, t_frames, offsets, pixels, points, camera, noise, gmag, bias_model,
-                 intrinsics=False, axes=False):  # fmt: skip
+    def __init__(self, imu_t: _Arr, gyro: _Arr, accel: _Arr, t_frames: _Arr, offsets: NDArray[np.intp], pixels: _Arr,
+                 points: _Arr, camera: DistortedCamera, noise: ImuNoise, gmag: float, bias_model: str,
+                 intrinsics: bool = False, axes: bool = False) -> None:  # fmt: skip
         self.imu_t, self.gyro, self.accel = imu_t, gyro, accel
         self.t = t_frames  # (N,) camera stamps of the nodes, s
         n = len(t_frames)
@@ -265,20 +325,25 @@ class _Problem:
         self.node_idx = self.node_off[:, None] + np.arange(9)
         self.knot_idx = self.knot_off[:, None] + np.arange(6)
         self.sigma_px = 1.0
+        self.corner_scale = np.ones(self.valid0.shape)  # per-corner σ / sigma_px (the motion-blur noise model)
         self.huber = 1.5  # in σ
+        self.blur_time = 0.0
+        #: the compiled reprojection blocks (radial-tangential camera, intrinsics fixed); the NumPy path otherwise
+        self.native = isinstance(camera, RadTanCamera) and not intrinsics
 
     # ----- state ---------------------------------------------------------------------------------------------
-    def set_state(self, R, p, v, bias, R_bc, p_bc, tau, g, tau_ref):
+    def set_state(self, R: _Arr, p: _Arr, v: _Arr, bias: _Arr, R_bc: _Arr, p_bc: _Arr, tau: float, g: _Arr,
+                  tau_ref: float) -> None:  # fmt: skip
         self.R, self.p, self.v, self.bias = R, p, v, bias
         self.R_bc, self.p_bc, self.tau, self.g = R_bc, p_bc, tau, g
         self.tau_ref = tau_ref
         self.relinearize()
 
-    def state(self):
+    def state(self) -> _State:
         return (self.R.copy(), self.p.copy(), self.v.copy(), self.bias.copy(), self.R_bc.copy(), self.p_bc.copy(),
                 self.tau, self.g.copy(), self.camera, self.theta.copy())  # fmt: skip
 
-    def restore(self, s):
+    def restore(self, s: _State) -> None:
         self.R, self.p, self.v, self.bias, self.R_bc, self.p_bc, self.tau, self.g, self.camera, self.theta = s
 
     def axes_matrices(self) -> tuple[np.ndarray, np.ndarray]:
@@ -288,7 +353,7 @@ class _Problem:
         return ((np.eye(3) - gyro_axes_matrix(self.theta[:N_GYRO_AXES])) @ self.correct_g,
                 (np.eye(3) - accel_axes_matrix(self.theta[N_GYRO_AXES:])) @ self.correct_a)  # fmt: skip
 
-    def relinearize(self):
+    def relinearize(self) -> None:
         """Node times ``t + τ_ref``, body rates there and the preintegration at the current biases."""
         self.s = self.t + self.tau_ref
         self.correct_g, self.correct_a = self.axes_matrices()
@@ -308,7 +373,7 @@ class _Problem:
         rw = np.array([n.gyroscope_random_walk] * 3 + [n.accelerometer_random_walk] * 3)
         self.rw_scale = 1.0 / (rw[None, :] * np.sqrt(np.maximum(dt_knot, 1e-9))[:, None])
 
-    def reanchor(self):
+    def reanchor(self) -> None:
         """Move the node times to ``t + τ`` (first-order shift of each state) and re-preintegrate."""
         d = self.tau - self.tau_ref
         bn = self.bias[self.knot]
@@ -320,7 +385,7 @@ class _Problem:
         self.tau_ref = self.tau
         self.relinearize()
 
-    def retract(self, delta):
+    def retract(self, delta: _Arr) -> None:
         dn = delta[self.node_idx]
         self.R = self.R @ dp.so3_exp(dn[:, 0:3])
         self.p = self.p + dn[:, 3:6]
@@ -336,7 +401,13 @@ class _Problem:
             self.camera = _with_parameters(self.camera, self.camera.parameters + dg[_NG + self.n_axes :])
 
     # ----- residuals -----------------------------------------------------------------------------------------
-    def reprojection(self, jac):
+    @overload
+    def reprojection(self, jac: Literal[True]) -> tuple[_Arr, NDArray[np.bool_], _ReprojectionJacobian]: ...
+
+    @overload
+    def reprojection(self, jac: Literal[False]) -> tuple[_Arr, NDArray[np.bool_], None]: ...
+
+    def reprojection(self, jac: bool) -> tuple[_Arr, NDArray[np.bool_], _ReprojectionJacobian | None]:
         d = self.tau - self.tau_ref
         E = dp.so3_exp(self.omega * d)
         Rt = np.swapaxes(self.R, 1, 2)
@@ -345,91 +416,138 @@ class _Problem:
         xc = (xb - self.p_bc) @ self.R_bc  # R_bcᵀ (x_b − p_bc)
         front = xc[..., 2] > 1e-3
         xc_safe = np.where(front[..., None], xc, np.array([0.0, 0.0, 1.0]))
+        parts: _ReprojectionJacobian | None = None
         if jac:
             pred, D = self.camera.project_jacobian(xc_safe)
+            parts = (D, E, Rt, y, xb, xc_safe)
         else:
-            pred, D = self.camera.project(xc_safe), None
+            pred = self.camera.project(xc_safe)
         r = pred - self.pix
         use = self.inlier & front
-        return r, use, (D, E, Rt, y, xb, xc_safe) if jac else None
+        return r, use, parts
 
-    def robust(self, r, use):
-        s = np.linalg.norm(r, axis=-1) / self.sigma_px
+    def robust(self, r: np.ndarray, use: np.ndarray) -> tuple[float, np.ndarray]:
+        s = np.linalg.norm(r, axis=-1) / (self.sigma_px * self.corner_scale)
         c = self.huber
         rho = np.where(s <= c, s * s, 2 * c * s - c * c)
         w = np.where(s <= c, 1.0, c / np.maximum(s, 1e-300)) * use
         return float(np.sum(rho * use)), w
 
-    def cost(self):
+    def image_speed(self) -> np.ndarray:
+        """Speed of every corner's image (N, M), px/s, from the frame's body rate and velocity: ``ẋ_b = −ω × x_b
+        − R_wbᵀ v``, ``ẋ_c = R_bcᵀ ẋ_b``, ``u̇ = (∂π/∂x_c) ẋ_c``."""
+        r, use, (D, E, Rt, y, xb, xc_safe) = self.reprojection(True)
+        vb = np.einsum("nij,nj->ni", Rt, self.v)
+        xdot_b = -np.cross(self.omega[:, None, :], xb) - vb[:, None, :]
+        xdot_c = xdot_b @ self.R_bc
+        return np.asarray(np.linalg.norm(np.einsum("nmij,nmj->nmi", D, xdot_c), axis=-1), dtype=np.float64)
+
+    def fit_noise(self, r: np.ndarray, use: np.ndarray, motion: bool) -> None:
+        """Re-estimate the pixel noise from the residuals ``r`` (N, M, 2) of the corners ``use``: ``sigma_px`` the
+        robust (MAD) σ, and with ``motion`` the per-corner model ``σ² = σ₀² + (κ |u̇|)²`` (``κ`` s: the blur's
+        effective duration; least squares of the squared residuals on the squared image speed)."""
+        if not motion:
+            self.sigma_px = max(1.4826 * float(np.median(np.abs(r[use]))), 1e-3)
+            return
+        speed = self.image_speed()[use]
+        e2 = 0.5 * np.sum(r[use] ** 2, axis=-1)
+        A = np.column_stack([np.ones_like(speed), speed**2])
+        a, b = np.linalg.lstsq(A, e2, rcond=None)[0]
+        s0 = max(1.4826 * float(np.median(np.abs(r[use]))), 1e-3)
+        a = a if a > 0 else s0**2
+        b = max(float(b), 0.0)
+        self.blur_time = math.sqrt(b)
+        full = self.image_speed()
+        self.corner_scale = np.sqrt(1.0 + (b / a) * full**2)
+        # the MAD of the normalised residuals: σ₀ robustly, given the shape of the model
+        self.sigma_px = max(1.4826 * float(np.median(np.abs(r[use] / self.corner_scale[use][:, None]))), 1e-3)
+
+    def _native_reprojection(self, jacobians: bool) -> tuple[np.ndarray, np.ndarray, float]:
+        """The per-frame reprojection blocks ``JᵀWJ`` (N, 16, 16), ``JᵀWr`` (N, 16) and the robust cost, compiled
+        (``_native.camera_imu_reprojection``: the equations of :meth:`reprojection` and :meth:`normal_equations`)."""
+        n, m = self.valid0.shape
+        d = self.tau - self.tau_ref
+        E = np.ascontiguousarray(dp.so3_exp(self.omega * d), dtype=np.float64)
+        H = np.empty((n, 16, 16) if jacobians else (0, 16, 16))
+        g = np.empty((n, 16) if jacobians else (0, 16))
+        cost = np.empty(n)
+        _native.camera_imu_reprojection(
+            np.ascontiguousarray(self.camera.parameters, dtype=np.float64), np.ascontiguousarray(self.R),
+            np.ascontiguousarray(self.p), np.ascontiguousarray(self.v), np.ascontiguousarray(self.omega), E,
+            np.ascontiguousarray(self.R_bc).ravel(), np.ascontiguousarray(self.p_bc, dtype=np.float64),
+            self.pts, self.pix, self.inlier.astype(np.float64), self.sigma_px * self.corner_scale, float(d),
+            float(self.huber), int(jacobians), H, g, cost,
+        )  # fmt: skip
+        return H, g, float(np.sum(cost))
+
+    def cost(self) -> float:
+        if self.native:
+            return self._native_reprojection(False)[2] + self._imu_cost()
         r, use, _ = self.reprojection(False)
         c_cam = self.robust(r, use)[0]
         return c_cam + self._imu_cost()
 
-    def _imu_args(self):
+    def _imu_args(self) -> tuple[Preintegrated, _Arr, _Arr, _Arr, _Arr, _Arr, _Arr, _Arr, _Arr, _Arr, _Arr]:
         bk = self.bias[self.knot]
         return (self.pre, self.R[:-1], self.p[:-1], self.v[:-1], self.R[1:], self.p[1:], self.v[1:], bk[:-1, :3],
                 bk[:-1, 3:], self.g, _tangent_basis(self.g))  # fmt: skip
 
-    def imu_whitened(self, jac):
-        ax = {}
-        if self.n_axes:
-            ax = {"axes_gyro": self.theta[:N_GYRO_AXES], "axes_accel": self.theta[N_GYRO_AXES:]}
-        r, J = imu_factors(*self._imu_args(), jacobians=jac, **ax)
+    def imu_whitened(self, jac: bool) -> tuple[_Arr, _Arr | None]:
+        ag, aa = (self.theta[:N_GYRO_AXES], self.theta[N_GYRO_AXES:]) if self.n_axes else (None, None)
+        r, J = imu_factors(*self._imu_args(), jacobians=jac, axes_gyro=ag, axes_accel=aa)
         rw = np.einsum("kij,kj->ki", self.imu_whiten, r)
-        Jw = self.imu_whiten @ J if jac else None
+        Jw = self.imu_whiten @ J if J is not None else None
         return rw, Jw
 
-    def _imu_cost(self):
+    def _imu_cost(self) -> float:
         rw = self.imu_whitened(False)[0]
         rb = np.diff(self.bias, axis=0) * self.rw_scale
         rp = self.bias[0] / _BIAS_PRIOR
         return float(np.sum(rw**2) + np.sum(rb**2) + np.sum(rp**2) + np.sum((self.theta / _AXES_PRIOR) ** 2))
 
-    def normal_equations(self):
+    def normal_equations(self) -> tuple[_Normal, np.ndarray, float]:
         """``H = JᵀWJ`` as :class:`_Normal` (band + border), the gradient ``JᵀWr`` and the cost."""
         n, K, gb = self.N, self.K, self.gbase
-        rows, cols, vals = [], [], []
-        grad = np.zeros(self.nvar)
-
-        def add(idx, Jw, rw):
-            H = np.swapaxes(Jw, 1, 2) @ Jw
-            rows.append(np.broadcast_to(idx[:, :, None], H.shape).ravel())
-            cols.append(np.broadcast_to(idx[:, None, :], H.shape).ravel())
-            vals.append(H.ravel())
-            grad[:] += np.bincount(idx.ravel(), np.einsum("bri,br->bi", Jw, rw).ravel(), minlength=len(grad))
-
+        acc = _Normal.empty(self.nvar, self.nb, self.stride)
+        add = acc.add
         # reprojection: per corner 2 × 16 over [φ, p, v of its node, ε, p_bc, τ]
-        r, use, (D, E, Rt, y, xb, xc_safe) = self.reprojection(True)
-        c_cam, w = self.robust(r, use)
-        d = self.tau - self.tau_ref
-        Rbc_t = self.R_bc.T
-        A = Rbc_t @ np.swapaxes(E, 1, 2)  # (N, 3, 3): d x_c / d x_b ∘ Eᵀ
-        m = D.shape[1]
-        D2 = D.reshape(n, 2 * m, 3)
-        DA = D2 @ A  # row-vector products as batched (2M × 3)(3 × 3) matrices
-        DART = (DA @ Rt).reshape(n, m, 2, 3)
-        DA = DA.reshape(n, m, 2, 3)
-        DB = (D2 @ Rbc_t).reshape(n, m, 2, 3)
-        nc = 16 + self.n_intr
-        J = np.empty((n, m, 2, nc))
-        _cross_into(J[..., 0:3], DA, y[:, :, None, :])  # aᵀ [y]× = (a × y)ᵀ
-        J[..., 3:6] = -DART
-        J[..., 6:9] = -DART * d
-        _cross_into(J[..., 9:12], DB, (xb - self.p_bc)[:, :, None, :])
-        J[..., 12:15] = -DB
-        vb = np.einsum("nij,nj->ni", Rt, self.v)
-        dxb_dtau = np.cross(xb, self.omega[:, None, :]) - np.einsum("nji,nj->ni", E, vb)[:, None, :]
-        J[..., 15] = np.sum(DB * dxb_dtau[:, :, None, :], axis=-1)
-        if self.n_intr:
-            J[..., 16:] = self.camera.intrinsics_jacobian(xc_safe)
-        sw = np.sqrt(w) / self.sigma_px
-        Jw = (J * sw[..., None, None]).reshape(n, -1, nc)
-        rw = (r * sw[..., None]).reshape(n, -1)
         glob = np.concatenate([gb + np.arange(7), gb + _NG + self.n_axes + np.arange(self.n_intr)])
         idx = np.concatenate([self.node_idx, np.broadcast_to(glob, (n, len(glob)))], axis=1)
-        add(idx, Jw, rw)
+        if self.native:
+            Hc, gc, c_cam = self._native_reprojection(True)
+            acc.add_blocks(idx, Hc, gc)
+        else:
+            r, use, (D, E, Rt, y, xb, xc_safe) = self.reprojection(True)
+            c_cam, w = self.robust(r, use)
+            d = self.tau - self.tau_ref
+            Rbc_t = self.R_bc.T
+            A = Rbc_t @ np.swapaxes(E, 1, 2)  # (N, 3, 3): d x_c / d x_b ∘ Eᵀ
+            m = D.shape[1]
+            D2 = D.reshape(n, 2 * m, 3)
+            DA = D2 @ A  # row-vector products as batched (2M × 3)(3 × 3) matrices
+            DART = (DA @ Rt).reshape(n, m, 2, 3)
+            DA = DA.reshape(n, m, 2, 3)
+            DB = (D2 @ Rbc_t).reshape(n, m, 2, 3)
+            nc = 16 + self.n_intr
+            J = np.empty((n, m, 2, nc))
+            _cross_into(J[..., 0:3], DA, y[:, :, None, :])  # aᵀ [y]× = (a × y)ᵀ
+            J[..., 3:6] = -DART
+            J[..., 6:9] = -DART * d
+            _cross_into(J[..., 9:12], DB, (xb - self.p_bc)[:, :, None, :])
+            J[..., 12:15] = -DB
+            vb = np.einsum("nij,nj->ni", Rt, self.v)
+            dxb_dtau = np.cross(xb, self.omega[:, None, :]) - np.einsum("nji,nj->ni", E, vb)[:, None, :]
+            J[..., 15] = np.sum(DB * dxb_dtau[:, :, None, :], axis=-1)
+            if self.n_intr:
+                J[..., 16:] = self.camera.intrinsics_jacobian(xc_safe)
+            sw = np.sqrt(w) / (self.sigma_px * self.corner_scale)
+            Jw = (J * sw[..., None, None]).reshape(n, -1, nc)
+            rw = (r * sw[..., None]).reshape(n, -1)
+            add(idx, Jw, rw)
+        # IMU factors: 9 × 26 over [node i, node j, bias knot of i, δg]
         # IMU factors: 9 × 26 over [node i, node j, bias knot of i, δg]
         rI, JI = self.imu_whitened(True)
+        assert JI is not None  # with jac=True
         gidx = np.broadcast_to(gb + np.arange(7, _NG + self.n_axes), (n - 1, 2 + self.n_axes))
         kidx = self.knot_idx[self.knot[:-1]]
         idx = np.concatenate([self.node_idx[:-1], self.node_idx[1:], kidx, gidx], axis=1)
@@ -448,67 +566,132 @@ class _Problem:
         ra = self.theta / _AXES_PRIOR
         if self.n_axes:
             add((gb + _NG + np.arange(self.n_axes))[None], np.eye(self.n_axes)[None] / _AXES_PRIOR, ra[None])
-        H = _Normal(np.concatenate(rows), np.concatenate(cols), np.concatenate(vals), self.nvar, self.nb, self.stride)
+        H, grad = acc, acc.gradient()
         cost = c_cam + float(np.sum(rI**2) + np.sum(rb**2) + np.sum(rp**2) + np.sum(ra**2))
         return H, grad, cost
+
+
+def _as_slice(index: np.ndarray) -> slice | np.ndarray:
+    """``index`` (k,) as a slice when it is a run of consecutive integers, else unchanged."""
+    if len(index) and np.all(np.diff(index) == 1):
+        return slice(int(index[0]), int(index[-1]) + 1)
+    return index
+
+
+def _take2(H: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """``H[:, rows][:, :, cols]`` (F, len(rows), len(cols)), by slices where the indices are consecutive."""
+    r, c = _as_slice(rows), _as_slice(cols)
+    out = H[:, r] if isinstance(r, slice) else H[:, rows]
+    return out[:, :, c] if isinstance(c, slice) else out[:, :, cols]
 
 
 class _Normal:
     """Normal matrix ``[[A, B], [Bᵀ, C]]``: ``A`` (nb, nb) block tridiagonal (the per-frame blocks of size ``s`` in
     time order: diagonal blocks ``D`` (N, s, s), super-diagonal ``U`` (N − 1, s, s)) and a dense border ``B``
-    (nb, m), ``C`` (m, m).  ``A`` is factored by the block Cholesky recursion (one small dense step per frame)."""
+    (nb, m), ``C`` (m, m), with the gradient ``g`` (nb + m,).  ``A`` is factored by the block Cholesky recursion
+    (one small dense step per frame, compiled; LAPACK's banded Cholesky is as fast single-threaded, but its threaded
+    BLAS made it a hundred times slower on busy cores) and the border by its Schur complement."""
 
-    def __init__(self, r: np.ndarray, c: np.ndarray, v: np.ndarray, nvar: int, nb: int, s: int):
-        """Sum the entries ``H[r, c] += v`` (duplicates add up) into the blocks (``bincount`` per target)."""
-        n = nb // s
-        m = nvar - nb
-        self.s = s
-        inb = (r < nb) & (c < nb)
-        br, bc = r // s, c // s
-        lin = br * (s * s) + (r % s) * s + c % s
+    def __init__(self, D: np.ndarray, U: np.ndarray, B: np.ndarray, C: np.ndarray, g: np.ndarray):
+        self.D, self.U, self.B, self.C, self.g = D, U, B, C, g
+        self.s = D.shape[1]
 
-        def summed(sel, index, size):
-            return np.bincount(index[sel], v[sel], minlength=size)
+    @classmethod
+    def empty(cls, nvar: int, nb: int, s: int) -> _Normal:
+        n, m = nb // s, nvar - nb
+        return cls(np.zeros((n, s, s)), np.zeros((max(n - 1, 0), s, s)), np.zeros((nb, m)), np.zeros((m, m)),
+                   np.zeros(nvar))  # fmt: skip
 
-        self.D = summed(inb & (br == bc), lin, n * s * s).reshape(n, s, s)
-        self.U = summed(inb & (bc == br + 1), lin, max(n - 1, 0) * s * s).reshape(max(n - 1, 0), s, s)
-        self.B = summed((r < nb) & (c >= nb), r * m + (c - nb), nb * m).reshape(nb, m)
-        self.C = summed((r >= nb) & (c >= nb), (r - nb) * m + (c - nb), m * m).reshape(m, m)
+    def gradient(self) -> np.ndarray:
+        return self.g
 
-    def _factor_band(self, lam: float):
-        n = len(self.D)
-        Linv = np.empty_like(self.D)
-        Lsub = np.empty_like(self.U)
-        d = self.D[0] + lam * np.diag(np.diag(self.D[0]))
-        for i in range(n):  # block Cholesky: A = L Lᵀ, L block lower bidiagonal
-            Linv[i] = np.linalg.inv(np.linalg.cholesky(d))
-            if i + 1 < n:
-                Lsub[i] = self.U[i].T @ Linv[i].T
-                d = self.D[i + 1] + lam * np.diag(np.diag(self.D[i + 1])) - Lsub[i] @ Lsub[i].T
+    def add(self, idx: np.ndarray, Jw: np.ndarray, rw: np.ndarray) -> None:
+        """Add the factors ``Jw`` (F, r, c) with whitened residuals ``rw`` (F, r) over the unknowns ``idx`` (F, c).
+
+        Each column is either a band unknown in the same position of a frame block for every factor (the block of
+        the first band column, or the next one), or a border unknown; ``JᵀJ`` and ``Jᵀr`` go straight into the
+        blocks (the blocks of one call are distinct across factors)."""
+        self.add_blocks(idx, np.swapaxes(Jw, 1, 2) @ Jw, np.einsum("bri,br->bi", Jw, rw))
+
+    def add_blocks(self, idx: np.ndarray, H: np.ndarray, gv: np.ndarray) -> None:
+        """Add the factors' information ``H`` (F, c, c) and gradients ``gv`` (F, c) over ``idx`` (F, c) (as
+        :meth:`add`)."""
+        s, nb = self.s, len(self.B)
+        band = idx[0] < nb
+        bc, oc = np.flatnonzero(band), np.flatnonzero(~band)
+        border = idx[0, oc] - nb
+        if len(oc):
+            self.C[np.ix_(border, border)] += H[:, oc][:, :, oc].sum(axis=0)
+            self.g[nb + border] += gv[:, oc].sum(axis=0)
+        if not len(bc):
+            return
+        blk = idx[:, bc] // s
+        base = blk[:, 0]
+        rel = blk[0] - base[0]
+        off = idx[0, bc] % s
+        if np.any(blk - base[:, None] != rel) or np.any(idx[:, bc] % s != off) or np.any(rel > 1) or np.any(rel < 0):
+            raise ValueError("factor columns do not follow the block layout")
+        gband = self.g[:nb].reshape(-1, s)
+        Bb = self.B.reshape(-1, s, self.B.shape[1])
+        consecutive = bool(np.all(np.diff(base) == 1))
+        for a in (0, 1):
+            ca = bc[rel == a]
+            if not len(ca):
+                continue
+            oa = _as_slice(off[rel == a])
+            # the factors' frame blocks: a slice when they are consecutive frames (every factor kind here)
+            ba = slice(int(base[0]) + a, int(base[-1]) + a + 1) if consecutive else (base + a)[:, None]
+            bi = (base + a)[:, None]
+            if isinstance(ba, slice) and isinstance(oa, slice):
+                gband[ba, oa] += gv[:, ca]
+            else:
+                gband[bi, off[rel == a][None, :]] += gv[:, ca]
+            if len(oc):
+                bs = _as_slice(border)
+                if isinstance(ba, slice) and isinstance(oa, slice) and isinstance(bs, slice):
+                    Bb[ba, oa, bs] += _take2(H, ca, oc)
+                else:
+                    Bb[bi[:, :, None], off[rel == a][None, :, None], border[None, None, :]] += _take2(H, ca, oc)
+            for b_ in (a, a + 1):
+                cb = bc[rel == b_]
+                if not len(cb):
+                    continue
+                T = self.D if b_ == a else self.U
+                ob = _as_slice(off[rel == b_])
+                if isinstance(ba, slice) and isinstance(oa, slice) and isinstance(ob, slice):
+                    T[ba, oa, ob] += _take2(H, ca, cb)
+                else:
+                    bi = (base + a)[:, None, None]
+                    T[bi, off[rel == a][None, :, None], off[rel == b_][None, None, :]] += _take2(H, ca, cb)
+
+    def _factor_band(self, lam: float) -> tuple[np.ndarray, np.ndarray]:
+        """Block Cholesky ``A = L Lᵀ`` of the band damped by ``1 + lam`` on the diagonal (compiled,
+        ``_native.block_tridiagonal_factor``): the inverses of ``L``'s diagonal blocks and its sub-diagonal blocks."""
+        n, s = self.D.shape[:2]
+        Linv = np.empty((n, s, s))
+        Lsub = np.empty((max(n - 1, 0), s, s))
+        if not _native.block_tridiagonal_factor(np.ascontiguousarray(self.D), np.ascontiguousarray(self.U),  # type: ignore[func-returns-value]
+                                                float(lam), Linv, Lsub):  # fmt: skip
+            raise np.linalg.LinAlgError("the frame band of the normal matrix is not positive definite")
         return Linv, Lsub
 
-    def _solve_band(self, F, b: np.ndarray) -> np.ndarray:
+    def _solve_band(self, F: tuple[np.ndarray, np.ndarray], b: np.ndarray) -> np.ndarray:
+        """``A⁻¹ b`` for ``b`` (nb,) or (nb, q) with the factor of :meth:`_factor_band`."""
         Linv, Lsub = F
-        n, s = len(Linv), self.s
-        bb = b.reshape((n, s) + b.shape[1:])
-        y = np.empty_like(bb)
-        y[0] = Linv[0] @ bb[0]
-        for i in range(1, n):
-            y[i] = Linv[i] @ (bb[i] - Lsub[i - 1] @ y[i - 1])
+        n, s = Linv.shape[:2]
+        bb = np.ascontiguousarray(b.reshape(n, s, -1), dtype=np.float64)
         x = np.empty_like(bb)
-        x[-1] = Linv[-1].T @ y[-1]
-        for i in range(n - 2, -1, -1):
-            x[i] = Linv[i].T @ (y[i] - Lsub[i].T @ x[i + 1])
+        _native.block_tridiagonal_solve(Linv, Lsub, bb, x)
         return x.reshape(b.shape)
 
-    def factor(self, lam: float = 0.0):
+    def factor(self, lam: float = 0.0) -> tuple[tuple[_Arr, _Arr], _Arr, _Arr]:
         """Factor of the band (damped by ``1 + lam`` on the diagonal), ``A⁻¹B`` and the border's Schur complement."""
         F = self._factor_band(lam)
         XB = self._solve_band(F, self.B)
         S = self.C + lam * np.diag(np.diag(self.C)) - self.B.T @ XB
         return F, XB, S
 
-    def solve(self, g: np.ndarray, lam: float) -> np.ndarray:
+    def solve(self, g: _Arr, lam: float) -> _Arr:
         """``−(H + λ diag H)⁻¹ g``."""
         nb = len(self.B)
         F, XB, S = self.factor(lam)
@@ -528,14 +711,15 @@ class _Normal:
         return Sinv, band_combinations.T @ y + w.T @ Sinv @ w
 
 
-def _with_parameters(camera, params: np.ndarray):
+def _with_parameters(camera: DistortedCamera, params: _Arr) -> DistortedCamera:
     """The same camera model with ``parameters`` (fx, fy, cx, cy, 4 distortion coefficients) replaced."""
     names = ("fx", "fy", "cx", "cy", *camera.DISTORTION_NAMES)
     return dataclasses.replace(camera, **{k: float(v) for k, v in zip(names, params, strict=True)})
 
 
 def _levenberg_marquardt(prob: _Problem, max_iterations: int, tol: float = 1e-7) -> int:
-    """LM (Marquardt's diagonal damping) on the current model; returns the accepted steps."""
+    """LM (Marquardt's diagonal damping) on the current model, until a step lowers the cost by less than ``tol``
+    (relative); returns the accepted steps."""
     lam = 1e-5
     accepted = 0
     H, g, cost = prob.normal_equations()
@@ -559,10 +743,9 @@ def _levenberg_marquardt(prob: _Problem, max_iterations: int, tol: float = 1e-7)
         if not step_ok:
             break
         accepted += 1
-        rel = (cost - new) / max(cost, 1e-300)
-        H, g, cost = prob.normal_equations()
-        if rel < tol:
+        if (cost - new) / max(cost, 1e-300) < tol:
             break
+        H, g, cost = prob.normal_equations()
     return accepted
 
 
@@ -570,7 +753,8 @@ def _fit_misalignment(x_true: np.ndarray, x_meas: np.ndarray) -> np.ndarray:
     """Least-squares ``x_meas ≈ M x_true + b`` (rows); returns ``M − I`` (3, 3)."""
     A = np.column_stack([x_true, np.ones(len(x_true))])
     coef = np.linalg.lstsq(A, x_meas, rcond=None)[0]
-    return coef[:3].T - np.eye(3)
+    M: _Arr = coef[:3].T - np.eye(3)
+    return M
 
 
 def calibrate_camera_imu(
@@ -578,7 +762,7 @@ def calibrate_camera_imu(
     gyro: np.ndarray,
     accel: np.ndarray,
     frames: FrameCorrespondences,
-    camera,
+    camera: DistortedCamera,
     imu_noise: ImuNoise,
     gravity_magnitude: float = STANDARD_GRAVITY,
     bias_model: str = "random_walk",
@@ -590,6 +774,8 @@ def calibrate_camera_imu(
     max_iterations: int = 30,
     estimate_intrinsics: bool = False,
     imu_model: str = "scale_misalignment",
+    noise_model: str = "uniform",
+    huber: float = 1.5,
 ) -> CameraImuCalibration:
     """Calibrate the camera–IMU extrinsic, time offset, IMU biases and target gravity from one recording.
 
@@ -623,6 +809,12 @@ def calibrate_camera_imu(
         full 3 × 3 accelerometer axis model, ``ω̃ = M_g (ω + b_g)``, ``f̃ = M_a (f + b_a)`` (scale factors,
         non-orthogonality, the accelerometer's rotation relative to the gyro); ``"calibrated"``: without the axis
         models (``M = I``).
+    noise_model : ``"uniform"`` (default): one pixel σ for every corner (MAD of the residuals after each pass);
+        ``"motion"``: per-corner ``σ² = σ₀² + (κ |u̇|)²`` with ``|u̇|`` the speed of the corner's image (px/s, from
+        the frame's body rate and velocity) and ``σ₀``, ``κ`` (s, the blur's effective duration) fitted to the
+        squared residuals after each pass — motion blur of a global-shutter camera (docs/euroc.md).
+    huber : float
+        Huber threshold of the reprojection loss, in σ (IRLS weights).
 
     Raises
     ------
@@ -637,6 +829,10 @@ def calibrate_camera_imu(
         raise ValueError(f"imu_model must be 'calibrated' or 'scale_misalignment'; got {imu_model!r}")
     if bias_model not in ("random_walk", "constant"):
         raise ValueError(f"bias_model must be 'random_walk' or 'constant'; got {bias_model!r}")
+    if noise_model not in ("uniform", "motion"):
+        raise ValueError(f"noise_model must be 'uniform' or 'motion'; got {noise_model!r}")
+    if not huber > 0:
+        raise ValueError(f"huber must be > 0 (in pixel σ); got {huber!r}")
     ft = np.asarray(frames.t, dtype=np.float64)
     inside = (ft - max_offset > imu_t[0]) & (ft + max_offset < imu_t[-1])
     if not inside.any():
@@ -679,16 +875,18 @@ def calibrate_camera_imu(
     g0 = g_sum / np.linalg.norm(g_sum) * gravity_magnitude
     pix_sigma0 = float(np.nanmedian(pnp_rms[ok]))
     prob.sigma_px = max(pix_sigma0, 0.05)
+    prob.huber = float(huber)
     prob.set_state(R_wb, p_wb, v_wb, bias, R_bc, np.zeros(3), tau0, g0, tau0)
 
-    # first: a pass with the lever arm and velocities settling (everything free), then re-weighting passes
+    # first: a pass with the lever arm and velocities settling (everything free), then re-weighting passes (to a
+    # looser tolerance: the weights and the anchoring change after each), then the final pass
     iterations = 0
     for _pass in range(passes):
-        iterations += _levenberg_marquardt(prob, max_iterations)
+        iterations += _levenberg_marquardt(prob, max_iterations, _PASS_TOLERANCE)
         r, use, _ = prob.reprojection(False)
         rn = np.linalg.norm(r, axis=-1)
-        prob.sigma_px = max(1.4826 * float(np.median(np.abs(r[prob.inlier & use]))), 1e-3)
-        prob.inlier = prob.valid0 & (rn < reject_sigmas * prob.sigma_px)
+        prob.fit_noise(r, prob.inlier & use, noise_model == "motion")
+        prob.inlier = prob.valid0 & (rn < reject_sigmas * prob.sigma_px * prob.corner_scale)
         prob.reanchor()
     iterations += _levenberg_marquardt(prob, max_iterations)
 
@@ -723,7 +921,7 @@ def calibrate_camera_imu(
     lam, vec = np.linalg.eigh(cov_g[3:6, 3:6])
     order = np.argsort(lam)[::-1]
     tr_std = np.sqrt(np.maximum(lam[order], 0.0))
-    warnings = []
+    warnings: list[str] = []
     if tr_std[0] > 0.005:
         worst = np.round(vec[:, order[0]], 3).tolist()
         warnings.append(f"translation poorly excited: std {1e3 * tr_std[0]:.1f} mm along {worst} (rotate the rig "
@@ -747,31 +945,31 @@ def calibrate_camera_imu(
     acc_M = _fit_misalignment(dv_true[short] / dt[short, None], pre_nb.dv[short] / dt[short, None])
 
     q_bc = dp.quat_from_matrix(prob.R_bc)
-    std = {
-        "rotation_deg": np.degrees(std_all[0:3]),
-        "translation_m": std_all[3:6],
-        "time_offset_s": float(std_all[6]),
-        "gyro_bias": std_all[_NG : _NG + 3],
-        "accel_bias": std_all[_NG + 3 : _NG + 6],
-        "gravity_target_deg": float(np.degrees(math.sqrt(max(cov_g[7, 7] + cov_g[8, 8], 0.0)))),
-    }
-    outliers = {
-        "frames_total": int(len(ft)),
-        "no_detections": ft[no_det].tolist(),
-        "too_few_corners": ft[few].tolist(),
-        "outside_imu": ft[~inside & ~no_det].tolist(),
-        "pnp_failed": ft[pnp_failed].tolist(),
-        "corners_total": int(prob.valid0.sum()),
-        "corners_rejected": n_rej,
-        "corners_rejected_fraction": n_rej / max(int(prob.valid0.sum()), 1),
-        "reject_threshold_px": reject_sigmas * prob.sigma_px,
-    }
-    excitation = {
-        "translation_std_m": tr_std,
-        "translation_directions": vec[:, order].T,
-        "time_offset_std_s": float(math.sqrt(max(ct[3, 3], 0.0))),
-        "warnings": warnings,
-    }
+    std = CameraImuStd(
+        rotation_deg=np.degrees(std_all[0:3]),
+        translation_m=std_all[3:6],
+        time_offset_s=float(std_all[6]),
+        gyro_bias=std_all[_NG : _NG + 3],
+        accel_bias=std_all[_NG + 3 : _NG + 6],
+        gravity_target_deg=float(np.degrees(math.sqrt(max(cov_g[7, 7] + cov_g[8, 8], 0.0)))),
+    )
+    outliers = CameraImuOutliers(
+        frames_total=int(len(ft)),
+        no_detections=ft[no_det].tolist(),
+        too_few_corners=ft[few].tolist(),
+        outside_imu=ft[~inside & ~no_det].tolist(),
+        pnp_failed=ft[pnp_failed].tolist(),
+        corners_total=int(prob.valid0.sum()),
+        corners_rejected=n_rej,
+        corners_rejected_fraction=n_rej / max(int(prob.valid0.sum()), 1),
+        reject_threshold_px=reject_sigmas * prob.sigma_px,
+    )
+    excitation = CameraImuExcitation(
+        translation_std_m=tr_std,
+        translation_directions=vec[:, order].T,
+        time_offset_std_s=float(math.sqrt(max(ct[3, 3], 0.0))),
+        warnings=warnings,
+    )
     return CameraImuCalibration(
         q_bc=q_bc, p_bc=prob.p_bc.copy(), time_offset=float(prob.tau), gyro_bias=prob.bias[:, :3].mean(axis=0),
         accel_bias=prob.bias[:, 3:].mean(axis=0), gravity_target=prob.g.copy(), std=std, covariance=cov_g,
@@ -784,4 +982,5 @@ def calibrate_camera_imu(
         imu_axes=tuple(np.linalg.inv(m) for m in prob.axes_matrices()) if na else (),
         imu_axes_std=np.sqrt(np.maximum(np.diag(cov_axes), 0.0)) if na else np.zeros(0),
         camera_parameters_std=np.sqrt(np.maximum(np.diag(cov_intr), 0.0)) if prob.n_intr else np.zeros(0),
+        blur_time_s=float(prob.blur_time),
     )  # fmt: skip

@@ -28,6 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 import dualpose as dp
 from dualpose.calibration.static import checked_covariance3, checked_static_inputs
@@ -94,7 +95,7 @@ def unobservability_check(up_b: np.ndarray, direction_sigma: float, name: str = 
 def camera_imu_rotation(
     specific_force: np.ndarray,
     q_wc: np.ndarray,
-    pattern_up_w: np.ndarray = (0.0, 0.0, 1.0),
+    pattern_up_w: ArrayLike = (0.0, 0.0, 1.0),
     specific_force_covariance: np.ndarray | None = None,
     attitude_covariance: np.ndarray | None = None,
     accel_bias_covariance: np.ndarray | None = None,

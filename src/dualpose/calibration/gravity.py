@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 import dualpose as dp
 from dualpose.calibration.static import checked_covariance3, checked_static_inputs
@@ -73,7 +74,7 @@ def scene_gravity(
     attitude_covariance: np.ndarray | None = None,
     extrinsic_covariance: np.ndarray | None = None,
     accel_bias_covariance: np.ndarray | None = None,
-    nominal_down: np.ndarray = (0.0, 0.0, -1.0),
+    nominal_down: ArrayLike = (0.0, 0.0, -1.0),
     magnitude: float | None = None,
 ) -> SceneGravity:
     """Gravity direction in the scene frame from ``K >= 1`` static periods, with its covariance.

@@ -16,27 +16,47 @@ residual.  Uncertainties are first order, ``s² (JᵀJ)⁻¹`` at the solution.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares, minimize
+from numpy.typing import NDArray
+from scipy.optimize import OptimizeResult, least_squares, minimize
 
 import dualpose as dp
 from dualpose.calibration.hand_eye_residual import pair_motions, pair_residuals, select_pairs, squared_pair_residuals
-from dualpose.calibration.hand_eye_streams import CleaningReport, PoseStream, interpolate_stream, shift_stamps
+from dualpose.calibration.hand_eye_streams import (
+    CleaningReport,
+    PoseStream,
+    interpolate_stream,
+    rotation_noise,
+    shift_stamps,
+)
 from dualpose.calibration.hand_eye_time import coarse_time_offset
 from dualpose.registration import HandEyeWarning, calibrate_hand_eye
 from dualpose.registration.hand_eye_closed_form import HAND_EYE_CLOSED_FORMS, hand_eye_translation
 
-__all__ = ["HandEyeStreamResult", "calibrate_hand_eye_streams"]
+__all__ = ["HandEyeStreamResult", "calibrate_hand_eye_streams", "NOT_CREDIBLE_RATIO", "DOUBTFUL_RATIO",
+           "DOUBTFUL_CORRELATION"]
 
+#: rotation loop residual RMS over the one the streams' own noise predicts above which the match is refused as not
+#: credible (two unrelated recordings: 11-21; true pairs of the shared sets: 0.9-1.5), and above which it is doubtful
+NOT_CREDIBLE_RATIO = 5.0
+DOUBTFUL_RATIO = 2.5
+#: coarse rate correlation below which the match is doubtful (unrelated recordings: 0.27-0.40; true pairs: 0.92-0.97)
+DOUBTFUL_CORRELATION = 0.6
+
+#: a float64 array (the shapes are in the docstrings)
+_Arr = NDArray[np.float64]
 _CHI2_3_MEDIAN = 2.365974  # median of χ²(3): robust scale of a 3-vector residual
 _CHI2_6_999 = 22.457744  # 0.999 quantile of χ²(6): inlier gate of the normalized 6-vector residual
 _CHI2_6_9999 = 27.855876  # 0.9999 quantile of χ²(6): gate of the per-pose target consistency
-_X_SCALE = np.r_[[1e-2] * 6, 1e-3]  # typical sizes of [δθ (rad), t (m), dτ (s)] for the optimisers
+_X_SCALE: NDArray[np.float64] = np.r_[[1e-2] * 6, 1e-3]  # typical sizes of [δθ (rad), t (m), dτ (s)] for the optimisers
+_DIFF_STEP = np.array(1e-6)  # relative finite-difference step of least_squares (a 0-d array: scipy's array_like)
 
 
-def _consistent_poses(camera: PoseStream, body: PoseStream, qx, tx, tau: float, max_gap) -> np.ndarray:
+def _consistent_poses(camera: PoseStream, body: PoseStream, qx: _Arr, tx: _Arr, tau: float,
+                      max_gap: float | None) -> NDArray[np.bool_]:  # fmt: skip
     """Camera samples whose target pose ``Y_k = B(t_k + τ) X A_k⁻¹`` agrees with the others (the target is fixed).
 
     An outlier detection spoils every pair it is part of, and, being a jump, is often chosen as the partner of the
@@ -96,6 +116,18 @@ class HandEyeStreamResult:
         First-order covariance of ``[δθ (rad, left perturbation of the rotation), t (m), τ (s)]``.
     rotation_sigma_deg : ndarray (3,), translation_sigma_m : ndarray (3,), time_offset_sigma : float
         Square roots of its diagonal (deg, m, s).
+    expected_rotation_rmse_deg : float
+        The rotation loop residual RMS the streams' own orientation noise predicts:
+        ``sqrt(6 (σ_camera² + σ_body²))`` (two samples of each stream per pair, three components) with the σ of
+        :func:`~dualpose.calibration.hand_eye_streams.rotation_noise` (deg; NaN when a stream is too short).
+    residual_to_noise : float
+        ``rotation_rmse_deg / expected_rotation_rmse_deg``: about 1 for a true pair; far above for streams whose
+        motions do not match (different recordings, a wrong time offset).
+    credible : bool
+        False when ``residual_to_noise > NOT_CREDIBLE_RATIO``: the streams do not record the same motion.
+    credibility : str
+        ``"credible"``, ``"doubtful"`` (``residual_to_noise > DOUBTFUL_RATIO`` or a coarse correlation below
+        ``DOUBTFUL_CORRELATION``) or ``"not credible"``, with the reason after a colon when not credible.
     camera_report, body_report : CleaningReport or None
         Filled in by callers that cleaned the streams (the CLI).
     """
@@ -121,6 +153,10 @@ class HandEyeStreamResult:
     start_rotation_rmse_deg: float
     start_translation_rmse_m: float
     start_time_offset: float
+    expected_rotation_rmse_deg: float = float("nan")
+    residual_to_noise: float = float("nan")
+    credible: bool = True
+    credibility: str = "credible"
     camera_report: CleaningReport | None = field(default=None)
     body_report: CleaningReport | None = field(default=None)
 
@@ -129,7 +165,8 @@ class HandEyeStreamResult:
         return len(self.pairs)
 
 
-def _lmeds_daniilidis(qa, ta, qb, tb, rng: np.random.Generator, iterations: int):
+def _lmeds_daniilidis(qa: _Arr, ta: _Arr, qb: _Arr, tb: _Arr, rng: np.random.Generator,
+                      iterations: int) -> tuple[_Arr, _Arr]:  # fmt: skip
     """Least-median-of-squares over Daniilidis solutions of random 3-pair samples, then a fit on the inliers."""
     # calibrate_hand_eye solves A X = X B with A the body motions
     a_dq, b_dq = dp.dualquat_from_qt(qb, tb), dp.dualquat_from_qt(qa, ta)
@@ -199,6 +236,12 @@ def calibrate_hand_eye_streams(
     ------
     ValueError
         No overlap of the streams after ``τ``, fewer than 3 usable pairs, or degenerate motion.
+
+    Warns
+    -----
+    HandEyeWarning
+        When the match is doubtful or not credible (``credibility``): the rotation loop residual far above the one
+        the streams' own noise predicts, or a weak coarse rate correlation.
     """
     if fix_time_offset and time_offset is None:
         raise ValueError("fix_time_offset needs a time_offset")
@@ -255,11 +298,15 @@ def calibrate_hand_eye_streams(
     qx, tx, tau, sol, sr, st, (start, ms0, tau_start), (ms_r, ms_t) = _refine_from_closed_form(
         camera, body, i, j, qx, tx, tau, fix_time_offset, max_gap, half_width
     )
+    noise = np.hypot(rotation_noise(camera), rotation_noise(body, max_gap))
+    expected_deg = float(np.degrees(np.sqrt(6.0) * noise))
+    rmse_deg = float(np.degrees(np.sqrt(ms_r)))
+    credible, credibility = _credibility(rmse_deg, expected_deg, coarse_corr)
     cov = _covariance(sol, fix_time_offset)
     sd = np.sqrt(np.diag(cov))
     x = dp.dualquat_canonical(dp.dualquat_from_qt(qx, tx))
     pairs_total = int(usable(tau).sum())
-    tau = float(time_offset) if fix_time_offset else tau + shift
+    tau = float(time_offset) if fix_time_offset and time_offset is not None else tau + shift
     tau0 += shift
     return HandEyeStreamResult(
         quat=qx, translation=tx, dualquat=x, matrix=dp.matrix_from_dualquat(x), time_offset=float(tau),
@@ -269,11 +316,35 @@ def calibrate_hand_eye_streams(
         covariance=cov, rotation_sigma_deg=np.degrees(sd[:3]), translation_sigma_m=sd[3:6],
         time_offset_sigma=float(sd[6]), start_method=start, start_rotation_rmse_deg=float(np.degrees(np.sqrt(ms0[0]))),
         start_translation_rmse_m=float(np.sqrt(ms0[1])),
-        start_time_offset=float(time_offset) if fix_time_offset else tau_start + shift,
+        start_time_offset=float(time_offset) if fix_time_offset and time_offset is not None else tau_start + shift,
+        expected_rotation_rmse_deg=expected_deg, residual_to_noise=rmse_deg / expected_deg if expected_deg > 0 else
+        float("nan"), credible=credible, credibility=credibility,
     )  # fmt: skip
 
 
-def _pair_residual_fun(camera, body, i, j, qx0, tau0, sr, st, fix_tau, max_gap):
+def _credibility(rmse_deg: float, expected_deg: float, correlation: float) -> tuple[bool, str]:
+    """``(credible, credibility)`` of a hand–eye match (see :class:`HandEyeStreamResult`); warns unless credible."""
+    ratio = rmse_deg / expected_deg if expected_deg > 0 else float("nan")
+    text = (f"rotation loop residual {rmse_deg:.3g} deg is {ratio:.3g} x the {expected_deg:.3g} deg the streams' "
+            "own noise predicts")  # fmt: skip
+    corr = "" if np.isnan(correlation) else f", coarse rate correlation {correlation:.2f}"
+    if ratio > NOT_CREDIBLE_RATIO:
+        verdict = (False, f"not credible: {text}{corr}; the two streams do not record the same motion (different "
+                   "recordings, or a wrong time offset)")  # fmt: skip
+    elif ratio > DOUBTFUL_RATIO or correlation < DOUBTFUL_CORRELATION:
+        verdict = (True, f"doubtful: {text}{corr}")
+    else:
+        return True, "credible"
+    warnings.warn(f"hand-eye match {verdict[1]}", HandEyeWarning, stacklevel=3)
+    return verdict
+
+
+#: a residual vector as a function of the parameters ``z = [δθ, t, dτ]``
+_Residuals = Callable[[_Arr], _Arr]
+
+
+def _pair_residual_fun(camera: PoseStream, body: PoseStream, i: NDArray[np.intp], j: NDArray[np.intp], qx0: _Arr,
+                       tau0: float, sr: float, st: float, fix_tau: bool, max_gap: float | None) -> _Residuals:
     """Residual vector ``[θ_ij/σ_r, t_ij/σ_t]`` (flattened) of the pairs as a function of ``z = [δθ, t, dτ]``."""
     qa, ta, _, _, _ = pair_motions(camera, body, i, j, tau0, max_gap)
 
@@ -282,21 +353,26 @@ def _pair_residual_fun(camera, body, i, j, qx0, tau0, sr, st, fix_tau, max_gap):
         tau = tau0 + (0.0 if fix_tau else z[6])
         _, _, qb, tb, _ = pair_motions(camera, body, i, j, tau, max_gap)
         rv, te = pair_residuals(qa, ta, qb, tb, q, z[3:6])
-        return np.hstack([rv / sr, te / st]).ravel()
+        r: _Arr = np.hstack([rv / sr, te / st]).ravel()
+        return r
 
     return fun
 
 
-def _joint_fit(camera, body, i, j, qx0, tx0, tau0, sr, st, fix_tau, max_gap):
+def _joint_fit(camera: PoseStream, body: PoseStream, i: NDArray[np.intp], j: NDArray[np.intp], qx0: _Arr, tx0: _Arr,
+               tau0: float, sr: float, st: float, fix_tau: bool,
+               max_gap: float | None) -> tuple[_Arr, _Arr, float]:  # fmt: skip
     """Least squares of ``[δθ, t, dτ]`` on the normalized residuals ``[θ_ij/σ_r, t_ij/σ_t]`` of the pairs."""
     fun = _pair_residual_fun(camera, body, i, j, qx0, tau0, sr, st, fix_tau, max_gap)
-    sol = least_squares(fun, np.r_[0.0, 0.0, 0.0, tx0, 0.0], method="trf", x_scale=_X_SCALE, diff_step=1e-6,
+    sol = least_squares(fun, np.r_[0.0, 0.0, 0.0, tx0, 0.0], method="trf", x_scale=_X_SCALE, diff_step=_DIFF_STEP,
                         xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=100)  # fmt: skip
     q = dp.quat_canonical(dp.quat_mul(dp.quat_from_rotvec(sol.x[:3]), qx0))
-    return q, sol.x[3:6].copy(), tau0 + (0.0 if fix_tau else float(sol.x[6]))
+    return q, np.array(sol.x[3:6]), tau0 + (0.0 if fix_tau else float(sol.x[6]))
 
 
-def _closed_form_start(camera, body, i, j, qx_joint, tx_joint, tau, max_gap):
+def _closed_form_start(camera: PoseStream, body: PoseStream, i: NDArray[np.intp], j: NDArray[np.intp],
+                       qx_joint: _Arr, tx_joint: _Arr, tau: float,
+                       max_gap: float | None) -> tuple[str, _Arr, _Arr, float, float]:  # fmt: skip
     """The five closed forms on the pairs at ``τ`` scored with the reported residuals: ``(name, q, t, σ_r, σ_t)``.
 
     Each translation is re-solved by least squares for its rotation (the optimum of the translation residual for that
@@ -305,7 +381,7 @@ def _closed_form_start(camera, body, i, j, qx_joint, tx_joint, tau, max_gap):
     """
     qa, ta, qb, tb, _ = pair_motions(camera, body, i, j, tau, max_gap)
     a_dq, b_dq = dp.dualquat_from_qt(qb, tb), dp.dualquat_from_qt(qa, ta)  # A X = X B with A the body motions
-    cands = {}
+    cands: dict[str, tuple[_Arr, _Arr]] = {}
     for name, solve in HAND_EYE_CLOSED_FORMS.items():
         try:
             q, _ = solve(a_dq, b_dq)
@@ -321,7 +397,9 @@ def _closed_form_start(camera, body, i, j, qx_joint, tx_joint, tau, max_gap):
     return start, *cands[start], sr, st
 
 
-def _scan_time_offset(camera, body, i, j, qx, tx, tau0, sr, st, half_width, max_gap):
+def _scan_time_offset(camera: PoseStream, body: PoseStream, i: NDArray[np.intp], j: NDArray[np.intp], qx: _Arr,
+                      tx: _Arr, tau0: float, sr: float, st: float, half_width: float,
+                      max_gap: float | None) -> float:  # fmt: skip
     """``τ`` of least cost on a grid ``τ₀ ± half_width`` at fixed ``X`` (0.25 ms steps).
 
     With linear/SLERP interpolation of the body the cost is piecewise smooth in ``τ``, with a kink whenever a camera
@@ -339,7 +417,12 @@ def _scan_time_offset(camera, body, i, j, qx, tx, tau0, sr, st, half_width, max_
     return float(grid[int(np.argmin(cost))]) if np.isfinite(cost).any() else tau0
 
 
-def _refine_from_closed_form(camera, body, i, j, qx_joint, tx_joint, tau0, fix_tau, max_gap, half_width):
+def _refine_from_closed_form(
+    camera: PoseStream, body: PoseStream, i: NDArray[np.intp], j: NDArray[np.intp], qx_joint: _Arr, tx_joint: _Arr,
+    tau0: float, fix_tau: bool, max_gap: float | None, half_width: float,
+) -> tuple[
+    _Arr, _Arr, float, OptimizeResult, float, float, tuple[str, tuple[float, float], float], tuple[float, float]
+]:
     """Final ``X`` and ``τ`` on the settled pairs, never worse than the closed form it starts from.
 
     (1) The best closed form at ``τ₀`` (:func:`_closed_form_start`); (2) unless ``τ`` is fixed, a grid scan of ``τ``
@@ -376,7 +459,7 @@ def _refine_from_closed_form(camera, body, i, j, qx_joint, tx_joint, tau0, fix_t
     def key(ms: tuple[float, float]) -> tuple[float, float]:  # worst ratio to the optima, then the cost
         return max(ms[0] / ideal[0], ms[1] / ideal[1]), ms[0] / ideal[0] + ms[1] / ideal[1]
 
-    sol = least_squares(fun, z0, method="trf", x_scale=_X_SCALE, diff_step=1e-6, xtol=1e-12, ftol=1e-12,
+    sol = least_squares(fun, z0, method="trf", x_scale=_X_SCALE, diff_step=_DIFF_STEP, xtol=1e-12, ftol=1e-12,
                         gtol=1e-12, max_nfev=200)  # fmt: skip
     cands = [sol.x, _minimax_refinement(mean_squares, z0, ms0, ideal, fix_tau)]
     best_z, best_ms = z0, ms0
@@ -390,10 +473,11 @@ def _refine_from_closed_form(camera, body, i, j, qx_joint, tx_joint, tau0, fix_t
         sol.fun, sol.jac = fun(best_z), _jacobian(fun, best_z)
     sol.x = best_z.copy()
     sol.x[:3] = 0.0
-    return q, best_z[3:6].copy(), tau, sol, float(sr), float(st), (start, ms0, tau0), best_ms
+    return q, np.array(best_z[3:6]), tau, sol, float(sr), float(st), (start, ms0, tau0), best_ms
 
 
-def _residual_optima(fun, mean_squares, z0, closed_form_best, fix_tau):
+def _residual_optima(fun: _Residuals, mean_squares: Callable[[_Arr], tuple[float, float]], z0: _Arr,
+                     closed_form_best: tuple[float, float], fix_tau: bool) -> tuple[float, float]:  # fmt: skip
     """The least mean square of each residual alone over ``[δθ, t, dτ]`` (and that of the closed forms if lower).
 
     The rotation residual does not depend on ``t``: it is minimised over ``[δθ, dτ]``, the translation residual over
@@ -405,19 +489,22 @@ def _residual_optima(fun, mean_squares, z0, closed_form_best, fix_tau):
     for k, (name, idx) in enumerate(free.items()):
         cols = slice(0, 3) if name == "rotation" else slice(3, 6)
 
-        def part(u, idx=idx, cols=cols):
+        def part(u: _Arr, idx: list[int] = idx, cols: slice = cols) -> _Arr:
             z = z0.copy()
             z[idx] = u
-            return fun(z).reshape(-1, 6)[:, cols].ravel()
+            r: _Arr = fun(z).reshape(-1, 6)[:, cols].ravel()
+            return r
 
-        sol = least_squares(part, z0[idx], method="trf", x_scale=_X_SCALE[idx], diff_step=1e-6, max_nfev=100)
+        sol = least_squares(part, z0[idx], method="trf", x_scale=_X_SCALE[idx], diff_step=_DIFF_STEP,
+                            max_nfev=100)
         z = z0.copy()
         z[idx] = sol.x
         out[k] = min(out[k], mean_squares(z)[k])
     return out[0], out[1]
 
 
-def _minimax_refinement(mean_squares, z0, ms0, ideal, fix_tau):
+def _minimax_refinement(mean_squares: Callable[[_Arr], tuple[float, float]], z0: _Arr, ms0: tuple[float, float],
+                        ideal: tuple[float, float], fix_tau: bool) -> _Arr:  # fmt: skip
     """``z`` of least ``s`` with ``ms_r <= s·ideal_r``, ``ms_t <= s·ideal_t`` (the worse residual as near its optimum
     as it can be), ``ms_r <= ms_r(z0)`` and ``ms_t <= ms_t(z0)`` (never worse than the start).
 
@@ -438,19 +525,24 @@ def _minimax_refinement(mean_squares, z0, ms0, ideal, fix_tau):
         return cache[k]
 
     m = 1.0 - 1e-9
-    cons = [{"type": "ineq", "fun": lambda v: m * v[n] - ev(v)[0] / ideal[0]},
-            {"type": "ineq", "fun": lambda v: m * v[n] - ev(v)[1] / ideal[1]},
-            {"type": "ineq", "fun": lambda v: m - ev(v)[0] / ms0[0]},
-            {"type": "ineq", "fun": lambda v: m - ev(v)[1] / ms0[1]}]  # fmt: skip
     v0 = np.r_[np.zeros(n), max(ms0[0] / ideal[0], ms0[1] / ideal[1])]
-    res = minimize(lambda v: v[n], v0, method="SLSQP", constraints=cons,
+
+    def objective(v: _Arr) -> float:
+        return float(v[n])
+
+    # scipy-stubs' constraint TypedDict matches no dict literal with python_version 3.10 (it does with 3.11)
+    res = minimize(objective, v0, method="SLSQP",  # type: ignore[call-overload, unused-ignore]
+                   constraints=[{"type": "ineq", "fun": lambda v: m * v[n] - ev(v)[0] / ideal[0]},
+                                {"type": "ineq", "fun": lambda v: m * v[n] - ev(v)[1] / ideal[1]},
+                                {"type": "ineq", "fun": lambda v: m - ev(v)[0] / ms0[0]},
+                                {"type": "ineq", "fun": lambda v: m - ev(v)[1] / ms0[1]}],
                    options={"maxiter": 60, "ftol": 1e-10, "eps": 1e-6})  # fmt: skip
-    z = z0.copy()
+    z: _Arr = z0.copy()
     z[:n] += res.x[:n] * scale
     return z
 
 
-def _jacobian(fun, z: np.ndarray, h: float = 1e-6) -> np.ndarray:
+def _jacobian(fun: _Residuals, z: _Arr, h: float = 1e-6) -> _Arr:
     """Central-difference Jacobian of ``fun`` at ``z``."""
     cols = []
     for k in range(len(z)):
@@ -460,7 +552,7 @@ def _jacobian(fun, z: np.ndarray, h: float = 1e-6) -> np.ndarray:
     return np.column_stack(cols)
 
 
-def _covariance(sol, fix_tau: bool) -> np.ndarray:
+def _covariance(sol: OptimizeResult, fix_tau: bool) -> _Arr:
     """``s² (JᵀJ)⁻¹`` with ``s² = ‖r‖² / (n − p)`` over the normalized residuals; τ row/column 0 when fixed."""
     jac = np.asarray(sol.jac)
     if fix_tau:
@@ -468,6 +560,5 @@ def _covariance(sol, fix_tau: bool) -> np.ndarray:
     dof = max(jac.shape[0] - jac.shape[1], 1)
     s2 = float(sol.fun @ sol.fun) / dof
     cov = s2 * np.linalg.pinv(jac.T @ jac)
-    if fix_tau:
-        cov = np.pad(cov, ((0, 1), (0, 1)))
-    return cov
+    out: _Arr = np.pad(cov, ((0, 1), (0, 1))) if fix_tau else cov
+    return out

@@ -15,7 +15,8 @@ from numpy.typing import ArrayLike
 
 import dualpose as dp
 
-__all__ = ["PoseStream", "CleaningReport", "clean_pose_stream", "default_max_gap", "interpolate_stream", "shift_stamps"]
+__all__ = ["PoseStream", "CleaningReport", "clean_pose_stream", "default_max_gap", "interpolate_stream", "shift_stamps",
+           "rotation_noise"]
 
 
 @dataclass(frozen=True)
@@ -202,3 +203,29 @@ def shift_stamps(stream: PoseStream, origin: float) -> PoseStream:
     by microseconds needs stamps near zero.
     """
     return PoseStream(stream.stamps - origin, stream.positions, stream.quats, stream.name)
+
+
+#: median of the χ distribution with 3 degrees of freedom: the median angle of an isotropic 3-D error of unit σ
+_CHI3_MEDIAN = 1.5381728
+
+
+def rotation_noise(stream: PoseStream, max_gap: float | None = None) -> float:
+    """Per-component standard deviation (rad) of the orientation noise of a stream, from its own samples.
+
+    Each sample is compared with the SLERP of its two neighbours at its stamp: for white noise of ``σ`` per
+    component that deviation has ``1.5 σ²`` per component (the sample's own plus half of its neighbours'), and its
+    angle is χ-distributed with 3 degrees of freedom; the median makes the estimate robust to outlier poses, and
+    smooth motion adds only its curvature over two sample intervals.  Triples spanning more than ``max_gap``
+    (default :func:`default_max_gap`) are skipped.  Returns NaN for fewer than 3 usable triples.
+    """
+    if max_gap is None:
+        max_gap = default_max_gap(stream)
+    t, q = stream.stamps, stream.quats
+    if len(t) < 3:
+        return float("nan")
+    ok = (t[2:] - t[:-2]) <= 2.0 * max_gap
+    if ok.sum() < 3:
+        return float("nan")
+    u = (t[1:-1] - t[:-2]) / (t[2:] - t[:-2])
+    mid = dp.quat_slerp(q[:-2][ok], q[2:][ok], u[ok])
+    return float(np.median(dp.quat_angle(q[1:-1][ok], mid)) / (_CHI3_MEDIAN * np.sqrt(1.5)))

@@ -45,15 +45,33 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any, TypedDict
 
 import numpy as np
+from numpy.typing import NDArray
 
 from dualpose.calibration.sensor_time_offset import check_samples
 
-__all__ = ["MagCalibration", "MAG_CALIBRATION_MODELS", "estimate_mag_calibration", "fit_mag_calibration"]
+__all__ = [
+    "MagCalibration", "MagCandidate", "MAG_CALIBRATION_MODELS", "estimate_mag_calibration", "fit_mag_calibration"
+]
 
 #: nested models, smallest first
 MAG_CALIBRATION_MODELS = ("hard_iron", "diagonal", "symmetric")
+
+
+class MagCandidate(TypedDict):
+    """One fitted model of the ``candidates`` of :class:`MagCalibration`: the excess relative spread of ``|m|`` after it
+    (``spread``) and of the raw samples it was fitted on (``spread_raw``), the largest standard errors of the offset
+    (µT) and of a matrix entry, the offset ``b`` (3,) µT, the matrix ``A`` (3, 3) and the number of samples."""
+
+    spread: float
+    spread_raw: float
+    offset_sigma: float
+    matrix_sigma: float
+    offset: NDArray[np.float64]
+    matrix: NDArray[np.float64]
+    samples: int
 
 
 @dataclass(frozen=True)
@@ -95,7 +113,7 @@ class MagCalibration:
     coverage: np.ndarray
     noise_spread: float
     spread_before: float
-    candidates: dict = field(default_factory=dict)
+    candidates: dict[str, MagCandidate] = field(default_factory=dict)
 
     @property
     def spread_after(self) -> float:
@@ -105,11 +123,10 @@ class MagCalibration:
     def apply(self, mag: np.ndarray) -> np.ndarray:
         """Calibrated field ``A (m − b)`` of samples ``mag`` (n, 3) µT; a copy of ``mag`` when not applied."""
         m = np.asarray(mag, dtype=np.float64)
-        if not self.applied:
-            return m.copy()
-        return (m - self.offset) @ self.matrix.T
+        out: NDArray[np.float64] = m.copy() if not self.applied else (m - self.offset) @ self.matrix.T
+        return out
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         """JSON-ready summary."""
         return {
             "mag_calibration_applied": self.applied,
@@ -209,10 +226,11 @@ def fit_mag_calibration(mag: np.ndarray, model: str) -> tuple[np.ndarray, np.nda
 
     def residual(x: np.ndarray) -> np.ndarray:
         A = np.eye(3) + _sym_from_params(x, n_d)
-        return np.linalg.norm((m - x[n_d:n_d + 3]) @ A.T, axis=1) - x[-1]
+        r: NDArray[np.float64] = np.linalg.norm((m - x[n_d:n_d + 3]) @ A.T, axis=1) - x[-1]
+        return r
 
     sol = least_squares(residual, x0, method="lm", x_scale="jac")
-    x, r, J = sol.x, sol.fun, sol.jac
+    x, r, J = sol.x, sol.fun, np.asarray(sol.jac, dtype=np.float64)  # method="lm": a dense Jacobian
     dof = max(1, r.shape[0] - x.shape[0])
     cov = np.linalg.pinv(J.T @ J) * (r @ r / dof) * _integrated_autocorrelation_time(r)
     sig = np.sqrt(np.maximum(np.diag(cov), 0.0))
@@ -280,7 +298,8 @@ def estimate_mag_calibration(
     norm = np.linalg.norm(m, axis=1)
     med = float(np.median(norm)) if norm.size else 0.0
 
-    def refuse(reason: str, n: int = 0, cov=None, noise=math.nan, before=math.nan, cand=None):
+    def refuse(reason: str, n: int = 0, cov: NDArray[np.float64] | None = None, noise: float = math.nan,
+               before: float = math.nan, cand: dict[str, MagCandidate] | None = None) -> MagCalibration:
         cov = np.zeros(3) if cov is None else cov
         return MagCalibration(False, "none", np.zeros(3), np.eye(3), reason, n, cov, noise, before, cand or {})
 
@@ -303,8 +322,8 @@ def estimate_mag_calibration(
     if coverage[0] < min_coverage:
         return refuse(f"orientation coverage too small (smallest direction eigenvalue {coverage[0]:.2g} < "
                       f"{min_coverage})", int(mk.shape[0]), coverage, noise_rel, before)
-    cand: dict = {}
-    chosen = None
+    cand: dict[str, MagCandidate] = {}
+    chosen: str | None = None
     for name in models:
         sel = keep
         for _ in range(2):  # re-select the undisturbed samples by the calibrated magnitude, refit

@@ -38,6 +38,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
+
+from dualpose.types._inputs import imu_rows
 
 __all__ = ["SensorTimeOffset", "estimate_sensor_time_offset", "shift_samples"]
 
@@ -83,16 +86,19 @@ def _lowpass(x: np.ndarray, rate: float, cutoff: float) -> np.ndarray:
 
 
 def check_samples(x: object, name: str, n: int | None = None) -> np.ndarray:
-    """``x`` as a C-contiguous float64 (n, 3) array of finite samples (``n`` samples when given); ValueError naming
-    ``name`` otherwise.  Shared by the AHRS entry points."""
+    """``x`` as a C-contiguous float64 (n, 3) array of finite samples (``n`` samples when given) within the plausible
+    range of its sensor (:func:`dualpose.types._inputs.imu_rows`: ``gyr`` rad/s, ``acc`` m/s², any other a field);
+    ValueError naming ``name`` and the first bad sample otherwise.  Shared by the AHRS entry points."""
     a = np.asarray(x, dtype=np.float64)
     if a.ndim != 2 or a.shape[1] != 3:
         raise ValueError(f"{name} must have shape (n, 3); got shape {a.shape}")
     if n is not None and a.shape[0] != n:
         raise ValueError(f"{name} must have {n} samples like gyr; got {a.shape[0]}")
-    if not np.isfinite(a).all():
-        raise ValueError(f"{name} contains NaN or inf samples")
-    return np.ascontiguousarray(a)
+    return imu_rows(a, name, _SENSOR_KIND.get(name, "mag"))
+
+
+#: the sensor kind (:data:`dualpose.types._inputs.IMU_LIMITS`) of each sample argument name
+_SENSOR_KIND = {"gyr": "gyro", "gyro": "gyro", "acc": "accel", "accel": "accel"}
 
 
 def estimate_sensor_time_offset(
@@ -225,7 +231,8 @@ def shift_samples(x: np.ndarray, rate: float, offset: float) -> np.ndarray:
     if not np.isfinite(offset):
         raise ValueError(f"offset must be a finite number of seconds; got {offset}")
     if offset == 0.0:
-        return a.copy()
+        return np.array(a)  # a copy (typed; ndarray.copy is untyped before Python 3.11)
     grid = np.arange(a.shape[0], dtype=np.float64)
     ts = grid + offset * rate
-    return np.stack([np.interp(ts, grid, a[:, j]) for j in range(a.shape[1])], axis=1)
+    shifted: NDArray[np.float64] = np.stack([np.interp(ts, grid, a[:, j]) for j in range(a.shape[1])], axis=1)
+    return shifted

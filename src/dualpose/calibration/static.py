@@ -9,10 +9,31 @@ Frames as in :mod:`dualpose.estimation`: world/scene ``w`` (the calibration patt
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol, TypedDict
 
 import numpy as np
+from numpy.typing import NDArray
 
-__all__ = ["StaticPeriod", "static_period", "static_period_from_run", "static_periods", "stack_static_periods"]
+from dualpose.types.camera import FrameCorrespondences, PinholeModel
+from dualpose.types.imu import ImuNoise
+
+__all__ = [
+    "StaticArrays", "StaticPeriod", "static_period", "static_period_from_run", "static_periods", "stack_static_periods"
+]
+
+
+class StaticArrays(TypedDict):
+    """``K`` periods at rest stacked (:func:`stack_static_periods`, :func:`static_periods`): the keyword arrays of
+    :func:`~dualpose.calibration.extrinsic.camera_imu_rotation` and :func:`~dualpose.calibration.gravity.scene_gravity`.
+
+    ``specific_force`` (K, 3) m/s² body frame, ``q_wc`` (K, 4) xyzw camera → target, ``specific_force_covariance``
+    and ``attitude_covariance`` (K, 3, 3) (m/s²)², rad².
+    """
+
+    specific_force: NDArray[np.float64]
+    q_wc: NDArray[np.float64]
+    specific_force_covariance: NDArray[np.float64]
+    attitude_covariance: NDArray[np.float64]
 
 
 @dataclass
@@ -88,7 +109,24 @@ def static_period(
     )
 
 
-def static_period_from_run(run, t_start: float | None = None, t_end: float | None = None) -> StaticPeriod:
+class _StaticRun(Protocol):
+    """The fields of a :class:`~dualpose.sim.SimulatedRun` that :func:`static_period_from_run` reads."""
+
+    @property
+    def t(self) -> np.ndarray: ...
+    @property
+    def accel(self) -> np.ndarray: ...
+    @property
+    def frames(self) -> FrameCorrespondences: ...
+    @property
+    def camera(self) -> PinholeModel: ...
+    @property
+    def imu_noise(self) -> ImuNoise: ...
+    @property
+    def pixel_sigma(self) -> float: ...
+
+
+def static_period_from_run(run: _StaticRun, t_start: float | None = None, t_end: float | None = None) -> StaticPeriod:
     """:func:`static_period` over ``[t_start, t_end]`` (s; default the whole run) of a
     :class:`~dualpose.sim.SimulatedRun` (or any object with its fields): the IMU samples and the camera
     frames stamped in the window.  The two clocks differ by the (unknown) time offset, so keep the window a few
@@ -118,7 +156,7 @@ def static_periods(
     accelerometer_noise_density: float,
     rate: float,
     pixel_sigma: float = 1.0,
-) -> dict[str, np.ndarray]:
+) -> StaticArrays:
     """:func:`static_period` for ``P`` periods at once, straight into the arrays of :func:`stack_static_periods`.
 
     Parameters
@@ -144,27 +182,27 @@ def static_periods(
         raise ValueError("accelerometer_noise_density must be >= 0 and rate > 0")
     pnp = solve_pnp_batch(pixels, points, valid, K, pixel_sigma=pixel_sigma)
     p, n = accel.shape[:2]
-    return {
-        "specific_force": accel.mean(axis=1),
-        "q_wc": pnp.q_wc,
-        "specific_force_covariance": np.broadcast_to(np.eye(3) * accelerometer_noise_density**2 * rate / n,
-                                                     (p, 3, 3)).copy(),  # fmt: skip
-        "attitude_covariance": np.ascontiguousarray(pnp.covariance[:, :3, :3]),
-    }
+    return StaticArrays(
+        specific_force=accel.mean(axis=1),
+        q_wc=pnp.q_wc,
+        specific_force_covariance=np.broadcast_to(np.eye(3) * accelerometer_noise_density**2 * rate / n,
+                                                  (p, 3, 3)).copy(),  # fmt: skip
+        attitude_covariance=np.ascontiguousarray(pnp.covariance[:, :3, :3]),
+    )
 
 
-def stack_static_periods(periods: list[StaticPeriod]) -> dict[str, np.ndarray]:
+def stack_static_periods(periods: list[StaticPeriod]) -> StaticArrays:
     """Keyword arrays for :func:`~.extrinsic.camera_imu_rotation` / :func:`~.gravity.scene_gravity` from
     ``K`` periods: ``specific_force`` (K, 3), ``q_wc`` (K, 4), ``specific_force_covariance`` (K, 3, 3),
     ``attitude_covariance`` (K, 3, 3)."""
     if len(periods) == 0:
         raise ValueError("periods must hold at least one StaticPeriod")
-    return {
-        "specific_force": np.stack([p.specific_force for p in periods]),
-        "q_wc": np.stack([p.q_wc for p in periods]),
-        "specific_force_covariance": np.stack([p.specific_force_covariance for p in periods]),
-        "attitude_covariance": np.stack([p.attitude_covariance for p in periods]),
-    }
+    return StaticArrays(
+        specific_force=np.stack([p.specific_force for p in periods]),
+        q_wc=np.stack([p.q_wc for p in periods]),
+        specific_force_covariance=np.stack([p.specific_force_covariance for p in periods]),
+        attitude_covariance=np.stack([p.attitude_covariance for p in periods]),
+    )
 
 
 def _stack_cov(c: np.ndarray | None, name: str, k: int) -> np.ndarray:

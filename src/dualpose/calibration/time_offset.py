@@ -25,8 +25,10 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
+from numpy.typing import NDArray
 from scipy.optimize import minimize_scalar
 
 import dualpose as dp
@@ -145,7 +147,9 @@ def frame_poses(
     return q, cov
 
 
-def _rates_with_frames(frame_t: np.ndarray, q_wc: np.ndarray) -> tuple[np.ndarray, ...]:
+def _rates_with_frames(
+    frame_t: np.ndarray, q_wc: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     t = _as_times(frame_t, "frame_t", 2)
     q = np.asarray(q_wc, dtype=np.float64)
     if q.shape != (len(t), 4):
@@ -218,13 +222,15 @@ def _gyro_integral(t: np.ndarray, gyro: np.ndarray) -> tuple[np.ndarray, np.ndar
     h = np.diff(t)
     cum = np.zeros_like(gyro)
     cum[1:] = np.cumsum(0.5 * (gyro[1:] + gyro[:-1]) * h[:, None], axis=0)
-    return cum, np.diff(gyro, axis=0) / h[:, None]
+    slope: NDArray[np.float64] = np.diff(gyro, axis=0) / h[:, None]
+    return cum, slope
 
 
 def _integral_at(t: np.ndarray, gyro: np.ndarray, cum: np.ndarray, slope: np.ndarray, x: np.ndarray) -> np.ndarray:
     i = np.clip(np.searchsorted(t, x, side="right") - 1, 0, len(t) - 2)
     tau = x - t[i]
-    return cum[i] + gyro[i] * tau[:, None] + 0.5 * slope[i] * tau[:, None] ** 2
+    out: NDArray[np.float64] = cum[i] + gyro[i] * tau[:, None] + 0.5 * slope[i] * tau[:, None] ** 2
+    return out
 
 
 def gyro_mean_rates(t: np.ndarray, gyro: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -239,19 +245,23 @@ def gyro_mean_rates(t: np.ndarray, gyro: np.ndarray, a: np.ndarray, b: np.ndarra
     cum, slope = _gyro_integral(t, gyro)
     ia = _integral_at(t, gyro, cum, slope, a)
     ib = _integral_at(t, gyro, cum, slope, b)
-    return (ib - ia) / (b - a)[:, None]
+    rates: NDArray[np.float64] = (ib - ia) / (b - a)[:, None]
+    return rates
 
 
 class _RateCost:
     """``C(d)`` of the module docstring for fixed data (given rotation, or registered per candidate)."""
 
-    def __init__(self, t, gyro, t0, t1, omega_c, R_cb, W):
+    def __init__(self, t: NDArray[np.float64], gyro: NDArray[np.float64], t0: NDArray[np.float64],
+                 t1: NDArray[np.float64], omega_c: NDArray[np.float64], R_cb: NDArray[np.float64] | None,
+                 W: NDArray[np.float64] | None) -> None:  # fmt: skip
         self.t, self.gyro = t, gyro
         self.cum, self.slope = _gyro_integral(t, gyro)
         self.t0, self.t1, self.omega_c, self.R_cb, self.W = t0, t1, omega_c, R_cb, W
 
-    def valid(self, d: float) -> np.ndarray:
-        return (self.t0 + d >= self.t[0]) & (self.t1 + d <= self.t[-1])
+    def valid(self, d: float) -> NDArray[np.bool_]:
+        ok: NDArray[np.bool_] = (self.t0 + d >= self.t[0]) & (self.t1 + d <= self.t[-1])
+        return ok
 
     def residuals(self, d: float, keep: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Centred rate residuals (P, 3), the gyro bias (3,) body frame and ``R_cb`` (3, 3) at offset ``d``."""
@@ -333,7 +343,10 @@ def estimate_time_offset(
     t0, t1, omega_c, frame_index, rel = _rates_with_frames(frame_t, q_wc)
     if len(t0) < 8:
         raise ValueError(f"need at least 8 consecutive pairs of valid frame poses; got {len(t0)}")
-    W = cov = R_rel = c_gyro = None
+    W: NDArray[np.float64] | None = None
+    cov: NDArray[np.float64] | None = None
+    R_rel: NDArray[np.float64] | None = None
+    c_gyro: NDArray[np.float64] | None = None
     if attitude_covariance is not None:
         cov = np.asarray(attitude_covariance, dtype=np.float64)
         if cov.shape != (len(frame_t), 3, 3):
@@ -392,6 +405,7 @@ def estimate_time_offset(
     if W is None:
         sigma = _offset_sigma(r, dr, frame_index[keep], (t1 - t0)[keep], 4 if R_cb is not None else 7)
     else:
+        assert cov is not None and R_rel is not None and c_gyro is not None  # set together with W above
         sigma = _offset_sigma_weighted(dr, W[keep], frame_index[keep], (t1 - t0)[keep], R_rel[keep], cov, c_gyro[keep])
     return TimeOffsetEstimate(
         offset=d, sigma=sigma, coarse_offset=coarse, gyro_bias=bias, rms_residual=float(np.sqrt(np.mean(r**2))),
@@ -400,8 +414,30 @@ def estimate_time_offset(
     )  # fmt: skip
 
 
+class _FilterInnovations(Protocol):
+    @property
+    def nis(self) -> NDArray[np.float64]: ...
+    @property
+    def gate(self) -> float: ...
+
+
+class _FilterRun(Protocol):
+    @property
+    def innovation(self) -> _FilterInnovations: ...
+
+
+class _OffsetFilter(Protocol):
+    """What :func:`refine_time_offset_in_filter` needs of a filter (:class:`~dualpose.estimation.eskf.ErrorStateEKF`
+    is one): a settable ``camera_time_offset`` and ``run`` over a recording."""
+
+    camera_time_offset: float
+
+    def run(self, t: np.ndarray, gyro: np.ndarray, accel: np.ndarray, frame_t: np.ndarray, offsets: np.ndarray,
+            pixels: np.ndarray, points: np.ndarray) -> _FilterRun: ...  # fmt: skip
+
+
 def refine_time_offset_in_filter(
-    make_filter: Callable[[], object],
+    make_filter: Callable[[], _OffsetFilter],
     t: np.ndarray,
     gyro: np.ndarray,
     accel: np.ndarray,

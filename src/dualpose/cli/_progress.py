@@ -29,18 +29,26 @@ total).  Output looks like ``dualpose fuse: [2/3] filter ... 63%`` on a terminal
 
 from __future__ import annotations
 
+import argparse
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
-from typing import TextIO
+from typing import Protocol, TextIO
 
-__all__ = ["FractionSteps", "Progress", "add_quiet_argument", "progress_bar"]
+__all__ = ["FractionSteps", "Progress", "ProgressBar", "add_quiet_argument", "progress_bar"]
 
 StepCallback = Callable[[int, int], None]
 
 
-def add_quiet_argument(parser) -> None:
+class ProgressBar(Protocol):
+    """What :func:`progress_bar` yields (a tqdm bar or plain lines): ``update(n)`` steps and a stage postfix."""
+
+    def update(self, n: int = 1) -> object: ...
+    def set_postfix_str(self, s: str) -> object: ...
+
+
+def add_quiet_argument(parser: argparse.ArgumentParser) -> None:
     """Add the common ``--quiet`` flag (no progress output on stderr) to a subcommand parser."""
     parser.add_argument("--quiet", action="store_true", help="no progress output on stderr")
 
@@ -143,7 +151,7 @@ class Progress:
     def __enter__(self) -> Progress:
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.close()
 
 
@@ -163,7 +171,7 @@ class _PlainBar:
 
 
 @contextmanager
-def progress_bar(total: int, desc: str) -> Iterator[object]:
+def progress_bar(total: int, desc: str) -> Iterator[ProgressBar]:
     """A progress bar of ``total`` steps labelled ``desc``; the object has ``update(n=1)`` and ``set_postfix_str``.
 
     tqdm on a terminal, plain lines otherwise (see the module docstring).
@@ -185,7 +193,7 @@ class FractionSteps:
     ``bar`` (from :func:`progress_bar`, or None for no output) in ``steps`` equal steps; ``stage`` becomes the
     bar's postfix."""
 
-    def __init__(self, bar: object | None, steps: int) -> None:
+    def __init__(self, bar: ProgressBar | None, steps: int) -> None:
         self.bar, self.steps, self.done = bar, int(steps), 0
 
     def __call__(self, frac: float, stage: str | None = None) -> None:

@@ -10,9 +10,10 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from typing import Any
 
 
-def _table(m: dict) -> str:
+def _table(m: dict[str, Any]) -> str:
     from dualpose.cli._output import aligned_rows
 
     rows = [("data", m["data"]), ("estimator", "MSCKF (unknown scene)"),

@@ -24,6 +24,7 @@ import json
 import sys
 
 from dualpose.cli._args import add_bag_time_argument, float_in
+from dualpose.cli._batch import add_scheduler_arguments
 from dualpose.cli._stream import write_flushed
 
 _STREAM_HELP = """\
@@ -43,7 +44,7 @@ arguments; 141 when the reader of standard output goes away.
 """
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     """Register ``dualpose ahrs``."""
     p = subparsers.add_parser(
         "ahrs",
@@ -74,6 +75,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
                    help="self-calibrate the magnetometer (hard/soft iron) when the recording supports it "
                    "(default: off)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
+    p.add_argument("--batch", nargs="+", metavar="SOURCE",
+                   help="run over many recordings: BROAD .mat files, EuRoC IMU CSVs (imu0/data.csv), directories of "
+                   "them, glob patterns, or a manifest CSV with a 'recording' (and 'dataset') column; prints the "
+                   "summary per dataset, --out DIR writes the tables and rmse.png (docs/scaling.md)")  # fmt: skip
+    p.add_argument("--out", metavar="DIR", help="with --batch: write results.csv, summary.csv (and .parquet with "
+                   "pyarrow) and rmse.png into DIR")  # fmt: skip
+    p.add_argument("--force", action="store_true", help="with --batch --out: replace existing output files")
+    add_scheduler_arguments(p)
     return p
 
 
@@ -94,8 +103,15 @@ def run_stream(args: argparse.Namespace) -> int:
         return _usage_error("--offline smooths a whole recording file: not with --stream")
     if args.json or args.mag_calibration is not None:
         return _usage_error("--json and --mag-calibration are not used with --stream")
+    from dualpose.types._inputs import check_rate, check_rest_samples
+
     rest_seconds = 1.0 if args.rest_seconds is None else args.rest_seconds  # the documented default
     n_rest = round(rest_seconds * args.rate)
+    try:  # the checks AhrsStream makes, as usage errors naming the options (docs/refusals.md)
+        check_rate(args.rate, "--rate")
+        check_rest_samples(n_rest, args.rate, "--rest-seconds")
+    except ValueError as exc:
+        return _usage_error(str(exc))
     if 0 < n_rest < 10:
         return _usage_error(f"--rest-seconds {rest_seconds:g} at --rate {args.rate:g} is {n_rest} samples; "
                             "the rest period needs at least 10 samples, or 0 for none")  # fmt: skip
@@ -106,6 +122,12 @@ def run_stream(args: argparse.Namespace) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``dualpose ahrs``."""
+    if args.batch is not None:
+        return run_batch(args)
+    used = [n for n, v in (("--out", args.out), ("--force", args.force), ("--scheduler", args.scheduler),
+                           ("--workers", args.workers)) if v]  # fmt: skip
+    if used:
+        return _usage_error(f"{', '.join(used)}: only used with --batch")
     if args.stream:
         return run_stream(args)
     if args.file is None:
@@ -148,8 +170,8 @@ def run(args: argparse.Namespace) -> int:
         if not bag:
             trial.require_finite(("imu_gyr", "imu_acc", "imu_mag") if args.mag else ("imu_gyr", "imu_acc"))
         if args.offline:
-            cal = "auto" if calibrate else None
-            smoothed, scores = smooth_broad_trial(trial, use_mag=args.mag, mag_calibration=cal)
+            mag_cal = "auto" if calibrate else None
+            smoothed, scores = smooth_broad_trial(trial, use_mag=args.mag, mag_calibration=mag_cal)
             result = smoothed.forward
         else:
             result = estimate_orientation(
@@ -183,7 +205,7 @@ def run(args: argparse.Namespace) -> int:
     if args.mag and result.mag_calibration is not None:
         out.update(result.mag_calibration.as_dict())
     has_ref = scores is not None
-    if has_ref:
+    if scores is not None:
         out.update(scores)
     else:
         out.update(total_rmse_deg=None, heading_rmse_deg=None, inclination_rmse_deg=None)
@@ -211,3 +233,38 @@ def run(args: argparse.Namespace) -> int:
     print(f"  {'smoother' if args.offline else 'filter'} time{'' if args.offline else '  '}     "
           f"{out['us_per_sample']:8.3f} us/sample")
     return 0
+
+
+def run_batch(args: argparse.Namespace) -> int:
+    """``dualpose ahrs --batch SOURCE... [--no-mag] [--offline] [--out DIR]``: the filter over many recordings."""
+    from pathlib import Path
+
+    from dualpose.cli._batch import finish_job, job_progress, scheduler_of
+    from dualpose.cli._output import OutputError, output_directory
+    from dualpose.jobs.ahrs_batch import ahrs_recordings, run_ahrs_batch
+    from dualpose.jobs.figures import box_plot, job_output_names
+
+    used = [n for n, v in (("a file argument", args.file), ("--stream", args.stream), ("--rate", args.rate is not None),
+                           ("--rest-seconds", args.rest_seconds is not None), ("--mag-topic", args.mag_topic),
+                           ("--json", args.json)) if v]  # fmt: skip
+    if used:
+        return _usage_error(f"--batch names its recordings: not with {', '.join(used)}")
+    try:
+        out = None if args.out is None else output_directory(args.out, job_output_names(("rmse.png",)), args.force,
+                                                             args.batch)  # fmt: skip
+    except OutputError as exc:
+        return _usage_error(str(exc))
+    try:
+        recs = ahrs_recordings(args.batch, use_mag=args.mag, offline=args.offline,
+                               mag_calibration=bool(args.mag_calibration))  # fmt: skip
+        with job_progress(len(recs), "ahrs") as step:
+            result = run_ahrs_batch(recs, scheduler=scheduler_of(args, "ahrs"), workers=args.workers, progress=step)
+    except (OSError, ValueError, ImportError) as exc:
+        print(f"dualpose ahrs: error: {exc}", file=sys.stderr)
+        return 1
+
+    def rmse_figure(path: Path) -> None:
+        box_plot(result.table, "total_rmse_deg", path, hue="mode", ok=lambda r: r["status"] == "ok",
+                 ylabel="total orientation RMSE [deg]")  # fmt: skip
+
+    return finish_job("ahrs", result, lambda r: str(r["recording"]), out, {"rmse.png": rmse_figure})

@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from typing import Any
 
 from dualpose.cli import calibrate_camera_imu, calibrate_hand_eye
 from dualpose.cli._args import float_in, int_in, seed
@@ -27,7 +28,7 @@ MAX_TILT_DEG = 45.0
 MAX_OFFSET_MS = 100.0
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     """Register ``dualpose calibrate``."""
     p = subparsers.add_parser(
         "calibrate",
@@ -54,7 +55,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     return p
 
 
-def _table(m: dict) -> str:
+def _table(m: dict[str, Any]) -> str:
     from dualpose.cli._output import aligned_rows
 
     rows = [

@@ -12,11 +12,12 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from typing import Any
 
 PROG = "dualpose calibrate camera-imu"
 
 
-def add_subparser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+def add_subparser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     """Register ``dualpose calibrate camera-imu`` under ``dualpose calibrate``."""
     p = subparsers.add_parser(
         "camera-imu",
@@ -43,7 +44,7 @@ def add_subparser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentPa
     return p
 
 
-def _table(m: dict) -> str:
+def _table(m: dict[str, Any]) -> str:
     from dualpose.cli._output import aligned_rows
 
     s = m["std"]

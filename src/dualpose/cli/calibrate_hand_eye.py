@@ -3,9 +3,11 @@
 CAMERA.csv holds the camera's pose in a calibration target, BODY.csv the pose of the body it is mounted on (a
 motion-capture marker, a robot hand) in its reference frame, each ``t, x, y, z, qx, qy, qz, qw`` in its own clock.
 Prints ``X`` (the camera pose in the body frame), the time offset ``τ`` (camera time ``t`` ↔ body time ``t + τ``),
-the RMS loop residuals (never above those of the closed form the final refinement started from, also printed) and
-first-order standard deviations; one JSON object with ``--json``.  The computation is
-:func:`dualpose.calibration.calibrate_hand_eye_streams`; see ``docs/hand-eye.md``.
+the RMS loop residuals (never above those of the closed form the final refinement started from, also printed), the
+residual the streams' own noise predicts and the coarse rate correlation, and first-order standard deviations; one
+JSON object with ``--json``.  Exit status 1 also when the match is not credible (a rotation residual far above the
+streams' noise: two unrelated recordings); a doubtful match is printed with a warning and ``"credibility"``.
+The computation is :func:`dualpose.calibration.calibrate_hand_eye_streams`; see ``docs/hand-eye.md``.
 """
 
 from __future__ import annotations
@@ -14,13 +16,18 @@ import argparse
 import json
 import math
 import sys
+import warnings
+from typing import TYPE_CHECKING, Any
 
 from dualpose.cli._args import add_bag_time_argument
+
+if TYPE_CHECKING:
+    from dualpose.calibration import CleaningReport
 
 PROG = "dualpose calibrate hand-eye"
 
 
-def add_subparser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+def add_subparser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     """Register ``dualpose calibrate hand-eye`` under ``dualpose calibrate``."""
     p = subparsers.add_parser(
         "hand-eye",
@@ -54,7 +61,7 @@ def _usage_error(args: argparse.Namespace) -> str | None:
     return None
 
 
-def run_hand_eye(args: argparse.Namespace) -> dict:
+def run_hand_eye(args: argparse.Namespace) -> dict[str, Any]:
     """Read, clean and calibrate; returns the dictionary printed with ``--json``."""
     from dualpose.calibration import calibrate_hand_eye_streams, clean_pose_stream
     from dualpose.io.pose_csv import read_pose_stream
@@ -81,17 +88,22 @@ def run_hand_eye(args: argparse.Namespace) -> dict:
         "time_offset_sigma_s": r.time_offset_sigma,
         "coarse_time_offset_s": r.coarse_time_offset,
         "coarse_correlation": None if math.isnan(r.coarse_correlation) else r.coarse_correlation,
+        "expected_rotation_residual_deg": None if math.isnan(r.expected_rotation_rmse_deg)
+        else r.expected_rotation_rmse_deg,
+        "residual_to_noise": None if math.isnan(r.residual_to_noise) else r.residual_to_noise,
+        "credible": r.credible,
+        "credibility": r.credibility,
         "camera_rows": _rows(cam_rep),
         "body_rows": _rows(body_rep),
     }  # fmt: skip
 
 
-def _rows(rep) -> dict:
+def _rows(rep: CleaningReport) -> dict[str, Any]:
     return {"read": rep.rows_in, "kept": rep.rows_out, "exact_duplicates": rep.exact_duplicates,
             "merged_stamps": rep.merged_stamps, "was_sorted": rep.was_sorted}  # fmt: skip
 
 
-def _table(m: dict) -> str:
+def _table(m: dict[str, Any]) -> str:
     from dualpose.cli._output import aligned_rows
 
     q, t, sq, st = m["rotation_xyzw"], m["translation_m"], m["rotation_sigma_deg"], m["translation_sigma_m"]
@@ -109,6 +121,10 @@ def _table(m: dict) -> str:
             f"{m['start_method']}: {m['start_rotation_residual_deg']:.4f} deg, "
             f"{1e3 * m['start_translation_residual_m']:.3f} mm",
         ),
+        ("  expected from the noise [deg]", "-" if m["expected_rotation_residual_deg"] is None
+         else f"{m['expected_rotation_residual_deg']:.4f} (ratio {m['residual_to_noise']:.2f})"),
+        ("  coarse rate correlation", "-" if m["coarse_correlation"] is None else f"{m['coarse_correlation']:.3f}"),
+        ("match", m["credibility"]),
         ("pairs used / valid", f"{m['pairs_used']} / {m['pairs_total']}"),
         ("camera rows read / kept", f"{m['camera_rows']['read']} / {m['camera_rows']['kept']}"),
         ("body rows read / kept", f"{m['body_rows']['read']} / {m['body_rows']['kept']}"),
@@ -121,10 +137,22 @@ def run(args: argparse.Namespace) -> int:
     if message is not None:
         print(f"{PROG}: error: {message}", file=sys.stderr)
         return 2
+    from dualpose.registration import HandEyeWarning
+
     try:
-        m = run_hand_eye(args)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", HandEyeWarning)
+            m = run_hand_eye(args)
     except (OSError, ValueError, ImportError) as exc:
         print(f"{PROG}: error: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}", file=sys.stderr)
         return 1
+    if not m["credible"]:  # the streams do not record the same motion: no calibration to report
+        print(f"{PROG}: error: the match is {m['credibility']}", file=sys.stderr)
+        return 1
+    for w in caught:
+        if issubclass(w.category, HandEyeWarning):
+            print(f"{PROG}: warning: {w.message}", file=sys.stderr)
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     print(json.dumps(m) if args.hand_eye_json else _table(m))
     return 0

@@ -41,7 +41,7 @@ def run_demo(seed: int = 7) -> int:
     return 0 if res.passed else 1
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     """Register ``dualpose demo``."""
     demo = subparsers.add_parser("demo", help="self-checking walk-through of the algebra on built-in data")
     demo.add_argument("--seed", type=seed, default=7, help="seed of the random transforms (default 7; >= 0)")

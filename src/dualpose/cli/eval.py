@@ -13,14 +13,16 @@ import json
 import math
 import sys
 import warnings
+from typing import Any
 
 from dualpose.cli._args import add_bag_time_argument
+from dualpose.cli._batch import add_scheduler_arguments
 from dualpose.cli._progress import Progress, add_quiet_argument
 
 _STAGES = ("read reference", "read estimate", "associate, align, ATE, RPE", "plot")
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     """Register ``dualpose eval``."""
     p = subparsers.add_parser(
         "eval",
@@ -33,9 +35,17 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
             "otherwise pose i is at i seconds."
         ),
     )
-    p.add_argument("reference", help="reference trajectory: TUM file, KITTI pose file, EuRoC ground-truth CSV or a "
-                   "ROS bag topic FILE.bag:/topic or FILE.bag:/tf:PARENT:CHILD (.db3, .mcap too)")  # fmt: skip
-    p.add_argument("estimate", help="estimated trajectory: as the reference")
+    p.add_argument("reference", nargs="?", help="reference trajectory: TUM file, KITTI pose file, EuRoC ground-truth "
+                   "CSV or a ROS bag topic FILE.bag:/topic or FILE.bag:/tf:PARENT:CHILD (.db3, .mcap too)")  # fmt: skip
+    p.add_argument("estimate", nargs="?", help="estimated trajectory: as the reference")
+    p.add_argument("--batch", metavar="MANIFEST",
+                   help="evaluate many pairs instead: a CSV manifest with the columns reference, estimate, algorithm, "
+                   "dataset, run, or an rpg_trajectory_evaluation results folder (PLATFORM/ALG/PLATFORM_ALG_DATASET/"
+                   "stamped_groundtruth.txt, stamped_traj_estimate[N].txt); prints the summary per dataset and "
+                   "algorithm, --out DIR writes the tables and box plots (docs/scaling.md)")  # fmt: skip
+    p.add_argument("--out", metavar="DIR", help="with --batch: write results.csv, summary.csv (and .parquet with "
+                   "pyarrow) and box plots (ate_rmse.png, rpe_translation.png) into DIR")  # fmt: skip
+    add_scheduler_arguments(p)
     p.add_argument("--ref-times", metavar="FILE", help="stamps of a KITTI reference, s (default: pose index)")
     p.add_argument("--est-times", metavar="FILE", help="stamps of a KITTI estimate, s (default: pose index)")
     p.add_argument(
@@ -71,7 +81,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     return p
 
 
-def _table(result: dict) -> str:
+def _table(result: dict[str, Any]) -> str:
     rows = [
         ("ATE translation [m]", result["ate_m"]),
         ("orientation [deg]", result["orientation_deg"]),
@@ -136,6 +146,13 @@ def run(args: argparse.Namespace) -> int:
     problem = _usage_problem(args)
     if problem:
         return _error(problem, 2)
+    if args.batch is not None:
+        return run_batch(args)
+    if args.reference is None or args.estimate is None:
+        return _error("give the reference and the estimate trajectory (or --batch MANIFEST)", 2)
+    used = [n for n, v in (("--out", args.out), ("--scheduler", args.scheduler), ("--workers", args.workers)) if v]
+    if used:
+        return _error(f"{', '.join(used)}: only used with --batch", 2)
     stages = _STAGES if args.plot else _STAGES[:-1]
     with warnings.catch_warnings(record=True) as caught, Progress(
         "eval", stages, enabled=False if args.quiet else None
@@ -200,8 +217,60 @@ def run(args: argparse.Namespace) -> int:
         + (f", scale {a.scale:.6f}" if a.method in ("sim3", "scale") else "")
         + (f" from the first {args.n_align} poses" if args.n_align and a.method not in ("none", "origin") else "")
     )
+    if a.conditioning is not None:
+        c = a.conditioning
+        print(
+            f"alignment  determined to rotation {math.degrees(c.rotation_std_rad):.3g} deg, translation "
+            f"{c.translation_std_m:.3g} m" + (f", scale {c.scale_std:.3g}" if a.method in ("sim3", "scale") else "")
+            + f" (1 sigma, residual noise {c.noise_m:.3g} m)" + ("" if c.well_determined else "; POORLY DETERMINED")
+        )
     print(f"RPE        {result['rpe_pairs']} pairs, delta {args.rpe_delta:g} {args.rpe_unit}\n")
     print(_table(result))
     if args.plot:
         print(f"\nplot written to {args.plot}")
     return 0
+
+
+#: figures of ``eval --batch --out``: file name -> (metric column, axis label)
+_BATCH_FIGURES = {"ate_rmse.png": ("ate_rmse_m", "ATE RMSE [m]"),
+                  "rpe_translation.png": ("rpe_translation_rmse_m", "RPE translation RMSE [m]")}  # fmt: skip
+
+
+def run_batch(args: argparse.Namespace) -> int:
+    """``dualpose eval --batch MANIFEST [--out DIR]``: every pair of the manifest on the scheduler."""
+    from collections.abc import Callable
+    from pathlib import Path
+
+    from dualpose.cli._batch import finish_job, job_progress, scheduler_of
+    from dualpose.cli._output import OutputError, output_directory
+    from dualpose.jobs.eval_batch import EvalSettings, read_eval_manifest, run_eval_batch
+    from dualpose.jobs.figures import box_plot, job_output_names
+
+    used = [n for n, v in (("a reference", args.reference), ("an estimate", args.estimate), ("--plot", args.plot),
+                           ("--json", args.json), ("--ref-times", args.ref_times), ("--est-times", args.est_times))
+            if v]  # fmt: skip
+    if used:
+        return _error(f"--batch reads the pairs from its manifest: not with {', '.join(used)}", 2)
+    try:
+        out = None if args.out is None else output_directory(args.out, job_output_names(tuple(_BATCH_FIGURES)),
+                                                             args.force, [args.batch])  # fmt: skip
+    except OutputError as exc:
+        return _error(exc, 2)
+    settings = EvalSettings(
+        align=args.align, n_align=args.n_align, max_diff=args.max_diff, offset=args.offset,
+        interpolate=args.interpolate, rpe_delta=args.rpe_delta, rpe_unit=args.rpe_unit,
+        rpe_all_pairs=args.rpe_all_pairs, t_start=args.t_start, t_end=args.t_end,
+    )  # fmt: skip
+    try:
+        pairs = read_eval_manifest(args.batch, settings)
+        with job_progress(len(pairs), "eval", args.quiet) as step:
+            result = run_eval_batch(pairs, scheduler=scheduler_of(args, "eval"), workers=args.workers, progress=step)
+    except (OSError, ValueError, ImportError) as exc:
+        return _error(exc, 1)
+
+    def figure(metric: str, label: str) -> Callable[[Path], None]:
+        return lambda path: box_plot(result.table, metric, path, ok=lambda r: r["status"] == "ok", ylabel=label)
+
+    figures = {name: figure(metric, label) for name, (metric, label) in _BATCH_FIGURES.items()}
+    return finish_job("eval", result, lambda r: f"{r['dataset']} / {r['algorithm']} / run {r['run']}", out,
+                      figures)

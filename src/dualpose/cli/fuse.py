@@ -34,14 +34,16 @@ import argparse
 import json
 import os
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
-from dualpose.cli._args import seed
-from dualpose.cli._stream import write_flushed
+from dualpose.cli._args import int_in, seed
+from dualpose.cli._batch import add_scheduler_arguments
+from dualpose.cli._stream import EXIT_DOUBTFUL, write_flushed
 
 if TYPE_CHECKING:
     from dualpose.io._output import OutputDirectory
+    from dualpose.pipelines.fuse import FuseResult
 
 #: formats of ``--out-bag``
 _BAGS = ("bag", "db3", "mcap")
@@ -92,7 +94,7 @@ def _outage(text: str) -> tuple[float, float]:
     return a, b
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     """Register ``dualpose fuse``."""
     p = subparsers.add_parser(
         "fuse",
@@ -127,6 +129,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument("--outage", metavar="A:B", action="append", type=_outage, default=None,
                    help="target recordings: delete the camera's detections over [A, B) s from the first IMU sample "
                    "(repeatable)")
+    p.add_argument("--monte-carlo", type=int_in(1, 10**6), metavar="N", default=None,
+                   help="N Monte-Carlo runs of the error-state filter on the simulator, seeds S..S+N-1 (--seed S, "
+                   "default 0): NEES / NIS consistency and ATE distributions; --out DIR writes the tables, "
+                   "nees.png and runs.png (docs/scaling.md)")  # fmt: skip
+    add_scheduler_arguments(p)
     p.add_argument("--out", metavar="DIR", help="write trajectory.tum, metrics.json and PNG figures into DIR")
     p.add_argument("--out-bag", choices=_BAGS, metavar="FORMAT",
                    help="with --out: also write the estimate as DIR/trajectory.FORMAT, a ROS bag (bag: ROS 1; db3, "
@@ -154,7 +161,7 @@ _ERROR_ROWS = (
 )
 
 
-def _table(m: dict) -> str:
+def _table(m: dict[str, Any]) -> str:
     from dualpose.cli._output import aligned_rows
 
     def num(key: str, spec: str) -> str:
@@ -170,10 +177,12 @@ def _table(m: dict) -> str:
         ("correspondences rejected", f"{m['n_rejected']} of {m['n_correspondences']}"),
         ("real-time factor", f"{m['realtime_factor']:.1f}x"),
     ]
+    if m.get("input_doubts"):
+        rows.append(("input doubts (see warnings)", ", ".join(d["code"] for d in m["input_doubts"])))
     return aligned_rows(rows)
 
 
-def _table_smoothed(m: dict, num) -> str:
+def _table_smoothed(m: dict[str, Any], num: Callable[[str, str], str]) -> str:
     """The summary table with a filter and a smoother column (``--smooth``)."""
     s = m["smoothed"]
     rows = [("data", m["data"], ""), ("method", "filter", "RTS smoother")]
@@ -197,7 +206,7 @@ def _output_files(smooth: bool) -> tuple[str, ...]:
     return OUTPUT_FILES + (("trajectory_smoothed.tum",) if smooth else ())
 
 
-def _run_job(args: argparse.Namespace):
+def _run_job(args: argparse.Namespace) -> FuseResult | None:
     """``run_fuse`` on ``--data`` with a progress bar; warnings about the input are printed one line each, a bad
     input is reported on stderr (file and line) and gives None."""
     import warnings
@@ -214,9 +223,10 @@ def _run_job(args: argparse.Namespace):
             bar.update(1)
 
         try:
-            result = run_fuse(data="sim" if args.data is None else args.data, filter=args.filter,
-                              seed=0 if args.seed is None else args.seed, progress=progress,
-                              smooth=args.smooth)  # fmt: skip
+            result: FuseResult | Exception = run_fuse(
+                data="sim" if args.data is None else args.data, filter=args.filter,
+                seed=0 if args.seed is None else args.seed, progress=progress, smooth=args.smooth,
+            )  # fmt: skip
         except (RecordingError, ValueError) as exc:
             result = exc
     for w in caught:
@@ -249,17 +259,19 @@ def run_stream(args: argparse.Namespace) -> int:
         return _run_target_stream(args)
     if args.camera is not None:
         return _usage_error("--camera with --stream needs the rig's sensor file: --sensors sensors.yaml")
-    from dualpose.io.recording import RecordingError
+    from dualpose.io.recording import RecordingError, read_sensor_setup
     from dualpose.pipelines.fuse_stream import stream_filter, stream_fusion_lines
 
     try:
-        stream = stream_filter(args.calibration, args.filter)
+        setup = read_sensor_setup(args.calibration)
+        stream = stream_filter(setup, args.filter)
     except (RecordingError, ValueError) as exc:
         print(f"dualpose fuse: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1
     from dualpose.io._text import bounded_lines
 
-    return write_flushed(stream_fusion_lines(bounded_lines(), stream), "fuse")
+    return write_flushed(stream_fusion_lines(bounded_lines(), stream, rate=setup.imu_noise.update_rate,
+                                             gravity=setup.gravity), "fuse")
 
 
 def _run_target_stream(args: argparse.Namespace) -> int:
@@ -291,11 +303,11 @@ _TARGET_ROWS = (
 )
 
 
-def _target_table(m: dict) -> str:
+def _target_table(m: dict[str, Any]) -> str:
     from dualpose.cli._output import aligned_rows
 
-    def get(path):
-        v = m
+    def get(path: Sequence[str]) -> Any:
+        v: Any = m
         for k in path:
             v = None if v is None else v.get(k)
         return v
@@ -418,6 +430,11 @@ def run(args: argparse.Namespace) -> int:
     from dualpose.cli._output import OutputError
     from dualpose.io.target.recording import is_target_recording
 
+    if args.monte_carlo is not None:
+        return run_monte_carlo(args)
+    used = [n for n, v in (("--scheduler", args.scheduler), ("--workers", args.workers)) if v]
+    if used:
+        return _usage_error(f"{', '.join(used)}: only used with --monte-carlo")
     if args.stream:
         return run_stream(args)
     if args.data is not None and is_target_recording(args.data):
@@ -453,4 +470,62 @@ def run(args: argparse.Namespace) -> int:
     result = _run_job(args)
     if result is None:
         return 1
-    return _report(args, result, out, _table)
+    code = _report(args, result, out, _table)
+    return EXIT_DOUBTFUL if code == 0 and result.metrics.get("input_doubts") else code
+
+
+#: figures of ``fuse --monte-carlo --out``
+_MC_FIGURES = ("nees.png", "runs.png")
+
+
+def run_monte_carlo(args: argparse.Namespace) -> int:
+    """``dualpose fuse --monte-carlo N [--seed S] [--out DIR]``: N seeded runs of the filter on the simulator."""
+    from pathlib import Path
+
+    from dualpose.cli._batch import finish_job, job_progress, scheduler_of
+    from dualpose.cli._output import OutputError, output_directory
+    from dualpose.estimation.state import ESKF_ERROR
+    from dualpose.jobs.figures import distribution_plot, job_output_names, nees_plot
+    from dualpose.jobs.monte_carlo import run_monte_carlo as run_mc
+    from dualpose.jobs.table import Cell
+
+    used = [n for n, v in (("--data", args.data), ("--stream", args.stream), ("--calibration", args.calibration),
+                           ("--camera", args.camera), ("--sensors", args.sensors), ("--outage", args.outage),
+                           ("--out-bag", args.out_bag), ("--truth", args.truth), ("--json", args.json),
+                           ("--smooth", args.smooth)) if v]  # fmt: skip
+    if used:
+        return _usage_error(f"--monte-carlo runs the simulator: not with {', '.join(used)}")
+    if args.filter != "eskf":
+        return _usage_error(f"--monte-carlo runs the error-state filter (15-state NEES); got --filter {args.filter}")
+    try:
+        out = None if args.out is None else output_directory(args.out, job_output_names(_MC_FIGURES), args.force, [])
+    except OutputError as exc:
+        return _usage_error(str(exc))
+    first = 0 if args.seed is None else args.seed
+    try:
+        with job_progress(args.monte_carlo, "fuse") as step:
+            result = run_mc(args.monte_carlo, first, scheduler=scheduler_of(args, "fuse"), workers=args.workers,
+                            progress=step)  # fmt: skip
+    except (OSError, ValueError, ImportError) as exc:
+        print(f"dualpose fuse: error: {exc}", file=sys.stderr)
+        return 1
+    runs = len(result.table) - result.failed
+    lo, hi = result.nees_band
+    inside = float(((result.average_nees >= lo) & (result.average_nees <= hi)).mean()) if runs else float("nan")
+    print(f"{runs} runs (seeds {first}..{first + args.monte_carlo - 1}); average NEES inside its 95 % band "
+          f"[{lo:.3f}, {hi:.3f}] at {100 * inside:.1f} % of the {result.t.size} IMU times\n")  # fmt: skip
+
+    def ok(r: dict[str, Cell]) -> bool:
+        return r["status"] == "ok"
+
+    def nees_figure(path: Path) -> None:
+        nees_plot(result.t, result.average_nees, result.nees_band, runs, ESKF_ERROR.dim, path)
+
+    def runs_figure(path: Path) -> None:
+        distribution_plot(result.table, (("mean_nees", "mean NEES (15 dof)"), ("mean_nis", "mean NIS (2 dof)"),
+                                         ("ate_rmse_m", "ATE RMSE [m]"), ("orientation_rmse_deg",
+                                                                          "orientation RMSE [deg]")),
+                          path, ok=ok)  # fmt: skip
+
+    return finish_job("fuse", result, lambda r: f"seed {r['seed']}", out,
+                      {"nees.png": nees_figure, "runs.png": runs_figure})

@@ -10,8 +10,13 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from typing import TYPE_CHECKING, Any
 
 from dualpose.cli._args import float_in, seed
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
 
 _EPILOG = """\
 CSV format: comma-separated numbers, one correspondence per line; an optional header line; blank lines and
@@ -21,7 +26,7 @@ translation, and diagnostics (cost, RMS residual, degeneracy).  Exit status 0 on
 """
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     """Register ``dualpose register``."""
     p = subparsers.add_parser(
         "register",
@@ -55,7 +60,7 @@ def _fail(msg: str) -> int:
     return 2
 
 
-def _read_pair(path_a: str, path_b: str, what: str, noun: str) -> tuple:
+def _read_pair(path_a: str, path_b: str, what: str, noun: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Two files of corresponding 3-vectors; ValueError when their lengths differ."""
     from dualpose.io.csv_points import read_columns
 
@@ -86,11 +91,12 @@ def run(args: argparse.Namespace) -> int:
         return _fail("--threshold is the RANSAC inlier distance: it needs --ransac")
     try:
         model, measured = _read_pair(args.model, args.measured, "points", "point(s)")
-        kw: dict = {"method": args.method}
+        kw: dict[str, Any] = {"method": args.method}
         if args.weights:
             kw["point_weights"] = _read_weights(args.weights, len(model), "point(s)")
         if args.directions:
-            d0, d1 = _read_pair(*args.directions, "directions", "direction(s)")
+            path_d0, path_d1 = args.directions
+            d0, d1 = _read_pair(path_d0, path_d1, "directions", "direction(s)")
             kw.update(model_directions=d0, measured_directions=d1)
             if args.direction_weights:
                 kw["direction_weights"] = _read_weights(args.direction_weights, len(d0), "direction(s)")

@@ -15,7 +15,7 @@ from dualpose.cli import reproduce_screw, reproduce_walker1991
 TARGET_MODULES: tuple[ModuleType, ...] = (reproduce_walker1991, reproduce_screw)
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     """Register ``dualpose reproduce`` and its targets."""
     p = subparsers.add_parser("reproduce", help="re-run a paper's experiment (walker1991, screw-vector)")
     targets = p.add_subparsers(dest="target", required=True, metavar="TARGET")

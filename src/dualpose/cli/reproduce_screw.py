@@ -32,7 +32,7 @@ TARGETS: dict[str, str] = {
 }
 
 
-def add_target(targets: Any) -> argparse.ArgumentParser:
+def add_target(targets: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     """Register ``dualpose reproduce screw-vector``."""
     p = targets.add_parser("screw-vector", help=TARGETS["screw-vector"], description=_DESCRIPTION,
                            formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
@@ -48,7 +48,7 @@ def add_target(targets: Any) -> argparse.ArgumentParser:
     return p
 
 
-def _simulate(sc: Any, n: int, duration: float, label: str, show: bool) -> dict:
+def _simulate(sc: Any, n: int, duration: float, label: str, show: bool) -> dict[str, Any]:
     from contextlib import nullcontext
 
     from dualpose.cli._progress import FractionSteps, progress_bar
@@ -58,7 +58,7 @@ def _simulate(sc: Any, n: int, duration: float, label: str, show: bool) -> dict:
         return simulate(sc, n, duration, progress=FractionSteps(bar, 10))
 
 
-def _figures(out: Path, runs: dict[int, dict], long_run: dict | None) -> list[Path]:
+def _figures(out: Path, runs: dict[int, dict[str, Any]], long_run: dict[str, Any] | None) -> list[Path]:
     import matplotlib
 
     matplotlib.use("Agg")

@@ -11,11 +11,12 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import Any
 
 EXPERIMENTS = ("walker1991",)
 
 
-def add_target(targets: argparse._SubParsersAction) -> argparse.ArgumentParser:
+def add_target(targets: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     """Register ``dualpose reproduce walker1991``."""
     p = targets.add_parser("walker1991", help="Walker, Shao & Volz (1991) §4: SVD vs DQ pose accuracy and timing")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
@@ -25,7 +26,7 @@ def add_target(targets: argparse._SubParsersAction) -> argparse.ArgumentParser:
     return p
 
 
-def markdown(res: dict) -> str:
+def markdown(res: dict[str, Any]) -> str:
     """The results as Markdown tables."""
     lines = [
         "# Walker, Shao & Volz (1991) §4, re-run with dualpose",
@@ -81,7 +82,7 @@ def markdown(res: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _plot(res: dict, path: Path) -> bool:
+def _plot(res: dict[str, Any], path: Path) -> bool:
     try:
         import matplotlib
 

@@ -27,15 +27,17 @@ from __future__ import annotations
 
 import abc
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
+from numpy.typing import NDArray
 
 from dualpose import _native
-from dualpose.estimation._stream import sample_block, saved_buffer, vec3
-from dualpose.estimation.interface import Estimator
+from dualpose.estimation._stream import sample_block, saved_buffer, saved_quaternion, vec3
 from dualpose.estimation.state import StateLayout
+from dualpose.types import _inputs
 
 __all__ = ["BlockResult", "FrameUpdate", "FusionStream"]
 
@@ -89,18 +91,27 @@ class BlockResult:
     frames: list[FrameUpdate]
 
 
-def _correspondences(pixels: Any, points: Any) -> tuple[np.ndarray, np.ndarray]:
-    pix = np.array(pixels, dtype=np.float64, ndmin=2, copy=True)
-    pts = np.array(points, dtype=np.float64, ndmin=2, copy=True)
-    if pix.size == 0:
-        pix = pix.reshape(0, 2)
-    if pts.size == 0:
-        pts = pts.reshape(0, 3)
-    if pix.ndim != 2 or pix.shape[1] != 2 or pts.shape != (len(pix), 3):
-        raise ValueError(f"pixels must have shape (M, 2) and points (M, 3); got {pix.shape} and {pts.shape}")
-    if not (np.isfinite(pix).all() and np.isfinite(pts).all()):
-        raise ValueError("pixels and points must be finite (no NaN or infinity)")
-    return np.ascontiguousarray(pix), np.ascontiguousarray(pts)
+_correspondences = _inputs.frame_points  # the camera-frame checks every path shares (docs/refusals.md)
+
+
+class _KernelFilter(Protocol):
+    """A batch filter a stream continues (:class:`~dualpose.estimation.eskf.ErrorStateEKF`,
+    :class:`~dualpose.estimation.hol22.Hol22EKF`): its state ``x``, covariance ``P``, camera time offset and the
+    constants of its compiled kernel."""
+
+    @property
+    def x(self) -> np.ndarray: ...
+    @property
+    def P(self) -> np.ndarray: ...
+    @property
+    def camera_time_offset(self) -> float: ...
+    def kernel_config(self) -> tuple[object, ...]: ...
+
+
+#: the native ``*_stream_imu`` (buffer, t, gyro, accel) -> state
+_StreamImu = Callable[[np.ndarray, float, Any, Any], NDArray[np.float64]]
+#: the native ``*_stream_get`` (buffer) -> (state, covariance flattened, first and last IMU time, samples)
+_StreamGet = Callable[[np.ndarray], tuple[NDArray[np.float64], NDArray[np.float64], float, float, int]]
 
 
 class FusionStream(abc.ABC):
@@ -117,7 +128,7 @@ class FusionStream(abc.ABC):
     covariance_dim: ClassVar[int]
     LAYOUT_VERSION: ClassVar[int]
 
-    def __init__(self, filter: Estimator) -> None:
+    def __init__(self, filter: _KernelFilter) -> None:
         name = self._filter_type.__name__
         if not isinstance(filter, self._filter_type):
             article = "an" if name[0] in "AEIOU" else "a"
@@ -133,9 +144,9 @@ class FusionStream(abc.ABC):
         self.camera_time_offset = float(camera_time_offset)
         self._pending: list[FrameUpdate] = []
         ns = _native.__dict__
-        self._imu = ns[f"{self._kind}_stream_imu"]
-        self._run = ns[f"{self._kind}_stream_run"]
-        self._get = ns[f"{self._kind}_stream_get"]
+        self._imu: _StreamImu = ns[f"{self._kind}_stream_imu"]
+        self._run: Callable[..., int] = ns[f"{self._kind}_stream_run"]
+        self._get: _StreamGet = ns[f"{self._kind}_stream_get"]
 
     # ---- updates ------------------------------------------------------------------------------------------------
 
@@ -161,9 +172,11 @@ class FusionStream(abc.ABC):
         ValueError
             A time that is not finite or does not increase, or a sample that is not 3 numbers.
         """
+        g, a = vec3(gyro, "gyro"), vec3(accel, "accel")  # finite and within the IMU limits (docs/refusals.md)
         if not self._pending:
-            return self._imu(self._buf, t, gyro, accel)
-        return self._imu_after_frames(float(t), gyro, accel)
+            x: np.ndarray = self._imu(self._buf, t, g, a)
+            return x
+        return self._imu_after_frames(float(t), g, a)
 
     def update_camera(self, t: float, pixels: Any, points: Any) -> FrameUpdate:
         """Queue the point correspondences of the frame stamped ``t`` (camera clock); see the module docstring.
@@ -230,7 +243,7 @@ class FusionStream(abc.ABC):
         accel = sample_block(np.reshape(accel, (-1, 3)) if n else np.zeros((0, 3)), "accel", n)
         last = self._last_imu_time()
         if n and (not np.isfinite(t).all() or not t[0] > last or np.any(np.diff(t) <= 0)):
-            raise ValueError(f"t must be finite and increase strictly, after the last sample filtered ({last!r})")
+            _inputs.sample_times(t, "t", last)  # names the first bad time
         new = self._block_frames(frame_t, offsets, pixels, points)
         frames = self._pending + new
         cam_t = np.array([f.t for f in frames], dtype=np.float64)
@@ -318,13 +331,13 @@ class FusionStream(abc.ABC):
             ``numpy.uint8`` buffer), ``camera_time_offset`` and ``pending`` (the queued frames: ``t`` on the IMU
             clock, ``pixels`` (M, 2), ``points`` (M, 3)).
         """
-        return {
+        return _inputs.seal({
             "kind": self._kind,
             "version": self.LAYOUT_VERSION,
             "state": self._buf.copy(),
             "camera_time_offset": self.camera_time_offset,
             "pending": [{"t": f.t, "pixels": f.pixels.copy(), "points": f.points.copy()} for f in self._pending],
-        }
+        })  # fmt: skip
 
     @classmethod
     def from_state(cls, state: dict[str, Any]) -> FusionStream:
@@ -347,12 +360,35 @@ class FusionStream(abc.ABC):
             raise ValueError(f"state has {cls.__name__} layout version {version}; this build reads "
                              f"{cls.LAYOUT_VERSION}")  # fmt: skip
         buf = saved_buffer(buf, _native.__dict__[f"{cls._kind}_stream_check"], "state['state']")
+        _inputs.check_seal(state)
+        offset = _inputs.time_offset(offset, "state['camera_time_offset']")
         out = cls.__new__(cls)
         out._attach(buf, offset)
-        for p in pending:
-            pix, pts = _correspondences(p["pixels"], p["points"])
-            out._pending.append(FrameUpdate.new(float(p["t"]), pix, pts))
+        out._check_values()
+        try:
+            times = [float(p["t"]) for p in pending]
+            for p, tj in zip(pending, times, strict=True):
+                pix, pts = _correspondences(p["pixels"], p["points"])
+                out._pending.append(FrameUpdate.new(tj, pix, pts))
+        except (TypeError, KeyError) as exc:
+            raise ValueError(f"state['pending'] is not a list of saved frames: {exc!r}") from None
+        last = out._last_imu_time()
+        if times and (not np.isfinite(times).all() or np.any(np.diff(times) < 0) or times[0] <= last):
+            raise ValueError("state['pending']: the queued frame times must be finite, non-decreasing and after the "
+                             "last IMU sample filtered")  # fmt: skip
         return out
+
+    def _check_values(self) -> None:
+        """The restored filter's values (docs/refusals.md): a finite state with a unit quaternion, a finite symmetric
+        positive semi-definite covariance, a finite time and a sample count >= 0."""
+        x, P, t0, tc, samples = self._get(self._buf)
+        d = self.covariance_dim
+        L = self.state_layout
+        name = "state['state']"
+        if not (np.isfinite(x).all() and samples >= 0 and (samples == 0 or (math.isfinite(t0) and math.isfinite(tc)))):
+            raise ValueError(f"{name}: the saved filter state is not finite (a corrupted or altered buffer)")
+        saved_quaternion(L.get(x, "quat_be" if "quat_be" in L.names else "quat"), name)
+        _inputs.covariance_matrix(np.reshape(P, (d, d)), f"{name} covariance", d)
 
     # ---- per filter ---------------------------------------------------------------------------------------------
 

@@ -8,6 +8,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from dualpose.types._inputs import Where, frame_points, imu_rows, imu_vector
+
 
 class Streams(NamedTuple):
     """C-contiguous float64 IMU and camera streams; ``cam_t`` is on the IMU clock."""
@@ -47,12 +49,18 @@ def check_streams(
         raise ValueError("t must hold at least two strictly increasing IMU times")
     if not strictly_increasing and (n < 1 or np.any(np.diff(t) < 0)):
         raise ValueError("t must hold non-decreasing IMU times")
+    if not np.isfinite(t).all():
+        raise ValueError(f"t must be finite: sample {int(np.argmax(~np.isfinite(t)))} is not")
+    gyro, accel = imu_rows(gyro, "gyro", "gyro", n), imu_rows(accel, "accel", "accel", n)  # docs/refusals.md
     cam_t = np.ascontiguousarray(frame_t, dtype=np.float64) + camera_time_offset
     offsets = np.ascontiguousarray(offsets, dtype=np.int64)
     pixels = np.ascontiguousarray(pixels, dtype=np.float64).reshape(-1, 2)
     points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
     if len(offsets) != len(cam_t) + 1 or offsets[-1] != len(pixels) or len(points) != len(pixels):
         raise ValueError("offsets must have F + 1 entries ending at len(pixels) == len(points)")
+    if not np.isfinite(cam_t).all():
+        raise ValueError("frame_t must be finite (camera stamps, s)")
+    pixels, points = frame_points(pixels, points)
     return Streams(t, gyro, accel, cam_t, offsets, pixels, points)
 
 
@@ -74,25 +82,28 @@ def saved_buffer(buf: object, check: Callable[[np.ndarray, str], None], name: st
     return out
 
 
-def vec3(v: Any, name: str) -> np.ndarray:
+def vec3(v: Any, name: str, kind: str | None = None) -> np.ndarray:
     """One sample ``v`` as a float64 array of shape (3,); ValueError naming ``name`` otherwise (no broadcasting, no
-    NaN or infinity)."""
-    a = np.array(v, dtype=np.float64)
-    if a.shape != (3,):
-        raise ValueError(f"{name} must be 3 numbers (shape (3,)); got shape {a.shape}")
-    if not np.isfinite(a).all():
-        raise ValueError(f"{name} must be finite; got {a.tolist()}")
-    return a
+    NaN or infinity, nothing beyond the plausible range of ``kind`` -- default ``name`` --, "gyro", "accel" or "mag":
+    :func:`dualpose.types._inputs.imu_vector`)."""
+    return imu_vector(v, name, kind or name)
 
 
-def sample_block(x: Any, name: str, n: int | None) -> np.ndarray:
+def sample_block(x: Any, name: str, n: int | None, kind: str | None = None, where: Where | None = None) -> np.ndarray:
     """A block of ``n`` (any number when None) samples ``x`` as a C-contiguous float64 array of shape (n, 3);
-    ValueError naming ``name`` on another shape or a NaN / infinite value (with the first such row)."""
-    a = np.ascontiguousarray(x, dtype=np.float64)
-    if a.ndim != 2 or a.shape[1] != 3 or (n is not None and a.shape[0] != n):
-        raise ValueError(f"{name} must have shape ({'n' if n is None else n}, 3); got {a.shape}")
-    bad = ~np.isfinite(a).all(axis=1)
-    if bad.any():
-        k = int(np.argmax(bad))
-        raise ValueError(f"{name} must be finite; row {k} is {a[k].tolist()}")
-    return a
+    ValueError naming ``name`` on another shape or a value that is not finite or beyond the plausible range of
+    ``kind`` (default ``name``; :func:`dualpose.types._inputs.imu_rows`), with the first such row (``where(k)``)."""
+    return imu_rows(x, name, kind or name, n, where or _row)
+
+
+def _row(k: int) -> str:
+    return f"row {k}"
+
+
+def saved_quaternion(q: np.ndarray, name: str) -> None:
+    """A restored attitude quaternion must be unit to rounding (a saved filter keeps it normalised)."""
+    with np.errstate(over="ignore"):
+        nq = float(np.linalg.norm(q))
+    if not abs(nq - 1.0) <= 1e-6:
+        raise ValueError(f"{name}: the saved attitude quaternion is not unit (norm {nq!r}): a corrupted or altered "
+                         "buffer")  # fmt: skip

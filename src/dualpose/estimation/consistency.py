@@ -6,14 +6,42 @@ matching the error-state filter's covariance.
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import numpy as np
+from numpy.typing import NDArray
 from scipy.stats import chi2
 
 import dualpose as dp
 from dualpose.estimation import eskf, models
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
+from dualpose.types.recording import SensorRun
 
 __all__ = ["error_state", "filter_from_prior", "nees", "nees_against_truth", "nees_band"]
+
+
+class _StateEstimates(Protocol):
+    """A filter or smoother result with the estimates (N, ·) and covariances (N, 15, 15) that NEES compares."""
+
+    @property
+    def position(self) -> np.ndarray: ...
+    @property
+    def velocity(self) -> np.ndarray: ...
+    @property
+    def quat(self) -> np.ndarray: ...
+    @property
+    def gyro_bias(self) -> np.ndarray: ...
+    @property
+    def accel_bias(self) -> np.ndarray: ...
+    @property
+    def covariance(self) -> np.ndarray: ...
+
+
+class _PriorRun(SensorRun, Protocol):
+    """A simulated run (:class:`~dualpose.sim.SimulatedRun`): a sensor run with its ``truth`` dict."""
+
+    @property
+    def truth(self) -> dict[str, np.ndarray]: ...
 
 
 def error_state(
@@ -33,7 +61,8 @@ def error_state(
 
 def nees(error: np.ndarray, covariance: np.ndarray) -> np.ndarray:
     """Normalized estimation error squared ``eᵀ P⁻¹ e`` for errors (N, n) and covariances (N, n, n)."""
-    return np.einsum("ni,ni->n", error, np.linalg.solve(covariance, error[..., None])[..., 0])
+    out: NDArray[np.float64] = np.einsum("ni,ni->n", error, np.linalg.solve(covariance, error[..., None])[..., 0])
+    return out
 
 
 def nees_band(dim: int, runs: int, probability: float = 0.95) -> tuple[float, float]:
@@ -44,7 +73,7 @@ def nees_band(dim: int, runs: int, probability: float = 0.95) -> tuple[float, fl
     return float(lo), float(hi)
 
 
-def nees_against_truth(truth: dict[str, np.ndarray], estimate) -> np.ndarray:
+def nees_against_truth(truth: dict[str, np.ndarray], estimate: _StateEstimates) -> np.ndarray:
     """NEES (N,) of a filter or smoother result (``position``, ``velocity``, ``quat``, ``gyro_bias``, ``accel_bias``,
     ``covariance`` (N, 15, 15)) against a simulation's ``truth`` at the same times."""
     e = error_state(truth, estimate.position, estimate.velocity, estimate.quat, estimate.gyro_bias,
@@ -52,7 +81,7 @@ def nees_against_truth(truth: dict[str, np.ndarray], estimate) -> np.ndarray:
     return nees(e, estimate.covariance)
 
 
-def filter_from_prior(run, rng: np.random.Generator):
+def filter_from_prior(run: _PriorRun, rng: np.random.Generator) -> eskf.ErrorStateEKF:
     """An :class:`~dualpose.estimation.eskf.ErrorStateEKF` for a simulated ``run`` started from a draw of its own prior.
 
     The initial error ``δx ~ N(0, P0)`` (``P0 = initial_covariance(run.imu_noise)``) is applied with ⊞ to the true

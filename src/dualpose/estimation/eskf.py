@@ -15,8 +15,10 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from typing import Any, Protocol
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from scipy.stats import chi2
 
 import dualpose as dp
@@ -26,7 +28,7 @@ from dualpose.estimation._fusion_stream import BlockResult, FrameUpdate, FusionS
 from dualpose.estimation._stream import check_streams, vec3
 from dualpose.estimation.interface import Estimator, UpdateResult
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
-from dualpose.types import CameraFrame, ImuNoise, PinholeCamera, SensorRun
+from dualpose.types import CameraFrame, ImuNoise, PinholeCamera, SensorRun, _inputs
 
 __all__ = [
     "BlockResult",
@@ -146,7 +148,16 @@ class FilterResult:
     nodes: FilterNodes | None = None
 
 
-class EskfStateAccessors:
+class _SensorSource(Protocol):
+    """A recording, simulated run or sensor set-up (:class:`~dualpose.types.SensorSetup`): its IMU noise and the
+    filter keyword arguments of its sensors."""
+
+    @property
+    def imu_noise(self) -> ImuNoise: ...
+    def sensor_options(self) -> dict[str, Any]: ...
+
+
+class EskfStateAccessors(Estimator):
     """The named blocks of an error-state IMU state (:data:`~dualpose.estimation.state.ESKF_STATE` in ``self.x``,
     the (15, 15) ``covariance`` over :data:`~dualpose.estimation.state.ESKF_ERROR`), the world-frame attitude
     covariance and the attitude-fix model, shared by :class:`ErrorStateEKF` and
@@ -180,7 +191,8 @@ class EskfStateAccessors:
     def attitude_covariance(self) -> np.ndarray:
         """World-frame attitude error covariance (3, 3): ``R̂ P_θθ R̂ᵀ`` (the local error rotated to the world)."""
         R = dp.matrix_from_quat(self.quat)
-        return R @ ESKF_ERROR.cov(self.covariance, "attitude") @ R.T
+        out: NDArray[np.float64] = R @ ESKF_ERROR.cov(self.covariance, "attitude") @ R.T
+        return out
 
     def _attitude_model(self, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         # ρ(δθ) = Log(q_m ⊗ (q̂ Exp(δθ))*) ≈ r − J_r⁻¹(r) R̂ δθ with r = Log(q_m ⊗ q̂*)
@@ -219,48 +231,48 @@ class ErrorStateEKF(EskfStateAccessors, Estimator):
         quat: np.ndarray,
         covariance: np.ndarray,
         imu_noise: ImuNoise | None = None,
-        gravity: np.ndarray = (0.0, 0.0, -9.81),
+        gravity: ArrayLike = (0.0, 0.0, -9.81),
         camera: PinholeCamera | None = None,
-        q_bc: np.ndarray = (0.0, 0.0, 0.0, 1.0),
-        p_bc: np.ndarray = (0.0, 0.0, 0.0),
+        q_bc: ArrayLike = (0.0, 0.0, 0.0, 1.0),
+        p_bc: ArrayLike = (0.0, 0.0, 0.0),
         pixel_sigma: float = 1.0,
         gate_probability: float = 0.999,
         camera_time_offset: float = 0.0,
-        gyro_bias: np.ndarray = (0.0, 0.0, 0.0),
-        accel_bias: np.ndarray = (0.0, 0.0, 0.0),
+        gyro_bias: ArrayLike = (0.0, 0.0, 0.0),
+        accel_bias: ArrayLike = (0.0, 0.0, 0.0),
     ) -> None:
-        self.x = ESKF_STATE.assemble(position=position, velocity=velocity, quat=quat, gyro_bias=gyro_bias,
-                                     accel_bias=accel_bias)  # fmt: skip
-        q = ESKF_STATE.get(self.x, "quat")
-        nq = np.linalg.norm(q)
-        if not np.isfinite(nq) or nq == 0.0:
-            raise ValueError("quat must be a finite nonzero quaternion")
-        q /= nq
-        P = np.array(covariance, dtype=np.float64)
-        n = ESKF_ERROR.dim
-        if P.shape != (n, n):
-            raise ValueError(f"covariance must have shape ({n}, {n}); got {P.shape}")
-        self.P = 0.5 * (P + P.T)
+        # the filter-parameter checks every path shares (dualpose.types._inputs, docs/refusals.md)
+        self.x = ESKF_STATE.assemble(
+            position=_inputs.finite_vector(position, "position", 3, _inputs.MAX_POSITION_M, "m"),
+            velocity=_inputs.finite_vector(velocity, "velocity", 3, _inputs.MAX_VELOCITY_M_S, "m/s"),
+            quat=_inputs.unit_quaternion(quat, "quat"),
+            gyro_bias=_inputs.finite_vector(gyro_bias, "gyro_bias", 3, _inputs.IMU_LIMITS["gyro"], "rad/s"),
+            accel_bias=_inputs.finite_vector(accel_bias, "accel_bias", 3, _inputs.IMU_LIMITS["accel"], "m/s²"),
+        )  # fmt: skip
+        self.P = _inputs.covariance_matrix(covariance, "covariance", ESKF_ERROR.dim)
         self.imu_noise = ImuNoise() if imu_noise is None else imu_noise
-        n = self.imu_noise
+        _inputs.check_imu_noise(self.imu_noise)
+        nz = self.imu_noise
         self.noise = np.array(
             [
-                n.gyroscope_noise_density**2,
-                n.accelerometer_noise_density**2,
-                n.gyroscope_random_walk**2,
-                n.accelerometer_random_walk**2,
-                n.gyroscope_scale_sigma**2,
-                n.accelerometer_scale_sigma**2,
+                nz.gyroscope_noise_density**2,
+                nz.accelerometer_noise_density**2,
+                nz.gyroscope_random_walk**2,
+                nz.accelerometer_random_walk**2,
+                nz.gyroscope_scale_sigma**2,
+                nz.accelerometer_scale_sigma**2,
             ]
         )
-        self.gravity = np.asarray(gravity, dtype=np.float64)
+        self.gravity = _inputs.gravity_vector(gravity)
         self.camera = PinholeCamera() if camera is None else camera
+        _inputs.check_camera(self.camera)
         c = self.camera
         self.intrinsics = np.array([c.fx, c.fy, c.cx, c.cy])
-        self.q_bc = np.asarray(q_bc, dtype=np.float64)
-        self.p_bc = np.asarray(p_bc, dtype=np.float64)
-        self.pixel_sigma = float(pixel_sigma)
-        self.gate = float(chi2.ppf(gate_probability, 2))
+        self.q_bc = _inputs.unit_quaternion(q_bc, "q_bc")
+        self.p_bc = _inputs.finite_vector(p_bc, "p_bc", 3, _inputs.MAX_POSITION_M, "m")
+        self.pixel_sigma = _inputs.positive(pixel_sigma, "pixel_sigma", 1e4, "px")
+        self.gate = float(chi2.ppf(_inputs.probability(gate_probability, "gate_probability"), 2))
+        camera_time_offset = _inputs.time_offset(camera_time_offset, "camera_time_offset")
         self.camera_time_offset = float(camera_time_offset)
         self.time: float | None = None
         self._u = np.zeros(6)  # IMU measurement held at the current filter time [gyro, accel]
@@ -271,12 +283,12 @@ class ErrorStateEKF(EskfStateAccessors, Estimator):
     @classmethod
     def for_run(
         cls,
-        run: SensorRun,
+        run: _SensorSource,
         position: np.ndarray,
         velocity: np.ndarray,
         quat: np.ndarray,
         covariance: np.ndarray | None = None,
-        **kwargs,
+        **kwargs: Any,
     ) -> ErrorStateEKF:
         """A filter configured with a simulated run's sensor set-up (noise, camera, extrinsic, pixel sigma, offset).
 
@@ -288,7 +300,7 @@ class ErrorStateEKF(EskfStateAccessors, Estimator):
         return cls(position, velocity, quat, cov, **opts)
 
     @classmethod
-    def from_state(cls, run: SensorRun, x: np.ndarray, covariance: np.ndarray, **kwargs) -> ErrorStateEKF:
+    def from_state(cls, run: _SensorSource, x: np.ndarray, covariance: np.ndarray, **kwargs: Any) -> ErrorStateEKF:
         """:meth:`for_run` from a whole nominal state ``x`` (16,) (:data:`~dualpose.estimation.state.ESKF_STATE`)."""
         blocks = {name: ESKF_STATE.get(x, name) for name in ESKF_STATE.names}
         position, velocity, quat = blocks.pop("position"), blocks.pop("velocity"), blocks.pop("quat")
@@ -301,12 +313,12 @@ class ErrorStateEKF(EskfStateAccessors, Estimator):
     @property
     def state(self) -> np.ndarray:
         """Nominal state (16,) (:data:`~dualpose.estimation.state.ESKF_STATE`), a copy."""
-        return self.x.copy()
+        return np.copy(self.x, order="C")
 
     @property
     def covariance(self) -> np.ndarray:
         """Error-state covariance (15, 15) (:data:`~dualpose.estimation.state.ESKF_ERROR`), a copy."""
-        return self.P.copy()
+        return np.copy(self.P, order="C")
 
     def _update_linear(self, residual: np.ndarray, jacobian: np.ndarray, covariance: np.ndarray) -> UpdateResult:
         self._check_linear(residual, jacobian, covariance)
@@ -324,7 +336,7 @@ class ErrorStateEKF(EskfStateAccessors, Estimator):
         g, a = vec3(gyro, "gyro"), vec3(accel, "accel")
         _native.eskf_predict(self.x, self.P, g, a, float(dt), self.gravity, self.noise)
 
-    def propagate(self, t: float, gyro: np.ndarray, accel: np.ndarray, mag: np.ndarray | None = None) -> None:
+    def propagate(self, t: float, gyro: ArrayLike, accel: ArrayLike, mag: ArrayLike | None = None) -> None:
         """Feed the IMU sample taken at time ``t``: integrates from the filter time to ``t`` with the mean of the
         held and the new measurement (exact for a linear signal up to second order), then holds the new one.
         ``mag`` is not used by this filter (magnetometer updates go through :meth:`update_magnetometer`)."""
@@ -344,7 +356,7 @@ class ErrorStateEKF(EskfStateAccessors, Estimator):
         the accepted correspondences.
         """
         t = self._frame_time(t_cam, self.camera_time_offset)
-        if t > self.time:
+        if self.time is not None and t > self.time:  # (_frame_time set the time)
             _native.eskf_predict(self.x, self.P, self._u[:3].copy(), self._u[3:].copy(), t - self.time, self.gravity,
                                  self.noise)  # fmt: skip
             self.time = t
@@ -360,14 +372,14 @@ class ErrorStateEKF(EskfStateAccessors, Estimator):
         self._acc.append(acc.astype(bool))
         return acc.astype(bool)
 
-    def _update(self, r: np.ndarray, H: np.ndarray, cov: np.ndarray) -> float:
-        cov = np.asarray(cov, dtype=np.float64)
-        if cov.ndim == 0:
-            cov = np.eye(len(r)) * cov
-        if cov.shape != (len(r), len(r)):
-            raise ValueError(f"covariance must have shape ({len(r)}, {len(r)}) or be a scalar; got {cov.shape}")
+    def _update(self, r: np.ndarray, H: np.ndarray, cov: ArrayLike) -> float:
+        c = np.asarray(cov, dtype=np.float64)
+        if c.ndim == 0:
+            c = np.eye(len(r)) * c
+        if c.shape != (len(r), len(r)):
+            raise ValueError(f"covariance must have shape ({len(r)}, {len(r)}) or be a scalar; got {c.shape}")
         return float(_native.eskf_update_dense(self.x, self.P, np.ascontiguousarray(r, dtype=np.float64),
-                                               np.ascontiguousarray(H, dtype=np.float64), np.ascontiguousarray(cov)))
+                                               np.ascontiguousarray(H, dtype=np.float64), np.ascontiguousarray(c)))
 
     def update_position(self, position: np.ndarray, covariance: np.ndarray | float) -> float:
         """Position fix (3,) m with covariance (3, 3) or a scalar variance; returns the NIS (3 dof)."""
@@ -389,7 +401,10 @@ class ErrorStateEKF(EskfStateAccessors, Estimator):
         acc = np.concatenate(self._acc) if self._acc else np.zeros(0, bool)
         return _report(nis, acc, self.gate)
 
-    def kernel_config(self) -> tuple:
+    def kernel_config(self) -> tuple[
+        NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+        NDArray[np.float64], NDArray[np.float64], float, float,
+    ]:
         """The constants of the compiled filter (``eskf_run``, ``eskf_stream_new``): ``gravity`` (3,), ``noise``
         (6,) ``[σ_g², σ_a², σ_bg², σ_ba², ε_g², ε_a²]`` (ε: ``ImuNoise``'s scale-factor uncertainties), ``intr``
         (4,) ``[fx, fy, cx, cy]``, ``q_bc`` (4,), ``p_bc`` (3,), ``pixel_sigma``, ``gate``; float64, C-contiguous."""
@@ -459,7 +474,7 @@ class ErrorStateEKF(EskfStateAccessors, Estimator):
         return self.run(run.t, run.gyro, run.accel, f.t, f.offsets, f.pixels, f.points, record_nodes=record_nodes)
 
 
-def _record_run(args: tuple, n: int, nf: int) -> FilterNodes:
+def _record_run(args: tuple[object, ...], n: int, nf: int) -> FilterNodes:
     """Run the ``run_recorded`` kernel with ``args`` (those of ``run``) and return the trimmed node record."""
     cap = n + nf
     nx, ne = ESKF_STATE.dim, ESKF_ERROR.dim

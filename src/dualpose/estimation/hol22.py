@@ -18,8 +18,10 @@ from __future__ import annotations
 import math
 import time as _time
 from dataclasses import dataclass
+from typing import Any, Protocol
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from scipy.stats import chi2
 
 import dualpose as dp
@@ -30,7 +32,7 @@ from dualpose.estimation._stream import check_streams
 from dualpose.estimation.eskf import InnovationReport, _report
 from dualpose.estimation.interface import Estimator, UpdateResult
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE, HOL22_STATE
-from dualpose.types import CameraFrame, ImuNoise, PinholeCamera, SensorRun
+from dualpose.types import CameraFrame, ImuNoise, PinholeCamera, SensorRun, _inputs
 
 __all__ = ["Hol22EKF", "Hol22Result", "Hol22Stream", "HolProcessNoise", "process_model"]
 
@@ -103,6 +105,12 @@ class Hol22Result:
     wall_time: float
 
 
+class _SensorOptions(Protocol):
+    """A recording, simulated run or sensor set-up: what :meth:`Hol22EKF.from_eskf_state` reads of it."""
+
+    def sensor_options(self) -> dict[str, Any]: ...
+
+
 class Hol22EKF(Estimator):
     """Hol's 22-state EKF; an :class:`~dualpose.estimation.interface.Estimator` whose state and covariance both
     follow :data:`~dualpose.estimation.state.HOL22_STATE` (the quaternion ``q^{be}`` as four numbers).
@@ -122,50 +130,47 @@ class Hol22EKF(Estimator):
         P0: np.ndarray,
         imu_noise: ImuNoise | None = None,
         process_noise: HolProcessNoise | None = None,
-        gravity: np.ndarray = (0.0, 0.0, -9.81),
+        gravity: ArrayLike = (0.0, 0.0, -9.81),
         camera: PinholeCamera | None = None,
-        q_bc: np.ndarray = (0.0, 0.0, 0.0, 1.0),
-        p_bc: np.ndarray = (0.0, 0.0, 0.0),
+        q_bc: ArrayLike = (0.0, 0.0, 0.0, 1.0),
+        p_bc: ArrayLike = (0.0, 0.0, 0.0),
         pixel_sigma: float = 1.0,
         gate_probability: float = 0.999,
         camera_time_offset: float = 0.0,
     ) -> None:
-        n = HOL22_STATE.dim
-        x0 = np.array(x0, dtype=np.float64)
-        if x0.shape != (n,):
-            raise ValueError(f"x0 must have shape ({n},); got {x0.shape}")
-        P0 = np.array(P0, dtype=np.float64)
-        if P0.shape != (n, n):
-            raise ValueError(f"P0 must have shape ({n}, {n}); got {P0.shape}")
+        # the filter-parameter checks every path shares (dualpose.types._inputs, docs/refusals.md)
+        x0 = _inputs.finite_vector(x0, "x0", HOL22_STATE.dim)
         self.x = x0
         q = HOL22_STATE.get(self.x, "quat_be")
-        q /= np.linalg.norm(q)
+        q[:] = _inputs.unit_quaternion(q, "x0[quat_be]")
         self.time: float | None = None
-        self.P = 0.5 * (P0 + P0.T)
+        self.P = _inputs.covariance_matrix(P0, "P0", HOL22_STATE.dim)
         self.imu_noise = ImuNoise() if imu_noise is None else imu_noise
+        _inputs.check_imu_noise(self.imu_noise)
         self.process_noise = HolProcessNoise() if process_noise is None else process_noise
-        self.gravity = np.asarray(gravity, dtype=np.float64)
+        self.gravity = _inputs.gravity_vector(gravity)
         self.camera = PinholeCamera() if camera is None else camera
+        _inputs.check_camera(self.camera)
         c = self.camera
         self.intrinsics = (c.fx, c.fy, c.cx, c.cy)
-        self.q_bc = np.asarray(q_bc, dtype=np.float64)
-        self.p_bc = np.asarray(p_bc, dtype=np.float64)
-        self.pixel_sigma = float(pixel_sigma)
-        self.gate = float(chi2.ppf(gate_probability, 2))
+        self.q_bc = _inputs.unit_quaternion(q_bc, "q_bc")
+        self.p_bc = _inputs.finite_vector(p_bc, "p_bc", 3, _inputs.MAX_POSITION_M, "m")
+        self.pixel_sigma = _inputs.positive(pixel_sigma, "pixel_sigma", 1e4, "px")
+        self.gate = float(chi2.ppf(_inputs.probability(gate_probability, "gate_probability"), 2))
+        camera_time_offset = _inputs.time_offset(camera_time_offset, "camera_time_offset")
         self.camera_time_offset = float(camera_time_offset)
-        n = self.imu_noise
-        rate = n.update_rate
-        self.R_imu = np.diag(
-            np.r_[np.full(3, n.accelerometer_noise_density**2 * rate), np.full(3, n.gyroscope_noise_density**2 * rate)]
-        )
+        nz = self.imu_noise
+        rate = nz.update_rate
+        self.R_imu = np.diag(np.r_[np.full(3, nz.accelerometer_noise_density**2 * rate),
+                                   np.full(3, nz.gyroscope_noise_density**2 * rate)])  # fmt: skip
         # scale-factor noise (ImuNoise ``*_scale_sigma``): ε² |z|² · 1 s as a density, times the rate per sample
-        self.scale2 = np.array([n.gyroscope_scale_sigma**2 * rate, n.accelerometer_scale_sigma**2 * rate])
+        self.scale2 = np.array([nz.gyroscope_scale_sigma**2 * rate, nz.accelerometer_scale_sigma**2 * rate])
         self._nis: list[np.ndarray] = []
         self._acc: list[np.ndarray] = []
 
     @classmethod
     def from_eskf_state(
-        cls, x16: np.ndarray, P15: np.ndarray, run: SensorRun, omega: np.ndarray | None = None, **kwargs
+        cls, x16: np.ndarray, P15: np.ndarray, run: _SensorOptions, omega: np.ndarray | None = None, **kwargs: Any
     ) -> Hol22EKF:
         """Start from an error-state filter's state/covariance (position, velocity, q_wb, biases) for ``run``'s
         sensors: b̈ = 0 and ω = 0 (or ``omega``) with wide priors, q^{be} = conj(q_wb)."""
@@ -196,12 +201,12 @@ class Hol22EKF(Estimator):
     @property
     def state(self) -> np.ndarray:
         """State (22,) (:data:`~dualpose.estimation.state.HOL22_STATE`), a copy."""
-        return self.x.copy()
+        return np.copy(self.x, order="C")
 
     @property
     def covariance(self) -> np.ndarray:
         """Covariance (22, 22) in the state's own layout, a copy."""
-        return self.P.copy()
+        return np.copy(self.P, order="C")
 
     @property
     def quat(self) -> np.ndarray:
@@ -211,12 +216,14 @@ class Hol22EKF(Estimator):
     def _attitude_jacobian(self) -> np.ndarray:
         """``∂e/∂q^{be}`` (3, 4) of the world-frame attitude error: ``q^{be}_true = q̂^{be} ⊗ Exp(−e)`` gives
         ``e ≈ −2 [q̂^{be}* ⊗ δq]_xyz``."""
-        return -2.0 * dp.quat_left_matrix(dp.quat_conj(HOL22_STATE.get(self.x, "quat_be")))[:3, :]
+        J: NDArray[np.float64] = -2.0 * dp.quat_left_matrix(dp.quat_conj(HOL22_STATE.get(self.x, "quat_be")))[:3, :]
+        return J
 
     def attitude_covariance(self) -> np.ndarray:
         """World-frame attitude error covariance (3, 3), projected from the (4, 4) block of ``q^{be}``."""
         J = self._attitude_jacobian()
-        return J @ HOL22_STATE.cov(self.P, "quat_be") @ J.T
+        out: NDArray[np.float64] = J @ HOL22_STATE.cov(self.P, "quat_be") @ J.T
+        return out
 
     def tangent_covariance(self) -> np.ndarray:
         """Covariance (21, 21) with the quaternion block replaced by the world-frame attitude error (3,): ``T P Tᵀ``
@@ -229,7 +236,8 @@ class Hol22EKF(Estimator):
             block[:, L.slice(name)] = self._attitude_jacobian() if name == "quat_be" else np.eye(L.size(name))
             rows.append(block)
         T = np.vstack(rows)
-        return T @ self.P @ T.T
+        out: NDArray[np.float64] = T @ self.P @ T.T
+        return out
 
     def _attitude_model(self, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         # ρ = Log(q_m ⊗ q^{be}) ≈ r + J_r⁻¹(r) (−∂e/∂q) δq  ⇒  H = J_r⁻¹(r) ∂e/∂q (innovation r − H δq)
@@ -247,7 +255,7 @@ class Hol22EKF(Estimator):
         self._normalize()
         return UpdateResult(float(residual @ np.linalg.solve(S, residual)), len(residual), True)
 
-    def propagate(self, t: float, gyro: np.ndarray, accel: np.ndarray, mag: np.ndarray | None = None) -> None:
+    def propagate(self, t: float, gyro: ArrayLike, accel: ArrayLike, mag: ArrayLike | None = None) -> None:
         """Algorithm 1 for one IMU sample taken at ``t``: time update from the filter time (eq. 9), then the
         accelerometer and gyroscope measurement update (eq. 11a, 11b).  ``mag`` is not used."""
         self.time_update(self._elapsed(t, f"IMU sample at t={t}"))
@@ -256,6 +264,7 @@ class Hol22EKF(Estimator):
 
     def _update_camera(self, frame: CameraFrame) -> UpdateResult:
         t = self._frame_time(frame.t, self.camera_time_offset)
+        assert self.time is not None  # (_frame_time set the time)
         self.time_update(t - self.time)
         self.time = t
         accepted = self.camera_update(frame.pixels, frame.points)
@@ -296,7 +305,7 @@ class Hol22EKF(Estimator):
         self.P = 0.5 * (P + P.T)
 
     # ------------------------------------------------------------------ eq. 11a, 11b
-    def imu_update(self, accel: np.ndarray, gyro: np.ndarray) -> float:
+    def imu_update(self, accel: ArrayLike, gyro: ArrayLike) -> float:
         """Accelerometer + gyroscope measurement update (eq. 11a, 11b); returns the NIS (6 dof)."""
         ha, Ha = models.hol_accelerometer(self.x, self.gravity)
         hw, Hw = models.hol_gyroscope(self.x)
@@ -351,7 +360,10 @@ class Hol22EKF(Estimator):
         self._acc.append(acc)
         return acc
 
-    def kernel_config(self) -> tuple:
+    def kernel_config(self) -> tuple[
+        NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+        NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], float, float,
+    ]:
         """The constants of the compiled filter (``hol22_run``, ``hol22_stream_new``): ``qdiag`` (22,) (
         :meth:`process_noise_diagonal`), ``gravity`` (3,), ``R_imu`` (6, 6), ``scale2`` (2,) ``[ε_g², ε_a²] · rate``
         (added to the gyro / accelerometer diagonal of ``R_imu`` times the squared measured norm), ``intr`` (4,)

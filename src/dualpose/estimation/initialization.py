@@ -9,12 +9,15 @@ Orientations ``q_wb`` (4,) xyzw body→world; error conventions as in :mod:`dual
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from scipy import sparse
 from scipy.sparse.linalg import splu
 
 import dualpose as dp
+from dualpose.calibration.static import _StaticRun
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
 from dualpose.registration.pnp import PnPResult, solve_pnp_ransac
 
@@ -44,7 +47,7 @@ class StaticAlignment:
 def static_alignment(
     accel: np.ndarray,
     gyro: np.ndarray,
-    gravity: np.ndarray = (0.0, 0.0, -9.81),
+    gravity: ArrayLike = (0.0, 0.0, -9.81),
     mag: np.ndarray | None = None,
     field_w: np.ndarray | None = None,
 ) -> StaticAlignment:
@@ -194,7 +197,19 @@ def detect_rest(
     return float(t[out * m - 1] - t[0]) if out * m - 1 < len(t) else float(t[-1] - t[0])
 
 
-def initial_state_from_run(run, rest_seconds: float | None = 0.9) -> tuple[np.ndarray, np.ndarray]:
+class _RunAtRest(_StaticRun, Protocol):
+    """The fields of a run :func:`initial_state_from_run` reads (``time_offset`` too when it has one): those of a
+    static period's run, the gyro and the extrinsic."""
+
+    @property
+    def gyro(self) -> np.ndarray: ...
+    @property
+    def q_bc(self) -> np.ndarray: ...
+    @property
+    def p_bc(self) -> np.ndarray: ...
+
+
+def initial_state_from_run(run: _RunAtRest, rest_seconds: float | None = 0.9) -> tuple[np.ndarray, np.ndarray]:
     """:func:`initial_state_from_rest_and_frame` for a :class:`~dualpose.sim.SimulatedRun` or a
     :class:`~dualpose.types.recording.Recording` (any object with their fields ``t``, ``gyro``, ``accel``,
     ``frames``, ``camera``, ``pixel_sigma``, ``q_bc``, ``p_bc``, ``imu_noise`` and ``time_offset``).
@@ -264,7 +279,9 @@ class CameraImuAlignment:
     residual_rms: float
 
 
-def _interval_samples(t, gyro, accel, frame_t):
+def _interval_samples(
+    t: NDArray[np.float64], gyro: NDArray[np.float64], accel: NDArray[np.float64], frame_t: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Sub-steps of every frame interval ``[frame_t[k], frame_t[k+1]]``: the IMU samples inside plus the linearly
     interpolated ends, padded with zero-length steps to a common count.  Returns ``(dt (K-1, L), gyro, accel
     (K-1, L + 1, 3))``: step j runs from node j to node j + 1."""
@@ -283,7 +300,9 @@ def _interval_samples(t, gyro, accel, frame_t):
     return np.diff(node_t, axis=1), g, a
 
 
-def _preintegrate(dt, g, a, gyro_bias):
+def _preintegrate(
+    dt: NDArray[np.float64], g: NDArray[np.float64], a: NDArray[np.float64], gyro_bias: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Trapezoidal preintegration over every interval (vectorised over intervals, a loop over the L sub-steps):
     ``ΔR`` (K-1, 3, 3), position and velocity increments ``α, β`` (K-1, 3) in the frame of the interval's start, and
     their derivatives ``Jα, Jβ`` (K-1, 3, 3) with respect to a constant accelerometer bias (``α(b) = α − Jα b``)."""

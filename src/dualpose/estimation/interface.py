@@ -139,11 +139,11 @@ class Estimator(ABC):
 
     def block(self, name: str) -> np.ndarray:
         """One named block of :attr:`state` (a copy)."""
-        return self.state_layout.get(self.state, name).copy()
+        return np.copy(self.state_layout.get(self.state, name), order="C")
 
     def covariance_block(self, name: str, other: str | None = None) -> np.ndarray:
         """The ``(name, other)`` block of :attr:`covariance` (a copy)."""
-        return self.covariance_layout.cov(self.covariance, name, other).copy()
+        return np.copy(self.covariance_layout.cov(self.covariance, name, other), order="C")
 
     @abstractmethod
     def propagate(self, t: float, gyro: ArrayLike, accel: ArrayLike, mag: ArrayLike | None = None) -> None:

@@ -19,6 +19,7 @@ Hol 22-state layout (eq. 8): :data:`~dualpose.estimation.state.HOL22_STATE`.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 import dualpose as dp
 from dualpose import _native
@@ -43,14 +44,14 @@ def _state(x: np.ndarray) -> np.ndarray:
     return x
 
 
-def _vec(v: np.ndarray) -> np.ndarray:
+def _vec(v: ArrayLike) -> NDArray[np.float64]:
     return np.ascontiguousarray(v, dtype=np.float64)
 
 
 def boxplus(x: np.ndarray, dx: np.ndarray) -> np.ndarray:
     """``x ⊞ δx``: add ``δx`` (15,) to the nominal state ``x`` (16,) with ``q ← q ⊗ Exp(δθ)``."""
     x = _state(x)
-    out = x.copy()
+    out = np.copy(x, order="C")
     for block in ("position", "velocity", "gyro_bias", "accel_bias"):
         ESKF_STATE.get(out, block)[:] += ESKF_ERROR.get(dx, block)
     dq = dp.quat_from_rotvec(ESKF_ERROR.get(dx, "attitude"))

@@ -32,20 +32,23 @@ the world frame the gravity-aligned start frame (yaw 0, position 0).
 
 from __future__ import annotations
 
+import math
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy.stats import chi2
 
 import dualpose as dp
 from dualpose import _native
+from dualpose.estimation._stream import saved_quaternion
 from dualpose.estimation.eskf import EskfStateAccessors
 from dualpose.estimation.initialization import detect_rest, static_alignment
-from dualpose.estimation.interface import Estimator, UpdateResult
+from dualpose.estimation.interface import AttitudeFix, Estimator, LinearMeasurement, UpdateResult
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE, MSCKF_CLONE_ERROR
-from dualpose.types import CameraFrame, ImuNoise
+from dualpose.types import CameraFrame, ImuNoise, _inputs
 from dualpose.types.features import TrackFrame, TrackRecording
 
 __all__ = ["MsckfVio", "MsckfOptions", "TrackUpdate", "VioResult"]
@@ -205,25 +208,24 @@ class MsckfVio(EskfStateAccessors, Estimator):
         state: np.ndarray,
         covariance: np.ndarray,
         imu_noise: ImuNoise | None = None,
-        q_bc: np.ndarray = (0.0, 0.0, 0.0, 1.0),
-        p_bc: np.ndarray = (0.0, 0.0, 0.0),
+        q_bc: ArrayLike = (0.0, 0.0, 0.0, 1.0),
+        p_bc: ArrayLike = (0.0, 0.0, 0.0),
         feature_sigma: float = 1e-3,
-        gravity: np.ndarray = (0.0, 0.0, -9.81),
+        gravity: ArrayLike = (0.0, 0.0, -9.81),
         camera_time_offset: float = 0.0,
         options: MsckfOptions | None = None,
     ) -> None:
-        x = np.array(state, dtype=np.float64)
-        if x.shape != (ESKF_STATE.dim,) or not np.isfinite(x).all():
-            raise ValueError(f"state must be a finite ({ESKF_STATE.dim},) vector (ESKF_STATE); got shape {x.shape}")
+        # the filter-parameter checks every path shares (dualpose.types._inputs, docs/refusals.md)
+        x = _inputs.finite_vector(state, "state", ESKF_STATE.dim)
         q = ESKF_STATE.get(x, "quat")
-        if np.linalg.norm(q) == 0.0:
-            raise ValueError("the state's quaternion must be nonzero")
-        q /= np.linalg.norm(q)
-        P = np.array(covariance, dtype=np.float64)
-        if P.shape != (_NE, _NE) or not np.isfinite(P).all():
-            raise ValueError(f"covariance must be a finite ({_NE}, {_NE}) matrix; got shape {P.shape}")
-        if not (feature_sigma > 0):
-            raise ValueError(f"feature_sigma must be positive; got {feature_sigma!r}")
+        q[:] = _inputs.unit_quaternion(q, "state[quat]")
+        P = _inputs.covariance_matrix(covariance, "covariance", _NE)
+        feature_sigma = _inputs.positive(feature_sigma, "feature_sigma", 1.0, "(normalised image units)")
+        _inputs.check_imu_noise(ImuNoise() if imu_noise is None else imu_noise)
+        q_bc = _inputs.unit_quaternion(q_bc, "q_bc")
+        p_bc = _inputs.finite_vector(p_bc, "p_bc", 3, _inputs.MAX_POSITION_M, "m")
+        gravity = _inputs.gravity_vector(gravity)
+        camera_time_offset = _inputs.time_offset(camera_time_offset, "camera_time_offset")
         self.x = x
         self.P = 0.5 * (P + P.T)
         self.imu_noise = ImuNoise() if imu_noise is None else imu_noise
@@ -231,7 +233,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
         self.noise = np.array([n.gyroscope_noise_density**2, n.accelerometer_noise_density**2,
                                n.gyroscope_random_walk**2, n.accelerometer_random_walk**2,
                                n.gyroscope_scale_sigma**2, n.accelerometer_scale_sigma**2])  # fmt: skip
-        self.q_bc = dp.quat_normalize(np.asarray(q_bc, dtype=np.float64))
+        self.q_bc = q_bc
         self.p_bc = np.asarray(p_bc, dtype=np.float64).reshape(3)
         self.feature_sigma = float(feature_sigma)
         self.nominal_sigma = float(feature_sigma)
@@ -314,7 +316,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
         nominal feature σ, the settings.  :meth:`from_state_dict` continues bit for bit (one sample / frame at a
         time)."""
         o = self.options
-        return {
+        return _inputs.seal({
             "version": np.array(self.STATE_VERSION), "x": self.x.copy(), "P": self.P.copy(), "u": self._u.copy(),
             "time": np.array(np.nan if self.time is None else self.time),
             "x_fej": np.full(ESKF_STATE.dim, np.nan) if self._x_fej is None else self._x_fej.copy(),
@@ -330,10 +332,10 @@ class MsckfVio(EskfStateAccessors, Estimator):
             "options": np.array([o.max_clones, o.min_track, o.gate_probability, o.min_depth, o.max_depth,
                                  o.min_parallax, float(o.adaptive_sigma), o.sigma_floor, o.sigma_memory,
                                  o.max_slam, float(o.estimate_time_offset), o.time_offset_sigma]),
-        }  # fmt: skip
+        })  # fmt: skip
 
     @classmethod
-    def from_state_dict(cls, d) -> MsckfVio:
+    def from_state_dict(cls, d: Mapping[str, np.ndarray]) -> MsckfVio:
         """The filter saved by :meth:`state_dict` (a dict or an ``np.load`` of its ``np.savez``); ``ValueError`` for
         another layout version or missing entries."""
         try:
@@ -345,8 +347,8 @@ class MsckfVio(EskfStateAccessors, Estimator):
                                 float(o[7]), float(o[8]), int(o[9]), bool(o[10]), float(o[11]))
             noise = np.asarray(d["noise"], dtype=np.float64)
             sd = np.sqrt(noise)
-            imu = ImuNoise(*sd[[0, 2, 1, 3]].tolist(), gyroscope_scale_sigma=float(sd[4]),
-                           accelerometer_scale_sigma=float(sd[5]))  # fmt: skip
+            ng, rg, na, ra = (float(v) for v in sd[[0, 2, 1, 3]])
+            imu = ImuNoise(ng, rg, na, ra, gyroscope_scale_sigma=float(sd[4]), accelerometer_scale_sigma=float(sd[5]))
             P = np.array(d["P"], dtype=np.float64)
             f = cls(np.array(d["x"]), P[:_NE, :_NE], imu, d["q_bc"], d["p_bc"], float(d["nominal_sigma"]),
                     d["gravity"], float(d["camera_time_offset"]), opts)  # fmt: skip
@@ -376,31 +378,57 @@ class MsckfVio(EskfStateAccessors, Estimator):
             f._ids.cover(f.slam_id)
             t_imu = float(d["t_imu"])
             f._t_imu = None if np.isnan(t_imu) else t_imu
+            _inputs.check_seal(d, "saved MSCKF state")
         except KeyError as exc:
             raise ValueError(f"saved MSCKF state lacks {exc}") from None
+        except TypeError as exc:
+            raise ValueError(f"saved MSCKF state holds values of the wrong kind: {exc}") from None
         if f.P.shape != (_NE + _CE * len(f.clones) + 3 * len(f.slam_id) + len(f._extra),) * 2:
             raise ValueError(f"saved MSCKF state: covariance {f.P.shape} does not match {len(f.clones)} clones and "
                              f"{len(f.slam_id)} SLAM features")  # fmt: skip
+        f._check_saved()
         return f
+
+    def _check_saved(self) -> None:
+        """The values of a restored filter (docs/refusals.md): finite, unit quaternions, a symmetric positive
+        semi-definite covariance, a finite time, clone times and observations that belong to the window."""
+        name = "saved MSCKF state"
+        n = len(self.clones)
+        if not (np.isfinite(self.x).all() and np.isfinite(self.clones).all() and np.isfinite(self.clones_fej).all()
+                and np.isfinite(self.clone_t).all() and np.isfinite(self._ob_uv).all() and np.isfinite(self._u).all()
+                and np.isfinite(self.slam_p).all() and np.isfinite(self.slam_fej).all()
+                and np.isfinite(self._extra).all() and (self.time is None or math.isfinite(self.time))):  # fmt: skip
+            raise ValueError(f"{name}: values are not finite (a corrupted or altered state)")
+        for q, what in [(ESKF_STATE.get(self.x, "quat"), "state quaternion"), *((c[3:], "clone quaternion")
+                                                                                for c in self.clones)]:  # fmt: skip
+            saved_quaternion(q, f"{name} {what}")
+        dim = _NE + _CE * n + 3 * len(self.slam_id) + len(self._extra)
+        _inputs.covariance_matrix(self.P, f"{name} covariance", dim)
+        if (len(self.clone_t) != n or len(self._clone_id) != n or len(self.clones_fej) != n
+                or np.any(np.diff(self.clone_t) < 0) or len(self._ob_clone) != len(self._ob_uv)
+                or len(self._ob_track) != len(self._ob_uv)
+                or (len(self._ob_clone) and not np.isin(self._ob_clone, self._clone_id).all())):  # fmt: skip
+            raise ValueError(f"{name}: the window's clones and observations do not agree (a corrupted or altered "
+                             "state)")  # fmt: skip
 
     # ------------------------------------------------------------------ the estimator interface
     @property
     def state(self) -> np.ndarray:
         """IMU nominal state (16,) (:data:`~dualpose.estimation.state.ESKF_STATE`), a copy."""
-        return self.x.copy()
+        return np.copy(self.x, order="C")
 
     @property
     def covariance(self) -> np.ndarray:
         """IMU error covariance (15, 15), a copy (the window: :attr:`full_covariance`)."""
-        return self.P[:_NE, :_NE].copy()
+        return np.copy(self.P[:_NE, :_NE], order="C")
 
     @property
     def full_covariance(self) -> np.ndarray:
         """Covariance (15 + 6C + 3L + E, same) of the IMU error, the C clones' ``[δp, δθ]``, the L SLAM features'
         world points and, when estimated (E = 1), the camera time offset, a copy."""
-        return self.P.copy()
+        return np.copy(self.P, order="C")
 
-    def update(self, measurement) -> UpdateResult:
+    def update(self, measurement: LinearMeasurement | AttitudeFix | CameraFrame | TrackFrame) -> UpdateResult:
         """Fuse a :class:`~dualpose.types.TrackFrame` (feature tracks; the filter first propagates to its time), or
         any measurement of :meth:`Estimator.update` (``LinearMeasurement``, ``AttitudeFix``)."""
         if isinstance(measurement, TrackFrame):
@@ -428,7 +456,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
         self._x_fej = None
         return X
 
-    def propagate(self, t: float, gyro: np.ndarray, accel: np.ndarray, mag: np.ndarray | None = None) -> None:
+    def propagate(self, t: float, gyro: ArrayLike, accel: ArrayLike, mag: ArrayLike | None = None) -> None:
         """Feed the IMU sample taken at ``t`` (as :meth:`ErrorStateEKF.propagate
         <dualpose.estimation.eskf.ErrorStateEKF.propagate>`: the mean of the held and the new sample over the
         step, then the new one held).  ``mag`` is not used."""
@@ -536,7 +564,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
             t = max(t, self.time)
         else:
             t = self._frame_time(frame.t, self.camera_time_offset)
-        if t > self.time:
+        if self.time is not None and t > self.time:  # (_frame_time set the time)
             self._steps(self._u[None, :3], self._u[None, 3:], np.array([t - self.time]))
             self.time = t
         return self._frame_update(frame.track_id, frame.uv)
@@ -547,6 +575,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
         observations of the SLAM features, marginalise the oldest clone; a frame's ``track_id`` (m,) int64 and
         normalised ``uv`` (m, 2)."""
         o = self.options
+        assert self.time is not None  # a frame update follows _frame_time or a propagation
         self._ids.cover(track_id)
         if len(self.slam_id):
             seen = self._ids.member(self.slam_id, track_id)
@@ -761,7 +790,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
                 self._t_imu = self.time
             if j == len(ft):
                 break
-            if tf > self.time:
+            if self.time is not None and tf > self.time:  # (the time is set from t[start] on)
                 self._steps(self._u[None, :3], self._u[None, 3:], np.array([tf - self.time]))
                 self.time = float(tf)
             a, b = r.tracks.offsets[j], r.tracks.offsets[j + 1]  # the frame's rows (validated by FeatureTracks)
@@ -773,7 +802,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
                 stats["used"] += int(np.count_nonzero(acc))
                 stats["gated"] += int(np.count_nonzero(res.status == 0))
                 stats["failed"] += int(np.count_nonzero(res.status == -1))
-                nis_all.append(res.nis[acc])
+                nis_all.append(np.asarray(res.nis)[acc])
                 dof_all.append(res.feature_dof[acc])
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         blocks = {name: ESKF_STATE.get(X, name) for name in ESKF_STATE.names}

@@ -85,12 +85,12 @@ class StateLayout:
 
     def offset(self, block: str) -> int:
         """First index of ``block``."""
-        return self.slice(block).start
+        return int(self.slice(block).start)
 
     def size(self, block: str) -> int:
         """Length of ``block``."""
         s = self.slice(block)
-        return s.stop - s.start
+        return int(s.stop - s.start)
 
     def get(self, x: ArrayLike, block: str) -> np.ndarray:
         """``x[..., block]`` (a view when ``x`` is an array) of vectors ``x`` of shape ``(..., dim)``."""

@@ -8,8 +8,11 @@ extent: x–z for Hol's eight in front of the wall, x–y for a walk on the floo
 from __future__ import annotations
 
 import os
+from typing import Any, Protocol
 
 import numpy as np
+
+from dualpose.types.trajectory import Trajectory
 
 __all__ = ["fuse_figures", "motion_plane"]
 
@@ -19,29 +22,66 @@ _OUTSIDE = {"loc": "upper left", "bbox_to_anchor": (1.02, 1.0), "borderaxespad":
 def motion_plane(positions: np.ndarray) -> tuple[int, int]:
     """The two world axes (indices, ascending) along which ``positions`` (N, 3) extend the most."""
     extent = np.ptp(np.asarray(positions, dtype=np.float64), axis=0)
-    return tuple(sorted(int(i) for i in np.argsort(extent)[-2:]))  # type: ignore[return-value]
+    a, b = sorted(int(i) for i in np.argsort(extent)[-2:])
+    return a, b
 
 
-def fuse_figures(result, top_view: str | os.PathLike, errors: str | os.PathLike, nis: str | os.PathLike) -> None:
+class _FuseFigureResult(Protocol):
+    """The fields of a :class:`dualpose.pipelines.fuse.FuseResult` that :func:`fuse_figures` draws."""
+
+    @property
+    def estimate(self) -> Trajectory: ...
+    @property
+    def truth(self) -> Trajectory | None: ...
+    @property
+    def metrics(self) -> dict[str, Any]: ...
+    @property
+    def position_error(self) -> np.ndarray | None: ...
+    @property
+    def orientation_error_deg(self) -> np.ndarray | None: ...
+    @property
+    def position_sigma(self) -> np.ndarray: ...
+    @property
+    def orientation_sigma_deg(self) -> np.ndarray | None: ...
+    @property
+    def nis(self) -> np.ndarray: ...
+    @property
+    def nis_accepted(self) -> np.ndarray: ...
+    @property
+    def nis_bounds(self) -> tuple[float, float]: ...
+    @property
+    def smoothed(self) -> Trajectory | None: ...
+    @property
+    def smoothed_position_error(self) -> np.ndarray | None: ...
+    @property
+    def smoothed_orientation_error_deg(self) -> np.ndarray | None: ...
+    @property
+    def error_index(self) -> np.ndarray | None: ...
+
+
+def fuse_figures(result: _FuseFigureResult, top_view: str | os.PathLike[str], errors: str | os.PathLike[str],
+                 nis: str | os.PathLike[str]) -> None:  # fmt: skip
     """Write the three PNG figures of a :class:`dualpose.pipelines.fuse.FuseResult` (any object with its fields)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    has_truth = result.truth is not None
+    truth = result.truth
+    has_truth = truth is not None
     truth_label = "reference" if result.metrics.get("reference") else "truth"  # target tracking: another camera
     name = result.metrics["filter"]
-    idx = result.error_index if has_truth else np.arange(len(result.estimate))
-    t = result.truth.stamps if has_truth else result.estimate.stamps
+    # a result with a truth has its matched per-pose errors (FuseResult)
+    idx = result.error_index if result.error_index is not None else np.arange(len(result.estimate))
+    t = truth.stamps if truth is not None else result.estimate.stamps
     t = t - t[0]
 
-    ref = result.truth.positions if has_truth else result.estimate.positions
+    ref = truth.positions if truth is not None else result.estimate.positions
     i, j = motion_plane(ref)
     axes = "xyz"
     fig, ax = plt.subplots(figsize=(7, 5))
-    if has_truth:
-        ax.plot(result.truth.positions[:, i], result.truth.positions[:, j], "k-", lw=1.5, label=truth_label)
+    if truth is not None:
+        ax.plot(truth.positions[:, i], truth.positions[:, j], "k-", lw=1.5, label=truth_label)
     ax.plot(result.estimate.positions[:, i], result.estimate.positions[:, j], "r--", lw=1.0, label="estimate")
     if result.smoothed is not None:
         ax.plot(result.smoothed.positions[:, i], result.smoothed.positions[:, j], "g:", lw=1.0, label="smoothed")
@@ -56,14 +96,14 @@ def fuse_figures(result, top_view: str | os.PathLike, errors: str | os.PathLike,
     fig, axs = plt.subplots(4, 1, figsize=(9, 9), sharex=True)
     for k, comp in enumerate("xyz"):
         s3 = 3e3 * result.position_sigma[idx, k]
-        if has_truth:
+        if result.position_error is not None:
             axs[k].plot(t, 1e3 * result.position_error[:, k], "b-", lw=0.8, label="error")
             if result.smoothed_position_error is not None:
                 axs[k].plot(t, 1e3 * result.smoothed_position_error[:, k], "g-", lw=0.8, label="smoothed")
         axs[k].fill_between(t, -s3, s3, color="0.8", label="±3σ (filter)")
         axs[k].set_ylabel(f"{comp} error [mm]")
     axs[0].legend(**_OUTSIDE)
-    if has_truth:
+    if result.orientation_error_deg is not None:
         axs[3].plot(t, result.orientation_error_deg, "b-", lw=0.8, label="attitude error")
         if result.smoothed_orientation_error_deg is not None:
             axs[3].plot(t, result.smoothed_orientation_error_deg, "g-", lw=0.8, label="smoothed")
@@ -78,11 +118,11 @@ def fuse_figures(result, top_view: str | os.PathLike, errors: str | os.PathLike,
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(9, 4))
-    k = np.arange(len(result.nis))
+    kn = np.arange(len(result.nis))
     acc = result.nis_accepted
-    ax.semilogy(k[acc], result.nis[acc], ".", ms=2, label="NIS (accepted)")
+    ax.semilogy(kn[acc], result.nis[acc], ".", ms=2, label="NIS (accepted)")
     if np.any(~acc):
-        ax.semilogy(k[~acc], result.nis[~acc], "rx", ms=4, label="NIS (rejected)")
+        ax.semilogy(kn[~acc], result.nis[~acc], "rx", ms=4, label="NIS (rejected)")
     lo, hi = result.nis_bounds
     ax.axhline(lo, color="k", ls="--", label="95% χ²(2) bounds")
     ax.axhline(hi, color="k", ls="--")

@@ -21,13 +21,13 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 import dualpose as dp
-from dualpose.evaluation.align import Alignment, AlignMethod, align_positions, origin_alignment
+from dualpose.evaluation.align import Alignment, AlignMethod, Undetermined, align_positions, origin_alignment
 from dualpose.types.trajectory import Trajectory, as_positions, as_quats, check_same_length, interpolate_poses
 
 __all__ = [
@@ -268,7 +268,8 @@ def ate_errors(positions_ref: ArrayLike, positions_est: ArrayLike) -> np.ndarray
     """
     a, b = as_positions(positions_ref, "positions_ref"), as_positions(positions_est, "positions_est")
     check_same_length(positions_ref=a, positions_est=b)
-    return np.linalg.norm(a - b, axis=1)
+    err: NDArray[np.float64] = np.linalg.norm(a - b, axis=1)
+    return err
 
 
 def orientation_errors_deg(quats_ref: ArrayLike, quats_est: ArrayLike) -> np.ndarray:
@@ -279,7 +280,8 @@ def orientation_errors_deg(quats_ref: ArrayLike, quats_est: ArrayLike) -> np.nda
     """
     a, b = as_quats(quats_ref, "quats_ref"), as_quats(quats_est, "quats_est")
     check_same_length(quats_ref=a, quats_est=b)
-    return np.degrees(dp.quat_angle(a, b))
+    deg: NDArray[np.float64] = np.degrees(dp.quat_angle(a, b))
+    return deg
 
 
 def _chain(nxt: np.ndarray) -> np.ndarray:
@@ -293,7 +295,8 @@ def _chain(nxt: np.ndarray) -> np.ndarray:
     while chain[-1] != n:
         chain = np.concatenate([chain, jump[chain]])
         jump = jump[jump]
-    return chain[chain < n]
+    out: NDArray[np.intp] = chain[chain < n]
+    return out
 
 
 def rpe_pairs(
@@ -445,7 +448,7 @@ class Evaluation:
     rpe_pairs: np.ndarray
     rpe_translation: np.ndarray
     rpe_rotation_deg: np.ndarray
-    settings: dict = field(default_factory=dict)
+    settings: dict[str, Any] = field(default_factory=dict)
 
     @property
     def ate_stats(self) -> ErrorStatistics:
@@ -463,7 +466,7 @@ class Evaluation:
     def rpe_rotation_stats(self) -> ErrorStatistics:
         return error_statistics(self.rpe_rotation_deg)
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         """JSON-ready summary: headline numbers (``ate_rmse_m``, ``orientation_rmse_deg``, ``rpe_rmse_m``,
         ``rpe_rotation_rmse_deg``) plus the full statistics, the alignment and the settings."""
         ate, ori = self.ate_stats, self.orientation_stats
@@ -499,6 +502,7 @@ def evaluate(
     rpe_pairs_from_reference: bool = False,
     t_start: float | None = None,
     t_end: float | None = None,
+    undetermined: Undetermined = "raise",
 ) -> Evaluation:
     """Associate, align and compute ATE, orientation error and RPE of ``estimate`` against ``reference``.
 
@@ -512,7 +516,9 @@ def evaluate(
     ``rpe_pairs_from_reference`` = ``--pairs_from_reference`` (by default the pairs are chosen on the aligned
     estimate).  RPE is unchanged by a rigid alignment; "sim3"/"scale" rescale the estimate's translations first.
     ``t_start``, ``t_end`` = ``--t_start``, ``--t_end``: only poses with stamps (the estimate's plus ``offset``) in
-    ``[t_start, t_end]`` are used.
+    ``[t_start, t_end]`` are used.  ``undetermined``: what an alignment the data do not determine against their
+    noise does (:func:`~dualpose.evaluation.align.umeyama_alignment`): "raise" or "warn" (flagged in
+    ``alignment.conditioning``).
 
     Both trajectories first go through :func:`prepare_trajectory`: unsorted stamps are sorted and exact duplicate
     poses dropped (each with a ``UserWarning``); the same stamp with two different poses is refused.
@@ -520,7 +526,9 @@ def evaluate(
     Raises
     ------
     ValueError
-        No matching stamps, a degenerate alignment (:func:`~dualpose.evaluation.align.check_alignment_rank`), an
+        No matching stamps, a degenerate or undetermined alignment
+        (:func:`~dualpose.evaluation.align.check_alignment_rank`,
+        :func:`~dualpose.evaluation.align.alignment_conditioning`), an
         RPE step that yields no pair, two poses at one stamp, or an empty crop window.
     """
     for name, t in (("reference", reference), ("estimate", estimate)):
@@ -548,7 +556,7 @@ def evaluate(
             if not (int(align_first_n) == align_first_n and align_first_n >= 1):
                 raise ValueError(f"align_first_n must be a whole number >= 1 or None; got {align_first_n!r}")
             n = min(int(align_first_n), n)
-        alignment = align_positions(p_ref[:n], p_est[:n], align)
+        alignment = align_positions(p_ref[:n], p_est[:n], align, undetermined)
     p_est, q_est = alignment.apply(p_est, q_est)
     pairs = rpe_pairs(p_ref if rpe_pairs_from_reference else p_est, rpe_delta, rpe_unit, rpe_all_pairs)
     if pairs.shape[0] == 0:

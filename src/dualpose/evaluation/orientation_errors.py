@@ -26,6 +26,7 @@ import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 __all__ = ["OrientationRmse", "earth_error_quat", "heading_inclination_errors", "orientation_rmse"]
 
@@ -34,7 +35,8 @@ def _unit_rows(q: np.ndarray, name: str) -> np.ndarray:
     q = np.asarray(q, dtype=np.float64)
     if q.ndim != 2 or q.shape[1] != 4:
         raise ValueError(f"{name} must have shape (n, 4) (xyzw); got shape {q.shape}")
-    return q / np.linalg.norm(q, axis=1, keepdims=True)
+    unit: NDArray[np.float64] = q / np.linalg.norm(q, axis=1, keepdims=True)
+    return unit
 
 
 def earth_error_quat(q_est: np.ndarray, q_ref: np.ndarray) -> np.ndarray:

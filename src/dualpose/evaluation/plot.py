@@ -25,7 +25,7 @@ def _gapped(t: np.ndarray, *series: np.ndarray) -> list[np.ndarray]:
     return [np.insert(np.asarray(y, dtype=np.float64), cut, np.nan) for y in series]
 
 
-def plot_evaluation(evaluation: Evaluation, path: str | os.PathLike, *, overwrite: bool = False) -> Path:
+def plot_evaluation(evaluation: Evaluation, path: str | os.PathLike[str], *, overwrite: bool = False) -> Path:
     """Draw ``evaluation`` into a figure file and return its path.
 
     The format follows the extension of ``path`` (``.png``, ``.pdf``, ``.svg``, ... -- whatever matplotlib
@@ -64,7 +64,7 @@ def plot_evaluation(evaluation: Evaluation, path: str | os.PathLike, *, overwrit
     ate, ori, rpe = ev.ate_stats, ev.orientation_stats, ev.rpe_translation_stats
     s = ev.settings
     fig, ax = plt.subplot_mosaic(
-        [["top"] * 3 + ["side"] * 3, ["ate"] * 2 + ["ori"] * 2 + ["rpe"] * 2],
+        [["top", "top", "top", "side", "side", "side"], ["ate", "ate", "ori", "ori", "rpe", "rpe"]],
         figsize=(13, 8.5),
         layout="constrained",
         height_ratios=[1.4, 1.0],

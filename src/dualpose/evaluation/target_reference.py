@@ -18,6 +18,7 @@ import numpy as np
 import dualpose as dp
 from dualpose.registration.pnp import solve_pnp_batch
 from dualpose.types import Trajectory
+from dualpose.types.camera_models import DistortedCamera
 from dualpose.types.target import TargetDetections
 
 __all__ = ["CameraPoses", "camera_poses", "body_trajectory", "reference_trajectory", "errors_against", "ErrorsAgainst"]
@@ -49,7 +50,7 @@ class CameraPoses:
     n_inliers: np.ndarray
 
 
-def _padded(det: TargetDetections, frames: np.ndarray):
+def _padded(det: TargetDetections, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     counts = det.counts[frames]
     m = int(counts.max())
     rows = det.offsets[frames][:, None] + np.arange(m)[None, :]
@@ -58,7 +59,7 @@ def _padded(det: TargetDetections, frames: np.ndarray):
     return det.pixels[rows], det.points[rows], valid
 
 
-def camera_poses(det: TargetDetections, camera, min_corners: int = 6) -> CameraPoses:
+def camera_poses(det: TargetDetections, camera: DistortedCamera, min_corners: int = 6) -> CameraPoses:
     """The pose of the camera at every frame of ``det`` with at least ``min_corners`` corners (module docstring).
 
     Parameters
@@ -136,7 +137,7 @@ def body_trajectory(
 
 
 def reference_trajectory(
-    det: TargetDetections, camera, q_bc: np.ndarray, p_bc: np.ndarray, max_rms_px: float = 0.7,
+    det: TargetDetections, camera: DistortedCamera, q_bc: np.ndarray, p_bc: np.ndarray, max_rms_px: float = 0.7,
     min_corners: int = 30, time_offset: float = 0.0,
 ) -> tuple[Trajectory, CameraPoses]:
     """The reference: body poses from the camera's per-frame PnP on the frames with a reprojection RMS below

@@ -1,20 +1,29 @@
 """Checks of a :class:`~dualpose.types.recording.Recording` before and after the static alignment of
-``dualpose fuse`` (docs/fusion.md, "Checks on the input").
+``dualpose fuse`` (docs/fusion.md, "Checks on the input"; docs/refusals.md, "Inputs: samples, parameters, saved
+states, set-ups").
 
 Refused (:class:`dualpose.io.recording.RecordingError`, naming the recording): an IMU stream too short to hold a rest
-period and some motion, and a ``gravity`` that points up (the specific force at rest, rotated to the world with the
-first-frame attitude, must point opposite to gravity).  Warned (:class:`dualpose.types.recording.RecordingWarning`):
-IMU gaps longer than a few sample periods, and a gravity vector more than 10° off the measured vertical or of the
+period and some motion, a ``rest_duration_s`` as long as the recording, an accelerometer in units of g, and a
+``gravity`` that points up (the specific force at rest, rotated to the world with the first-frame attitude, must point
+opposite to gravity).  Doubted -- warned (:class:`dualpose.types.recording.RecordingWarning`) *and* returned as
+:class:`~dualpose.types._inputs.Doubt` s, which :func:`dualpose.pipelines.fuse.run_fuse` reports under
+``metrics["input_doubts"]``: IMU gaps longer than a few sample periods, an ``imu.update_rate`` that contradicts the
+stamps, a gyroscope that reads like deg/s, and a gravity vector more than 10° off the measured vertical or of the
 wrong magnitude.
 """
 
 from __future__ import annotations
+
+import warnings
+from collections.abc import Callable
 
 import numpy as np
 
 from dualpose.estimation.state import ESKF_STATE
 from dualpose.io.recording import RecordingError
 from dualpose.types import Recording
+from dualpose.types._inputs import Doubt, accel_unit_problem, gyro_unit_doubt, rate_doubt, rest_problem
+from dualpose.types.recording import RecordingWarning
 
 __all__ = ["MIN_IMU_SAMPLES", "MIN_IMU_SECONDS", "check_before_fuse", "check_gravity_after_alignment"]
 
@@ -22,22 +31,53 @@ __all__ = ["MIN_IMU_SAMPLES", "MIN_IMU_SECONDS", "check_before_fuse", "check_gra
 MIN_IMU_SAMPLES = 50
 MIN_IMU_SECONDS = 1.0
 
+#: the rest period the unit checks look at when the recording does not state one, s
+_REST_S = 0.2
 
-def check_before_fuse(run: Recording) -> None:
-    """Refuse a recording too short to fuse; warn about IMU gaps (:meth:`Recording.check_imu_gaps`)."""
+
+def check_before_fuse(run: Recording) -> list[Doubt]:
+    """Refuse a recording too short to fuse, a rest period as long as it, an accelerometer in g; warn about and
+    return the doubts: IMU gaps (:meth:`Recording.check_imu_gaps`), the stated IMU rate against the stamps, a
+    gyroscope in deg/s."""
+    where = run.name or "recording"
     if len(run.t) < MIN_IMU_SAMPLES or run.duration < MIN_IMU_SECONDS:
         raise RecordingError(
-            f"{run.name or 'recording'}: imu: {len(run.t)} samples over {run.duration:.3f} s; fusing needs at least "
+            f"{where}: imu: {len(run.t)} samples over {run.duration:.3f} s; fusing needs at least "
             f"{MIN_IMU_SAMPLES} samples and {MIN_IMU_SECONDS:g} s (a rest period for the static alignment, then motion)"
         )
-    run.check_imu_gaps()
+    problem = rest_problem(run.rest_seconds, run.duration, where)
+    rest = run.t <= run.t[0] + (_REST_S if run.rest_seconds is None else run.rest_seconds)
+    problem = problem or accel_unit_problem(run.accel[rest], run.gravity, where)
+    if problem:
+        raise RecordingError(problem)
+    doubts = _warned(run.check_imu_gaps, "imu_gap")
+    for d in (rate_doubt(run.t, run.imu_noise.update_rate, where),
+              gyro_unit_doubt(run.gyro[rest], run.imu_noise.gyroscope_noise_density, 1.0 / run.nominal_period(),
+                              where)):  # fmt: skip
+        if d is not None:
+            warnings.warn(d.message, RecordingWarning, stacklevel=2)
+            doubts.append(d)
+    return doubts
 
 
-def check_gravity_after_alignment(run: Recording, x: np.ndarray) -> None:
+def check_gravity_after_alignment(run: Recording, x: np.ndarray) -> list[Doubt]:
     """:meth:`Recording.check_gravity` with the start attitude ``q_wb`` of the error-state filter state ``x``
-    (:data:`~dualpose.estimation.state.ESKF_STATE`);
-    a gravity that points up is a :class:`RecordingError`."""
+    (:data:`~dualpose.estimation.state.ESKF_STATE`); a gravity that points up is a :class:`RecordingError`, a
+    doubtful one is warned about and returned."""
     try:
-        run.check_gravity(ESKF_STATE.get(x, "quat"))
+        return _warned(lambda: run.check_gravity(ESKF_STATE.get(x, "quat")), "gravity")
     except ValueError as exc:
         raise RecordingError(str(exc)) from None
+
+
+def _warned(check: Callable[[], object], code: str) -> list[Doubt]:
+    """Run ``check``; each :class:`RecordingWarning` it gives is warned again and returned as a Doubt ``code``."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", RecordingWarning)
+        check()
+    out = []
+    for w in caught:
+        if issubclass(w.category, RecordingWarning):
+            out.append(Doubt(code, str(w.message)))
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return out

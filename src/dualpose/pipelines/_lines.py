@@ -10,11 +10,16 @@ line read back gives the filter's numbers bit for bit.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable, Iterable, Sequence
 
-from dualpose.io._text import all_numbers, parse_number, split_fields
+import numpy as np
 
-__all__ = ["format_numbers", "parse_numbers", "split_fields"]
+from dualpose.io._text import all_numbers, parse_number, split_fields
+from dualpose.types._inputs import Doubt, gap_doubt, rate_doubt
+from dualpose.types.recording import RecordingWarning
+
+__all__ = ["StreamTimes", "format_numbers", "parse_numbers", "split_fields"]
 
 
 def parse_numbers(fields: Sequence[str], names: Sequence[str] | Callable[[int], str], first: int = 1) -> list[float]:
@@ -52,3 +57,49 @@ def parse_numbers(fields: Sequence[str], names: Sequence[str] | Callable[[int], 
 def format_numbers(values: Iterable[float]) -> str:
     """One output line: the values' ``repr`` separated by ``", "``, with its newline."""
     return ", ".join(map(repr, map(float, values))) + "\n"
+
+
+class StreamTimes:
+    """The time stamps of a stream's IMU lines: refuses one that is not finite or does not increase, and warns
+    (:class:`~dualpose.types.recording.RecordingWarning`, naming the line) about a gap longer than five sample
+    ``period`` s (None: the median spacing of the first :data:`RATE_SAMPLES` stamps) and, once that many stamps are
+    in, about stamps whose median spacing contradicts the stated rate (:mod:`dualpose.types._inputs`, the set-up
+    checks of the batch paths).  ``doubts`` keeps them."""
+
+    #: stamps after which the stated rate is compared with the measured one
+    RATE_SAMPLES = 200
+    #: gaps reported one by one; later ones only counted
+    MAX_REPORTED = 5
+
+    def __init__(self, period: float | None, source: str, rate_name: str) -> None:
+        self.period, self.source, self.rate_name = period, source, rate_name
+        self.last = -math.inf
+        self.first: list[float] = []
+        self.doubts: list[Doubt] = []
+        self.gaps = 0
+
+    def check(self, t: float, lineno: int) -> None:
+        """Refuse (ValueError) or note (warning) the stamp ``t`` of input line ``lineno``."""
+        if not (math.isfinite(t) and t > self.last):
+            raise ValueError(f"t must be finite and increase strictly: got {t!r} after {self.last!r}")
+        if self.last > -math.inf and self.period is not None:
+            d = gap_doubt(t - self.last, self.period, f"{self.source} line {lineno}")
+            if d is not None:
+                self.gaps += 1
+                if self.gaps <= self.MAX_REPORTED:
+                    self._doubt(d)
+        self.last = t
+        if len(self.first) < self.RATE_SAMPLES:
+            self.first.append(t)
+            period = self.period
+            if len(self.first) == self.RATE_SAMPLES and period is None:  # no stated rate: the stamps' own
+                self.period = float(np.median(np.diff(self.first)))
+            elif len(self.first) == self.RATE_SAMPLES and period is not None:
+                d = rate_doubt(np.array(self.first), 1.0 / period, f"{self.source} lines up to {lineno}",
+                               rate_name=self.rate_name)
+                if d is not None:
+                    self._doubt(d)
+
+    def _doubt(self, d: Doubt) -> None:
+        self.doubts.append(d)
+        warnings.warn(d.message, RecordingWarning, stacklevel=3)

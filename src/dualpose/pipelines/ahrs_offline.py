@@ -55,5 +55,6 @@ def smooth_broad_trial(
     if scores is None:
         return s, None
     fwd = broad_scores(s.forward.quat, trial, use_mag=use_mag)
-    scores.update({f"forward_{k}": v for k, v in fwd.items()})
+    if fwd is not None:  # (the same trial's reference: present as for the smoothed scores)
+        scores.update({f"forward_{k}": v for k, v in fwd.items()})
     return s, scores

@@ -12,19 +12,20 @@ The job behind ``dualpose ahrs --stream`` (docs/broad.md, "Streaming"; the line 
   ``n_rest`` samples) the orientation of the running mean specific force and field so far; at its last sample the
   filter is initialised from the rest statistics and its output follows from then on.
 
-Errors (a malformed line, a time that does not increase) are ``ValueError`` s naming the source and line, raised
-after every output line of the earlier input lines was yielded.
+Errors (a malformed line, a time that does not increase, a sample beyond the plausible IMU range, a state the filter
+cannot continue from) are ``ValueError`` s naming the source and line, raised after every output line of the earlier
+input lines was yielded; a gap in the time stamps or stamps that contradict ``rate`` are
+:class:`~dualpose.types.recording.RecordingWarning` s naming the line (docs/refusals.md).
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Iterator
 
 import numpy as np
 
 from dualpose.estimation.ahrs.stream import AhrsStream
-from dualpose.pipelines._lines import format_numbers, parse_numbers, split_fields
+from dualpose.pipelines._lines import StreamTimes, format_numbers, parse_numbers, split_fields
 
 __all__ = ["INPUT_FIELDS", "OUTPUT_FIELDS", "format_row", "parse_imu_line", "stream_ahrs_lines"]
 
@@ -107,16 +108,17 @@ def stream_ahrs_lines(
         stamp that does not increase.  Everything before the bad line has been yielded by then.
     """
     stream = AhrsStream(rate, use_mag=use_mag, n_rest=n_rest)
-    last_t = -math.inf
+    times = StreamTimes(1.0 / stream.rate, source, "rate")
     for lineno, line in enumerate(lines, start=1):
         try:
             v = parse_imu_line(line, use_mag)
+            if v is None:
+                continue
+            t = v[0]
+            times.check(t, lineno)
+            q = stream.update_imu(t, v[1:4], v[4:7], v[7:10] if use_mag else None)
+            if not np.isfinite(q).all():  # never a NaN line: the filter cannot go on from here
+                raise ValueError("the filter's orientation is not finite; it cannot continue from this sample")
         except ValueError as exc:
             raise ValueError(f"{source} line {lineno}: {exc}") from None
-        if v is None:
-            continue
-        t = v[0]
-        if not t > last_t:
-            raise ValueError(f"{source} line {lineno}: time {t!r} does not increase (previous {last_t!r})")
-        last_t = t
-        yield format_row(t, stream.update_imu(t, v[1:4], v[4:7], v[7:10] if use_mag else None))
+        yield format_row(t, q)

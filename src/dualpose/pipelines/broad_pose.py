@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from dualpose.io.broad import BroadTrial, load_broad
-from dualpose.pipelines.fuse import run_fuse
+from dualpose.pipelines.fuse import FuseResult, run_fuse
 from dualpose.sim.broad_vision import recording_from_broad
 
 __all__ = ["BroadPoseResult", "run_broad_pose"]
@@ -32,15 +33,15 @@ class BroadPoseResult:
     ``realtime_factor``, the noise densities used.  ``fuse`` is the full :class:`~dualpose.pipelines.fuse.FuseResult`.
     """
 
-    metrics: dict
-    fuse: object
+    metrics: dict[str, Any]
+    fuse: FuseResult
 
 
 def run_broad_pose(
-    trial: BroadTrial | str | os.PathLike,
+    trial: BroadTrial | str | os.PathLike[str],
     dropout: tuple[float, float] | None = None,
     seed: int = 0,
-    **options,
+    **options: Any,
 ) -> BroadPoseResult:
     """Fuse a BROAD trial's real IMU with pseudo-vision (error-state filter) and score it against the optical
     reference: :func:`recording_from_broad` + :func:`dualpose.pipelines.fuse.run_fuse`.
@@ -56,14 +57,14 @@ def run_broad_pose(
         ``noise_inflation``, ``time_offset`` for :func:`recording_from_broad`.
     """
     if not isinstance(trial, BroadTrial):
-        trial = load_broad(trial)
+        trial = load_broad(os.fspath(trial))
     rec = recording_from_broad(trial, seed=seed, dropout=dropout, **options)
     res = run_fuse(rec, "eskf", seed=seed)
-    idx = res.error_index
+    idx, position_error, ori_err = res.error_index, res.position_error, res.orientation_error_deg
+    assert idx is not None and position_error is not None and ori_err is not None  # a BROAD trial has a reference
     t = res.estimate.stamps[idx]
     mov = rec.info["movement"][idx]
-    pos_err = np.linalg.norm(res.position_error, axis=1)
-    ori_err = res.orientation_error_deg
+    pos_err = np.linalg.norm(position_error, axis=1)
 
     def rms(x: np.ndarray) -> float | None:
         return float(np.sqrt(np.mean(x**2))) if x.size else None

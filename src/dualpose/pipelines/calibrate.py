@@ -11,13 +11,20 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
 import dualpose as dp
 from dualpose import calibration as cal
 from dualpose import sim
-from dualpose.calibration.time_offset import estimate_time_offset, frame_poses, refine_time_offset_in_filter
+from dualpose.calibration.time_offset import (
+    FilterTimeOffsetEstimate,
+    TimeOffsetEstimate,
+    estimate_time_offset,
+    frame_poses,
+    refine_time_offset_in_filter,
+)
 from dualpose.estimation.eskf import ErrorStateEKF
 from dualpose.estimation.initialization import initial_state_from_run
 from dualpose.sim.calibration_scenarios import random_extrinsic, simulate_static_pose_set
@@ -35,8 +42,8 @@ def calibrate_run_time_offset(
     q_bc: np.ndarray | None = None,
     refine: bool = True,
     weighted: bool = False,
-    **filter_kwargs,
-):
+    **filter_kwargs: Any,
+) -> tuple[TimeOffsetEstimate, FilterTimeOffsetEstimate | None]:
     """Both time-offset stages on a simulated run that starts at rest (e.g. ``sim.simulate_eight``).
 
     Per-frame robust PnP → :func:`~dualpose.calibration.time_offset.estimate_time_offset` (with ``q_bc``; ``None``
@@ -80,7 +87,7 @@ def static_session(
     extrinsic: tuple[np.ndarray, np.ndarray],
     duration: float = 0.5,
     progress: Callable[[int], None] | None = None,
-) -> dict[str, np.ndarray]:
+) -> cal.StaticArrays:
     """``poses`` simulated static poses (:func:`dualpose.sim.calibration_scenarios.simulate_static_pose_set`) summarised
     by :func:`dualpose.calibration.static_periods`, in chunks of ``_CHUNK`` poses; ``progress(n)`` is called
     with the number of poses done after each chunk.  Returns the stacked arrays of
@@ -94,7 +101,12 @@ def static_session(
                                         pixel_sigma=s.pixel_sigma))  # fmt: skip
         if progress is not None:
             progress(len(s.accel))
-    return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
+    return cal.StaticArrays(
+        specific_force=np.concatenate([p["specific_force"] for p in parts]),
+        q_wc=np.concatenate([p["q_wc"] for p in parts]),
+        specific_force_covariance=np.concatenate([p["specific_force_covariance"] for p in parts]),
+        attitude_covariance=np.concatenate([p["attitude_covariance"] for p in parts]),
+    )
 
 
 def calibrate_simulated_session(
@@ -104,7 +116,7 @@ def calibrate_simulated_session(
     gravity_misalignment_deg: float = 1.0,
     time_offset_ms: float = 15.0,
     progress: Callable[[int, str], None] | None = None,
-) -> dict:
+) -> dict[str, Any]:
     """The session of ``dualpose calibrate`` (module docstring); returns the metrics dictionary the command prints.
 
     ``progress(n, stage)``, if given, is called as work is done: ``n`` static poses solved (stage "static poses"),
@@ -143,6 +155,7 @@ def calibrate_simulated_session(
 
     run.q_bc = rot.q_bc  # the rest of the chain uses the estimated rotation, not the truth
     first, second = calibrate_run_time_offset(run, rot.q_bc, gravity=grav.gravity)
+    assert second is not None  # refine=True
     report(1, "time offset")
     return {
         "seed": seed,

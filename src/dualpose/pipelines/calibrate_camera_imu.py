@@ -10,8 +10,11 @@ Returns the dictionary printed with ``--json`` (the keys the tracking job reads:
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 import dualpose as dp
 from dualpose.calibration.camera_imu import CameraImuCalibration, calibrate_camera_imu
@@ -38,7 +41,7 @@ EUROC_KALIBR_T_BS = {
 }  # fmt: skip
 
 
-def pose_matrix(summary: dict) -> np.ndarray:
+def pose_matrix(summary: Mapping[str, Any]) -> np.ndarray:
     """The camera pose in the IMU frame ``T_bc`` (4, 4) of a :func:`calibration_summary` dictionary."""
     T = np.eye(4)
     T[:3, :3] = dp.matrix_from_quat(np.asarray(summary["rotation_xyzw"], dtype=np.float64))
@@ -50,11 +53,11 @@ class UnknownCamera(ValueError):
     """The camera name is not in the sensor file (a usage error of the command line)."""
 
 
-def _floats(x) -> list:
+def _floats(x: ArrayLike) -> list[float]:
     return [float(v) for v in np.asarray(x).ravel()]
 
 
-def calibration_summary(res: CameraImuCalibration, camera: str) -> dict:
+def calibration_summary(res: CameraImuCalibration, camera: str) -> dict[str, Any]:
     """The JSON-ready dictionary of a :class:`CameraImuCalibration` (all values plain floats, lists, dicts)."""
     o = res.outliers
     e = res.excitation
@@ -70,6 +73,7 @@ def calibration_summary(res: CameraImuCalibration, camera: str) -> dict:
         "time_offset_s": float(res.time_offset),
         "reprojection_rms_px": float(res.reprojection_rms_px),
         "pixel_sigma_px": float(res.pixel_sigma),
+        "blur_time_s": float(res.blur_time_s),
         "gyro_bias": _floats(res.gyro_bias),
         "accel_bias": _floats(res.accel_bias),
         "gravity_target": _floats(res.gravity_target),
@@ -118,13 +122,15 @@ def calibrate_camera_imu_files(
     frame_window: tuple[float, float] | None = None,
     imu_model: str = "scale_misalignment",
     imu_noise_scale: float = 1.0,
-) -> dict:
+    **options: Any,
+) -> dict[str, Any]:
     """Read the three files and calibrate ``camera`` against the IMU; returns :func:`calibration_summary`.
 
     ``frame_window`` (start, end) in seconds from the first IMU sample keeps only the frames and IMU samples inside
     it (a cut of the recording).  ``imu_model``: as :func:`~dualpose.calibration.camera_imu.calibrate_camera_imu`.
     ``imu_noise_scale`` multiplies every IMU noise density and random walk of the sensor file (a sensitivity
-    study: docs/euroc.md).
+    study: docs/euroc.md).  ``options`` are passed on to
+    :func:`~dualpose.calibration.camera_imu.calibrate_camera_imu` (``noise_model``, ``huber``, ``reject_sigmas``, …).
 
     Raises
     ------
@@ -165,5 +171,6 @@ def calibrate_camera_imu_files(
         raise ValueError(f"imu_noise_scale must be > 0; got {imu_noise_scale}")
     noise = rig.imu_noise.scaled(imu_noise_scale)
     res = calibrate_camera_imu(imu_t, gyro, accel, frames, cam, noise, gravity_magnitude=g,
-                               bias_model=bias_model, min_frames=min_frames, imu_model=imu_model)  # fmt: skip
+                               bias_model=bias_model, min_frames=min_frames, imu_model=imu_model,
+                               **options)  # fmt: skip
     return calibration_summary(res, camera)

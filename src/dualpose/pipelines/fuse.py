@@ -19,36 +19,36 @@ import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
+from typing import Any
 
 import numpy as np
 
 import dualpose as dp
 from dualpose import sim
 from dualpose.estimation import initialization
-from dualpose.estimation.eskf import ErrorStateEKF
-from dualpose.estimation.hol22 import Hol22EKF
-from dualpose.estimation.interface import Estimator
+from dualpose.estimation.eskf import ErrorStateEKF, FilterResult
+from dualpose.estimation.hol22 import Hol22EKF, Hol22Result
 from dualpose.estimation.smoother import rts_smooth
 from dualpose.evaluation.metrics import evaluate
 from dualpose.io import load_broad
 from dualpose.io.recording import RecordingError, read_recording
 from dualpose.pipelines._checks import check_before_fuse, check_gravity_after_alignment
 from dualpose.sim.broad_vision import recording_from_broad
-from dualpose.types import Recording, Trajectory
+from dualpose.types import Recording, SensorSetup, Trajectory
 
 __all__ = ["FILTERS", "EstimatorFactory", "FuseResult", "load_recording", "run_fuse"]
 
-#: ``factory(recording, x, P) -> Estimator``: a filter for the recording's sensors, started from the error-state
-#: start ``x`` (:data:`~dualpose.estimation.state.ESKF_STATE`) and ``P`` (over
+#: ``factory(recording, x, P) -> ErrorStateEKF | Hol22EKF``: a filter for the recording's sensors, started from
+#: the error-state start ``x`` (:data:`~dualpose.estimation.state.ESKF_STATE`) and ``P`` (over
 #: :data:`~dualpose.estimation.state.ESKF_ERROR`) of the static alignment and first-frame PnP
-EstimatorFactory = Callable[[Recording, np.ndarray, np.ndarray], Estimator]
+EstimatorFactory = Callable[[Recording | SensorSetup, np.ndarray, np.ndarray], ErrorStateEKF | Hol22EKF]
 
 
-def _eskf_for(rec: Recording, x: np.ndarray, P: np.ndarray) -> Estimator:
+def _eskf_for(rec: Recording | SensorSetup, x: np.ndarray, P: np.ndarray) -> ErrorStateEKF:
     return ErrorStateEKF.from_state(rec, x, P)
 
 
-def _hol22_for(rec: Recording, x: np.ndarray, P: np.ndarray) -> Estimator:
+def _hol22_for(rec: Recording | SensorSetup, x: np.ndarray, P: np.ndarray) -> Hol22EKF:
     return Hol22EKF.from_eskf_state(x, P, rec)
 
 
@@ -67,6 +67,7 @@ TRUTH_METRICS: tuple[str, ...] = (
     "rpe_rotation_rmse_deg",
     "position_rmse_unaligned_m",
     "orientation_rmse_unaligned_deg",
+    "alignment_well_determined",
 )
 
 #: RPE step, metres of travelled path
@@ -90,8 +91,10 @@ class FuseResult:
         ``nis_fraction_inside``, ``realtime_factor``, ``filter``, ``data``, ``seed``, ``duration_s``,
         ``position_rmse_unaligned_m`` and ``orientation_rmse_unaligned_deg`` (in the recording's world frame, no
         alignment -- the SE(3) alignment fitted to the positions adds attitude error), the innovation
-        summary and the full evaluation statistics under ``evaluation``.  Without ground truth the metrics in
-        ``TRUTH_METRICS`` and ``evaluation`` are None.
+        summary and the full evaluation statistics under ``evaluation``, and ``input_doubts``: what the checks on
+        the input doubted (each ``{"code", "message"}``, also warned as a
+        :class:`~dualpose.types.recording.RecordingWarning`; docs/refusals.md), empty when nothing was.  Without
+        ground truth the metrics in ``TRUTH_METRICS`` and ``evaluation`` are None.
     position_error : ndarray, shape (K, 3), or None
         Estimate minus truth at the matched poses, world frame, m (no alignment).
     orientation_error_deg : ndarray, shape (K,), or None
@@ -117,7 +120,7 @@ class FuseResult:
 
     estimate: Trajectory
     truth: Trajectory | None
-    metrics: dict
+    metrics: dict[str, Any]
     position_error: np.ndarray | None
     orientation_error_deg: np.ndarray | None
     position_sigma: np.ndarray
@@ -131,7 +134,7 @@ class FuseResult:
     error_index: np.ndarray | None = None
 
 
-def load_recording(data: str | os.PathLike | Recording = "sim", seed: int = 0) -> Recording:
+def load_recording(data: str | os.PathLike[str] | Recording = "sim", seed: int = 0) -> Recording:
     """The :class:`~dualpose.types.recording.Recording` ``dualpose fuse --data`` names.
 
     Parameters
@@ -155,7 +158,7 @@ def load_recording(data: str | os.PathLike | Recording = "sim", seed: int = 0) -
         raise TypeError(f"data must be 'sim', a path or a Recording; got {type(data).__name__}")
     if str(data).lower().endswith(".mat"):
         try:
-            trial = load_broad(data)
+            trial = load_broad(os.fspath(data))
         except (FileNotFoundError, ValueError) as exc:
             raise RecordingError(str(exc)) from None  # load_broad's messages name the file as given
         try:
@@ -166,12 +169,15 @@ def load_recording(data: str | os.PathLike | Recording = "sim", seed: int = 0) -
     return read_recording(data)
 
 
-def _truth_metrics(truth: Trajectory | None, estimate: Trajectory) -> tuple[dict, dict | None, tuple | None]:
+def _truth_metrics(
+    truth: Trajectory | None, estimate: Trajectory
+) -> tuple[dict[str, Any], dict[str, Any] | None, tuple[np.ndarray, Trajectory, np.ndarray, np.ndarray] | None]:
     """Metrics against the ground truth (``TRUTH_METRICS``, None without truth), the evaluation dict and the
     per-pose arrays ``(error_index, truth matched, position_error, orientation_error_deg)``."""
     if truth is None:
         return dict.fromkeys(TRUTH_METRICS), None, None
-    ev = evaluate(truth, estimate, align="se3", rpe_delta=_RPE_DELTA_M, rpe_unit="m")
+    # a diverged estimate has no determined alignment: keep its numbers, warned about and flagged
+    ev = evaluate(truth, estimate, align="se3", rpe_delta=_RPE_DELTA_M, rpe_unit="m", undetermined="warn")
     ed = ev.as_dict()
     out = {key: ed[key] for key in TRUTH_METRICS[:4]}
     matched = truth.take(ev.idx_ref)
@@ -179,11 +185,13 @@ def _truth_metrics(truth: Trajectory | None, estimate: Trajectory) -> tuple[dict
     ori_err = np.degrees(dp.quat_angle(estimate.quats[ev.idx_est], matched.quats))
     out["position_rmse_unaligned_m"] = float(np.sqrt(np.mean(np.sum(pos_err**2, axis=1))))
     out["orientation_rmse_unaligned_deg"] = float(np.sqrt(np.mean(ori_err**2)))
+    cond = ev.alignment.conditioning
+    out["alignment_well_determined"] = bool(cond is None or cond.well_determined)
     return out, ed, (ev.idx_est, matched, pos_err, ori_err)
 
 
 def run_fuse(
-    data: str | os.PathLike | Recording = "sim",
+    data: str | os.PathLike[str] | Recording = "sim",
     filter: str | EstimatorFactory = "eskf",
     seed: int = 0,
     progress: Callable[[int, int, str], None] | None = None,
@@ -237,13 +245,13 @@ def run_fuse(
             progress(k + 1, len(stages), stages[k])
 
     run = load_recording(data, seed)
-    check_before_fuse(run)  # too short: RecordingError; IMU gaps: RecordingWarning
+    doubts = check_before_fuse(run)  # too short, rest too long, g units: RecordingError; doubts: RecordingWarning
     step(0)
     try:
         x, P0 = initialization.initial_state_from_run(run, run.rest_seconds)
     except ValueError as exc:
         raise RecordingError(f"{run.name}: cannot start the filter: {exc}") from None
-    check_gravity_after_alignment(run, x)  # gravity pointing up: RecordingError; doubtful: RecordingWarning
+    doubts += check_gravity_after_alignment(run, x)  # gravity pointing up: RecordingError; doubtful: a doubt
     step(1)
     est = factory(run, x, P0)
     if "position" not in est.state_layout.names:
@@ -252,7 +260,11 @@ def run_fuse(
     # load the compiled kernel on a throw-away two-sample run, so that ``realtime_factor`` times the filtering
     no_frames = (np.zeros(0), np.zeros(1, np.int64), np.zeros((0, 2)), np.zeros((0, 3)))
     factory(run, x, P0).run(run.t[:2], run.gyro[:2], run.accel[:2], *no_frames)
-    res = est.run_recording(run, record_nodes=True) if smooth else est.run_recording(run)
+    # smooth: an ErrorStateEKF (_check_smooth)
+    if smooth and isinstance(est, ErrorStateEKF):
+        res: FilterResult | Hol22Result = est.run_recording(run, record_nodes=True)
+    else:
+        res = est.run_recording(run)
     cov = est.covariance_layout
     pos_var = np.diagonal(cov.cov(res.covariance, "position"), axis1=1, axis2=2)
     ori_sigma = None
@@ -272,6 +284,7 @@ def run_fuse(
         "camera_frames": int(len(run.frames)),
         "filter_wall_time_s": float(res.wall_time),
         "realtime_factor": duration / float(res.wall_time),
+        "input_doubts": [d.as_dict() for d in doubts],
     }
     for key in TRUTH_METRICS[:4]:
         metrics[key] = truth_metrics[key]
@@ -279,7 +292,8 @@ def run_fuse(
     for key in TRUTH_METRICS[4:]:
         metrics[key] = truth_metrics[key]
     metrics["evaluation"] = ed
-    smoothed = _smoothed_metrics(res, run.ground_truth, estimate) if smooth else {}
+    # (smooth: the error-state filter's result)
+    smoothed = _smoothed_metrics(res, run.ground_truth, estimate) if smooth and isinstance(res, FilterResult) else {}
     if smooth:
         metrics["smoothed"] = smoothed.pop("metrics")
     step(3)
@@ -309,7 +323,7 @@ def _check_smooth(kind: object, smooth: bool, name: str) -> None:
         )
 
 
-def _smoothed_metrics(res, truth: Trajectory | None, estimate: Trajectory) -> dict:
+def _smoothed_metrics(res: FilterResult, truth: Trajectory | None, estimate: Trajectory) -> dict[str, Any]:
     """RTS-smooth the filter result ``res`` (recorded nodes) and evaluate it like the filter.
 
     Returns the extra :class:`FuseResult` fields plus ``"metrics"``: the :data:`TRUTH_METRICS` of the smoothed

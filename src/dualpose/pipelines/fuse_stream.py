@@ -21,16 +21,21 @@ output line of the earlier input lines was yielded.
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Iterable, Iterator
 from typing import Any
 
 import numpy as np
 
-from dualpose.estimation.eskf import ErrorStateEKF, EskfStream, initial_covariance
+from dualpose.algebra.quat import quat_rotate
+from dualpose.estimation.eskf import ErrorStateEKF, EskfStream, FrameUpdate, initial_covariance
 from dualpose.estimation.hol22 import Hol22EKF, Hol22Stream
 from dualpose.io.recording import read_sensor_setup
-from dualpose.pipelines._lines import format_numbers, parse_numbers, split_fields
-from dualpose.types import SensorRun, SensorSetup
+from dualpose.pipelines._lines import StreamTimes, format_numbers, parse_numbers, split_fields
+from dualpose.sim import SimulatedRun
+from dualpose.types import Recording, SensorSetup
+from dualpose.types._inputs import Doubt, gravity_up_problem
+from dualpose.types.recording import RecordingWarning
 
 __all__ = [
     "INPUT_FIELDS",
@@ -102,7 +107,7 @@ def format_pose(t: float, position: np.ndarray, quat: np.ndarray) -> str:
     return format_numbers([t, *position.tolist(), *quat.tolist()])
 
 
-def filter_for_setup(setup: SensorSetup | str | os.PathLike, filter: str = "eskf") -> ErrorStateEKF | Hol22EKF:
+def filter_for_setup(setup: SensorSetup | str | os.PathLike[str], filter: str = "eskf") -> ErrorStateEKF | Hol22EKF:
     """The filter of a calibration: an :class:`~dualpose.estimation.eskf.ErrorStateEKF` at the set-up's start
     (diagonal covariance of :func:`~dualpose.estimation.eskf.initial_covariance` with the start's sigmas), or Hol's
     filter started from it (:meth:`Hol22EKF.from_eskf_state <dualpose.estimation.hol22.Hol22EKF.from_eskf_state>`,
@@ -125,14 +130,14 @@ def filter_for_setup(setup: SensorSetup | str | os.PathLike, filter: str = "eskf
     return eskf if filter == "eskf" else Hol22EKF.from_eskf_state(eskf.x, eskf.P, setup)
 
 
-def stream_filter(setup: SensorSetup | str | os.PathLike, filter: str = "eskf") -> EskfStream | Hol22Stream:
+def stream_filter(setup: SensorSetup | str | os.PathLike[str], filter: str = "eskf") -> EskfStream | Hol22Stream:
     """The streaming filter (:class:`~dualpose.estimation.eskf.EskfStream` or
     :class:`~dualpose.estimation.hol22.Hol22Stream`) of :func:`filter_for_setup`."""
     f = filter_for_setup(setup, filter)
     return EskfStream(f) if isinstance(f, ErrorStateEKF) else Hol22Stream(f)
 
 
-def recording_lines(recording: SensorRun) -> list[str]:
+def recording_lines(recording: Recording | SimulatedRun) -> list[str]:
     """A recording (or simulated run) as input lines of :func:`stream_fusion_lines`, in time order (on the IMU clock,
     a frame before the IMU sample at its time), every number as its exact ``repr``.
 
@@ -165,7 +170,10 @@ def _pose_slices(stream: EskfStream | Hol22Stream) -> tuple[slice, slice, bool]:
     return L.slice("position"), L.slice("quat_be" if hol else "quat"), hol
 
 
-def stream_fusion_lines(lines: Iterable[str], stream: EskfStream | Hol22Stream, source: str = "stdin") -> Iterator[str]:
+def stream_fusion_lines(
+    lines: Iterable[str], stream: EskfStream | Hol22Stream, source: str = "stdin", rate: float | None = None,
+    gravity: Any = None,
+) -> Iterator[str]:
     """Filter the IMU and camera lines of ``lines`` and yield one output line per IMU line, as soon as it is known.
 
     Parameters
@@ -176,6 +184,13 @@ def stream_fusion_lines(lines: Iterable[str], stream: EskfStream | Hol22Stream, 
         The filter (e.g. :func:`stream_filter`), before its first sample or continuing.
     source : str
         Name of the input in error messages.
+    rate : float, optional
+        The IMU rate of the set-up (Hz, ``imu.update_rate``): gaps longer than five sample periods and stamps whose
+        spacing contradicts it are warned about (default: gaps against the median spacing of the first stamps).
+    gravity : array_like, shape (3,), optional
+        The set-up's world gravity (m/s²): the first IMU sample of a stream that has not started is refused when its
+        specific force, rotated to the world with the start attitude, is more than 90° from ``-gravity`` (the batch
+        path's check: gravity pointing up).
 
     Yields
     ------
@@ -186,10 +201,18 @@ def stream_fusion_lines(lines: Iterable[str], stream: EskfStream | Hol22Stream, 
     Raises
     ------
     ValueError
-        ``"{source} line N: ..."`` for a malformed line or an input out of time order; everything before the bad
-        line has been yielded by then.
+        ``"{source} line N: ..."`` for a malformed line, a sample beyond the plausible IMU range, an input out of time
+        order, or a state the filter cannot continue from; everything before the bad line has been yielded by then.
+
+    Warns
+    -----
+    RecordingWarning
+        Naming the line: an IMU gap, stamps that contradict ``rate``; at the end, camera frames that were never used
+        or whose correspondences the gate mostly rejected (docs/refusals.md).
     """
     ps, qs, hol = _pose_slices(stream)
+    times = StreamTimes(None if rate is None else 1.0 / rate, source, "imu.update_rate")
+    frames = _FrameUse(source)
     for lineno, line in enumerate(lines, start=1):
         try:
             item = parse_fusion_line(line)
@@ -197,10 +220,74 @@ def stream_fusion_lines(lines: Iterable[str], stream: EskfStream | Hol22Stream, 
                 continue
             kind, t, a, b = item
             if kind == "cam":
-                stream.update_camera(t, a, b)
+                frames.add(stream.update_camera(t, a, b))
                 continue
-            x = stream.update_imu(t, a, b).tolist()
+            times.check(t, lineno)
+            if gravity is not None and stream.samples == 0:
+                _check_gravity(stream, np.asarray(gravity, dtype=np.float64), b)
+            x = stream.update_imu(t, a, b)
+            if not np.isfinite(x).all():  # never a NaN line: the filter cannot go on from here
+                raise ValueError("the filter's state is not finite; it cannot continue from this sample")
+            x = x.tolist()
         except ValueError as exc:
             raise ValueError(f"{source} line {lineno}: {exc}") from None
         q = x[qs]
         yield format_numbers([t, *x[ps], *((-q[0], -q[1], -q[2], q[3]) if hol else q)])  # q_wb = conj(q^{be})
+    frames.finish(stream)
+
+
+def _check_gravity(stream: EskfStream | Hol22Stream, gravity: np.ndarray, accel: Any) -> None:
+    """Refuse a ``gravity`` that points up against the first sample's specific force ``accel`` (body frame) rotated
+    to the world with the stream's start attitude (:func:`dualpose.types._inputs.gravity_up_problem`)."""
+    _, qs, hol = _pose_slices(stream)
+    q = stream.state[qs]
+    q_wb = np.array([-q[0], -q[1], -q[2], q[3]]) if hol else q
+    f_w = quat_rotate(q_wb, np.asarray(accel, dtype=np.float64))
+    problem = gravity_up_problem(f_w, gravity, "the set-up")
+    if problem:
+        raise ValueError(problem)
+
+
+class _FrameUse:
+    """Counts what became of a stream's camera frames, and warns at the end when the camera was effectively unused:
+    most frames skipped or never filtered (their times, on the IMU clock, outside the IMU samples: a wrong clock
+    offset), or most correspondences rejected by the gate (wrong intrinsics or extrinsic)."""
+
+    def __init__(self, source: str) -> None:
+        self.source = source
+        self.open: list[FrameUpdate] = []
+        self.given = self.used = self.points = self.accepted = 0
+
+    def add(self, frame: FrameUpdate) -> None:
+        self.given += 1
+        self.open.append(frame)
+        if len(self.open) > 64:
+            self._settle()
+
+    def _settle(self) -> None:
+        keep = []
+        for f in self.open:
+            if f.status == "pending":
+                keep.append(f)
+            elif f.status == "done":
+                self.used += 1
+                self.points += len(f.accepted_flags)
+                self.accepted += int(f.accepted_flags.sum())
+        self.open = keep
+
+    def finish(self, stream: EskfStream | Hol22Stream) -> None:
+        self._settle()
+        if not self.given:
+            return
+        unused = self.given - self.used
+        if unused > self.given // 2:
+            d = Doubt("camera_unused", f"{self.source}: {unused} of the {self.given} camera frames were never used "
+                      "(stamped, on the IMU clock, outside the IMU samples): check the camera time offset "
+                      "(timeshift_cam_imu) and the stamps' clock")  # fmt: skip
+        elif self.points >= 20 and self.accepted < 0.5 * self.points:
+            d = Doubt("camera_rejected", f"{self.source}: the χ² gate rejected {self.points - self.accepted} of "
+                      f"{self.points} correspondences: check the camera intrinsics, the extrinsic q_bc / p_bc and "
+                      "pixel_sigma")  # fmt: skip
+        else:
+            return
+        warnings.warn(d.message, RecordingWarning, stacklevel=3)

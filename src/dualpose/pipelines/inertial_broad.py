@@ -18,13 +18,13 @@ from pathlib import Path
 import numpy as np
 
 import dualpose as dp
-from dualpose.inertial.integrate import integrate_attitude
+from dualpose.inertial.integrate import Family, integrate_attitude
 from dualpose.io.broad import BroadTrial, load_broad
 
 __all__ = ["ALGORITHMS", "window_errors", "broad_table"]
 
 #: (label, samples, coefficients)
-ALGORITHMS = (
+ALGORITHMS: tuple[tuple[str, int, Family], ...] = (
     ("1-sample", 1, "coning-optimal"),
     ("one-plus-previous", 1, "one-plus-previous"),
     ("2-sample", 2, "coning-optimal"),
@@ -44,7 +44,7 @@ def window_errors(trial: BroadTrial, window: float = 10.0, remove_bias: bool = T
     mov = np.flatnonzero(trial.movement)
     stop = mov[-1] + 1 if mov.size else 0
     starts = [s for s in range(start, stop - n + 1, n) if np.isfinite(trial.quat[[s, s + n]]).all()]
-    out: dict[str, list[float]] = {label: [] for label, _, _ in ALGORITHMS} | {"spread": []}
+    out: dict[str, np.ndarray] = {label: np.zeros(0) for label, _, _ in ALGORITHMS} | {"spread": np.zeros(0)}
     if not starts:
         return {k: np.array(v) for k, v in out.items()}
     q0 = trial.quat[starts]

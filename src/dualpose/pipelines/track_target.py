@@ -36,17 +36,20 @@ from __future__ import annotations
 import math
 import os
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from scipy.stats import chi2
 
 import dualpose as dp
 from dualpose.estimation import initialization
+from dualpose.estimation._fusion_stream import BlockResult, FrameUpdate
 from dualpose.estimation.eskf import EskfStream, InnovationReport
 from dualpose.estimation.hol22 import Hol22Stream
-from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
+from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE, StateLayout
 from dualpose.evaluation.target_reference import (
     CameraPoses,
     body_trajectory,
@@ -63,7 +66,8 @@ from dualpose.pipelines.fuse_stream import parse_fusion_line
 from dualpose.registration.pnp import PnPResult, solve_pnp_ransac
 from dualpose.types import FilterStart, ImuNoise, Recording, SensorSetup, Trajectory
 from dualpose.types.calibration import CameraImuCalibration
-from dualpose.types.target import TargetDetections
+from dualpose.types.camera_models import DistortedCamera
+from dualpose.types.target import RigSensors, TargetDetections
 
 __all__ = [
     "EUROC_T_BS",
@@ -108,25 +112,30 @@ EUROC_T_BS = EUROC_KALIBR_T_BS
 MEMS_SCALE_SIGMAS = (0.005, 0.005)
 
 
-def track_imu_noise(rig, scale_sigmas: tuple[float, float] | str = (0.0, 0.0)) -> ImuNoise:
+def track_imu_noise(rig: RigSensors, scale_sigmas: tuple[float, float] | str = (0.0, 0.0)) -> ImuNoise:
     """The IMU noise the tracking filters use: the rig's densities and random walks as stated (``sensors.yaml``), its
     rate, and the scale-factor uncertainties ``scale_sigmas = (ε_g, ε_a)`` (``ImuNoise.gyroscope_scale_sigma``,
     ``accelerometer_scale_sigma``; ``"mems"`` for :data:`MEMS_SCALE_SIGMAS`; default none, Kalibr's noise model)."""
-    eg, ea = MEMS_SCALE_SIGMAS if isinstance(scale_sigmas, str) and scale_sigmas == "mems" else scale_sigmas
+    bad = f"scale_sigmas must be two finite numbers >= 0 (or 'mems'); got {scale_sigmas!r}"
+    if isinstance(scale_sigmas, str) and scale_sigmas != "mems":
+        raise ValueError(bad)
+    eg, ea = MEMS_SCALE_SIGMAS if isinstance(scale_sigmas, str) else scale_sigmas
     if not (math.isfinite(eg) and math.isfinite(ea) and eg >= 0 and ea >= 0):
-        raise ValueError(f"scale_sigmas must be two finite numbers >= 0 (or 'mems'); got {scale_sigmas!r}")
+        raise ValueError(bad)
     n = rig.imu_noise
+    if n is None:
+        raise ValueError(f"{rig.path}: no IMU noise densities (imu0) in the sensor file")
     rate = rig.imu_rate if math.isfinite(rig.imu_rate) else n.update_rate
     return replace(n, update_rate=rate, gyroscope_scale_sigma=float(eg), accelerometer_scale_sigma=float(ea))
 
 
-def extrinsic_from_matrix(T: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+def extrinsic_from_matrix(T: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """``(q_bc (4,) xyzw, p_bc (3,) m)`` of a row-major 4 x 4 pose of the camera in the body frame."""
     M = np.asarray(T, dtype=np.float64).reshape(4, 4)
-    return dp.quat_from_matrix(M[:3, :3]), M[:3, 3].copy()
+    return dp.quat_from_matrix(M[:3, :3]), np.copy(M[:3, 3], order="C")
 
 
-def ideal_pixel_sigma(camera, sigma_px: float, grid: tuple[int, int] = (32, 20)) -> float:
+def ideal_pixel_sigma(camera: DistortedCamera, sigma_px: float, grid: tuple[int, int] = (32, 20)) -> float:
     """The noise σ of ideal (undistorted pinhole) pixels for measured-pixel noise ``sigma_px``.
 
     The ideal pixel of a measured pixel ``m`` is ``K · undistort(K⁻¹ m)``; its Jacobian is
@@ -163,7 +172,7 @@ class StartUp:
     gyro_bias_from: str
     accel_bias_from: str
 
-    def summary(self, calibration: CameraImuCalibration) -> dict:
+    def summary(self, calibration: CameraImuCalibration) -> dict[str, Any]:
         """JSON-ready start-up report (gravity, its σ and magnitude check, biases, angle to the calibration's)."""
         a = self.alignment
         out = {
@@ -197,17 +206,18 @@ class TrackSetup:
     calibration: CameraImuCalibration
     camera: str
     detections: TargetDetections
-    cache: dict = field(default_factory=dict, repr=False)
+    cache: dict[str | tuple[str, str], Any] = field(default_factory=dict, repr=False)
 
 
 def _mean_sigma(cov: np.ndarray) -> np.ndarray:
-    return np.sqrt(np.trace(cov, axis1=-2, axis2=-1) / 3.0)
+    sigma: NDArray[np.float64] = np.sqrt(np.trace(cov, axis1=-2, axis2=-1) / 3.0)
+    return sigma
 
 
 def startup(
-    t: np.ndarray, gyro: np.ndarray, accel: np.ndarray, det: TargetDetections, camera,
+    t: np.ndarray, gyro: np.ndarray, accel: np.ndarray, det: TargetDetections, camera: DistortedCamera,
     calibration: CameraImuCalibration,
-    imu_noise, gravity_magnitude: float,
+    imu_noise: ImuNoise, gravity_magnitude: float,
 ) -> StartUp:
     """The filter start from the first :data:`STARTUP_SECONDS` of frames (module docstring).
 
@@ -236,10 +246,9 @@ def startup(
         raise ValueError(f"only {int(good.sum())} usable frames in the start-up window of {STARTUP_SECONDS:g} s")
     q_bc, p_bc = calibration.rotation_xyzw, calibration.translation_m
     body = body_trajectory(poses, q_bc, p_bc, tau, mask=good)
-    cov_body = [initialization.body_pose_from_camera(
+    cov_body = np.array([initialization.body_pose_from_camera(
         PnPResult(poses.q_wc[i], poses.c_w[i], poses.covariance[i], float(poses.rms_px[i]), 0), q_bc, p_bc)[2]
-        for i in np.flatnonzero(good)]  # fmt: skip
-    cov_body = np.array(cov_body)
+        for i in np.flatnonzero(good)])  # fmt: skip
     n = imu_noise
     al = initialization.align_with_camera_poses(
         t, gyro, accel, body.stamps, body.positions, body.quats, gravity_magnitude,
@@ -289,8 +298,8 @@ def _frames_outside(det: TargetDetections, outages: Sequence[tuple[float, float]
 
 
 def prepare_track(
-    data: str | os.PathLike | TargetRecording,
-    calibration: str | os.PathLike | CameraImuCalibration,
+    data: str | os.PathLike[str] | TargetRecording,
+    calibration: str | os.PathLike[str] | CameraImuCalibration,
     camera: str = "cam0",
     outages: Sequence[tuple[float, float]] = (),
     scale_sigmas: tuple[float, float] | str = (0.0, 0.0),
@@ -354,7 +363,8 @@ RELOCK_VELOCITY_SIGMA = 1.0
 
 
 def relock_start(
-    state: dict, gyro: np.ndarray, dt: float, pixels: np.ndarray, points: np.ndarray, rec: Recording
+    state: dict[str, Any], gyro: np.ndarray, dt: float, pixels: np.ndarray, points: np.ndarray,
+    rec: Recording | SensorSetup,
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """The error-state start ``(x (16,), P (15, 15))`` that re-locks a filter on a frame it rejected.
 
@@ -413,18 +423,20 @@ class TrackedRun:
     accepted: np.ndarray
     bounds: tuple[float, float]
     gate: float
-    relocks: list
+    relocks: list[float]
     wall_time: float
 
 
-def _new_stream(filter: str, sensors, x: np.ndarray, P: np.ndarray):
+def _new_stream(
+    filter: str, sensors: Recording | SensorSetup, x: np.ndarray, P: np.ndarray
+) -> EskfStream | Hol22Stream:
     """The streaming filter (:class:`~dualpose.estimation.eskf.EskfStream` / ``Hol22Stream``) of ``filter`` for
     ``sensors`` (a Recording or SensorSetup) started from the error-state ``(x, P)``."""
     f = FILTERS[filter](sensors, x, P)
     return EskfStream(f) if filter == "eskf" else Hol22Stream(f)
 
 
-def _filter_state(layout, x: np.ndarray, C: np.ndarray) -> dict:
+def _filter_state(layout: StateLayout, x: np.ndarray, C: np.ndarray) -> dict[str, Any]:
     """A stream's state ``x`` and covariance ``C`` (its ``state_layout``) in the error-state filter's terms (for
     :func:`relock_start`)."""
     hol = "quat_be" in layout.names
@@ -436,7 +448,10 @@ def _filter_state(layout, x: np.ndarray, C: np.ndarray) -> dict:
             "accel_bias_cov": cl.cov(C, "accel_bias").copy()}  # fmt: skip
 
 
-def _relocked(state, done: list, t: float, gyro, accel, sensors, filter: str):
+def _relocked(
+    state: Callable[[], dict[str, Any]], done: list[FrameUpdate], t: float, gyro: ArrayLike, accel: ArrayLike,
+    sensors: Recording | SensorSetup, filter: str,
+) -> EskfStream | Hol22Stream | None:
     """After the IMU sample ``(t, gyro, accel)`` with the filter in ``state`` (a callable giving
     :func:`_filter_state`'s dict): the first of the frames ``done`` (FrameUpdates filtered at that sample, in order)
     that the filter lost and that re-locks gives a new stream, started from :func:`relock_start` and fed that sample
@@ -476,7 +491,11 @@ def run_relocking(rec: Recording, x: np.ndarray, P: np.ndarray, filter: str = "e
     starts = np.flatnonzero(np.diff(np.r_[-1, k_of]) != 0)  # first frame of each run of equal k_of
     starts = starts[k_of[starts] < n]  # frames after the last sample are never filtered
     ends = np.r_[starts[1:], np.searchsorted(k_of, n)] if len(starts) else starts
-    X, C, nis, acc, relocks = [], [], [], [], []
+    Xs: list[np.ndarray] = []
+    Cs: list[np.ndarray] = []
+    nis: list[np.ndarray] = []
+    acc: list[np.ndarray] = []
+    relocks: list[float] = []
     i, g, wall = 0, 0, 0.0
     o = f.offsets
     while g < len(starts):
@@ -487,23 +506,28 @@ def run_relocking(rec: Recording, x: np.ndarray, P: np.ndarray, filter: str = "e
         blk = stream.update_batch(t[i : k_last + 1], gyro[i : k_last + 1], accel[i : k_last + 1], f.t[f0:f1],
                                   o[f0 : f1 + 1] - o[f0], f.pixels[o[f0] : o[f1]], f.points[o[f0] : o[f1]],
                                   covariance=True)  # fmt: skip
+        cov = blk.covariance
+        assert cov is not None  # covariance=True
         keep_rows, keep_frames, fresh = len(blk.states), f1 - f0, None
         for q in range(g, h):
             k = int(k_of[starts[q]])
             row = k - i
             done = blk.frames[starts[q] - f0 : ends[q] - f0]
-            fresh = _relocked(lambda b=blk, r=row: _filter_state(L, b.states[r], b.covariance[r]), done,
-                              float(t[k]), gyro[k], accel[k], rec, filter)  # fmt: skip
+
+            def state_at(b: BlockResult = blk, c: np.ndarray = cov, r: int = row) -> dict[str, Any]:
+                return _filter_state(L, b.states[r], c[r])
+
+            fresh = _relocked(state_at, done, float(t[k]), gyro[k], accel[k], rec, filter)
             if fresh is not None:
                 keep_rows, keep_frames = row + 1, ends[q] - f0
                 blk.states[row] = fresh.state
-                blk.covariance[row] = fresh.covariance
+                cov[row] = fresh.covariance
                 relocks.append(float(t[k]))
                 stream, h = fresh, q + 1
                 break
         wall += time.perf_counter() - t0
-        X.append(blk.states[:keep_rows])
-        C.append(blk.covariance[:keep_rows])
+        Xs.append(blk.states[:keep_rows])
+        Cs.append(cov[:keep_rows])
         for fu in blk.frames[:keep_frames]:
             nis.append(fu.nis)
             acc.append(fu.accepted)
@@ -512,9 +536,10 @@ def run_relocking(rec: Recording, x: np.ndarray, P: np.ndarray, filter: str = "e
         t0 = time.perf_counter()
         blk = stream.update_batch(t[i:], gyro[i:], accel[i:], covariance=True)
         wall += time.perf_counter() - t0
-        X.append(blk.states)
-        C.append(blk.covariance)
-    X, C = np.concatenate(X), np.concatenate(C)
+        assert blk.covariance is not None  # covariance=True
+        Xs.append(blk.states)
+        Cs.append(blk.covariance)
+    X, C = np.concatenate(Xs), np.concatenate(Cs)
     quat = dp.quat_conj(L.get(X, "quat_be")) if hol else L.get(X, "quat")
     att = None if hol else np.degrees(np.sqrt(np.trace(cov_layout.cov(C, "attitude"), axis1=1, axis2=2)))
     return TrackedRun(
@@ -532,7 +557,7 @@ def run_track(
     reference_camera: str | None = None,
     outages: Sequence[tuple[float, float]] = (),
     progress: Callable[[int, int, str], None] | None = None,
-    reference_extrinsics: Mapping[str, Sequence[float]] = EUROC_T_BS,
+    reference_extrinsics: Mapping[str, ArrayLike] = EUROC_T_BS,
 ) -> FuseResult:
     """Run ``filter`` on a :func:`prepare_track` set-up and score it against the other camera's reference.
 
@@ -596,7 +621,7 @@ def run_track(
     )  # fmt: skip
 
 
-def _reference_camera(setup: TrackSetup, name: str | None, extrinsics: Mapping) -> str | None:
+def _reference_camera(setup: TrackSetup, name: str | None, extrinsics: Mapping[str, ArrayLike]) -> str | None:
     if name is not None:
         if name not in setup.source.detections:
             raise RecordingError(f"{setup.source.path}: no detections of reference camera {name!r}; available: "
@@ -614,8 +639,8 @@ def score_run(
     position_covariance: np.ndarray | None = None,
     reference_camera: str | None = None,
     outages: Sequence[tuple[float, float]] = (),
-    reference_extrinsics: Mapping[str, Sequence[float]] = EUROC_T_BS,
-) -> dict:
+    reference_extrinsics: Mapping[str, ArrayLike] = EUROC_T_BS,
+) -> dict[str, Any]:
     """Scores of ``estimate`` (body poses in the target frame at the IMU times) against the reference camera.
 
     Returns ``{"metrics": {...}, "truth": ..., "position_error": ..., "orientation_error_deg": ...,
@@ -680,7 +705,9 @@ def score_run(
     }  # fmt: skip
 
 
-def _reference_position_covariance(poses: CameraPoses, q_bc: np.ndarray, p_bc: np.ndarray):
+def _reference_position_covariance(
+    poses: CameraPoses, q_bc: np.ndarray, p_bc: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Body position covariance (P, 3, 3) of reference poses: ``δp = δc + R_wb [p_bc]× R_bc δθ_c``."""
     R_bc = dp.matrix_from_quat(q_bc)
     q_wb = dp.quat_mul(poses.q_wc, dp.quat_conj(q_bc))
@@ -692,7 +719,7 @@ def _reference_position_covariance(poses: CameraPoses, q_bc: np.ndarray, p_bc: n
 
 
 def imu_only(setup: TrackSetup, seconds: Sequence[float] = (1.0, 5.0),
-             reference_extrinsics: Mapping[str, Sequence[float]] = EUROC_T_BS) -> dict:
+             reference_extrinsics: Mapping[str, ArrayLike] = EUROC_T_BS) -> dict[str, Any]:
     """The filter's start propagated with the IMU alone (no frame): position and rotation RMSE against the reference
     over the first ``seconds`` after the start, for comparison with the tracked run."""
     rec = setup.recording
@@ -700,7 +727,7 @@ def imu_only(setup: TrackSetup, seconds: Sequence[float] = (1.0, 5.0),
     res = FILTERS["eskf"](blind, setup.start.x, setup.start.P).run_recording(blind)
     est = Trajectory(res.t, res.position, res.quat, rec.stamps_ns)
     sc = score_run(setup, est, reference_extrinsics=reference_extrinsics)
-    out = {}
+    out: dict[str, Any] = {}
     if sc["truth"] is None:
         return dict.fromkeys(f"{s:g}s" for s in seconds)
     rel = sc["truth"].stamps - rec.t[0]
@@ -730,7 +757,7 @@ class TrackStream:
     filter : {"eskf", "hol22"}.  scale_sigmas : as :func:`prepare_track`.
     """
 
-    def __init__(self, rig, camera: str, calibration: CameraImuCalibration, filter: str = "eskf",
+    def __init__(self, rig: RigSensors, camera: str, calibration: CameraImuCalibration, filter: str = "eskf",
                  scale_sigmas: tuple[float, float] | str = (0.0, 0.0)) -> None:
         if filter not in FILTERS:
             raise ValueError(f"filter must be one of {tuple(FILTERS)}; got {filter!r}")
@@ -744,16 +771,21 @@ class TrackStream:
         self.noise = track_imu_noise(rig, scale_sigmas)
         self.gravity_magnitude = rig.gravity_magnitude if math.isfinite(rig.gravity_magnitude) else 9.81
         self.pixel_sigma = ideal_pixel_sigma(self.model, calibration.reprojection_rms_px)
-        self._imu: list[tuple[float, list, list]] = []
+        self._imu: list[tuple[float, list[float], list[float]]] = []
         self._cams: list[tuple[float, np.ndarray, np.ndarray]] = []
         self._t_first: float | None = None  # IMU time of the first usable frame
-        self._stream = None
-        self._setup = None
-        self._frames: list = []  # (FrameUpdate, camera stamp) queued in the current stream
+        self._stream: EskfStream | Hol22Stream | None = None
+        self._setup: SensorSetup | None = None
+        self._frames: list[tuple[FrameUpdate, float]] = []  # (FrameUpdate, camera stamp) queued in the current stream
         self.relocks: list[float] = []  # IMU times of the re-locks
         self.start: StartUp | None = None
 
-    def _sensor_setup(self):
+    def _running(self) -> EskfStream | Hol22Stream:
+        assert self._stream is not None  # started by _begin
+        return self._stream
+
+    def _sensor_setup(self) -> SensorSetup:
+        assert self.start is not None  # the start-up ran
         cal = self.calibration
         return SensorSetup(camera=self.model.pinhole(), q_bc=cal.rotation_xyzw, p_bc=cal.translation_m,
                            pixel_sigma=self.pixel_sigma, imu_noise=self.noise, start=FilterStart(np.zeros(3),
@@ -761,21 +793,22 @@ class TrackStream:
                            gravity=self.start.alignment.gravity)  # fmt: skip
 
     def _pose(self, t: float, x: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-        L = self._stream.state_layout
+        L = self._running().state_layout
         if "quat_be" in L.names:
             return t, L.get(x, "position"), dp.quat_conj(L.get(x, "quat_be"))
         return t, L.get(x, "position"), L.get(x, "quat")
 
     def _camera(self, t: float, raw: np.ndarray, points: np.ndarray) -> None:
         ideal = self.model.ideal_pixels(raw) if len(raw) else np.zeros((0, 2))
-        self._frames.append((self._stream.update_camera(t, ideal, points), t))
+        self._frames.append((self._running().update_camera(t, ideal, points), t))
 
-    def _imu_step(self, t: float, g, a) -> tuple[float, np.ndarray, np.ndarray]:
-        x = self._stream.update_imu(t, g, a)
+    def _imu_step(self, t: float, g: ArrayLike, a: ArrayLike) -> tuple[float, np.ndarray, np.ndarray]:
+        st = self._running()
+        x = st.update_imu(t, g, a)
         done = [fu for fu, _ in self._frames if fu.status != "pending"]
         pending = [(fu, tc) for fu, tc in self._frames if fu.status == "pending"]
         self._frames = pending
-        st = self._stream
+        assert self._setup is not None  # made with the stream
         fresh = _relocked(lambda: _filter_state(st.state_layout, st.state, st.covariance), done, t,
                           np.asarray(g, dtype=np.float64), np.asarray(a, dtype=np.float64), self._setup,
                           self.filter)  # fmt: skip
@@ -786,7 +819,7 @@ class TrackStream:
             self.relocks.append(t)
         return self._pose(t, x)
 
-    def _begin(self) -> list:
+    def _begin(self) -> list[tuple[float, np.ndarray, np.ndarray]]:
         """Run the start-up on the buffered inputs and filter them; the poses from the start sample on."""
         from dualpose.types.target import TargetDetections
 
@@ -818,13 +851,13 @@ class TrackStream:
         self._imu, self._cams = [], []
         return out
 
-    def update(self, kind: str, t: float, a, b) -> list:
+    def update(self, kind: str, t: float, a: ArrayLike, b: ArrayLike) -> list[tuple[float, np.ndarray, np.ndarray]]:
         """One input (``"imu", t, gyro, accel`` or ``"cam", t, raw pixels (n, 2), points (n, 3)``); returns the
         ``(t, position (3,), q_wb (4,))`` poses it completes (none while the start-up window is read).  IMU samples
         go through the calibration's axis models first
         (:meth:`~dualpose.types.calibration.CameraImuCalibration.corrected_imu`)."""
         if kind != "cam":
-            a, b = self.calibration.corrected_imu(a, b)
+            a, b = self.calibration.corrected_imu(np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64))
         if self._stream is not None:
             if kind == "cam":
                 self._camera(t, np.asarray(a, dtype=np.float64).reshape(-1, 2), np.asarray(b, dtype=np.float64))
@@ -840,12 +873,12 @@ class TrackStream:
                     t + self.calibration.time_offset_s >= self._imu[0][0]:
                 self._t_first = t + self.calibration.time_offset_s
             return []
-        self._imu.append((t, list(a), list(b)))
+        self._imu.append((t, np.asarray(a, dtype=np.float64).tolist(), np.asarray(b, dtype=np.float64).tolist()))
         if self._t_first is not None and t > self._t_first + STARTUP_SECONDS:
             return self._begin()
         return []
 
-    def finish(self) -> list:
+    def finish(self) -> list[tuple[float, np.ndarray, np.ndarray]]:
         """At the end of the input: the start-up on what was read if it has not run yet (and its poses)."""
         return self._begin() if self._stream is None and self._imu else []
 
@@ -868,7 +901,7 @@ def target_recording_lines(recording: TargetRecording, camera: str = "cam0", tim
     return [it[2] for it in items]
 
 
-def stream_track_lines(lines, stream: TrackStream, source: str = "stdin"):
+def stream_track_lines(lines: Iterable[str], stream: TrackStream, source: str = "stdin") -> Iterator[str]:
     """:func:`dualpose.pipelines.fuse_stream.stream_fusion_lines` for a :class:`TrackStream`: yields one
     ``t, px, py, pz, qx, qy, qz, qw`` line per IMU line from the start sample on (module docstring of
     :class:`TrackStream`); ``ValueError("{source} line N: ...")`` for a malformed line."""

@@ -15,6 +15,7 @@ import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, Literal
 
 import numpy as np
 
@@ -45,26 +46,27 @@ class VioRun:
     recording: TrackRecording
     result: VioResult
     estimate: Trajectory
-    metrics: dict
+    metrics: dict[str, Any]
     truth: Trajectory | None
 
 
-def is_track_data(path: str | os.PathLike) -> bool:
+def is_track_data(path: str | os.PathLike[str]) -> bool:
     """Whether ``path`` is feature-track data ``dualpose fuse`` runs the VIO on (the EqVIO replay CSV)."""
     return os.path.isfile(path) and is_eqvio_csv(path)
 
 
-def vio_metrics(truth: Trajectory, estimate: Trajectory) -> dict:
+def vio_metrics(truth: Trajectory, estimate: Trajectory) -> dict[str, Any]:
     """ATE, orientation RMSE after the 4-DoF (``posyaw``) and SE(3) alignments, final position error (4-DoF
     aligned) in m and in percent of the ground-truth path length over the matched poses."""
-    out: dict = {}
-    for name, align in (("4dof", "posyaw"), ("se3", "se3")):
-        ev = evaluate(truth, estimate, align=align, max_diff=MAX_DIFF)
+    out: dict[str, Any] = {}
+    aligns: tuple[tuple[str, Literal["posyaw", "se3"]], ...] = (("4dof", "posyaw"), ("se3", "se3"))
+    for name, align in aligns:
+        ev = evaluate(truth, estimate, align=align, max_diff=MAX_DIFF, undetermined="warn")  # flagged, not refused
         out[f"ate_rmse_{name}_m"] = float(ev.ate_stats.rmse)
         out[f"orientation_rmse_{name}_deg"] = float(ev.orientation_stats.rmse)
     ir, ie = associate(truth.stamps, estimate.stamps, MAX_DIFF, 0.0)
     p_ref = truth.positions[ir]
-    al = posyaw_alignment(p_ref, estimate.positions[ie])
+    al = posyaw_alignment(p_ref, estimate.positions[ie], "warn")
     p_est, _ = al.apply(estimate.positions[ie], estimate.quats[ie])
     path = float(np.sum(np.linalg.norm(np.diff(p_ref, axis=0), axis=1)))
     final = float(np.linalg.norm(p_est[-1] - p_ref[-1]))
@@ -73,7 +75,7 @@ def vio_metrics(truth: Trajectory, estimate: Trajectory) -> dict:
     return out
 
 
-def run_vio(data: str | os.PathLike | TrackRecording, truth: str | os.PathLike | Trajectory | None = None,
+def run_vio(data: str | os.PathLike[str] | TrackRecording, truth: str | os.PathLike[str] | Trajectory | None = None,
             options: MsckfOptions | None = None, pixel_sigma: float = PIXEL_SIGMA) -> VioRun:  # fmt: skip
     """Run the MSCKF on feature-track ``data`` (an EqVIO replay CSV or a :class:`~dualpose.types.TrackRecording`),
     scored against ``truth`` (a trajectory file any :func:`~dualpose.io.read_trajectory` format reads, e.g. EuRoC
@@ -93,7 +95,7 @@ def run_vio(data: str | os.PathLike | TrackRecording, truth: str | os.PathLike |
     after = res.t >= res.t_start
     est = Trajectory(res.t[after] + rec.t0, res.position[after], res.quat[after], name="msckf")
     duration = float(rec.t[-1] - rec.t[k])
-    metrics: dict = {
+    metrics: dict[str, Any] = {
         "data": rec.name, "estimator": "msckf", "start_s": float(rec.t[k]), "rest_s": float(rec.t[k] - rec.t[0]),
         "features_used": res.n_used, "features_gated": res.n_gated, "features_failed": res.n_failed,
         "slam_features": f.n_slam_init,
@@ -109,7 +111,7 @@ def run_vio(data: str | os.PathLike | TrackRecording, truth: str | os.PathLike |
     return VioRun(rec, res, est, metrics, gt)
 
 
-def trajectory_figure(run: VioRun, path: str | os.PathLike) -> None:
+def trajectory_figure(run: VioRun, path: str | os.PathLike[str]) -> None:
     """Top view (x–y) of the estimate, 4-DoF-aligned to the ground truth when there is one, over the ground truth;
     PNG at 90 dpi (a few tens of kB)."""
     import matplotlib

@@ -12,7 +12,11 @@
 ``REFLECTION`` (17)    ``d = sign det(...)`` of the reflection guard (``svd`` only, else 0)
 ``UNIQUE`` (18)        1 if the optimal rotation is unique (gap above tolerance), else 0
 ``CLOSED_FORM`` (19)   1 if the closed-form eigen-solve was accepted, 0 if the Jacobi iteration decided
-``GAP_TOLERANCE`` (22) the gap tolerance used (20, 21 unused)
+``POINT_EXPONENT`` (20) ``e``: the kernel solved on the centred points scaled exactly by ``2**e`` (0 for spreads
+                       whose squared moments are ordinary; else the power of two that brings the largest centred
+                       coordinate near 1, so points at 1e-200 or 1e200 solve as at 1).  Reported values are in the
+                       input's units.
+``GAP_TOLERANCE`` (22) the gap tolerance used (21 unused)
 ``POINT_COST`` (23)    the point part of the cost, ``Σβ‖r_i‖²``
 ``BAD_INPUT`` (24)     0, or ``1 + index`` into ``BAD_INPUT_NAMES`` of the first input holding NaN or infinity, or
                        ``len(BAD_INPUT_NAMES) + 1`` when finite inputs overflow the moments (nothing else is set)
@@ -27,8 +31,8 @@ from __future__ import annotations
 
 ROW_SIZE = 25
 QUAT_AT, TRANSLATION_AT, EIGENVALUES_AT, SINGULAR_AT = 0, 4, 9, 14
-SCALE, COST, EIGEN_GAP, REFLECTION, UNIQUE, CLOSED_FORM, GAP_TOLERANCE, POINT_COST, BAD_INPUT = (
-    7, 8, 13, 17, 18, 19, 22, 23, 24,
+SCALE, COST, EIGEN_GAP, REFLECTION, UNIQUE, CLOSED_FORM, POINT_EXPONENT, GAP_TOLERANCE, POINT_COST, BAD_INPUT = (
+    7, 8, 13, 17, 18, 19, 20, 22, 23, 24,
 )  # fmt: skip
 QUAT = slice(QUAT_AT, QUAT_AT + 4)
 TRANSLATION = slice(TRANSLATION_AT, TRANSLATION_AT + 3)

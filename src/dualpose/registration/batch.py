@@ -64,10 +64,13 @@ class PoseBatch:
         bsum = self._data[2].sum(axis=-1)
         asum = self._data[5].sum(axis=-1)
         pts = np.sqrt(np.maximum(self._rows[:, R.POINT_COST], 0.0) / np.where(bsum > 0, bsum, 1.0))
-        dir_cost = np.maximum(self._rows[:, R.COST] - self._rows[:, R.POINT_COST], 0.0)
+        with np.errstate(invalid="ignore"):  # inf - inf where huge coordinates overflow the cost (point rows)
+            dir_cost = np.maximum(self._rows[:, R.COST] - self._rows[:, R.POINT_COST], 0.0)
         dirs = np.sqrt(dir_cost / np.where(asum > 0, asum, 1.0))
-        result: NDArray[np.float64] = np.where(bsum > 0, pts, dirs)
-        return result
+        out: NDArray[np.float64] = np.where(bsum > 0, pts, dirs)
+        for i in np.flatnonzero(self._rows[:, R.POINT_EXPONENT] != 0):  # extreme spreads only (rare)
+            out[i] = self[int(i)].rmsd
+        return out
 
     @property
     def rotation_matrix(self) -> NDArray[np.float64]:

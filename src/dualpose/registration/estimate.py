@@ -28,7 +28,8 @@ _BAD_INPUT = R.BAD_INPUT_NAMES
 def bad_input_message(code: float) -> str:
     """The error for a non-zero result-row code ``row[BAD_INPUT]`` of the solver (see ``_row``)."""
     if int(code) == len(_BAD_INPUT) + 1:
-        return "the weighted second moments overflow (coordinates of about 1e150 or more): rescale the inputs"
+        return ("the weighted second moments overflow (the weighted centroid sums exceed the largest double, "
+                "~1.8e308): rescale the inputs")  # fmt: skip
     return f"{_BAD_INPUT[int(code) - 1]} contains NaN or infinity"
 
 #: relative size (squared length, against the largest model scatter eigenvalue: a relative thickness of ~1e-5)
@@ -126,13 +127,24 @@ class PoseEstimate:
     )
 
     @property
+    def point_exponent(self) -> int:
+        """``e``: the solver worked on the centred points times ``2**e`` (0 unless their spread is extreme)."""
+        return int(self._row[R.POINT_EXPONENT])
+
+    def _scaled_scatter_eigenvalues(self) -> NDArray[np.float64]:
+        """The scatter eigenvalues of the centred points times ``2**e`` (and direction weights times ``2**(2e)``),
+        ``e`` = :attr:`point_exponent`: no underflow or overflow at any magnitude."""
+        p0, _, beta, n0, _, alpha = self._data
+        e = self.point_exponent
+        c = beta @ p0 / beta.sum() if beta.sum() > 0 else np.zeros(3)
+        d = np.ldexp(p0 - c, e)
+        m = np.einsum("n,ni,nj->ij", beta, d, d) + np.einsum("n,ni,nj->ij", np.ldexp(alpha, 2 * e), n0, n0)
+        return np.asarray(np.linalg.eigvalsh(m)[::-1], dtype=np.float64)
+
+    @property
     def scatter_eigenvalues(self) -> NDArray[np.float64]:
         """Eigenvalues (3,), descending, of the model scatter ``Σβ p⁰'p⁰'ᵀ + Σα n⁰n⁰ᵀ`` (centred points)."""
-        p0, _, beta, n0, _, alpha = self._data
-        c = beta @ p0 / beta.sum() if beta.sum() > 0 else np.zeros(3)
-        d = p0 - c
-        m = np.einsum("n,ni,nj->ij", beta, d, d) + np.einsum("n,ni,nj->ij", alpha, n0, n0)
-        return np.linalg.eigvalsh(m)[::-1]
+        return np.asarray(np.ldexp(self._scaled_scatter_eigenvalues(), -2 * self.point_exponent), dtype=np.float64)
 
     @property
     def singular_values(self) -> NDArray[np.float64] | None:
@@ -153,6 +165,10 @@ class PoseEstimate:
     def rmsd(self) -> float:
         """Weighted RMS point residual ``sqrt(Σβ‖r_i‖² / Σβ)`` (directions only: the same over directions)."""
         bsum = float(self._data[2].sum())
+        e = self.point_exponent
+        if bsum > 0 and e != 0:  # extreme spread: the residuals' squares in exactly rescaled units
+            r = np.ldexp(self.point_residuals, e)
+            return float(np.ldexp(np.sqrt(float(self._data[2] @ np.einsum("ij,ij->i", r, r)) / bsum), -e))
         if bsum > 0:
             return float(np.sqrt(max(self._row[R.POINT_COST], 0.0) / bsum))
         return float(np.sqrt(max(self._row[R.COST] - self._row[R.POINT_COST], 0.0) / float(self._data[5].sum())))
@@ -163,9 +179,11 @@ class PoseEstimate:
         if self._degeneracy is None:
             p0, p1, beta, _, _, alpha = self._data
             coord = float(max(np.abs(p0).max(initial=0.0), np.abs(p1).max(initial=0.0), 1e-300))
+            e = self.point_exponent  # classified in the solver's exactly rescaled units
             self._degeneracy = classify_degeneracy(
-                int((beta > 0).sum()), int((alpha > 0).sum()), self.rotation_unique, self.scatter_eigenvalues, coord
-            )
+                int((beta > 0).sum()), int((alpha > 0).sum()), self.rotation_unique,
+                self._scaled_scatter_eigenvalues(), float(np.ldexp(coord, e)),
+            )  # fmt: skip
         return self._degeneracy
 
     # ---- derived representations -------------------------------------------------------------------------

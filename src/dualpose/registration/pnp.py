@@ -19,7 +19,13 @@ from numpy.typing import ArrayLike, NDArray
 
 import dualpose as dp
 
-__all__ = ["PnPBatch", "PnPResult", "pnp_dlt", "pnp_refine", "solve_pnp", "solve_pnp_batch", "solve_pnp_ransac"]
+__all__ = ["PnPBatch", "PnPResult", "pnp_dlt", "pnp_refine", "solve_pnp", "solve_pnp_batch", "solve_pnp_ransac",
+           "PNP_UNDETERMINED_ROTATION_RAD"]
+
+#: a PnP pose whose rotation standard deviation (largest axis) exceeds this is refused (radians, ~11.5 deg: a pose
+#: that loose is of no use, and a solve on nearly collinear points can stop at a wrong pose whose own σ is smaller
+#: than the true one)
+PNP_UNDETERMINED_ROTATION_RAD = 0.2
 
 
 @dataclass
@@ -206,13 +212,31 @@ def solve_pnp(
     """DLT initial guess + Gauss–Newton refinement; the camera pose in the world with its covariance.
 
     Solved on the points normalised to spread ~1 (the pose and its covariance mapped back), so the scene's scale
-    does not matter; ``ValueError`` for points all at one place or on one line."""
+    does not matter.  Raises ``ValueError`` for points all at one place or on one line, and whenever the pose is not
+    determined: the Gauss–Newton normal matrix singular to float64 precision (smallest eigenvalue at most ``1e-13``
+    times the largest), or a rotation standard deviation above ``PNP_UNDETERMINED_ROTATION_RAD`` (0.2 rad, 11.5°) at
+    ``pixel_sigma`` (points nearly collinear, or a tiny target far away) -- the numbers would be fitted to the pixel
+    noise.
+    """
     pixels, world, K = _check(pixels, points, K)
     points, mu_w, r_w = _normalised(world)
-    R, t = pnp_dlt(pixels, points, K)
-    R, t, JtJ, its = pnp_refine(R, t, pixels, points, K, iterations=iterations)
+    try:
+        R, t = pnp_dlt(pixels, points, K)
+        R, t, JtJ, its = pnp_refine(R, t, pixels, points, K, iterations=iterations)
+    except np.linalg.LinAlgError:
+        raise ValueError("PnP pose is not determined: a normal matrix is singular (the points are collinear or "
+                         "coincident)") from None  # fmt: skip
     r, _ = _residuals(R, t, pixels, points, K)
+    lam = np.linalg.eigvalsh(0.5 * (JtJ + JtJ.T))
+    if not lam[0] > 1e-13 * lam[-1]:
+        raise ValueError("PnP pose is not determined: the normal matrix is singular to float64 precision (eigenvalues "
+                         f"{lam[0]:.3g} .. {lam[-1]:.3g}); the points are collinear or coincident")  # fmt: skip
     cov_lt = np.linalg.inv(JtJ) * pixel_sigma**2  # over [δφ (world→camera, left), δt], normalised points
+    rot_std = float(np.sqrt(max(np.linalg.eigvalsh(cov_lt[:3, :3])[-1], 0.0)))
+    if rot_std > PNP_UNDETERMINED_ROTATION_RAD:
+        raise ValueError(f"PnP pose is not determined: its rotation has a standard deviation of "
+                         f"{np.degrees(rot_std):.3g} deg at pixel_sigma {pixel_sigma:g} px (points nearly collinear, "
+                         "or too small in the image)")  # fmt: skip
     # R_wc = Rᵀ ← Rᵀ Exp(−δφ): camera-frame rotation error δθ_c = −δφ;
     # c = −Rᵀ t ← −(Exp(δφ) R)ᵀ (t + δt) ≈ c − Rᵀ δt − Rᵀ [t]× δφ
     Jc = np.zeros((6, 6))

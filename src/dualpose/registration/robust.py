@@ -69,9 +69,13 @@ def _residual_norms(quat: np.ndarray, trans: np.ndarray, p0: np.ndarray, p1: np.
 
     r = dp.matrix_from_quat(quat)  # (H, 3, 3)
     pred = np.einsum("hij,nj->hni", r, p0) + trans[:, None, :]
-    d = pred - p1[None]
-    result: NDArray[np.float64] = np.sqrt(np.einsum("hni,hni->hn", d, d))
-    return result
+    return _norms(pred - p1[None])
+
+
+def _norms(d: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Euclidean norms over the last axis (3) without underflow or overflow of the squares (hypot), so that
+    residuals of points at 1e-200 or 1e200 compare with a threshold in the same units."""
+    return np.asarray(np.hypot(np.hypot(d[..., 0], d[..., 1]), d[..., 2]), dtype=np.float64)
 
 
 def register_pose_ransac(
@@ -164,7 +168,7 @@ def register_pose_ransac(
     mask = _residual_norms(best[0][None], best[1][None], p0, p1)[0] <= threshold
     pose = register_pose(p0[mask], p1[mask], point_weights=beta[mask], method=method)
     for _ in range(2):  # re-derive the inliers from the refit; refit while they change
-        new = np.linalg.norm(p0 @ pose.rotation_matrix.T + pose.translation - p1, axis=1) <= threshold
+        new = _norms(p0 @ pose.rotation_matrix.T + pose.translation - p1) <= threshold
         if new.sum() < 3 or np.array_equal(new, mask):
             break
         mask = new
@@ -228,8 +232,7 @@ def register_pose_irls(
     pose = initial if initial is not None else register_pose(p0, p1, point_weights=beta, method=method)
 
     def resid(est: PoseEstimate) -> NDArray[np.float64]:
-        result: NDArray[np.float64] = np.linalg.norm(p0 @ est.rotation_matrix.T + est.translation - p1, axis=1)
-        return result
+        return _norms(p0 @ est.rotation_matrix.T + est.translation - p1)
 
     r = resid(pose)
     if c is None:

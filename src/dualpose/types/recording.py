@@ -14,11 +14,12 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
 
+from dualpose.types import _inputs
 from dualpose.types.camera import FrameCorrespondences, PinholeModel
 from dualpose.types.imu import STANDARD_GRAVITY, ImuNoise
 from dualpose.types.trajectory import Trajectory
@@ -27,17 +28,10 @@ __all__ = ["IMU_LIMITS", "NOISE_LIMITS", "FilterStart", "Recording", "RecordingW
 
 #: largest plausible IMU reading per stream (rad/s, m/s²): far above any MEMS or tactical IMU's range (±35 rad/s,
 #: ±160 m/s² are typical full scales); a larger value is a corrupt sample, not a measurement
-IMU_LIMITS = {"gyro": 1.0e3, "accel": 1.0e4}
+IMU_LIMITS = {"gyro": _inputs.IMU_LIMITS["gyro"], "accel": _inputs.IMU_LIMITS["accel"]}
 
 #: largest plausible IMU noise parameter (Kalibr units): above these the filter's covariances overflow or mean nothing
-NOISE_LIMITS = {
-    "gyroscope_noise_density": 1.0,
-    "gyroscope_random_walk": 1.0,
-    "accelerometer_noise_density": 10.0,
-    "accelerometer_random_walk": 10.0,
-    "gyroscope_initial_bias_sigma": 10.0,
-    "accelerometer_initial_bias_sigma": 100.0,
-}
+NOISE_LIMITS = _inputs.NOISE_LIMITS
 
 #: an IMU gap longer than this many nominal sample periods is reported by :meth:`Recording.check_imu_gaps`
 GAP_PERIODS = 5.0
@@ -54,11 +48,17 @@ class SensorRun(Protocol):
     correspondences, ``imu_noise``, and :meth:`sensor_options`: the filter keyword arguments of the sensor set-up.
     """
 
-    t: np.ndarray
-    gyro: np.ndarray
-    accel: np.ndarray
-    frames: FrameCorrespondences
-    imu_noise: ImuNoise
+    # read-only members: a run whose attributes are subtypes (a simulator's frames) is one too
+    @property
+    def t(self) -> np.ndarray: ...
+    @property
+    def gyro(self) -> np.ndarray: ...
+    @property
+    def accel(self) -> np.ndarray: ...
+    @property
+    def frames(self) -> FrameCorrespondences: ...
+    @property
+    def imu_noise(self) -> ImuNoise: ...
 
     def sensor_options(self) -> dict[str, Any]:
         """Keyword arguments for a filter: ``imu_noise``, ``camera``, ``q_bc``, ``p_bc``, ``pixel_sigma``,
@@ -126,30 +126,15 @@ class Recording:
     info: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        self.t = np.ascontiguousarray(self.t, dtype=np.float64)
+        self.t = _inputs.sample_times(self.t, "t")
         n = self.t.shape[0]
-        if self.t.ndim != 1 or n < 2 or not np.isfinite(self.t).all() or np.any(np.diff(self.t) <= 0):
+        if self.t.ndim != 1 or n < 2:
             raise ValueError("t must hold at least two finite, strictly increasing IMU times (N,)")
-        for name in ("gyro", "accel"):
-            a = np.ascontiguousarray(getattr(self, name), dtype=np.float64)
-            if a.shape != (n, 3):
-                raise ValueError(f"{name} must have shape ({n}, 3); got {a.shape}")
-            bad = np.flatnonzero(~np.isfinite(a).all(axis=1))
-            if bad.size:
-                k = int(bad[0])
-                raise ValueError(f"{name}: sample {k} (t = {self.t[k]:.6f} s) is not finite ({bad.size} such); drop "
-                                 "or interpolate the missing samples")  # fmt: skip
+        for name in ("gyro", "accel"):  # the IMU sample checks every path shares (docs/refusals.md)
+            a = _inputs.imu_rows(getattr(self, name), name, name, n, lambda k: f"sample {k} (t = {self.t[k]:.6f} s)")
             setattr(self, name, a)
         _check_setup(self)
-        for name, limit in IMU_LIMITS.items():
-            a = getattr(self, name)
-            big = np.flatnonzero(np.abs(a).max(axis=1) > limit)
-            if big.size:
-                k = int(big[0])
-                raise ValueError(
-                    f"{name}: sample {k} (t = {self.t[k]:.6f} s) has |value| {np.abs(a[k]).max():.3g} > {limit:g} "
-                    f"({'rad/s' if name == 'gyro' else 'm/s²'}): a corrupt sample ({big.size} such)"
-                )
+
     @property
     def duration(self) -> float:
         """``t[-1] − t[0]``, seconds."""
@@ -214,15 +199,11 @@ class Recording:
         f_w = quat_rotate(np.asarray(q_wb, dtype=np.float64), self.accel[sel].mean(axis=0))
         g = self.gravity
         nf, ng = float(np.linalg.norm(f_w)), float(np.linalg.norm(g))
-        # atan2 (not acos): accurate at small angles; a zero specific force has no direction (90 deg, as cos = 0)
-        angle = math.degrees(math.atan2(float(np.linalg.norm(np.cross(f_w, g))), float(-(f_w @ g)))) if nf else 90.0
+        angle = _inputs.gravity_angle(f_w, g)
         where = self.name or "recording"
-        if angle > 90.0:
-            raise ValueError(
-                f"{where}: gravity {g.tolist()} points up: at rest the specific force (accelerometer) rotated to the "
-                f"world is {np.round(f_w, 3).tolist()} m/s², {angle:.0f} deg from -gravity; the world z axis points up "
-                "and gravity is [0, 0, -9.81] (docs/fusion.md)"
-            )
+        problem = _inputs.gravity_up_problem(f_w, g, where)
+        if problem:
+            raise ValueError(problem)
         if angle > max_angle_deg:
             warnings.warn(f"{where}: the specific force at rest is {angle:.1f} deg from -gravity {g.tolist()}: check "
                           "the gravity vector and the scene's vertical", RecordingWarning, stacklevel=2)  # fmt: skip
@@ -233,28 +214,15 @@ class Recording:
 
 
 def _check_setup(s: Recording | SensorSetup) -> None:
-    """Check (and convert to float64 arrays) the sensor set-up fields shared by Recording and SensorSetup."""
-    s.q_bc = np.asarray(s.q_bc, dtype=np.float64)
-    s.p_bc = np.asarray(s.p_bc, dtype=np.float64)
-    if s.q_bc.shape != (4,) or s.p_bc.shape != (3,):
-        raise ValueError(f"q_bc must have shape (4,) and p_bc (3,); got {s.q_bc.shape}, {s.p_bc.shape}")
-    if not (math.isfinite(s.pixel_sigma) and s.pixel_sigma > 0):
-        raise ValueError(f"pixel_sigma must be > 0 px; got {s.pixel_sigma}")
-    s.gravity = np.asarray(s.gravity, dtype=np.float64)
-    if s.gravity.shape != (3,):
-        raise ValueError(f"gravity must have shape (3,); got {s.gravity.shape}")
-    g = float(np.linalg.norm(s.gravity)) if np.isfinite(s.gravity).all() else math.nan
-    if not 1.0 <= g <= 100.0:
-        raise ValueError(
-            f"gravity: magnitude must be in [1, 100] m/s² (9.81 on Earth); got {s.gravity.tolist()}"
-        )
-    for f in fields(s.imu_noise):
-        v = getattr(s.imu_noise, f.name)
-        hi = NOISE_LIMITS.get(f.name, 1e6)  # update_rate: Hz
-        if not (isinstance(v, (int, float)) and math.isfinite(v) and 0 <= v <= hi):
-            raise ValueError(f"imu_noise.{f.name} must be finite and in [0, {hi:g}]; got {v!r}")
-    if not s.imu_noise.update_rate > 0:
-        raise ValueError(f"imu_noise.update_rate must be > 0 Hz; got {s.imu_noise.update_rate!r}")
+    """Check (and convert to float64 arrays) the sensor set-up fields shared by Recording and SensorSetup
+    (:mod:`dualpose.types._inputs`, the checks every path shares)."""
+    s.q_bc = _inputs.unit_quaternion(s.q_bc, "q_bc")
+    s.p_bc = _inputs.finite_vector(s.p_bc, "p_bc", 3, _inputs.MAX_POSITION_M, "m")
+    s.pixel_sigma = _inputs.positive(s.pixel_sigma, "pixel_sigma", 1e4, "px")
+    s.gravity = _inputs.gravity_vector(s.gravity)
+    _inputs.check_imu_noise(s.imu_noise)
+    _inputs.check_camera(s.camera)
+    s.time_offset = _inputs.time_offset(s.time_offset, "time_offset")
 
 
 def _sensor_options(s: Recording | SensorSetup) -> dict[str, Any]:
@@ -294,6 +262,19 @@ class FilterStart:
     position_sigma: float = 0.01
     velocity_sigma: float = 0.01
     attitude_sigma: float = math.radians(0.5)
+
+    def __post_init__(self) -> None:  # the filter-parameter checks every path shares (docs/refusals.md)
+        put = object.__setattr__
+        put(self, "position", _inputs.finite_vector(self.position, "position", 3, _inputs.MAX_POSITION_M, "m"))
+        put(self, "quat", _inputs.unit_quaternion(self.quat, "quat"))
+        put(self, "velocity", _inputs.finite_vector(self.velocity, "velocity", 3, _inputs.MAX_VELOCITY_M_S, "m/s"))
+        put(self, "gyro_bias", _inputs.finite_vector(self.gyro_bias, "gyro_bias", 3, _inputs.IMU_LIMITS["gyro"],
+                                                     "rad/s"))  # fmt: skip
+        put(self, "accel_bias", _inputs.finite_vector(self.accel_bias, "accel_bias", 3, _inputs.IMU_LIMITS["accel"],
+                                                      "m/s²"))  # fmt: skip
+        put(self, "position_sigma", _inputs.positive(self.position_sigma, "position_sigma", 1e6, "m"))
+        put(self, "velocity_sigma", _inputs.positive(self.velocity_sigma, "velocity_sigma", 1e4, "m/s"))
+        put(self, "attitude_sigma", _inputs.positive(self.attitude_sigma, "attitude_sigma", math.pi, "rad"))
 
 
 @dataclass

@@ -45,15 +45,19 @@ void dualquat_canonical(const double* s, double* o) {
 
 // Dantam 2014 eqs. (76)-(77): r = q/|q|, d = ½ t (x) r
 void dualquat_from_qt(const double* q, const double* t, double* o) {
-    double n = norm4(load4(q));
+    const Quat u = ordinary_magnitude(load4(q));  // exact 2**e rescaling of extreme magnitudes
+    double n = norm4(u);
     if (n == 0.0) n = kNaN;
-    const Quat r = {q[0] / n, q[1] / n, q[2] / n, q[3] / n};
+    const Quat r = {u.x / n, u.y / n, u.z / n, u.w / n};
     store(o, r);
     store(o + 4, scale(0.5, qmul(Quat{t[0], t[1], t[2], 0.0}, r)));
 }
 
-void qt_from_dualquat(const double* s, double* q, double* t) {
-    double n = norm4(load4(s));
+void qt_from_dualquat(const double* s0, double* q, double* t) {
+    const int e = extreme_exponent(load4(s0));  // (q, t) do not depend on the scale: exact 2**e rescaling
+    const DualQuat x = e == 0 ? load8(s0) : DualQuat{ldexp4(load4(s0), e), ldexp4(load4(s0 + 4), e)};
+    const double s[8] = {x.r.x, x.r.y, x.r.z, x.r.w, x.d.x, x.d.y, x.d.z, x.d.w};
+    double n = norm4(x.r);
     if (n == 0.0) n = kNaN;
     const DualQuat u = {{s[0] / n, s[1] / n, s[2] / n, s[3] / n}, {s[4] / n, s[5] / n, s[6] / n, s[7] / n}};
     store(q, u.r);

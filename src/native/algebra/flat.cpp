@@ -4,6 +4,7 @@
 // (nonzero when a row's norm was zero or extreme), so the wrapper looks for zeros only when there may be one,
 // instead of scanning the whole output as after a gufunc call.
 #include "../common/args.hpp"
+#include "../common/lie.hpp"
 #include "../common/series.hpp"
 #include "rows.hpp"
 
@@ -76,7 +77,10 @@ PyObject* quat_log_finish(PyObject*, PyObject* args) {
     Py_BEGIN_ALLOW_THREADS for (npy_intp i = 0; i < n; ++i) {
         const Quat v = load4(q.data + 4 * i);
         zero |= (s[i] == 0.0) & (v.w == 0.0);
-        store(o.data + 4 * i, quat_log_parts(v, atan2c_given(s[i], v.w, phi[i])));
+        if (extreme_exponent(v) != 0)  // as the gufunc: exactly rescaled (rare; ordinary rows are unchanged)
+            store(o.data + 4 * i, quat_log_any(v));
+        else
+            store(o.data + 4 * i, quat_log_parts(v, atan2c_given(s[i], v.w, phi[i])));
     }
     Py_END_ALLOW_THREADS return PyLong_FromLong(zero);
 }

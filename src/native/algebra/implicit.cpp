@@ -42,7 +42,7 @@ void qt_from_twist(const double* xi, double* qo, double* to) {
 
 // ω = 2 ln(±q) with |ω| <= π (Dantam 2014 eqs. (51)-(53)), v = J_l(ω)⁻¹ t
 void twist_from_qt(const double* q, const double* t, double* o) {
-    Quat v = load4(q);
+    Quat v = ordinary_magnitude(load4(q));  // ω does not depend on the scale of q: exact 2**e rescaling
     if (v.w < 0.0) v = neg(v);
     const double s = norm3(v.x, v.y, v.z);
     if (s == 0.0 && v.w == 0.0) {

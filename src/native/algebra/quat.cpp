@@ -14,9 +14,10 @@ namespace dualpose {
 static void quat_norm(const double* q, double* o) { o[0] = norm4(load4(q)); }
 
 static void quat_normalize(const double* q, double* o) {
-    double n = norm4(load4(q));
+    const Quat u = ordinary_magnitude(load4(q));  // exact 2**e rescaling of extreme magnitudes
+    double n = norm4(u);
     if (n == 0.0) n = kNaN;
-    store(o, Quat{q[0] / n, q[1] / n, q[2] / n, q[3] / n});
+    store(o, Quat{u.x / n, u.y / n, u.z / n, u.w / n});
 }
 
 static void quat_inv(const double* q, double* o) {
@@ -41,10 +42,7 @@ static void quat_exp(const double* q, double* o) {
 
 // Dantam 2014 eqs. (25)-(28); at q_v = 0, q_w < 0 the axis x is chosen (any axis is a logarithm).  A zero q gives
 // atan2c(0, 0) = NaN in the vector part (the wrapper raises).
-static void quat_log(const double* q, double* o) {
-    const Quat v = load4(q);
-    store(o, quat_log_parts(v, atan2c(norm3(v.x, v.y, v.z), v.w)));
-}
+static void quat_log(const double* q, double* o) { store(o, quat_log_any(load4(q))); }
 
 // Dantam 2014 eq. (30): q**t = exp(t ln q), principal logarithm.
 static void quat_pow(const double* q, const double* tp, double* o) {
@@ -80,7 +78,7 @@ static void quat_from_axis_angle(const double* axis, const double* angle, double
 }
 
 static void axis_angle_from_quat(const double* q, double* axis, double* angle) {
-    Quat v = load4(q);
+    Quat v = ordinary_magnitude(load4(q));  // scale-invariant: exact 2**e rescaling of extreme magnitudes
     if (v.w < 0.0) v = neg(v);
     const double s = norm3(v.x, v.y, v.z);
     if (s == 0.0) {
@@ -126,13 +124,14 @@ static void quat_from_matrix(const double* r, double* o) {
 // Dantam 2014 eq. (58): p (x) (p* (x) q)**t along the shorter arc; inputs normalized.
 static void quat_slerp(const double* p, const double* q, const double* tp, double* o) {
     const double t = tp[0];
-    const double np_ = norm4(load4(p)), nq = norm4(load4(q));
+    const Quat pu = ordinary_magnitude(load4(p)), qu = ordinary_magnitude(load4(q));
+    const double np_ = norm4(pu), nq = norm4(qu);
     if (np_ == 0.0 || nq == 0.0) {
         store(o, Quat{kNaN, kNaN, kNaN, kNaN});
         return;
     }
-    const Quat a = {p[0] / np_, p[1] / np_, p[2] / np_, p[3] / np_};
-    const Quat b = {q[0] / nq, q[1] / nq, q[2] / nq, q[3] / nq};
+    const Quat a = {pu.x / np_, pu.y / np_, pu.z / np_, pu.w / np_};
+    const Quat b = {qu.x / nq, qu.y / nq, qu.z / nq, qu.w / nq};
     Quat r = qmul(conj(a), b);
     if (r.w < 0.0) r = neg(r);
     const double s = norm3(r.x, r.y, r.z);
@@ -141,16 +140,6 @@ static void quat_slerp(const double* p, const double* q, const double* tp, doubl
     store(o, qmul(a, Quat{f * r.x, f * r.y, f * r.z, std::cos(t * phi)}));
 }
 
-// p scaled exactly (by a power of two) to a norm in [1/2, 1) when its norm n is outside [2**-300, 2**300].
-static void rescale_extreme(double* p, double& n) {
-    constexpr double lo = 0x1p-300, hi = 0x1p300;
-    if (lo <= n && n <= hi) return;
-    int e;
-    std::frexp(n, &e);
-    e = -e;
-    for (int k = 0; k < 4; ++k) p[k] = std::ldexp(p[k], e);
-    n = std::ldexp(n, e);
-}
 
 // Rotation angle between two orientations, 4 atan2(min(|p-q|,|p+q|), max(...)) in [0, pi] (Dantam 2014
 // eq. (42) gives the angle between the 4-vectors; the rotation angle is twice it).  p/|p| -+ q/|q| are formed
@@ -158,14 +147,15 @@ static void rescale_extreme(double* p, double& n) {
 // k = (|q| - |p|)/(|p||q|) from |q|**2 - |p|**2 = a.b, p/|p| - q/|q| = q k - a/|p| and p/|p| + q/|q| = b/|p| - q k,
 // so the smaller of the two keeps full relative accuracy even when |p|, |q| are not exactly 1 in float64.
 static void quat_angle(const double* pp, const double* qq, double* o) {
-    double p[4] = {pp[0], pp[1], pp[2], pp[3]}, q[4] = {qq[0], qq[1], qq[2], qq[3]};
-    double np_ = norm4(p[0], p[1], p[2], p[3]), nq = norm4(q[0], q[1], q[2], q[3]);
+    // each input exactly rescaled by the power of two of its largest component (the angle is scale-invariant, the
+    // difference form below is most accurate for norms near 1, and the result is exactly the same at every scale)
+    const Quat pu = pow2_unit(load4(pp)), qu = pow2_unit(load4(qq));
+    const double p[4] = {pu.x, pu.y, pu.z, pu.w}, q[4] = {qu.x, qu.y, qu.z, qu.w};
+    const double np_ = norm4(pu), nq = norm4(qu);
     if (np_ == 0.0 || nq == 0.0) {
         o[0] = kNaN;
         return;
     }
-    rescale_extreme(p, np_);
-    rescale_extreme(q, nq);
     double a[4], b[4];
     for (int k = 0; k < 4; ++k) {
         a[k] = q[k] - p[k];

@@ -15,8 +15,14 @@ namespace dualpose {
 namespace {
 using lanes::v4;
 
-bool ordinary(double n2) { return n2 >= kTiny && n2 <= kHuge; }
-bool ordinary(v4 n2) { return lanes::all((n2 >= kTiny) & (n2 <= kHuge)); }
+// The row kernels' magnitude test (common/kutil.hpp ordinary_sum) on one row and on four rows in lanes: the sum
+// of the absolute components over 8, so no extreme value is squared before the test.
+bool ordinary(const double* r) { return ordinary_sum(abs_sum(r[0], r[1], r[2], r[3])); }
+v4 vabs(v4 x) { return (v4)((lanes::m4)x & 0x7fffffffffffffffLL); }
+bool ordinary(const lanes::Q4& a) {
+    const v4 s = vabs(a.x) * 0.125 + vabs(a.y) * 0.125 + vabs(a.z) * 0.125 + vabs(a.w) * 0.125;
+    return lanes::all((s >= kOrdinaryLo) & (s <= kOrdinaryHi));
+}
 }  // namespace
 
 // Blocks of four rows in lanes (loaded before stored, so o may be p or q), then the last n mod 4 rows.
@@ -36,8 +42,8 @@ DUALPOSE_CLONES int quat_rotate_rows(const double* q, const double* v, double* o
         const lanes::Q4 a = lanes::split4(q + 4 * i, 4);
         v4 vx, vy, vz, ox, oy, oz;
         lanes::split3(v + 3 * i, vx, vy, vz);
-        const v4 n2 = a.x * a.x + a.y * a.y + a.z * a.z + a.w * a.w;
-        if (ordinary(n2)) {
+        if (ordinary(a)) {
+            const v4 n2 = a.x * a.x + a.y * a.y + a.z * a.z + a.w * a.w;
             rotate_lanes(a.x, a.y, a.z, a.w, vx, vy, vz, 2.0 / n2, ox, oy, oz);
             lanes::join3(ox, oy, oz, o + 3 * i);
         } else {
@@ -47,7 +53,7 @@ DUALPOSE_CLONES int quat_rotate_rows(const double* q, const double* v, double* o
     }
     for (; i < n; ++i) {
         const double* r = q + 4 * i;
-        flagged |= !ordinary(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3]);
+        flagged |= !ordinary(r);
         quat_rotate_row(r, v + 3 * i, o + 3 * i);
     }
     return flagged;
@@ -75,8 +81,8 @@ DUALPOSE_CLONES int dualquat_transform_rows(const double* s, const double* p, do
         const lanes::Q4 r = lanes::split4(s + 8 * i, 8), d = lanes::split4(s + 8 * i + 4, 8);
         v4 px, py, pz, ox, oy, oz;
         lanes::split3(p + 3 * i, px, py, pz);
-        const v4 n2 = r.x * r.x + r.y * r.y + r.z * r.z + r.w * r.w;
-        if (ordinary(n2)) {
+        if (ordinary(r)) {
+            const v4 n2 = r.x * r.x + r.y * r.y + r.z * r.z + r.w * r.w;
             transform_lanes(r.x, r.y, r.z, r.w, d.x, d.y, d.z, d.w, px, py, pz, 2.0 / n2, ox, oy, oz);
             lanes::join3(ox, oy, oz, o + 3 * i);
         } else {
@@ -86,7 +92,7 @@ DUALPOSE_CLONES int dualquat_transform_rows(const double* s, const double* p, do
     }
     for (; i < n; ++i) {
         const double* r = s + 8 * i;
-        flagged |= !ordinary(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3]);
+        flagged |= !ordinary(r);
         dualquat_transform_row(r, p + 3 * i, o + 3 * i);
     }
     return flagged;

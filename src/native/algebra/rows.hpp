@@ -2,9 +2,9 @@
 // common/kutil.hpp), used by the gufunc's strided path (the *_row functions) and by the C-contiguous loops (the
 // *_rows functions, vectorised across rows and cloned per instruction set), so both paths round identically.
 //
-// Loops that need 2/|q|**2 check each block of four rows: a block whose squared norms are all in [1e-280, 1e280]
-// runs the branch-free formula with s2 = 2/|q|**2; any other block (zero, extreme or NaN norms) runs the row
-// kernel, which rescales (common/kutil.hpp unit_scale) and gives NaN for a zero quaternion.  The
+// Loops that need 2/|q|**2 check each block of four rows: a block whose rows are all ordinary (common/kutil.hpp
+// ordinary_sum: the absolute components sum to [2**-448, 2**448]) runs the branch-free formula with
+// s2 = 2/|q|**2; any other block (zero, extreme or NaN norms) runs the row kernel, which rescales (common/kutil.hpp unit_scale) and gives NaN for a zero quaternion.  The
 // result equals the row kernel's on every row; the return value is nonzero when some row's norm was outside
 // the ordinary range (the wrappers then look for zeros).
 #pragma once

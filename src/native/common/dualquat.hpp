@@ -10,7 +10,9 @@
 namespace dualpose {
 
 // S/|S| with the dual-number norm |S| = |r| + ε r·d/|r|: r' = r/|r|, d' = d/|r| - r'(r'·d)/|r|.  Zero r: all NaN.
-inline DualQuat dq_normalize(const DualQuat& s) {
+inline DualQuat dq_normalize(const DualQuat& s_) {
+    const int e = extreme_exponent(s_.r);  // the result does not depend on the scale: exact 2**e rescaling
+    const DualQuat s = e == 0 ? s_ : DualQuat{ldexp4(s_.r, e), ldexp4(s_.d, e)};
     double n = norm4(s.r);
     if (n == 0.0) n = kNaN;
     const Quat r = {s.r.x / n, s.r.y / n, s.r.z / n, s.r.w / n};
@@ -43,10 +45,12 @@ inline DualQuat dq_exp(const DualQuat& s) { return dq_exp_angle(norm3(s.r.x, s.r
 // s = |r_v|, phi = atan2(s, r_w), k = r_v·d_v:  (ln S)_r = [(phi/s) r_v, ln|r|],
 // (ln S)_d = [(k alpha - d_w) r_v + (phi/s) d_v, k + r_w d_w]; for r_w < 0 the vector is evaluated as
 // r_w d_par - d_w r_v + phi (d_perp/s) (no 0·inf as s -> 0).  Zero real part gives NaN.
-inline DualQuat dq_log(const DualQuat& s_) {
-    if (is_zero4(s_.r)) return {{kNaN, kNaN, kNaN, kNaN}, {kNaN, kNaN, kNaN, kNaN}};
+inline DualQuat dq_log(const DualQuat& s0) {
+    if (is_zero4(s0.r)) return {{kNaN, kNaN, kNaN, kNaN}, {kNaN, kNaN, kNaN, kNaN}};
+    const double ln = log_norm(s0.r);
+    const int e = extreme_exponent(s0.r);  // all but ln|r| are scale-invariant: exact 2**e rescaling
+    const DualQuat s_ = e == 0 ? s0 : DualQuat{ldexp4(s0.r, e), ldexp4(s0.d, e)};
     const double n = norm4(s_.r);
-    const double ln = log_norm(s_.r);
     const double rx = s_.r.x / n, ry = s_.r.y / n, rz = s_.r.z / n, rw = s_.r.w / n;
     const double dx = s_.d.x / n, dy = s_.d.y / n, dz = s_.d.z / n, dw = s_.d.w / n;
     const double s = norm3(rx, ry, rz);

@@ -53,32 +53,43 @@ inline DualQuat neg(const DualQuat& s) { return {neg(s.r), neg(s.d)}; }
 inline Quat scale(double f, Quat q) { return {f * q.x, f * q.y, f * q.z, f * q.w}; }
 inline DualQuat scale(double f, const DualQuat& s) { return {scale(f, s.r), scale(f, s.d)}; }
 
+// The magnitude test every kernel shares: (|x| + |y| + |z| + |w|) / 8 in [2**-451, 2**445] (false for zero, inf
+// and NaN; the / 8 keeps the sum of four components near the largest double finite).  Then every square and |q|**2
+// lie in [1e-271, 1e271]: no underflow, no overflow (and no floating-point overflow flag, so NumPy raises no
+// RuntimeWarning).  Testing the components, not |q|**2, means extreme input is never squared before it is
+// rescaled; NaN is caught by the quiet a == a before any ordered comparison (which would raise the invalid flag).
+inline constexpr double kOrdinaryLo = 0x1p-451, kOrdinaryHi = 0x1p445;
+inline bool ordinary_sum(double a) { return a == a && a >= kOrdinaryLo && a <= kOrdinaryHi; }
+inline double abs_sum(double x, double y, double z, double w = 0.0) {
+    return std::fabs(x) * 0.125 + std::fabs(y) * 0.125 + std::fabs(z) * 0.125 + std::fabs(w) * 0.125;
+}
+
+// sqrt(x² + y² + z² + w²) of a finite nonzero vector outside the ordinary range: computed on the components
+// scaled exactly by the power of two of the largest one (|exponent| <= 1000: 2**e stays a normal double).
+inline double norm_rescaled(double x, double y, double z, double w) {
+    const double m = std::max(std::max(std::fabs(x), std::fabs(y)), std::max(std::fabs(z), std::fabs(w)));
+    int e;
+    std::frexp(m, &e);
+    e = std::clamp(-e, -1000, 1000);
+    x = std::ldexp(x, e), y = std::ldexp(y, e), z = std::ldexp(z, e), w = std::ldexp(w, e);
+    return std::ldexp(std::sqrt(x * x + y * y + z * z + w * w), -e);
+}
+
 // Euclidean norm of a 3-vector without underflow or overflow of the squares (NaN propagates).
 inline double norm3(double x, double y, double z) {
-    const double s = x * x + y * y + z * z;
-    if (s != s) return s;
-    if (kTiny <= s && s <= kHuge) return std::sqrt(s);
-    const double m = std::max(std::max(std::fabs(x), std::fabs(y)), std::fabs(z));
-    if (m == 0.0 || m == kInf) return m;
-    x /= m;
-    y /= m;
-    z /= m;
-    return m * std::sqrt(x * x + y * y + z * z);
+    const double a = abs_sum(x, y, z);
+    if (ordinary_sum(a)) return std::sqrt(x * x + y * y + z * z);
+    if (a != a || a == 0.0 || a == kInf) return a;
+    return norm_rescaled(x, y, z, 0.0);
 }
 inline double norm3(Vec3 v) { return norm3(v.x, v.y, v.z); }
 
 // Euclidean norm of a 4-vector without underflow or overflow of the squares (NaN propagates).
 inline double norm4(double x, double y, double z, double w) {
-    const double s = x * x + y * y + z * z + w * w;
-    if (s != s) return s;
-    if (kTiny <= s && s <= kHuge) return std::sqrt(s);
-    const double m = std::max(std::max(std::fabs(x), std::fabs(y)), std::max(std::fabs(z), std::fabs(w)));
-    if (m == 0.0 || m == kInf) return m;
-    x /= m;
-    y /= m;
-    z /= m;
-    w /= m;
-    return m * std::sqrt(x * x + y * y + z * z + w * w);
+    const double a = abs_sum(x, y, z, w);
+    if (ordinary_sum(a)) return std::sqrt(x * x + y * y + z * z + w * w);
+    if (a != a || a == 0.0 || a == kInf) return a;
+    return norm_rescaled(x, y, z, w);
 }
 inline double norm4(Quat q) { return norm4(q.x, q.y, q.z, q.w); }
 
@@ -133,32 +144,66 @@ inline Vec3 transform_point(const DualQuat& s, Vec3 p, double s2) {
     return o;
 }
 
+// The exponent e (|e| <= 1000) of the power of two 2**e that brings the largest |component| of q into [1/2, 1)
+// when q is outside the ordinary range (ordinary_sum); 0 for ordinary, zero and non-finite q.  Multiplying by
+// 2**e is exact (no rounding, subnormal components included), so a kernel that is invariant to the scale of q can
+// run on 2**e q and be exact for every finite nonzero magnitude, while ordinary input is not touched
+// (bit-identical results).  The bound 1000 keeps 2**e a normal double; the smallest subnormal (2**-1074) then
+// lands at 2**-74, far inside the ordinary range.
+inline int extreme_exponent(double x, double y, double z, double w) {
+    const double a = abs_sum(x, y, z, w);
+    if (a != a || ordinary_sum(a) || a == 0.0 || a == kInf) return 0;
+    const double m = std::max(std::max(std::fabs(x), std::fabs(y)), std::max(std::fabs(z), std::fabs(w)));
+    int e;
+    std::frexp(m, &e);
+    return std::clamp(-e, -1000, 1000);
+}
+inline int extreme_exponent(Quat q) { return extreme_exponent(q.x, q.y, q.z, q.w); }
+inline Quat ldexp4(Quat q, int e) {
+    return {std::ldexp(q.x, e), std::ldexp(q.y, e), std::ldexp(q.z, e), std::ldexp(q.w, e)};
+}
+// q times the power of two that brings its largest |component| into [1/2, 1) (exact; q itself when zero or not
+// finite).
+inline Quat pow2_unit(Quat q) {
+    const double m = std::max(std::max(std::fabs(q.x), std::fabs(q.y)), std::max(std::fabs(q.z), std::fabs(q.w)));
+    if (!(m > 0.0 && m < kInf)) return q;  // zero, inf or NaN (NaN: the comparisons are false)
+    int e;
+    std::frexp(m, &e);
+    return ldexp4(q, -e);
+}
+
+// 2**e q with e = extreme_exponent(q): q itself unless its magnitude is extreme (see extreme_exponent).
+inline Quat ordinary_magnitude(Quat q) {
+    const int e = extreme_exponent(q);
+    return e == 0 ? q : ldexp4(q, e);
+}
+
 // (c, s2) with s2 = 2/|c q|**2, for formulas that need 2/|q|**2 (rotation, matrices, transforms).  For ordinary
-// magnitudes c = 1 and s2 = 2/|q|**2; for |q| near 1e-200 or 1e200 c = 1/|q| and s2 = 2, and the caller scales
-// the quaternion (and a dual part) by c first.  A zero quaternion gives a quiet NaN; a NaN one propagates.
+// magnitudes c = 1 and s2 = 2/|q|**2; for |q|**2 outside [1e-280, 1e280] c is the power of two of
+// extreme_exponent (exact, also for subnormal components) and the caller scales the quaternion (and a dual part)
+// by c first.  A zero quaternion gives a quiet NaN; a NaN one propagates.
 inline Scale unit_scale(Quat q) {
-    const double n2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
-    if (n2 != n2) return {1.0, n2};
-    if (kTiny <= n2 && n2 <= kHuge) return {1.0, 2.0 / n2};
-    const double n = norm4(q);
-    if (n == 0.0) return {kNaN, kNaN};
-    return {1.0 / n, 2.0};
+    const double a = abs_sum(q.x, q.y, q.z, q.w);
+    if (ordinary_sum(a)) return {1.0, 2.0 / (q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w)};
+    if (a != a) return {1.0, a};
+    if (a == 0.0 || a == kInf) return {kNaN, kNaN};
+    const double c = std::ldexp(1.0, extreme_exponent(q));
+    const Quat u = scale(c, q);
+    return {c, 2.0 / (u.x * u.x + u.y * u.y + u.z * u.z + u.w * u.w)};
 }
 
 // 2/|q|**2 (quiet NaN for a zero quaternion); prefer unit_scale, which also survives |q| ~ 1e-200.
 inline double inv_norm2_scale(Quat q) {
-    const double n2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
-    if (n2 != n2) return n2;
-    if (kTiny <= n2 && n2 <= kHuge) return 2.0 / n2;
-    const double n = norm4(q);
-    if (n == 0.0) return kNaN;
-    return (2.0 / n) / n;
+    const Scale u = unit_scale(q);
+    return u.c == 1.0 ? u.s2 : (u.s2 * u.c) * u.c;  // exact-scaled: 2/|q|**2 = c**2 2/|c q|**2
 }
 
 // ln|q|, one branch on |q|**2.  For |q|**2 in [1/2, 2] it is ln(1 + d)/2 with d = (w - 1)(w + 1) + |q_v|**2
 // (w - 1 exact), ln(1 + d) by Goldberg's (1991, Thm. 4) ln(u) d/(u - 1), u = 1 + d rounded (d itself when u == 1);
 // elsewhere ln(|q|**2)/2, and outside [1e-280, 1e280] the guarded norm.
 inline double log_norm(Quat q) {
+    const int e = extreme_exponent(q);  // exact rescaling first: ln|q| = ln|2**e q| - e ln 2
+    if (e != 0) return log_norm(ldexp4(q, e)) - e * 0.6931471805599453;
     const double s2 = q.x * q.x + q.y * q.y + q.z * q.z;
     const double n2 = s2 + q.w * q.w;
     if (0.5 <= n2 && n2 <= 2.0) {

@@ -19,9 +19,21 @@ inline Quat quat_exp_rotvec(Vec3 v) {
     return {f * v.x, f * v.y, f * v.z, std::cos(h)};
 }
 
+
+// ln q for any q: quat_log_parts on 2**e q (extreme_exponent) for the vector part, which does not depend on the
+// scale, and ln|q| for the scalar part (log_norm is exact-scaled itself).  Ordinary q: the formula unchanged.
+inline Quat quat_log_any(Quat q) {
+    const Quat u = ordinary_magnitude(q);
+    const double s = norm3(u.x, u.y, u.z);
+    Quat o = quat_log_parts(u, atan2c(s, u.w));
+    o.w = log_norm(q);
+    return o;
+}
+
 // The rotation vector of q with the angle in [0, π] (the sign of q chosen so that w >= 0): 2 ln(±q), Dantam 2014
 // eqs. (51)-(53) with the atan2 angle (atan2c: exact at q_v = 0; NaN for a zero q).
 inline Vec3 rotvec_of_quat(Quat q) {
+    q = ordinary_magnitude(q);  // scale-invariant: exact for subnormal and huge magnitudes too
     if (q.w < 0.0) q = neg(q);
     const double f = 2.0 * atan2c(norm3(q.x, q.y, q.z), q.w);
     return {f * q.x, f * q.y, f * q.z};

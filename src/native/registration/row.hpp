@@ -17,6 +17,7 @@ constexpr int SINGULAR_AT = 14;     // singular values of H (svd only), 3
 constexpr int REFLECTION = 17;      // Umeyama's d (svd only)
 constexpr int UNIQUE = 18;          // 1 if the optimal rotation is unique
 constexpr int CLOSED_FORM = 19;     // 1 if the closed-form eigen-solve was accepted
+constexpr int POINT_EXPONENT = 20;  // e: the centred points were solved as 2**e (p - c) (0 for ordinary spreads)
 constexpr int GAP_TOLERANCE = 22;   // the gap tolerance used
 constexpr int POINT_COST = 23;      // the point part of the cost
 constexpr int BAD_INPUT = 24;       // 0, or 1 + index into BAD_INPUT_NAMES, or N_BAD_INPUT_NAMES + 1 (overflow)

@@ -32,6 +32,7 @@ struct Staged {
     double bx, by, bz;    // measured centroid
     double ss0, bw, tol;  // Σβ|p⁰'|², Walker's 4Σβ, the gap tolerance
     double h[6];          // Walker's C3 as (h, d)
+    int e;                // the moments are of the centred points times 2**e (POINT_EXPONENT)
     bool skip;            // a non-finite input: the row holds only the code
 };
 
@@ -132,6 +133,51 @@ double svd_rotation(const double* s, double* q, double* sig) {
     return d;
 }
 
+// Second moments of problem b's data, the centred points multiplied by f (a power of two) and the direction
+// weights by f2 = f**2: s = Σ β (f p̃')(f p⁰')ᵀ + Σ f2 α ñ n⁰ᵀ, Σβ|f p⁰'|², Σβ|f p̃'|², the centred sums g0, g1
+// and Σ f2 α.
+struct Moments {
+    double s[9], ss0, ss1, g0[3], g1[3], asum;
+};
+Moments moments(const Problems& pr, std::int64_t b, double ax, double ay, double az, double bx, double by, double bz,
+                double f, double f2) {
+    const std::int64_t npt = pr.npt, ndir = pr.ndir;
+    const double* p0 = pr.p0 + b * npt * 3;
+    const double* p1 = pr.p1 + b * npt * 3;
+    const double* beta = pr.beta + b * npt;
+    double s[9] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};  // local: kept in registers (no aliasing with inputs)
+    double ss0 = 0.0, ss1 = 0.0;  // Σβ |p0'|², Σβ |p1'|²
+    double g0x = 0.0, g0y = 0.0, g0z = 0.0, g1x = 0.0, g1y = 0.0, g1z = 0.0;
+    for (std::int64_t k = 0; k < npt; ++k) {
+        const double bk = beta[k];
+        const double x0 = (p0[3 * k] - ax) * f, y0 = (p0[3 * k + 1] - ay) * f, z0 = (p0[3 * k + 2] - az) * f;
+        const double d1x = (p1[3 * k] - bx) * f, d1y = (p1[3 * k + 1] - by) * f, d1z = (p1[3 * k + 2] - bz) * f;
+        ss0 += bk * (x0 * x0 + y0 * y0 + z0 * z0);
+        ss1 += bk * (d1x * d1x + d1y * d1y + d1z * d1z);
+        g0x += bk * x0;
+        g0y += bk * y0;
+        g0z += bk * z0;
+        g1x += bk * d1x;
+        g1y += bk * d1y;
+        g1z += bk * d1z;
+        add_outer(s, bk * d1x, bk * d1y, bk * d1z, x0, y0, z0);
+    }
+    const double* n0 = pr.n0 + b * ndir * 3;
+    const double* n1 = pr.n1 + b * ndir * 3;
+    const double* alpha = pr.alpha + b * ndir;
+    double asum = 0.0;
+    for (std::int64_t k = 0; k < ndir; ++k) {
+        const double ak = alpha[k] * f2;
+        asum += ak;
+        add_outer(s, ak * n1[3 * k], ak * n1[3 * k + 1], ak * n1[3 * k + 2], n0[3 * k], n0[3 * k + 1], n0[3 * k + 2]);
+    }
+    Moments m;
+    for (int i = 0; i < 9; ++i) m.s[i] = s[i];
+    m.ss0 = ss0, m.ss1 = ss1, m.asum = asum;
+    m.g0[0] = g0x, m.g0[1] = g0y, m.g0[2] = g0z, m.g1[0] = g1x, m.g1[1] = g1y, m.g1[2] = g1z;
+    return m;
+}
+
 // Phase 1 for problem b: the row zeroed, the staged data, the polynomial (or the skip with the input code).
 void stage(const Problems& pr, std::int64_t b, int method, Staged& st, Roots& rt, int j, double* out) {
     for (int i = 0; i < row::ROW_SIZE; ++i) out[i] = 0.0;
@@ -154,32 +200,39 @@ void stage(const Problems& pr, std::int64_t b, int method, Staged& st, Roots& rt
     if (wsum > 0.0) ax = ax / wsum, ay = ay / wsum, az = az / wsum, bx = bx / wsum, by = by / wsum, bz = bz / wsum;
     // second moments of the centred data: s = Σ β p̃' p⁰'ᵀ + Σ α ñ n⁰ᵀ (a = measured, b = model), and the centred
     // sums g0 = Σβ p⁰', g1 = Σβ p̃' (Walker's C3)
-    double s[9] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};  // local: kept in registers (no aliasing with inputs)
-    double ss0 = 0.0, ss1 = 0.0;  // Σβ |p0'|², Σβ |p1'|²
-    double g0x = 0.0, g0y = 0.0, g0z = 0.0, g1x = 0.0, g1y = 0.0, g1z = 0.0;
-    for (std::int64_t k = 0; k < npt; ++k) {
-        const double bk = beta[k];
-        const double x0 = p0[3 * k] - ax, y0 = p0[3 * k + 1] - ay, z0 = p0[3 * k + 2] - az;
-        const double d1x = p1[3 * k] - bx, d1y = p1[3 * k + 1] - by, d1z = p1[3 * k + 2] - bz;
-        ss0 += bk * (x0 * x0 + y0 * y0 + z0 * z0);
-        ss1 += bk * (d1x * d1x + d1y * d1y + d1z * d1z);
-        g0x += bk * x0;
-        g0y += bk * y0;
-        g0z += bk * z0;
-        g1x += bk * d1x;
-        g1y += bk * d1y;
-        g1z += bk * d1z;
-        add_outer(s, bk * d1x, bk * d1y, bk * d1z, x0, y0, z0);
+    Moments mo = moments(pr, b, ax, ay, az, bx, by, bz, 1.0, 1.0);
+    // Scale normalisation: when the squared spread leaves [1e-30, 1e30] (the characteristic polynomial of the 4x4
+    // matrix holds its fourth powers, products of them lose digits below ~1e-50: points scaled by 1e-160
+    // underflow to a zero cost and an identity rotation, by 1e80 overflow it), solve on the centred points times 2**e, e the power of two bringing the largest centred
+    // coordinate near 1 (exact: no rounding), and the direction weights times 2**(2e) so the minimiser is
+    // unchanged; ordinary spreads keep e = 0 and bit-identical results.
+    int e = 0;
+    const double spread2 = mo.ss0 + mo.ss1;
+    if (std::isfinite(ax + ay + az + bx + by + bz) && !(spread2 >= 1e-30 && spread2 <= 1e30) && npt > 0) {
+        double m = 0.0;
+        for (std::int64_t k = 0; k < npt; ++k) {
+            m = pymax(m, pymax(std::fabs(p0[3 * k] - ax), pymax(std::fabs(p0[3 * k + 1] - ay), std::fabs(p0[3 * k + 2] - az))));
+            m = pymax(m, pymax(std::fabs(p1[3 * k] - bx), pymax(std::fabs(p1[3 * k + 1] - by), std::fabs(p1[3 * k + 2] - bz))));
+        }
+        if (m > 0.0 && std::isfinite(m)) {
+            int em;
+            std::frexp(m, &em);
+            // the direction weights times 2**(2e) stay below 2**900 (finite), and 2**e a normal double
+            const double* alpha = pr.alpha + b * pr.ndir;
+            double amax = 0.0;
+            for (std::int64_t k = 0; k < pr.ndir; ++k) amax = pymax(amax, alpha[k]);
+            int ea = 0;
+            if (amax > 0.0) std::frexp(amax, &ea);
+            const int hi = amax > 0.0 ? (900 - ea) / 2 : 1000;
+            e = -em < -1000 ? -1000 : -em;
+            e = e > 1000 ? 1000 : (e > hi ? hi : e);
+            if (e != 0) mo = moments(pr, b, ax, ay, az, bx, by, bz, std::ldexp(1.0, e), std::ldexp(1.0, 2 * e));
+        }
     }
-    const double* n0 = pr.n0 + b * ndir * 3;
-    const double* n1 = pr.n1 + b * ndir * 3;
-    const double* alpha = pr.alpha + b * ndir;
-    double asum = 0.0;
-    for (std::int64_t k = 0; k < ndir; ++k) {
-        const double ak = alpha[k];
-        asum += ak;
-        add_outer(s, ak * n1[3 * k], ak * n1[3 * k + 1], ak * n1[3 * k + 2], n0[3 * k], n0[3 * k + 1], n0[3 * k + 2]);
-    }
+    out[row::POINT_EXPONENT] = e;
+    double* s = mo.s;
+    const double ss0 = mo.ss0, ss1 = mo.ss1, asum = mo.asum;
+    const double g0x = mo.g0[0], g0y = mo.g0[1], g0z = mo.g0[2], g1x = mo.g1[0], g1y = mo.g1[1], g1z = mo.g1[2];
     // a NaN or infinity anywhere in the inputs makes these sums non-finite (0·inf and inf - inf are NaN): only then
     // look for the culprit; finite inputs whose moments overflow get their own code
     const double chk = ax + ay + az + bx + by + bz + ss0 + ss1 + s[0] + s[1] + s[2] + s[3] + s[4] + s[5] + s[6] +
@@ -216,6 +269,7 @@ void stage(const Problems& pr, std::int64_t b, int method, Staged& st, Roots& rt
     for (int i = 0; i < 6; ++i) st.h[i] = hd[i];
     st.ax = ax, st.ay = ay, st.az = az, st.bx = bx, st.by = by, st.bz = bz;
     st.ss0 = ss0, st.bw = bw, st.tol = tol;
+    st.e = e;
     st.skip = false;
 }
 
@@ -239,21 +293,30 @@ void finish(const Problems& pr, std::int64_t b, int method, bool want_scale, con
     double tdq[3] = {0.0, 0.0, 0.0};
     const double bw = st.bw;
     if (method == DQ && bw > 0.0) walker_translation(x, y, z, w, st.h, bw, tdq);
+    double sig[3] = {0.0, 0.0, 0.0};
     if (method == SVD) {
-        double q[4], sig[3];
+        double q[4];
         const double d = svd_rotation(st.s, q, sig);
-        out[row::SINGULAR_AT] = sig[0], out[row::SINGULAR_AT + 1] = sig[1], out[row::SINGULAR_AT + 2] = sig[2];
         out[row::REFLECTION] = d;
         gap = 2.0 * (sig[1] + d * sig[2]);
         unique = gap > tol ? 1 : 0;
         if (unique == 1) x = q[0], y = q[1], z = q[2], w = q[3];
     }
+    // back to the input's units (moments scale by 2**(2e), Walker's centred translation by 2**e; exact)
+    const int e = st.e, e2 = -2 * st.e;
+    if (e != 0) {
+        for (int i = 0; i < 3; ++i) tdq[i] = std::ldexp(tdq[i], -e), sig[i] = std::ldexp(sig[i], e2);
+        gap = std::ldexp(gap, e2), l1 = std::ldexp(l1, e2), l2 = std::ldexp(l2, e2);
+        l3 = std::ldexp(l3, e2), l4 = std::ldexp(l4, e2);
+    }
+    if (method == SVD)
+        out[row::SINGULAR_AT] = sig[0], out[row::SINGULAR_AT + 1] = sig[1], out[row::SINGULAR_AT + 2] = sig[2];
     out[row::EIGEN_GAP] = gap;
     out[row::UNIQUE] = unique;
     out[row::EIGENVALUES_AT] = l1, out[row::EIGENVALUES_AT + 1] = l2;
     out[row::EIGENVALUES_AT + 2] = l3, out[row::EIGENVALUES_AT + 3] = l4;
     out[row::CLOSED_FORM] = tv.ok ? 1.0 : 0.0;
-    out[row::GAP_TOLERANCE] = tol;
+    out[row::GAP_TOLERANCE] = e != 0 ? std::ldexp(tol, e2) : tol;
     out[row::QUAT_AT] = x, out[row::QUAT_AT + 1] = y, out[row::QUAT_AT + 2] = z, out[row::QUAT_AT + 3] = w;
     // every path above returns a unit quaternion: R = I + 2w[v]x + 2[v]x² (Dantam 2014 eq. (108))
     double m[9];

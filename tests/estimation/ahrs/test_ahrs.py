@@ -185,9 +185,9 @@ def test_heading_jacobian_matches_finite_differences_in_heading():
     [
         ({"gyr": np.zeros((5, 4))}, "gyr must have shape"),
         ({"acc": np.zeros((4, 3))}, "acc must have 5 samples"),
-        ({"mag": np.full((5, 3), np.nan)}, "mag contains NaN"),
+        ({"mag": np.full((5, 3), np.nan)}, "mag must be finite"),
         ({"mag": None}, "use_mag=True needs mag"),
-        ({"rate": 0.0}, "rate must be a positive"),
+        ({"rate": 0.0}, "rate must be a sampling rate"),
         ({"n_rest": 9}, "n_rest must be 0 .no rest period. or at least 10"),
         ({"n_rest": 6}, "n_rest must be in"),
     ],

@@ -182,7 +182,7 @@ def test_a_saved_state_of_the_wrong_size_or_version_is_refused():
 def test_bad_samples_raise_naming_them():
     s = AhrsStream(RATE, n_rest=0)
     s.update_imu(0.0, [0, 0, 0], [0, 0, 9.8], [0, 20, -40])
-    with pytest.raises(ValueError, match="t must increase"):
+    with pytest.raises(ValueError, match="t must be finite and increase"):
         s.update_imu(0.0, [0, 0, 0], [0, 0, 9.8], [0, 20, -40])
     with pytest.raises(ValueError, match="mag is required"):
         s.update_imu(0.01, [0, 0, 0], [0, 0, 9.8])
@@ -211,7 +211,7 @@ def test_non_finite_samples_are_refused_and_change_nothing(n_rest):
         a.update_imu(0.01, np.array([np.nan, 0.0, 0.0]), [0.0, 0.0, 9.8], [0.0, 20.0, -40.0])
     with pytest.raises(ValueError, match="mag must be finite"):
         a.update_imu(0.01, [0.0, 0.0, 0.0], [0.0, 0.0, 9.8], [np.inf, 20.0, -40.0])
-    with pytest.raises(ValueError, match=r"accel must be finite; row 1 is \[0.0, nan, 9.8\]"):
+    with pytest.raises(ValueError, match=r"accel must be finite: row 1 is \[0.0, nan, 9.8\]"):
         a.update_batch([0.01, 0.02], np.zeros((2, 3)), [[0.0, 0.0, 9.8], [0.0, np.nan, 9.8]],
                        np.tile([0.0, 20.0, -40.0], (2, 1)))  # fmt: skip
     assert a.samples == b.samples == 1

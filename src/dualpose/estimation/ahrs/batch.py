@@ -105,7 +105,7 @@ class AhrsResult:
     @property
     def us_per_sample(self) -> float:
         """Kernel wall time per sample, µs."""
-        return 1e6 * self.seconds / max(self.quat.shape[0], 1)
+        return float(1e6 * self.seconds / max(self.quat.shape[0], 1))
 
 
 @dataclass(frozen=True)
@@ -200,8 +200,8 @@ def prepare_recording(
     if not (mag_calibration is None or isinstance(mag_calibration, (str, MagCalibration))):
         raise TypeError(f'mag_calibration must be "auto", a MagCalibration or None; got {type(mag_calibration)}')
     mag_cal = None
-    if use_mag and mag_calibration is not None:
-        if mag_calibration == "auto":
+    if use_mag and mag_arr is not None and mag_calibration is not None:  # (use_mag: mag_arr is not None)
+        if not isinstance(mag_calibration, MagCalibration):  # "auto"
             noise_spread = None
             if n_rest:
                 rn = np.linalg.norm(mag_arr[:n_rest], axis=1)
@@ -211,8 +211,10 @@ def prepare_recording(
             mag_cal = mag_calibration
         mag_arr = np.ascontiguousarray(mag_cal.apply(mag_arr))
     rest = rest_statistics(gyr, acc, mag_arr, rate, n_rest) if n_rest else None
-    mag_offset_est, kernel_lag = None, lag_setting
-    if use_mag and lag_setting == "estimate":
+    mag_offset_est = None
+    # "estimate": compensated offline (a zero lag in the kernel) with a magnetometer, unused without
+    kernel_lag = None if isinstance(lag_setting, str) else lag_setting
+    if use_mag and mag_arr is not None and lag_setting == "estimate":
         mag_offset_est = estimate_sensor_time_offset(
             gyr, mag_arr, rate, gyroscope_bias=rest.gyroscope_bias if rest is not None else None
         )

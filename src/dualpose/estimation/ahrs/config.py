@@ -6,12 +6,15 @@ orientation and the native kernel's parameter vector (:func:`filter_setup`).  Th
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass
+from typing import Any
 
 import numpy as np
 from scipy.stats import chi2
 
 from dualpose import _native
+from dualpose.types._inputs import check_rate
 
 __all__ = [
     "MEMS_GYRO_BIAS_RANDOM_WALK",
@@ -175,12 +178,12 @@ class AhrsConfig:
                 kind = "a positive" if positive else "a non-negative"
                 raise ValueError(f"{name} must be {kind} finite number; got {value}")
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         """The settings as plain Python values (``noise`` as a dict or None), for saving; inverse :meth:`from_dict`."""
         return asdict(self)
 
     @classmethod
-    def from_dict(cls, d: dict) -> AhrsConfig:
+    def from_dict(cls, d: Mapping[str, Any]) -> AhrsConfig:
         """The configuration saved by :meth:`as_dict`."""
         d = dict(d)
         if d.get("noise") is not None:
@@ -436,6 +439,7 @@ def filter_setup(
         gravity = float(np.linalg.norm(a_ref))
     q0 = initial_orientation(a_ref, m_ref if use_mag else None)
     if use_mag:  # the field's reference at rest (RestStatistics.field_norm / field_dip), or of the first sample
+        assert m_ref is not None  # use_mag: the rest statistics or the first sample have a field
         field_norm, field_dip = float(np.linalg.norm(m_ref)), _field_dip(a_ref, m_ref)
     else:
         field_norm, field_dip = 1.0, 0.0
@@ -518,8 +522,7 @@ def _rest_length(rate: float, n_rest: int | None, n: int | None = None) -> int:
     second (at most ``n``, the recording's length when known), 0 when that is below 10 samples.  ValueError naming
     ``rate`` / ``n_rest`` for a rate that is not a positive number, or a rest period outside ``[0, n]`` or of 1 to 9
     samples."""
-    if not (np.isfinite(rate) and rate > 0):
-        raise ValueError(f"rate must be a positive number of Hz; got {rate}")
+    rate = check_rate(rate)  # the sampling-rate check every path shares (docs/refusals.md)
     if n_rest is None:
         n_rest = int(round(rate)) if n is None else min(n, int(round(rate)))
         n_rest = n_rest if n_rest >= 10 else 0
@@ -530,14 +533,14 @@ def _rest_length(rate: float, n_rest: int | None, n: int | None = None) -> int:
     return n_rest
 
 
-def check_mag_time_offset(mag_time_offset: object, allowed: tuple[str, ...]) -> float | None:
+def check_mag_time_offset(mag_time_offset: object, allowed: tuple[str, ...]) -> float | str | None:
     """``mag_time_offset`` validated: None for "online", the number for a number; "estimate" returned as is when
     allowed (ValueError naming the argument otherwise)."""
     if isinstance(mag_time_offset, str):
         if mag_time_offset not in allowed:
             choices = " or ".join(f'"{a}"' for a in allowed)
             raise ValueError(f"mag_time_offset must be {choices} or a number of seconds; got {mag_time_offset!r}")
-        return None if mag_time_offset == "online" else mag_time_offset  # type: ignore[return-value]
+        return None if mag_time_offset == "online" else mag_time_offset
     try:
         value = float(mag_time_offset)  # type: ignore[arg-type]
     except (TypeError, ValueError):

@@ -83,21 +83,21 @@ class AhrsFilter(Estimator):
     @property
     def covariance(self) -> np.ndarray:
         """Covariance (6, 6) over ``[δθ, δb_g]`` (global attitude error), a copy."""
-        return self._P.copy()
+        return np.copy(self._P, order="C")
 
     @property
     def quat(self) -> np.ndarray:
         """Orientation ``q_wb`` (4,) xyzw."""
-        return self._q.copy()
+        return np.copy(self._q, order="C")
 
     @property
     def gyro_bias(self) -> np.ndarray:
         """Gyroscope bias (3,), rad/s."""
-        return self._b.copy()
+        return np.copy(self._b, order="C")
 
     def attitude_covariance(self) -> np.ndarray:
         """World-frame attitude error covariance (3, 3): the attitude block (the error is global)."""
-        return AHRS_ERROR.cov(self._P, "attitude").copy()
+        return np.copy(AHRS_ERROR.cov(self._P, "attitude"), order="C")
 
     def propagate(
         self, t: float, gyro: ArrayLike, accel: ArrayLike | None = None, mag: ArrayLike | None = None

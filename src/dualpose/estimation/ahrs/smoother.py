@@ -29,6 +29,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 from dualpose import _native
 from dualpose.calibration.magnetometer import MagCalibration
@@ -70,12 +71,13 @@ class SmoothedOrientation:
     @property
     def attitude_sigma(self) -> np.ndarray:
         """Standard deviations of the smoothed attitude error about east, north, up, rad; shape (n, 3)."""
-        return np.sqrt(np.maximum(np.diagonal(self.covariance[:, :3, :3], axis1=1, axis2=2), 0.0))
+        sigma: NDArray[np.float64] = np.sqrt(np.maximum(np.diagonal(self.covariance[:, :3, :3], axis1=1, axis2=2), 0.0))
+        return sigma
 
     @property
     def us_per_sample(self) -> float:
         """Wall time of the forward and backward kernel per sample, µs."""
-        return 1e6 * self.seconds / max(self.quat.shape[0], 1)
+        return float(1e6 * self.seconds / max(self.quat.shape[0], 1))
 
 
 def smooth_orientation(

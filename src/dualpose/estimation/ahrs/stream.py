@@ -23,9 +23,10 @@ from dataclasses import asdict
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from dualpose import _native
-from dualpose.estimation._stream import sample_block, saved_buffer, vec3
+from dualpose.estimation._stream import sample_block, saved_buffer, saved_quaternion, vec3
 from dualpose.estimation.ahrs.config import (
     AhrsConfig,
     AhrsNoise,
@@ -36,8 +37,14 @@ from dualpose.estimation.ahrs.config import (
     filter_setup,
     rest_statistics,
 )
+from dualpose.types import _inputs
 
 __all__ = ["AhrsStream"]
+
+
+def _buffers(size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Empty rest-sample buffers: t (size,), gyro, accel, mag (size, 3)."""
+    return np.zeros(size), np.zeros((size, 3)), np.zeros((size, 3)), np.zeros((size, 3))
 
 
 class AhrsStream:
@@ -98,9 +105,12 @@ class AhrsStream:
         config: AhrsConfig | None = None,
         mag_time_offset: str | float = "online",
     ) -> None:
-        n_rest = _rest_length(rate, 0 if rest is not None else n_rest)
+        rate = _inputs.check_rate(rate)
+        n_rest = _inputs.check_rest_samples(_rest_length(rate, 0 if rest is not None else n_rest), rate)
         self._settings = _check_config(config)
-        self._lag = check_mag_time_offset(mag_time_offset, ("online",))
+        lag = check_mag_time_offset(mag_time_offset, ("online",))
+        assert not isinstance(lag, str)  # only "online" is allowed, which is None
+        self._lag = lag
         self._config = dict(rate=float(rate), use_mag=bool(use_mag), n_rest=int(n_rest), rest=rest,
                             mag_time_offset="online" if self._lag is None else self._lag)
         self._rate = float(rate)
@@ -108,9 +118,9 @@ class AhrsStream:
         self._n_rest = int(n_rest)
         self._rest = rest
         self._state: np.ndarray | None = None
-        # the rest samples buffered until the rest period is complete: t (N,), gyro, accel, mag (N, 3), N = n_rest
-        size = max(self._n_rest, 1)
-        self._pending = (np.zeros(size), np.zeros((size, 3)), np.zeros((size, 3)), np.zeros((size, 3)))
+        # the rest samples buffered until the rest period is complete: t (N,), gyro, accel, mag (N, 3), N <= n_rest
+        # (grown as samples come: a long rest period at a high rate allocates only what it receives)
+        self._pending = _buffers(min(max(self._n_rest, 1), 1024))
         self._n_pending = 0
         self._t = -math.inf
         self._samples = 0
@@ -171,27 +181,52 @@ class AhrsStream:
             Orientation xyzw, IMU → earth (ENU), after this sample's updates (inside the rest period: from the
             running mean directions so far).
         """
-        if self._state is not None and t > self._t and (mag is not None or not self._use_mag):
-            q = _native.ahrs_stream_step(self._state, gyro, accel, mag)  # refuses a bad sample before any change
+        g, a = vec3(gyro, "gyro"), vec3(accel, "accel")  # finite and within the IMU limits (docs/refusals.md)
+        m = vec3(mag, "mag") if mag is not None else None
+        self._check_sample(t, mag)
+        if self._state is not None:
+            q: np.ndarray = _native.ahrs_stream_step(self._state, g, a, m)
             self._t = t
             self._samples += 1
             return q
-        self._check_sample(t, mag)
+        self._check_rest_force(a[None], single=True)
         k = self._n_pending
+        self._reserve(k + 1)
         pt, pg, pa, pm = self._pending
-        pg[k], pa[k] = vec3(gyro, "gyro"), vec3(accel, "accel")
-        pm[k] = vec3(mag, "mag") if mag is not None else 0.0
+        pg[k], pa[k] = g, a
+        pm[k] = m if m is not None else 0.0
         pt[k] = t
         self._t = t
         self._samples += 1
         self._n_pending += 1
         if self._n_pending < max(self._n_rest, 1):
-            return self._rest_outputs(pg[k : k + 1], pa[k : k + 1], pm[k : k + 1])[0][0]
-        return self._finish_rest()[0].copy()
+            first: NDArray[np.float64] = self._rest_outputs(pg[k : k + 1], pa[k : k + 1], pm[k : k + 1])[0][0]
+            return first
+        return np.copy(self._finish_rest()[0], order="C")
+
+    def _check_rest_force(self, a: np.ndarray, single: bool = False) -> None:
+        """Refuse rest samples ``a`` (k, 3) after which the running mean specific force is zero (it has no direction
+        to start from), before any change to the stream."""
+        c = self._rest_sums[3:6] + np.cumsum(a, axis=0)
+        zero = ~(np.abs(c).max(axis=1) > 0) if len(c) else np.zeros(0, bool)
+        if zero.any():
+            k = int(np.argmax(zero))
+            at = "" if single else f": row {k}"
+            raise ValueError(f"accel{at}: the mean specific force of the rest period so far is zero: no vertical to "
+                             "start from (at rest an accelerometer reads about 9.81 m/s²)")  # fmt: skip
+
+    def _reserve(self, k: int) -> None:
+        """Room for ``k`` buffered rest samples (doubling, at most ``n_rest``)."""
+        size = len(self._pending[0])
+        if k > size:
+            grown = _buffers(min(max(k, 2 * size), max(self._n_rest, 1)))
+            for new, old in zip(grown, self._pending, strict=True):
+                new[:size] = old
+            self._pending = grown
 
     def _check_sample(self, t: float, mag: Any) -> None:
-        if not t > self._t:
-            raise ValueError(f"t must increase strictly: got {t} after {self._t}")
+        if not (math.isfinite(t) and t > self._t):
+            raise ValueError(f"t must be finite and increase strictly: got {t} after {self._t}")
         if mag is None and self._use_mag:
             raise ValueError("mag is required in 9D (use_mag=True); pass use_mag=False for 6D")
 
@@ -219,15 +254,16 @@ class AhrsStream:
         if mag is None and self._use_mag:
             raise ValueError("mag is required in 9D (use_mag=True); pass use_mag=False for 6D")
         m = sample_block(mag, "mag", n) if mag is not None else np.zeros((n, 3))
-        if n and (not t[0] > self._t or np.any(np.diff(t) <= 0)):
-            raise ValueError("t must increase strictly (and start after the last sample filtered)")
+        _inputs.sample_times(t, "t", self._t)  # finite, strictly increasing, after the last sample filtered
         out_q = np.full((n, 4), np.nan)
         out_b = np.full((n, 3), np.nan)
         i = 0
         if self._state is None:
             need = max(self._n_rest, 1) - self._n_pending
             i = min(n, need)
+            self._check_rest_force(a[:i])
             k = self._n_pending
+            self._reserve(k + i)
             for buf, x in zip(self._pending, (t, g, a, m), strict=True):
                 buf[k : k + i] = x[:i]
             self._n_pending += i
@@ -243,6 +279,11 @@ class AhrsStream:
         return out_q, out_b
 
     # ---- state --------------------------------------------------------------------------------------------------
+
+    @property
+    def rate(self) -> float:
+        """The sampling rate the filter steps at, Hz."""
+        return self._rate
 
     @property
     def ready(self) -> bool:
@@ -261,8 +302,11 @@ class AhrsStream:
 
     def _get(self, k: int) -> np.ndarray:
         if self._state is None:
-            return self._rest_out[k].copy() if k < 2 else np.full((4, 3, 36, _native.AHRS_N_STATS)[k], np.nan)
-        return _native.ahrs_stream_get(self._state)[k]
+            if k < 2:
+                return np.copy(self._rest_out[k], order="C")
+            return np.full((4, 3, 36, _native.AHRS_N_STATS)[k], np.nan)
+        out: NDArray[np.float64] = _native.ahrs_stream_get(self._state)[k]
+        return out
 
     @property
     def quat(self) -> np.ndarray:
@@ -304,11 +348,11 @@ class AhrsStream:
             ``rest_output`` (the last rest-period output) and ``config`` (the constructor's arguments, with
             ``config`` and ``rest`` as plain dicts).
         """
-        c = dict(self._config)
+        c: dict[str, Any] = dict(self._config)
         c["config"] = self._settings.as_dict()
         c["rest"] = self._rest_dict(c["rest"])
         pt, pg, pa, pm = self._pending_arrays()
-        return {
+        return _inputs.seal({
             "version": self.LAYOUT_VERSION,
             "state": None if self._state is None else self._state.copy(),
             "pending": {"t": pt, "gyro": pg, "accel": pa, "mag": pm},
@@ -318,12 +362,13 @@ class AhrsStream:
             "rest_sums": self._rest_sums.copy(),
             "rest_output": {"quat": self._rest_out[0].copy(), "gyro_bias": self._rest_out[1].copy()},
             "config": c,
-        }
+        })  # fmt: skip
 
     def _pending_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The buffered rest samples as arrays t (k,), gyro, accel, mag (k, 3)."""
         k = self._n_pending
-        return tuple(x[:k].copy() for x in self._pending)  # type: ignore[return-value]
+        pt, pg, pa, pm = (np.copy(x[:k], order="C") for x in self._pending)
+        return pt, pg, pa, pm
 
     @staticmethod
     def _rest_dict(rest: RestStatistics | None) -> dict[str, Any] | None:
@@ -336,13 +381,21 @@ class AhrsStream:
     def _rest_from(d: dict[str, Any] | None) -> RestStatistics | None:
         if d is None:
             return None
+        noise = AhrsNoise(**d["noise"])
+        m = np.array(d["magnetic_field"], dtype=np.float64).reshape(3)
+        if not all((math.isfinite(v) and v >= 0) or (k.startswith("magnetometer") and math.isnan(v))
+                   for k, v in asdict(noise).items()):  # 6D: no magnetometer noise (NaN)
+            raise ValueError(f"state: rest statistics noise must be finite and >= 0; got {asdict(noise)}")
         return RestStatistics(
             samples=int(d["samples"]),
-            gyroscope_bias=np.array(d["gyroscope_bias"], dtype=np.float64),
-            specific_force=np.array(d["specific_force"], dtype=np.float64),
-            magnetic_field=np.array(d["magnetic_field"], dtype=np.float64),
-            noise=AhrsNoise(**d["noise"]),
-        )
+            gyroscope_bias=_inputs.finite_vector(d["gyroscope_bias"], "state: rest gyroscope_bias", 3,
+                                                 _inputs.IMU_LIMITS["gyro"]),
+            specific_force=_inputs.finite_vector(d["specific_force"], "state: rest specific_force", 3,
+                                                 _inputs.IMU_LIMITS["accel"]),
+            magnetic_field=m if np.isnan(m).all() else _inputs.finite_vector(m, "state: rest magnetic_field", 3,
+                                                                             _inputs.IMU_LIMITS["mag"]),  # 6D: NaN
+            noise=noise,
+        )  # fmt: skip
 
     @classmethod
     def from_state(cls, state: dict[str, Any]) -> AhrsStream:
@@ -369,9 +422,24 @@ class AhrsStream:
             raise ValueError(f"state is not a saved AhrsStream (state_dict()): {exc!r}") from None
         if version != cls.LAYOUT_VERSION:
             raise ValueError(f"state has AHRS stream layout version {version}; this build reads {cls.LAYOUT_VERSION}")
+        try:
+            return cls._restore(state, config)
+        except (TypeError, KeyError, AttributeError, OverflowError) as exc:
+            raise ValueError(f"state is not a saved AhrsStream (state_dict()): {exc!r}") from None
+
+    @classmethod
+    def _restore(cls, state: dict[str, Any], config: dict[str, Any]) -> AhrsStream:
+        """:meth:`from_state` after the version and checksum checks; every value checked (docs/refusals.md)."""
         buf = state["state"]
         if buf is not None:
             buf = saved_buffer(buf, _native.ahrs_stream_check, "state")
+        _inputs.check_seal(state)
+        if buf is not None:
+            q, b, P, _ = _native.ahrs_stream_get(buf)
+            if not (np.isfinite(q).all() and np.isfinite(b).all()):
+                raise ValueError("state['state']: the saved filter state is not finite (a corrupted or altered buffer)")
+            saved_quaternion(q, "state['state']")
+            _inputs.covariance_matrix(np.reshape(P, (6, 6)), "state['state'] covariance", 6)
         config["config"] = AhrsConfig.from_dict(config["config"])
         config["rest"] = cls._rest_from(config["rest"])
         rest0 = config["rest"]
@@ -381,14 +449,28 @@ class AhrsStream:
         out._rest = cls._rest_from(state["rest_statistics"])
         out._state = buf
         pend = state["pending"]
-        blk = tuple(np.array(pend[k], dtype=np.float64) for k in ("t", "gyro", "accel", "mag"))
-        k = blk[0].size
-        for buf, x in zip(out._pending, (blk[0].reshape(-1), *(x.reshape(-1, 3) for x in blk[1:])), strict=True):
+        pt = _inputs.sample_times(pend["t"], "state['pending']['t']")
+        k = pt.size
+        blk = [_inputs.imu_rows(np.reshape(pend[f], (-1, 3)), f"state['pending'][{f!r}]", f, k)
+               for f in ("gyro", "accel", "mag")]  # fmt: skip
+        if k and (out._state is not None or k >= max(out._n_rest, 1)):
+            raise ValueError(f"state['pending'] holds {k} rest samples; the saved stream buffers fewer than "
+                             f"{max(out._n_rest, 1)} and none once started")  # fmt: skip
+        out._reserve(k)
+        for buf, x in zip(out._pending, (pt, *blk), strict=True):
             buf[:k] = x
         out._n_pending = k
         out._t = float(state["t"])
         out._samples = int(state["samples"])
-        out._rest_sums = np.array(state["rest_sums"], dtype=np.float64).reshape(10).copy()
+        if not ((math.isfinite(out._t) or (out._t == -math.inf and out._samples == 0)) and out._samples >= k
+                and (not k or out._t >= pt[-1])):  # fmt: skip
+            raise ValueError(f"state: t = {out._t!r} and samples = {out._samples!r} are not a saved stream's (finite, "
+                             "at least the buffered samples)")  # fmt: skip
+        out._rest_sums = _inputs.finite_vector(np.reshape(state["rest_sums"], -1), "state['rest_sums']", 10)
         ro = state["rest_output"]
-        out._rest_out = (np.array(ro["quat"], dtype=np.float64).reshape(4), np.array(ro["gyro_bias"]).reshape(3))
+        rq, rb = np.array(ro["quat"], dtype=np.float64).reshape(4), np.array(ro["gyro_bias"], np.float64).reshape(3)
+        for v, name in ((rq, "quat"), (rb, "gyro_bias")):
+            if not (np.isfinite(v).all() or np.isnan(v).all()):
+                raise ValueError(f"state['rest_output'][{name!r}] must be finite (or all NaN before any output)")
+        out._rest_out = (rq, rb)
         return out

@@ -13,8 +13,10 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 __all__ = ["PAPER_TABLE3", "feeder_vertices", "accuracy_experiment", "timing_experiment", "mixed_experiment", "run"]
 
@@ -47,7 +49,8 @@ def feeder_vertices(seed: int = 1991) -> np.ndarray:
     axis = rng.integers(0, 3, 24)
     side = rng.integers(0, 2, 24)
     pts[np.arange(24), axis] = side * size[axis]  # push each onto a face
-    return np.r_[corners, pts]
+    verts: NDArray[np.float64] = np.r_[corners, pts]
+    return verts
 
 
 def _truth() -> tuple[np.ndarray, np.ndarray]:
@@ -62,7 +65,7 @@ def accuracy_experiment(
     n_trials: int = 20,
     seed: int = 1991,
     progress: Progress = _quiet,
-) -> list[dict]:
+) -> list[dict[str, Any]]:
     """Table 3: rows ``{n_points, method, std_x, std_y, std_z, std_theta_deg, paper: {...}, max_diff_vs_other}``."""
     import dualpose as dp
     from dualpose.registration import register_pose_batch
@@ -110,7 +113,7 @@ def mixed_experiment(
     n_trials: int = 500,
     seed: int = 7,
     progress: Progress = _quiet,
-) -> list[dict]:
+) -> list[dict[str, Any]]:
     """Few points with and without the Feeder's 3 face normals (±x, ±y, ±z up to sign; ``σ_d`` per coordinate).
 
     Weights are inverse variances (``β = 1/σ_p²``, ``α = 1/σ_d²``).  Rows: ``{n_points, n_directions, std_x,
@@ -132,11 +135,11 @@ def mixed_experiment(
         n0 = np.broadcast_to(normals, (n_trials, 3, 3)).copy()
         n1 = dp.quat_rotate(q, n0) + sigma_directions * rng.normal(size=n0.shape)
         for with_dirs in (False, True):
-            kw = {"point_weights": np.full(p0.shape[:2], 1 / SIGMA**2)}
-            if with_dirs:
-                kw.update(model_directions=n0, measured_directions=n1,
-                          direction_weights=np.full(n0.shape[:2], 1 / sigma_directions**2))  # fmt: skip
-            est = register_pose_batch(p0, p1, **kw)
+            est = register_pose_batch(
+                p0, p1, point_weights=np.full(p0.shape[:2], 1 / SIGMA**2),
+                model_directions=n0 if with_dirs else None, measured_directions=n1 if with_dirs else None,
+                direction_weights=np.full(n0.shape[:2], 1 / sigma_directions**2) if with_dirs else None,
+            )  # fmt: skip
             rot_err = dp.quat_angle(est.quat, q)
             err_t = est.translation - t
             rows.append(
@@ -157,7 +160,7 @@ def timing_experiment(
     samples: tuple[int, ...] = (4, 10, 30, 100, 300, 1000, 3000, 10000),
     repeats: int = 200,
     progress: Progress = _quiet,
-) -> dict:
+) -> dict[str, Any]:
     """Fig. 4: time of one ``register_pose(method="dq")`` call vs samples (equal numbers of points and unit
     vectors).  Returns the series and a least-squares line ``a + b n`` with its R²."""
     import dualpose as dp
@@ -172,17 +175,18 @@ def timing_experiment(
         ndir = n - npt
         p0 = rng.uniform(0, 300, size=(npt, 3))
         p1 = dp.quat_rotate(q, p0) + t
-        kw = {}
+        d0: NDArray[np.float64] | None = None
+        d1: NDArray[np.float64] | None = None
         if ndir:
             d0 = rng.normal(size=(ndir, 3))
-            kw = {"model_directions": d0, "measured_directions": dp.quat_rotate(q, d0)}
-        register_pose(p0, p1, **kw)
+            d1 = dp.quat_rotate(q, d0)
+        register_pose(p0, p1, model_directions=d0, measured_directions=d1)
         best = np.inf
         reps = max(5, repeats // max(1, n // 100))
         for _ in range(3):
             t0 = time.perf_counter()
             for _ in range(reps):
-                register_pose(p0, p1, **kw)
+                register_pose(p0, p1, model_directions=d0, measured_directions=d1)
             best = min(best, (time.perf_counter() - t0) / reps)
         times.append(best)
     x = np.array(samples, float)
@@ -198,7 +202,7 @@ def timing_experiment(
     }
 
 
-def run(quick: bool = False, progress: Progress = _quiet) -> dict:
+def run(quick: bool = False, progress: Progress = _quiet) -> dict[str, Any]:
     """All three experiments; ``quick`` uses 5 sets x 10 trials and a shorter timing series (for tests)."""
     stages = [0.0, 0.6, 0.8, 1.0]
 

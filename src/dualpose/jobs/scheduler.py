@@ -1,0 +1,249 @@
+"""Run one pure function over many inputs on a dask scheduler, results in input order (docs/scaling.md, "Many runs").
+
+:func:`run_tasks` is the plumbing under every many-run job of :mod:`dualpose.jobs`: ``func(item)`` for each item, on
+
+* ``"serial"``: in this process, one after the other (no dask needed);
+* ``None`` / ``"processes"`` (default): a local pool of worker processes -- a ``dask.distributed.LocalCluster``
+  (one thread per worker process) when ``distributed`` is installed, otherwise dask's multiprocessing scheduler;
+* an address (``"tcp://host:8786"``, ``"host:8786"``): an existing ``dask.distributed`` cluster.
+
+Guarantees, whatever the scheduler:
+
+* **Order**: the outcome list is in the order of ``items``, however the tasks were scheduled.
+* **Failures stay in their row**: an exception inside ``func`` becomes a :class:`TaskFailure` with its reason in that
+  row; every other item still runs.
+* **Pure tasks**: ``func`` must depend on its item only (seeds are part of the item; no shared random state), so a
+  task recomputed on another process gives the same bits.  Nothing is written by a task: the client collects the
+  outcomes and the caller writes the outputs once.
+* **Lost workers** (distributed only): a task whose worker dies is recomputed on another worker by the dask
+  scheduler; its outcome is collected once, by its key, so nothing is lost or counted twice.
+
+On a cluster the items go to dask in chunks of a few (:func:`chunk_size`: about 8 tasks per worker, at most
+``MAX_CHUNK`` items a task), as the distributed scheduler costs about a millisecond per task; progress is then
+reported per chunk.
+
+dask and distributed are optional (``pip install 'dualpose[dask]'``) and are imported only when a parallel
+scheduler is asked for.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import traceback
+import uuid
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Generic, TypeVar
+
+__all__ = ["SCHEDULERS", "TaskFailure", "chunk_size", "default_scheduler", "run_tasks"]
+
+_T = TypeVar("_T")
+_R = TypeVar("_R")
+
+#: the scheduler names :func:`run_tasks` knows besides a cluster address
+SCHEDULERS: tuple[str, ...] = ("serial", "processes")
+
+#: seconds to wait for a cluster address to answer
+CONNECT_TIMEOUT_S = 20.0
+
+#: most items one dask task runs (:func:`chunk_size`)
+MAX_CHUNK = 16
+
+#: how often the distributed scheduler retries a task that raised (the task functions catch their errors: this only
+#: covers failures outside them, such as a result that cannot be sent back)
+_RETRIES = 2
+
+
+@dataclass(frozen=True)
+class TaskFailure:
+    """The outcome of a task whose function raised: ``reason`` is ``"ExceptionType: message"`` (the message alone
+    for ``ValueError`` and ``OSError``, whose messages name the file and line in dualpose)."""
+
+    reason: str
+
+
+@dataclass(frozen=True)
+class _Guarded(Generic[_T, _R]):
+    """``func(item)``, with an exception turned into a :class:`TaskFailure` (picklable: ``func`` is module-level)."""
+
+    func: Callable[[_T], _R]
+
+    def __call__(self, item: _T) -> _R | TaskFailure:
+        try:
+            return self.func(item)
+        except (ValueError, OSError) as exc:
+            return TaskFailure(" ".join(str(exc).split()) or type(exc).__name__)
+        except Exception as exc:  # a failure of one row never stops the others; the type says what happened
+            last = traceback.extract_tb(exc.__traceback__)[-1:]
+            where = f" ({os.path.basename(last[0].filename)}:{last[0].lineno})" if last else ""
+            return TaskFailure(f"{type(exc).__name__}: {' '.join(str(exc).split())}{where}")
+
+
+def default_scheduler() -> str:
+    """``"processes"`` when dask is installed, else ``"serial"``."""
+    try:
+        import dask  # noqa: F401
+    except ImportError:
+        return "serial"
+    return "processes"
+
+
+def _check(scheduler: str | None, workers: int | None) -> str:
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+        raise ValueError(f"workers must be an integer >= 1; got {workers!r}")
+    if scheduler is None:
+        return "processes"
+    if not isinstance(scheduler, str) or not scheduler.strip():
+        raise ValueError(f"scheduler must be 'serial', 'processes' or a cluster address; got {scheduler!r}")
+    return scheduler.strip()
+
+
+def run_tasks(
+    func: Callable[[_T], _R],
+    items: Sequence[_T],
+    *,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> list[_R | TaskFailure]:
+    """``[func(item) for item in items]`` on a scheduler, failures kept per item.
+
+    Parameters
+    ----------
+    func : callable
+        A module-level function of one item (pickled by reference for worker processes), pure: its result depends
+        on the item only.
+    items : sequence
+        The task inputs (picklable).
+    scheduler : {"serial", "processes"}, address or None
+        Where to run (module docstring); None is ``"processes"``.
+    workers : int, optional
+        Worker processes of the local pool (default: the machine's CPU count); not used with ``"serial"`` or an
+        address.
+    progress : callable, optional
+        ``progress(done, total)`` after each finished task, in the calling thread.
+
+    Returns
+    -------
+    list
+        One outcome per item, in the order of ``items``: ``func``'s result or a :class:`TaskFailure`.
+
+    Raises
+    ------
+    ValueError
+        An unknown scheduler name or a bad ``workers``.
+    ImportError
+        A parallel scheduler without dask (``pip install 'dualpose[dask]'``), or an address without distributed.
+    OSError
+        A cluster address that cannot be reached.
+    """
+    kind = _check(scheduler, workers)
+    items = list(items)
+    guarded: _Guarded[_T, _R] = _Guarded(func)
+    total = len(items)
+    if total == 0:
+        return []
+    if kind == "serial":
+        out: list[_R | TaskFailure] = []
+        for item in items:
+            out.append(guarded(item))
+            if progress is not None:
+                progress(len(out), total)
+        return out
+    if kind == "processes":
+        try:
+            from distributed import LocalCluster
+        except ImportError:
+            return _dask_processes(guarded, items, workers, progress)
+        n = workers or os.cpu_count() or 1
+        with LocalCluster(n_workers=min(n, total), threads_per_worker=1, processes=True, dashboard_address=":0",
+                          silence_logs=logging.ERROR) as cluster:  # type: ignore[no-untyped-call]  # fmt: skip
+            return _distributed(guarded, items, cluster, progress)
+    if kind in SCHEDULERS or "://" not in kind and ":" not in kind:
+        raise ValueError(f"scheduler must be 'serial', 'processes' or a cluster address (tcp://HOST:PORT); "
+                         f"got {kind!r}")
+    try:
+        import distributed  # noqa: F401
+    except ImportError as exc:
+        raise ImportError(f"scheduler {kind!r} needs dask.distributed: pip install 'dualpose[dask]'") from exc
+    return _distributed(guarded, items, kind, progress)
+
+
+@dataclass(frozen=True)
+class _Chunk(Generic[_T, _R]):
+    """``[guarded(item) for item in items]``: one dask task for a few items (picklable)."""
+
+    guarded: _Guarded[_T, _R]
+
+    def __call__(self, items: list[_T]) -> list[_R | TaskFailure]:
+        return [self.guarded(item) for item in items]
+
+
+def chunk_size(n_items: int, n_workers: int) -> int:
+    """Items per dask task: about 8 tasks per worker (balance while the tasks finish at different times), at most
+    ``MAX_CHUNK`` items, at least 1 -- the distributed scheduler costs ~1 ms a task."""
+    return max(1, min(MAX_CHUNK, n_items // (8 * max(n_workers, 1))))
+
+
+def _distributed(
+    guarded: _Guarded[_T, _R], items: list[_T], where: object, progress: Callable[[int, int], None] | None
+) -> list[_R | TaskFailure]:
+    """On a ``distributed`` cluster (a ``LocalCluster`` object or an address): one future per chunk of items
+    (:func:`chunk_size`), keyed by its first index, collected once each."""
+    from distributed import Client, as_completed
+
+    try:
+        client = Client(where, set_as_default=False, timeout=f"{CONNECT_TIMEOUT_S}s")  # type: ignore[no-untyped-call]
+    except (OSError, TimeoutError) as exc:
+        raise OSError(f"cannot reach the dask scheduler at {where}: {exc}") from None
+    with client:
+        size = chunk_size(len(items), sum(client.nthreads().values()))  # type: ignore[no-untyped-call]
+        starts = range(0, len(items), size)
+        prefix = f"dualpose-task-{uuid.uuid4().hex}"
+        run_chunk = _Chunk(guarded)
+        futures = [client.submit(run_chunk, items[k : k + size], key=f"{prefix}-{k}", pure=False, retries=_RETRIES)
+                   for k in starts]  # fmt: skip
+        first = {f.key: k for k, f in zip(starts, futures, strict=True)}
+        out: dict[int, _R | TaskFailure] = {}
+        for future in as_completed(futures, loop=client.loop):  # type: ignore[no-untyped-call]
+            k = first[future.key]
+            n = min(size, len(items) - k)
+            try:
+                outcomes = future.result()
+            except Exception as exc:  # lost more often than the scheduler allows (KilledWorker), or unpicklable
+                outcomes = [TaskFailure(f"{type(exc).__name__}: {' '.join(str(exc).split())}")] * n
+            future.release()
+            out.update(zip(range(k, k + n), outcomes, strict=True))
+            if progress is not None:
+                progress(len(out), len(items))
+    return [out[i] for i in range(len(items))]
+
+
+def _dask_processes(
+    guarded: _Guarded[_T, _R], items: list[_T], workers: int | None, progress: Callable[[int, int], None] | None
+) -> list[_R | TaskFailure]:
+    """dask's multiprocessing scheduler (no ``distributed``): one delayed call per item, computed together."""
+    try:
+        from dask.base import compute
+        from dask.callbacks import Callback
+        from dask.delayed import delayed
+    except ImportError as exc:
+        raise ImportError("the 'processes' scheduler needs dask: pip install 'dualpose[dask]' "
+                          "(or use the 'serial' scheduler)") from exc  # fmt: skip
+    tasks = [delayed(guarded, pure=False)(item) for item in items]
+    total = len(items)
+
+    class _Count(Callback):
+        def __init__(self) -> None:
+            super().__init__()  # type: ignore[no-untyped-call]
+            self.done = 0
+
+        def _posttask(self, key: object, result: object, dsk: object, state: object, worker_id: object) -> None:
+            self.done += 1
+            if progress is not None:
+                progress(min(self.done, total), total)
+
+    with _Count():
+        results = compute(*tasks, scheduler="processes", num_workers=workers or os.cpu_count() or 1)  # type: ignore[no-untyped-call]
+    return list(results)

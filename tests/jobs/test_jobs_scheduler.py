@@ -1,0 +1,102 @@
+"""run_tasks on every scheduler: results in item order, a failing item kept in its row with its reason, the same
+outcomes serially and on a real LocalCluster of worker processes, and a worker killed mid-job losing and
+duplicating nothing."""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+
+import pytest
+
+from dualpose.jobs import scheduler
+from dualpose.jobs.monte_carlo import run_monte_carlo
+from dualpose.jobs.scheduler import TaskFailure, default_scheduler, run_tasks
+
+ITEMS = [4.0, -1.0, 9.0, 2.25, "x", 0.0]
+#: math.sqrt on ITEMS: the domain error and the type error stay in their rows
+EXPECTED = [2.0, TaskFailure("math domain error"), 3.0, 1.5, None, 0.0]
+
+
+def _check(out: list) -> None:
+    assert len(out) == len(ITEMS)
+    for got, want in zip(out, EXPECTED, strict=True):
+        if want is None:
+            assert isinstance(got, TaskFailure) and got.reason.startswith("TypeError: must be real number")
+        else:
+            assert got == want
+
+
+def test_serial_order_failures_and_progress() -> None:
+    seen: list[tuple[int, int]] = []
+    _check(run_tasks(math.sqrt, ITEMS, scheduler="serial", progress=lambda d, t: seen.append((d, t))))
+    assert seen == [(k, len(ITEMS)) for k in range(1, len(ITEMS) + 1)]
+    assert run_tasks(math.sqrt, [], scheduler="serial") == []
+
+
+def test_bad_scheduler_and_workers_are_refused() -> None:
+    with pytest.raises(ValueError, match="scheduler must be 'serial', 'processes' or a cluster address"):
+        run_tasks(math.sqrt, [1.0], scheduler="threads")
+    with pytest.raises(ValueError, match="workers must be an integer >= 1"):
+        run_tasks(math.sqrt, [1.0], scheduler="serial", workers=0)
+    assert default_scheduler() in ("serial", "processes")
+
+
+def test_unreachable_address_is_an_oserror(monkeypatch: pytest.MonkeyPatch) -> None:
+    pytest.importorskip("distributed", reason="dask.distributed is not installed")
+    monkeypatch.setattr(scheduler, "CONNECT_TIMEOUT_S", 1.0)
+    with pytest.raises(OSError, match="cannot reach the dask scheduler at tcp://127.0.0.1:9"):
+        run_tasks(math.sqrt, [1.0], scheduler="tcp://127.0.0.1:9")
+
+
+def test_cluster_gives_the_serial_outcomes_in_order(cluster_address: str) -> None:
+    seen: list[int] = []
+    out = run_tasks(math.sqrt, ITEMS, scheduler=cluster_address, progress=lambda d, t: seen.append(d))
+    _check(out)
+    assert seen == list(range(1, len(ITEMS) + 1))
+
+
+def test_dask_process_pool_without_a_cluster() -> None:
+    """The fallback when distributed is missing: dask's multiprocessing scheduler (called directly here)."""
+    pytest.importorskip("dask", reason="dask is not installed")
+    from dualpose.jobs.scheduler import _dask_processes, _Guarded
+
+    done: list[int] = []
+    _check(_dask_processes(_Guarded(math.sqrt), ITEMS, 2, lambda d, t: done.append(d)))
+    assert done and done[-1] == len(ITEMS)
+
+
+def test_killed_worker_loses_and_duplicates_nothing(cluster_address: str) -> None:
+    """SIGKILL one worker process while it holds unfinished tasks: the scheduler recomputes them elsewhere and the
+    table equals the serial one, row for row, bit for bit."""
+    distributed = pytest.importorskip("distributed", reason="dask.distributed is not installed")
+    n = 16
+    serial = run_monte_carlo(n, 40, scheduler="serial")
+    with distributed.Client(cluster_address, set_as_default=False) as client:
+        pids = client.run(os.getpid)
+        killed: dict[str, list[str]] = {}
+
+        def kill_busy_worker(done: int, total: int) -> None:
+            if killed or done < 2:
+                return
+            busy = {addr: keys for addr, keys in client.processing().items() if keys}
+            if busy:
+                addr, keys = next(iter(busy.items()))
+                os.kill(pids[addr], signal.SIGKILL)
+                killed[addr] = [str(k) for k in keys]
+
+        parallel = run_monte_carlo(n, 40, scheduler=cluster_address, progress=kill_busy_worker)
+        assert killed, "no worker held a task when the job was two tasks in"
+        lost = next(iter(killed.values()))
+
+        def processing_starts(dask_scheduler, keys):
+            return {k: sum(1 for e in dask_scheduler.story(k) if len(e) > 2 and e[2] == "processing") for k in keys}
+
+        starts = client.run_on_scheduler(processing_starts, keys=lost)
+        client.wait_for_workers(2, timeout=60)
+    assert any(v >= 2 for v in starts.values()), f"no task of the killed worker was computed again: {starts}"
+    assert parallel.failed == 0
+    assert parallel.table.column("seed") == list(range(40, 40 + n))
+    assert parallel.table.to_csv_text() == serial.table.to_csv_text()
+    assert parallel.average_nees.tobytes() == serial.average_nees.tobytes()
