@@ -832,9 +832,8 @@ bool msckf_update_core(double* x, double* clones_p, double* lm_p, double* extra_
             nis += y[j] * y[j];
             for (npy_intp i = 0; i < n; ++i) dx[i] += W[j * n + i] * y[j];
         }
-        // P −= Wᵀ W, four rows of W per pass over P (P is read and written m/4 times, not m); the whole square in
-        // contiguous rows (a mirrored triangle would write P by columns): P stays exactly symmetric, the products of
-        // entries (i, k) and (k, i) being the same numbers summed in the same order
+        // P −= Wᵀ W, upper triangle, four rows of W per pass over P (P is read and written m/4 times, not m), then
+        // mirrored by 8 x 8 tiles (whole cache lines written, not a column at a time)
         npy_intp j = 0;
         for (; j + 4 <= m; j += 4) {
             const double *w0 = &W[j * n], *w1 = w0 + n, *w2 = w1 + n, *w3 = w2 + n;
@@ -842,7 +841,7 @@ bool msckf_update_core(double* x, double* clones_p, double* lm_p, double* extra_
                 const double a0 = w0[i], a1 = w1[i], a2 = w2[i], a3 = w3[i];
                 if (a0 == 0.0 && a1 == 0.0 && a2 == 0.0 && a3 == 0.0) continue;
                 double* pr = Prow(i);
-                for (npy_intp k = 0; k < n; ++k) pr[k] -= (a0 * w0[k] + a1 * w1[k]) + (a2 * w2[k] + a3 * w3[k]);
+                for (npy_intp k = i; k < n; ++k) pr[k] -= (a0 * w0[k] + a1 * w1[k]) + (a2 * w2[k] + a3 * w3[k]);
             }
         }
         for (; j < m; ++j) {
@@ -851,9 +850,18 @@ bool msckf_update_core(double* x, double* clones_p, double* lm_p, double* extra_
                 const double wi = w[i];
                 if (wi == 0.0) continue;
                 double* pr = Prow(i);
-                for (npy_intp k = 0; k < n; ++k) pr[k] -= wi * w[k];
+                for (npy_intp k = i; k < n; ++k) pr[k] -= wi * w[k];
             }
         }
+        constexpr npy_intp tile = 8;
+        for (npy_intp ib = 0; ib < n; ib += tile)
+            for (npy_intp kb = ib; kb < n; kb += tile) {
+                const npy_intp ie = std::min(ib + tile, n), ke = std::min(kb + tile, n);
+                for (npy_intp k = kb; k < ke; ++k) {
+                    double* dst = Prow(k);
+                    for (npy_intp i = ib; i < ie && i < k; ++i) dst[i] = Pp[i * n + k];
+                }
+            }
         for (int i = 0; i < 3; ++i) {
             x[P + i] += dx[DP + i];
             x[V + i] += dx[DV + i];
