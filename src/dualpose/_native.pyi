@@ -238,13 +238,15 @@ def io_parse_block(buf: Any, pos: Any, ncols: Any, comma: Any, out: Any, row: An
 jinv: np.ufunc  # elementwise
 matrix_from_dualquat: np.ufunc  # (8)->(4,4)
 matrix_from_quat: np.ufunc  # (4)->(3,3)
+def msckf_clone(P: Any, rows: Any, k: Any, u: Any, Pout: Any, /) -> None: ...
 def msckf_features(
     clones: Any, clones_fej: Any, q_bc: Any, p_bc: Any, offsets: Any, obs_clone: Any, obs_uv: Any, P: Any, sigma: Any,
     chi2: Any, limits: Any, H: Any, r: Any, rvar: Any, status: Any, nis: Any, points: Any, top: Any, /
 ) -> int: ...
 def msckf_propagate(
-    x: Any, x0: Any, P: Any, Phi: Any, gyro: Any, accel: Any, dt: Any, gravity: Any, noise: Any, X: Any, /
+    x: Any, x0: Any, P: Any, gyro: Any, accel: Any, dt: Any, gravity: Any, noise: Any, X: Any, /
 ) -> None: ...
+def msckf_select(P: Any, keep: Any, Pout: Any, /) -> None: ...
 def msckf_slam_rows(
     clones: Any, clones_fej: Any, q_bc: Any, p_bc: Any, points: Any, points_fej: Any, idx: Any, clone: Any, uv: Any,
     P: Any, sigma: Any, gate: Any, H: Any, r: Any, status: Any, r_all: Any, rvar: Any, /

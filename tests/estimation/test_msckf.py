@@ -333,3 +333,52 @@ def test_slam_rows_kernel_is_the_linearised_projection(rng: np.random.Generator)
     rows, _ = _native.msckf_slam_rows(clones, clones.copy(), q_bc, p_bc, points, points.copy(), np.array([1]), c,
                                       uv + 0.01, P, 1e-3, 0.0, H, r, status, r_all, rvar)  # fmt: skip
     assert rows == 0 and status[0] == 0
+
+
+def test_clone_select_and_propagate_kernels_are_the_covariance_maps(rng: np.random.Generator) -> None:
+    """``msckf_clone`` is ``T P Tᵀ`` with ``T`` stacking the identity and the clone's rows ``J + u e_lastᵀ`` (the
+    pose rows of the IMU error, plus the time-offset term) inserted at row k; ``msckf_select`` is ``P[keep][:, keep]``;
+    ``msckf_propagate`` maps the IMU rows of the cross-covariance linearly, ``P_IO <- Φ P_IO`` with the same ``Φ``
+    for every ``P_IO``, and leaves the IMU block as a propagation of that block alone does."""
+    n, k = 15 + 12 + 6 + 1, 27  # IMU, two clones, two points, the time offset
+    A = rng.standard_normal((n, n))
+    P = A @ A.T / n + np.eye(n)
+    rows = np.r_[0:3, 6:9]
+    u = rng.standard_normal(6)
+    for uu in (u, np.zeros(0)):
+        J = np.zeros((6, n))
+        J[np.arange(6), rows] = 1.0
+        if len(uu):
+            J[:, n - 1] += uu
+        T = np.insert(np.eye(n), k, np.zeros((6, n)), axis=0)
+        T[k : k + 6] = J
+        out = np.empty((n + 6, n + 6))
+        _native.msckf_clone(P, rows, k, uu, out)
+        np.testing.assert_allclose(out, T @ P @ T.T, rtol=1e-12, atol=1e-14)
+        np.testing.assert_array_equal(out, out.T)
+    keep = np.r_[0:15, 21:n]
+    out = np.empty((len(keep), len(keep)))
+    _native.msckf_select(P, keep, out)
+    np.testing.assert_array_equal(out, P[np.ix_(keep, keep)])
+    # propagation: Φ from P_IO = I (15 other states), then a random P_IO
+    x = ESKF_STATE.assemble(position=np.zeros(3), velocity=np.array([0.3, -0.1, 0.2]),
+                            quat=dp.quat_from_rotvec(np.array([0.1, -0.2, 0.3])), gyro_bias=np.full(3, 1e-3),
+                            accel_bias=np.full(3, 0.01))  # fmt: skip
+    gyro, accel = rng.normal(0, 0.3, (5, 3)), rng.normal(0, 0.5, (5, 3)) + [0.0, 0.0, 9.81]
+    dt, g, noise = np.full(5, 0.005), np.array([0.0, 0.0, -9.81]), np.array([1e-6, 1e-4, 1e-10, 1e-8, 0.0, 0.0])
+
+    def run(P0: np.ndarray) -> np.ndarray:
+        P1, x1 = P0.copy(), x.copy()
+        _native.msckf_propagate(x1, x.copy(), P1, gyro, accel, dt, g, noise, np.empty((5, 16)))
+        return P1
+
+    Pii = P[:15, :15]
+    alone = run(Pii)
+    eye = run(np.block([[Pii, np.eye(15)], [np.eye(15), np.eye(15)]]))
+    B = rng.standard_normal((15, 4))
+    full = run(np.block([[Pii, B], [B.T, np.eye(4)]]))
+    np.testing.assert_array_equal(eye[:15, :15], alone)
+    np.testing.assert_array_equal(full[:15, :15], alone)
+    np.testing.assert_allclose(full[:15, 15:], eye[:15, 15:] @ B, rtol=1e-12, atol=1e-14)
+    np.testing.assert_array_equal(full[15:, :15], full[:15, 15:].T)
+    np.testing.assert_array_equal(full[15:, 15:], np.eye(4))

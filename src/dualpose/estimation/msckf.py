@@ -57,20 +57,40 @@ _NE = ESKF_ERROR.dim
 _CE = MSCKF_CLONE_ERROR.dim
 _REST_GUARD = 0.2  # s, one window of detect_rest
 _POSE_ROWS = np.r_[np.arange(3) + ESKF_ERROR.offset("position"), np.arange(3) + ESKF_ERROR.offset("attitude")]
+_NO_OFFSET = np.zeros(0)
+_IMU_ROWS = np.arange(_NE)
+_VEL, _BG = ESKF_STATE.slice("velocity"), ESKF_STATE.slice("gyro_bias")
 
 
-def _member(a: NDArray[np.int64], b: NDArray[np.int64]) -> NDArray[np.bool_]:
-    """``np.isin(a, b)`` for the non-negative int64 track ids of a frame and a window: a lookup table when the ids are
-    small (a few µs instead of a sort per call), ``np.isin`` otherwise."""
-    if len(a) == 0 or len(b) == 0:
-        return np.zeros(len(a), bool)
-    top = max(int(a.max()), int(b.max()))
-    if top >= 1 << 22 or min(int(a.min()), int(b.min())) < 0:
-        return np.isin(a, b)
-    table = np.zeros(top + 1, bool)
-    table[b] = True
-    found: NDArray[np.bool_] = table[a]
-    return found
+class _TrackTable:
+    """``np.isin`` for the non-negative int64 track ids of the frames and the window by a lookup table (three array
+    operations, no sort, no allocation): :meth:`cover` must have seen every id a query holds; ids the table cannot
+    hold (negative or from 2²² on) switch it to ``np.isin`` for good."""
+
+    LIMIT = 1 << 22
+
+    def __init__(self) -> None:
+        self.table = np.zeros(0, bool)
+        self.direct = True
+
+    def cover(self, ids: NDArray[np.int64]) -> None:
+        if not self.direct or len(ids) == 0:
+            return
+        lo, hi = int(ids.min()), int(ids.max())
+        if lo < 0 or hi >= self.LIMIT:
+            self.direct = False
+        elif hi >= len(self.table):
+            self.table = np.zeros(max(hi + 1, 2 * len(self.table)), bool)
+
+    def member(self, a: NDArray[np.int64], b: NDArray[np.int64]) -> NDArray[np.bool_]:
+        """Whether each of ``a`` is in ``b``."""
+        if not self.direct:
+            return np.isin(a, b)
+        t = self.table
+        t[b] = True
+        found: NDArray[np.bool_] = t[a]
+        t[b] = False
+        return found
 
 
 @dataclass(frozen=True)
@@ -248,6 +268,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
         self.slam_fej = np.zeros((0, 3))
         self._chi2_2 = float(chi2.ppf(self.options.gate_probability, 2))
         self.n_slam_init = 0  # SLAM features initialised so far
+        self._ids = _TrackTable()  # membership of the track ids seen
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -353,6 +374,8 @@ class MsckfVio(EskfStateAccessors, Estimator):
             f.slam_p = np.array(d["slam_p"], dtype=np.float64).reshape(-1, 3)
             f.slam_fej = np.array(d["slam_fej"], dtype=np.float64).reshape(-1, 3)
             f._extra = np.array(d["extra"], dtype=np.float64).reshape(-1)
+            f._ids.cover(f._ob_track)
+            f._ids.cover(f.slam_id)
             t_imu = float(d["t_imu"])
             f._t_imu = None if np.isnan(t_imu) else t_imu
             _inputs.check_seal(d, "saved MSCKF state")
@@ -427,17 +450,10 @@ class MsckfVio(EskfStateAccessors, Estimator):
         X = np.empty((k, ESKF_STATE.dim))
         if k == 0:
             return X
-        Pii = np.ascontiguousarray(self.P[:_NE, :_NE])
-        Phi = np.empty((_NE, _NE))
         x0 = self.x.copy() if self._x_fej is None else self._x_fej
-        _native.msckf_propagate(self.x, x0, Pii, Phi, np.ascontiguousarray(gyro), np.ascontiguousarray(accel),
+        _native.msckf_propagate(self.x, x0, self.P, np.ascontiguousarray(gyro), np.ascontiguousarray(accel),
                                 np.ascontiguousarray(dt, dtype=np.float64), self.gravity, self.noise, X)  # fmt: skip
         self._x_fej = None
-        self.P[:_NE, :_NE] = Pii
-        if self.P.shape[0] > _NE:
-            cross = Phi @ self.P[:_NE, _NE:]
-            self.P[:_NE, _NE:] = cross
-            self.P[_NE:, :_NE] = cross.T
         return X
 
     def propagate(self, t: float, gyro: ArrayLike, accel: ArrayLike, mag: ArrayLike | None = None) -> None:
@@ -462,38 +478,26 @@ class MsckfVio(EskfStateAccessors, Estimator):
     def _clone(self, t: float) -> None:
         n = self.P.shape[0]
         k = _NE + _CE * len(self.clones)  # the new clone's columns, before the SLAM features
-        JP = self.P[_POSE_ROWS]  # J P with J selecting the pose rows [δp, δθ] of the IMU error
-        block = JP[:, _POSE_ROWS]
-        if len(self._extra):  # the clone is the pose at t_cam + t̂_d: its error gains u δt_d, u = [v_w, ω_b]
-            u = np.r_[ESKF_STATE.get(self.x, "velocity"), self._u[:3] - ESKF_STATE.get(self.x, "gyro_bias")]
-            JP = JP + np.outer(u, self.P[n - 1])
-            block = JP[:, _POSE_ROWS] + np.outer(JP[:, n - 1], u)
+        # the clone is the pose at t_cam + t̂_d when the offset is estimated: its error gains u δt_d, u = [v_w, ω_b]
+        u = np.concatenate((self.x[_VEL], self._u[:3] - self.x[_BG])) if len(self._extra) else _NO_OFFSET
         P = np.empty((n + _CE, n + _CE))
-        e = k + _CE
-        P[:k, :k], P[:k, e:], P[e:, :k], P[e:, e:] = self.P[:k, :k], self.P[:k, k:], self.P[k:, :k], self.P[k:, k:]
-        P[k:e, :k], P[k:e, e:] = JP[:, :k], JP[:, k:]
-        P[:k, k:e], P[e:, k:e] = JP[:, :k].T, JP[:, k:].T
-        P[k:e, k:e] = 0.5 * (block + block.T)
+        _native.msckf_clone(self.P, _POSE_ROWS, k, u, P)
         self.P = P
         c = np.concatenate([ESKF_STATE.get(self.x, "position"), ESKF_STATE.get(self.x, "quat")])
-        self.clones = np.vstack([self.clones, c])
-        self.clones_fej = np.vstack([self.clones_fej, c])
-        self.clone_t = np.append(self.clone_t, t)
-        self._clone_id = np.append(self._clone_id, self._next_clone)
+        self.clones = np.concatenate((self.clones, c[None]))
+        self.clones_fej = np.concatenate((self.clones_fej, c[None]))
+        self.clone_t = np.concatenate((self.clone_t, (t,)))
+        self._clone_id = np.concatenate((self._clone_id, (self._next_clone,)))
         self._next_clone += 1
 
     def _drop_oldest_clone(self) -> None:
         n = self.P.shape[0]
         P = np.empty((n - _CE, n - _CE))
-        P[:_NE, :_NE] = self.P[:_NE, :_NE]
-        P[:_NE, _NE:] = self.P[:_NE, _NE + _CE :]
-        P[_NE:, :_NE] = self.P[_NE + _CE :, :_NE]
-        P[_NE:, _NE:] = self.P[_NE + _CE :, _NE + _CE :]
+        _native.msckf_select(self.P, np.concatenate((_IMU_ROWS, np.arange(_NE + _CE, n))), P)
         self.P = P
-        gone = self._clone_id[0]
+        # the window's observations in the clone went with the update of their tracks (_frame_update)
         self.clones, self.clones_fej = self.clones[1:], self.clones_fej[1:]
         self.clone_t, self._clone_id = self.clone_t[1:], self._clone_id[1:]
-        self._keep_obs(self._ob_clone != gone)
 
     def _keep_obs(self, keep: np.ndarray) -> None:
         self._ob_track, self._ob_clone, self._ob_uv = self._ob_track[keep], self._ob_clone[keep], self._ob_uv[keep]
@@ -572,24 +576,25 @@ class MsckfVio(EskfStateAccessors, Estimator):
         normalised ``uv`` (m, 2)."""
         o = self.options
         assert self.time is not None  # a frame update follows _frame_time or a propagation
+        self._ids.cover(track_id)
         if len(self.slam_id):
-            seen = _member(self.slam_id, track_id)
+            seen = self._ids.member(self.slam_id, track_id)
             if not seen.all():
                 self._drop_landmarks(~seen)
         self._clone(self.time)
         cid = self._clone_id[-1]
-        in_slam = _member(track_id, self.slam_id) if len(self.slam_id) else np.zeros(len(track_id), bool)
+        in_slam = self._ids.member(track_id, self.slam_id)
         slam_track, slam_uv = track_id[in_slam], uv[in_slam]
         if in_slam.any():
             track_id, uv = track_id[~in_slam], uv[~in_slam]
         use = np.zeros(len(self._ob_track) + len(track_id), bool)  # the observations of the tracks to use
-        use[: len(self._ob_track)] = ~_member(self._ob_track, track_id)  # tracks that ended
+        use[: len(self._ob_track)] = ~self._ids.member(self._ob_track, track_id)  # tracks that ended
         self._ob_track = np.concatenate([self._ob_track, track_id])
         self._ob_clone = np.concatenate([self._ob_clone, np.full(len(track_id), cid)])
         self._ob_uv = np.concatenate([self._ob_uv, uv])
         full = len(self.clones) > o.max_clones
         if full:  # and the tracks seen in the oldest clone, which leaves the window
-            use |= _member(self._ob_track, self._ob_track[self._ob_clone == self._clone_id[0]])
+            use |= self._ids.member(self._ob_track, self._ob_track[self._ob_clone == self._clone_id[0]])
         result = self._features_update(use, track_id if full else None, slam_track, slam_uv)
         self._keep_obs(~use)
         if full:
@@ -649,7 +654,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
                     room = o.max_slam - len(self.slam_id)
                     if current is not None and room > 0:  # long tracks (seen in the oldest clone and now): SLAM
                         gid = ids[enough]
-                        for f in np.flatnonzero(accepted & _member(gid, current))[:room]:
+                        for f in np.flatnonzero(accepted & self._ids.member(gid, current))[:room]:
                             self._init_landmark(int(gid[f]), points[f], top[f])
         drop = np.zeros(len(self.slam_id), bool)
         if len(slam_track):
@@ -732,9 +737,11 @@ class MsckfVio(EskfStateAccessors, Estimator):
         """Marginalise the SLAM features ``drop`` (L,) bool: delete their rows and columns."""
         k0 = _NE + _CE * len(self.clones)
         n = self.P.shape[0]
-        keep = np.r_[np.arange(k0), (k0 + 3 * np.flatnonzero(~drop)[:, None] + np.arange(3)).reshape(-1),
-                     np.arange(n - len(self._extra), n)]  # fmt: skip
-        self.P = np.ascontiguousarray(self.P[keep][:, keep])
+        keep = np.concatenate((np.arange(k0), (k0 + 3 * np.flatnonzero(~drop)[:, None] + np.arange(3)).reshape(-1),
+                               np.arange(n - len(self._extra), n)))  # fmt: skip
+        P = np.empty((len(keep), len(keep)))
+        _native.msckf_select(self.P, keep, P)
+        self.P = P
         self.slam_id, self.slam_p, self.slam_fej = self.slam_id[~drop], self.slam_p[~drop], self.slam_fej[~drop]
 
     def _adapted_sigma(self, r: np.ndarray, rvar: np.ndarray) -> float:
@@ -769,15 +776,16 @@ class MsckfVio(EskfStateAccessors, Estimator):
         stats = {"used": 0, "gated": 0, "failed": 0}
         nis_all, dof_all = [], []
         t0, c0 = time.perf_counter(), time.process_time()
+        mid = 0.5 * (u[:-1] + u[1:])  # the mean of consecutive samples, per step
+        gyro_mid, accel_mid, dt_all = np.ascontiguousarray(mid[:, :3]), np.ascontiguousarray(mid[:, 3:]), np.diff(t)
         for j in range(first, len(ft) + 1):
             # the frame on the IMU clock with the current offset estimate (online: never before the filter time)
             tf = max(r.tracks.t[j] + self.camera_time_offset, self.time) if j < len(ft) else np.inf
             k1 = int(np.searchsorted(t, tf, side="right")) - 1  # last sample at or before the frame
             if k1 > k:
-                mid = 0.5 * (u[k:k1] + u[k + 1 : k1 + 1])
-                dts = np.diff(t[k : k1 + 1])
+                dts = dt_all[k:k1].copy()
                 dts[0] = t[k + 1] - self.time
-                X[k + 1 : k1 + 1] = self._steps(mid[:, :3], mid[:, 3:], dts)
+                X[k + 1 : k1 + 1] = self._steps(gyro_mid[k:k1], accel_mid[k:k1], dts)
                 self.time, self._u, k = float(t[k1]), u[k1].copy(), k1
                 self._t_imu = self.time
             if j == len(ft):
@@ -789,11 +797,13 @@ class MsckfVio(EskfStateAccessors, Estimator):
             res = self._frame_update(r.tracks.track_id[a:b], r.tracks.uv[a:b])
             if self.time == t[k]:  # a frame at an IMU stamp: the output there is the state after the update
                 X[k] = self.x
-            stats["used"] += int(np.sum(res.status == 1))
-            stats["gated"] += int(np.sum(res.status == 0))
-            stats["failed"] += int(np.sum(res.status == -1))
-            nis_all.append(np.asarray(res.nis)[res.status == 1])
-            dof_all.append(res.feature_dof[res.status == 1])
+            if len(res.status):
+                acc = res.status == 1
+                stats["used"] += int(np.count_nonzero(acc))
+                stats["gated"] += int(np.count_nonzero(res.status == 0))
+                stats["failed"] += int(np.count_nonzero(res.status == -1))
+                nis_all.append(np.asarray(res.nis)[acc])
+                dof_all.append(res.feature_dof[acc])
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         blocks = {name: ESKF_STATE.get(X, name) for name in ESKF_STATE.names}
         return VioResult(

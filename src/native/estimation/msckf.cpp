@@ -2,17 +2,22 @@
 // used by dualpose.estimation.msckf:
 //
 //   msckf_propagate  the IMU error-state propagation of eskf_kernels.hpp over k steps, with the states at every
-//                    step and the product Φ of the step transitions (for the IMU–clone cross-covariance);
+//                    step, the IMU rows of the cross-covariance multiplied by the product Φ of the step transitions;
+//   msckf_clone      the covariance augmented by a clone of the IMU pose (stochastic cloning);
+//   msckf_select     the covariance of a subset of the states (marginalisation of a clone or of SLAM points);
 //   msckf_features   per feature: Gauss–Newton triangulation on inverse depth in the anchor (first) camera, the
 //                    reprojection residuals and Jacobians at the clones' first estimates (FEJ), the left-nullspace
 //                    projection of the feature Jacobian by Givens rotations, and the χ² gate; the accepted rows
-//                    stacked for one EKF update.
+//                    stacked for one EKF update;
+//   msckf_slam_rows  the gated update rows of the SLAM features seen in one clone;
+//   msckf_update     one EKF update of the whole state (QR-compressed when the rows outnumber the states).
 //
 // Layouts: IMU nominal x (16,) and error (15,) as eskf_layout.hpp; clone c = [p_wb (3), q_wb (4, xyzw)] of the IMU
 // pose, its error [δp (3), δθ (3)] (local: q = q̂ ⊗ Exp(δθ)) at columns 15 + 6c of the covariance.  Camera:
 // q_bc, p_bc (camera axes and centre in the IMU frame); observations are normalised coordinates (X/Z, Y/Z).
 #include "eskf_args.hpp"
 #include "eskf_kernels.hpp"
+#include "../common/dispatch.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -240,38 +245,142 @@ inline void fej_step(double* x, const double* x0, double* Pm, const double* gyro
     add_process_noise(Pm, noise, dt, w2, f2);
 }
 
-// msckf_propagate(x, x0, P, Phi, gyro (k, 3), accel (k, 3), dt (k,), gravity, noise, X (k, 16)): k steps of the ESKF
-// prediction with constant input per step, in place on x (16,) and the IMU covariance P (15, 15), the transitions
-// at first estimates (fej_step): x0 (16,) those of the start (the state before the last update), then each step's
-// own start; Phi (15, 15) <- the product of the step transitions, X[i] the state after step i.
+// msckf_propagate(x, x0, P, gyro (k, 3), accel (k, 3), dt (k,), gravity, noise, X (k, 16)): k steps of the ESKF
+// prediction with constant input per step, in place on x (16,) and the covariance P (n, n), n >= 15, whose first 15
+// rows and columns are the IMU error and the others states that do not move (clones, points, the time offset); the
+// transitions at first estimates (fej_step): x0 (16,) those of the start (the state before the last update), then
+// each step's own start; the IMU rows of the cross-covariance are multiplied by the product Φ of the step
+// transitions (P_IO <- Φ P_IO), X[i] the state after step i.
 PyObject* py_propagate(PyObject*, PyObject* args) {
     Array<double, 1, true> x;
-    Array<double, 2, true> Pm, Phi, X;
+    Array<double, 2, true> Pm, X;
     Array<double, 2> gyro, accel;
     Array<double, 1> x0, dt, gravity, noise;
-    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&O&O&O&:msckf_propagate", convert<double, 1, true>, &x,
-                          convert<double, 1>, &x0, convert<double, 2, true>, &Pm, convert<double, 2, true>, &Phi,
-                          convert<double, 2>, &gyro, convert<double, 2>, &accel, convert<double, 1>, &dt,
-                          convert<double, 1>, &gravity, convert<double, 1>, &noise, convert<double, 2, true>, &X))
+    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&O&O&:msckf_propagate", convert<double, 1, true>, &x,
+                          convert<double, 1>, &x0, convert<double, 2, true>, &Pm, convert<double, 2>, &gyro,
+                          convert<double, 2>, &accel, convert<double, 1>, &dt, convert<double, 1>, &gravity,
+                          convert<double, 1>, &noise, convert<double, 2, true>, &X))
         return nullptr;
-    const npy_intp k = dt.shape[0];
-    if (!shape_is("x", x, {NX}) || !shape_is("x0", x0, {NX}) || !shape_is("P", Pm, {NE, NE}) ||
-        !shape_is("Phi", Phi, {NE, NE}) || !shape_is("gyro", gyro, {k, 3}) || !shape_is("accel", accel, {k, 3}) ||
+    const npy_intp k = dt.shape[0], n = Pm.shape[0];
+    if (!shape_is("x", x, {NX}) || !shape_is("x0", x0, {NX}) || !shape_is("P", Pm, {n, n}) ||
+        !shape_is("gyro", gyro, {k, 3}) || !shape_is("accel", accel, {k, 3}) ||
         !shape_is("gravity", gravity, {3}) || !shape_is("noise", noise, {6}) || !shape_is("X", X, {k, NX}))
         return nullptr;
-    double F[NE * NE], T[NE * NE], start[NX];
-    std::fill(Phi.data, Phi.data + NE * NE, 0.0);
-    for (int i = 0; i < NE; ++i) Phi.data[i * (NE + 1)] = 1.0;
+    if (n < NE) {
+        PyErr_SetString(PyExc_ValueError, "P must have at least 15 rows (the IMU error first)");
+        return nullptr;
+    }
+    double F[NE * NE], T[NE * NE], Phi[NE * NE], Pii[NE * NE], start[NX];
     Py_BEGIN_ALLOW_THREADS;
+    std::fill(Phi, Phi + NE * NE, 0.0);
+    for (int i = 0; i < NE; ++i) Phi[i * (NE + 1)] = 1.0;
+    for (int i = 0; i < NE; ++i) std::copy(Pm.row(i), Pm.row(i) + NE, Pii + NE * i);
     std::copy(x0.data, x0.data + NX, start);
     for (npy_intp s = 0; s < k; ++s) {
-        fej_step(x.data, start, Pm.data, gyro.row(s), accel.row(s), dt[s], gravity.data, noise.data, F);
+        fej_step(x.data, start, Pii, gyro.row(s), accel.row(s), dt[s], gravity.data, noise.data, F);
         std::copy(x.data, x.data + NX, start);
-        mul_sparse_left<NE, NE, NE>(F, Phi.data, T);
-        std::copy(T, T + NE * NE, Phi.data);
+        mul_sparse_left<NE, NE, NE>(F, Phi, T);
+        std::copy(T, T + NE * NE, Phi);
         std::copy(x.data, x.data + NX, X.row(s));
     }
-    symmetrize<NE>(Pm.data);
+    symmetrize<NE>(Pii);
+    for (int i = 0; i < NE; ++i) std::copy(Pii + NE * i, Pii + NE * i + NE, Pm.row(i));
+    if (k > 0 && n > NE) {  // P_IO <- Φ P_IO and its transpose
+        std::vector<double> C(NE * (n - NE));
+        for (int i = 0; i < NE; ++i) {
+            double* c = &C[i * (n - NE)];
+            for (int q = 0; q < NE; ++q) {
+                const double f = Phi[i * NE + q];
+                const double* pr = Pm.row(q) + NE;
+                for (npy_intp j = 0; j < n - NE; ++j) c[j] += f * pr[j];
+            }
+        }
+        for (int i = 0; i < NE; ++i) {
+            std::copy(&C[i * (n - NE)], &C[(i + 1) * (n - NE)], Pm.row(i) + NE);
+            for (npy_intp j = 0; j < n - NE; ++j) Pm(NE + j, i) = C[i * (n - NE) + j];
+        }
+    }
+    Py_END_ALLOW_THREADS;
+    Py_RETURN_NONE;
+}
+
+// msckf_clone(P (n, n), rows (6,), k, u (U,), Pout (n + 6, n + 6)): the covariance with a clone of the pose error
+// J δx (rows: the IMU error's [δp, δθ] rows) inserted at row and column k (15 + 6C, after the clones).  With the
+// time offset (the last state; U = 6) the clone is the pose at t_cam + t̂_d and its error gains u δt_d,
+// u = [v_w, ω_b]: J P becomes J P + u P_(n-1), and the clone block (J P Jᵀ + …) its symmetric part.  U = 0: no
+// time offset.
+PyObject* py_clone(PyObject*, PyObject* args) {
+    Array<double, 2> Pm;
+    Array<std::int64_t, 1> rows;
+    Array<double, 1> u;
+    Array<double, 2, true> out;
+    Py_ssize_t k;
+    if (!PyArg_ParseTuple(args, "O&O&nO&O&:msckf_clone", convert<double, 2>, &Pm, convert<std::int64_t, 1>, &rows,
+                          &k, convert<double, 1>, &u, convert<double, 2, true>, &out))
+        return nullptr;
+    const npy_intp n = Pm.shape[0], N = n + 6, nu = u.shape[0];
+    if (!shape_is("P", Pm, {n, n}) || !shape_is("rows", rows, {6}) || !shape_is("Pout", out, {N, N}))
+        return nullptr;
+    if (nu != 0 && nu != 6) {
+        PyErr_SetString(PyExc_ValueError, "u must have shape (0,) or (6,)");
+        return nullptr;
+    }
+    if (k < 0 || k > n) {
+        PyErr_SetString(PyExc_ValueError, "k must be within [0, len(P)]");
+        return nullptr;
+    }
+    for (int i = 0; i < 6; ++i)
+        if (rows[i] < 0 || rows[i] >= n) {
+            PyErr_SetString(PyExc_ValueError, "rows must index P");
+            return nullptr;
+        }
+    Py_BEGIN_ALLOW_THREADS;
+    auto o = [&](npy_intp j) { return j < k ? j : j + 6; };  // old index -> new index
+    for (npy_intp i = 0; i < n; ++i) {
+        const double* pr = Pm.row(i);
+        double* orow = out.row(o(i));
+        std::copy(pr, pr + k, orow);
+        std::copy(pr + k, pr + n, orow + k + 6);
+    }
+    std::vector<double> JP(6 * n);
+    for (int i = 0; i < 6; ++i) {
+        const double* pr = Pm.row(rows[i]);
+        const double* pl = Pm.row(n - 1);
+        for (npy_intp j = 0; j < n; ++j) JP[i * n + j] = nu ? pr[j] + u[i] * pl[j] : pr[j];
+    }
+    double B[36];
+    for (int i = 0; i < 6; ++i)
+        for (int j = 0; j < 6; ++j)
+            B[6 * i + j] = nu ? JP[i * n + rows[j]] + JP[i * n + n - 1] * u[j] : JP[i * n + rows[j]];
+    for (int i = 0; i < 6; ++i) {
+        for (npy_intp j = 0; j < n; ++j) out(k + i, o(j)) = out(o(j), k + i) = JP[i * n + j];
+        for (int j = 0; j < 6; ++j) out(k + i, k + j) = 0.5 * (B[6 * i + j] + B[6 * j + i]);
+    }
+    Py_END_ALLOW_THREADS;
+    Py_RETURN_NONE;
+}
+
+// msckf_select(P (n, n), keep (k,), Pout (k, k)): Pout = P[keep][:, keep] (marginalising the states not kept).
+PyObject* py_select(PyObject*, PyObject* args) {
+    Array<double, 2> Pm;
+    Array<std::int64_t, 1> keep;
+    Array<double, 2, true> out;
+    if (!PyArg_ParseTuple(args, "O&O&O&:msckf_select", convert<double, 2>, &Pm, convert<std::int64_t, 1>, &keep,
+                          convert<double, 2, true>, &out))
+        return nullptr;
+    const npy_intp n = Pm.shape[0], k = keep.shape[0];
+    if (!shape_is("P", Pm, {n, n}) || !shape_is("Pout", out, {k, k})) return nullptr;
+    for (npy_intp i = 0; i < k; ++i)
+        if (keep[i] < 0 || keep[i] >= n) {
+            PyErr_SetString(PyExc_ValueError, "keep must index P");
+            return nullptr;
+        }
+    Py_BEGIN_ALLOW_THREADS;
+    for (npy_intp i = 0; i < k; ++i) {
+        const double* pr = Pm.row(keep[i]);
+        double* orow = out.row(i);
+        for (npy_intp j = 0; j < k; ++j) orow[j] = pr[keep[j]];
+    }
     Py_END_ALLOW_THREADS;
     Py_RETURN_NONE;
 }
@@ -567,33 +676,18 @@ PyObject* py_slam_rows(PyObject*, PyObject* args) {
     return Py_BuildValue("nn", rows, front);
 }
 
-// msckf_update(x (16,), clones (C, 7), landmarks (L, 3), extra (E,), P (n, n), H (m, n), r (m,), sigma) -> nis: the
-// EKF update with r = H δx + e, e ~ N(0, σ² I), of the IMU state, the clones, the landmarks (world points, additive
-// error at columns 15 + 6C + 3l) and E scalar states after them (additive; the camera time offset; n = 15 + 6C + 3L
-// + E), in place.  When m > n the rows are first compressed by a
-// Householder QR (H = Q T, r <- Q₁ᵀ r; Mourikis & Roumeliotis 2007 §III-D).  P <- P − P Hᵀ S⁻¹ H P (symmetrised),
-// then δx = P Hᵀ S⁻¹ r is injected (IMU: additive blocks, q ⊗ Exp(δθ); clones: p + δp, q ⊗ Exp(δθ)).  Returns the
-// NIS rᵀ S⁻¹ r, or raises numpy's LinAlgError if S is not positive definite.
-PyObject* py_update(PyObject*, PyObject* args) {
-    Array<double, 1, true> x, r, extra;
-    Array<double, 2, true> clones, lm, Pm, H;
-    double sigma;
-    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&d:msckf_update", convert<double, 1, true>, &x,
-                          convert<double, 2, true>, &clones, convert<double, 2, true>, &lm,
-                          convert<double, 1, true>, &extra, convert<double, 2, true>, &Pm,
-                          convert<double, 2, true>, &H, convert<double, 1, true>, &r, &sigma))
-        return nullptr;
-    const npy_intp nc = clones.shape[0], nl = lm.shape[0], ne = extra.shape[0], n0 = NE + 6 * nc + 3 * nl, n = n0 + ne;
-    npy_intp m = H.shape[0];
+// The arithmetic of msckf_update (below) on raw arrays: x (16,), clones (nc, 7), landmarks lm (nl, 3), extra (ne,), P
+// (n, n), H (m, n) and r (m,) (both overwritten by the QR compression when m > n); nis <- rᵀ S⁻¹ r; false when S is
+// not positive definite.  Cloned for AVX2 and AVX-512 (dispatch.hpp): every clone rounds as the baseline (the
+// vectorised loops are elementwise; no reduction is reordered, no FMA).
+DUALPOSE_CLONES_V4
+bool msckf_update_core(double* x, double* clones_p, double* lm_p, double* extra_p, double* Pp, double* H, double* r,
+                       npy_intp nc, npy_intp nl, npy_intp ne, npy_intp m, double sigma, double& nis) {
+    const npy_intp n0 = NE + 6 * nc + 3 * nl, n = n0 + ne;
     const npy_intp m_all = m;
-    if (!shape_is("x", x, {NX}) || !shape_is("clones", clones, {-1, 7}) || !shape_is("landmarks", lm, {-1, 3}) ||
-        !shape_is("P", Pm, {n, n}) ||
-        !shape_is("H", H, {-1, n}) || !shape_is("r", r, {m}))
-        return nullptr;
+    auto Prow = [&](npy_intp i) { return Pp + i * n; };
     bool ok = true;
-    double nis = 0.0;
-    Py_BEGIN_ALLOW_THREADS;
-    double* h = H.data;
+    double* h = H;
     // the first column that can be nonzero: feature rows leave the IMU columns zero
     npy_intp c0 = NE;
     for (npy_intp i = 0; i < m && c0 > 0; ++i)
@@ -650,18 +744,24 @@ PyObject* py_update(PyObject*, PyObject* args) {
             const double hk = hr[k];
             if (hk == 0.0) continue;
             nzc.push_back(k);
-            const double* pr = Pm.row(k);
+            const double* pr = Prow(k);
             for (npy_intp i = 0; i < n; ++i) wr[i] += hk * pr[i];
         }
         nz_off[j + 1] = static_cast<npy_intp>(nzc.size());
     }
+    // S_i = Σ_k h_ik (Wᵀ)_k over the nonzeros of row i in increasing k: each S_ij sums in the order of a dot product
+    // of the two rows, as axpys over the rows of Wᵀ (vectorised; no chain of dependent additions)
+    std::vector<double> Wt((n - c0) * m);
+    for (npy_intp j = 0; j < m; ++j)
+        for (npy_intp k = c0; k < n; ++k) Wt[(k - c0) * m + j] = W[j * n + k];
+    std::fill(S.begin(), S.end(), 0.0);
     for (npy_intp i = 0; i < m; ++i) {
         const double* hr = h + i * n;
-        for (npy_intp j = 0; j < m; ++j) {
-            double s = 0.0;
-            const double* wr = &W[j * n];
-            for (npy_intp q = nz_off[i]; q < nz_off[i + 1]; ++q) s += hr[nzc[q]] * wr[nzc[q]];
-            S[i * m + j] = s;
+        double* sr = &S[i * m];
+        for (npy_intp q = nz_off[i]; q < nz_off[i + 1]; ++q) {
+            const double hk = hr[nzc[q]];
+            const double* wt = &Wt[(nzc[q] - c0) * m];
+            for (npy_intp j = 0; j < m; ++j) sr[j] += hk * wt[j];
         }
     }
     for (npy_intp i = 0; i < m; ++i) {  // symmetrise (rounding) and add the noise
@@ -687,31 +787,60 @@ PyObject* py_update(PyObject*, PyObject* args) {
     }
     if (ok) {
         // W = L⁻¹ (H P) (m, n), y = L⁻¹ r: then P <- P − Wᵀ W, δx = Wᵀ y, NIS = yᵀ y
-        std::vector<double> y(r.data, r.data + m);
-        for (npy_intp j = 0; j < m; ++j) {
-            const double d = L[j * m + j];
-            for (npy_intp k = 0; k < j; ++k) {
-                const double l = L[j * m + k];
-                if (l == 0.0) continue;
-                for (npy_intp i = 0; i < n; ++i) W[j * n + i] -= l * W[k * n + i];
-                y[j] -= l * y[k];
+        // (forward substitution by blocks of four rows: the rows above a block are applied to its four rows in one
+        // pass, reading each once; every row still takes its terms in increasing k, as one row at a time would)
+        std::vector<double> y(r, r + m);
+        auto sub = [&](npy_intp j, npy_intp k) {  // row j -= L_jk row k
+            const double l = L[j * m + k];
+            if (l == 0.0) return;
+            for (npy_intp i = 0; i < n; ++i) W[j * n + i] -= l * W[k * n + i];
+            y[j] -= l * y[k];
+        };
+        for (npy_intp jb = 0; jb < m; jb += 4) {
+            const npy_intp je = std::min<npy_intp>(jb + 4, m);
+            for (npy_intp k = 0; k < jb; ++k) {
+                const double* lk = &L[k];
+                if (je - jb < 4 || lk[jb * m] == 0.0 || lk[(jb + 1) * m] == 0.0 || lk[(jb + 2) * m] == 0.0 ||
+                    lk[(jb + 3) * m] == 0.0) {
+                    for (npy_intp j = jb; j < je; ++j) sub(j, k);
+                    continue;
+                }
+                const double l0 = lk[jb * m], l1 = lk[(jb + 1) * m], l2 = lk[(jb + 2) * m], l3 = lk[(jb + 3) * m];
+                const double* wk = &W[k * n];
+                double *w0 = &W[jb * n], *w1 = w0 + n, *w2 = w1 + n, *w3 = w2 + n;
+                for (npy_intp i = 0; i < n; ++i) {
+                    const double v = wk[i];
+                    w0[i] -= l0 * v;
+                    w1[i] -= l1 * v;
+                    w2[i] -= l2 * v;
+                    w3[i] -= l3 * v;
+                }
+                y[jb] -= l0 * y[k];
+                y[jb + 1] -= l1 * y[k];
+                y[jb + 2] -= l2 * y[k];
+                y[jb + 3] -= l3 * y[k];
             }
-            for (npy_intp i = 0; i < n; ++i) W[j * n + i] /= d;
-            y[j] /= d;
+            for (npy_intp j = jb; j < je; ++j) {
+                for (npy_intp k = jb; k < j; ++k) sub(j, k);
+                const double d = L[j * m + j];
+                for (npy_intp i = 0; i < n; ++i) W[j * n + i] /= d;
+                y[j] /= d;
+            }
         }
         std::vector<double> dx(n, 0.0);
         for (npy_intp j = 0; j < m; ++j) {
             nis += y[j] * y[j];
             for (npy_intp i = 0; i < n; ++i) dx[i] += W[j * n + i] * y[j];
         }
-        // P −= Wᵀ W, upper triangle, four rows of W per pass over P (P is read and written m/4 times, not m)
+        // P −= Wᵀ W, upper triangle, four rows of W per pass over P (P is read and written m/4 times, not m), then
+        // mirrored by 8 x 8 tiles (whole cache lines written, not a column at a time)
         npy_intp j = 0;
         for (; j + 4 <= m; j += 4) {
             const double *w0 = &W[j * n], *w1 = w0 + n, *w2 = w1 + n, *w3 = w2 + n;
             for (npy_intp i = 0; i < n; ++i) {
                 const double a0 = w0[i], a1 = w1[i], a2 = w2[i], a3 = w3[i];
                 if (a0 == 0.0 && a1 == 0.0 && a2 == 0.0 && a3 == 0.0) continue;
-                double* pr = Pm.row(i);
+                double* pr = Prow(i);
                 for (npy_intp k = i; k < n; ++k) pr[k] -= (a0 * w0[k] + a1 * w1[k]) + (a2 * w2[k] + a3 * w3[k]);
             }
         }
@@ -720,29 +849,66 @@ PyObject* py_update(PyObject*, PyObject* args) {
             for (npy_intp i = 0; i < n; ++i) {
                 const double wi = w[i];
                 if (wi == 0.0) continue;
-                double* pr = Pm.row(i);
+                double* pr = Prow(i);
                 for (npy_intp k = i; k < n; ++k) pr[k] -= wi * w[k];
             }
         }
-        for (npy_intp i = 0; i < n; ++i)
-            for (npy_intp k = i + 1; k < n; ++k) Pm(k, i) = Pm(i, k);
+        constexpr npy_intp tile = 8;
+        for (npy_intp ib = 0; ib < n; ib += tile)
+            for (npy_intp kb = ib; kb < n; kb += tile) {
+                const npy_intp ie = std::min(ib + tile, n), ke = std::min(kb + tile, n);
+                for (npy_intp k = kb; k < ke; ++k) {
+                    double* dst = Prow(k);
+                    for (npy_intp i = ib; i < ie && i < k; ++i) dst[i] = Pp[i * n + k];
+                }
+            }
         for (int i = 0; i < 3; ++i) {
             x[P + i] += dx[DP + i];
             x[V + i] += dx[DV + i];
             x[BG + i] += dx[DBG + i];
             x[BA + i] += dx[DBA + i];
         }
-        quat_mul_exp_inplace(x.data + Q, dx[DTH], dx[DTH + 1], dx[DTH + 2]);
+        quat_mul_exp_inplace(x + Q, dx[DTH], dx[DTH + 1], dx[DTH + 2]);
         for (npy_intp c = 0; c < nc; ++c) {
-            double* cl = clones.row(c);
+            double* cl = clones_p + 7 * c;
             const double* d = &dx[NE + 6 * c];
             for (int i = 0; i < 3; ++i) cl[i] += d[i];
             quat_mul_exp_inplace(cl + 3, d[3], d[4], d[5]);
         }
         for (npy_intp l = 0; l < nl; ++l)
-            for (int i = 0; i < 3; ++i) lm(l, i) += dx[NE + 6 * nc + 3 * l + i];
-        for (npy_intp e = 0; e < ne; ++e) extra[e] += dx[n0 + e];
+            for (int i = 0; i < 3; ++i) lm_p[3 * l + i] += dx[NE + 6 * nc + 3 * l + i];
+        for (npy_intp e = 0; e < ne; ++e) extra_p[e] += dx[n0 + e];
     }
+    return ok;
+}
+
+// msckf_update(x (16,), clones (C, 7), landmarks (L, 3), extra (E,), P (n, n), H (m, n), r (m,), sigma) -> nis: the
+// EKF update with r = H δx + e, e ~ N(0, σ² I), of the IMU state, the clones, the landmarks (world points, additive
+// error at columns 15 + 6C + 3l) and E scalar states after them (additive; the camera time offset; n = 15 + 6C + 3L
+// + E), in place.  When m > n the rows are first compressed by a
+// Householder QR (H = Q T, r <- Q₁ᵀ r; Mourikis & Roumeliotis 2007 §III-D).  P <- P − P Hᵀ S⁻¹ H P (symmetrised),
+// then δx = P Hᵀ S⁻¹ r is injected (IMU: additive blocks, q ⊗ Exp(δθ); clones: p + δp, q ⊗ Exp(δθ)).  Returns the
+// NIS rᵀ S⁻¹ r, or raises numpy's LinAlgError if S is not positive definite.
+PyObject* py_update(PyObject*, PyObject* args) {
+    Array<double, 1, true> x, r, extra;
+    Array<double, 2, true> clones, lm, Pm, H;
+    double sigma;
+    if (!PyArg_ParseTuple(args, "O&O&O&O&O&O&O&d:msckf_update", convert<double, 1, true>, &x,
+                          convert<double, 2, true>, &clones, convert<double, 2, true>, &lm,
+                          convert<double, 1, true>, &extra, convert<double, 2, true>, &Pm,
+                          convert<double, 2, true>, &H, convert<double, 1, true>, &r, &sigma))
+        return nullptr;
+    const npy_intp nc = clones.shape[0], nl = lm.shape[0], ne = extra.shape[0], n0 = NE + 6 * nc + 3 * nl, n = n0 + ne;
+    const npy_intp m = H.shape[0];
+    if (!shape_is("x", x, {NX}) || !shape_is("clones", clones, {-1, 7}) || !shape_is("landmarks", lm, {-1, 3}) ||
+        !shape_is("P", Pm, {n, n}) ||
+        !shape_is("H", H, {-1, n}) || !shape_is("r", r, {m}))
+        return nullptr;
+    double nis = 0.0;
+    bool ok;
+    Py_BEGIN_ALLOW_THREADS;
+    ok = msckf_update_core(x.data, clones.data, lm.data, extra.data, Pm.data, H.data, r.data, nc, nl, ne, m, sigma,
+                           nis);
     Py_END_ALLOW_THREADS;
     if (!ok) return raise_linalg_error("the innovation covariance is not positive definite");
     return PyFloat_FromDouble(nis);
@@ -750,8 +916,14 @@ PyObject* py_update(PyObject*, PyObject* args) {
 
 PyMethodDef methods[] = {
     {"msckf_propagate", py_propagate, METH_VARARGS,
-     "msckf_propagate(x, x0, P, Phi, gyro, accel, dt, gravity, noise, X): k ESKF prediction steps in place on x (16,) "
-     "and P (15, 15); Phi (15, 15) the product of the step transitions, X (k, 16) the state after every step."},
+     "msckf_propagate(x, x0, P, gyro, accel, dt, gravity, noise, X): k ESKF prediction steps in place on x (16,) "
+     "and P (n, n) (IMU error first, the other states static), X (k, 16) the state after every step."},
+    {"msckf_clone", py_clone, METH_VARARGS,
+     "msckf_clone(P, rows, k, u, Pout): the covariance P (n, n) with a clone of the IMU pose error (rows (6,)) "
+     "inserted at row and column k into Pout (n + 6, n + 6); u (6,) = [v_w, ω_b] with the time offset last in P, "
+     "(0,) without."},
+    {"msckf_select", py_select, METH_VARARGS,
+     "msckf_select(P, keep, Pout): Pout (k, k) = P[keep][:, keep], keep (k,) int64."},
     {"msckf_features", py_features, METH_VARARGS,
      "msckf_features(clones, clones_fej, q_bc, p_bc, offsets, obs_clone, obs_uv, P, sigma, chi2, limits, H, r, rvar, "
      "status, nis, points, top) -> rows: triangulate, linearise (FEJ), nullspace-project and gate every feature; "
