@@ -159,7 +159,8 @@ def in_memory(rows: int, chunk_rows: int) -> list[tuple[str, int, tuple[float, i
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rows", type=float, default=1e8, help="quaternions per input file (default 1e8: 3.2 GB each)")
-    ap.add_argument("--chunk-rows", type=int, default=1 << 20, help="rows per dask chunk (default 2^20: 32 MiB)")
+    ap.add_argument("--chunk-rows", type=int, default=1 << 19,
+                    help="rows per dask chunk (default 2^19: 16 MiB per input)")
     ap.add_argument("--memory-rows", type=int, default=1 << 24, help="rows of the in-memory reference")
     ap.add_argument("--dd-mib", type=int, default=4096, help="MiB written and read by the dd floor")
     ap.add_argument("--dir", default=None, help="scratch directory for the three .npy files (default: a temp dir)")
