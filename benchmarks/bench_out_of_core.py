@@ -165,41 +165,47 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--dd-mib", type=int, default=4096, help="MiB written and read by the dd floor")
     ap.add_argument("--dir", default=None, help="scratch directory for the three .npy files (default: a temp dir)")
     ap.add_argument("--markdown", metavar="PATH", help="write the table into PATH's bench_out_of_core block")
+    ap.add_argument("--memory-only", action="store_true", help="only the in-memory runs (no files, no dd)")
     args = ap.parse_args(argv)
     rows, chunk_rows = int(args.rows), args.chunk_rows
     results = in_memory(args.memory_rows, chunk_rows)
     reference = results[0][2]
+    dd = (float("nan"),) * 3
     with tempfile.TemporaryDirectory(dir=args.dir, prefix="dualpose_ooc_") as tmp:
-        dd = dd_floor(tmp, args.dd_mib)
-        print("dd write, cold read, warm read (MB/s):", [round(r / 1e6) for r in dd], file=sys.stderr)
-        pp, qp, op = (Path(tmp) / f"{n}.npy" for n in ("p", "q", "out"))
-        t0 = time.perf_counter()
-        write_input(pp, rows, 1)
-        write_input(qp, rows, 2)
-        np.lib.format.open_memmap(op, mode="w+", dtype=np.float64, shape=(rows, 4)).flush()
-        print(f"wrote inputs in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
-        for kind in ("cold", "warm"):
-            for k in range(3):
-                if kind == "cold":
-                    drop_cached_pages(pp, qp, op)  # before mapping: mapped pages are not dropped
-                # fresh maps for every run
-                pm, qm = np.load(pp, mmap_mode="r"), np.load(qp, mmap_mode="r")
-                om = np.lib.format.open_memmap(op, mode="r+")
-                name, run = list(variants(pm, qm, chunk_rows, om).items())[k]
-                results.append((f"`.npy` memmaps, {kind}, {name}", rows, timed(run)))
-                print(results[-1], file=sys.stderr)
-                del pm, qm, om, run
-        pm, qm = np.load(pp, mmap_mode="r"), np.load(qp, mmap_mode="r")
-        om = np.lib.format.open_memmap(op, mode="r")
-        # spot check against the in-memory product
-        idx = np.random.default_rng(3).integers(0, rows, 1000)
-        assert np.array_equal(om[idx], dp.quat_mul(np.asarray(pm[idx]), np.asarray(qm[idx])))
-        del pm, qm, om
+        if args.memory_only:
+            rows = 0
+        else:
+            dd = dd_floor(tmp, args.dd_mib)
+            print("dd write, cold read, warm read (MB/s):", [round(r / 1e6) for r in dd], file=sys.stderr)
+            pp, qp, op = (Path(tmp) / f"{n}.npy" for n in ("p", "q", "out"))
+            t0 = time.perf_counter()
+            write_input(pp, rows, 1)
+            write_input(qp, rows, 2)
+            np.lib.format.open_memmap(op, mode="w+", dtype=np.float64, shape=(rows, 4)).flush()
+            print(f"wrote inputs in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+            for kind in ("cold", "warm"):
+                for k in range(3):
+                    if kind == "cold":
+                        drop_cached_pages(pp, qp, op)  # before mapping: mapped pages are not dropped
+                    # fresh maps for every run
+                    pm, qm = np.load(pp, mmap_mode="r"), np.load(qp, mmap_mode="r")
+                    om = np.lib.format.open_memmap(op, mode="r+")
+                    name, run = list(variants(pm, qm, chunk_rows, om).items())[k]
+                    results.append((f"`.npy` memmaps, {kind}, {name}", rows, timed(run)))
+                    print(results[-1], file=sys.stderr)
+                    del pm, qm, om, run
+            pm, qm = np.load(pp, mmap_mode="r"), np.load(qp, mmap_mode="r")
+            om = np.lib.format.open_memmap(op, mode="r")
+            # spot check against the in-memory product
+            idx = np.random.default_rng(3).integers(0, rows, 1000)
+            assert np.array_equal(om[idx], dp.quat_mul(np.asarray(pm[idx]), np.asarray(qm[idx])))
+            del pm, qm, om
     per_ref = reference[0] / args.memory_rows
     lines = [
         f"Python {platform.python_version()}, numpy {np.__version__}, dask {dask.__version__}; {platform.machine()}, "
         f"{os.cpu_count()} CPUs, threaded scheduler with 2 workers.  Command: "
         f"`.venv/bin/python benchmarks/bench_out_of_core.py --rows {args.rows:g} --chunk-rows {chunk_rows}"
+        + (" --memory-only" if args.memory_only else "")
         + (f" --markdown {args.markdown}`." if args.markdown else "`."),
         "",
         f"Disk floor (`dd bs=64M`, {args.dd_mib} MiB): write {dd[0] / 1e6:.0f} MB/s (`conv=fdatasync`), "
