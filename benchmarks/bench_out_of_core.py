@@ -1,14 +1,17 @@
 """Out-of-core quaternion products: ``dp.quat_mul`` over dask arrays backed by ``.npy`` memmaps vs in memory.
 
-Two ``(N, 4)`` float64 inputs are written as ``.npy`` files (``numpy.lib.format.open_memmap``); the lazy product of
-``dask.array.from_array`` views of their memmaps (leading axis in chunks of ``--chunk-rows``) is stored into a third
-``.npy`` memmap with ``dask.array.store`` (threaded scheduler, 2 workers), the output flushed to the file inside the
-timing.  Rates are quaternion products per second; the reference is ``dp.quat_mul(p, q, out=o)`` on in-memory arrays
-of ``--memory-rows`` rows (the memory-bound floor of the same kernel).  "warm": the files are in the page cache
-(just written); "cold": their cached pages dropped first (``posix_fadvise(POSIX_FADV_DONTNEED)`` on these files
-only), so the inputs come from disk.  Peak memory is sampled every 5 ms from ``/proc/self/status``, above its value
-before the run: ``RssAnon`` (memory the process holds) and ``VmRSS`` (which also counts the file pages currently mapped,
-reclaimable page cache).
+Two ``(N, 4)`` float64 inputs are written as ``.npy`` files (``numpy.lib.format.open_memmap``) and read back through
+``dask.array.from_array`` views of their memmaps (leading axis in chunks of ``--chunk-rows``; threaded scheduler, 2
+workers, the native kernels release the GIL).  Three runs separate the costs: *read only* (``sum(p) + sum(q)``: the
+inputs' pages read and summed), *product, reduced* (``sum(p ⊗ q)``: read + product, nothing written) and *product,
+stored* (``dask.array.store`` into a third ``.npy`` memmap with ``lock=False``, flushed to the file inside the
+timing).  "cold": the files' cached pages dropped first (``posix_fadvise(POSIX_FADV_DONTNEED)`` on these files only,
+before they are mapped); "warm": whatever the page cache holds after the cold runs.  The reference rate is
+``dp.quat_mul(p, q, out=o)`` on in-memory arrays of ``--memory-rows`` rows (inputs in RAM, output allocated: the
+memory-bound floor of the kernel); the same three dask runs on those in-memory arrays show dask's own cost.  The
+disk's floor is ``dd`` (sequential write with ``conv=fdatasync``, cold and cached read).  Memory: peak ``RssAnon``
+(memory the process holds) and ``VmRSS`` (which also counts mapped file pages, reclaimable page cache), sampled every
+5 ms from ``/proc/self/status`` above their values before the run, and ``tracemalloc``'s peak (NumPy's buffers).
 
 Usage: ``.venv/bin/python benchmarks/bench_out_of_core.py [--rows 1e8] [--markdown docs/scaling.md]``
 (needs ``3 × 32 × rows`` bytes free in ``--dir``; the files are deleted at the end).
@@ -19,11 +22,15 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import subprocess
 import sys
 import tempfile
 import threading
 import time
+import tracemalloc
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import dask
 import dask.array as da
@@ -84,89 +91,135 @@ def drop_cached_pages(*paths: Path) -> None:
             os.close(fd)
 
 
-def out_of_core(pp: Path, qp: Path, op: Path, chunk_rows: int) -> tuple[float, int, int]:
-    """Seconds, peak RssAnon and VmRSS of the lazy product stored into the output file."""
-    p = np.load(pp, mmap_mode="r")
-    q = np.load(qp, mmap_mode="r")
-    o = np.lib.format.open_memmap(op, mode="r+")
-    lazy = dp.quat_mul(da.from_array(p, chunks=(chunk_rows, 4), name=False),
-                       da.from_array(q, chunks=(chunk_rows, 4), name=False))
-    assert isinstance(lazy, da.Array)
+def dd_floor(directory: str, mib: int) -> tuple[float, float, float]:
+    """The disk's own sequential rates (bytes/s) with ``dd``: write (``conv=fdatasync``), cold read (cached pages
+    dropped first), warm read (from the page cache)."""
+    path = Path(directory) / "dd_floor.bin"
+
+    def rate(*args: str) -> float:
+        t0 = time.perf_counter()
+        subprocess.run(["dd", *args, "bs=64M", "status=none"], check=True)
+        return mib * 2**20 / (time.perf_counter() - t0)
+
+    try:
+        write = rate("if=/dev/zero", f"of={path}", f"count={mib // 64}", "conv=fdatasync")
+        drop_cached_pages(path)
+        cold = rate(f"if={path}", "of=/dev/null")
+        warm = rate(f"if={path}", "of=/dev/null")
+    finally:
+        path.unlink(missing_ok=True)
+    return write, cold, warm
+
+
+def timed(run: Callable[[], object]) -> tuple[float, int, int, int]:
+    """Seconds, peak RssAnon, peak VmRSS (above their values before) and tracemalloc's peak (bytes) of ``run()``."""
     base_anon, base_rss = status_kib("RssAnon") * 1024, status_kib("VmRSS") * 1024
+    tracemalloc.start()
     with PeakMemory() as peak:
         t0 = time.perf_counter()
-        da.store(lazy, o, lock=False, scheduler="threads", num_workers=2)
-        o.flush()
+        run()
         seconds = time.perf_counter() - t0
-    del p, q, o
-    return seconds, peak.anon - base_anon, peak.rss - base_rss
+    traced = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    return seconds, peak.anon - base_anon, peak.rss - base_rss, traced
 
 
-def in_memory(rows: int, chunk_rows: int, repeats: int) -> tuple[float, float]:
-    """Best seconds per product of ``dp.quat_mul(p, q, out=o)`` on in-memory arrays of ``rows`` rows, and of the
-    same product through dask (chunks of ``chunk_rows``) stored into ``o``."""
+def variants(p: Any, q: Any, chunk_rows: int, out: Any) -> dict[str, Callable[[], object]]:
+    """The three lazy runs over inputs ``p``, ``q`` (memmaps or ndarrays): read only, product reduced, product stored
+    into ``out`` (flushed when it is a memmap)."""
+    pd, qd = (da.from_array(x, chunks=(chunk_rows, 4), name=False) for x in (p, q))
+    lazy = dp.quat_mul(pd, qd)
+    assert isinstance(lazy, da.Array)
+
+    def store() -> None:
+        da.store(lazy, out, lock=False, scheduler="threads", num_workers=2)
+        if isinstance(out, np.memmap):
+            out.flush()
+
+    return {
+        "read only: sum(p) + sum(q)": lambda: dask.compute(pd.sum(), qd.sum(), scheduler="threads", num_workers=2),
+        "product, reduced: sum(p ⊗ q)": lambda: lazy.sum().compute(scheduler="threads", num_workers=2),
+        "product, stored: da.store(p ⊗ q, lock=False)": store,
+    }
+
+
+def in_memory(rows: int, chunk_rows: int) -> list[tuple[str, int, tuple[float, int, int, int]]]:
+    """The in-memory reference ``quat_mul(p, q, out=o)`` and the same three dask runs on in-memory arrays (best of
+    several)."""
     rng = np.random.default_rng(0)
     p, q = rng.standard_normal((rows, 4)), rng.standard_normal((rows, 4))
     o = np.empty_like(p)
-    lazy = dp.quat_mul(da.from_array(p, chunks=(chunk_rows, 4)), da.from_array(q, chunks=(chunk_rows, 4)))
-    best = [float("inf"), float("inf")]
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        dp.quat_mul(p, q, out=o)
-        t1 = time.perf_counter()
-        da.store(lazy, o, lock=False, scheduler="threads", num_workers=2)
-        best = [min(best[0], t1 - t0), min(best[1], time.perf_counter() - t1)]
-    return best[0] / rows, best[1] / rows
+    results = [("in memory: `quat_mul(p, q, out=o)`", rows, min(timed(lambda: dp.quat_mul(p, q, out=o))
+                                                                for _ in range(7)))]
+    for name, run in variants(p, q, chunk_rows, o).items():
+        results.append((f"in memory via dask, {name}", rows, min(timed(run) for _ in range(5))))
+    return results
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rows", type=float, default=1e8, help="quaternions per input file (default 1e8: 3.2 GB each)")
-    ap.add_argument("--chunk-rows", type=int, default=1 << 21, help="rows per dask chunk (default 2^21: 64 MiB)")
+    ap.add_argument("--chunk-rows", type=int, default=1 << 19,
+                    help="rows per dask chunk (default 2^19: 16 MiB per input)")
     ap.add_argument("--memory-rows", type=int, default=1 << 24, help="rows of the in-memory reference")
+    ap.add_argument("--dd-mib", type=int, default=4096, help="MiB written and read by the dd floor")
     ap.add_argument("--dir", default=None, help="scratch directory for the three .npy files (default: a temp dir)")
     ap.add_argument("--markdown", metavar="PATH", help="write the table into PATH's bench_out_of_core block")
+    ap.add_argument("--memory-only", action="store_true", help="only the in-memory runs (no files, no dd)")
     args = ap.parse_args(argv)
-    rows = int(args.rows)
-    per_memory, per_memory_dask = in_memory(args.memory_rows, args.chunk_rows, 7)
+    rows, chunk_rows = int(args.rows), args.chunk_rows
+    results = in_memory(args.memory_rows, chunk_rows)
+    reference = results[0][2]
+    dd = (float("nan"),) * 3
     with tempfile.TemporaryDirectory(dir=args.dir, prefix="dualpose_ooc_") as tmp:
-        pp, qp, op = (Path(tmp) / f"{n}.npy" for n in ("p", "q", "out"))
-        t0 = time.perf_counter()
-        write_input(pp, rows, 1)
-        write_input(qp, rows, 2)
-        np.lib.format.open_memmap(op, mode="w+", dtype=np.float64, shape=(rows, 4)).flush()
-        print(f"wrote inputs in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
-        runs = {}
-        for kind in ("warm", "cold", "warm again"):
-            if kind == "cold":
-                drop_cached_pages(pp, qp, op)
-            runs[kind] = out_of_core(pp, qp, op, args.chunk_rows)
-            print(kind, runs[kind], file=sys.stderr)
-        # spot check against the in-memory product
-        idx = np.random.default_rng(3).integers(0, rows, 1000)
-        p, q, o = (np.load(x, mmap_mode="r") for x in (pp, qp, op))
-        assert np.array_equal(o[idx], dp.quat_mul(np.asarray(p[idx]), np.asarray(q[idx])))
-        del p, q, o
-    chunk_mib = args.chunk_rows * 32 / 2**20
+        if args.memory_only:
+            rows = 0
+        else:
+            dd = dd_floor(tmp, args.dd_mib)
+            print("dd write, cold read, warm read (MB/s):", [round(r / 1e6) for r in dd], file=sys.stderr)
+            pp, qp, op = (Path(tmp) / f"{n}.npy" for n in ("p", "q", "out"))
+            t0 = time.perf_counter()
+            write_input(pp, rows, 1)
+            write_input(qp, rows, 2)
+            np.lib.format.open_memmap(op, mode="w+", dtype=np.float64, shape=(rows, 4)).flush()
+            print(f"wrote inputs in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+            for kind in ("cold", "warm"):
+                for k in range(3):
+                    if kind == "cold":
+                        drop_cached_pages(pp, qp, op)  # before mapping: mapped pages are not dropped
+                    # fresh maps for every run
+                    pm, qm = np.load(pp, mmap_mode="r"), np.load(qp, mmap_mode="r")
+                    om = np.lib.format.open_memmap(op, mode="r+")
+                    name, run = list(variants(pm, qm, chunk_rows, om).items())[k]
+                    results.append((f"`.npy` memmaps, {kind}, {name}", rows, timed(run)))
+                    print(results[-1], file=sys.stderr)
+                    del pm, qm, om, run
+            pm, qm = np.load(pp, mmap_mode="r"), np.load(qp, mmap_mode="r")
+            om = np.lib.format.open_memmap(op, mode="r")
+            # spot check against the in-memory product
+            idx = np.random.default_rng(3).integers(0, rows, 1000)
+            assert np.array_equal(om[idx], dp.quat_mul(np.asarray(pm[idx]), np.asarray(qm[idx])))
+            del pm, qm, om
+    per_ref = reference[0] / args.memory_rows
     lines = [
         f"Python {platform.python_version()}, numpy {np.__version__}, dask {dask.__version__}; {platform.machine()}, "
         f"{os.cpu_count()} CPUs, threaded scheduler with 2 workers.  Command: "
-        f"`.venv/bin/python benchmarks/bench_out_of_core.py --rows {args.rows:g} --chunk-rows {args.chunk_rows}"
+        f"`.venv/bin/python benchmarks/bench_out_of_core.py --rows {args.rows:g} --chunk-rows {chunk_rows}"
+        + (" --memory-only" if args.memory_only else "")
         + (f" --markdown {args.markdown}`." if args.markdown else "`."),
         "",
-        "| run | quaternion products | chunk (per input) | time | ns / product | rate / in-memory rate "
-        "| peak RssAnon | peak VmRSS |",
+        f"Disk floor (`dd bs=64M`, {args.dd_mib} MiB): write {dd[0] / 1e6:.0f} MB/s (`conv=fdatasync`), "
+        f"cold read {dd[1] / 1e6:.0f} MB/s, read from the page cache {dd[2] / 1e6:.0f} MB/s.  Chunks of "
+        f"{chunk_rows:,} quaternions ({chunk_rows * 32 / 2**20:.0f} MiB per input).",
+        "",
+        "| run | quaternion products | time | ns / product | rate / in-memory rate | peak RssAnon | peak VmRSS "
+        "| tracemalloc peak |",
         "|---|---:|---:|---:|---:|---:|---:|---:|",
-        f"| in memory, `quat_mul(p, q, out=o)` | {args.memory_rows:,} | – | {per_memory * args.memory_rows:.3f} s "
-        f"| {per_memory * 1e9:.2f} | 1.00 | – | – |",
-        f"| in memory via dask, stored into an ndarray | {args.memory_rows:,} | {chunk_mib:.0f} MiB "
-        f"| {per_memory_dask * args.memory_rows:.3f} s | {per_memory_dask * 1e9:.2f} "
-        f"| {per_memory / per_memory_dask:.2f} | – | – |",
     ]
-    for kind, (sec, anon, rss) in runs.items():
-        per = sec / rows
-        lines.append(f"| `.npy` memmaps via dask, {kind} | {rows:,} | {chunk_mib:.0f} MiB | {sec:.2f} s "
-                     f"| {per * 1e9:.2f} | {per_memory / per:.2f} | {anon / 2**20:.0f} MiB | {rss / 2**20:.0f} MiB |")
+    for name, n, (sec, anon, rss, traced) in results:
+        per = sec / n
+        lines.append(f"| {name} | {n:,} | {sec:.3f} s | {per * 1e9:.2f} | {per_ref / per:.2f} "
+                     f"| {anon / 2**20:.0f} MiB | {rss / 2**20:.0f} MiB | {traced / 2**20:.0f} MiB |")
     return print_and_mark("\n".join(lines), args.markdown, BEGIN, END)
 
 

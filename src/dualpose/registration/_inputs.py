@@ -48,14 +48,15 @@ def _weights(w: Any, name: str, shape: tuple[int, ...]) -> NDArray[np.float64]:
     return np.array(arr, dtype=np.float64, order="C")  # a writeable C-contiguous copy
 
 
-def _unit(d: np.ndarray, name: str) -> NDArray[np.float64]:
+def _unit(d: NDArray[np.float64], name: str, offset: int = 0) -> NDArray[np.float64]:
     if d.size == 0:
         return d
     if not np.isfinite(d).all():
         raise ValueError(f"{name} contains NaN or infinity")
     norms = np.sqrt(np.einsum("...i,...i->...", d, d))
     if (norms == 0).any():
-        idx = tuple(int(i) for i in np.argwhere(norms == 0)[0])
+        at = np.argwhere(norms == 0)[0]
+        idx = tuple(int(i) + (offset if k == 0 and d.ndim == 3 else 0) for k, i in enumerate(at))
         raise ValueError(f"{name} must be nonzero direction vectors; entry {idx} is zero")
     result: NDArray[np.float64] = d / norms[..., None]
     return result
@@ -104,6 +105,8 @@ def _prepare(
     measured_directions: Any,
     point_weights: Any,
     direction_weights: Any,
+    *,
+    offset: int = 0,
 ) -> Problem:
     given_p = _pair(model_points, measured_points, ("model_points", "measured_points"), lead)
     given_n = _pair(model_directions, measured_directions, ("model_directions", "measured_directions"), lead)
@@ -129,7 +132,7 @@ def _prepare(
         n0, n1 = given_n
     beta = _weights(point_weights, "point_weights", p0.shape[:-1])
     alpha = _weights(direction_weights, "direction_weights", n0.shape[:-1])
-    n0, n1 = _unit(n0, "model_directions"), _unit(n1, "measured_directions")
+    n0, n1 = _unit(n0, "model_directions", offset), _unit(n1, "measured_directions", offset)
     n_pts = p0.shape[-2] if point_weights is None else (beta > 0).sum(axis=-1)
     n_dirs = n0.shape[-2] if direction_weights is None else (alpha > 0).sum(axis=-1)
     if lead == 0 or np.ndim(n_pts) == np.ndim(n_dirs) == 0:
@@ -141,7 +144,7 @@ def _prepare(
         try:
             check_minimum_data(int(np.broadcast_to(n_pts, bad.shape)[i]), int(np.broadcast_to(n_dirs, bad.shape)[i]))
         except ValueError as exc:
-            raise ValueError(f"problem {i}: {exc}") from None
+            raise ValueError(f"problem {i + offset}: {exc}") from None
     return p0, p1, beta, n0, n1, alpha
 
 
@@ -150,6 +153,8 @@ def prepare_single(*args: Any) -> Problem:
     return _prepare(0, *args)
 
 
-def prepare_batch(*args: Any) -> Problem:
-    """Checked ``(p0, p1, beta, n0, n1, alpha)`` for B problems (shapes (B, n, 3), (B, n), (B, m, 3), (B, m))."""
-    return _prepare(1, *args)
+def prepare_batch(*args: Any, offset: int = 0) -> Problem:
+    """Checked ``(p0, p1, beta, n0, n1, alpha)`` for B problems (shapes (B, n, 3), (B, n), (B, m, 3), (B, m)).
+
+    Messages number the problems from ``offset`` (the index of the first problem given in a larger batch)."""
+    return _prepare(1, *args, offset=offset)
