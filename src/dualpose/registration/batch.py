@@ -81,6 +81,11 @@ class PoseBatch:
     @property
     def rmsd(self) -> NDArray[np.float64]:
         """Weighted RMS point residuals (B,) (over directions for problems without points)."""
+        if not isinstance(self._rows, np.ndarray):  # lazy: the same NumPy computation on each block of problems
+            p0, p1, beta, n0, n1, alpha = self._data
+            return cast(NDArray[np.float64], sys.modules["dask.array"].blockwise(
+                _rmsd_block, "b", self._rows, "bk", p0, "bnj", p1, "bnj", beta, "bn", n0, "bmj", n1, "bmj",
+                alpha, "bm", method=self.method, dtype=np.float64, concatenate=True))  # fmt: skip
         bsum = self._data[2].sum(axis=-1)
         asum = self._data[5].sum(axis=-1)
         pts = np.sqrt(np.maximum(self._rows[:, R.POINT_COST], 0.0) / np.where(bsum > 0, bsum, 1.0))
@@ -231,3 +236,8 @@ def _lazy_batch(inputs: tuple[Any, ...], method: str, code: int, scale: bool) ->
         block, signature, first, *arrays, output_dtypes=[np.float64] * 7,
         output_sizes={"r": R.ROW_SIZE, "n": n, "m": m, "3": 3})
     return PoseBatch(rows, method, cast(Problem, tuple(data)))
+
+
+def _rmsd_block(rows: NDArray[np.float64], *data: NDArray[np.float64], method: str) -> NDArray[np.float64]:
+    """:attr:`PoseBatch.rmsd` of one block of problems (NumPy arrays), for the lazy batch."""
+    return PoseBatch(rows, method, cast(Problem, data)).rmsd
