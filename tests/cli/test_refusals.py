@@ -68,8 +68,11 @@ def test_an_out_set_is_always_one_runs_ctrl_c_and_force_included(tmp_path):
         time.sleep(delay)
         proc.send_signal(signal.SIGINT)
         _, err = proc.communicate(timeout=60)
-        codes.add(proc.returncode)
-        assert proc.returncode in (0, 130) and "Traceback" not in err, err
+        # a signal that arrives while the interpreter shuts down, after the command has returned, finds SIGINT's
+        # default action restored and ends the process by the signal: a shell reports 128 + 2 = 130 as well
+        code = 130 if proc.returncode == -signal.SIGINT else proc.returncode
+        codes.add(code)
+        assert code in (0, 130) and "Traceback" not in err, err
         _no_leftovers(tmp_path)
         if proc.returncode == 130:
             assert _listing(out) == before  # the earlier run's set, untouched
