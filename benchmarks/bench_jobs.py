@@ -117,6 +117,23 @@ def interleaved(fns: dict[str, Callable[[], object]], repeats: int) -> dict[str,
     return best
 
 
+def where_time_goes(address: str, job: Callable[[str], object]) -> tuple[float, list[float], float]:
+    """(wall seconds, seconds each worker spent computing tasks, load average before) of one run of ``job`` on the
+    cluster at ``address``, from the scheduler's task stream: wall minus the busiest worker is the dispatch cost."""
+    from collections import defaultdict
+
+    from distributed import Client, get_task_stream
+
+    with Client(address, set_as_default=False) as client, get_task_stream(client) as stream:  # type: ignore[no-untyped-call]
+        sec, load, _ = timed(lambda: job(address))
+    busy: dict[str, float] = defaultdict(float)
+    for task in stream.data:
+        for step in task["startstops"]:
+            if step["action"] == "compute":
+                busy[task["worker"]] += step["stop"] - step["start"]
+    return sec, sorted(busy.values(), reverse=True), load
+
+
 def load_text(loads: list[float]) -> str:
     lo, hi = f"{min(loads):.1f}", f"{max(loads):.1f}"
     return lo if lo == hi else f"{lo}–{hi}"
@@ -136,6 +153,7 @@ def main(argv: list[str] | None = None) -> int:
     from distributed import LocalCluster
 
     rows: list[str] = []
+    split: list[str] = []
     with tempfile.TemporaryDirectory(prefix="dualpose_jobs_") as tmp:
         pairs = read_eval_manifest(write_pairs(Path(tmp), args.pairs, args.poses))
         sec_start, load_start, cluster = timed(lambda: LocalCluster(
@@ -165,6 +183,11 @@ def main(argv: list[str] | None = None) -> int:
                                 f"{load_text(s_load)} | {label} | {c_sec:.2f} s | {load_text(c_load)} | "
                                 f"**{s_sec / c_sec:.2f} ×** |")  # fmt: skip
                     print(rows[-1], file=sys.stderr)
+                    wall, busy, load = where_time_goes(addrs[label], job)
+                    split.append(f"| {name} | {label} | {s_sec:.2f} s | {' + '.join(f'{b:.2f}' for b in busy)} s | "
+                                 f"{wall:.2f} s | {1e3 * (wall - busy[0]):.0f} ms | {sum(busy) / s_sec:.2f} | "
+                                 f"{load:.1f} |")  # fmt: skip
+                    print(split[-1], file=sys.stderr)
             items = [float(k) for k in range(2000)]
             addr = cluster.scheduler_address  # type: ignore[attr-defined]
             over = interleaved({"serial": lambda: run_tasks(math.sqrt, items, scheduler="serial"),
@@ -186,6 +209,15 @@ def main(argv: list[str] | None = None) -> int:
         "| job | tasks | serial (1 process) | load avg | 2 worker processes | time | load avg | speed-up |",
         "|---|---|---:|---:|---|---:|---:|---:|",
         *rows,
+        "",
+        "Where the time goes (one more cluster run each, the scheduler's task stream): the seconds each worker spent "
+        "computing, the dispatch cost (wall time minus the busiest worker's computing: client connection, submission, "
+        "scheduling, result transfer, the gaps between tasks) and the workers' total computing over the serial time "
+        "(1.00 when a worker process computes a row as fast as the serial process; more under CPU contention):",
+        "",
+        "| job | cluster | serial | computing per worker | wall | dispatch | computing / serial | load avg |",
+        "|---|---|---:|---:|---:|---:|---:|---:|",
+        *split,
         "",
         "| overhead | time | load avg |",
         "|---|---:|---:|",
