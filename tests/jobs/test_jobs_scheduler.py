@@ -12,7 +12,7 @@ import pytest
 
 from dualpose.jobs import scheduler
 from dualpose.jobs.monte_carlo import run_monte_carlo
-from dualpose.jobs.scheduler import TaskFailure, default_scheduler, run_tasks
+from dualpose.jobs.scheduler import MAX_CHUNK, TASKS_PER_WORKER, TaskFailure, chunk_bounds, default_scheduler, run_tasks
 
 ITEMS = [4.0, -1.0, 9.0, 2.25, "x", 0.0]
 #: math.sqrt on ITEMS: the domain error and the type error stay in their rows
@@ -33,6 +33,18 @@ def test_serial_order_failures_and_progress() -> None:
     _check(run_tasks(math.sqrt, ITEMS, scheduler="serial", progress=lambda d, t: seen.append((d, t))))
     assert seen == [(k, len(ITEMS)) for k in range(1, len(ITEMS) + 1)]
     assert run_tasks(math.sqrt, [], scheduler="serial") == []
+
+
+@pytest.mark.parametrize("n_items", [0, 1, 5, 16, 100, 101, 200, 1000, 4099])
+@pytest.mark.parametrize("n_workers", [1, 2, 3, 8])
+def test_chunks_cover_every_item_once_balanced_over_the_workers(n_items: int, n_workers: int) -> None:
+    bounds = chunk_bounds(n_items, n_workers)
+    assert [i for a, b in bounds for i in range(a, b)] == list(range(n_items))  # contiguous, in order, once each
+    sizes = [b - a for a, b in bounds]
+    if n_items:
+        assert max(sizes) - min(sizes) <= 1 and min(sizes) >= 1 and max(sizes) <= MAX_CHUNK
+        assert len(bounds) == n_items or len(bounds) % n_workers == 0
+        assert len(bounds) >= min(n_items, TASKS_PER_WORKER * n_workers)
 
 
 def test_bad_scheduler_and_workers_are_refused() -> None:

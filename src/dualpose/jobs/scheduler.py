@@ -18,9 +18,9 @@ Guarantees, whatever the scheduler:
 * **Lost workers** (distributed only): a task whose worker dies is recomputed on another worker by the dask
   scheduler; its outcome is collected once, by its key, so nothing is lost or counted twice.
 
-On a cluster the items go to dask in chunks of a few (:func:`chunk_size`: about 8 tasks per worker, at most
-``MAX_CHUNK`` items a task), as the distributed scheduler costs about a millisecond per task; progress is then
-reported per chunk.
+On a cluster the items go to dask in chunks (:func:`chunk_bounds`: ``TASKS_PER_WORKER`` tasks per worker, a multiple
+of the worker count, sizes differing by one item at most, at most ``MAX_CHUNK`` items a task), as the distributed
+scheduler costs milliseconds per task; progress is then reported per chunk.
 
 dask and distributed are optional (``pip install 'dualpose[dask]'``) and are imported only when a parallel
 scheduler is asked for.
@@ -36,7 +36,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Generic, TypeVar
 
-__all__ = ["SCHEDULERS", "TaskFailure", "chunk_size", "default_scheduler", "run_tasks"]
+__all__ = ["SCHEDULERS", "TaskFailure", "chunk_bounds", "default_scheduler", "run_tasks"]
 
 _T = TypeVar("_T")
 _R = TypeVar("_R")
@@ -47,8 +47,12 @@ SCHEDULERS: tuple[str, ...] = ("serial", "processes")
 #: seconds to wait for a cluster address to answer
 CONNECT_TIMEOUT_S = 20.0
 
-#: most items one dask task runs (:func:`chunk_size`)
-MAX_CHUNK = 16
+#: most items one dask task runs (:func:`chunk_bounds`): bounds what a lost worker makes the cluster recompute
+MAX_CHUNK = 64
+
+#: dask tasks per worker (:func:`chunk_bounds`): enough for the workers to even out their speeds, few enough that the
+#: scheduler's cost per task stays small
+TASKS_PER_WORKER = 4
 
 #: how often the distributed scheduler retries a task that raised (the task functions catch their errors: this only
 #: covers failures outside them, such as a result that cannot be sent back)
@@ -180,17 +184,25 @@ class _Chunk(Generic[_T, _R]):
         return [self.guarded(item) for item in items]
 
 
-def chunk_size(n_items: int, n_workers: int) -> int:
-    """Items per dask task: about 8 tasks per worker (balance while the tasks finish at different times), at most
-    ``MAX_CHUNK`` items, at least 1 -- the distributed scheduler costs ~1 ms a task."""
-    return max(1, min(MAX_CHUNK, n_items // (8 * max(n_workers, 1))))
+def chunk_bounds(n_items: int, n_workers: int) -> list[tuple[int, int]]:
+    """``(start, stop)`` of each dask task's items: ``TASKS_PER_WORKER`` tasks per worker, or more so that none
+    exceeds ``MAX_CHUNK`` items, their count a multiple of ``n_workers`` (at most one per item), their sizes differing
+    by one item at most -- so equal workers finish together (the distributed scheduler costs milliseconds a task)."""
+    n_items, n_workers = max(int(n_items), 0), max(int(n_workers), 1)
+    if n_items == 0:
+        return []
+    n_tasks = max(TASKS_PER_WORKER * n_workers, -(-n_items // MAX_CHUNK))
+    n_tasks = min(n_items, -(-n_tasks // n_workers) * n_workers)
+    size, extra = divmod(n_items, n_tasks)
+    stops = [(k + 1) * size + min(k + 1, extra) for k in range(n_tasks)]
+    return list(zip([0, *stops[:-1]], stops, strict=True))
 
 
 def _distributed(
     guarded: _Guarded[_T, _R], items: list[_T], where: object, progress: Callable[[int, int], None] | None
 ) -> list[_R | TaskFailure]:
     """On a ``distributed`` cluster (a ``LocalCluster`` object or an address): one future per chunk of items
-    (:func:`chunk_size`), keyed by its first index, collected once each."""
+    (:func:`chunk_bounds`), keyed by its first index, collected once each."""
     from distributed import Client, as_completed
 
     try:
@@ -198,17 +210,16 @@ def _distributed(
     except (OSError, TimeoutError) as exc:
         raise OSError(f"cannot reach the dask scheduler at {where}: {exc}") from None
     with client:
-        size = chunk_size(len(items), sum(client.nthreads().values()))  # type: ignore[no-untyped-call]
-        starts = range(0, len(items), size)
+        bounds = chunk_bounds(len(items), sum(client.nthreads().values()))  # type: ignore[no-untyped-call]
         prefix = f"dualpose-task-{uuid.uuid4().hex}"
         run_chunk = _Chunk(guarded)
-        futures = [client.submit(run_chunk, items[k : k + size], key=f"{prefix}-{k}", pure=False, retries=_RETRIES)
-                   for k in starts]  # fmt: skip
-        first = {f.key: k for k, f in zip(starts, futures, strict=True)}
+        futures = [client.submit(run_chunk, items[k:stop], key=f"{prefix}-{k}", pure=False, retries=_RETRIES)
+                   for k, stop in bounds]  # fmt: skip
+        span = {f.key: b for b, f in zip(bounds, futures, strict=True)}
         out: dict[int, _R | TaskFailure] = {}
         for future in as_completed(futures, loop=client.loop):  # type: ignore[no-untyped-call]
-            k = first[future.key]
-            n = min(size, len(items) - k)
+            k, stop = span[future.key]
+            n = stop - k
             try:
                 outcomes = future.result()
             except Exception as exc:  # lost more often than the scheduler allows (KilledWorker), or unpicklable
