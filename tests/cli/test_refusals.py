@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from _pipes import dualpose_process
+from _pipes import dualpose_process, run_lines
 
 import dualpose as dp
 
@@ -207,3 +207,50 @@ def test_broad_with_an_all_zero_magnetometer_names_the_magnetometer(tmp_path, ca
     assert main(["ahrs", str(tmp_path / "t.mat"), *(["--offline"] if offline else [])]) == 1
     line = _one_line(capsys.readouterr().err, "dualpose ahrs")
     assert "mag: every sample is zero" in line and "--no-mag" in line and "gyroscope" not in line
+
+
+@pytest.mark.parametrize("offline", [False, True])
+@pytest.mark.parametrize("zero_rows", ["one", "all but one", "every other"])
+def test_broad_magnetometer_with_zero_samples_names_the_first(tmp_path, capsys, offline, zero_rows):
+    # a zero magnetometer sample carries no field (no direction to normalise): refused naming the trial's first such
+    # sample, in both modes, before filtering -- never a NaN orientation blamed on the scorer or the gyroscope
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "io"))
+    from test_broad import write_synthetic_trial
+
+    from dualpose.cli.main import main
+
+    n = 600
+    mag = np.array([0.0, 20.0, -40.0]) + np.random.default_rng(2).normal(0.0, 0.1, (n, 3))
+    rows = {"one": [450], "all but one": np.r_[0:300, 301:n], "every other": np.arange(1, n, 2)}[zero_rows]
+    mag[rows] = 0.0
+    mag[7] *= 1e-160 if zero_rows == "every other" else 1.0  # underflows when squared: no direction either
+    path = write_synthetic_trial(tmp_path / "z.mat", imu_mag=mag)
+    assert main(["ahrs", str(path), *(["--offline"] if offline else [])]) == 1
+    line = _one_line(capsys.readouterr().err, "dualpose ahrs")
+    first = int(np.flatnonzero(~(np.einsum("ij,ij->i", mag, mag) > 0))[0])
+    assert f"z.mat: mag: sample {first} is zero" in line and "--no-mag" in line
+    assert "NaN" not in line and "gyroscope" not in line
+    assert main(["ahrs", str(path), "--no-mag", *(["--offline"] if offline else [])]) == 0  # 6D does not need it
+    capsys.readouterr()
+
+
+def test_stream_magnetometer_zero_sample_is_refused_with_its_line():
+    rows = [f"{k / 100:.2f} 0 0 0 0 0 9.81 0 20 -40\n" for k in range(50)]
+    rows[30] = "0.30 0 0 0 0 0 9.81 0 0 0\n"
+    code, out, err = run_lines(rows, "ahrs", "--stream", "--rate", "100", "--rest-seconds", "0.1")
+    assert code == 1 and len(out.splitlines()) == 30  # the lines before it are kept
+    line = _one_line(err, "dualpose ahrs")
+    assert "stdin line 31: mag: the sample is zero" in line and "--no-mag" in line
+
+
+def test_ahrs_stream_api_refuses_a_zero_field_sample():
+    from dualpose.estimation.ahrs import AhrsStream
+
+    s = AhrsStream(100.0, n_rest=10)
+    mag = np.tile([0.0, 20.0, -40.0], (20, 1))
+    mag[16] = 0.0
+    with pytest.raises(ValueError, match="mag: sample 16 is zero"):
+        s.update_batch(np.arange(20) / 100, np.zeros((20, 3)), np.tile([0, 0, 9.81], (20, 1)), mag)
+    assert s.samples == 0  # refused before any change to the stream
+    with pytest.raises(ValueError, match="mag: the sample is zero"):
+        s.update_imu(0.0, [0, 0, 0], [0, 0, 9.81], [0.0, 0.0, 0.0])

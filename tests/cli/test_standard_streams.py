@@ -45,6 +45,44 @@ def test_ctrl_c_stops_a_stream_quietly_with_exit_130() -> None:
     assert "Traceback" not in err and "KeyboardInterrupt" not in err
 
 
+def _console_script() -> list[str]:
+    """The installed ``dualpose`` console script, or what its wrapper runs (``from ENTRY import main;
+    sys.exit(main())``) when the tests run without one."""
+    from importlib.metadata import entry_points
+
+    (entry,) = entry_points(group="console_scripts", name="dualpose")
+    assert entry.value == "_dualpose_cli:main"  # the entry imports nothing heavy before its Ctrl-C guard
+    script = Path(sys.executable).parent / "dualpose"
+    if script.is_file():
+        return [str(script)]
+    return [sys.executable, "-c", "import sys; from _dualpose_cli import main; sys.exit(main())"]
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
+def test_ctrl_c_while_starting_exits_quietly() -> None:
+    # Ctrl-C while `import dualpose` loads NumPy (before the command's own guard runs) is quiet too: exit 130, never a
+    # traceback through dualpose.  Before the entry point is called, the interpreter's start (`site`) and the
+    # installer's two-line wrapper are CPython's and pip's: a traceback there has no frame of ours (docs/refusals.md)
+    import time
+
+    src = Path(dp.__file__).resolve().parents[1]
+    ours = (str(src / "dualpose"), str(src / "_dualpose_cli"))
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(src), os.environ.get("PYTHONPATH", "")]))
+    codes = []
+    for delay_ms in (0, 5, 10, 20, 35, 50, 75, 100, 150, 200, 300, 400):
+        proc = subprocess.Popen([*_console_script(), "ahrs", "--help"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                env=env, text=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+        time.sleep(delay_ms / 1000)
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=120)
+        frames = [ln for ln in err.splitlines() if ln.strip().startswith("File ")]
+        assert not [ln for ln in frames if any(p in ln for p in ours)], (delay_ms, err)
+        if "Traceback" not in err:
+            assert proc.returncode in (0, 130, -signal.SIGINT), (delay_ms, err)
+        codes.append(proc.returncode)
+    assert 130 in codes  # some Ctrl-C came while dualpose was loading, and was caught there
+
+
 def test_closed_stdin_reads_as_empty_input() -> None:
     res = _run(["ahrs", "--stream", "--rate", "100", "--no-mag"], stdin=subprocess.DEVNULL,
                stdout=subprocess.PIPE, stderr=subprocess.PIPE)  # fmt: skip

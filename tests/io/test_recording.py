@@ -72,6 +72,43 @@ def test_writer_never_overwrites_without_permission(run, written):
         write_recording(written, "not a run", overwrite=True)
 
 
+def _fail_after_imu(monkeypatch):
+    """Make the ground-truth writer (called after the IMU and correspondence files are written) raise."""
+    import dualpose.io.recording as recording_module
+
+    def broken(*args, **kwargs):
+        raise OSError("disk full (test)")
+
+    monkeypatch.setattr(recording_module, "write_euroc_groundtruth", broken)
+
+
+@pytest.mark.parametrize("existing", ["missing", "empty", "other files", "earlier recording"])
+def test_writer_failing_half_way_leaves_nothing_partial(run, written, tmp_path, monkeypatch, existing):
+    # the recording directory appears complete or not at all; a directory's other files are left alone
+    out = tmp_path / "rec"
+    if existing == "empty":
+        out.mkdir()
+    elif existing == "other files":
+        out.mkdir()
+        (out / "notes.txt").write_text("mine\n")
+    elif existing == "earlier recording":
+        shutil.copytree(written, out)
+    before = {p.name: p.read_bytes() for p in out.iterdir()} if out.exists() else None
+    _fail_after_imu(monkeypatch)
+    with pytest.raises(OSError, match="disk full"):
+        write_recording(out, sim.recording_from_simulation(run), overwrite=True)
+    after = {p.name: p.read_bytes() for p in out.iterdir()} if out.exists() else None
+    assert after == before
+    assert [p.name for p in tmp_path.iterdir() if p.name != "rec"] == []  # no temporary sibling left behind
+    monkeypatch.undo()
+    write_recording(out, sim.recording_from_simulation(run), overwrite=True)
+    expected = {SENSORS_FILE, "imu.csv", "correspondences.csv", "groundtruth.csv"}
+    assert expected <= {p.name for p in out.iterdir()}
+    if existing == "other files":
+        assert (out / "notes.txt").read_text() == "mine\n"
+    assert read_recording(out).gyro.shape == read_recording(written).gyro.shape
+
+
 def test_sensor_file_path_and_files_elsewhere(written, tmp_path):
     # the sensor file may be given directly and may name data files in another directory
     data = tmp_path / "data"

@@ -32,7 +32,9 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import IO, Any
 
-__all__ = ["OutputError", "OutputFile", "OutputDirectory", "MANIFEST", "atomic_path", "atomic_text_file"]
+__all__ = [
+    "OutputError", "OutputFile", "OutputDirectory", "MANIFEST", "atomic_path", "atomic_text_file", "files_in_place",
+]
 
 #: name of the manifest in every output directory
 MANIFEST = "manifest.json"
@@ -225,6 +227,51 @@ def atomic_text_file(path: str | os.PathLike[str], overwrite: bool) -> Iterator[
             yield f
     except FileExistsError:
         raise FileExistsError(f"{p}: file exists; pass overwrite=True (CLI: --force) to replace it") from None
+
+
+@contextlib.contextmanager
+def files_in_place(directory: str | os.PathLike[str], names: Iterable[str], overwrite: bool) -> Iterator[Path]:
+    """A temporary sibling directory of ``directory`` to write the files ``names`` into; when the block ends
+    normally they appear in ``directory`` together, on an error or Ctrl-C none of them does.
+
+    A library writer's directory (:func:`dualpose.io.write_recording`): unlike :class:`OutputDirectory` it writes no
+    manifest and leaves other files in ``directory`` alone.  A missing or empty ``directory`` is replaced by the
+    temporary one in one rename; into a directory holding other files, the files are renamed one after the other
+    once all are written, with Ctrl-C held back.  An existing file of ``names`` is a ``FileExistsError`` unless
+    ``overwrite`` (checked before anything is written, and again before the renames).
+    """
+    target = Path(os.path.abspath(directory))
+    wanted = sorted(set(names))
+
+    def check() -> None:
+        if target.exists() and not target.is_dir():
+            raise NotADirectoryError(f"{target}: not a directory")
+        if not overwrite:
+            for name in wanted:
+                if (target / name).exists():
+                    raise FileExistsError(
+                        f"{target / name}: file exists; pass overwrite=True (CLI: --force) to replace it")
+
+    check()
+    target.parent.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=f".{target.name}{_TMP}", dir=target.parent))
+    try:
+        yield stage
+        written = sorted(os.listdir(stage))
+        if set(written) - set(wanted):
+            raise RuntimeError(f"files_in_place: unexpected files {_some(written)}")  # pragma: no cover - a bug
+        os.chmod(stage, 0o777 & ~_umask())
+        with _signals_held():
+            check()
+            try:
+                os.rename(stage, target)  # a missing or empty directory: the set appears in one step
+            except OSError:
+                if not target.is_dir():
+                    raise
+                for name in written:  # a directory holding other files
+                    os.replace(stage / name, target / name)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
 
 
 def _some(names: list[str]) -> str:

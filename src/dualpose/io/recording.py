@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from dualpose.io._output import files_in_place
 from dualpose.io._text import (
     Table,
     check_path,
@@ -542,9 +543,12 @@ def write_recording(directory: str | os.PathLike[str], recording: Recording, *, 
     Parameters
     ----------
     directory : path-like
-        Created if missing.
+        Created if missing.  The files are written into a temporary sibling directory and appear together when
+        all are complete: an error or Ctrl-C while writing leaves ``directory`` as it was (other files in it are
+        left alone).
     overwrite : bool
-        Replace existing files; by default an existing file raises ``FileExistsError``.
+        Replace existing files; by default an existing file raises ``FileExistsError`` (before anything is
+        written).
 
     Returns
     -------
@@ -558,40 +562,37 @@ def write_recording(directory: str | os.PathLike[str], recording: Recording, *, 
         )
     rec = recording
     out = Path(directory)
-    out.mkdir(parents=True, exist_ok=True)
     names = {"imu": "imu.csv", "correspondences": "correspondences.csv"}
-    if not overwrite:
-        targets = [SENSORS_FILE, *names.values()] + (["groundtruth.csv"] if rec.ground_truth is not None else [])
-        for name in targets:
-            if (out / name).exists():
-                raise FileExistsError(f"{out / name}: file exists; pass overwrite=True (CLI: --force) to replace it")
-
-    stamps_ns = rec.stamps_ns if rec.stamps_ns is not None else _ns(rec.t)
-    write_euroc_imu(out / names["imu"], ImuData(stamps_ns, rec.t, rec.gyro, rec.accel), overwrite=overwrite)
-
-    f = rec.frames
-    counts = np.diff(f.offsets)
-    row_ns = np.repeat(_ns(f.t), counts)
-    values = np.hstack([f.pixels, f.points])
-    lines = [
-        f"{t}," + ",".join(f"{v:.17g}" for v in row) for t, row in zip(row_ns.tolist(), values.tolist(), strict=True)
-    ]
-    with open_for_writing(out / names["correspondences"], overwrite) as fh:
-        fh.write(_CORR_HEADER + "\n")
-        fh.write("".join(line + "\n" for line in lines))
-
     if rec.ground_truth is not None:
-        gt = rec.ground_truth
-        gt_ns = gt.stamps_ns if gt.stamps_ns is not None else _ns(gt.stamps)
-        gt = Trajectory(gt.stamps, gt.positions, gt.quats, gt_ns, gt.name, gt.extra)
-        write_euroc_groundtruth(out / "groundtruth.csv", gt, overwrite=overwrite)
         names["groundtruth"] = "groundtruth.csv"
+    # the files are written into a temporary sibling and appear together (dualpose.io._output.files_in_place)
+    with files_in_place(out, [SENSORS_FILE, *names.values()], overwrite) as stage:
+        stamps_ns = rec.stamps_ns if rec.stamps_ns is not None else _ns(rec.t)
+        write_euroc_imu(stage / names["imu"], ImuData(stamps_ns, rec.t, rec.gyro, rec.accel))
 
-    sensors = _setup_dict(rec, names)
-    if rec.rest_seconds is not None:
-        sensors["rest_duration_s"] = float(rec.rest_seconds)
-    with open_for_writing(out / SENSORS_FILE, overwrite) as fh:
-        fh.write(json.dumps(sensors, indent=2) + "\n")
+        f = rec.frames
+        counts = np.diff(f.offsets)
+        row_ns = np.repeat(_ns(f.t), counts)
+        values = np.hstack([f.pixels, f.points])
+        lines = [
+            f"{t}," + ",".join(f"{v:.17g}" for v in row)
+            for t, row in zip(row_ns.tolist(), values.tolist(), strict=True)
+        ]
+        with open_for_writing(stage / names["correspondences"], False) as fh:
+            fh.write(_CORR_HEADER + "\n")
+            fh.write("".join(line + "\n" for line in lines))
+
+        if rec.ground_truth is not None:
+            gt = rec.ground_truth
+            gt_ns = gt.stamps_ns if gt.stamps_ns is not None else _ns(gt.stamps)
+            gt = Trajectory(gt.stamps, gt.positions, gt.quats, gt_ns, gt.name, gt.extra)
+            write_euroc_groundtruth(stage / names["groundtruth"], gt)
+
+        sensors = _setup_dict(rec, names)
+        if rec.rest_seconds is not None:
+            sensors["rest_duration_s"] = float(rec.rest_seconds)
+        with open_for_writing(stage / SENSORS_FILE, False) as fh:
+            fh.write(json.dumps(sensors, indent=2) + "\n")
     return out / SENSORS_FILE
 
 

@@ -25,6 +25,7 @@ from dualpose.estimation.ahrs.config import (
     RestStatistics,
     _check_config,
     _rest_length,
+    check_field_samples,
     check_mag_time_offset,
     filter_setup,
     rest_statistics,
@@ -187,9 +188,8 @@ def prepare_recording(
     if use_mag and mag is None:
         raise ValueError("use_mag=True needs mag samples (n, 3); pass use_mag=False for 6D")
     mag_arr = check_samples(mag, "mag", n) if mag is not None else None
-    if use_mag and mag_arr is not None and not (np.abs(mag_arr) > 0).any():
-        raise ValueError("mag: every sample is zero (no magnetic field measured); pass use_mag=False for 6D "
-                         "(CLI: --no-mag)")  # fmt: skip
+    if use_mag and mag_arr is not None:
+        check_field_samples(mag_arr)  # no zero sample: it has no direction (docs/refusals.md)
     n_rest = _rest_length(rate, n_rest, n)
     config = _check_config(config)
 

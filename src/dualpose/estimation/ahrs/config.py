@@ -11,6 +11,7 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 from scipy.stats import chi2
 
 from dualpose import _native
@@ -30,6 +31,7 @@ __all__ = [
     "initial_orientation",
     "filter_setup",
     "check_mag_time_offset",
+    "check_field_samples",
 ]
 
 
@@ -505,6 +507,30 @@ def _set_rest_params(params: np.ndarray, rate: float, noise: AhrsNoise, c: AhrsC
     params[_native.AHRS_P_REST_SKIP] = int(skip)
     params[_native.AHRS_P_REST_OFFSET_VAR] = c.rest_bias_sigma**2
     params[_native.AHRS_P_ACC_CLIP] = c.acc_clip
+
+
+def check_field_samples(mag: NDArray[np.float64], name: str = "mag", single: bool = False) -> None:
+    """Refuse magnetometer samples ``mag`` (n, 3), already finite, that carry no field measurement: a sample whose
+    squared magnitude is zero in float64 (all components zero, or below ~1e-154 so that the square underflows) has no
+    direction, and the filter normalises the field.  Every sample zero is a magnetometer that measured nothing (6D);
+    one zero sample among real ones is named by its row (``single``: the one sample of a stream step).
+
+    Raises
+    ------
+    ValueError
+        Naming ``name``, the first such row and how many there are.
+    """
+    zero = ~(np.einsum("ij,ij->i", mag, mag) > 0.0)
+    if not zero.any():
+        return
+    if zero.all():
+        what = "the sample is" if single else "every sample is"
+        raise ValueError(f"{name}: {what} zero (no magnetic field measured); pass use_mag=False for 6D "
+                         "(CLI: --no-mag)")  # fmt: skip
+    k = int(np.argmax(zero))
+    raise ValueError(f"{name}: sample {k} is zero ({int(zero.sum())} of {len(zero)} such): no magnetic field "
+                     "measured there; drop or interpolate those samples, or pass use_mag=False for 6D "
+                     "(CLI: --no-mag)")  # fmt: skip
 
 
 def _check_config(config: object) -> AhrsConfig:

@@ -33,6 +33,7 @@ from dualpose.estimation.ahrs.config import (
     RestStatistics,
     _check_config,
     _rest_length,
+    check_field_samples,
     check_mag_time_offset,
     filter_setup,
     rest_statistics,
@@ -184,6 +185,8 @@ class AhrsStream:
         g, a = vec3(gyro, "gyro"), vec3(accel, "accel")  # finite and within the IMU limits (docs/refusals.md)
         m = vec3(mag, "mag") if mag is not None else None
         self._check_sample(t, mag)
+        if self._use_mag and m is not None:
+            check_field_samples(m[None], single=True)  # a zero field has no direction (docs/refusals.md)
         if self._state is not None:
             q: np.ndarray = _native.ahrs_stream_step(self._state, g, a, m)
             self._t = t
@@ -254,6 +257,8 @@ class AhrsStream:
         if mag is None and self._use_mag:
             raise ValueError("mag is required in 9D (use_mag=True); pass use_mag=False for 6D")
         m = sample_block(mag, "mag", n) if mag is not None else np.zeros((n, 3))
+        if self._use_mag:
+            check_field_samples(m)
         _inputs.sample_times(t, "t", self._t)  # finite, strictly increasing, after the last sample filtered
         out_q = np.full((n, 4), np.nan)
         out_b = np.full((n, 3), np.nan)
