@@ -212,7 +212,7 @@ def stream_fusion_lines(
         or whose correspondences the gate mostly rejected (docs/refusals.md).
     """
     ps, qs, hol = _pose_slices(stream)
-    times = StreamTimes(None if rate is None else 1.0 / rate, source, "imu.update_rate")
+    times = StreamTimes(None if rate is None else 1.0 / rate, source, "imu.update_rate", stream.gap_watch)
     frames = FrameUse(source)
     for lineno, line in enumerate(lines, start=1):
         try:

@@ -47,6 +47,7 @@ from scipy.stats import chi2
 import dualpose as dp
 from dualpose.estimation import initialization
 from dualpose.estimation._fusion_stream import BlockResult, FrameUpdate
+from dualpose.estimation._stream import GapWatch
 from dualpose.estimation.eskf import EskfStream, InnovationReport
 from dualpose.estimation.hol22 import Hol22Stream
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE, StateLayout
@@ -824,6 +825,9 @@ class TrackStream:
         #: end), each also warned (:class:`~dualpose.types.recording.RecordingWarning`)
         self.doubts: list[Doubt] = []
         self._frame_use = FrameUse("the stream's camera lines")
+        #: the IMU gaps (longer than five sample periods of the rig's ``update_rate``), of the start-up window and of
+        #: every filter after it (they share it): warned about and counted
+        self.gap_watch = GapWatch(1.0 / self.noise.update_rate)
 
     def _running(self) -> EskfStream | Hol22Stream:
         assert self._stream is not None  # started by _begin
@@ -861,6 +865,7 @@ class TrackStream:
                           np.asarray(g, dtype=np.float64), np.asarray(a, dtype=np.float64), self._setup,
                           self.filter)  # fmt: skip
         if fresh is not None:
+            fresh.gap_watch = self.gap_watch
             self._stream = fresh
             x = fresh.state
             self._frames = [(fresh.update_camera(tc, fu.pixels, fu.points), tc) for fu, tc in pending]
@@ -885,6 +890,7 @@ class TrackStream:
         self.start = startup(t, g, a, det, self.model, self.calibration, self.noise, self.gravity_magnitude)
         self._setup = self._sensor_setup()
         self._stream = _new_stream(self.filter, self._setup, self.start.x, self.start.P)
+        self._stream.gap_watch = GapWatch(None)  # the buffered samples were watched as they came
         k0 = self.start.imu_index
         self.doubts += self.start.gyro_doubts("the stream's IMU lines")
         tau = self.calibration.time_offset_s
@@ -898,6 +904,7 @@ class TrackStream:
             else:
                 self._camera(float(ft[i]), self._cams[i][1], self._cams[i][2])
         self._imu, self._cams = [], []
+        self._running().gap_watch = self.gap_watch
         return out
 
     def update(self, kind: str, t: float, a: ArrayLike, b: ArrayLike) -> list[tuple[float, np.ndarray, np.ndarray]]:
@@ -906,6 +913,7 @@ class TrackStream:
         go through the calibration's axis models first
         (:meth:`~dualpose.types.calibration.CameraImuCalibration.corrected_imu`)."""
         if kind != "cam":
+            self.gap_watch.see(t)  # before any filter: the stamps of the start-up window are watched too
             a, b = self.calibration.corrected_imu(np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64))
         if self._stream is not None:
             if kind == "cam":
@@ -960,7 +968,7 @@ def stream_track_lines(lines: Iterable[str], stream: TrackStream, source: str = 
     :class:`TrackStream`); ``ValueError("{source} line N: ...")`` for a malformed line.  IMU gaps and stamps that
     contradict the rig's ``update_rate`` are warned about as in ``fuse --stream``
     (:class:`~dualpose.pipelines._lines.StreamTimes`)."""
-    times = StreamTimes(1.0 / stream.noise.update_rate, source, "imu0 update_rate")
+    times = StreamTimes(1.0 / stream.noise.update_rate, source, "imu0 update_rate", stream.gap_watch)
     for lineno, line in enumerate(lines, start=1):
         try:
             item = parse_fusion_line(line)
