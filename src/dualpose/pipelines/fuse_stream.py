@@ -254,8 +254,8 @@ class FrameUse:
     most frames skipped or never filtered (their times, on the IMU clock, outside the IMU samples: a wrong clock
     offset), or most correspondences rejected by the gate (wrong intrinsics or extrinsic).
 
-    :meth:`add` a frame as the filter takes it (its status is looked at later), or count it yourself: ``given += 1``
-    when it is handed to a filter and :meth:`settled` once its status is no longer ``"pending"``."""
+    ``add`` a frame as the filter takes it (its status is looked at later), or count it yourself: ``given += 1``
+    when it is handed to a filter and ``settled`` once its status is no longer ``"pending"``."""
 
     def __init__(self, source: str) -> None:
         self.source = source

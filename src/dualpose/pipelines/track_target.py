@@ -178,8 +178,9 @@ class StartUp:
     rotation_check: tuple[float, float] = (0.0, 0.0)
 
     def gyro_doubts(self, where: str) -> list[Doubt]:
-        """A gyroscope that turns much farther than the camera (:func:`~dualpose.types._inputs.gyro_rotation_doubt`:
-        deg/s), warned; the check of a rest period does not fit a rig that moves from its first sample."""
+        """A gyroscope that turns much farther than the camera (``gyro_rotation_doubt`` of
+        ``dualpose.types._inputs``: deg/s), warned; the check of a rest period does not fit a rig that moves from its
+        first sample."""
         return warned(gyro_rotation_doubt(*self.rotation_check, where))
 
     def summary(self, calibration: CameraImuCalibration) -> dict[str, Any]:
@@ -209,8 +210,9 @@ class TrackSetup:
     """Everything :func:`run_track` runs on: the filter's ``recording`` (ideal pixels, gravity from the start-up,
     IMU from the start sample), its ``start``, the ``source`` recording as read, the ``calibration``, the tracked
     ``camera`` name and the detections it was given (``detections``, after any outage deletion); ``doubts``: what
-    the set-up checks of ``dualpose fuse --data`` doubted about the IMU (:func:`dualpose.pipelines._checks.
-    check_before_fuse`: gaps, a stated rate the stamps contradict, a gyroscope in deg/s), each already warned."""
+    the set-up checks of ``dualpose fuse --data`` doubted about the IMU (``check_before_fuse`` of
+    ``dualpose.pipelines._checks``: gaps, a stated rate the stamps contradict), each already warned, and the
+    gyroscope check of :meth:`StartUp.gyro_doubts`."""
 
     recording: Recording
     start: StartUp
@@ -967,7 +969,7 @@ def stream_track_lines(lines: Iterable[str], stream: TrackStream, source: str = 
     ``t, px, py, pz, qx, qy, qz, qw`` line per IMU line from the start sample on (module docstring of
     :class:`TrackStream`); ``ValueError("{source} line N: ...")`` for a malformed line.  IMU gaps and stamps that
     contradict the rig's ``update_rate`` are warned about as in ``fuse --stream``
-    (:class:`~dualpose.pipelines._lines.StreamTimes`)."""
+    (``StreamTimes`` of ``dualpose.pipelines._lines``)."""
     times = StreamTimes(1.0 / stream.noise.update_rate, source, "imu0 update_rate", stream.gap_watch)
     for lineno, line in enumerate(lines, start=1):
         try:
