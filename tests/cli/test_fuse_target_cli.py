@@ -16,6 +16,9 @@ from _pipes import run_lines
 from dualpose.cli.fuse import OUTPUT_FILES
 from dualpose.cli.main import main
 from dualpose.io.target.recording import write_camera_imu_calibration
+from dualpose.pipelines.track_target import EUROC_T_BS, extrinsic_from_matrix
+from dualpose.types.calibration import CameraImuCalibration
+from realdata import CUTS
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "pipelines"))
 from _target_sim import simulated_target_recording, stream_lines, write_target_directory
@@ -148,3 +151,58 @@ def test_stream_with_a_missing_sensor_file_is_an_error_not_a_traceback(recording
     code, _, err = run_lines([], "fuse", "--stream", "--sensors", str(tmp_path / "none.yaml"), "--calibration",
                              str(calib))  # fmt: skip
     assert code == 1 and "none.yaml" in err and "Traceback" not in err
+
+
+@pytest.fixture(scope="module")
+def april_cut_with_gap(tmp_path_factory):
+    """The imu_april cut of tests/data (5 s) with 0.5 s of IMU samples deleted 3 s in (100 sample periods), and
+    EuRoC's published cam0 extrinsic (Burri et al. 2016) as the calibration."""
+    src = CUTS / "euroc" / "imu_april"
+    d = tmp_path_factory.mktemp("april_gap")
+    shutil.copytree(src, d / "rec")
+    rows = (src / "imu0.csv").read_text().splitlines(keepends=True)
+    t0 = int(rows[1].split(",")[0])
+    kept = [r for r in rows if r.startswith("#") or not 3.0e9 <= int(r.split(",")[0]) - t0 < 3.5e9]
+    assert len(rows) - len(kept) == 100
+    (d / "rec" / "imu0.csv").write_text("".join(kept))
+    q, p = extrinsic_from_matrix(EUROC_T_BS["cam0"])
+    cal = CameraImuCalibration("cam0", q, p, 0.0, 0.35)
+    write_camera_imu_calibration(d / "calib.json", cal)
+    return d / "rec", d / "calib.json", cal
+
+
+def test_an_imu_gap_in_a_target_recording_is_doubted_batch_and_stream(april_cut_with_gap, capsys):
+    """``fuse --data`` on a target recording runs the set-up checks of ``fuse --data`` on a plain recording: the gap
+    is warned about, listed in ``input_doubts`` and the exit status is 3; the stream warns and exits 3 too."""
+    from dualpose.io.target.recording import read_target_recording
+
+    rec, calib, cal = april_cut_with_gap
+    code = main(["fuse", "--data", str(rec), "--camera", "cam0", "--calibration", str(calib), "--json"])
+    cap = capsys.readouterr()
+    assert code == 3 and "dualpose fuse: warning:" in cap.err and "IMU gap(s)" in cap.err
+    m = json.loads(cap.out)
+    assert [d["code"] for d in m["input_doubts"]] == ["imu_gap"]
+    args = ("fuse", "--stream", "--sensors", str(rec / "sensors.yaml"), "--calibration", str(calib))
+    code, out, err = run_lines(stream_lines(read_target_recording(rec), cal), *args)
+    assert code == 3 and err.count("IMU gap") == 1 and "stdin line" in err and "IMU gap of 0.505 s" in err, err
+    assert len(out.splitlines()) > 500  # the poses are still written
+
+
+def test_a_gyroscope_in_deg_per_s_and_an_unused_camera_are_doubted_by_the_target_stream(april_cut_with_gap):
+    """The stream's own doubts, read from ``TrackStream.doubts``: a gyroscope in deg/s (the check of ``fuse --data``
+    over the start of the IMU) and, with the rates ×57.3, correspondences the gate mostly rejects."""
+    import dataclasses
+    import warnings
+
+    from dualpose.io.target.recording import read_target_recording
+    from dualpose.pipelines.track_target import TrackStream, stream_track_lines
+
+    rec, _, cal = april_cut_with_gap
+    src = read_target_recording(rec)
+    imu = src.imu
+    deg = dataclasses.replace(src, imu=type(imu)(imu.stamps_ns, imu.stamps, np.degrees(imu.gyro), imu.accel, imu.name))
+    stream = TrackStream(src.rig, "cam0", cal)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        out = list(stream_track_lines(stream_lines(deg, cal), stream))
+    assert out and [d.code for d in stream.doubts] == ["gyro_unit", "camera_rejected"]

@@ -161,6 +161,13 @@ _ERROR_ROWS = (
 )
 
 
+def _doubt_rows(m: dict[str, Any]) -> list[tuple[str, str]]:
+    """The summary row naming the codes of ``m["input_doubts"]`` (none without doubts)."""
+    if not m.get("input_doubts"):
+        return []
+    return [("input doubts (see warnings)", ", ".join(d["code"] for d in m["input_doubts"]))]
+
+
 def _table(m: dict[str, Any]) -> str:
     from dualpose.cli._output import aligned_rows
 
@@ -177,9 +184,7 @@ def _table(m: dict[str, Any]) -> str:
         ("correspondences rejected", f"{m['n_rejected']} of {m['n_correspondences']}"),
         ("real-time factor", f"{m['realtime_factor']:.1f}x"),
     ]
-    if m.get("input_doubts"):
-        rows.append(("input doubts (see warnings)", ", ".join(d["code"] for d in m["input_doubts"])))
-    return aligned_rows(rows)
+    return aligned_rows(rows + _doubt_rows(m))
 
 
 def _table_smoothed(m: dict[str, Any], num: Callable[[str, str], str]) -> str:
@@ -333,7 +338,7 @@ def _target_table(m: dict[str, Any]) -> str:
         ("re-locks", f"{m['relocks']}"),
         ("real-time factor", f"{m['realtime_factor']:.1f}x"),
     ]  # fmt: skip
-    return aligned_rows(rows)
+    return aligned_rows(rows + _doubt_rows(m))
 
 
 def _report(args: argparse.Namespace, result: Any, out: OutputDirectory | None,
@@ -422,7 +427,8 @@ def run_target(args: argparse.Namespace) -> int:
     except (RecordingError, ValueError) as exc:
         print(f"dualpose fuse: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1
-    return _report(args, result, out, _target_table)
+    code = _report(args, result, out, _target_table)
+    return EXIT_DOUBTFUL if code == 0 and result.metrics.get("input_doubts") else code
 
 
 def run(args: argparse.Namespace) -> int:

@@ -35,9 +35,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dualpose import _native
-from dualpose.estimation._stream import sample_block, saved_buffer, saved_quaternion, vec3
+from dualpose.estimation._stream import GapWatch, sample_block, saved_buffer, saved_quaternion, vec3
 from dualpose.estimation.state import StateLayout
-from dualpose.types import _inputs
+from dualpose.types import ImuNoise, _inputs
 
 __all__ = ["BlockResult", "FrameUpdate", "FusionStream"]
 
@@ -105,6 +105,8 @@ class _KernelFilter(Protocol):
     def P(self) -> np.ndarray: ...
     @property
     def camera_time_offset(self) -> float: ...
+    @property
+    def imu_noise(self) -> ImuNoise: ...
     def kernel_config(self) -> tuple[object, ...]: ...
 
 
@@ -136,11 +138,17 @@ class FusionStream(abc.ABC):
         x = np.ascontiguousarray(filter.x, dtype=np.float64)
         P = np.ascontiguousarray(filter.P, dtype=np.float64)
         new = _native.__dict__[f"{self._kind}_stream_new"]
-        self._attach(new(x, P, *filter.kernel_config()), filter.camera_time_offset)
+        period = 1.0 / filter.imu_noise.update_rate if filter.imu_noise.update_rate > 0 else None
+        self._attach(new(x, P, *filter.kernel_config()), filter.camera_time_offset, period)
 
-    def _attach(self, buffer: np.ndarray, camera_time_offset: float) -> None:
-        """Run on the native state ``buffer`` (a new filter's, or a restored one) with no frame queued."""
+    def _attach(self, buffer: np.ndarray, camera_time_offset: float, imu_period: float | None) -> None:
+        """Run on the native state ``buffer`` (a new filter's, or a restored one) with no frame queued; IMU gaps are
+        watched against the nominal ``imu_period`` (s; None: not watched)."""
         self._buf = buffer
+        #: the IMU gaps :meth:`update_imu` saw (longer than five nominal sample periods, ``1 /
+        #: imu_noise.update_rate``): warned about (:class:`~dualpose.types.recording.RecordingWarning`) and counted;
+        #: see :attr:`doubts`
+        self.gap_watch = GapWatch(imu_period)
         self.camera_time_offset = float(camera_time_offset)
         self._pending: list[FrameUpdate] = []
         ns = _native.__dict__
@@ -173,10 +181,12 @@ class FusionStream(abc.ABC):
             A time that is not finite or does not increase, or a sample that is not 3 numbers.
         """
         g, a = vec3(gyro, "gyro"), vec3(accel, "accel")  # finite and within the IMU limits (docs/refusals.md)
-        if not self._pending:
-            x: np.ndarray = self._imu(self._buf, t, g, a)
-            return x
-        return self._imu_after_frames(float(t), g, a)
+        x: np.ndarray = self._imu(self._buf, t, g, a) if not self._pending else self._imu_after_frames(float(t), g, a)
+        w = self.gap_watch  # GapWatch.see, inlined: a gap longer than five sample periods is reported
+        if t - w.last > w.limit:
+            w.gap(t)
+        w.last = t
+        return x
 
     def update_camera(self, t: float, pixels: Any, points: Any) -> FrameUpdate:
         """Queue the point correspondences of the frame stamped ``t`` (camera clock); see the module docstring.
@@ -329,9 +339,11 @@ class FusionStream(abc.ABC):
         dict
             ``kind`` ("eskf" / "hol22"), ``version`` (:attr:`LAYOUT_VERSION`), ``state`` (the filter's
             ``numpy.uint8`` buffer), ``camera_time_offset`` and ``pending`` (the queued frames: ``t`` on the IMU
-            clock, ``pixels`` (M, 2), ``points`` (M, 3)).
+            clock, ``pixels`` (M, 2), ``points`` (M, 3)), ``imu_period`` (the nominal IMU sample period gaps are
+            measured against, s, or None).
         """
         return _inputs.seal({
+            "imu_period": self.gap_watch.period,
             "kind": self._kind,
             "version": self.LAYOUT_VERSION,
             "state": self._buf.copy(),
@@ -362,9 +374,13 @@ class FusionStream(abc.ABC):
         buf = saved_buffer(buf, _native.__dict__[f"{cls._kind}_stream_check"], "state['state']")
         _inputs.check_seal(state)
         offset = _inputs.time_offset(offset, "state['camera_time_offset']")
+        period = state.get("imu_period")  # absent in a state saved before gaps were watched: not watched
+        if period is not None:
+            period = _inputs.positive(period, "state['imu_period']", upper=100.0, unit="s")  # rates >= 0.01 Hz
         out = cls.__new__(cls)
-        out._attach(buf, offset)
+        out._attach(buf, offset, period)
         out._check_values()
+        out.gap_watch.start_after(out._last_imu_time())
         try:
             times = [float(p["t"]) for p in pending]
             for p, tj in zip(pending, times, strict=True):
@@ -395,6 +411,12 @@ class FusionStream(abc.ABC):
     def _last_imu_time(self) -> float:
         _, _, t_imu, _, samples = self._get(self._buf)
         return t_imu if samples else -math.inf
+
+    @property
+    def doubts(self) -> list[_inputs.Doubt]:
+        """What :meth:`update_imu` doubted about its input: the first IMU gaps (``"imu_gap"``, each also warned;
+        ``gap_watch.count`` counts them all).  Not part of the saved state."""
+        return list(self.gap_watch.doubts)
 
     @property
     def time(self) -> float | None:

@@ -3,12 +3,69 @@
 
 from __future__ import annotations
 
+import math
+import warnings
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
 
-from dualpose.types._inputs import Where, frame_points, imu_rows, imu_vector
+from dualpose.types._inputs import Doubt, Where, frame_points, gap_doubt, imu_rows, imu_vector
+from dualpose.types.recording import GAP_PERIODS, RecordingWarning
+
+
+class GapWatch:
+    """The IMU gaps of a stream: a step between stamps longer than :data:`~dualpose.types.recording.GAP_PERIODS`
+    nominal sample ``period`` s (None: not watched until :meth:`set_period`).  Each gap is counted (``count``); the
+    first :data:`MAX_REPORTED` are warned about (:class:`~dualpose.types.recording.RecordingWarning`) and kept in
+    ``doubts`` (:class:`~dualpose.types._inputs.Doubt` ``"imu_gap"``, the check of the batch paths,
+    docs/refusals.md).  One subtraction and one comparison per sample; the caller checks that the stamps increase.
+
+    ``source`` names the input in the messages: ``"{source} line N"`` when :meth:`see` is given a line number,
+    otherwise ``"IMU sample at t = ..."``."""
+
+    __slots__ = ("count", "doubts", "last", "limit", "period", "source")
+
+    #: gaps warned about one by one; later ones only counted
+    MAX_REPORTED = 5
+
+    def __init__(self, period: float | None, last: float = math.nan, source: str = "") -> None:
+        self.period: float | None = None
+        self.limit = math.inf
+        self.set_period(period)
+        self.last = last  # NaN before the first stamp: no step to compare
+        self.count = 0
+        self.doubts: list[Doubt] = []
+        self.source = source
+
+    def start_after(self, t: float) -> None:
+        """Continue after the stamp ``t`` (s; not finite: no stamp yet) of a restored stream: a gap across the save
+        is seen at the next sample."""
+        self.last = t if math.isfinite(t) else math.nan
+
+    def set_period(self, period: float | None) -> None:
+        """Watch for gaps against this nominal sample period, s (None: not watched)."""
+        self.period = period
+        self.limit = math.inf if period is None else GAP_PERIODS * period
+
+    def see(self, t: float, line: int = 0) -> None:
+        """Note the stamp ``t`` (s) of the next sample (input line ``line``, 0: not from a line).  The streams' per-
+        sample path inlines it: ``if t - w.last > w.limit: w.gap(t)``, then ``w.last = t``."""
+        if t - self.last > self.limit:
+            self.gap(t, line)
+        self.last = t
+
+    def gap(self, t: float, line: int = 0) -> None:
+        """Count (and report) the gap before the stamp ``t``; :meth:`see` calls it."""
+        dt = t - self.last
+        self.count += 1
+        if self.count > self.MAX_REPORTED or self.period is None:
+            return
+        where = f"{self.source} line {line}" if line else f"IMU sample at t = {float(t)!r} s"
+        d = gap_doubt(dt, self.period, where)
+        if d is not None:
+            self.doubts.append(d)
+            warnings.warn(d.message, RecordingWarning, stacklevel=3)
 
 
 class Streams(NamedTuple):

@@ -25,7 +25,7 @@ from dualpose.types import Recording
 from dualpose.types._inputs import Doubt, accel_unit_problem, gyro_unit_doubt, rate_doubt, rest_problem
 from dualpose.types.recording import RecordingWarning
 
-__all__ = ["MIN_IMU_SAMPLES", "MIN_IMU_SECONDS", "check_before_fuse", "check_gravity_after_alignment"]
+__all__ = ["MIN_IMU_SAMPLES", "MIN_IMU_SECONDS", "check_before_fuse", "check_gravity_after_alignment", "warned"]
 
 #: ``dualpose fuse`` needs a rest period (the static alignment) and then motion: at least this much IMU data
 MIN_IMU_SAMPLES = 50
@@ -35,10 +35,11 @@ MIN_IMU_SECONDS = 1.0
 _REST_S = 0.2
 
 
-def check_before_fuse(run: Recording) -> list[Doubt]:
+def check_before_fuse(run: Recording, at_rest: bool = True) -> list[Doubt]:
     """Refuse a recording too short to fuse, a rest period as long as it, an accelerometer in g; warn about and
     return the doubts: IMU gaps (:meth:`Recording.check_imu_gaps`), the stated IMU rate against the stamps, a
-    gyroscope in deg/s."""
+    gyroscope in deg/s over the rest period (only when ``at_rest``: a recording that starts at rest; a moving one
+    checks its gyroscope against its camera, :func:`dualpose.types._inputs.gyro_rotation_doubt`)."""
     where = run.name or "recording"
     if len(run.t) < MIN_IMU_SAMPLES or run.duration < MIN_IMU_SECONDS:
         raise RecordingError(
@@ -51,13 +52,17 @@ def check_before_fuse(run: Recording) -> list[Doubt]:
     if problem:
         raise RecordingError(problem)
     doubts = _warned(run.check_imu_gaps, "imu_gap")
-    for d in (rate_doubt(run.t, run.imu_noise.update_rate, where),
-              gyro_unit_doubt(run.gyro[rest], run.imu_noise.gyroscope_noise_density, 1.0 / run.nominal_period(),
-                              where)):  # fmt: skip
-        if d is not None:
-            warnings.warn(d.message, RecordingWarning, stacklevel=2)
-            doubts.append(d)
-    return doubts
+    n = run.imu_noise
+    gyro = gyro_unit_doubt(run.gyro[rest], n.gyroscope_noise_density, 1.0 / run.nominal_period(), where)
+    return doubts + warned(rate_doubt(run.t, n.update_rate, where), gyro if at_rest else None)
+
+
+def warned(*doubts: Doubt | None) -> list[Doubt]:
+    """The doubts that are not None, each warned (:class:`RecordingWarning`) as it is returned."""
+    out = [d for d in doubts if d is not None]
+    for d in out:
+        warnings.warn(d.message, RecordingWarning, stacklevel=3)
+    return out
 
 
 def check_gravity_after_alignment(run: Recording, x: np.ndarray) -> list[Doubt]:

@@ -15,8 +15,9 @@ from collections.abc import Callable, Iterable, Sequence
 
 import numpy as np
 
+from dualpose.estimation._stream import GapWatch
 from dualpose.io._text import all_numbers, parse_number, split_fields
-from dualpose.types._inputs import Doubt, gap_doubt, rate_doubt
+from dualpose.types._inputs import Doubt, rate_doubt
 from dualpose.types.recording import RecordingWarning
 
 __all__ = ["StreamTimes", "format_numbers", "parse_numbers", "split_fields"]
@@ -64,42 +65,51 @@ class StreamTimes:
     (:class:`~dualpose.types.recording.RecordingWarning`, naming the line) about a gap longer than five sample
     ``period`` s (None: the median spacing of the first :data:`RATE_SAMPLES` stamps) and, once that many stamps are
     in, about stamps whose median spacing contradicts the stated rate (:mod:`dualpose.types._inputs`, the set-up
-    checks of the batch paths).  ``doubts`` keeps them."""
+    checks of the batch paths).  ``doubts`` keeps them.
+
+    The gaps are the stream's own :class:`~dualpose.estimation._stream.GapWatch` when ``watch`` is given (the
+    ``gap_watch`` of :class:`~dualpose.estimation.eskf.EskfStream`, :class:`~dualpose.estimation.hol22.Hol22Stream`,
+    :class:`~dualpose.estimation.ahrs.stream.AhrsStream`): this sees each stamp first, with its line number, so the
+    stream reports a gap once, named by the line."""
 
     #: stamps after which the stated rate is compared with the measured one
     RATE_SAMPLES = 200
-    #: gaps reported one by one; later ones only counted
-    MAX_REPORTED = 5
 
-    def __init__(self, period: float | None, source: str, rate_name: str) -> None:
+    def __init__(self, period: float | None, source: str, rate_name: str, watch: GapWatch | None = None) -> None:
         self.period, self.source, self.rate_name = period, source, rate_name
+        self.watch = GapWatch(period) if watch is None else watch
+        self.watch.source = source
+        if period is not None:
+            self.watch.set_period(period)
         self.last = -math.inf
         self.first: list[float] = []
-        self.doubts: list[Doubt] = []
-        self.gaps = 0
+        self._doubts: list[Doubt] = []
+
+    @property
+    def doubts(self) -> list[Doubt]:
+        """The gaps (the first :data:`GapWatch.MAX_REPORTED <dualpose.estimation._stream.GapWatch.MAX_REPORTED>`)
+        and the rate doubt."""
+        return self.watch.doubts + self._doubts
+
+    @property
+    def gaps(self) -> int:
+        """The number of gaps seen."""
+        return self.watch.count
 
     def check(self, t: float, lineno: int) -> None:
         """Refuse (ValueError) or note (warning) the stamp ``t`` of input line ``lineno``."""
         if not (math.isfinite(t) and t > self.last):
             raise ValueError(f"t must be finite and increase strictly: got {t!r} after {self.last!r}")
-        if self.last > -math.inf and self.period is not None:
-            d = gap_doubt(t - self.last, self.period, f"{self.source} line {lineno}")
-            if d is not None:
-                self.gaps += 1
-                if self.gaps <= self.MAX_REPORTED:
-                    self._doubt(d)
+        self.watch.see(t, lineno)
         self.last = t
         if len(self.first) < self.RATE_SAMPLES:
             self.first.append(t)
             period = self.period
             if len(self.first) == self.RATE_SAMPLES and period is None:  # no stated rate: the stamps' own
-                self.period = float(np.median(np.diff(self.first)))
+                self.watch.set_period(float(np.median(np.diff(self.first))))
             elif len(self.first) == self.RATE_SAMPLES and period is not None:
                 d = rate_doubt(np.array(self.first), 1.0 / period, f"{self.source} lines up to {lineno}",
                                rate_name=self.rate_name)
                 if d is not None:
-                    self._doubt(d)
-
-    def _doubt(self, d: Doubt) -> None:
-        self.doubts.append(d)
-        warnings.warn(d.message, RecordingWarning, stacklevel=3)
+                    self._doubts.append(d)
+                    warnings.warn(d.message, RecordingWarning, stacklevel=2)

@@ -108,7 +108,7 @@ def stream_ahrs_lines(
         stamp that does not increase.  Everything before the bad line has been yielded by then.
     """
     stream = AhrsStream(rate, use_mag=use_mag, n_rest=n_rest)
-    times = StreamTimes(1.0 / stream.rate, source, "rate")
+    times = StreamTimes(1.0 / stream.rate, source, "rate", stream.gap_watch)
     for lineno, line in enumerate(lines, start=1):
         try:
             v = parse_imu_line(line, use_mag)

@@ -39,6 +39,7 @@ from dualpose.types.recording import RecordingWarning
 
 __all__ = [
     "INPUT_FIELDS",
+    "FrameUse",
     "OUTPUT_FIELDS",
     "filter_for_setup",
     "format_pose",
@@ -211,8 +212,8 @@ def stream_fusion_lines(
         or whose correspondences the gate mostly rejected (docs/refusals.md).
     """
     ps, qs, hol = _pose_slices(stream)
-    times = StreamTimes(None if rate is None else 1.0 / rate, source, "imu.update_rate")
-    frames = _FrameUse(source)
+    times = StreamTimes(None if rate is None else 1.0 / rate, source, "imu.update_rate", stream.gap_watch)
+    frames = FrameUse(source)
     for lineno, line in enumerate(lines, start=1):
         try:
             item = parse_fusion_line(line)
@@ -233,7 +234,7 @@ def stream_fusion_lines(
             raise ValueError(f"{source} line {lineno}: {exc}") from None
         q = x[qs]
         yield format_numbers([t, *x[ps], *((-q[0], -q[1], -q[2], q[3]) if hol else q)])  # q_wb = conj(q^{be})
-    frames.finish(stream)
+    frames.finish()
 
 
 def _check_gravity(stream: EskfStream | Hol22Stream, gravity: np.ndarray, accel: Any) -> None:
@@ -248,10 +249,13 @@ def _check_gravity(stream: EskfStream | Hol22Stream, gravity: np.ndarray, accel:
         raise ValueError(problem)
 
 
-class _FrameUse:
+class FrameUse:
     """Counts what became of a stream's camera frames, and warns at the end when the camera was effectively unused:
     most frames skipped or never filtered (their times, on the IMU clock, outside the IMU samples: a wrong clock
-    offset), or most correspondences rejected by the gate (wrong intrinsics or extrinsic)."""
+    offset), or most correspondences rejected by the gate (wrong intrinsics or extrinsic).
+
+    ``add`` a frame as the filter takes it (its status is looked at later), or count it yourself: ``given += 1``
+    when it is handed to a filter and ``settled`` once its status is no longer ``"pending"``."""
 
     def __init__(self, source: str) -> None:
         self.source = source
@@ -264,21 +268,27 @@ class _FrameUse:
         if len(self.open) > 64:
             self._settle()
 
+    def settled(self, frame: FrameUpdate) -> None:
+        """Count a frame whose status is no longer ``"pending"``."""
+        if frame.status == "done":
+            self.used += 1
+            self.points += len(frame.accepted_flags)
+            self.accepted += int(frame.accepted_flags.sum())
+
     def _settle(self) -> None:
         keep = []
         for f in self.open:
             if f.status == "pending":
                 keep.append(f)
-            elif f.status == "done":
-                self.used += 1
-                self.points += len(f.accepted_flags)
-                self.accepted += int(f.accepted_flags.sum())
+            else:
+                self.settled(f)
         self.open = keep
 
-    def finish(self, stream: EskfStream | Hol22Stream) -> None:
+    def finish(self) -> Doubt | None:
+        """At the end of the input: the doubt about the camera (also warned), or None."""
         self._settle()
         if not self.given:
-            return
+            return None
         unused = self.given - self.used
         if unused > self.given // 2:
             d = Doubt("camera_unused", f"{self.source}: {unused} of the {self.given} camera frames were never used "
@@ -289,5 +299,6 @@ class _FrameUse:
                       f"{self.points} correspondences: check the camera intrinsics, the extrinsic q_bc / p_bc and "
                       "pixel_sigma")  # fmt: skip
         else:
-            return
+            return None
         warnings.warn(d.message, RecordingWarning, stacklevel=3)
+        return d

@@ -47,6 +47,7 @@ from scipy.stats import chi2
 import dualpose as dp
 from dualpose.estimation import initialization
 from dualpose.estimation._fusion_stream import BlockResult, FrameUpdate
+from dualpose.estimation._stream import GapWatch
 from dualpose.estimation.eskf import EskfStream, InnovationReport
 from dualpose.estimation.hol22 import Hol22Stream
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE, StateLayout
@@ -59,12 +60,14 @@ from dualpose.evaluation.target_reference import (
 )
 from dualpose.io.recording import RecordingError
 from dualpose.io.target.recording import TargetRecording, read_camera_imu_calibration, read_target_recording
-from dualpose.pipelines._lines import format_numbers
+from dualpose.pipelines._checks import check_before_fuse, warned
+from dualpose.pipelines._lines import StreamTimes, format_numbers
 from dualpose.pipelines.calibrate_camera_imu import EUROC_KALIBR_T_BS
 from dualpose.pipelines.fuse import FILTERS, FuseResult
-from dualpose.pipelines.fuse_stream import parse_fusion_line
+from dualpose.pipelines.fuse_stream import FrameUse, parse_fusion_line
 from dualpose.registration.pnp import PnPResult, solve_pnp_ransac
 from dualpose.types import FilterStart, ImuNoise, Recording, SensorSetup, Trajectory
+from dualpose.types._inputs import Doubt, gyro_rotation_doubt
 from dualpose.types.calibration import CameraImuCalibration
 from dualpose.types.camera_models import DistortedCamera
 from dualpose.types.target import RigSensors, TargetDetections
@@ -171,6 +174,14 @@ class StartUp:
     frames: np.ndarray
     gyro_bias_from: str
     accel_bias_from: str
+    #: (gyroscope, camera) rotation between the window's camera poses, rad, summed over the intervals
+    rotation_check: tuple[float, float] = (0.0, 0.0)
+
+    def gyro_doubts(self, where: str) -> list[Doubt]:
+        """A gyroscope that turns much farther than the camera (``gyro_rotation_doubt`` of
+        ``dualpose.types._inputs``: deg/s), warned; the check of a rest period does not fit a rig that moves from its
+        first sample."""
+        return warned(gyro_rotation_doubt(*self.rotation_check, where))
 
     def summary(self, calibration: CameraImuCalibration) -> dict[str, Any]:
         """JSON-ready start-up report (gravity, its σ and magnitude check, biases, angle to the calibration's)."""
@@ -198,7 +209,10 @@ class StartUp:
 class TrackSetup:
     """Everything :func:`run_track` runs on: the filter's ``recording`` (ideal pixels, gravity from the start-up,
     IMU from the start sample), its ``start``, the ``source`` recording as read, the ``calibration``, the tracked
-    ``camera`` name and the detections it was given (``detections``, after any outage deletion)."""
+    ``camera`` name and the detections it was given (``detections``, after any outage deletion); ``doubts``: what
+    the set-up checks of ``dualpose fuse --data`` doubted about the IMU (``check_before_fuse`` of
+    ``dualpose.pipelines._checks``: gaps, a stated rate the stamps contradict), each already warned, and the
+    gyroscope check of :meth:`StartUp.gyro_doubts`."""
 
     recording: Recording
     start: StartUp
@@ -206,6 +220,7 @@ class TrackSetup:
     calibration: CameraImuCalibration
     camera: str
     detections: TargetDetections
+    doubts: list[Doubt] = field(default_factory=list)
     cache: dict[str | tuple[str, str], Any] = field(default_factory=dict, repr=False)
 
 
@@ -277,7 +292,19 @@ def startup(
         x=x, P=P, imu_index=k0, alignment=al, frames=np.flatnonzero(window)[poses.frame[good]],
         gyro_bias_from="start-up" if calibration.gyro_bias is None else "calibration",
         accel_bias_from="start-up" if calibration.accel_bias is None else "calibration",
+        rotation_check=_rotation_check(t, gyro, body.stamps, body.quats),
     )  # fmt: skip
+
+
+def _rotation_check(t: NDArray[np.float64], gyro: NDArray[np.float64], stamps: NDArray[np.float64],
+                    q_wb: NDArray[np.float64]) -> tuple[float, float]:
+    """``(gyro, camera)``: the rotations (rad) of the rates ``gyro`` (N, 3) rad/s at ``t`` (N,) s integrated between
+    consecutive poses ``q_wb`` (K, 4) at ``stamps`` (K,) s (small-angle vector per interval), and of the poses
+    themselves, each summed over the K - 1 intervals."""
+    w = np.concatenate([np.zeros((1, 3)), np.cumsum(gyro[:-1] * np.diff(t)[:, None], axis=0)])
+    at = np.column_stack([np.interp(stamps, t, w[:, k]) for k in range(3)])
+    turned = float(np.linalg.norm(np.diff(at, axis=0), axis=1).sum())
+    return turned, float(np.sum(dp.quat_angle(q_wb[:-1], q_wb[1:])))
 
 
 def _frames_outside(det: TargetDetections, outages: Sequence[tuple[float, float]], t_first: float) -> np.ndarray:
@@ -351,7 +378,10 @@ def prepare_track(
         time_offset=cal.time_offset_s, gravity=st.alignment.gravity, stamps_ns=imu.stamps_ns[k0:],
         name=f"{src.path} ({camera})",
     )  # fmt: skip
-    return TrackSetup(recording=rec, start=st, source=src, calibration=cal, camera=camera, detections=det)
+    doubts = check_before_fuse(rec, at_rest=False)  # too short, in g: RecordingError; doubts: RecordingWarning
+    doubts += st.gyro_doubts(rec.name or "recording")
+    return TrackSetup(recording=rec, start=st, source=src, calibration=cal, camera=camera, detections=det,
+                      doubts=doubts)
 
 
 #: a frame with at least this many correspondences of which the χ² gate accepted fewer than half means the filter
@@ -607,6 +637,7 @@ def run_track(
         "relocks": len(tr.relocks),
         "relock_times_s": [t - float(rec.t[0]) for t in tr.relocks],
         "startup": st.summary(setup.calibration),
+        "input_doubts": [d.as_dict() for d in setup.doubts + _camera_doubts(rec, rep.summary())],
     }
     pos_cov = tr.position_cov
     ori_sigma = tr.attitude_sigma_deg
@@ -619,6 +650,19 @@ def run_track(
         orientation_sigma_deg=ori_sigma, nis=np.asarray(rep.nis), nis_accepted=np.asarray(rep.accepted, dtype=bool),
         nis_bounds=(float(rep.bounds[0]), float(rep.bounds[1])), **scores,
     )  # fmt: skip
+
+
+def _camera_doubts(rec: Recording, nis: Mapping[str, Any]) -> list[Doubt]:
+    """The camera doubts of ``fuse --stream`` (:class:`~dualpose.pipelines.fuse_stream.FrameUse`) for a batch run:
+    frames outside the IMU samples on the IMU clock, correspondences mostly rejected (``nis``:
+    :meth:`InnovationReport.summary`); each warned."""
+    use = FrameUse(rec.name or "recording")
+    t = rec.frames.t + rec.time_offset
+    use.given = len(t)
+    use.used = int(np.count_nonzero((t >= rec.t[0]) & (t <= rec.t[-1])))
+    use.points, use.accepted = int(nis["n_correspondences"]), int(nis["n_correspondences"] - nis["n_rejected"])
+    d = use.finish()
+    return [] if d is None else [d]
 
 
 def _reference_camera(setup: TrackSetup, name: str | None, extrinsics: Mapping[str, ArrayLike]) -> str | None:
@@ -779,6 +823,13 @@ class TrackStream:
         self._frames: list[tuple[FrameUpdate, float]] = []  # (FrameUpdate, camera stamp) queued in the current stream
         self.relocks: list[float] = []  # IMU times of the re-locks
         self.start: StartUp | None = None
+        #: what the set-up checks doubted (a gyroscope in deg/s at the start, a camera effectively unused at the
+        #: end), each also warned (:class:`~dualpose.types.recording.RecordingWarning`)
+        self.doubts: list[Doubt] = []
+        self._frame_use = FrameUse("the stream's camera lines")
+        #: the IMU gaps (longer than five sample periods of the rig's ``update_rate``), of the start-up window and of
+        #: every filter after it (they share it): warned about and counted
+        self.gap_watch = GapWatch(1.0 / self.noise.update_rate)
 
     def _running(self) -> EskfStream | Hol22Stream:
         assert self._stream is not None  # started by _begin
@@ -800,6 +851,7 @@ class TrackStream:
 
     def _camera(self, t: float, raw: np.ndarray, points: np.ndarray) -> None:
         ideal = self.model.ideal_pixels(raw) if len(raw) else np.zeros((0, 2))
+        self._frame_use.given += 1
         self._frames.append((self._running().update_camera(t, ideal, points), t))
 
     def _imu_step(self, t: float, g: ArrayLike, a: ArrayLike) -> tuple[float, np.ndarray, np.ndarray]:
@@ -808,11 +860,14 @@ class TrackStream:
         done = [fu for fu, _ in self._frames if fu.status != "pending"]
         pending = [(fu, tc) for fu, tc in self._frames if fu.status == "pending"]
         self._frames = pending
+        for fu in done:
+            self._frame_use.settled(fu)
         assert self._setup is not None  # made with the stream
         fresh = _relocked(lambda: _filter_state(st.state_layout, st.state, st.covariance), done, t,
                           np.asarray(g, dtype=np.float64), np.asarray(a, dtype=np.float64), self._setup,
                           self.filter)  # fmt: skip
         if fresh is not None:
+            fresh.gap_watch = self.gap_watch
             self._stream = fresh
             x = fresh.state
             self._frames = [(fresh.update_camera(tc, fu.pixels, fu.points), tc) for fu, tc in pending]
@@ -837,7 +892,9 @@ class TrackStream:
         self.start = startup(t, g, a, det, self.model, self.calibration, self.noise, self.gravity_magnitude)
         self._setup = self._sensor_setup()
         self._stream = _new_stream(self.filter, self._setup, self.start.x, self.start.P)
+        self._stream.gap_watch = GapWatch(None)  # the buffered samples were watched as they came
         k0 = self.start.imu_index
+        self.doubts += self.start.gyro_doubts("the stream's IMU lines")
         tau = self.calibration.time_offset_s
         items = [(float(t[k]), 1, ("imu", k)) for k in range(k0, len(t))]
         items += [(float(ft[j] + tau), 0, ("cam", j)) for j in range(len(ft)) if ft[j] + tau > t[k0]]
@@ -849,6 +906,7 @@ class TrackStream:
             else:
                 self._camera(float(ft[i]), self._cams[i][1], self._cams[i][2])
         self._imu, self._cams = [], []
+        self._running().gap_watch = self.gap_watch
         return out
 
     def update(self, kind: str, t: float, a: ArrayLike, b: ArrayLike) -> list[tuple[float, np.ndarray, np.ndarray]]:
@@ -857,6 +915,7 @@ class TrackStream:
         go through the calibration's axis models first
         (:meth:`~dualpose.types.calibration.CameraImuCalibration.corrected_imu`)."""
         if kind != "cam":
+            self.gap_watch.see(t)  # before any filter: the stamps of the start-up window are watched too
             a, b = self.calibration.corrected_imu(np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64))
         if self._stream is not None:
             if kind == "cam":
@@ -879,8 +938,12 @@ class TrackStream:
         return []
 
     def finish(self) -> list[tuple[float, np.ndarray, np.ndarray]]:
-        """At the end of the input: the start-up on what was read if it has not run yet (and its poses)."""
-        return self._begin() if self._stream is None and self._imu else []
+        """At the end of the input: the start-up on what was read if it has not run yet (and its poses); then the
+        doubt about the camera, if any (:class:`~dualpose.pipelines.fuse_stream.FrameUse`)."""
+        out = self._begin() if self._stream is None and self._imu else []
+        d = self._frame_use.finish()
+        self.doubts += [] if d is None else [d]
+        return out
 
 
 def target_recording_lines(recording: TargetRecording, camera: str = "cam0", time_offset: float = 0.0) -> list[str]:
@@ -904,12 +967,17 @@ def target_recording_lines(recording: TargetRecording, camera: str = "cam0", tim
 def stream_track_lines(lines: Iterable[str], stream: TrackStream, source: str = "stdin") -> Iterator[str]:
     """:func:`dualpose.pipelines.fuse_stream.stream_fusion_lines` for a :class:`TrackStream`: yields one
     ``t, px, py, pz, qx, qy, qz, qw`` line per IMU line from the start sample on (module docstring of
-    :class:`TrackStream`); ``ValueError("{source} line N: ...")`` for a malformed line."""
+    :class:`TrackStream`); ``ValueError("{source} line N: ...")`` for a malformed line.  IMU gaps and stamps that
+    contradict the rig's ``update_rate`` are warned about as in ``fuse --stream``
+    (``StreamTimes`` of ``dualpose.pipelines._lines``)."""
+    times = StreamTimes(1.0 / stream.noise.update_rate, source, "imu0 update_rate", stream.gap_watch)
     for lineno, line in enumerate(lines, start=1):
         try:
             item = parse_fusion_line(line)
             if item is None:
                 continue
+            if item[0] == "imu":
+                times.check(item[1], lineno)
             poses = stream.update(*item)
         except ValueError as exc:
             raise ValueError(f"{source} line {lineno}: {exc}") from None

@@ -505,6 +505,22 @@ def gyro_unit_doubt(gyro_rest: NDArray[np.float64], noise_density: float, rate: 
                  "the gyroscope must be in rad/s")  # fmt: skip
 
 
+#: gyroscope rotation / camera rotation over a moving start-up above which the gyroscope reads like deg/s (57.3)
+_ROTATION_RATIO_LIMIT = 10.0
+
+
+def gyro_rotation_doubt(gyro_angle: float, camera_angle: float, where: str) -> Doubt | None:
+    """A gyroscope that reads like deg/s on a *moving* sensor (no rest period): the rotation its rates integrate to
+    between camera poses, ``gyro_angle`` (rad, summed over the intervals), more than 10 times the rotation the poses
+    themselves show, ``camera_angle`` (rad): deg/s reads 57.3 times the rad/s values; biases and noise add a few
+    per cent."""
+    if not (camera_angle > 0 and gyro_angle > _ROTATION_RATIO_LIMIT * camera_angle):
+        return None
+    return Doubt("gyro_unit", f"{where}: between the start-up's camera poses the gyroscope turns "
+                 f"{gyro_angle / camera_angle:.3g} x as far as the camera ({math.degrees(gyro_angle):.4g} deg against "
+                 f"{math.degrees(camera_angle):.4g} deg): is it in deg/s? the gyroscope must be in rad/s")  # fmt: skip
+
+
 def accel_unit_problem(accel_rest: NDArray[np.float64], gravity: NDArray[np.float64], where: str) -> str | None:
     """The refusal of an accelerometer in units of g: its mean magnitude over the rest period ``accel_rest`` (k, 3)
     within 20 % of 1 while ``|gravity|`` is an Earth gravity (m/s²)."""

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dualpose import _native
-from dualpose.estimation._stream import sample_block, saved_buffer, saved_quaternion, vec3
+from dualpose.estimation._stream import GapWatch, sample_block, saved_buffer, saved_quaternion, vec3
 from dualpose.estimation.ahrs.config import (
     AhrsConfig,
     AhrsNoise,
@@ -125,6 +125,9 @@ class AhrsStream:
         self._n_pending = 0
         self._t = -math.inf
         self._samples = 0
+        #: the IMU gaps :meth:`update_imu` saw (longer than five sample periods ``1 / rate``): warned about
+        #: (:class:`~dualpose.types.recording.RecordingWarning`) and counted; see :attr:`doubts`
+        self.gap_watch = GapWatch(1.0 / self._rate)
         self._rest_sums = np.zeros(10)  # running sums of gyro, accel, mag and the count inside the rest period
         self._rest_out = (np.full(4, np.nan), np.full(3, np.nan))  # the last rest-period output (quat, bias)
         if rest is not None:
@@ -187,6 +190,10 @@ class AhrsStream:
         self._check_sample(t, mag)
         if self._use_mag and m is not None:
             check_field_samples(m[None], single=True)  # a zero field has no direction (docs/refusals.md)
+        w = self.gap_watch  # GapWatch.see, inlined: a gap longer than five sample periods is reported
+        if t - w.last > w.limit:
+            w.gap(t)
+        w.last = t
         if self._state is not None:
             q: np.ndarray = _native.ahrs_stream_step(self._state, g, a, m)
             self._t = t
@@ -289,6 +296,12 @@ class AhrsStream:
     def rate(self) -> float:
         """The sampling rate the filter steps at, Hz."""
         return self._rate
+
+    @property
+    def doubts(self) -> list[_inputs.Doubt]:
+        """What :meth:`update_imu` doubted about its input: the first IMU gaps (``"imu_gap"``, each also warned;
+        ``gap_watch.count`` counts them all).  Not part of the saved state."""
+        return list(self.gap_watch.doubts)
 
     @property
     def ready(self) -> bool:
@@ -478,4 +491,5 @@ class AhrsStream:
             if not (np.isfinite(v).all() or np.isnan(v).all()):
                 raise ValueError(f"state['rest_output'][{name!r}] must be finite (or all NaN before any output)")
         out._rest_out = (rq, rb)
+        out.gap_watch.start_after(out._t)
         return out
