@@ -47,7 +47,7 @@ _F64 = "NDArray[np.float64]"
 RETURNS = {
     "None": "None",
     "int": "int", "0": "int", "flag": "int", "rows": "int", "samples": "int", "status": "int", "pos": "int",
-    "row": "int", "front": "int",
+    "row": "int", "front": "int", "ok": "bool",
     "float": "float", "nis": "float", "t0": "float", "tc": "float", "t_imu": "float",
     # a streaming filter's state: one numpy.uint8 array (layout header, constants, filter state)
     "state": "NDArray[np.uint8]",

@@ -670,7 +670,7 @@ class _Normal:
         n, s = self.D.shape[:2]
         Linv = np.empty((n, s, s))
         Lsub = np.empty((max(n - 1, 0), s, s))
-        if not _native.block_tridiagonal_factor(np.ascontiguousarray(self.D), np.ascontiguousarray(self.U),  # type: ignore[func-returns-value]
+        if not _native.block_tridiagonal_factor(np.ascontiguousarray(self.D), np.ascontiguousarray(self.U),
                                                 float(lam), Linv, Lsub):  # fmt: skip
             raise np.linalg.LinAlgError("the frame band of the normal matrix is not positive definite")
         return Linv, Lsub

@@ -308,7 +308,7 @@ PyMethodDef camera_imu_methods[] = {
      "(N, M) 0 or 1, sigma (N, M) px, d = tau - tau_ref, huber in sigma): H (N, 16, 16) J^T W J and g (N, 16) "
      "J^T W r over [phi, p, v, eps, p_bc, tau] (only with jacobians 1), cost (N,) the robust cost."},
     {"block_tridiagonal_factor", block_tridiagonal_factor, METH_VARARGS,
-     "block_tridiagonal_factor(D, U, lam, Linv, Lsub): block Cholesky of the block-tridiagonal matrix with diagonal "
+     "block_tridiagonal_factor(D, U, lam, Linv, Lsub) -> ok: block Cholesky of the block-tridiagonal matrix with diagonal "
      "blocks D (N, s, s) (damped by 1 + lam on the diagonal) and super-diagonal blocks U (N - 1, s, s): writes the "
      "inverses of the factor's diagonal blocks Linv (N, s, s) and its sub-diagonal blocks Lsub (N - 1, s, s); "
      "returns False when the matrix is not positive definite."},
