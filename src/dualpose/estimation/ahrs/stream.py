@@ -188,8 +188,8 @@ class AhrsStream:
         g, a = vec3(gyro, "gyro"), vec3(accel, "accel")  # finite and within the IMU limits (docs/refusals.md)
         m = vec3(mag, "mag") if mag is not None else None
         self._check_sample(t, mag)
-        if self._use_mag and m is not None:
-            check_field_samples(m[None], single=True)  # a zero field has no direction (docs/refusals.md)
+        if self._use_mag and m is not None and not float(m @ m) > 0.0:  # a zero field has no direction
+            check_field_samples(m[None], single=True)  # the shared rule's message (docs/refusals.md)
         w = self.gap_watch  # GapWatch.see, inlined: a gap longer than five sample periods is reported
         if t - w.last > w.limit:
             w.gap(t)
