@@ -32,6 +32,7 @@ raise a ``ValueError`` (or, with ``return_valid=True``, come back as NaN with ``
 
 from __future__ import annotations
 
+import abc
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -96,7 +97,7 @@ class _KernelRow(PinholeModel):
 
 
 @dataclass(frozen=True)
-class DistortedCamera(_KernelRow):
+class DistortedCamera(_KernelRow, abc.ABC):
     """What the distorted pinhole cameras share (the projection API); see the module docstring for the models.
 
     A subclass is a frozen dataclass that adds the fields ``<4 distortion coefficients>, width, height`` to
@@ -198,13 +199,13 @@ class DistortedCamera(_KernelRow):
         return result
 
     # ------------------------------------------------------------------ model (each subclass)
+    @abc.abstractmethod
     def _limit(self) -> float:
         """The bound of the invertible region (radtan: largest undistorted r², equi: largest θ)."""
-        raise NotImplementedError
 
+    @abc.abstractmethod
     def _unprojectable(self, p: NDArray[np.float64]) -> NDArray[np.bool_]:
         """True where the camera-frame point ``p`` (..., 3) cannot be projected by the model."""
-        raise NotImplementedError
 
     # ------------------------------------------------------------------ inverse
     @overload
