@@ -21,11 +21,14 @@ statuses are in docs/fusion.md, "Streaming" (the job is :func:`dualpose.pipeline
 Calibration-target recordings (docs/fusion.md, "Tracking on EuRoC imu_april"): ``dualpose fuse --data DIR --camera
 cam0 --calibration CALIB.json`` where DIR holds ``imu0.csv``, ``camN_aprilgrid.csv`` and ``sensors.yaml``; CALIB.json
 is the camera-IMU calibration (``dualpose calibrate camera-imu ... --json``).  The world is the target frame; scored
-against another camera's per-frame PnP when DIR has its detections (:mod:`dualpose.pipelines.track_target`).
-``--outage A:B`` (repeatable) deletes the camera's detections over [A, B) s from the first IMU sample.  Streaming:
-``dualpose fuse --stream --sensors sensors.yaml --camera cam0 --calibration CALIB.json`` (camera lines with the
-measured, distorted pixels).  ``--calibration`` is thus the camera-IMU calibration with ``--data DIR`` or
-``--sensors``, and the sensor file with a filter start with a plain ``--stream``.
+against another camera's per-frame PnP when DIR has its detections (:mod:`dualpose.pipelines.track_target`).  An
+offline run: ``trajectory.tum`` is the RTS-smoothed track (``--output smoothed``, the default with the ESKF; one
+smoothing segment per filter start or re-lock) and ``trajectory_filter.tum`` the causal filter's; ``--output filter``
+writes the causal filter only (the default with Hol22, which has no smoother).  ``--outage A:B`` (repeatable)
+deletes the camera's detections over [A, B) s from the first IMU sample.  Streaming: ``dualpose fuse --stream
+--sensors sensors.yaml --camera cam0 --calibration CALIB.json`` (camera lines with the measured, distorted pixels):
+causal, the poses of ``trajectory_filter.tum`` bit for bit.  ``--calibration`` is thus the camera-IMU calibration
+with ``--data DIR`` or ``--sensors``, and the sensor file with a filter start with a plain ``--stream``.
 """
 
 from __future__ import annotations
@@ -71,15 +74,19 @@ malformed line (unknown tag, wrong number of fields, not a number, non-finite, o
 standard output goes away.
 
 calibration-target recordings (docs/fusion.md, "Tracking on EuRoC imu_april"):
-  dualpose fuse --data DIR --camera cam0 --calibration CALIB.json [--filter ...] [--outage A:B ...] [--out OUT]
+  dualpose fuse --data DIR --camera cam0 --calibration CALIB.json [--filter ...] [--output smoothed|filter]
+                [--outage A:B ...] [--out OUT]
     DIR holds imu0.csv, camN_aprilgrid.csv, sensors.yaml; CALIB.json is the camera-IMU calibration
     (keys camera, rotation_xyzw, translation_m, time_offset_s, reprojection_rms_px, optional gyro_bias,
     accel_bias, gravity_target, std).  World = target frame; gravity estimated at start-up; scored against
     another camera's per-frame PnP when DIR has its detections.  --outage A:B deletes the camera's frames in
-    [A, B) s from the first IMU sample (bridging test).
+    [A, B) s from the first IMU sample (bridging test).  Offline output: OUT/trajectory.tum is the RTS-smoothed
+    track (default with eskf; one segment per filter start or re-lock), OUT/trajectory_filter.tum the causal
+    filter's; --output filter writes the causal filter as trajectory.tum (default with hol22).
   dualpose fuse --stream --sensors sensors.yaml --camera cam0 --calibration CALIB.json
-    the same filter on stdin lines; cam lines carry the MEASURED (distorted) pixels and target-frame corners; the
-    first pose line comes once the start-up window (10 s of frames) has been read.
+    the causal filter on stdin lines (trajectory_filter.tum's poses); cam lines carry the MEASURED (distorted)
+    pixels and target-frame corners; the first pose line comes once the start-up window (10 s of frames) has been
+    read.
 """
 
 

@@ -29,6 +29,9 @@ and no ground truth is used:
   :data:`EUROC_T_BS`): independent of the tracked camera's measurements and of the filter.  Scored: position and
   rotation RMSE in the target frame (no alignment), the tracked camera's own per-frame PnP measured the same way, and
   the error inside camera outages (``outages``: the tracked camera's detections deleted over given windows).
+* **Output** (:func:`run_track`): offline, the ESKF run smoothed by the RTS smoother segment by segment, never across
+  a re-lock (:func:`smooth_segments`), with the causal filter's track beside it; or the causal filter, which is what
+  :class:`TrackStream` gives.
 """
 
 from __future__ import annotations
