@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 import pytest
-from _target_sim import CAMERA, simulated_target_recording, stream_lines
+from _target_sim import CAMERA, stream_lines
 
 import dualpose as dp
 from dualpose.estimation.initialization import align_with_camera_poses
@@ -29,17 +29,6 @@ from dualpose.pipelines.track_target import (
 )
 from dualpose.types import ImuNoise, RadTanCamera, Trajectory
 from dualpose.types.calibration import CameraImuCalibration
-
-
-@pytest.fixture(scope="module")
-def simulated():
-    return simulated_target_recording(0)
-
-
-@pytest.fixture(scope="module")
-def simulated_setup(simulated):
-    src, cal, _, _ = simulated
-    return prepare_track(src, cal, "cam0")
 
 
 def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:

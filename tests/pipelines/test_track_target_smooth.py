@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from _target_sim import simulated_target_recording
 
 from dualpose.estimation.smoother import rts_smooth
 from dualpose.evaluation.target_reference import errors_against
@@ -24,24 +23,13 @@ from dualpose.types import Trajectory
 from dualpose.types.calibration import CameraImuCalibration
 
 
-@pytest.fixture(scope="module")
-def simulated():
-    return simulated_target_recording(0)
-
-
-@pytest.fixture(scope="module")
-def setup(simulated):
-    src, cal, _, _ = simulated
-    return prepare_track(src, cal, "cam0")
-
-
-def test_the_smoothed_output_beats_the_causal_filter_against_the_truth(simulated, setup):
+def test_the_smoothed_output_beats_the_causal_filter_against_the_truth(simulated, simulated_setup):
     """Default output of the ESKF: the smoothed run, better than the filter on position and rotation against the
     simulator's truth; the causal filter comes along (``filtered``, ``metrics["causal_filter"]``) exactly as
     ``output="filter"`` gives it."""
     _, _, truth, ext = simulated
-    sm = run_track(setup, "eskf", reference_extrinsics=ext)
-    fi = run_track(setup, "eskf", reference_extrinsics=ext, output="filter")
+    sm = run_track(simulated_setup, "eskf", reference_extrinsics=ext)
+    fi = run_track(simulated_setup, "eskf", reference_extrinsics=ext, output="filter")
     assert sm.metrics["output"] == "smoothed" and fi.metrics["output"] == "filter" and fi.filtered is None
     assert sm.metrics["smoother"]["segments"] == 1 and sm.metrics["smoother"]["segment_start_samples"] == [0]
     np.testing.assert_array_equal(sm.filtered.positions, fi.estimate.positions)
@@ -57,16 +45,16 @@ def test_the_smoothed_output_beats_the_causal_filter_against_the_truth(simulated
     assert sm.metrics["realtime_factor"] < fi.metrics["realtime_factor"]  # the smoother's time is counted
 
 
-def test_a_forced_relock_splits_the_smoother_and_nothing_is_smoothed_across_it(simulated, setup):
+def test_a_forced_relock_splits_the_smoother_and_nothing_is_smoothed_across_it(simulated, simulated_setup):
     """A filter started 30 cm off loses the target and re-locks: two segments, the second starting at the re-lock
     sample.  Each segment ends on the filter's own state (the backward pass restarts there), the segment after the
     re-lock is what smoothing a filter started from the re-lock's state alone gives (bit for bit), and the smoothed
     run after the re-lock beats the filter against the truth."""
     _, _, truth, _ = simulated
-    rec = setup.recording
-    x = setup.start.x.copy()
+    rec = simulated_setup.recording
+    x = simulated_setup.start.x.copy()
     x[:3] += 0.3
-    tr = run_relocking(rec, x, setup.start.P, "eskf")
+    tr = run_relocking(rec, x, simulated_setup.start.P, "eskf")
     assert len(tr.relocks) >= 1
     sm = smooth_segments(rec, tr)
     starts = sm.segments.tolist()
@@ -91,15 +79,15 @@ def test_a_forced_relock_splits_the_smoother_and_nothing_is_smoothed_across_it(s
     assert e_s.position_rmse_m < e_f.position_rmse_m and e_s.rotation_rmse_deg < e_f.rotation_rmse_deg
 
 
-def test_outputs_the_filters_cannot_give_are_refused(setup):
-    assert run_track(setup, "hol22").metrics["output"] == "filter"  # no smoother for Hol22: its default
+def test_outputs_the_filters_cannot_give_are_refused(simulated_setup):
+    assert run_track(simulated_setup, "hol22").metrics["output"] == "filter"  # no smoother for Hol22: its default
     with pytest.raises(ValueError, match="needs filter 'eskf'"):
-        run_track(setup, "hol22", output="smoothed")
+        run_track(simulated_setup, "hol22", output="smoothed")
     with pytest.raises(ValueError, match="output must be"):
-        run_track(setup, "eskf", output="rts")
-    tr = run_relocking(setup.recording, setup.start.x, setup.start.P, "hol22")
+        run_track(simulated_setup, "eskf", output="rts")
+    tr = run_relocking(simulated_setup.recording, simulated_setup.start.x, simulated_setup.start.P, "hol22")
     with pytest.raises(ValueError, match="needs an ESKF run"):
-        smooth_segments(setup.recording, tr)
+        smooth_segments(simulated_setup.recording, tr)
 
 
 # ------------------------------------------------------------------------------------------- EuRoC imu_april
