@@ -12,8 +12,10 @@ Without ``--calibration`` the calibration is EuRoC's published Kalibr cam0 extri
 output of ``dualpose calibrate camera-imu ... --json``).
 
 Run ``nice .venv/bin/python benchmarks/track_euroc.py [--calibration CALIB.json] [--axes-from CALIB.json]
-[--scale-sigmas none|mems] [--structure] [--markdown PATH] [--figure PNG]``.  The table also has the ESKF run
-offline through the RTS smoother (``estimation.smoother.rts_smooth``; one filter run without re-locking).
+[--scale-sigmas none|mems] [--structure] [--markdown PATH] [--figure PNG]``.  The ESKF rows are what ``fuse --data``
+writes: the RTS-smoothed run (``--output smoothed``, the offline default: ``pipelines.track_target.smooth_segments``,
+one segment per filter start or re-lock) and the causal filter (``--output filter``, what ``fuse --stream`` writes);
+the real-time factors count the filter and, for the smoothed row, the smoother (best of ``--repeat``).
 ``--structure`` adds the error-structure diagnosis of docs/fusion.md: each camera's frame-to-frame PnP error with the
 motion taken out by the IMU over one frame interval (white-noise σ and the correlation between the cameras), and
 the split of each method's error against the reference into its mean, a slow part (9-frame running mean) and the rest.
@@ -35,14 +37,12 @@ from scipy.ndimage import uniform_filter1d
 import dualpose as dp
 from _common import emit
 from dualpose.calibration._preintegration import preintegrate
-from dualpose.estimation.smoother import rts_smooth
 from dualpose.evaluation.target_reference import body_trajectory, errors_against
 from dualpose.io.target.recording import (
     read_camera_imu_calibration,
     read_target_recording,
     write_camera_imu_calibration,
 )
-from dualpose.pipelines.fuse import FILTERS
 from dualpose.pipelines.track_target import (
     EUROC_T_BS,
     extrinsic_from_matrix,
@@ -50,6 +50,7 @@ from dualpose.pipelines.track_target import (
     prepare_track,
     run_relocking,
     run_track,
+    smooth_segments,
 )
 from dualpose.types import Trajectory
 from dualpose.types.calibration import CameraImuCalibration
@@ -81,8 +82,9 @@ def main() -> int:
     ap.add_argument("--data", default=str(DATA), help="imu_april directory")
     ap.add_argument("--calibration", help="camera-IMU calibration JSON (default: EuRoC's published cam0 extrinsic)")
     ap.add_argument("--repeat", type=int, default=3, help="filter runs timed per filter (best of)")
-    ap.add_argument("--scale-sigmas", default="none", choices=("none", "mems"),
-                    help="IMU scale-factor uncertainties of the ESKF: none (Kalibr's model) or the MEMS class values")
+    ap.add_argument("--scale-sigmas", default="mems", choices=("none", "mems"),
+                    help="IMU scale-factor uncertainties of the filters: the MEMS class values (default, as fuse) or "
+                    "none (Kalibr's model)")
     ap.add_argument("--axes-from", help="take the IMU axis matrices from this calibration JSON (with the extrinsic "
                     "of --calibration / the fixture)")
     ap.add_argument("--structure", action="store_true", help="add the error-structure diagnosis (docs/fusion.md)")
@@ -104,12 +106,15 @@ def main() -> int:
     setup = prepare_track(src, calib, "cam0", scale_sigmas=scale)
     prep_s = time.perf_counter() - t0
     # the outage windows scored on the runs without outages too: what the reference's own noise allows there
-    runs = {name: run_track(setup, name, outages=OUTAGES) for name in ("eskf", "hol22")}
+    runs = {name: run_track(setup, name, outages=OUTAGES, output="filter") for name in ("eskf", "hol22")}
+    smoothed_run = run_track(setup, "eskf", outages=OUTAGES, output="smoothed")
     timing = {}
-    for name in runs:
+    for name in (*runs, "smoothed"):
         best = math.inf
         for _ in range(args.repeat):
-            best = min(best, run_relocking(setup.recording, setup.start.x, setup.start.P, name).wall_time)
+            tr = run_relocking(setup.recording, setup.start.x, setup.start.P, "eskf" if name == "smoothed" else name)
+            best = min(best, tr.wall_time + (smooth_segments(setup.recording, tr).wall_time
+                                             if name == "smoothed" else 0.0))  # fmt: skip
         timing[name] = best
     m = runs["eskf"].metrics
     dur = setup.recording.duration
@@ -137,10 +142,12 @@ def main() -> int:
         "| rejected | re-locks | real-time factor |",
         "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]  # fmt: skip
-    for name, r in runs.items():
+    labels = {"smoothed": "ESKF + RTS, segmented (`fuse --data` default output)",
+              "eskf": "ESKF causal filter (`--output filter`, `--stream`)", "hol22": "Hol22 causal filter"}
+    for name, r in {"smoothed": smoothed_run, **runs}.items():
         mm = r.metrics
         lines.append(
-            f"| {name.upper() if name == 'eskf' else 'Hol22'} (cam0 + IMU) | {_mm(mm['position_rmse_m'])} | "
+            f"| {labels[name]} | {_mm(mm['position_rmse_m'])} | "
             f"{_deg(mm['rotation_rmse_deg'])} | {mm['nis_fraction_inside']:.3f} | {mm['mean_nis']:.2f} | "
             f"{mm['nees_position']:.1f} | {mm['n_rejected']} of {mm['n_correspondences']} | {mm['relocks']} | "
             f"{dur / timing[name]:.0f}× |"
@@ -148,10 +155,7 @@ def main() -> int:
     pnp = m["camera_pnp"]
     lines.append(f"| cam0-only per-frame PnP | {_mm(pnp['position_rmse_m'])} | {_deg(pnp['rotation_rmse_deg'])} | "
                  "| | | | | |")  # fmt: skip
-    smoothed = _smoothed(setup)
-    sm = errors_against(setup.cache["reference", "cam1"][0], smoothed)
-    lines.append(f"| ESKF + RTS smoother (offline, no re-lock) | {_mm(sm.position_rmse_m)} | "
-                 f"{_deg(sm.rotation_rmse_deg)} | | | | | | |")  # fmt: skip
+    smoothed = smoothed_run.estimate
     io = imu_only(setup, (0.5, 1.0, 2.0))
     for k, v in io.items():
         lines.append(f"| IMU only, first {k} after the start | {_mm(v['position_rmse_m'])} | "
@@ -160,23 +164,26 @@ def main() -> int:
     out_setup = prepare_track(src, calib, "cam0", OUTAGES, scale_sigmas=scale)
     gyro_norm = np.linalg.norm(src.imu.gyro, axis=1)
     rel = src.imu.stamps - src.imu.stamps[0]
-    lines += ["", "| outage [s] | max rate [rad/s] | frames scored | ESKF max / RMS position [mm] | ESKF max rotation "
-              "[deg] | Hol22 max / RMS position [mm] | Hol22 max rotation [deg] | no outage: ESKF / cam0 PnP max "
+    lines += ["", "| outage [s] | max rate [rad/s] | frames scored | ESKF + RTS max / RMS position [mm] | ESKF + RTS "
+              "max rotation [deg] | ESKF filter max / RMS position [mm] | ESKF filter max rotation "
+              "[deg] | Hol22 max / RMS position [mm] | Hol22 max rotation [deg] | no outage: ESKF + RTS / cam0 PnP max "
               "rotation [deg] |",
-              "|---|---:|---:|---:|---:|---:|---:|---:|"]  # fmt: skip
+              "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]  # fmt: skip
     ref, _ = setup.cache["reference", "cam1"]
     cal = setup.calibration
     pnp_err = errors_against(ref, body_trajectory(setup.cache["own"], cal.rotation_xyzw, cal.translation_m,
                                                   cal.time_offset_s))  # fmt: skip
     pnp_rel = pnp_err.estimate.stamps - src.imu.stamps[0]
-    out_runs = {name: run_track(out_setup, name, outages=OUTAGES) for name in ("eskf", "hol22")}
+    out_runs = {name: run_track(out_setup, name, outages=OUTAGES, output="filter") for name in ("eskf", "hol22")}
+    out_runs["smoothed"] = run_track(out_setup, "eskf", outages=OUTAGES, output="smoothed")
     for i, (a, b) in enumerate(OUTAGES):
-        we, wh = out_runs["eskf"].metrics["outages"][i], out_runs["hol22"].metrics["outages"][i]
+        ws, we, wh = (out_runs[k].metrics["outages"][i] for k in ("smoothed", "eskf", "hol22"))
         w_max = float(gyro_norm[(rel >= a) & (rel < b)].max())
         lines.append(
-            f"| {a:g}–{b:g} | {w_max:.2f} | {we['frames']} | {_mm(we['position_max_m'])} / {_mm(we['position_rmse_m'])}"
+            f"| {a:g}–{b:g} | {w_max:.2f} | {we['frames']} | {_mm(ws['position_max_m'])} / {_mm(ws['position_rmse_m'])}"
+            f" | {_deg(ws['rotation_max_deg'])} | {_mm(we['position_max_m'])} / {_mm(we['position_rmse_m'])}"
             f" | {_deg(we['rotation_max_deg'])} | {_mm(wh['position_max_m'])} / {_mm(wh['position_rmse_m'])} | "
-            f"{_deg(wh['rotation_max_deg'])} | {_deg(runs['eskf'].metrics['outages'][i]['rotation_max_deg'], 2)} / "
+            f"{_deg(wh['rotation_max_deg'])} | {_deg(smoothed_run.metrics['outages'][i]['rotation_max_deg'], 2)} / "
             f"{_deg(float(pnp_err.rotation_deg[(pnp_rel >= a) & (pnp_rel < b)].max()), 2)} |"
         )
     worst = {name: (max(w["position_max_m"] for w in r.metrics["outages"]),
@@ -184,23 +191,16 @@ def main() -> int:
              for name, r in out_runs.items()}  # fmt: skip
     lines.append("")
     lines.append("worst outage error: " + "; ".join(f"{n}: {1e3 * p:.1f} mm, {r:.3f}°" for n, (p, r) in worst.items())
-                 + f" (runs with the outages: ESKF {1e3 * out_runs['eskf'].metrics['position_rmse_m']:.2f} mm / "
-                 f"{out_runs['eskf'].metrics['rotation_rmse_deg']:.3f}° overall)")  # fmt: skip
+                 + " (runs with the outages, overall: " + "; ".join(
+                     f"{n} {1e3 * r.metrics['position_rmse_m']:.2f} mm / {r.metrics['rotation_rmse_deg']:.3f}°"
+                     for n, r in out_runs.items()) + ")")  # fmt: skip
     if args.structure:
         lines += [""] + _structure(setup, {"ESKF": runs["eskf"].estimate, "ESKF + RTS smoother": smoothed})
-        lines += [""] + _outage_offsets(setup, out_setup, out_runs["eskf"].estimate)
+        lines += [""] + _outage_offsets(setup, out_runs["eskf"].estimate, out_runs["smoothed"].estimate, smoothed)
     if args.figure:
-        _figure(runs["eskf"], setup, args.figure)
+        _figure(smoothed_run, setup, args.figure)
         lines.append(f"figure: {args.figure}")
     return emit("\n".join(lines), args.markdown)
-
-
-def _smoothed(setup) -> Trajectory:
-    """The ESKF run from the set-up's start over the whole recording (no re-lock), RTS-smoothed."""
-    rec, st = setup.recording, setup.start
-    fr = FILTERS["eskf"](rec, st.x, st.P).run_recording(rec, record_nodes=True)
-    sm = rts_smooth(fr)
-    return Trajectory(sm.t, sm.position, sm.quat, rec.stamps_ns, name="ESKF + RTS smoother")
 
 
 def _split(e: np.ndarray, scale: float) -> str:
@@ -290,20 +290,27 @@ def _rotation_errors(ref: Trajectory, track: Trajectory):
     return e.estimate.stamps, e.position, dp.so3_log(np.swapaxes(rq, 1, 2) @ dp.matrix_from_quat(e.estimate.quats))
 
 
-def _outage_offsets(setup, out_setup, eskf_out: Trajectory) -> list[str]:
+def _outage_offsets(setup, eskf_out: Trajectory, smoothed_out: Trajectory, smoothed_full: Trajectory) -> list[str]:
     """Inside each outage window: the largest errors of the ESKF and of the RTS-smoothed ESKF of the run with the
     outages, the rotation also with the run's constant rotation offset (its mean error vector) removed, and cam0's
-    PnP the same way (no outage)."""
+    PnP the same way (no outage); and, needing no reference, the largest difference between the smoothed runs with and
+    without the outages at the IMU samples inside the window (what the outage itself costs)."""
     ref, _ = setup.cache["reference", "cam1"]
     t0 = float(setup.source.imu.stamps[0])
     cal = setup.calibration
-    tracks = {"ESKF": eskf_out, "RTS": _smoothed(out_setup),
+    tracks = {"ESKF": eskf_out, "RTS": smoothed_out,
               "PnP": body_trajectory(setup.cache["own"], cal.rotation_xyzw, cal.translation_m, cal.time_offset_s)}
     errs = {k: _rotation_errors(ref, tr) for k, tr in tracks.items()}
     out = ["Outage windows (cam0 deleted; PnP: no outage) — largest errors inside, and the largest rotation error with "
            "the run's constant rotation offset (mean error vector over all reference frames) removed:", "",
            "| outage [s] | ESKF position [mm] / rotation [deg] / offset removed | RTS-smoothed: position / rotation / "
-           "offset removed | cam0 PnP rotation / offset removed [deg] |", "|---|---|---|---|"]  # fmt: skip
+           "offset removed | cam0 PnP rotation / offset removed [deg] | RTS with vs without the outage: position [mm] "
+           "/ rotation [deg] |", "|---|---|---|---|---|"]  # fmt: skip
+    t_imu = smoothed_full.stamps
+    if not np.array_equal(t_imu, smoothed_out.stamps):
+        raise RuntimeError("the runs with and without outages must share their IMU samples")
+    dp_imu = np.linalg.norm(smoothed_out.positions - smoothed_full.positions, axis=1)
+    dr_imu = np.degrees(dp.quat_angle(smoothed_out.quats, smoothed_full.quats))
     for a, b in OUTAGES:
         cells = []
         for k in ("ESKF", "RTS", "PnP"):
@@ -313,6 +320,8 @@ def _outage_offsets(setup, out_setup, eskf_out: Trajectory) -> list[str]:
             rot0 = np.degrees(np.linalg.norm(ev[m] - ev.mean(axis=0), axis=1).max())
             pos = 1e3 * np.linalg.norm(pe[m], axis=1).max()
             cells.append(f"{rot:.3f} / {rot0:.3f}" if k == "PnP" else f"{pos:.1f} / {rot:.3f} / {rot0:.3f}")
+        w = (t_imu - t0 >= a) & (t_imu - t0 < b)
+        cells.append(f"{1e3 * dp_imu[w].max():.1f} / {dr_imu[w].max():.3f}")
         out.append(f"| {a:g}–{b:g} | " + " | ".join(cells) + " |")
     return out
 
@@ -327,12 +336,12 @@ def _figure(result, setup, path: str) -> None:
     est = result.estimate
     t0 = setup.source.imu.stamps[0]
     fig, (a0, a1) = plt.subplots(1, 2, figsize=(10, 3.8), gridspec_kw={"width_ratios": [1, 1.6]})
-    a0.plot(est.positions[:, 0], est.positions[:, 1], "r-", lw=0.6, label="ESKF (cam0 + IMU)")
+    a0.plot(est.positions[:, 0], est.positions[:, 1], "r-", lw=0.6, label="ESKF + RTS (cam0 + IMU)")
     a0.plot(ref.positions[:, 0], ref.positions[:, 1], "k.", ms=1.2, label="reference (cam1 PnP)")
     a0.set(xlabel="x [m] (target frame)", ylabel="y [m]", aspect="equal", title="IMU position over the target")
     a0.legend(fontsize=7, loc="best")
     tt = ref.stamps - t0
-    a1.plot(tt, 1e3 * np.linalg.norm(result.position_error, axis=1), "r-", lw=0.6, label="ESKF position error")
+    a1.plot(tt, 1e3 * np.linalg.norm(result.position_error, axis=1), "r-", lw=0.6, label="ESKF + RTS position error")
     a1.set(xlabel="time [s]", ylabel="position error [mm]", ylim=(0, 40),
            title="error against the reference (no alignment)")  # fmt: skip
     a2 = a1.twinx()

@@ -68,6 +68,48 @@ def _error(capsys) -> str:
     return " ".join(capsys.readouterr().err.split())
 
 
+def _tum(path: Path) -> np.ndarray:
+    return np.array([[float(v) for v in r.split()] for r in path.read_text().splitlines() if not r.startswith("#")])
+
+
+def test_output_smoothed_by_default_with_the_filter_beside_it_and_filter_on_request(recording_dir, tmp_path,
+                                                                                    capsys):  # fmt: skip
+    """Offline default: trajectory.tum is the RTS-smoothed run and trajectory_filter.tum the causal filter's, which
+    is the stream's output (``run_relocking``'s states); ``--output filter`` writes the filter as trajectory.tum and
+    no second file."""
+    from dualpose.pipelines.track_target import prepare_track, run_relocking
+
+    rec, calib, _, _ = recording_dir
+    setup = prepare_track(rec, calib, "cam0")
+    tr = run_relocking(setup.recording, setup.start.x, setup.start.P, "eskf")
+    out = tmp_path / "smoothed"
+    assert main(["fuse", "--data", str(rec), "--calibration", str(calib), "--out", str(out), "--json"]) == 0
+    m = json.loads(capsys.readouterr().out)
+    assert m["output"] == "smoothed" and m["smoother"]["segments"] == 1
+    smoothed, filtered = _tum(out / "trajectory.tum"), _tum(out / "trajectory_filter.tum")
+    np.testing.assert_allclose(filtered[:, 1:4], tr.position, rtol=0, atol=1e-9)  # TUM text: 9 decimals
+    assert len(smoothed) == len(filtered) == len(tr.t)
+    assert 1e-5 < np.abs(smoothed[:, 1:4] - filtered[:, 1:4]).max() < 0.05  # smoothed, not the filter again
+    out2 = tmp_path / "filter"
+    assert main(["fuse", "--data", str(rec), "--calibration", str(calib), "--output", "filter", "--out",
+                 str(out2)]) == 0  # fmt: skip
+    assert "causal filter" in capsys.readouterr().out
+    np.testing.assert_array_equal(_tum(out2 / "trajectory.tum"), filtered)
+    assert not (out2 / "trajectory_filter.tum").exists()
+
+
+def test_output_options_that_do_not_fit_are_usage_errors(recording_dir, capsys):
+    rec, calib, _, _ = recording_dir
+    assert main(["fuse", "--data", str(rec), "--calibration", str(calib), "--filter", "hol22", "--output",
+                 "smoothed"]) == 2  # fmt: skip
+    assert "--output smoothed needs --filter eskf" in _error(capsys)
+    assert main(["fuse", "--output", "filter"]) == 2  # the simulated run: --smooth there
+    assert "only used with a calibration-target recording" in _error(capsys)
+    code, _, err = run_lines([], "fuse", "--stream", "--sensors", str(rec / "sensors.yaml"), "--calibration",
+                             str(calib), "--output", "smoothed")  # fmt: skip
+    assert code == 2 and "--output" in err and "causal" in err
+
+
 def test_unknown_camera_lists_the_available_ones(recording_dir, capsys):
     rec, calib, _, _ = recording_dir
     assert main(["fuse", "--data", str(rec), "--camera", "cam7", "--calibration", str(calib)]) == 1

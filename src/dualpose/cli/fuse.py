@@ -21,11 +21,14 @@ statuses are in docs/fusion.md, "Streaming" (the job is :func:`dualpose.pipeline
 Calibration-target recordings (docs/fusion.md, "Tracking on EuRoC imu_april"): ``dualpose fuse --data DIR --camera
 cam0 --calibration CALIB.json`` where DIR holds ``imu0.csv``, ``camN_aprilgrid.csv`` and ``sensors.yaml``; CALIB.json
 is the camera-IMU calibration (``dualpose calibrate camera-imu ... --json``).  The world is the target frame; scored
-against another camera's per-frame PnP when DIR has its detections (:mod:`dualpose.pipelines.track_target`).
-``--outage A:B`` (repeatable) deletes the camera's detections over [A, B) s from the first IMU sample.  Streaming:
-``dualpose fuse --stream --sensors sensors.yaml --camera cam0 --calibration CALIB.json`` (camera lines with the
-measured, distorted pixels).  ``--calibration`` is thus the camera-IMU calibration with ``--data DIR`` or
-``--sensors``, and the sensor file with a filter start with a plain ``--stream``.
+against another camera's per-frame PnP when DIR has its detections (:mod:`dualpose.pipelines.track_target`).  An
+offline run: ``trajectory.tum`` is the RTS-smoothed track (``--output smoothed``, the default with the ESKF; one
+smoothing segment per filter start or re-lock) and ``trajectory_filter.tum`` the causal filter's; ``--output filter``
+writes the causal filter only (the default with Hol22, which has no smoother).  ``--outage A:B`` (repeatable)
+deletes the camera's detections over [A, B) s from the first IMU sample.  Streaming: ``dualpose fuse --stream
+--sensors sensors.yaml --camera cam0 --calibration CALIB.json`` (camera lines with the measured, distorted pixels):
+causal, the poses of ``trajectory_filter.tum`` bit for bit.  ``--calibration`` is thus the camera-IMU calibration
+with ``--data DIR`` or ``--sensors``, and the sensor file with a filter start with a plain ``--stream``.
 """
 
 from __future__ import annotations
@@ -71,15 +74,19 @@ malformed line (unknown tag, wrong number of fields, not a number, non-finite, o
 standard output goes away.
 
 calibration-target recordings (docs/fusion.md, "Tracking on EuRoC imu_april"):
-  dualpose fuse --data DIR --camera cam0 --calibration CALIB.json [--filter ...] [--outage A:B ...] [--out OUT]
+  dualpose fuse --data DIR --camera cam0 --calibration CALIB.json [--filter ...] [--output smoothed|filter]
+                [--outage A:B ...] [--out OUT]
     DIR holds imu0.csv, camN_aprilgrid.csv, sensors.yaml; CALIB.json is the camera-IMU calibration
     (keys camera, rotation_xyzw, translation_m, time_offset_s, reprojection_rms_px, optional gyro_bias,
     accel_bias, gravity_target, std).  World = target frame; gravity estimated at start-up; scored against
     another camera's per-frame PnP when DIR has its detections.  --outage A:B deletes the camera's frames in
-    [A, B) s from the first IMU sample (bridging test).
+    [A, B) s from the first IMU sample (bridging test).  Offline output: OUT/trajectory.tum is the RTS-smoothed
+    track (default with eskf; one segment per filter start or re-lock), OUT/trajectory_filter.tum the causal
+    filter's; --output filter writes the causal filter as trajectory.tum (default with hol22).
   dualpose fuse --stream --sensors sensors.yaml --camera cam0 --calibration CALIB.json
-    the same filter on stdin lines; cam lines carry the MEASURED (distorted) pixels and target-frame corners; the
-    first pose line comes once the start-up window (10 s of frames) has been read.
+    the causal filter on stdin lines (trajectory_filter.tum's poses); cam lines carry the MEASURED (distorted)
+    pixels and target-frame corners; the first pose line comes once the start-up window (10 s of frames) has been
+    read.
 """
 
 
@@ -147,6 +154,15 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         action="store_true",
         help="also run the offline RTS smoother (eskf only) and report its metrics next to the filter's; with --out "
         "writes trajectory_smoothed.tum",
+    )
+    p.add_argument(
+        "--output",
+        choices=("smoothed", "filter"),
+        default=None,
+        help="calibration-target recordings (--data DIR): the trajectory written as trajectory.tum and scored in the "
+        "summary -- 'smoothed' (default with eskf: the offline RTS smoother, one segment per filter start or "
+        "re-lock; --out also writes the causal filter's as trajectory_filter.tum) or 'filter' (the causal filter, "
+        "as --stream writes; the default with hol22, which has no smoother)",
     )
     return p
 
@@ -257,9 +273,11 @@ def run_stream(args: argparse.Namespace) -> int:
     used = [name for name, given in (("--data", args.data is not None), ("--seed", args.seed is not None),
                                      ("--out", args.out), ("--force", args.force), ("--json", args.json),
                                      ("--smooth", args.smooth), ("--out-bag", args.out_bag),
-                                     ("--outage", args.outage), ("--truth", args.truth)) if given]  # fmt: skip
+                                     ("--outage", args.outage), ("--truth", args.truth),
+                                     ("--output", args.output)) if given]  # fmt: skip
     if used:
-        return _usage_error(f"{', '.join(used)}: not used with --stream (it reads standard input)")
+        return _usage_error(f"{', '.join(used)}: not used with --stream (it reads standard input; the stream is the "
+                            "causal filter)")  # fmt: skip
     if args.sensors is not None:
         return _run_target_stream(args)
     if args.camera is not None:
@@ -319,15 +337,24 @@ def _target_table(m: dict[str, Any]) -> str:
 
     ref = m["reference"]
     rows = [("data", m["data"]), ("camera", m["camera"]), ("filter", m["filter"]),
+            ("output (trajectory.tum)", "RTS-smoothed, " + f"{m['smoother']['segments']} segment(s)"
+             if m["output"] == "smoothed" else "causal filter"),
             ("reference", "none (no other camera's detections)" if ref is None else
              f"{ref['camera']} per-frame PnP, {ref['frames_scored']} frames")]  # fmt: skip
     for label, path, fmt in _TARGET_ROWS:
         v = get(path)
         rows.append((label, "n/a" if v is None else format(v, fmt)))
-    for w in m["outages"] or []:
+    cf = m.get("causal_filter")
+    if cf is not None and cf["position_rmse_m"] is not None:
+        rows.append(("causal filter: position / rotation RMSE", f"{cf['position_rmse_m']:.6f} m / "
+                     f"{cf['rotation_rmse_deg']:.4f} deg"))  # fmt: skip
+    for i, w in enumerate(m["outages"] or []):
         if w["frames"]:
-            rows.append((f"outage {w['start_s']:g}-{w['end_s']:g} s: max position / rotation error",
-                         f"{w['position_max_m']:.4f} m / {w['rotation_max_deg']:.3f} deg ({w['frames']} frames)"))
+            text = f"{w['position_max_m']:.4f} m / {w['rotation_max_deg']:.3f} deg ({w['frames']} frames)"
+            if cf is not None:
+                c = cf["outages"][i]
+                text += f"; filter {c['position_max_m']:.4f} m / {c['rotation_max_deg']:.3f} deg"
+            rows.append((f"outage {w['start_s']:g}-{w['end_s']:g} s: max position / rotation error", text))
     su = m["startup"]
     ang = su["gravity_angle_to_calibration_deg"]
     rows += [
@@ -336,7 +363,7 @@ def _target_table(m: dict[str, Any]) -> str:
         ("NIS inside 95% band", f"{m['nis_fraction_inside']:.3f}"),
         ("correspondences rejected", f"{m['n_rejected']} of {m['n_correspondences']}"),
         ("re-locks", f"{m['relocks']}"),
-        ("real-time factor", f"{m['realtime_factor']:.1f}x"),
+        ("real-time factor (wall / CPU)", f"{m['realtime_factor']:.1f}x / {m['realtime_factor_cpu']:.1f}x"),
     ]  # fmt: skip
     return aligned_rows(rows + _doubt_rows(m))
 
@@ -356,6 +383,8 @@ def _report(args: argparse.Namespace, result: Any, out: OutputDirectory | None,
             write_tum(stage / "trajectory.tum", result.estimate)
             if result.smoothed is not None:
                 write_tum(stage / "trajectory_smoothed.tum", result.smoothed)
+            if result.filtered is not None:
+                write_tum(stage / "trajectory_filter.tum", result.filtered)
             if args.out_bag:
                 from dualpose.io.rosbag import write_trajectory_bag
 
@@ -414,16 +443,19 @@ def run_target(args: argparse.Namespace) -> int:
     from dualpose.cli._output import OutputError
 
     try:
-        out = _output(args, OUTPUT_FILES + tuple(f"trajectory.{b}" for b in _BAGS))
+        out = _output(args, OUTPUT_FILES + ("trajectory_filter.tum",) + tuple(f"trajectory.{b}" for b in _BAGS))
     except OutputError as exc:
         return _usage_error(str(exc))
+    if args.output == "smoothed" and args.filter != "eskf":
+        return _usage_error(f"--output smoothed needs --filter eskf (got {args.filter!r}): the RTS smoother runs over "
+                            "the error-state filter's stored nodes")  # fmt: skip
     from dualpose.io.recording import RecordingError
     from dualpose.pipelines.track_target import prepare_track, run_track
 
     outages = tuple(args.outage or ())
     try:
         setup = prepare_track(args.data, args.calibration, args.camera or "cam0", outages)
-        result = run_track(setup, args.filter, outages=outages)
+        result = run_track(setup, args.filter, outages=outages, output=args.output)
     except (RecordingError, ValueError) as exc:
         print(f"dualpose fuse: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1
@@ -449,7 +481,8 @@ def run(args: argparse.Namespace) -> int:
         return _usage_error("--calibration is only used with --stream or with a calibration-target recording (--data "
                             "DIR holding imu0.csv, camN_aprilgrid.csv and sensors.yaml); a recording with "
                             "sensors.json has its own sensor file")  # fmt: skip
-    used = [n for n, v in (("--camera", args.camera), ("--outage", args.outage), ("--sensors", args.sensors)) if v]
+    used = [n for n, v in (("--camera", args.camera), ("--outage", args.outage), ("--sensors", args.sensors),
+                           ("--output", args.output)) if v]  # fmt: skip
     if used:
         return _usage_error(f"{', '.join(used)}: only used with a calibration-target recording (--data DIR holding "
                             "imu0.csv, camN_aprilgrid.csv and sensors.yaml)")  # fmt: skip
@@ -498,7 +531,7 @@ def run_monte_carlo(args: argparse.Namespace) -> int:
     used = [n for n, v in (("--data", args.data), ("--stream", args.stream), ("--calibration", args.calibration),
                            ("--camera", args.camera), ("--sensors", args.sensors), ("--outage", args.outage),
                            ("--out-bag", args.out_bag), ("--truth", args.truth), ("--json", args.json),
-                           ("--smooth", args.smooth)) if v]  # fmt: skip
+                           ("--smooth", args.smooth), ("--output", args.output)) if v]  # fmt: skip
     if used:
         return _usage_error(f"--monte-carlo runs the simulator: not with {', '.join(used)}")
     if args.filter != "eskf":

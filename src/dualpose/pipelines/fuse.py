@@ -116,6 +116,9 @@ class FuseResult:
         As ``position_error`` (K, 3) and ``orientation_error_deg`` (K,) for the smoothed trajectory.
     error_index : ndarray of int, shape (K,), or None
         Rows of ``estimate`` (and of the sigma arrays) that ``truth`` and the error arrays belong to.
+    filtered : Trajectory or None
+        The causal filter's poses when ``estimate`` is a smoothed output (calibration-target recordings,
+        :func:`dualpose.pipelines.track_target.run_track`); None otherwise.
     """
 
     estimate: Trajectory
@@ -131,6 +134,7 @@ class FuseResult:
     smoothed: Trajectory | None = None
     smoothed_position_error: np.ndarray | None = None
     smoothed_orientation_error_deg: np.ndarray | None = None
+    filtered: Trajectory | None = None
     error_index: np.ndarray | None = None
 
 

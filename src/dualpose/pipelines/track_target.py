@@ -29,6 +29,9 @@ and no ground truth is used:
   :data:`EUROC_T_BS`): independent of the tracked camera's measurements and of the filter.  Scored: position and
   rotation RMSE in the target frame (no alignment), the tracked camera's own per-frame PnP measured the same way, and
   the error inside camera outages (``outages``: the tracked camera's detections deleted over given windows).
+* **Output** (:func:`run_track`): offline, the ESKF run smoothed by the RTS smoother segment by segment, never across
+  a re-lock (:func:`smooth_segments`), with the causal filter's track beside it; or the causal filter, which is what
+  :class:`TrackStream` gives.
 """
 
 from __future__ import annotations
@@ -48,8 +51,9 @@ import dualpose as dp
 from dualpose.estimation import initialization
 from dualpose.estimation._fusion_stream import BlockResult, FrameUpdate
 from dualpose.estimation._stream import GapWatch
-from dualpose.estimation.eskf import EskfStream, InnovationReport
+from dualpose.estimation.eskf import ErrorStateEKF, EskfStream, InnovationReport
 from dualpose.estimation.hol22 import Hol22Stream
+from dualpose.estimation.smoother import rts_smooth
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE, StateLayout
 from dualpose.evaluation.target_reference import (
     CameraPoses,
@@ -82,6 +86,7 @@ __all__ = [
     "StartUp",
     "TrackSetup",
     "TrackStream",
+    "SmoothedTrack",
     "TrackedRun",
     "extrinsic_from_matrix",
     "ideal_pixel_sigma",
@@ -92,6 +97,7 @@ __all__ = [
     "run_relocking",
     "run_track",
     "score_run",
+    "smooth_segments",
     "startup",
     "stream_track_lines",
     "target_recording_lines",
@@ -110,15 +116,18 @@ EUROC_T_BS = EUROC_KALIBR_T_BS
 
 
 #: relative scale-factor + axis-alignment uncertainties ``(ε_g, ε_a)`` of a calibrated MEMS IMU (the class value of the
-#: AHRS's ``gyro_scale_sigma`` / ``acc_scale_sigma``): what ``scale_sigmas="mems"`` gives (docs/fusion.md, "Tracking
-#: on EuRoC imu_april", for what they do on imu_april)
+#: AHRS's ``gyro_scale_sigma`` / ``acc_scale_sigma``; datasheets of the class state ~1 % sensitivity tolerance and
+#: ~0.05-0.5° axis misalignment before calibration): what ``scale_sigmas="mems"``, the tracking default, gives.  A
+#: Kalibr-style ``sensors.yaml`` states white noise and random walks only; these terms stand for the scale and axis
+#: errors it leaves out (docs/fusion.md, "Tracking on EuRoC imu_april")
 MEMS_SCALE_SIGMAS = (0.005, 0.005)
 
 
-def track_imu_noise(rig: RigSensors, scale_sigmas: tuple[float, float] | str = (0.0, 0.0)) -> ImuNoise:
+def track_imu_noise(rig: RigSensors, scale_sigmas: tuple[float, float] | str = "mems") -> ImuNoise:
     """The IMU noise the tracking filters use: the rig's densities and random walks as stated (``sensors.yaml``), its
     rate, and the scale-factor uncertainties ``scale_sigmas = (ε_g, ε_a)`` (``ImuNoise.gyroscope_scale_sigma``,
-    ``accelerometer_scale_sigma``; ``"mems"`` for :data:`MEMS_SCALE_SIGMAS`; default none, Kalibr's noise model)."""
+    ``accelerometer_scale_sigma``; ``"mems"``, the default, for :data:`MEMS_SCALE_SIGMAS`; ``(0, 0)`` for Kalibr's
+    noise model alone)."""
     bad = f"scale_sigmas must be two finite numbers >= 0 (or 'mems'); got {scale_sigmas!r}"
     if isinstance(scale_sigmas, str) and scale_sigmas != "mems":
         raise ValueError(bad)
@@ -329,7 +338,7 @@ def prepare_track(
     calibration: str | os.PathLike[str] | CameraImuCalibration,
     camera: str = "cam0",
     outages: Sequence[tuple[float, float]] = (),
-    scale_sigmas: tuple[float, float] | str = (0.0, 0.0),
+    scale_sigmas: tuple[float, float] | str = "mems",
 ) -> TrackSetup:
     """Read a target recording and a calibration and set the filter up (module docstring).
 
@@ -455,6 +464,9 @@ class TrackedRun:
     gate: float
     relocks: list[float]
     wall_time: float
+    #: ``(imu_index, x (16,), P (15, 15))`` of every filter the run started: the start (index 0) and each re-lock
+    #: (the IMU sample it re-initialised at, its error-state start); each segment runs to the next one's index
+    segments: list[tuple[int, NDArray[np.float64], NDArray[np.float64]]] = field(default_factory=list)
 
 
 def _new_stream(
@@ -481,11 +493,12 @@ def _filter_state(layout: StateLayout, x: np.ndarray, C: np.ndarray) -> dict[str
 def _relocked(
     state: Callable[[], dict[str, Any]], done: list[FrameUpdate], t: float, gyro: ArrayLike, accel: ArrayLike,
     sensors: Recording | SensorSetup, filter: str,
-) -> EskfStream | Hol22Stream | None:
+) -> tuple[EskfStream | Hol22Stream, NDArray[np.float64], NDArray[np.float64]] | None:
     """After the IMU sample ``(t, gyro, accel)`` with the filter in ``state`` (a callable giving
     :func:`_filter_state`'s dict): the first of the frames ``done`` (FrameUpdates filtered at that sample, in order)
     that the filter lost and that re-locks gives a new stream, started from :func:`relock_start` and fed that sample
-    as its first; None when no frame does.  The batch run and :class:`TrackStream` both call this."""
+    as its first, returned with that start ``(stream, x (16,), P (15, 15))``; None when no frame does.  The batch run
+    and :class:`TrackStream` both call this."""
     for fu in done:
         n = len(fu.pixels)
         if fu.status != "done" or not n or not lost_frame(np.array([n]), fu.accepted)[0]:
@@ -495,7 +508,7 @@ def _relocked(
             continue
         fresh = _new_stream(filter, sensors, *new)
         fresh.update_imu(t, gyro, accel)
-        return fresh
+        return fresh, new[0], new[1]
     return None
 
 
@@ -526,6 +539,8 @@ def run_relocking(rec: Recording, x: np.ndarray, P: np.ndarray, filter: str = "e
     nis: list[np.ndarray] = []
     acc: list[np.ndarray] = []
     relocks: list[float] = []
+    segments: list[tuple[int, NDArray[np.float64], NDArray[np.float64]]] = [(0, np.array(x, dtype=np.float64),
+                                                                           np.array(P, dtype=np.float64))]
     i, g, wall = 0, 0, 0.0
     o = f.offsets
     while g < len(starts):
@@ -538,7 +553,7 @@ def run_relocking(rec: Recording, x: np.ndarray, P: np.ndarray, filter: str = "e
                                   covariance=True)  # fmt: skip
         cov = blk.covariance
         assert cov is not None  # covariance=True
-        keep_rows, keep_frames, fresh = len(blk.states), f1 - f0, None
+        keep_rows, keep_frames = len(blk.states), f1 - f0
         for q in range(g, h):
             k = int(k_of[starts[q]])
             row = k - i
@@ -547,8 +562,10 @@ def run_relocking(rec: Recording, x: np.ndarray, P: np.ndarray, filter: str = "e
             def state_at(b: BlockResult = blk, c: np.ndarray = cov, r: int = row) -> dict[str, Any]:
                 return _filter_state(L, b.states[r], c[r])
 
-            fresh = _relocked(state_at, done, float(t[k]), gyro[k], accel[k], rec, filter)
-            if fresh is not None:
+            relock = _relocked(state_at, done, float(t[k]), gyro[k], accel[k], rec, filter)
+            if relock is not None:
+                fresh = relock[0]
+                segments.append((k, relock[1], relock[2]))
                 keep_rows, keep_frames = row + 1, ends[q] - f0
                 blk.states[row] = fresh.state
                 cov[row] = fresh.covariance
@@ -577,8 +594,74 @@ def run_relocking(rec: Recording, x: np.ndarray, P: np.ndarray, filter: str = "e
         position_cov=cov_layout.cov(C, "position"), attitude_sigma_deg=att,
         nis=np.concatenate(nis) if nis else np.zeros(0), accepted=np.concatenate(acc) if acc else np.zeros(0, bool),
         bounds=(float(chi2.ppf(0.025, 2)), float(chi2.ppf(0.975, 2))), gate=float(chi2.ppf(0.999, 2)),
-        relocks=relocks, wall_time=wall,
+        relocks=relocks, wall_time=wall, segments=segments,
     )  # fmt: skip
+
+
+@dataclass
+class SmoothedTrack:
+    """The RTS-smoothed run of :func:`smooth_segments`: states at the IMU times (``t`` (N,) s, ``position``,
+    ``velocity`` (N, 3) target frame, ``quat`` (N, 4) q_wb xyzw, ``position_cov`` (N, 3, 3) m², ``attitude_sigma_deg``
+    (N,) the square root of the trace of the smoothed attitude-error covariance), ``segments`` (S,) the IMU index each
+    smoothed segment starts at, ``wall_time`` (s: the segments' filter runs with their node records and the backward
+    passes)."""
+
+    t: NDArray[np.float64]
+    position: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    quat: NDArray[np.float64]
+    position_cov: NDArray[np.float64]
+    attitude_sigma_deg: NDArray[np.float64]
+    segments: NDArray[np.int64]
+    wall_time: float
+
+
+def smooth_segments(rec: Recording, run: TrackedRun) -> SmoothedTrack:
+    """The error-state RTS smoother (:func:`dualpose.estimation.smoother.rts_smooth`) over an ESKF
+    :func:`run_relocking` run, one segment per filter it started, so that no smoothing crosses a re-lock.
+
+    Segment s runs from its start sample ``k_s`` (:attr:`TrackedRun.segments`, with its start ``(x, P)``) to the sample
+    before the next start ``k_{s+1}``, over the frames filtered after ``k_s`` up to ``k_{s+1} − 1``: the batch filter
+    (bit for bit the stream's states of the segment, docs/fusion.md "Streaming") is re-run with its node record and
+    smoothed backwards from the segment's last sample, where smoother and filter agree.  The frames of the re-locking
+    sample itself (the lost frame and any with it) belong to neither side: the old filter rejected them, the new one
+    starts from them.  A one-sample segment keeps the filter's state.
+
+    Raises
+    ------
+    ValueError
+        ``run`` has no segment record, or it is not of the error-state filter (only its node record is smoothed).
+    """
+    if not run.segments or run.segments[0][0] != 0:
+        raise ValueError("run must be a run_relocking result with its segments (the first starting at sample 0)")
+    if run.attitude_sigma_deg is None:
+        raise ValueError("smooth_segments needs an ESKF run (filter='eskf'): the RTS smoother runs over the "
+                         "error-state filter's nodes")  # fmt: skip
+    f = rec.frames
+    t, n = rec.t, len(rec.t)
+    tf = f.t + rec.time_offset
+    o = f.offsets
+    bounds = [k for k, _, _ in run.segments] + [n]
+    position, velocity, quat = run.position.copy(), run.velocity.copy(), run.quat.copy()
+    pos_cov, att = run.position_cov.copy(), run.attitude_sigma_deg.copy()
+    wall = 0.0
+    for (k0, x, P), k1 in zip(run.segments, bounds[1:], strict=True):
+        if k1 - k0 < 2:
+            continue
+        j0, j1 = (int(v) for v in np.searchsorted(tf, [t[k0], t[k1 - 1]], side="right"))
+        t0 = time.perf_counter()
+        fr = ErrorStateEKF.from_state(rec, x, P).run(
+            t[k0:k1], rec.gyro[k0:k1], rec.accel[k0:k1], f.t[j0:j1], o[j0 : j1 + 1] - o[j0], f.pixels[o[j0] : o[j1]],
+            f.points[o[j0] : o[j1]], record_nodes=True,
+        )  # fmt: skip
+        sm = rts_smooth(fr)
+        wall += time.perf_counter() - t0
+        position[k0:k1], velocity[k0:k1], quat[k0:k1] = sm.position, sm.velocity, sm.quat
+        pos_cov[k0:k1] = ESKF_ERROR.cov(sm.covariance, "position")
+        att[k0:k1] = np.degrees(np.sqrt(np.trace(ESKF_ERROR.cov(sm.covariance, "attitude"), axis1=1, axis2=2)))
+    return SmoothedTrack(t=t.copy(), position=position, velocity=velocity, quat=quat, position_cov=pos_cov,
+                         attitude_sigma_deg=att, segments=np.array(bounds[:-1], dtype=np.int64),
+                         wall_time=wall)  # fmt: skip
 
 
 def run_track(
@@ -588,6 +671,7 @@ def run_track(
     outages: Sequence[tuple[float, float]] = (),
     progress: Callable[[int, int, str], None] | None = None,
     reference_extrinsics: Mapping[str, ArrayLike] = EUROC_T_BS,
+    output: str | None = None,
 ) -> FuseResult:
     """Run ``filter`` on a :func:`prepare_track` set-up and score it against the other camera's reference.
 
@@ -601,16 +685,36 @@ def run_track(
     progress : called as ``progress(done, total, stage)``.
     reference_extrinsics : camera name -> row-major 4 x 4 pose of that camera in the IMU frame, for the reference
         (default EuRoC's published ones, :data:`EUROC_T_BS`); never the tracked camera's calibration.
+    output : {"smoothed", "filter"} or None
+        The trajectory returned as ``estimate`` (and scored at the top level of ``metrics``): the offline RTS
+        smoother over the run's segments (:func:`smooth_segments`; ESKF only) or the causal filter.  None: "smoothed"
+        for the ESKF, "filter" for Hol22 (no smoother).
 
     Returns
     -------
     FuseResult
-        ``truth`` the reference (at the frames the estimate covers), errors against it, and ``metrics`` with the
-        start-up, the NIS, the real-time factor and :func:`score_run`'s scores (``reference``: None without one).
+        ``estimate`` the ``output`` trajectory, ``truth`` the reference (at the frames the estimate covers), errors
+        against it, and ``metrics`` with the start-up, the NIS, the real-time factors (filter and smoother; wall time:
+        ``realtime_factor``, CPU time: ``realtime_factor_cpu``) and :func:`score_run`'s scores (``reference``: None
+        without one); ``metrics["output"]`` names the output.  With
+        ``output="smoothed"``: ``filtered`` is the causal filter's trajectory, ``metrics["causal_filter"]`` its scores
+        (``position_rmse_m``, ``rotation_rmse_deg``, ``nees_position``, ``outages``) and ``metrics["smoother"]`` the
+        number of segments, their IMU start indices and the smoother's time.
+
+    Raises
+    ------
+    ValueError
+        Unknown ``filter`` or ``output``, or ``output="smoothed"`` with a filter other than "eskf".
     """
     if filter not in FILTERS:
         raise ValueError(f"filter must be one of {tuple(FILTERS)}; got {filter!r}")
-    stages = ("filter", "score")
+    out = output if output is not None else ("smoothed" if filter == "eskf" else "filter")
+    if out not in ("smoothed", "filter"):
+        raise ValueError(f"output must be 'smoothed', 'filter' or None; got {output!r}")
+    if out == "smoothed" and filter != "eskf":
+        raise ValueError(f"output='smoothed' needs filter 'eskf' (got {filter!r}): the RTS smoother runs over the "
+                         "error-state filter's nodes")  # fmt: skip
+    stages = ("filter", "smooth", "score")
 
     def step(k: int) -> None:
         if progress is not None:
@@ -619,36 +723,53 @@ def run_track(
     rec, st = setup.recording, setup.start
     no_frames = (np.zeros(0), np.zeros(1, np.int64), np.zeros((0, 2)), np.zeros((0, 3)))
     FILTERS[filter](rec, st.x, st.P).run(rec.t[:2], rec.gyro[:2], rec.accel[:2], *no_frames)  # load the kernel
+    cpu = time.process_time()
     tr = run_relocking(rec, st.x, st.P, filter)
     step(0)
-    estimate = Trajectory(tr.t, tr.position, tr.quat, rec.stamps_ns, name=f"dualpose fuse --filter {filter}")
+    filtered = Trajectory(tr.t, tr.position, tr.quat, rec.stamps_ns, name=f"dualpose fuse --filter {filter}")
+    estimate, pos_cov, ori_sigma, sm = filtered, tr.position_cov, tr.attitude_sigma_deg, None
+    if out == "smoothed":
+        sm = smooth_segments(rec, tr)
+        estimate = Trajectory(sm.t, sm.position, sm.quat, rec.stamps_ns,
+                              name=f"dualpose fuse --filter {filter} (RTS-smoothed)")  # fmt: skip
+        pos_cov, ori_sigma = sm.position_cov, sm.attitude_sigma_deg
+    cpu = time.process_time() - cpu
+    step(1)
+    wall = tr.wall_time + (0.0 if sm is None else sm.wall_time)
     rep = InnovationReport(tr.nis, tr.accepted, 2, tr.bounds, tr.gate)
     metrics = {
         "data": setup.source.path,
         "camera": setup.camera,
         "filter": filter,
+        "output": out,
         "duration_s": rec.duration,
         "imu_samples": int(len(rec.t)),
         "camera_frames": int(len(rec.frames)),
         "pixel_sigma_ideal_px": rec.pixel_sigma,
         "filter_wall_time_s": tr.wall_time,
-        "realtime_factor": rec.duration / tr.wall_time,
+        "realtime_factor": rec.duration / wall,
+        "cpu_time_s": cpu,
+        "realtime_factor_cpu": rec.duration / cpu if cpu > 0 else math.inf,
         **rep.summary(),
         "relocks": len(tr.relocks),
         "relock_times_s": [t - float(rec.t[0]) for t in tr.relocks],
         "startup": st.summary(setup.calibration),
         "input_doubts": [d.as_dict() for d in setup.doubts + _camera_doubts(rec, rep.summary())],
     }
-    pos_cov = tr.position_cov
-    ori_sigma = tr.attitude_sigma_deg
     scores = score_run(setup, estimate, pos_cov, reference_camera, outages, reference_extrinsics)
     metrics.update(scores.pop("metrics"))
-    step(1)
+    if sm is not None:
+        fs = score_run(setup, filtered, tr.position_cov, reference_camera, outages, reference_extrinsics)["metrics"]
+        metrics["causal_filter"] = {k: fs[k] for k in ("position_rmse_m", "rotation_rmse_deg", "nees_position",
+                                                       "outages")}  # fmt: skip
+        metrics["smoother"] = {"segments": int(len(sm.segments)), "segment_start_samples": sm.segments.tolist(),
+                               "wall_time_s": sm.wall_time}  # fmt: skip
+    step(2)
     return FuseResult(
         estimate=estimate, metrics=metrics,
         position_sigma=np.sqrt(np.maximum(np.diagonal(pos_cov, axis1=1, axis2=2), 0)),
         orientation_sigma_deg=ori_sigma, nis=np.asarray(rep.nis), nis_accepted=np.asarray(rep.accepted, dtype=bool),
-        nis_bounds=(float(rep.bounds[0]), float(rep.bounds[1])), **scores,
+        nis_bounds=(float(rep.bounds[0]), float(rep.bounds[1])), filtered=None if sm is None else filtered, **scores,
     )  # fmt: skip
 
 
@@ -802,7 +923,7 @@ class TrackStream:
     """
 
     def __init__(self, rig: RigSensors, camera: str, calibration: CameraImuCalibration, filter: str = "eskf",
-                 scale_sigmas: tuple[float, float] | str = (0.0, 0.0)) -> None:
+                 scale_sigmas: tuple[float, float] | str = "mems") -> None:
         if filter not in FILTERS:
             raise ValueError(f"filter must be one of {tuple(FILTERS)}; got {filter!r}")
         if rig.imu_noise is None:
@@ -863,10 +984,11 @@ class TrackStream:
         for fu in done:
             self._frame_use.settled(fu)
         assert self._setup is not None  # made with the stream
-        fresh = _relocked(lambda: _filter_state(st.state_layout, st.state, st.covariance), done, t,
-                          np.asarray(g, dtype=np.float64), np.asarray(a, dtype=np.float64), self._setup,
-                          self.filter)  # fmt: skip
-        if fresh is not None:
+        relock = _relocked(lambda: _filter_state(st.state_layout, st.state, st.covariance), done, t,
+                           np.asarray(g, dtype=np.float64), np.asarray(a, dtype=np.float64), self._setup,
+                           self.filter)  # fmt: skip
+        if relock is not None:
+            fresh = relock[0]
             fresh.gap_watch = self.gap_watch
             self._stream = fresh
             x = fresh.state
