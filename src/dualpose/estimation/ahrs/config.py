@@ -182,7 +182,8 @@ class AhrsConfig:
                   ("acc_scale_sigma", self.acc_scale_sigma, False), ("rest_window", self.rest_window, False),
                   ("rest_margin", self.rest_margin, True),
                   ("rest_bias_sigma", self.rest_bias_sigma, False), ("acc_clip", self.acc_clip, False),
-                  ("acc_motion_time", 0.0 if self.acc_motion_time is None else self.acc_motion_time, False))  # fmt: skip
+                  ("acc_motion_time", 0.0 if self.acc_motion_time is None else self.acc_motion_time,
+                   False))  # fmt: skip
         for name, value, positive in checks:
             if not (math.isfinite(value) and (value > 0.0 if positive else value >= 0.0)):
                 kind = "a positive" if positive else "a non-negative"
