@@ -47,6 +47,8 @@ Params make_params(const double* params, const double* Ha, const double* Hm, dou
     p.acc_clip = std::max(0.0, params[P_ACC_CLIP]);
     p.acc_dev_alpha = std::min(1.0, dt / 1.0);
     p.acc_cal_var = dg * dg / 3.0;
+    const double motion_time = params[P_ACC_MOTION_TIME];
+    p.acc_motion_alpha = motion_time > 0.0 ? std::min(1.0, double(p.stride) * dt / motion_time) : 1.0;
     return p;
 }
 
@@ -155,6 +157,15 @@ void step(State& s, double* ring, const Params& p, const double* gyr, const doub
         // account for 2δg of the difference by itself)
         const double a_norm = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
         const double dev = std::max(std::fabs(a_norm - grav) - p.acc_tol, 0.0);
+        // the update needs the variance of the filtered linear acceleration along each horizontal axis, and dev is
+        // one realisation of it along the vertical, independent of the horizontal ones: in oscillating motion it
+        // passes zero twice a cycle, when the horizontal components need not (circular motion: exactly when they
+        // peak), and the gain would jump there.  Its running mean square over the low-pass's own delay (the time
+        // scale on which the filtered acceleration changes) estimates that variance instead
+        if (p.acc_motion_alpha < 1.0)
+            s.acc_motion_ms += p.acc_motion_alpha * (dev * dev - s.acc_motion_ms);
+        else
+            s.acc_motion_ms = dev * dev;  // acc_motion_time 0: the bound of this update alone
         // innovation-based (Sage-Husa / Mehra) estimate of the unmodelled acceleration variance per axis:
         // E[νᵀν]/2 = tr(HPHᵀ)/2 + r  =>  r̂ <- (1 − α) r̂ + α max(νᵀν/2 − tr(HPHᵀ)/2 − σ²/N − (δg)²/3, 0)
         if (acc_alpha > 0.0) {
@@ -165,11 +176,11 @@ void step(State& s, double* ring, const Params& p, const double* gyr, const doub
             acc_extra = (1.0 - acc_alpha) * acc_extra +
                         acc_alpha * std::max(0.5 * (v[0] * v[0] + v[1] * v[1]) - hph - acc_var / n_win - p.acc_cal_var, 0.0);
         }
-        // white noise, the accelerometer's own direction error (δg)²/3 per axis, the acceleration bound and the
-        // innovation-based estimate; consecutive updates share samples: each carries 1/overlap of a window's
-        // information (the low-pass averages white noise as the n_win-sample boxcar does: same noise-equivalent
-        // bandwidth)
-        const double r = (acc_var / n_win + p.acc_cal_var + dev * dev + acc_extra) * overlap;
+        // white noise, the accelerometer's own direction error (δg)²/3 per axis, the acceleration bound's mean
+        // square and the innovation-based estimate; consecutive updates share samples: each carries 1/overlap of a
+        // window's information (the low-pass averages white noise as the n_win-sample boxcar does: same
+        // noise-equivalent bandwidth)
+        const double r = (acc_var / n_win + p.acc_cal_var + s.acc_motion_ms + acc_extra) * overlap;
         // S = H P Hᵀ + r I
         for (int i = 0; i < NE; ++i)
             for (int c = 0; c < 2; ++c) {

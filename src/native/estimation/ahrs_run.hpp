@@ -21,6 +21,7 @@ struct Params {
     double acc_dev_alpha;  // forgetting factor (per sample) of that running mean square
     double acc_tol;      // magnitude error the accelerometer can make by itself, vs. the rest magnitude: 2 δ g (m/s²)
     double acc_cal_var;  // per-axis variance of its direction error: (δ g)² / 3 (m/s²)²
+    double acc_motion_alpha;  // forgetting factor (per update) of the acceleration bound's mean square (1: none)
     double Ha[2 * ERROR_DIM], Hm[ERROR_DIM];  // measurement Jacobians (2, 6) and (1, 6)
     LowPass2 acc_lp;                          // the specific force's earth-frame low-pass (tau = window / 2)
     std::int64_t n_win, stride, use_mag;
@@ -36,6 +37,7 @@ struct State {
     double acc_lp[6];                             // low-pass state of the specific force, (3, 2) (uncorrected frame)
     double acc_out[3];                            // the low-pass's last output (uncorrected frame)
     double acc_dev_ms;                            // running mean square of the (clipped) change from it, (m/s²)²
+    double acc_motion_ms;                         // running mean square of the filtered acceleration's bound, (m/s²)²
     double mag_sum[3];                            // field window sum (uncorrected frame)
     double Cm[9];                                 // accumulated corrections: current earth frame = Cm · uncorrected
     double mag_dist_sum, mag_dist;                // window sum / mean of the field's disturbance lower bound
@@ -100,9 +102,10 @@ void rest_run(std::ptrdiff_t n, const double* gyr, const double* acc, const doub
 // that a byte copy saves it and restores it.  STREAM_VERSION changes whenever the layout does (2: the time offset's
 // parameters, state and rings, and n_ring in the header; 3: the accelerometer's own error in Params; 4: the rest
 // detector's parameters, state and ring; 5: the rest-offset variance and the accelerometer's impulse clipping in
-// Params, the spell count and the clipping's last output and running mean square in State).
+// Params, the spell count and the clipping's last output and running mean square in State; 6: the running mean
+// square of the filtered linear acceleration's bound in State, its forgetting factor in Params).
 constexpr std::uint64_t STREAM_MAGIC = 0x3153524841504455ULL;  // "UDPAHRS1" little-endian
-constexpr std::uint64_t STREAM_VERSION = 5;
+constexpr std::uint64_t STREAM_VERSION = 6;
 struct StreamHeader {
     std::uint64_t magic, version, size, n_win, n_ring;  // size: total bytes of the buffer; n_ring = ring_doubles
 };

@@ -212,6 +212,8 @@ def test_bad_arguments_raise_naming_them(kwargs, match):
         ("gyro_scale_sigma", -1e-3, "gyro_scale_sigma must be a non-negative"),
         ("rest_bias_sigma", -1e-4, "rest_bias_sigma must be a non-negative"),
         ("acc_clip", float("inf"), "acc_clip must be a non-negative finite"),
+        ("acc_motion_time", -1.0, "acc_motion_time must be a non-negative finite"),
+        ("acc_motion_time", float("nan"), "acc_motion_time must be a non-negative finite"),
         ("gate_probability", 1.0, r"gate_probability must be in \(0, 1\)"),
     ],
 )

@@ -29,8 +29,10 @@ The error-state filter of :mod:`dualpose.estimation.eskf` reduced to orientation
   inclination, which the accelerometer measures better).  The price is that the field's own tilt information is
   unused, which costs little because the accelerometer dominates inclination;
 * adaptive rejection (innovation-based): each update's noise is inflated by a lower bound of the disturbance
-  present -- ``(| |ā| − g | − 2δg)₊²`` for the accelerometer (the mean linear acceleration has at least that
-  magnitude once the sensor's own error δ, ``acc_scale_sigma``, is allowed for; its direction error ``(δg)² / 3``
+  present -- the running mean square, over ``acc_motion_time`` (default ``window / 2``), of
+  ``(| |ā| − g | − 2δg)₊`` for the accelerometer (the mean linear acceleration has at least that magnitude once the
+  sensor's own error δ, ``acc_scale_sigma``, is allowed for; averaged because it is one realisation along the
+  vertical of what the update needs as a variance along the horizontal axes; its direction error ``(δg)² / 3``
   per axis is part of the noise too), the
   window mean of ``(|m| − m₀)² + (m₀ Δdip)²`` for the magnetometer (change of the field's magnitude and dip from the
   reference measured at rest) -- and the accelerometer noise additionally gets an innovation-based (Sage-Husa /

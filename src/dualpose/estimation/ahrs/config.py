@@ -148,6 +148,12 @@ class AhrsConfig:
         (the magnitude difference the sensor can produce by itself between the rest orientation that set ``g`` and
         the current one), and the direction error's per-axis variance ``(δ g)² / 3`` is added instead
         (docs/broad.md, "Design in brief").
+    acc_motion_time : float or None
+        Time constant (s) of the running mean of the squared bound ``(| |ā| − g | − 2 δ g)₊²`` that is added to the
+        accelerometer noise (default None: ``window / 2``, the low-pass's delay; 0: each update's own bound, the
+        earlier rule).  The bound is one realisation of the filtered linear acceleration along the vertical, while
+        the update needs its variance along the horizontal axes; in oscillating motion the instantaneous value passes
+        zero twice a cycle, when the horizontal components need not (docs/broad.md, "Twelve trials", (d)).
     """
 
     noise: AhrsNoise | None = None
@@ -163,6 +169,7 @@ class AhrsConfig:
     rest_margin: float = 3.0
     rest_bias_sigma: float = REST_BIAS_SIGMA
     acc_clip: float = 5.0
+    acc_motion_time: float | None = None
 
     def __post_init__(self) -> None:
         if self.noise is not None and not isinstance(self.noise, AhrsNoise):
@@ -174,7 +181,9 @@ class AhrsConfig:
                   ("update_interval", self.update_interval, True),
                   ("acc_scale_sigma", self.acc_scale_sigma, False), ("rest_window", self.rest_window, False),
                   ("rest_margin", self.rest_margin, True),
-                  ("rest_bias_sigma", self.rest_bias_sigma, False), ("acc_clip", self.acc_clip, False))  # fmt: skip
+                  ("rest_bias_sigma", self.rest_bias_sigma, False), ("acc_clip", self.acc_clip, False),
+                  ("acc_motion_time", 0.0 if self.acc_motion_time is None else self.acc_motion_time,
+                   False))  # fmt: skip
         for name, value, positive in checks:
             if not (math.isfinite(value) and (value > 0.0 if positive else value >= 0.0)):
                 kind = "a positive" if positive else "a non-negative"
@@ -507,6 +516,8 @@ def _set_rest_params(params: np.ndarray, rate: float, noise: AhrsNoise, c: AhrsC
     params[_native.AHRS_P_REST_SKIP] = int(skip)
     params[_native.AHRS_P_REST_OFFSET_VAR] = c.rest_bias_sigma**2
     params[_native.AHRS_P_ACC_CLIP] = c.acc_clip
+    motion_time = 0.5 * c.window if c.acc_motion_time is None else c.acc_motion_time
+    params[_native.AHRS_P_ACC_MOTION_TIME] = motion_time
 
 
 def check_field_samples(mag: NDArray[np.float64], name: str = "mag", single: bool = False) -> None:
