@@ -892,7 +892,7 @@ class TrackStream:
         self.start = startup(t, g, a, det, self.model, self.calibration, self.noise, self.gravity_magnitude)
         self._setup = self._sensor_setup()
         self._stream = _new_stream(self.filter, self._setup, self.start.x, self.start.P)
-        self._stream.gap_watch = GapWatch(None)  # the buffered samples were watched as they came
+        self._stream.gap_watch = GapWatch(None, watch_rate=False)  # the buffered samples were watched as they came
         k0 = self.start.imu_index
         self.doubts += self.start.gyro_doubts("the stream's IMU lines")
         tau = self.calibration.time_offset_s
