@@ -13,7 +13,12 @@ import textwrap
 import pytest
 
 from dualpose.io._output import (
-    OutputDirectory, _host_boot, _owner, atomic_text_file, files_in_place, remove_stale_siblings,
+    OutputDirectory,
+    _host_boot,
+    _owner,
+    atomic_text_file,
+    files_in_place,
+    remove_stale_siblings,
 )  # fmt: skip
 
 pytestmark = pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="owner liveness is read from /proc (Linux)")
