@@ -93,3 +93,19 @@ def test_fuse_reports_the_rest_gravity_sigma_and_flags_or_refuses_a_shaken_rest(
         warnings.simplefilter("ignore")
         with pytest.raises(ValueError, match="sim: rest period: the gravity direction is not determined"):
             run_fuse(_with_rest_accel(12.0), "eskf")
+
+
+def test_scene_gravity_goes_through_the_same_rule():
+    """``calibration.scene_gravity`` (a static period's specific force and camera attitude): its σ from the stated
+    covariances; doubted above 1°, refused above 5°."""
+    from dualpose.calibration import scene_gravity
+
+    q = np.array([0.0, 0.0, 0.0, 1.0])
+    f = np.array([0.0, 0.0, 9.81])
+    ok = scene_gravity(f, q, q, specific_force_covariance=np.eye(3) * 1e-6, attitude_covariance=np.eye(3) * 1e-8)
+    assert ok.sigma_deg < 0.02 and ok.doubt is None
+    s = math.radians(2.0) / math.sqrt(2)  # 2° over the two tangent axes
+    poor = scene_gravity(f, q, q, attitude_covariance=np.eye(3) * s**2)
+    assert poor.sigma_deg == pytest.approx(2.0, rel=1e-6) and poor.doubt is not None
+    with pytest.raises(ValueError, match="scene gravity: the gravity direction is not determined"):
+        scene_gravity(f, q, q, attitude_covariance=np.eye(3) * (3 * s) ** 2)

@@ -39,7 +39,7 @@ __all__ = [
 class StaticAlignment:
     """``q_wb`` (4,) levelled orientation (yaw 0, or from the magnetometer), ``gyro_bias`` (3,) rad/s mean gyro,
     ``specific_force`` (3,) mean accelerometer (m/s²), ``n_samples``; ``gravity_sigma`` the 1σ of the gravity
-    direction (rad, :func:`dualpose.types._inputs.rest_gravity_sigma`: the samples' spread, floored at the
+    direction (rad, ``dualpose.types._inputs.rest_gravity_sigma``: the samples' spread, floored at the
     accelerometer's white noise when :func:`static_alignment` is given it, over ``N``), which bounds the tilt of
     ``q_wb``."""
 
@@ -50,7 +50,7 @@ class StaticAlignment:
     gravity_sigma: float = math.nan
 
     def gravity_doubt(self, where: str) -> Doubt | None:
-        """The shared rule on :attr:`gravity_sigma` (:func:`dualpose.types._inputs.gravity_sigma_doubt`): a
+        """The shared rule on ``gravity_sigma`` (``dualpose.types._inputs.gravity_sigma_doubt``): a
         ValueError naming ``where`` when the rest period does not determine the gravity direction (σ above 5°), a
         ``"gravity_sigma"`` doubt above 1°, else None."""
         return gravity_sigma_doubt(self.gravity_sigma, where, f"the {self.n_samples} accelerometer samples at rest")
@@ -284,7 +284,7 @@ class CameraImuAlignment:
     residual_rms : float
         RMS of the whitened least-squares residuals (≈ 1 when the stated sigmas fit).
     doubt : Doubt or None
-        ``"gravity_sigma"`` when ``gravity_sigma_deg`` exceeds 1° (:func:`dualpose.types._inputs.gravity_sigma_doubt`;
+        ``"gravity_sigma"`` when ``gravity_sigma_deg`` exceeds 1° (``dualpose.types._inputs.gravity_sigma_doubt``;
         above 5° the alignment is refused).
     """
 

@@ -308,7 +308,7 @@ class AhrsStream:
     def doubts(self) -> list[_inputs.Doubt]:
         """What :meth:`update_imu` doubted about its input, each also warned: the first IMU gaps (``"imu_gap"``;
         ``gap_watch.count`` counts them all) and, after the first 200 samples, a stated rate the stamps contradict
-        (``"imu_rate_mismatch"``; :class:`~dualpose.estimation._stream.GapWatch`).  Not part of the saved state."""
+        (``"imu_rate_mismatch"``; ``GapWatch`` of ``dualpose.estimation._stream``).  Not part of the saved state."""
         return list(self.gap_watch.doubts)
 
     @property
