@@ -26,14 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dualpose import _native
-from dualpose.estimation._stream import (
-    GapWatch,
-    sample_block,
-    saved_buffer,
-    saved_quaternion,
-    saved_rate_stamps,
-    vec3,
-)  # fmt: skip
+from dualpose.estimation._stream import GapWatch, sample_block, saved_buffer, saved_quaternion, saved_rate_stamps, vec3
 from dualpose.estimation.ahrs.config import (
     AhrsConfig,
     AhrsNoise,
