@@ -232,7 +232,8 @@ def test_an_imu_gap_in_a_target_recording_is_doubted_batch_and_stream(april_cut_
 
 def test_a_gyroscope_in_deg_per_s_and_an_unused_camera_are_doubted_by_the_target_stream(april_cut_with_gap):
     """The stream's own doubts, read from ``TrackStream.doubts``: a gyroscope in deg/s (the check of ``fuse --data``
-    over the start of the IMU) and, with the rates ×57.3, correspondences the gate mostly rejects."""
+    over the start of the IMU), the start-up's gravity direction (the rates ×57.3 leave the camera–IMU alignment
+    determined to more than 1°; 0.13° with the true rates) and correspondences the gate mostly rejects."""
     import dataclasses
     import warnings
 
@@ -247,4 +248,5 @@ def test_a_gyroscope_in_deg_per_s_and_an_unused_camera_are_doubted_by_the_target
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         out = list(stream_track_lines(stream_lines(deg, cal), stream))
-    assert out and [d.code for d in stream.doubts] == ["gyro_unit", "camera_rejected"]
+    assert out and [d.code for d in stream.doubts] == ["gyro_unit", "gravity_sigma", "camera_rejected"]
+    assert stream.start is not None and stream.start.alignment.gravity_sigma_deg > 1.0

@@ -40,7 +40,8 @@ def test_features_kernel_on_exact_geometry(rng: np.random.Generator) -> None:
     status, nis, points, top = np.empty(1, np.int64), np.empty(1), np.empty((1, 3)), np.empty((1, 3, n + 4))
     gates = np.r_[np.inf, chi2.ppf(0.95, np.arange(1, 40))]
     rows = _native.msckf_features(clones, clones.copy(), q_bc, p_bc, np.array([0, C]), np.arange(C), uv, P, 1e-3,
-                                  gates, np.array([0.1, 60.0, 0.01]), H, r, rvar, status, nis, points, top)  # fmt: skip
+                                  gates, np.array([0.1, 60.0, 0.01, 0.0]), H, r, rvar, status, nis, points,
+                                  top)  # fmt: skip
     assert rows == 2 * C - 3 and status[0] == 1
     np.testing.assert_allclose(points[0], pw, atol=1e-9)
     np.testing.assert_allclose(r, 0.0, atol=1e-9)
@@ -54,9 +55,62 @@ def test_features_kernel_on_exact_geometry(rng: np.random.Generator) -> None:
     # no baseline: the same pose for every clone fails triangulation
     same = np.repeat(clones[:1], C, 0)
     rows = _native.msckf_features(same, same, q_bc, p_bc, np.array([0, C]), np.arange(C), np.repeat(uv[:1], C, 0),
-                                  P, 1e-3, gates, np.array([0.1, 60.0, 0.01]), H, r, rvar, status, nis,
+                                  P, 1e-3, gates, np.array([0.1, 60.0, 0.01, 0.0]), H, r, rvar, status, nis,
                                   points, top)  # fmt: skip
     assert rows == 0 and status[0] == -1 and np.isnan(points[0]).all()
+
+
+def _inverse_depth_sigma(clones: np.ndarray, q_bc: np.ndarray, p_bc: np.ndarray, pw: np.ndarray) -> float:
+    """The relative inverse-depth σ_ρ/ρ per unit σ of a normalised coordinate of the point ``pw`` seen from every clone,
+    from an independent normal matrix: central differences of the projections with respect to the anchor camera's
+    inverse-depth parameters (α, β, ρ), ``p_A = [α, β, 1] / ρ``."""
+    R_bc = dp.matrix_from_quat(q_bc)
+    R_wb = dp.matrix_from_quat(clones[0, 3:])
+    R_wa, c_a = R_wb @ R_bc, clones[0, :3] + R_wb @ p_bc
+    pa = R_wa.T @ (pw - c_a)
+    theta = np.array([pa[0] / pa[2], pa[1] / pa[2], 1.0 / pa[2]])
+
+    def uv(th: np.ndarray) -> np.ndarray:
+        p = c_a + R_wa @ (np.array([th[0], th[1], 1.0]) / th[2])
+        pc = sim.camera_points(clones[:, 3:], clones[:, :3], q_bc, p_bc, p[None, :].repeat(len(clones), 0))
+        return (pc[:, :2] / pc[:, 2:3]).ravel()
+
+    J = np.column_stack([(uv(theta + h) - uv(theta - h)) / (2e-7 * theta[2]) for h in np.eye(3) * 1e-7 * theta[2]])
+    return float(np.sqrt(np.linalg.inv(J.T @ J)[2, 2]) / theta[2])
+
+
+def test_features_kernel_refuses_a_depth_not_determined_at_the_pixel_noise(rng: np.random.Generator) -> None:
+    """A feature is used only when its inverse depth is told apart from 0 at the noise σ: ρ/σ_ρ above the given
+    z (here √χ²₁(0.95) = 1.96, the MSCKF's default).  At σ 10 % below the σ that puts ρ/σ_ρ at z (from an
+    independent normal matrix) the point is used; 10 % above it is undetermined (status −3, no point), with the
+    parallax test alone (z = 0) still accepted; a nearer point at the larger σ is used again."""
+    C = 4
+    clones = _clone_poses(rng, C)
+    q_bc, p_bc = np.array([0.0, 0.0, 0.0, 1.0]), np.array([0.05, -0.02, 0.01])
+    n = 15 + 6 * C
+    P = np.eye(n) * 1e-4
+    gates = np.r_[np.inf, chi2.ppf(0.95, np.arange(1, 40))]
+    z = float(np.sqrt(chi2.ppf(0.95, 1)))
+
+    def status_of(pw: np.ndarray, sigma: float, depth_z: float) -> tuple[int, np.ndarray]:
+        pc = sim.camera_points(clones[:, 3:], clones[:, :3], q_bc, p_bc, pw[None, :].repeat(C, 0))
+        H, r, rvar = np.empty((2 * C - 3, n)), np.empty(2 * C - 3), np.empty(2 * C - 3)
+        status, nis, points = np.empty(1, np.int64), np.empty(1), np.empty((1, 3))
+        _native.msckf_features(clones, clones.copy(), q_bc, p_bc, np.array([0, C]), np.arange(C),
+                               pc[:, :2] / pc[:, 2:3], P, sigma, gates, np.array([0.1, 60.0, 0.01, depth_z]), H, r,
+                               rvar, status, nis, points, np.empty((1, 3, n + 4)))  # fmt: skip
+        return int(status[0]), points[0]
+
+    far = np.array([0.2, 0.1, 40.0])  # 1 m of baseline at 40 m: parallax 0.025, above the 0.01 of the geometric test
+    s_star = 1.0 / (z * _inverse_depth_sigma(clones, q_bc, p_bc, far))
+    assert 1e-3 < s_star < 0.1  # a plausible noise of normalised coordinates (0.5-50 px at f = 500 px)
+    st, pt = status_of(far, 0.9 * s_star, z)
+    assert st == 1
+    np.testing.assert_allclose(pt, far, rtol=1e-8)
+    st, pt = status_of(far, 1.1 * s_star, z)
+    assert st == -3 and np.isnan(pt).all()
+    assert status_of(far, 1.1 * s_star, 0.0)[0] == 1  # the fixed parallax ratio alone lets it through
+    assert status_of(np.array([0.2, 0.1, 4.0]), 1.1 * s_star, z)[0] == 1
 
 
 def test_features_kernel_checks_the_gate_table(rng: np.random.Generator) -> None:
@@ -70,7 +124,7 @@ def test_features_kernel_checks_the_gate_table(rng: np.random.Generator) -> None
     H, r, rvar = np.empty((2 * C - 3, n)), np.empty(2 * C - 3), np.empty(2 * C - 3)
     with pytest.raises(ValueError, match="chi2"):
         _native.msckf_features(clones, clones.copy(), q_bc, p_bc, np.array([0, C]), np.arange(C), uv,
-                               np.eye(n) * 1e-4, 1e-3, np.empty(0), np.array([0.1, 60.0, 0.01]), H, r, rvar,
+                               np.eye(n) * 1e-4, 1e-3, np.empty(0), np.array([0.1, 60.0, 0.01, 0.0]), H, r, rvar,
                                np.empty(1, np.int64), np.empty(1), np.empty((1, 3)),
                                np.empty((1, 3, n + 4)))  # fmt: skip
 

@@ -60,3 +60,51 @@ def test_a_missing_truth_file_is_reported_before_the_filter_runs(tmp_path, euroc
     csv, _ = euroc_v101
     with pytest.raises(OSError, match="missing.csv"):
         run_vio(csv, truth=tmp_path / "missing.csv")
+
+
+def test_features_whose_depth_the_pixel_noise_leaves_undetermined_are_counted_not_used(euroc_v101) -> None:
+    """The triangulation's depth test scales with the pixel σ: at 1 px every triangulated feature of V1_01 is
+    determined (bit for bit the run without the test); at 3 px a few are not, and are counted apart from the failed
+    and gated ones.  The rest period's gravity σ is reported and far below the 1° doubt."""
+    from dualpose.estimation.msckf import MsckfOptions
+    from dualpose.pipelines.vio import run_vio
+
+    csv, gt = euroc_v101
+    m = run_vio(csv, truth=gt).metrics
+    off = run_vio(csv, truth=gt, options=MsckfOptions(depth_test=False)).metrics
+    assert m["features_undetermined"] == 0 and m["ate_rmse_4dof_m"] == off["ate_rmse_4dof_m"]
+    assert 0.0 < m["gravity_sigma_deg"] < 1.0 and m["input_doubts"] == []
+    coarse = run_vio(csv, truth=gt, pixel_sigma=3.0).metrics
+    assert coarse["features_undetermined"] > 0
+
+
+def test_a_rest_period_that_does_not_determine_gravity_is_doubted_or_refused(euroc_v101) -> None:
+    """The MSCKF levels its start from the rest period (1000 samples): shaken by 8 m/s² (white, per axis) the gravity
+    direction is doubted (σ 1.9°; ``gravity_sigma`` in ``input_doubts``: exit status 3 on the command line), by
+    40 m/s² refused (σ 9.9°) naming the rest period."""
+    import dataclasses
+    import warnings
+
+    import pytest
+
+    from dualpose.io.feature_tracks import read_eqvio_csv
+    from dualpose.pipelines.vio import run_vio
+    from dualpose.types.recording import RecordingWarning
+
+    csv, _ = euroc_v101
+    rec = read_eqvio_csv(csv)
+    rest = rec.t < rec.t[0] + 4.0  # inside the detected rest period (4-5.2 s)
+    rng = np.random.default_rng(5)
+
+    def shaken(noise: float):
+        accel = rec.accel.copy()
+        accel[rest] += noise * rng.standard_normal((int(rest.sum()), 3))
+        return dataclasses.replace(rec, accel=accel, t=rec.t.copy())
+
+    with pytest.warns(RecordingWarning, match="gravity direction"):
+        m = run_vio(shaken(8.0)).metrics
+    assert 1.0 < m["gravity_sigma_deg"] < 5.0 and [d["code"] for d in m["input_doubts"]] == ["gravity_sigma"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(ValueError, match="rest period of .* the gravity direction is not determined"):
+            run_vio(shaken(40.0))

@@ -16,6 +16,7 @@ and are added as correlated terms.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,6 +24,7 @@ from numpy.typing import ArrayLike
 
 import dualpose as dp
 from dualpose.calibration.static import checked_covariance3, checked_static_inputs
+from dualpose.types._inputs import Doubt, gravity_sigma_doubt
 
 __all__ = ["SceneGravity", "scene_gravity"]
 
@@ -50,6 +52,9 @@ class SceneGravity:
         (``x' = q_level x q_level*``) to level it.
     per_period : ndarray (K, 3)
         The direction from each period alone.
+    doubt : Doubt or None
+        ``"gravity_sigma"`` when ``sigma_deg`` exceeds 1° (the rule of every gravity estimate,
+        ``dualpose.types._inputs.gravity_sigma_doubt``; above 5° :func:`scene_gravity` refuses).
     """
 
     direction: np.ndarray
@@ -60,6 +65,7 @@ class SceneGravity:
     tilt_deg: float
     q_level: np.ndarray
     per_period: np.ndarray
+    doubt: Doubt | None = None
 
 
 def _angle(a: np.ndarray, b: np.ndarray) -> float:
@@ -99,6 +105,12 @@ def scene_gravity(
         The scene model's assumed gravity direction (for ``tilt_deg`` and ``q_level``).
     magnitude : float, optional
         Gravity magnitude for ``gravity`` (default: measured).
+
+    Raises
+    ------
+    ValueError
+        The periods do not determine the direction: its σ (``sigma_deg``) above 5° (docs/refusals.md, "Gravity
+        direction"); above 1° the result carries the ``doubt``.
     """
     f, q, cf, ca = checked_static_inputs(specific_force, q_wc, specific_force_covariance, attitude_covariance, 1)
     q_bc = np.asarray(q_bc, dtype=np.float64)
@@ -136,12 +148,14 @@ def scene_gravity(
         a = p_up @ np.einsum("k,kij->ij", w, j_f)
         cov = cov + a @ sb @ a.T
     cov = 0.5 * (cov + cov.T)
+    sigma = float(np.sqrt(max(np.trace(cov), 0.0)))
+    doubt = gravity_sigma_doubt(sigma, "scene gravity", f"{len(f)} static period(s) and their camera poses")
     down = -up
     axis = np.cross(down, down_n)
     rotvec = axis / max(np.linalg.norm(axis), 1e-300) * np.radians(_angle(down, down_n))
     mag = float(w @ nf) if magnitude is None else float(magnitude)
     return SceneGravity(
         direction=down, gravity=mag * down, magnitude=mag, covariance=cov,
-        sigma_deg=float(np.degrees(np.sqrt(max(np.trace(cov), 0.0)))), tilt_deg=_angle(down, down_n),
-        q_level=dp.quat_from_rotvec(rotvec), per_period=-u_w,
+        sigma_deg=math.degrees(sigma), tilt_deg=_angle(down, down_n),
+        q_level=dp.quat_from_rotvec(rotvec), per_period=-u_w, doubt=doubt,
     )  # fmt: skip

@@ -2,7 +2,9 @@
 (:func:`dualpose.pipelines.vio.run_vio`, docs/vio.md); prints a summary table or, with ``--json``, one JSON object.
 ``--out DIR`` writes ``trajectory.tum`` (IMU pose in the gravity-aligned start frame, absolute seconds),
 ``metrics.json`` and ``trajectory.png``; an existing file is replaced only with ``--force``.  Exit status 0, 2 on
-bad arguments or an output file that exists, 1 on a malformed input (the message names the file and line).
+bad arguments or an output file that exists, 1 on a malformed input (the message names the file and line) or a rest
+period that does not determine the gravity direction, 3 when the run completed on an input it doubts (``input_doubts``
+in the metrics, each also a ``warning:`` line).
 """
 
 from __future__ import annotations
@@ -25,14 +27,18 @@ def _table(m: dict[str, Any]) -> str:
             ("ATE RMSE (SE(3)) [m]", f"{m['ate_rmse_se3_m']:.4f}"),
             ("final drift [% of path]", f"{m['final_drift_percent']:.3f} ({m['path_length_m']:.2f} m)"),
         ]
-    rows += [("features used / gated / failed", f"{m['features_used']} / {m['features_gated']} / "
-              f"{m['features_failed']}"), ("real-time factor", f"{m['realtime_factor']:.0f}x")]  # fmt: skip
+    rows += [("features used / gated / failed / undetermined", f"{m['features_used']} / {m['features_gated']} / "
+              f"{m['features_failed']} / {m['features_undetermined']}"),
+             ("real-time factor", f"{m['realtime_factor']:.0f}x")]  # fmt: skip
+    if m.get("input_doubts"):
+        rows += [("input doubts (see warnings)", ", ".join(d["code"] for d in m["input_doubts"]))]
     return aligned_rows(rows)
 
 
 def run_vio_job(args: argparse.Namespace) -> int:
     """Run the VIO job for ``dualpose fuse`` (arguments of :mod:`dualpose.cli.fuse`)."""
     from dualpose.cli._output import OutputError, output_directory
+    from dualpose.cli._stream import EXIT_DOUBTFUL
     from dualpose.pipelines.vio import OUTPUT_FILES, run_vio, trajectory_figure
 
     unused = [name for name, given in (("--smooth", args.smooth), ("--seed", args.seed is not None),
@@ -61,10 +67,11 @@ def run_vio_job(args: argparse.Namespace) -> int:
             write_tum(stage / "trajectory.tum", run.estimate)
             (stage / "metrics.json").write_text(json.dumps(run.metrics, indent=2) + "\n")
             trajectory_figure(run, stage / "trajectory.png")
+    code = EXIT_DOUBTFUL if run.metrics.get("input_doubts") else 0
     if args.json:
         print(json.dumps({**run.metrics, **({"out": str(out.path)} if out is not None else {})}, indent=2))
-        return 0
+        return code
     print(_table(run.metrics))
     if out is not None:
         print(f"\nwritten to {out.path}: " + ", ".join((*OUTPUT_FILES, "manifest.json")))
-    return 0
+    return code

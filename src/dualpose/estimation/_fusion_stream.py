@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dualpose import _native
-from dualpose.estimation._stream import GapWatch, sample_block, saved_buffer, saved_quaternion, vec3
+from dualpose.estimation._stream import GapWatch, sample_block, saved_buffer, saved_quaternion, saved_rate_stamps, vec3
 from dualpose.estimation.state import StateLayout
 from dualpose.types import ImuNoise, _inputs
 
@@ -148,7 +148,7 @@ class FusionStream(abc.ABC):
         #: the IMU gaps :meth:`update_imu` saw (longer than five nominal sample periods, ``1 /
         #: imu_noise.update_rate``): warned about (:class:`~dualpose.types.recording.RecordingWarning`) and counted;
         #: see :attr:`doubts`
-        self.gap_watch = GapWatch(imu_period)
+        self.gap_watch = GapWatch(imu_period, rate_name="imu_noise.update_rate")
         self.camera_time_offset = float(camera_time_offset)
         self._pending: list[FrameUpdate] = []
         ns = _native.__dict__
@@ -184,7 +184,7 @@ class FusionStream(abc.ABC):
         x: np.ndarray = self._imu(self._buf, t, g, a) if not self._pending else self._imu_after_frames(float(t), g, a)
         w = self.gap_watch  # GapWatch.see, inlined: a gap longer than five sample periods is reported
         if t - w.last > w.limit:
-            w.gap(t)
+            w.note(t)
         w.last = t
         return x
 
@@ -340,10 +340,12 @@ class FusionStream(abc.ABC):
             ``kind`` ("eskf" / "hol22"), ``version`` (:attr:`LAYOUT_VERSION`), ``state`` (the filter's
             ``numpy.uint8`` buffer), ``camera_time_offset`` and ``pending`` (the queued frames: ``t`` on the IMU
             clock, ``pixels`` (M, 2), ``points`` (M, 3)), ``imu_period`` (the nominal IMU sample period gaps are
-            measured against, s, or None).
+            measured against, s, or None) and ``imu_rate_stamps`` (the first IMU stamps, kept until the stated rate
+            is compared with them; None after).
         """
         return _inputs.seal({
             "imu_period": self.gap_watch.period,
+            "imu_rate_stamps": self.gap_watch.saved_stamps(),
             "kind": self._kind,
             "version": self.LAYOUT_VERSION,
             "state": self._buf.copy(),
@@ -380,7 +382,9 @@ class FusionStream(abc.ABC):
         out = cls.__new__(cls)
         out._attach(buf, offset, period)
         out._check_values()
-        out.gap_watch.start_after(out._last_imu_time())
+        last = out._last_imu_time()
+        out.gap_watch.start_after(last, saved_rate_stamps(state.get("imu_rate_stamps"), last,
+                                                           "state['imu_rate_stamps']"))  # fmt: skip
         try:
             times = [float(p["t"]) for p in pending]
             for p, tj in zip(pending, times, strict=True):
@@ -414,8 +418,9 @@ class FusionStream(abc.ABC):
 
     @property
     def doubts(self) -> list[_inputs.Doubt]:
-        """What :meth:`update_imu` doubted about its input: the first IMU gaps (``"imu_gap"``, each also warned;
-        ``gap_watch.count`` counts them all).  Not part of the saved state."""
+        """What :meth:`update_imu` doubted about its input, each also warned: the first IMU gaps (``"imu_gap"``;
+        ``gap_watch.count`` counts them all) and, after the first 200 samples, a stated rate the stamps contradict
+        (``"imu_rate_mismatch"``; ``GapWatch`` of ``dualpose.estimation._stream``).  Not part of the saved state."""
         return list(self.gap_watch.doubts)
 
     @property

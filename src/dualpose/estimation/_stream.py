@@ -10,62 +10,133 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from dualpose.types._inputs import Doubt, Where, frame_points, gap_doubt, imu_rows, imu_vector
+from dualpose.types._inputs import Doubt, Where, frame_points, gap_doubt, imu_rows, imu_vector, rate_doubt
 from dualpose.types.recording import GAP_PERIODS, RecordingWarning
 
 
 class GapWatch:
-    """The IMU gaps of a stream: a step between stamps longer than :data:`~dualpose.types.recording.GAP_PERIODS`
-    nominal sample ``period`` s (None: not watched until :meth:`set_period`).  Each gap is counted (``count``); the
-    first :data:`MAX_REPORTED` are warned about (:class:`~dualpose.types.recording.RecordingWarning`) and kept in
-    ``doubts`` (:class:`~dualpose.types._inputs.Doubt` ``"imu_gap"``, the check of the batch paths,
-    docs/refusals.md).  One subtraction and one comparison per sample; the caller checks that the stamps increase.
+    """The IMU stamps of a stream against its nominal sample ``period`` (s; None: none stated), the one check of the
+    streams and the line pipelines (docs/refusals.md):
+
+    * a gap, a step between stamps longer than :data:`~dualpose.types.recording.GAP_PERIODS` periods
+      (:func:`~dualpose.types._inputs.gap_doubt`, ``"imu_gap"``): each is counted (``count``), the first
+      :data:`MAX_REPORTED` are warned about (:class:`~dualpose.types.recording.RecordingWarning`) and kept in
+      ``doubts``;
+    * the stated rate against the stamps: once :data:`RATE_SAMPLES` stamps are in, a median spacing more than 10 %
+      off ``period`` (:func:`~dualpose.types._inputs.rate_doubt`, ``"imu_rate_mismatch"``), warned about and kept in
+      ``doubts``; with no stated period the median spacing becomes the period gaps are measured against.
+
+    The per-sample path is one subtraction and one comparison, ``if t - w.last > w.limit: w.note(t)``, then
+    ``w.last = t`` (:meth:`see`; the streams inline it): while the first stamps are collected ``limit`` is −∞, so
+    every stamp takes :meth:`note`; after that only a gap does.  The caller checks that the stamps increase.
 
     ``source`` names the input in the messages: ``"{source} line N"`` when :meth:`see` is given a line number,
-    otherwise ``"IMU sample at t = ..."``."""
+    otherwise ``"IMU sample at t = ..."``; ``rate_name`` names the stated rate (``"imu.update_rate"``)."""
 
-    __slots__ = ("count", "doubts", "last", "limit", "period", "source")
+    __slots__ = ("count", "doubts", "gap_limit", "last", "limit", "period", "rate_name", "source", "stamps")
 
     #: gaps warned about one by one; later ones only counted
     MAX_REPORTED = 5
+    #: stamps after which the stated rate is compared with the stamps' median spacing
+    RATE_SAMPLES = 200
 
-    def __init__(self, period: float | None, last: float = math.nan, source: str = "") -> None:
+    def __init__(self, period: float | None, last: float = -math.inf, source: str = "", rate_name: str = "rate",
+                 watch_rate: bool = True) -> None:  # fmt: skip
         self.period: float | None = None
+        self.gap_limit = math.inf
+        #: the first stamps, until the rate check (None: done, or not watched)
+        self.stamps: list[float] | None = [] if watch_rate else None
         self.limit = math.inf
         self.set_period(period)
-        self.last = last  # NaN before the first stamp: no step to compare
+        self.last = last  # -inf before the first stamp: no step to compare
         self.count = 0
         self.doubts: list[Doubt] = []
         self.source = source
+        self.rate_name = rate_name
 
-    def start_after(self, t: float) -> None:
-        """Continue after the stamp ``t`` (s; not finite: no stamp yet) of a restored stream: a gap across the save
-        is seen at the next sample."""
-        self.last = t if math.isfinite(t) else math.nan
+    def start_after(self, t: float, stamps: list[float] | None = None) -> None:
+        """Continue after the stamp ``t`` (s; not finite: no stamp yet) of a restored stream, with the first
+        ``stamps`` collected for the rate check (:meth:`saved_stamps`; None: the check is done or not watched): a
+        gap across the save is seen at the next sample."""
+        self.last = t if math.isfinite(t) else -math.inf
+        self.stamps = None if stamps is None else list(stamps)
+        self.set_period(self.period)
+
+    def saved_stamps(self) -> list[float] | None:
+        """The stamps collected for the rate check so far (None: it is done or not watched), for a saved state."""
+        return None if self.stamps is None else list(self.stamps)
 
     def set_period(self, period: float | None) -> None:
-        """Watch for gaps against this nominal sample period, s (None: not watched)."""
+        """Watch against this nominal sample period, s (None: none stated)."""
         self.period = period
-        self.limit = math.inf if period is None else GAP_PERIODS * period
+        self.gap_limit = math.inf if period is None else GAP_PERIODS * period
+        self.limit = -math.inf if self.stamps is not None else self.gap_limit
 
     def see(self, t: float, line: int = 0) -> None:
-        """Note the stamp ``t`` (s) of the next sample (input line ``line``, 0: not from a line).  The streams' per-
-        sample path inlines it: ``if t - w.last > w.limit: w.gap(t)``, then ``w.last = t``."""
+        """Note the stamp ``t`` (s) of the next sample (input line ``line``, 0: not from a line)."""
         if t - self.last > self.limit:
-            self.gap(t, line)
+            self.note(t, line)
         self.last = t
 
-    def gap(self, t: float, line: int = 0) -> None:
-        """Count (and report) the gap before the stamp ``t``; :meth:`see` calls it."""
+    def note(self, t: float, line: int = 0) -> None:
+        """The slow path of :meth:`see`: collect ``t`` for the rate check while it is pending, and count (and
+        report) a gap before ``t``.  A stamp seen before (the line pipelines show each stamp to the watch first,
+        with its line number, then the stream sees it again) is ignored."""
+        if not t > self.last:
+            return
+        stamps = self.stamps
+        if stamps is not None:
+            stamps.append(t)
+            if len(stamps) >= self.RATE_SAMPLES:
+                self._check_rate(t, line)
+        if t - self.last > self.gap_limit and self.last > -math.inf:
+            self._gap(t, line)
+
+    def _where(self, t: float, line: int) -> str:
+        return f"{self.source} line {line}" if line else f"IMU sample at t = {float(t)!r} s"
+
+    def _check_rate(self, t: float, line: int) -> None:
+        stamps = np.array(self.stamps)
+        self.stamps = None
+        if self.period is None:  # no stated rate: the stamps' own
+            self.set_period(float(np.median(np.diff(stamps))))
+            return
+        where = f"{self.source} lines up to {line}" if line else f"IMU samples up to t = {float(t)!r} s"
+        d = rate_doubt(stamps, 1.0 / self.period, where, rate_name=self.rate_name)
+        self.set_period(self.period)
+        if d is not None:
+            self.doubts.append(d)
+            warnings.warn(d.message, RecordingWarning, stacklevel=4)
+
+    def _gap(self, t: float, line: int) -> None:
         dt = t - self.last
         self.count += 1
         if self.count > self.MAX_REPORTED or self.period is None:
             return
-        where = f"{self.source} line {line}" if line else f"IMU sample at t = {float(t)!r} s"
-        d = gap_doubt(dt, self.period, where)
+        d = gap_doubt(dt, self.period, self._where(t, line))
         if d is not None:
             self.doubts.append(d)
-            warnings.warn(d.message, RecordingWarning, stacklevel=3)
+            warnings.warn(d.message, RecordingWarning, stacklevel=4)
+
+
+def saved_rate_stamps(value: Any, last: float, name: str) -> list[float] | None:
+    """The stamps a saved stream had collected for its rate check (:meth:`GapWatch.saved_stamps`), checked: None (the
+    check was done, or the state was saved before streams checked the rate), or fewer than
+    :data:`GapWatch.RATE_SAMPLES` finite, strictly increasing stamps, none after the stream's last sample ``last``.
+
+    Raises
+    ------
+    ValueError
+        Naming ``name`` otherwise.
+    """
+    if value is None:
+        return None
+    stamps = np.asarray(value, dtype=np.float64).reshape(-1)
+    if not (len(stamps) < GapWatch.RATE_SAMPLES and np.isfinite(stamps).all() and np.all(np.diff(stamps) > 0)
+            and (not len(stamps) or stamps[-1] <= last)):  # fmt: skip
+        raise ValueError(f"{name}: not the IMU stamps of a saved stream (fewer than {GapWatch.RATE_SAMPLES}, finite, "
+                         "increasing, none after its last sample)")  # fmt: skip
+    return [float(v) for v in stamps]
 
 
 class Streams(NamedTuple):

@@ -8,6 +8,7 @@ Orientations ``q_wb`` (4,) xyzw body→world; error conventions as in :mod:`dual
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -20,6 +21,7 @@ import dualpose as dp
 from dualpose.calibration.static import _StaticRun
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE
 from dualpose.registration.pnp import PnPResult, solve_pnp_ransac
+from dualpose.types._inputs import Doubt, gravity_sigma_doubt, rest_gravity_sigma
 
 __all__ = [
     "StaticAlignment",
@@ -36,12 +38,22 @@ __all__ = [
 @dataclass
 class StaticAlignment:
     """``q_wb`` (4,) levelled orientation (yaw 0, or from the magnetometer), ``gyro_bias`` (3,) rad/s mean gyro,
-    ``specific_force`` (3,) mean accelerometer (m/s²), ``n_samples``."""
+    ``specific_force`` (3,) mean accelerometer (m/s²), ``n_samples``; ``gravity_sigma`` the 1σ of the gravity
+    direction (rad, ``dualpose.types._inputs.rest_gravity_sigma``: the samples' spread, floored at the
+    accelerometer's white noise when :func:`static_alignment` is given it, over ``N``), which bounds the tilt of
+    ``q_wb``."""
 
     q_wb: np.ndarray
     gyro_bias: np.ndarray
     specific_force: np.ndarray
     n_samples: int
+    gravity_sigma: float = math.nan
+
+    def gravity_doubt(self, where: str) -> Doubt | None:
+        """The shared rule on ``gravity_sigma`` (``dualpose.types._inputs.gravity_sigma_doubt``): a
+        ValueError naming ``where`` when the rest period does not determine the gravity direction (σ above 5°), a
+        ``"gravity_sigma"`` doubt above 1°, else None."""
+        return gravity_sigma_doubt(self.gravity_sigma, where, f"the {self.n_samples} accelerometer samples at rest")
 
 
 def static_alignment(
@@ -50,6 +62,8 @@ def static_alignment(
     gravity: ArrayLike = (0.0, 0.0, -9.81),
     mag: np.ndarray | None = None,
     field_w: np.ndarray | None = None,
+    accelerometer_noise_density: float = 0.0,
+    rate: float = 0.0,
 ) -> StaticAlignment:
     """Level the body from accelerometer samples taken at rest (and fix yaw from a magnetometer if given).
 
@@ -60,6 +74,8 @@ def static_alignment(
     Parameters
     ----------
     accel, gyro : (N, 3) body-frame samples at rest (m/s², rad/s).
+    accelerometer_noise_density, rate : the accelerometer's white noise (m/s²/√Hz) and sampling rate (Hz), the floor
+        of the spread that ``gravity_sigma`` is computed from (0: the samples' spread alone).
     """
     accel = np.asarray(accel, dtype=np.float64)
     gyro = np.asarray(gyro, dtype=np.float64)
@@ -85,7 +101,8 @@ def static_alignment(
             return np.stack([t1, t2, np.cross(t1, t2)], axis=1)
 
         q = dp.quat_from_matrix(triad(up_w, np.asarray(field_w, float)) @ triad(up_b, m_b).T)
-    return StaticAlignment(q_wb=q, gyro_bias=gyro.mean(axis=0), specific_force=f, n_samples=len(accel))
+    return StaticAlignment(q_wb=q, gyro_bias=gyro.mean(axis=0), specific_force=f, n_samples=len(accel),
+                           gravity_sigma=rest_gravity_sigma(accel, accelerometer_noise_density, rate))
 
 
 def body_pose_from_camera(
@@ -266,6 +283,9 @@ class CameraImuAlignment:
         1σ per axis of the estimated accelerometer bias (0 when it was given), m/s².
     residual_rms : float
         RMS of the whitened least-squares residuals (≈ 1 when the stated sigmas fit).
+    doubt : Doubt or None
+        ``"gravity_sigma"`` when ``gravity_sigma_deg`` exceeds 1° (``dualpose.types._inputs.gravity_sigma_doubt``;
+        above 5° the alignment is refused).
     """
 
     gravity: np.ndarray
@@ -277,6 +297,7 @@ class CameraImuAlignment:
     accel_bias: np.ndarray
     accel_bias_sigma: float
     residual_rms: float
+    doubt: Doubt | None = None
 
 
 def _interval_samples(
@@ -464,19 +485,24 @@ def align_with_camera_poses(
     C = lu.solve(E)[want] * scale
     Cd = C[3:5, 3:5]
     ba_sigma = float(np.sqrt(np.mean(np.diag(C[5:, 5:])))) if est_ba else 0.0
-    if not (np.isfinite(C).all() and np.sqrt(np.trace(Cd)) < np.radians(5.0) and ba_sigma < 1.0):
+    if not (np.isfinite(C).all() and ba_sigma < 1.0):
         raise undetermined
+    # the direction's σ from the solve's own normal matrix, under the rule of every gravity estimate: refused above 5°,
+    # a doubt above 1°
+    sigma = float(np.sqrt(max(np.trace(Cd), 0.0)))
+    doubt = gravity_sigma_doubt(sigma, "camera-IMU alignment", f"the {K} camera poses of the start-up window")
     if est_ba:
         ba = xr[3 * K + 2 :]
     x = xr
     return CameraImuAlignment(
         gravity=G * u,
         gravity_estimated=g_est,
-        gravity_sigma_deg=float(np.degrees(np.sqrt(np.trace(Cd)))),
+        gravity_sigma_deg=math.degrees(sigma),
         velocity=x[: 3 * K].reshape(K, 3),
         velocity_sigma=float(np.sqrt(np.trace(C[:3, :3]) / 3.0)),
         gyro_bias=bg,
         accel_bias=ba,
         accel_bias_sigma=ba_sigma,
         residual_rms=float(np.sqrt(float(res @ res) / len(yr))),
+        doubt=doubt,
     )

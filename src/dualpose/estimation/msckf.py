@@ -45,7 +45,7 @@ import dualpose as dp
 from dualpose import _native
 from dualpose.estimation._stream import saved_quaternion
 from dualpose.estimation.eskf import EskfStateAccessors
-from dualpose.estimation.initialization import detect_rest, static_alignment
+from dualpose.estimation.initialization import StaticAlignment, detect_rest, static_alignment
 from dualpose.estimation.interface import AttitudeFix, Estimator, LinearMeasurement, UpdateResult
 from dualpose.estimation.state import ESKF_ERROR, ESKF_STATE, MSCKF_CLONE_ERROR
 from dualpose.types import CameraFrame, ImuNoise, _inputs
@@ -99,7 +99,13 @@ class MsckfOptions:
 
     ``max_clones`` the window length (OpenVINS ``max_clones`` 11); ``min_track`` the fewest observations a feature
     needs to be used; ``gate_probability`` of the per-feature χ² gate; ``min_depth``, ``max_depth`` (m) and
-    ``min_parallax`` (largest baseline over depth) the triangulation checks.
+    ``min_parallax`` (largest baseline over depth) the triangulation's geometric checks.
+
+    ``depth_test`` the triangulation's test against the noise (docs/vio.md "Triangulation"; docs/refusals.md): the
+    inverse depth ρ of the Gauss–Newton solution has the variance ``σ² [(JᵀJ)⁻¹]_ρρ`` at the feature σ, and a feature
+    is used only when ``ρ² / Var(ρ)`` exceeds the χ² quantile (1 dof) of ``gate_probability`` -- its depth is told
+    apart from a point at infinity at the gate's probability, i.e. a relative depth σ below 1/1.96 = 51 % at 0.95.
+    A feature that fails it is *undetermined* (``TrackUpdate.status`` −3, ``VioResult.n_undetermined``).
 
     ``adaptive_sigma`` estimates the feature σ online from the filter's own residuals (covariance matching,
     Mehra 1972; Mohamed & Schwarz 1999; docs/vio.md "Measurement noise"): the given σ is the starting value,
@@ -129,6 +135,7 @@ class MsckfOptions:
     max_slam: int = 25
     estimate_time_offset: bool = True
     time_offset_sigma: float = 0.01
+    depth_test: bool = True
 
     def __post_init__(self) -> None:
         if int(self.max_clones) != self.max_clones or self.max_clones < 2:
@@ -153,7 +160,8 @@ class MsckfOptions:
 class TrackUpdate(UpdateResult):
     """:class:`~dualpose.estimation.interface.UpdateResult` of a feature-track frame: ``nis``, ``accepted`` per used
     feature, ``feature_dof`` (G,) the degrees of freedom ``2m − 3`` of each (``dof`` is their sum over the accepted
-    ones), ``status`` (G,) 1 accepted, 0 gated out, −1 triangulation failed."""
+    ones), ``status`` (G,) 1 accepted, 0 gated out, −1 triangulation failed (degenerate geometry), −3 depth not
+    determined at the feature σ (:class:`MsckfOptions` ``depth_test``)."""
 
     feature_dof: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     status: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
@@ -164,8 +172,9 @@ class VioResult:
     """Output of :meth:`MsckfVio.run`: IMU-rate states ``t`` (N,) s, ``position`` (N, 3), ``velocity`` (N, 3),
     ``quat`` (N, 4) ``q_wb``, ``gyro_bias``, ``accel_bias`` (N, 3) (constant at the start pose during the rest
     period before ``t_start``); ``t_start`` the filter start (end of rest); feature statistics ``n_used``,
-    ``n_gated``, ``n_failed``; ``nis`` and ``nis_dof`` of the accepted features; ``wall_time`` and ``cpu_time`` (the
-    process's CPU time: what the filter costs on a shared machine) of the filter, s."""
+    ``n_gated``, ``n_failed``, ``n_undetermined`` (depth not determined at the feature σ); ``nis`` and ``nis_dof``
+    of the accepted features; ``wall_time`` and ``cpu_time`` (the process's CPU time: what the filter costs on a
+    shared machine) of the filter, s."""
 
     t: np.ndarray
     position: np.ndarray
@@ -181,6 +190,7 @@ class VioResult:
     nis_dof: np.ndarray
     wall_time: float
     cpu_time: float = float("nan")
+    n_undetermined: int = 0
 
 
 class MsckfVio(EskfStateAccessors, Estimator):
@@ -250,7 +260,9 @@ class MsckfVio(EskfStateAccessors, Estimator):
             self.P = P
         self._chi2 = np.r_[np.inf, chi2.ppf(o.gate_probability, np.arange(1, 2 * o.max_clones + 8))]
         self._open_gate = np.full_like(self._chi2, np.inf)
-        self._limits = np.array([o.min_depth, o.max_depth, o.min_parallax])
+        # [min_depth, max_depth, min_parallax, min ρ/σ_ρ] of the native triangulation (0: no depth test)
+        depth_z = math.sqrt(float(chi2.ppf(o.gate_probability, 1))) if o.depth_test else 0.0
+        self._limits = np.array([o.min_depth, o.max_depth, o.min_parallax, depth_z])
         self.time: float | None = None
         self._t_imu: float | None = None  # the last IMU sample's time
         self._u = np.zeros(6)
@@ -268,6 +280,10 @@ class MsckfVio(EskfStateAccessors, Estimator):
         self.slam_fej = np.zeros((0, 3))
         self._chi2_2 = float(chi2.ppf(self.options.gate_probability, 2))
         self.n_slam_init = 0  # SLAM features initialised so far
+        #: the static alignment :meth:`from_rest` started from (its ``gravity_sigma``, rad), and what it doubted
+        #: (``"gravity_sigma"``: the rest period determines the gravity direction only to more than 1°)
+        self.start_alignment: StaticAlignment | None = None
+        self.doubts: list[_inputs.Doubt] = []
         self._ids = _TrackTable()  # membership of the track ids seen
 
     # ------------------------------------------------------------------ construction
@@ -289,7 +305,10 @@ class MsckfVio(EskfStateAccessors, Estimator):
             rest_seconds -= _REST_GUARD
         k = int(np.searchsorted(r.t, r.t[0] + rest_seconds, side="right")) - 1
         k = max(k, 1)
-        al = static_alignment(r.accel[: k + 1], r.gyro[: k + 1])
+        rate = n.update_rate if n.update_rate > 0 else 1.0 / float(np.median(np.diff(r.t[: k + 2])))
+        al = static_alignment(r.accel[: k + 1], r.gyro[: k + 1],
+                              accelerometer_noise_density=n.accelerometer_noise_density, rate=rate)  # fmt: skip
+        doubt = al.gravity_doubt(f"{r.name or 'recording'}: rest period of {r.t[k] - r.t[0]:.3g} s")  # > 5°: refused
         x = ESKF_STATE.assemble(position=np.zeros(3), velocity=np.zeros(3), quat=al.q_wb, gyro_bias=al.gyro_bias,
                                 accel_bias=np.zeros(3))  # fmt: skip
         t_rest = max(r.t[k] - r.t[0], 1e-3)
@@ -303,6 +322,8 @@ class MsckfVio(EskfStateAccessors, Estimator):
         f = cls(x, P, n, r.q_bc, r.p_bc, r.feature_sigma, camera_time_offset=r.time_offset, options=options)
         f.time = f._t_imu = float(r.t[k])
         f._u = np.r_[r.gyro[k], r.accel[k]]
+        f.start_alignment = al
+        f.doubts = [] if doubt is None else [doubt]
         return f, k
 
     # ------------------------------------------------------------------ savable state (streaming)
@@ -331,7 +352,8 @@ class MsckfVio(EskfStateAccessors, Estimator):
             "t_imu": np.array(np.nan if self._t_imu is None else self._t_imu),
             "options": np.array([o.max_clones, o.min_track, o.gate_probability, o.min_depth, o.max_depth,
                                  o.min_parallax, float(o.adaptive_sigma), o.sigma_floor, o.sigma_memory,
-                                 o.max_slam, float(o.estimate_time_offset), o.time_offset_sigma]),
+                                 o.max_slam, float(o.estimate_time_offset), o.time_offset_sigma,
+                                 float(o.depth_test)]),
         })  # fmt: skip
 
     @classmethod
@@ -344,7 +366,8 @@ class MsckfVio(EskfStateAccessors, Estimator):
                                  f"{cls.STATE_VERSION}")  # fmt: skip
             o = np.asarray(d["options"], dtype=np.float64)
             opts = MsckfOptions(int(o[0]), int(o[1]), float(o[2]), float(o[3]), float(o[4]), float(o[5]), bool(o[6]),
-                                float(o[7]), float(o[8]), int(o[9]), bool(o[10]), float(o[11]))
+                                float(o[7]), float(o[8]), int(o[9]), bool(o[10]), float(o[11]),
+                                bool(o[12]) if len(o) > 12 else False)  # saved before the depth test: without it
             noise = np.asarray(d["noise"], dtype=np.float64)
             sd = np.sqrt(noise)
             ng, rg, na, ra = (float(v) for v in sd[[0, 2, 1, 3]])
@@ -773,7 +796,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
         ft = r.tracks.t + self.camera_time_offset
         first = int(np.searchsorted(ft, t[start], side="right"))
         k = start  # last IMU sample consumed
-        stats = {"used": 0, "gated": 0, "failed": 0}
+        stats = {"used": 0, "gated": 0, "failed": 0, "undetermined": 0}
         nis_all, dof_all = [], []
         t0, c0 = time.perf_counter(), time.process_time()
         mid = 0.5 * (u[:-1] + u[1:])  # the mean of consecutive samples, per step
@@ -802,6 +825,7 @@ class MsckfVio(EskfStateAccessors, Estimator):
                 stats["used"] += int(np.count_nonzero(acc))
                 stats["gated"] += int(np.count_nonzero(res.status == 0))
                 stats["failed"] += int(np.count_nonzero(res.status == -1))
+                stats["undetermined"] += int(np.count_nonzero(res.status == -3))
                 nis_all.append(np.asarray(res.nis)[acc])
                 dof_all.append(res.feature_dof[acc])
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
@@ -810,4 +834,5 @@ class MsckfVio(EskfStateAccessors, Estimator):
             t=t, **blocks, t_start=float(t[start]), n_used=stats["used"], n_gated=stats["gated"],
             n_failed=stats["failed"], nis=np.concatenate(nis_all) if nis_all else np.zeros(0),
             nis_dof=np.concatenate(dof_all) if dof_all else np.zeros(0, np.int64), wall_time=wall, cpu_time=cpu,
+            n_undetermined=stats["undetermined"],
         )  # fmt: skip

@@ -20,9 +20,11 @@ from __future__ import annotations
 
 import contextlib
 import datetime
+import functools
 import hashlib
 import json
 import os
+import re
 import shutil
 import signal
 import stat
@@ -34,11 +36,15 @@ from typing import IO, Any
 
 __all__ = [
     "OutputError", "OutputFile", "OutputDirectory", "MANIFEST", "atomic_path", "atomic_text_file", "files_in_place",
+    "remove_stale_siblings", "temporary_sibling_dir",
 ]
 
 #: name of the manifest in every output directory
 MANIFEST = "manifest.json"
 _TMP = ".dualpose-tmp-"
+_OLD = ".dualpose-old-"
+#: the owner marker of a temporary name: ``HOST-BOOT-PID-START-`` (:func:`_owner`), then tempfile's random letters
+_MARKED = re.compile(r"([0-9a-f]{8})-([0-9a-f]{8})-([0-9]+)-([0-9]+)-")
 
 
 class OutputError(ValueError):
@@ -68,6 +74,110 @@ def _input_problem(out: Path, inputs: Iterable[str | os.PathLike[str] | None], o
         if _inside(real_in, real_out):
             return f"{option} {out} contains the input {kind} {given}; replacing it would destroy the input"
     return None
+
+
+def _digest8(text: str) -> str:
+    return hashlib.blake2b(text.encode("utf-8", "surrogateescape"), digest_size=4).hexdigest()
+
+
+@functools.lru_cache(maxsize=1)
+def _host_boot() -> tuple[str, str]:
+    """8 hex digits naming this host (its node name) and 8 naming this boot of it (Linux:
+    ``/proc/sys/kernel/random/boot_id``; elsewhere the boot time is unknown: ``"0" * 8``)."""
+    try:
+        with open("/proc/sys/kernel/random/boot_id", encoding="ascii") as f:
+            boot = _digest8(f.read().strip())
+    except OSError:
+        boot = "0" * 8
+    return _digest8(os.uname().nodename), boot
+
+
+def _start_time(pid: int) -> int | None:
+    """The start time of process ``pid`` (clock ticks after boot, ``/proc/PID/stat`` field 22); None when no such
+    process exists or the system does not say (not Linux)."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            stat_line = f.read()
+    except OSError:
+        return None
+    try:  # the command name (field 2) may hold blanks and parentheses: the fields after its last ")"
+        return int(stat_line[stat_line.rindex(b")") + 2 :].split()[19])
+    except (ValueError, IndexError):
+        return None
+
+
+def _owner() -> str:
+    """The owner marker this process puts into its temporary names: ``HOST-BOOT-PID-START-`` (:func:`_host_boot`,
+    the process id and its start time; 0 where the system does not tell it)."""
+    host, boot = _host_boot()
+    pid = os.getpid()
+    return f"{host}-{boot}-{pid}-{_start_time(pid) or 0}-"
+
+
+def _owner_alive(host: str, boot: str, pid: int, start: int) -> bool:
+    """Whether the process that wrote the owner marker may still be running: True for another host (it cannot be
+    asked) and whenever in doubt; False only when it is this host's and the host has rebooted since, no process
+    ``pid`` exists, or the process ``pid`` started at another time (the id was reused)."""
+    my_host, my_boot = _host_boot()
+    if host != my_host:
+        return True
+    if boot != my_boot and "0" * 8 not in (boot, my_boot):
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # another user's process (PermissionError): alive
+        return True
+    now = _start_time(pid)
+    return not (start and now is not None and now != start)
+
+
+def remove_stale_siblings(path: str | os.PathLike[str]) -> list[Path]:
+    """Remove the temporary siblings of ``path`` (``.NAME.dualpose-tmp-*``, ``.NAME.dualpose-old-*``) that a writer
+    killed outright (``SIGKILL``, power loss) left behind: those whose owner marker names a process of this host that
+    is no longer running.  A sibling of a live process, of another host, or without a marker (written before markers
+    existed) stays.  Every writer of :mod:`dualpose.io._output` calls it before it writes ``path``.
+
+    Returns
+    -------
+    list of Path
+        The siblings removed.
+    """
+    target = Path(os.path.abspath(path))
+    removed: list[Path] = []
+    try:
+        entries = os.listdir(target.parent)
+    except OSError:
+        return removed
+    for prefix in (f".{target.name}{_TMP}", f".{target.name}{_OLD}"):
+        for entry in entries:
+            if not entry.startswith(prefix):
+                continue
+            m = _MARKED.match(entry, len(prefix))
+            if m is None or _owner_alive(m[1], m[2], int(m[3]), int(m[4])):
+                continue
+            stale = target.parent / entry
+            try:
+                if stale.is_dir() and not stale.is_symlink():
+                    shutil.rmtree(stale)
+                else:
+                    stale.unlink()
+            except FileNotFoundError:  # removed meanwhile by another writer
+                continue
+            except OSError:
+                continue  # not ours to remove (permissions): left as it is
+            removed.append(stale)
+    return removed
+
+
+def temporary_sibling_dir(path: str | os.PathLike[str]) -> Path:
+    """A new empty directory beside ``path`` (``.NAME.dualpose-tmp-OWNER-XXXXXXXX``, the same file system) to write
+    into before renaming into place, after the stale siblings of ``path`` are removed
+    (:func:`remove_stale_siblings`).  The caller removes it."""
+    target = Path(os.path.abspath(path))
+    remove_stale_siblings(target)
+    return Path(tempfile.mkdtemp(prefix=f".{target.name}{_TMP}{_owner()}", dir=target.parent))
 
 
 def _trial_write(directory: Path) -> str | None:
@@ -168,7 +278,8 @@ def _file_in_place(path: Path, force: bool) -> Iterator[Path]:
     is replaced only with ``force``: ``FileExistsError`` otherwise), removed on an error or Ctrl-C."""
     directory = path.absolute().parent  # the temporary file keeps the suffix: writers that go by it see the same
     directory.mkdir(parents=True, exist_ok=True)
-    fd, name = tempfile.mkstemp(prefix=f".{path.name}{_TMP}", suffix=path.suffix, dir=directory)
+    remove_stale_siblings(path)
+    fd, name = tempfile.mkstemp(prefix=f".{path.name}{_TMP}{_owner()}", suffix=path.suffix, dir=directory)
     os.close(fd)
     tmp = Path(name)
     try:
@@ -254,7 +365,7 @@ def files_in_place(directory: str | os.PathLike[str], names: Iterable[str], over
 
     check()
     target.parent.mkdir(parents=True, exist_ok=True)
-    stage = Path(tempfile.mkdtemp(prefix=f".{target.name}{_TMP}", dir=target.parent))
+    stage = temporary_sibling_dir(target)
     try:
         yield stage
         written = sorted(os.listdir(stage))
@@ -385,7 +496,7 @@ class OutputDirectory:
         target = Path(os.path.abspath(self.path))  # "run/." and "run/" name the directory "run"
         parent = target.parent
         parent.mkdir(parents=True, exist_ok=True)
-        stage = Path(tempfile.mkdtemp(prefix=f".{target.name}{_TMP}", dir=parent))
+        stage = temporary_sibling_dir(target)
         old: Path | None = None
         try:
             yield stage
@@ -395,7 +506,7 @@ class OutputDirectory:
                 if target.exists():
                     if self._existing_problem("--out") is not None:  # changed while the command ran
                         raise OutputError(f"{self.path}: changed while the command ran; nothing was replaced")
-                    old = Path(tempfile.mkdtemp(prefix=f".{target.name}.dualpose-old-", dir=parent))
+                    old = Path(tempfile.mkdtemp(prefix=f".{target.name}{_OLD}{_owner()}", dir=parent))
                     os.replace(target, old / "set")
                     os.replace(stage, target)
                 else:

@@ -46,7 +46,6 @@ from __future__ import annotations
 
 import os
 import shutil
-import tempfile
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -75,6 +74,7 @@ from dualpose.io._bagfile import (
     check_rosbags,
     open_bag,
 )
+from dualpose.io._output import temporary_sibling_dir
 from dualpose.io._text import check_path
 from dualpose.io.broad import BroadTrial
 from dualpose.io.euroc import ImuData
@@ -732,7 +732,7 @@ def write_trajectory_bag(
     from rosbags.typesys import Stores, get_typestore
 
     rows = _pose_stamped_bytes(trajectory, ns, frame_id.encode(), cdr=version == 2)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    tmp = temporary_sibling_dir(out)  # removed below; one a killed writer left is removed by the next writer
     try:
         if version == 1:
             from rosbags.rosbag1 import Writer as Writer1

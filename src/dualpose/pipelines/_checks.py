@@ -22,7 +22,15 @@ import numpy as np
 from dualpose.estimation.state import ESKF_STATE
 from dualpose.io.recording import RecordingError
 from dualpose.types import Recording
-from dualpose.types._inputs import Doubt, accel_unit_problem, gyro_unit_doubt, rate_doubt, rest_problem
+from dualpose.types._inputs import (
+    Doubt,
+    accel_unit_problem,
+    gravity_sigma_doubt,
+    gyro_unit_doubt,
+    rate_doubt,
+    rest_gravity_sigma,
+    rest_problem,
+)  # fmt: skip
 from dualpose.types.recording import RecordingWarning
 
 __all__ = ["MIN_IMU_SAMPLES", "MIN_IMU_SECONDS", "check_before_fuse", "check_gravity_after_alignment", "warned"]
@@ -65,12 +73,22 @@ def warned(*doubts: Doubt | None) -> list[Doubt]:
     return out
 
 
-def check_gravity_after_alignment(run: Recording, x: np.ndarray) -> list[Doubt]:
+def check_gravity_after_alignment(run: Recording, x: np.ndarray) -> tuple[float, list[Doubt]]:
     """:meth:`Recording.check_gravity` with the start attitude ``q_wb`` of the error-state filter state ``x``
-    (:data:`~dualpose.estimation.state.ESKF_STATE`); a gravity that points up is a :class:`RecordingError`, a
-    doubtful one is warned about and returned."""
+    (:data:`~dualpose.estimation.state.ESKF_STATE`), after the rule on the precision of the gravity direction the
+    rest period measures (:func:`dualpose.types._inputs.gravity_sigma_doubt` on
+    :func:`~dualpose.types._inputs.rest_gravity_sigma`: the spread of the samples, floored at the accelerometer's
+    white noise).  Returns that σ (rad) and the doubts, each warned: a gravity that points up or a rest period that
+    does not determine the vertical (σ above 5°) is a :class:`RecordingError`; a σ above 1° or a gravity vector
+    more than 10° off the measured vertical is doubted."""
+    where = run.name or "recording"
+    rest = run.t <= run.t[0] + (_REST_S if run.rest_seconds is None else run.rest_seconds)
+    n = run.imu_noise
+    sigma = rest_gravity_sigma(run.accel[rest], n.accelerometer_noise_density, 1.0 / run.nominal_period())
     try:
-        return _warned(lambda: run.check_gravity(ESKF_STATE.get(x, "quat")), "gravity")
+        doubts = warned(gravity_sigma_doubt(sigma, f"{where}: rest period", f"the {int(rest.sum())} accelerometer "
+                                            "samples at rest"))  # fmt: skip
+        return sigma, doubts + _warned(lambda: run.check_gravity(ESKF_STATE.get(x, "quat")), "gravity")
     except ValueError as exc:
         raise RecordingError(str(exc)) from None
 

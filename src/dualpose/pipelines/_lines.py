@@ -10,15 +10,11 @@ line read back gives the filter's numbers bit for bit.
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Callable, Iterable, Sequence
-
-import numpy as np
 
 from dualpose.estimation._stream import GapWatch
 from dualpose.io._text import all_numbers, parse_number, split_fields
-from dualpose.types._inputs import Doubt, rate_doubt
-from dualpose.types.recording import RecordingWarning
+from dualpose.types._inputs import Doubt
 
 __all__ = ["StreamTimes", "format_numbers", "parse_numbers", "split_fields"]
 
@@ -61,35 +57,29 @@ def format_numbers(values: Iterable[float]) -> str:
 
 
 class StreamTimes:
-    """The time stamps of a stream's IMU lines: refuses one that is not finite or does not increase, and warns
+    """The time stamps of a stream's IMU lines: refuses one that is not finite or does not increase, and shows each
+    to the stream's :class:`~dualpose.estimation._stream.GapWatch` with its line number, which warns
     (:class:`~dualpose.types.recording.RecordingWarning`, naming the line) about a gap longer than five sample
-    ``period`` s (None: the median spacing of the first :data:`RATE_SAMPLES` stamps) and, once that many stamps are
-    in, about stamps whose median spacing contradicts the stated rate (:mod:`dualpose.types._inputs`, the set-up
-    checks of the batch paths).  ``doubts`` keeps them.
+    ``period`` s (None: the median spacing of the first ``GapWatch.RATE_SAMPLES`` stamps) and, once that many stamps
+    are in, about stamps whose median spacing contradicts the stated rate (``rate_name``).  ``doubts`` keeps them.
 
-    The gaps are the stream's own :class:`~dualpose.estimation._stream.GapWatch` when ``watch`` is given (the
-    ``gap_watch`` of :class:`~dualpose.estimation.eskf.EskfStream`, :class:`~dualpose.estimation.hol22.Hol22Stream`,
-    :class:`~dualpose.estimation.ahrs.stream.AhrsStream`): this sees each stamp first, with its line number, so the
-    stream reports a gap once, named by the line."""
-
-    #: stamps after which the stated rate is compared with the measured one
-    RATE_SAMPLES = 200
+    ``watch`` is the stream's own (the ``gap_watch`` of :class:`~dualpose.estimation.eskf.EskfStream`,
+    :class:`~dualpose.estimation.hol22.Hol22Stream`, :class:`~dualpose.estimation.ahrs.stream.AhrsStream`): this
+    shows it each stamp first, with its line number, so the stream reports a doubt once, named by the line; without
+    one a watch of its own is made."""
 
     def __init__(self, period: float | None, source: str, rate_name: str, watch: GapWatch | None = None) -> None:
-        self.period, self.source, self.rate_name = period, source, rate_name
         self.watch = GapWatch(period) if watch is None else watch
-        self.watch.source = source
+        self.watch.source, self.watch.rate_name = source, rate_name
         if period is not None:
             self.watch.set_period(period)
         self.last = -math.inf
-        self.first: list[float] = []
-        self._doubts: list[Doubt] = []
 
     @property
     def doubts(self) -> list[Doubt]:
         """The gaps (the first :data:`GapWatch.MAX_REPORTED <dualpose.estimation._stream.GapWatch.MAX_REPORTED>`)
-        and the rate doubt."""
-        return self.watch.doubts + self._doubts
+        and the rate doubt, in the order they were seen."""
+        return list(self.watch.doubts)
 
     @property
     def gaps(self) -> int:
@@ -102,14 +92,3 @@ class StreamTimes:
             raise ValueError(f"t must be finite and increase strictly: got {t!r} after {self.last!r}")
         self.watch.see(t, lineno)
         self.last = t
-        if len(self.first) < self.RATE_SAMPLES:
-            self.first.append(t)
-            period = self.period
-            if len(self.first) == self.RATE_SAMPLES and period is None:  # no stated rate: the stamps' own
-                self.watch.set_period(float(np.median(np.diff(self.first))))
-            elif len(self.first) == self.RATE_SAMPLES and period is not None:
-                d = rate_doubt(np.array(self.first), 1.0 / period, f"{self.source} lines up to {lineno}",
-                               rate_name=self.rate_name)
-                if d is not None:
-                    self._doubts.append(d)
-                    warnings.warn(d.message, RecordingWarning, stacklevel=2)

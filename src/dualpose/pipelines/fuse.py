@@ -15,6 +15,7 @@ metrics are reported for the smoothed trajectory under ``metrics["smoothed"]``.
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -255,7 +256,8 @@ def run_fuse(
         x, P0 = initialization.initial_state_from_run(run, run.rest_seconds)
     except ValueError as exc:
         raise RecordingError(f"{run.name}: cannot start the filter: {exc}") from None
-    doubts += check_gravity_after_alignment(run, x)  # gravity pointing up: RecordingError; doubtful: a doubt
+    gravity_sigma, more = check_gravity_after_alignment(run, x)  # up or undetermined: RecordingError; doubts
+    doubts += more
     step(1)
     est = factory(run, x, P0)
     if "position" not in est.state_layout.names:
@@ -289,6 +291,7 @@ def run_fuse(
         "filter_wall_time_s": float(res.wall_time),
         "realtime_factor": duration / float(res.wall_time),
         "input_doubts": [d.as_dict() for d in doubts],
+        "gravity_sigma_deg": math.degrees(gravity_sigma),
     }
     for key in TRUTH_METRICS[:4]:
         metrics[key] = truth_metrics[key]

@@ -186,11 +186,12 @@ class StartUp:
     #: (gyroscope, camera) rotation between the window's camera poses, rad, summed over the intervals
     rotation_check: tuple[float, float] = (0.0, 0.0)
 
-    def gyro_doubts(self, where: str) -> list[Doubt]:
-        """A gyroscope that turns much farther than the camera (``gyro_rotation_doubt`` of
-        ``dualpose.types._inputs``: deg/s), warned; the check of a rest period does not fit a rig that moves from its
-        first sample."""
-        return warned(gyro_rotation_doubt(*self.rotation_check, where))
+    def startup_doubts(self, where: str) -> list[Doubt]:
+        """What the start-up doubts, each warned: a gyroscope that turns much farther than the camera
+        (``gyro_rotation_doubt`` of ``dualpose.types._inputs``: deg/s; the check of a rest period does not fit a rig
+        that moves from its first sample), and a gravity direction the start-up window determines poorly (the
+        alignment's ``"gravity_sigma"`` doubt, ``gravity_sigma_doubt``)."""
+        return warned(gyro_rotation_doubt(*self.rotation_check, where), self.alignment.doubt)
 
     def summary(self, calibration: CameraImuCalibration) -> dict[str, Any]:
         """JSON-ready start-up report (gravity, its σ and magnitude check, biases, angle to the calibration's)."""
@@ -221,7 +222,7 @@ class TrackSetup:
     ``camera`` name and the detections it was given (``detections``, after any outage deletion); ``doubts``: what
     the set-up checks of ``dualpose fuse --data`` doubted about the IMU (``check_before_fuse`` of
     ``dualpose.pipelines._checks``: gaps, a stated rate the stamps contradict), each already warned, and the
-    gyroscope check of :meth:`StartUp.gyro_doubts`."""
+    gyroscope check of :meth:`StartUp.startup_doubts`."""
 
     recording: Recording
     start: StartUp
@@ -388,7 +389,7 @@ def prepare_track(
         name=f"{src.path} ({camera})",
     )  # fmt: skip
     doubts = check_before_fuse(rec, at_rest=False)  # too short, in g: RecordingError; doubts: RecordingWarning
-    doubts += st.gyro_doubts(rec.name or "recording")
+    doubts += st.startup_doubts(rec.name or "recording")
     return TrackSetup(recording=rec, start=st, source=src, calibration=cal, camera=camera, detections=det,
                       doubts=doubts)
 
@@ -1014,9 +1015,9 @@ class TrackStream:
         self.start = startup(t, g, a, det, self.model, self.calibration, self.noise, self.gravity_magnitude)
         self._setup = self._sensor_setup()
         self._stream = _new_stream(self.filter, self._setup, self.start.x, self.start.P)
-        self._stream.gap_watch = GapWatch(None)  # the buffered samples were watched as they came
+        self._stream.gap_watch = GapWatch(None, watch_rate=False)  # the buffered samples were watched as they came
         k0 = self.start.imu_index
-        self.doubts += self.start.gyro_doubts("the stream's IMU lines")
+        self.doubts += self.start.startup_doubts("the stream's IMU lines")
         tau = self.calibration.time_offset_s
         items = [(float(t[k]), 1, ("imu", k)) for k in range(k0, len(t))]
         items += [(float(ft[j] + tau), 0, ("cam", j)) for j in range(len(ft)) if ft[j] + tau > t[k0]]

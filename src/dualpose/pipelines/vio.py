@@ -11,6 +11,7 @@ length, over the poses after the rest period.
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from dataclasses import dataclass
@@ -24,6 +25,7 @@ from dualpose.evaluation.align import posyaw_alignment
 from dualpose.evaluation.metrics import associate, evaluate
 from dualpose.io.detect import read_trajectory
 from dualpose.io.feature_tracks import is_eqvio_csv, read_eqvio_csv
+from dualpose.pipelines._checks import warned
 from dualpose.types.features import TrackRecording
 from dualpose.types.trajectory import Trajectory
 
@@ -90,7 +92,8 @@ def run_vio(data: str | os.PathLike[str] | TrackRecording, truth: str | os.PathL
     if np.isfinite(rec.focal_length) and rec.focal_length > 0:
         rec.feature_sigma = pixel_sigma / rec.focal_length
     t_read = time.perf_counter() - t0
-    f, k = MsckfVio.from_rest(rec, options=options)
+    f, k = MsckfVio.from_rest(rec, options=options)  # a rest period that leaves gravity undetermined: ValueError
+    doubts = warned(*f.doubts)
     res = f.run(rec, k)
     after = res.t >= res.t_start
     est = Trajectory(res.t[after] + rec.t0, res.position[after], res.quat[after], name="msckf")
@@ -98,6 +101,7 @@ def run_vio(data: str | os.PathLike[str] | TrackRecording, truth: str | os.PathL
     metrics: dict[str, Any] = {
         "data": rec.name, "estimator": "msckf", "start_s": float(rec.t[k]), "rest_s": float(rec.t[k] - rec.t[0]),
         "features_used": res.n_used, "features_gated": res.n_gated, "features_failed": res.n_failed,
+        "features_undetermined": res.n_undetermined,
         "slam_features": f.n_slam_init,
         "mean_nis_per_dof": float(np.mean(res.nis / res.nis_dof)) if len(res.nis) else None,
         "feature_sigma_px": float(rec.feature_sigma * rec.focal_length),
@@ -105,6 +109,8 @@ def run_vio(data: str | os.PathLike[str] | TrackRecording, truth: str | os.PathL
         "filter_s": res.wall_time, "realtime_factor": duration / res.wall_time if res.wall_time > 0 else float("inf"),
         "filter_cpu_s": res.cpu_time,
         "realtime_factor_cpu": duration / res.cpu_time if res.cpu_time > 0 else float("inf"),
+        "gravity_sigma_deg": math.degrees(f.start_alignment.gravity_sigma) if f.start_alignment else None,
+        "input_doubts": [d.as_dict() for d in doubts],
     }  # fmt: skip
     if gt is not None:
         metrics.update(vio_metrics(gt, est))

@@ -540,3 +540,48 @@ def gap_doubt(dt: float, period: float, where: str, periods: float = 5.0) -> Dou
         return None
     return Doubt("imu_gap", f"{where}: IMU gap of {dt:.6g} s ({dt / period:.3g} sample periods): the estimate drifts "
                  "across it")  # fmt: skip
+
+
+# ------------------------------------------------------------------------------------------------ gravity direction
+
+#: 1σ of an estimated gravity direction (rad) above which a start-up is refused: its attitude would be a guess
+GRAVITY_SIGMA_REFUSE = math.radians(5.0)
+#: ... and above which it is kept but doubted (a tilt error of this size biases the start)
+GRAVITY_SIGMA_DOUBT = math.radians(1.0)
+
+
+def rest_gravity_sigma(accel_rest: NDArray[np.float64], noise_density: float = 0.0, rate: float = 0.0) -> float:
+    """The 1σ (rad, root of the tangent-plane covariance trace) of the gravity direction that the mean of the
+    specific force samples ``accel_rest`` (N, 3), m/s², taken at rest gives: the covariance of the mean is the
+    samples' own spread (their covariance; a vibrating or moving "rest" shows here), floored at the accelerometer's
+    white noise ``noise_density² · rate`` per axis (m/s²/√Hz, Hz; what a single sample or a quiet spread still
+    carries), over ``N``; its part across the mean direction ``f̂``, divided by ``|f|``.  Infinite when the mean
+    specific force is zero (free fall: no direction)."""
+    a = np.asarray(accel_rest, dtype=np.float64).reshape(-1, 3)
+    n = len(a)
+    if n == 0:
+        return math.inf
+    f = a.mean(axis=0)
+    nf = float(np.linalg.norm(f))
+    if not nf > 0.0:
+        return math.inf
+    fh = f / nf
+    tangent = np.eye(3) - np.outer(fh, fh)
+    spread = float(np.trace(tangent @ np.cov(a.T, ddof=1) @ tangent)) if n >= 2 else 0.0
+    white = 2.0 * noise_density**2 * rate  # two tangent axes
+    return math.sqrt(max(spread, white) / n) / nf
+
+
+def gravity_sigma_doubt(sigma: float, where: str, how: str) -> Doubt | None:
+    """The one rule for an estimated gravity direction of 1σ ``sigma`` (rad): refused above
+    :data:`GRAVITY_SIGMA_REFUSE` (ValueError naming ``where`` and ``how`` it was estimated), a ``"gravity_sigma"``
+    doubt above :data:`GRAVITY_SIGMA_DOUBT`, otherwise None."""
+    deg = math.degrees(sigma)
+    if not sigma <= GRAVITY_SIGMA_REFUSE:
+        raise ValueError(f"{where}: the gravity direction is not determined by {how}: its standard deviation is "
+                         f"{deg:.3g} deg (more than {math.degrees(GRAVITY_SIGMA_REFUSE):g} deg)")  # fmt: skip
+    if sigma <= GRAVITY_SIGMA_DOUBT:
+        return None
+    return Doubt("gravity_sigma", f"{where}: the gravity direction from {how} is poorly determined: standard "
+                 f"deviation {deg:.3g} deg (more than {math.degrees(GRAVITY_SIGMA_DOUBT):g} deg): the start attitude "
+                 "is tilted by about as much")  # fmt: skip

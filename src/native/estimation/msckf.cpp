@@ -75,12 +75,20 @@ inline CamPose camera_pose(const double* clone, const double* Rbc, const double*
     return c;
 }
 
+// Outcomes of triangulate (and msckf_features' status): the point, no point (degenerate geometry), or a point whose
+// depth the observations do not determine at their own precision.
+constexpr int TRI_OK = 0, TRI_FAILED = -1, TRI_UNDETERMINED = -3;
+
 // Triangulate one feature from m observations (clone indices ci, normalised uv) with camera poses cams: the linear
 // midpoint solution in the anchor camera (the first observation), refined by Gauss–Newton on the inverse-depth
-// parameters (α, β, ρ), p_A = [α, β, 1] / ρ.  Writes the world point; false when the geometry is degenerate
-// (depth outside [min_depth, max_depth], too little baseline, or no convergence).
-bool triangulate(const std::vector<CamPose>& cams, const std::int64_t* ci, const double* uv, std::int64_t m,
-                 double min_depth, double max_depth, double min_parallax, double* pw) {
+// parameters (α, β, ρ), p_A = [α, β, 1] / ρ.  Writes the world point and returns TRI_OK; TRI_FAILED when the geometry
+// is degenerate (depth outside [min_depth, max_depth], too little baseline, or no convergence); TRI_UNDETERMINED when
+// the inverse depth is not distinguishable from 0 (a point at infinity) at the pixel noise: with the Gauss–Newton
+// normal matrix JᵀJ at the solution, Var(ρ) = σ² [(JᵀJ)⁻¹]_ρρ (σ the noise of a normalised coordinate), and the point
+// is kept only when ρ² > min_z² Var(ρ), i.e. its relative depth σ_d / d = σ_ρ / ρ is below 1 / min_z (min_z 0: no
+// test).
+int triangulate(const std::vector<CamPose>& cams, const std::int64_t* ci, const double* uv, std::int64_t m,
+                double min_depth, double max_depth, double min_parallax, double sigma, double min_z, double* pw) {
     const CamPose& A = cams[ci[0]];
     std::vector<double> Rac(9 * m), pac(3 * m);  // pose of camera j in the anchor: R_Aj, p_Aj
     double H[9] = {}, g[3] = {}, baseline = 0.0;
@@ -105,8 +113,8 @@ bool triangulate(const std::vector<CamPose>& cams, const std::int64_t* ci, const
         for (int k = 0; k < 3; ++k) g[k] += Mp[k];
     }
     double pA[3];
-    if (!solve3(H, g, pA) || !(pA[2] > min_depth) || !(pA[2] < max_depth)) return false;
-    if (baseline < min_parallax * pA[2]) return false;
+    if (!solve3(H, g, pA) || !(pA[2] > min_depth) || !(pA[2] < max_depth)) return TRI_FAILED;
+    if (baseline < min_parallax * pA[2]) return TRI_FAILED;
     double th[3] = {pA[0] / pA[2], pA[1] / pA[2], 1.0 / pA[2]};  // α, β, ρ
     double lambda = 1e-3, cost = 0.0;
     auto eval = [&](const double* t, double* JtJ, double* Jtr) {
@@ -143,13 +151,13 @@ bool triangulate(const std::vector<CamPose>& cams, const std::int64_t* ci, const
     };
     double JtJ[9], Jtr[3];
     cost = eval(th, JtJ, Jtr);
-    if (cost < 0.0) return false;
+    if (cost < 0.0) return TRI_FAILED;
     for (int it = 0; it < 20; ++it) {
         double Hd[9];
         std::copy(JtJ, JtJ + 9, Hd);
         for (int k = 0; k < 3; ++k) Hd[4 * k] *= 1.0 + lambda;
         double step[3];
-        if (!solve3(Hd, Jtr, step)) return false;
+        if (!solve3(Hd, Jtr, step)) return TRI_FAILED;
         const double cand[3] = {th[0] + step[0], th[1] + step[1], th[2] + step[2]};
         const double c2 = eval(cand, nullptr, nullptr);
         if (c2 >= 0.0 && c2 <= cost) {
@@ -163,13 +171,20 @@ bool triangulate(const std::vector<CamPose>& cams, const std::int64_t* ci, const
             if (lambda > 1e8) break;
         }
     }
-    if (!(th[2] > 0.0)) return false;
+    if (!(th[2] > 0.0)) return TRI_FAILED;
     const double depth = 1.0 / th[2];
-    if (!(depth > min_depth) || !(depth < max_depth) || baseline < min_parallax * depth) return false;
+    if (!(depth > min_depth) || !(depth < max_depth) || baseline < min_parallax * depth) return TRI_FAILED;
+    if (min_z > 0.0) {  // JtJ is the normal matrix at th (evaluated after the last accepted step)
+        const double det = JtJ[0] * (JtJ[4] * JtJ[8] - JtJ[5] * JtJ[7]) - JtJ[1] * (JtJ[3] * JtJ[8] - JtJ[5] * JtJ[6]) +
+                           JtJ[2] * (JtJ[3] * JtJ[7] - JtJ[4] * JtJ[6]);
+        const double cof = JtJ[0] * JtJ[4] - JtJ[1] * JtJ[3];  // [(JᵀJ)⁻¹]_ρρ = cof / det
+        // ρ² det > min_z² σ² cof, without dividing (a singular normal matrix: undetermined)
+        if (!(det > 0.0) || !(th[2] * th[2] * det > min_z * min_z * sigma * sigma * cof)) return TRI_UNDETERMINED;
+    }
     const double pa[3] = {th[0] * depth, th[1] * depth, depth};
     mul3(A.R, pa, pw);
     for (int i = 0; i < 3; ++i) pw[i] += A.p[i];
-    return true;
+    return TRI_OK;
 }
 
 // One observation (normalised uv) of the world point pw in a clone: the residual res = uv − π(p_c) at the clone's
@@ -386,10 +401,10 @@ PyObject* py_select(PyObject*, PyObject* args) {
 }
 
 // msckf_features(clones (C, 7), clones_fej (C, 7), q_bc, p_bc, offsets (G + 1,), obs_clone (M,), obs_uv (M, 2), P
-// (n, n), sigma, chi2 (D,), limits (3,) = [min_depth, max_depth, min_parallax], H (R, n), r (R,), rvar (R,),
+// (n, n), sigma, chi2 (D,), limits (4,) = [min_depth, max_depth, min_parallax, min_depth_z], H (R, n), r (R,), rvar (R,),
 // status (G,), nis (G,), points (G, 3), top (G, 3, n + 4)) -> rows: the stacked nullspace-projected rows of the accepted features (rvar
 // their prior variances (H P Hᵀ)_ii, without the noise) (status 1 accepted, 0 rejected by the gate, -1 triangulation
-// failed, -2 too few observations); chi2[d] the gate for d degrees of freedom; points the triangulated world points
+// failed, -2 too few observations, -3 depth undetermined at the noise sigma: see triangulate, min_depth_z); chi2[d] the gate for d degrees of freedom; points the triangulated world points
 // (NaN where none); top the three rows the nullspace projection sets aside, which determine the point (delayed
 // initialisation): per feature [H_x1 (3, n) | R (3, 3) upper triangular | r1 (3, 1)] (the Givens-rotated H_x, H_f and
 // residual), for every triangulated feature.  P (n, n) may carry other states after the clones (landmarks, the time
@@ -415,7 +430,7 @@ PyObject* py_features(PyObject*, PyObject* args) {
     const npy_intp nc = clones.shape[0], n = Pm.shape[0], g = offsets.shape[0] - 1, m_all = oc.shape[0];
     if (!shape_is("clones", clones, {-1, 7}) || !shape_is("clones_fej", fej, {nc, 7}) ||
         !shape_is("q_bc", q_bc, {4}) || !shape_is("p_bc", p_bc, {3}) || !shape_is("obs_uv", uv, {m_all, 2}) ||
-        !shape_is("P", Pm, {n, n}) || !shape_is("limits", limits, {3}) || !shape_is("points", points, {g, 3}) ||
+        !shape_is("P", Pm, {n, n}) || !shape_is("limits", limits, {4}) || !shape_is("points", points, {g, 3}) ||
         !shape_is("top", top, {g, 3, n + 4}) ||
         !shape_is("H", Hout, {-1, n}) || !shape_is("r", rout, {Hout.shape[0]}) ||
         !shape_is("rvar", rvar, {Hout.shape[0]}) || !shape_is("status", status, {g}) ||
@@ -465,8 +480,10 @@ PyObject* py_features(PyObject*, PyObject* args) {
         }
         double* pw = points.row(f);
         pw[0] = pw[1] = pw[2] = NAN;
-        if (!triangulate(cams, oc.data + a, uv.data + 2 * a, m, limits[0], limits[1], limits[2], pw)) {
-            status[f] = -1;
+        const int tri = triangulate(cams, oc.data + a, uv.data + 2 * a, m, limits[0], limits[1], limits[2], sigma,
+                                    limits[3], pw);
+        if (tri != TRI_OK) {
+            status[f] = tri;
             continue;
         }
         const npy_intp nr = 2 * m;

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from dualpose import _native
-from dualpose.estimation._stream import GapWatch, sample_block, saved_buffer, saved_quaternion, vec3
+from dualpose.estimation._stream import GapWatch, sample_block, saved_buffer, saved_quaternion, saved_rate_stamps, vec3
 from dualpose.estimation.ahrs.config import (
     AhrsConfig,
     AhrsNoise,
@@ -127,7 +127,7 @@ class AhrsStream:
         self._samples = 0
         #: the IMU gaps :meth:`update_imu` saw (longer than five sample periods ``1 / rate``): warned about
         #: (:class:`~dualpose.types.recording.RecordingWarning`) and counted; see :attr:`doubts`
-        self.gap_watch = GapWatch(1.0 / self._rate)
+        self.gap_watch = GapWatch(1.0 / self._rate, rate_name="rate")
         self._rest_sums = np.zeros(10)  # running sums of gyro, accel, mag and the count inside the rest period
         self._rest_out = (np.full(4, np.nan), np.full(3, np.nan))  # the last rest-period output (quat, bias)
         if rest is not None:
@@ -192,7 +192,7 @@ class AhrsStream:
             check_field_samples(m[None], single=True)  # the shared rule's message (docs/refusals.md)
         w = self.gap_watch  # GapWatch.see, inlined: a gap longer than five sample periods is reported
         if t - w.last > w.limit:
-            w.gap(t)
+            w.note(t)
         w.last = t
         if self._state is not None:
             q: np.ndarray = _native.ahrs_stream_step(self._state, g, a, m)
@@ -299,8 +299,9 @@ class AhrsStream:
 
     @property
     def doubts(self) -> list[_inputs.Doubt]:
-        """What :meth:`update_imu` doubted about its input: the first IMU gaps (``"imu_gap"``, each also warned;
-        ``gap_watch.count`` counts them all).  Not part of the saved state."""
+        """What :meth:`update_imu` doubted about its input, each also warned: the first IMU gaps (``"imu_gap"``;
+        ``gap_watch.count`` counts them all) and, after the first 200 samples, a stated rate the stamps contradict
+        (``"imu_rate_mismatch"``; ``GapWatch`` of ``dualpose.estimation._stream``).  Not part of the saved state."""
         return list(self.gap_watch.doubts)
 
     @property
@@ -363,8 +364,9 @@ class AhrsStream:
             ``version`` (:attr:`LAYOUT_VERSION`), ``state`` (the filter's ``numpy.uint8`` buffer, None before
             initialisation), ``pending`` (buffered rest samples: ``t`` (k,), ``gyro``, ``accel``, ``mag`` (k, 3)),
             ``rest_sums`` (running sums of the rest-period outputs), ``t`` (last time stamp), ``samples``,
-            ``rest_output`` (the last rest-period output) and ``config`` (the constructor's arguments, with
-            ``config`` and ``rest`` as plain dicts).
+            ``rest_output`` (the last rest-period output), ``config`` (the constructor's arguments, with
+            ``config`` and ``rest`` as plain dicts) and ``imu_rate_stamps`` (the first stamps, kept until the
+            stated rate is compared with them; None after).
         """
         c: dict[str, Any] = dict(self._config)
         c["config"] = self._settings.as_dict()
@@ -380,6 +382,7 @@ class AhrsStream:
             "rest_sums": self._rest_sums.copy(),
             "rest_output": {"quat": self._rest_out[0].copy(), "gyro_bias": self._rest_out[1].copy()},
             "config": c,
+            "imu_rate_stamps": self.gap_watch.saved_stamps(),
         })  # fmt: skip
 
     def _pending_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -491,5 +494,6 @@ class AhrsStream:
             if not (np.isfinite(v).all() or np.isnan(v).all()):
                 raise ValueError(f"state['rest_output'][{name!r}] must be finite (or all NaN before any output)")
         out._rest_out = (rq, rb)
-        out.gap_watch.start_after(out._t)
+        out.gap_watch.start_after(out._t, saved_rate_stamps(state.get("imu_rate_stamps"), out._t,
+                                                            "state['imu_rate_stamps']"))  # fmt: skip
         return out
