@@ -35,6 +35,7 @@ from dualpose.calibration.hand_eye_streams import (
 from dualpose.calibration.hand_eye_time import coarse_time_offset
 from dualpose.registration import HandEyeWarning, calibrate_hand_eye
 from dualpose.registration.hand_eye_closed_form import HAND_EYE_CLOSED_FORMS, hand_eye_translation
+from dualpose.types import _inputs
 
 __all__ = ["HandEyeStreamResult", "calibrate_hand_eye_streams", "NOT_CREDIBLE_RATIO", "DOUBTFUL_RATIO",
            "DOUBTFUL_CORRELATION"]
@@ -159,6 +160,11 @@ class HandEyeStreamResult:
     credibility: str = "credible"
     camera_report: CleaningReport | None = field(default=None)
     body_report: CleaningReport | None = field(default=None)
+
+    def __post_init__(self) -> None:
+        """``quat``, ``translation``, ``dualquat`` and ``matrix`` repeat one ``X``: refused when they disagree
+        (:func:`~dualpose.types._inputs.check_pose_agrees`)."""
+        _inputs.check_pose_agrees(self.quat, self.translation, self.dualquat, self.matrix)
 
     @property
     def pairs_used(self) -> int:

@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike
 
 import dualpose as dp
 from dualpose.registration import register_pose
+from dualpose.types import _inputs
 
 __all__ = ["Alignment", "AlignmentConditioning", "umeyama_alignment", "align_positions", "origin_alignment",
            "posyaw_alignment", "AlignMethod", "Undetermined", "check_alignment_rank", "alignment_conditioning"]
@@ -256,12 +257,8 @@ class Alignment:
     def __post_init__(self) -> None:
         """The fields repeat one transform: the rotation must be one (orthonormal to 1e-6, det +1), the scale
         positive and finite, the translation a finite 3-vector."""
-        r = np.asarray(self.rotation, dtype=np.float64)
+        r = _inputs.check_rotation_matrix(self.rotation, "rotation")
         t = np.asarray(self.translation, dtype=np.float64)
-        if r.shape != (3, 3) or not np.isfinite(r).all():
-            raise ValueError(f"rotation must be a finite 3 x 3 matrix; got shape {r.shape}")
-        if np.abs(r.T @ r - np.eye(3)).max() > 1e-6 or np.linalg.det(r) <= 0.0:
-            raise ValueError("rotation must be a proper rotation matrix (orthonormal, det +1)")
         if t.shape != (3,) or not np.isfinite(t).all():
             raise ValueError(f"translation must be a finite vector of shape (3,); got shape {t.shape}")
         if not (np.isfinite(self.scale) and self.scale > 0.0):

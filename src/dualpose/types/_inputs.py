@@ -12,6 +12,11 @@
   missing component, a wrong order).
 * **Saved states** (:func:`seal`, :func:`check_seal`): a BLAKE2b checksum over the whole saved dictionary, checked on
   load; the values themselves are checked by the stream's ``from_state`` with the functions above.
+* **Repeated information** (:func:`check_agree`, :func:`check_stamps_agree`, :func:`check_rigid`,
+  :func:`check_rotation_matrix`): a container or file whose fields state the same thing twice (seconds and integer
+  nanoseconds, a transform and its inverse, a rate given under two keys, a quaternion and a matrix) is refused
+  when they disagree beyond the precision they are stored with; the message names both fields, the difference and
+  the tolerance.
 * **Sensor set-ups** (:func:`rate_doubt`, :func:`gyro_unit_doubt`, :func:`accel_unit_problem`,
   :func:`rest_problem`, :func:`gap_doubt`): what is impossible is refused (ValueError); what a user may mean but
   probably does not is a :class:`Doubt` that the caller warns about *and* reports with its result.
@@ -32,6 +37,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from dualpose.algebra.dualquat import dualquat_from_qt
+from dualpose.algebra.quat import matrix_from_quat
 from dualpose.types.imu import ImuNoise
 
 __all__ = [
@@ -40,13 +47,21 @@ __all__ = [
     "RATE_RANGE_HZ",
     "UNIT_TOLERANCE",
     "Doubt",
+    "RIGID_TOLERANCE",
     "accel_unit_problem",
+    "check_agree",
     "check_camera",
+    "check_pose_agrees",
     "check_imu_noise",
     "check_rate",
     "check_rest_samples",
+    "check_rigid",
+    "check_rotation_matrix",
+    "check_same_transform",
     "check_seal",
+    "check_stamps_agree",
     "covariance_matrix",
+    "disagreement",
     "finite_vector",
     "frame_points",
     "gap_doubt",
@@ -380,6 +395,137 @@ def check_imu_noise(noise: ImuNoise, name: str = "imu_noise") -> None:
         if not (isinstance(v, (int, float)) and math.isfinite(v) and 0 <= v <= hi):
             raise ValueError(f"{name}.{f.name} must be finite and in [0, {hi:g}]; got {v!r}")
     check_rate(noise.update_rate, f"{name}.update_rate")
+
+
+# ------------------------------------------------------------------------------------------------ agreement
+
+#: a rotation matrix or rigid transform read from a file or built by a caller is orthonormal to this (entries of
+#: ``RᵀR − I``; files print 7 or more significant digits), and two that should be the same transform agree to this
+#: (entries of ``R_a R_bᵀ − I``, translations relative to ``max(1, |t|)``)
+RIGID_TOLERANCE = 1.0e-6
+
+
+def disagreement(field_a: str, field_b: str, what: str, detail: str) -> ValueError:
+    """The refusal of two fields of one container that state the same information (``what``) differently:
+    ``FIELD_A and FIELD_B disagree (WHAT): DETAIL`` (the one wording of :func:`check_agree` and of the checks that
+    compare more than numbers)."""
+    return ValueError(f"{field_a} and {field_b} disagree{f' ({what})' if what else ''}: {detail}")
+
+
+def check_agree(field_a: str, value_a: Any, field_b: str, value_b: Any, tolerance: Any, *, what: str = "",
+                unit: str = "") -> None:  # fmt: skip
+    """Refuse two fields of one container that state the same information and disagree.
+
+    ``value_a`` and ``value_b`` (numbers or arrays of one shape, compared element by element as float64) must differ
+    by at most ``tolerance`` (a number, or an array broadcasting against them, e.g. a tolerance relative to each
+    element); a NaN disagrees with everything.  ``what`` says what the two fields both state ("the IMU rate",
+    "time of each pose"); ``unit`` is appended to the numbers.
+
+    Raises
+    ------
+    ValueError
+        ``FIELD_A and FIELD_B disagree (WHAT): at index K FIELD_A gives A, FIELD_B gives B, a difference of D UNIT
+        (tolerance T UNIT)``; or their shapes differ.
+    """
+    a = np.asarray(value_a, dtype=np.float64)
+    b = np.asarray(value_b, dtype=np.float64)
+    if a.shape != b.shape:
+        raise disagreement(field_a, field_b, what, f"shapes {a.shape} and {b.shape}")
+    tol = np.broadcast_to(np.asarray(tolerance, dtype=np.float64), a.shape)
+    with np.errstate(invalid="ignore", over="ignore"):
+        diff = np.abs(a - b)
+        bad = ~(diff <= tol)  # NaN compares False
+    if not bad.any():
+        return
+    k = int(np.argmax(bad.reshape(-1)))
+    at = f"at index {np.unravel_index(k, a.shape) if a.ndim > 1 else k} " if a.ndim else ""
+    u = f" {unit}" if unit else ""
+    raise disagreement(field_a, field_b, what, f"{at}{field_a} gives {float(a.reshape(-1)[k])!r}, {field_b} gives "
+                       f"{float(b.reshape(-1)[k])!r}, a difference of {diff.reshape(-1)[k]:.3g}{u} (tolerance "
+                       f"{tol.reshape(-1)[k]:.3g}{u})")  # fmt: skip
+
+
+def check_stamps_agree(seconds: Any, stamps_ns: Any, seconds_name: str = "stamps",
+                       ns_name: str = "stamps_ns") -> None:  # fmt: skip
+    """Refuse float seconds ``seconds`` (N,) that are not the integer nanoseconds ``stamps_ns`` (N,) they repeat:
+    each must be within half a nanosecond (the integer's rounding) plus two float64 units in the last place of the
+    stamp (its own rounding: 0.5 µs at the Unix epoch) of ``stamps_ns · 1e-9``, computed exactly as whole seconds
+    plus the remainder."""
+    ns = np.asarray(stamps_ns).astype(np.int64, copy=False)
+    whole, frac = np.divmod(ns, 1_000_000_000)
+    exact = whole.astype(np.float64) + frac.astype(np.float64) * 1e-9
+    t = np.asarray(seconds, dtype=np.float64)
+    check_agree(seconds_name, t, ns_name + " · 1e-9", exact, 0.5e-9 + 2.0 * np.spacing(np.abs(exact)),
+                what="the time of each sample", unit="s")  # fmt: skip
+
+
+def check_rotation_matrix(r: Any, name: str, tolerance: float = RIGID_TOLERANCE) -> NDArray[np.float64]:
+    """``r`` as a float64 (3, 3) proper rotation matrix: finite, ``RᵀR`` within ``tolerance`` of the identity (its
+    columns repeat one another's information: unit length, orthogonal), determinant +1 (not a reflection)."""
+    a = np.asarray(_as_float(r, name), dtype=np.float64)
+    if a.shape != (3, 3) or not np.isfinite(a).all():
+        raise ValueError(f"{name} must be a finite 3 x 3 rotation matrix; got shape {a.shape}")
+    check_agree(f"{name}ᵀ{name}", a.T @ a, "the identity", np.eye(3), tolerance,
+                what="a rotation's columns are orthonormal")  # fmt: skip
+    if np.linalg.det(a) <= 0.0:
+        raise ValueError(f"{name} must be a proper rotation (determinant +1); its determinant is "
+                         f"{float(np.linalg.det(a)):.6g}: a reflection (a flipped axis)")  # fmt: skip
+    return a
+
+
+def check_rigid(T: Any, name: str, tolerance: float = RIGID_TOLERANCE) -> NDArray[np.float64]:
+    """``T`` as a float64 (4, 4) rigid transform ``[[R, t], [0 0 0 1]]``: a proper rotation block
+    (:func:`check_rotation_matrix`), a finite translation and the last row 0 0 0 1 (to ``tolerance``)."""
+    a = np.asarray(_as_float(T, name), dtype=np.float64)
+    if a.shape != (4, 4) or not np.isfinite(a).all():
+        raise ValueError(f"{name} must be a finite 4 x 4 transform; got shape {a.shape}")
+    check_agree(f"{name} last row", a[3], "0 0 0 1", [0.0, 0.0, 0.0, 1.0], tolerance,
+                what="the last row of a rigid transform")  # fmt: skip
+    check_rotation_matrix(a[:3, :3], f"{name} rotation block", tolerance)
+    return a
+
+
+def check_same_transform(name_a: str, T_a: NDArray[np.float64], name_b: str, T_b: NDArray[np.float64],
+                         tolerance: float = RIGID_TOLERANCE) -> None:  # fmt: skip
+    """Refuse two rigid transforms (4, 4) that should be the same and are not: their rotations within
+    ``10 · tolerance`` (entries of ``R_a R_bᵀ − I``: each is orthonormal to ``tolerance`` only) and their
+    translations within ``10 · tolerance · max(1, |t|)`` (in the translation's unit)."""
+    tol = 10.0 * tolerance
+    check_agree(f"{name_a} rotation", T_a[:3, :3] @ T_b[:3, :3].T, f"{name_b} rotation", np.eye(3), tol,
+                what="one rotation: R_a R_bᵀ must be the identity")  # fmt: skip
+    scale = max(1.0, float(np.abs(T_a[:3, 3]).max()), float(np.abs(T_b[:3, 3]).max()))
+    check_agree(f"{name_a} translation", T_a[:3, 3], f"{name_b} translation", T_b[:3, 3], tol * scale,
+                what="one transform")  # fmt: skip
+
+
+#: two fields of a result computed from one another in float64 agree to this, relative to ``max(1, |t|)`` for
+#: translations (a thousand units in the last place: each conversion rounds a few times)
+COMPUTED_TOLERANCE = 1.0e3 * float(np.finfo(np.float64).eps)
+
+
+def check_pose_agrees(quat: Any, translation: Any, dualquat: Any = None, matrix: Any = None,
+                      tolerance: float = COMPUTED_TOLERANCE) -> None:  # fmt: skip
+    """Refuse a pose stated several ways that disagree: ``quat`` (4,) xyzw unit and ``translation`` (3,), the unit
+    dual quaternion ``dualquat`` (8,) ``[real xyzw, dual xyzw]`` (its real part ``±quat``, its dual part
+    ``½ t ⊗ real``, so orthogonal to the real part) and the homogeneous ``matrix`` (4, 4) (rotation block
+    ``R(quat)``, last column ``translation``, last row 0 0 0 1), each to ``tolerance`` (translations relative to
+    ``max(1, |t|)``)."""
+    q = np.asarray(quat, dtype=np.float64)
+    t = np.asarray(translation, dtype=np.float64)
+    check_agree("|quat|", np.linalg.norm(q), "1", 1.0, tolerance, what="a rotation is a unit quaternion")
+    scale = tolerance * max(1.0, float(np.abs(t).max()))
+    if dualquat is not None:
+        d = np.asarray(dualquat, dtype=np.float64)
+        sign = 1.0 if float(d[:4] @ q) >= 0.0 else -1.0  # q and -q are one rotation
+        want = sign * dualquat_from_qt(q, t)
+        check_agree("dualquat real part", d[:4], "quat", want[:4], tolerance, what="the rotation")
+        check_agree("dualquat dual part", d[4:], "½ translation ⊗ quat", want[4:], scale, what="the translation")
+    if matrix is not None:
+        m = np.asarray(matrix, dtype=np.float64)
+        check_agree("matrix rotation block", m[:3, :3], "R(quat)", matrix_from_quat(q), tolerance, what="the rotation")
+        check_agree("matrix last column", m[:3, 3], "translation", t, scale, what="the translation")
+        check_agree("matrix last row", m[3], "0 0 0 1", [0.0, 0.0, 0.0, 1.0], tolerance,
+                    what="the last row of a rigid transform")  # fmt: skip
 
 
 # ------------------------------------------------------------------------------------------------ saved states
