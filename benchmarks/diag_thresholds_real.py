@@ -71,9 +71,13 @@ def _yaw(a: float) -> np.ndarray:
 def _fit(ref: np.ndarray, est: np.ndarray, method: str) -> tuple[np.ndarray, float, str, float]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        a = align_positions(ref, est, method, undetermined="warn")  # type: ignore[arg-type]
+        try:
+            a = align_positions(ref, est, method, undetermined="warn")  # type: ignore[arg-type]
+        except ValueError:  # the exact rank test: (nearly) collinear or coincident points
+            return np.full((3, 3), np.nan), np.nan, "refused", np.inf
     assert a.conditioning is not None
-    return a.rotation, a.scale, _verdict(a.conditioning.reason), a.conditioning.rotation_std_rad
+    c = a.conditioning
+    return a.rotation, a.scale, _verdict(c.reason), max(c.rotation_std_rad, c.scale_std if method == "sim3" else 0)
 
 
 def _windows(t: np.ndarray, duration: float, count: int) -> list[np.ndarray]:
@@ -101,6 +105,7 @@ ALIGN_HEADER = ("| windows | n | actual good/poor/bad | refused | warned | kept 
 def alignment_known_truth(data: Path) -> list[str]:
     rng = np.random.default_rng(24)
     rows = [ALIGN_HEADER]
+    misses: list[str] = []
     for name, (_, gt_file) in TUM.items():
         gt = read_trajectory(data / gt_file)
         keep = np.concatenate(([0], np.flatnonzero(np.diff(np.floor(gt.stamps * 10.0)) > 0) + 1))  # ~10 Hz
@@ -115,15 +120,20 @@ def alignment_known_truth(data: Path) -> list[str]:
                     r0, t0 = _yaw(rng.uniform(-np.pi, np.pi)), rng.normal(0.0, 5.0, 3)
                     est = ref @ r0.T + t0 + rng.normal(0.0, sigma, ref.shape)
                     for m in METHODS:
-                        r, s, verdict, _ = _fit(ref, est, m)
-                        err = _angle(r @ r0)  # the alignment maps the estimate back: r = r0^T when exact
+                        r, s, verdict, sd = _fit(ref, est, m)
+                        err = _angle(r @ r0) if np.isfinite(r).all() else np.inf  # exact: r = r0^T
                         serr = abs(s - 1.0) if m == "sim3" else 0.0
                         cls = ("bad" if err > REFUSE_RAD or serr > REFUSE_SCALE else
                                "poor" if err > WARN_RAD or serr > WARN_SCALE else "good")  # fmt: skip
                         by_method[m].append((verdict, cls))
+                        wrong = {("refused", "good"), ("warned", "bad"), ("kept", "bad"), ("kept", "poor")}
+                        if (verdict, cls) in wrong:
+                            misses.append(f"{name}, {sigma * 100:.0f} cm, {m}, {duration:g} s ({len(idx)} poses):"
+                                              f" {verdict}, sigma {sd:.3g}, actual rotation error {err:.3g} rad, "
+                                              f"scale error {serr:.3g}")  # fmt: skip
             for m in METHODS:
                 rows.append(_table_row(f"{name}, {sigma * 100:.0f} cm noise, {m}", by_method[m]))
-    return rows
+    return rows + ["", "Each false verdict:", *(f"- {x}" for x in misses)]
 
 
 def alignment_real_estimates(data: Path) -> list[str]:
@@ -146,8 +156,11 @@ def alignment_real_estimates(data: Path) -> list[str]:
                     r, _, verdict, _ = _fit(ref_p[idx], est_p[idx], m)
                     res.append((verdict, _angle(r @ r_all.T)))
             by = {v: [a for x, a in res if x == v] for v in ("kept", "warned", "refused")}
-            med = " / ".join(f"{np.median(by[v]):.3g}" if by[v] else "–" for v in ("kept", "warned", "refused"))
-            rows.append(f"| {name}, {m} | {len(res)} | {len(by['refused'])} | {len(by['warned'])} | {len(by['kept'])} "
+            finite = {v: [a for a in by[v] if np.isfinite(a)] for v in by}  # NaN: refused by the exact rank test
+            med = " / ".join(f"{np.median(finite[v]):.3g}" if finite[v] else "–" for v in ("kept", "warned", "refused"))
+            rank = len(by["refused"]) - len(finite["refused"])
+            rows.append(f"| {name}, {m} | {len(res)} | {len(by['refused'])} ({rank} by the rank test) | "
+                        f"{len(by['warned'])} | {len(by['kept'])} "
                         f"| {sum(a > REFUSE_RAD for a in by['kept'])} | {sum(a < WARN_RAD for a in by['refused'])} "
                         f"| {med} |")  # fmt: skip
     return rows
