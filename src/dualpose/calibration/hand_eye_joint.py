@@ -41,8 +41,10 @@ __all__ = ["HandEyeStreamResult", "calibrate_hand_eye_streams", "NOT_CREDIBLE_RA
            "DOUBTFUL_CORRELATION"]
 
 #: rotation loop residual RMS over the one the streams' own noise predicts above which the match is refused as not
-#: credible (two unrelated recordings: 11-21; true pairs of the shared sets: 0.9-1.5), and above which it is doubtful
-NOT_CREDIBLE_RATIO = 5.0
+#: credible, and above which it is doubtful (docs/refusals.md, "The thresholds on real data": true pairs of the shared
+#: recordings, whole and in halves and thirds, 0.87-1.76; their windows against another window or another recording,
+#: 3.45-55, the lowest a third of one recording against the other recording, which a refusal above 5 let through)
+NOT_CREDIBLE_RATIO = 3.0
 DOUBTFUL_RATIO = 2.5
 #: coarse rate correlation below which the match is doubtful (unrelated recordings: 0.27-0.40; true pairs: 0.92-0.97)
 DOUBTFUL_CORRELATION = 0.6
