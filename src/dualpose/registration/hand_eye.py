@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from dualpose.types import _inputs
+from dualpose.algebra import _agreement
 
 __all__ = ["HandEyeResult", "HandEyeWarning", "calibrate_hand_eye", "hand_eye_motions"]
 
@@ -65,8 +65,8 @@ class HandEyeResult:
 
     def __post_init__(self) -> None:
         """The four forms of ``X`` repeat one pose: refused when they disagree
-        (:func:`~dualpose.types._inputs.check_pose_agrees`)."""
-        _inputs.check_pose_agrees(self.quat, self.translation, self.dualquat, self.matrix)
+        (:func:`~dualpose.algebra._agreement.check_pose_agrees`)."""
+        _agreement.check_pose_agrees(self.quat, self.translation, self.dualquat, self.matrix)
 
 
 def _as_dualquats(m: ArrayLike, name: str) -> NDArray[np.float64]:

@@ -12,11 +12,12 @@
   missing component, a wrong order).
 * **Saved states** (:func:`seal`, :func:`check_seal`): a BLAKE2b checksum over the whole saved dictionary, checked on
   load; the values themselves are checked by the stream's ``from_state`` with the functions above.
-* **Repeated information** (:func:`check_agree`, :func:`check_stamps_agree`, :func:`check_rigid`,
-  :func:`check_rotation_matrix`): a container or file whose fields state the same thing twice (seconds and integer
-  nanoseconds, a transform and its inverse, a rate given under two keys, a quaternion and a matrix) is refused
-  when they disagree beyond the precision they are stored with; the message names both fields, the difference and
-  the tolerance.
+* **Repeated information** (:func:`check_agree` and :func:`check_pose_agrees`, from
+  :mod:`dualpose.algebra._agreement` so that every layer can use them; :func:`check_stamps_agree`,
+  :func:`check_rigid`, :func:`check_rotation_matrix`, :func:`check_same_transform`): a container or file whose
+  fields state the same thing twice (seconds and integer nanoseconds, a transform and its inverse, a rate given
+  under two keys, a quaternion and a matrix) is refused when they disagree beyond the precision they are stored
+  with; the message names both fields, the difference and the tolerance.
 * **Sensor set-ups** (:func:`rate_doubt`, :func:`gyro_unit_doubt`, :func:`accel_unit_problem`,
   :func:`rest_problem`, :func:`gap_doubt`): what is impossible is refused (ValueError); what a user may mean but
   probably does not is a :class:`Doubt` that the caller warns about *and* reports with its result.
@@ -37,8 +38,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from dualpose.algebra.dualquat import dualquat_from_qt
-from dualpose.algebra.quat import matrix_from_quat
+from dualpose.algebra._agreement import COMPUTED_TOLERANCE, check_agree, check_pose_agrees, disagreement
 from dualpose.types.imu import ImuNoise
 
 __all__ = [
@@ -47,6 +47,7 @@ __all__ = [
     "RATE_RANGE_HZ",
     "UNIT_TOLERANCE",
     "Doubt",
+    "COMPUTED_TOLERANCE",
     "RIGID_TOLERANCE",
     "accel_unit_problem",
     "check_agree",
@@ -405,46 +406,6 @@ def check_imu_noise(noise: ImuNoise, name: str = "imu_noise") -> None:
 RIGID_TOLERANCE = 1.0e-6
 
 
-def disagreement(field_a: str, field_b: str, what: str, detail: str) -> ValueError:
-    """The refusal of two fields of one container that state the same information (``what``) differently:
-    ``FIELD_A and FIELD_B disagree (WHAT): DETAIL`` (the one wording of :func:`check_agree` and of the checks that
-    compare more than numbers)."""
-    return ValueError(f"{field_a} and {field_b} disagree{f' ({what})' if what else ''}: {detail}")
-
-
-def check_agree(field_a: str, value_a: Any, field_b: str, value_b: Any, tolerance: Any, *, what: str = "",
-                unit: str = "") -> None:  # fmt: skip
-    """Refuse two fields of one container that state the same information and disagree.
-
-    ``value_a`` and ``value_b`` (numbers or arrays of one shape, compared element by element as float64) must differ
-    by at most ``tolerance`` (a number, or an array broadcasting against them, e.g. a tolerance relative to each
-    element); a NaN disagrees with everything.  ``what`` says what the two fields both state ("the IMU rate",
-    "time of each pose"); ``unit`` is appended to the numbers.
-
-    Raises
-    ------
-    ValueError
-        ``FIELD_A and FIELD_B disagree (WHAT): at index K FIELD_A gives A, FIELD_B gives B, a difference of D UNIT
-        (tolerance T UNIT)``; or their shapes differ.
-    """
-    a = np.asarray(value_a, dtype=np.float64)
-    b = np.asarray(value_b, dtype=np.float64)
-    if a.shape != b.shape:
-        raise disagreement(field_a, field_b, what, f"shapes {a.shape} and {b.shape}")
-    tol = np.broadcast_to(np.asarray(tolerance, dtype=np.float64), a.shape)
-    with np.errstate(invalid="ignore", over="ignore"):
-        diff = np.abs(a - b)
-        bad = ~(diff <= tol)  # NaN compares False
-    if not bad.any():
-        return
-    k = int(np.argmax(bad.reshape(-1)))
-    at = f"at index {np.unravel_index(k, a.shape) if a.ndim > 1 else k} " if a.ndim else ""
-    u = f" {unit}" if unit else ""
-    raise disagreement(field_a, field_b, what, f"{at}{field_a} gives {float(a.reshape(-1)[k])!r}, {field_b} gives "
-                       f"{float(b.reshape(-1)[k])!r}, a difference of {diff.reshape(-1)[k]:.3g}{u} (tolerance "
-                       f"{tol.reshape(-1)[k]:.3g}{u})")  # fmt: skip
-
-
 def check_stamps_agree(seconds: Any, stamps_ns: Any, seconds_name: str = "stamps",
                        ns_name: str = "stamps_ns") -> None:  # fmt: skip
     """Refuse float seconds ``seconds`` (N,) that are not the integer nanoseconds ``stamps_ns`` (N,) they repeat:
@@ -496,36 +457,6 @@ def check_same_transform(name_a: str, T_a: NDArray[np.float64], name_b: str, T_b
     scale = max(1.0, float(np.abs(T_a[:3, 3]).max()), float(np.abs(T_b[:3, 3]).max()))
     check_agree(f"{name_a} translation", T_a[:3, 3], f"{name_b} translation", T_b[:3, 3], tol * scale,
                 what="one transform")  # fmt: skip
-
-
-#: two fields of a result computed from one another in float64 agree to this, relative to ``max(1, |t|)`` for
-#: translations (a thousand units in the last place: each conversion rounds a few times)
-COMPUTED_TOLERANCE = 1.0e3 * float(np.finfo(np.float64).eps)
-
-
-def check_pose_agrees(quat: Any, translation: Any, dualquat: Any = None, matrix: Any = None,
-                      tolerance: float = COMPUTED_TOLERANCE) -> None:  # fmt: skip
-    """Refuse a pose stated several ways that disagree: ``quat`` (4,) xyzw unit and ``translation`` (3,), the unit
-    dual quaternion ``dualquat`` (8,) ``[real xyzw, dual xyzw]`` (its real part ``±quat``, its dual part
-    ``½ t ⊗ real``, so orthogonal to the real part) and the homogeneous ``matrix`` (4, 4) (rotation block
-    ``R(quat)``, last column ``translation``, last row 0 0 0 1), each to ``tolerance`` (translations relative to
-    ``max(1, |t|)``)."""
-    q = np.asarray(quat, dtype=np.float64)
-    t = np.asarray(translation, dtype=np.float64)
-    check_agree("|quat|", np.linalg.norm(q), "1", 1.0, tolerance, what="a rotation is a unit quaternion")
-    scale = tolerance * max(1.0, float(np.abs(t).max()))
-    if dualquat is not None:
-        d = np.asarray(dualquat, dtype=np.float64)
-        sign = 1.0 if float(d[:4] @ q) >= 0.0 else -1.0  # q and -q are one rotation
-        want = sign * dualquat_from_qt(q, t)
-        check_agree("dualquat real part", d[:4], "quat", want[:4], tolerance, what="the rotation")
-        check_agree("dualquat dual part", d[4:], "½ translation ⊗ quat", want[4:], scale, what="the translation")
-    if matrix is not None:
-        m = np.asarray(matrix, dtype=np.float64)
-        check_agree("matrix rotation block", m[:3, :3], "R(quat)", matrix_from_quat(q), tolerance, what="the rotation")
-        check_agree("matrix last column", m[:3, 3], "translation", t, scale, what="the translation")
-        check_agree("matrix last row", m[3], "0 0 0 1", [0.0, 0.0, 0.0, 1.0], tolerance,
-                    what="the last row of a rigid transform")  # fmt: skip
 
 
 # ------------------------------------------------------------------------------------------------ saved states
