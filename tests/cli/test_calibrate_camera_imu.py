@@ -64,6 +64,7 @@ def test_input_errors_exit_1(euroc, tmp_path, capsys):
     assert main(_args(euroc, "--window", str(W0), str(W0 + 1))) == 1
     assert "frames with >= 8 corners" in capsys.readouterr().err
     yaml = (euroc / "sensors.yaml").read_text().replace("radial-tangential", "equidistant", 1)
+    yaml = yaml.replace("distortion_k1_k2_p1_p2", "distortion_k1_k2_k3_k4", 1)  # the key names the model's coefficients
     (tmp_path / "sensors.yaml").write_text(yaml)
     args = ["calibrate", "camera-imu", str(euroc / "imu0.csv"), str(euroc / "cam0_aprilgrid.csv"), "--sensors",
             str(tmp_path / "sensors.yaml")]  # fmt: skip

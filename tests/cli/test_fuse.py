@@ -42,7 +42,10 @@ def test_out_writes_files_refuses_overwrite_and_force_replaces(tmp_path, capsys)
     assert "holds an earlier run's output" in err and "--force" in err and str(out) in err
     assert (out / "metrics.json").stat().st_mtime_ns == before
 
-    (out / "metrics.json").write_text("{}")
+    (out / "metrics.json").write_text("{}")  # changed after the run: no longer what dualpose wrote
+    assert main(["fuse", "--filter", "hol22", "--out", str(out), "--force"]) == 2
+    assert "metrics.json and manifest.json disagree" in capsys.readouterr().err
+    (out / "metrics.json").unlink()
     assert main(["fuse", "--filter", "hol22", "--out", str(out), "--force"]) == 0
     assert json.loads((out / "metrics.json").read_text())["filter"] == "hol22"
 

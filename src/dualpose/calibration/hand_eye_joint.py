@@ -35,13 +35,16 @@ from dualpose.calibration.hand_eye_streams import (
 from dualpose.calibration.hand_eye_time import coarse_time_offset
 from dualpose.registration import HandEyeWarning, calibrate_hand_eye
 from dualpose.registration.hand_eye_closed_form import HAND_EYE_CLOSED_FORMS, hand_eye_translation
+from dualpose.types import _inputs
 
 __all__ = ["HandEyeStreamResult", "calibrate_hand_eye_streams", "NOT_CREDIBLE_RATIO", "DOUBTFUL_RATIO",
            "DOUBTFUL_CORRELATION"]
 
 #: rotation loop residual RMS over the one the streams' own noise predicts above which the match is refused as not
-#: credible (two unrelated recordings: 11-21; true pairs of the shared sets: 0.9-1.5), and above which it is doubtful
-NOT_CREDIBLE_RATIO = 5.0
+#: credible, and above which it is doubtful (docs/refusals.md, "The thresholds on real data": true pairs of the shared
+#: recordings, whole and in halves and thirds, 0.87-1.76; their windows against another window or another recording,
+#: 3.45-55, the lowest a third of one recording against the other recording, which a refusal above 5 let through)
+NOT_CREDIBLE_RATIO = 3.0
 DOUBTFUL_RATIO = 2.5
 #: coarse rate correlation below which the match is doubtful (unrelated recordings: 0.27-0.40; true pairs: 0.92-0.97)
 DOUBTFUL_CORRELATION = 0.6
@@ -159,6 +162,11 @@ class HandEyeStreamResult:
     credibility: str = "credible"
     camera_report: CleaningReport | None = field(default=None)
     body_report: CleaningReport | None = field(default=None)
+
+    def __post_init__(self) -> None:
+        """``quat``, ``translation``, ``dualquat`` and ``matrix`` repeat one ``X``: refused when they disagree
+        (:func:`~dualpose.types._inputs.check_pose_agrees`)."""
+        _inputs.check_pose_agrees(self.quat, self.translation, self.dualquat, self.matrix)
 
     @property
     def pairs_used(self) -> int:

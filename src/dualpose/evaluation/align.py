@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike
 
 import dualpose as dp
 from dualpose.registration import register_pose
+from dualpose.types import _inputs
 
 __all__ = ["Alignment", "AlignmentConditioning", "umeyama_alignment", "align_positions", "origin_alignment",
            "posyaw_alignment", "AlignMethod", "Undetermined", "check_alignment_rank", "alignment_conditioning"]
@@ -137,7 +138,9 @@ def alignment_conditioning(
     ``σ² = σ_y² + s² σ_x²`` is observed, so the bound ``σ² max(λx_i, λy_j / s²) / N`` is used: it holds whichever
     set carries the noise, and is what makes the test refuse an alignment fitted to noise (a reference standing
     still with 0.1 mm jitter against a noisy estimate has a cross-covariance at its own noise level).  The scale
-    (Umeyama eq. 42) has variance ``σ² / (N Σ_k λx_k)``; the translation at the target centroid ``σ² / N``.  For
+    (Umeyama eq. 42) has variance ``σ² / (N Σ_k λx_k)``, to which the bound of its errors-in-variables bias,
+    ``3σ² / Σ_k λx_k`` relative (noise on the source inflates its spread and shrinks the fitted scale by that
+    fraction), is added in quadrature; the translation at the target centroid ``σ² / N``.  For
     ``method="posyaw"`` the yaw ``ψ = atan2(B, A)`` (``A + iB = Σ (x_h·y_h + i x_h×y_h)`` over the horizontal
     parts) has variance ``σ² max(Σ|x_h|², Σ|y_h|²/s²) / (A² + B²)``.
 
@@ -190,8 +193,12 @@ def alignment_conditioning(
         stds.append(_std_ratio(np.sqrt(var_ij + var_ji), d[i] * sgn[i] + d[j] * sgn[j]))
     scale_std = 0.0
     if method in ("sim3", "scale"):
-        # in scaled units xs = x' s / unit: var(s) = σ² s² / (N Σ|xs|²/N)
-        scale_std = _std_ratio(sigma * abs(scale), float(np.sqrt(np.sum(xs**2))))
+        # in scaled units xs = x' s / unit: var(s) = σ² s² / (N Σ|xs|²/N); plus the errors-in-variables bias: noise
+        # on the source inflates its spread and shrinks the fitted scale by up to 3σ² / mean|xs|² (relative)
+        spread2 = float(np.sum(xs**2))
+        first_order = _std_ratio(sigma * abs(scale), float(np.sqrt(spread2)))
+        bias = _std_ratio(3.0 * n * sigma**2 * abs(scale), spread2)
+        scale_std = float(np.hypot(first_order, bias))
     return AlignmentConditioning(sigma * unit, max(stds), tuple(sorted(stds)), trans_std, scale_std)
 
 
@@ -256,12 +263,8 @@ class Alignment:
     def __post_init__(self) -> None:
         """The fields repeat one transform: the rotation must be one (orthonormal to 1e-6, det +1), the scale
         positive and finite, the translation a finite 3-vector."""
-        r = np.asarray(self.rotation, dtype=np.float64)
+        r = _inputs.check_rotation_matrix(self.rotation, "rotation")
         t = np.asarray(self.translation, dtype=np.float64)
-        if r.shape != (3, 3) or not np.isfinite(r).all():
-            raise ValueError(f"rotation must be a finite 3 x 3 matrix; got shape {r.shape}")
-        if np.abs(r.T @ r - np.eye(3)).max() > 1e-6 or np.linalg.det(r) <= 0.0:
-            raise ValueError("rotation must be a proper rotation matrix (orthonormal, det +1)")
         if t.shape != (3,) or not np.isfinite(t).all():
             raise ValueError(f"translation must be a finite vector of shape (3,); got shape {t.shape}")
         if not (np.isfinite(self.scale) and self.scale > 0.0):

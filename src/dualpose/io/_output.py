@@ -34,6 +34,8 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import IO, Any
 
+from dualpose.types import _inputs
+
 __all__ = [
     "OutputError", "OutputFile", "OutputDirectory", "MANIFEST", "atomic_path", "atomic_text_file", "files_in_place",
     "remove_stale_siblings", "temporary_sibling_dir",
@@ -476,17 +478,48 @@ class OutputDirectory:
                     "empty directory")  # fmt: skip
         if not self.force:
             return f"{option} {p}: holds an earlier run's output ({_some(entries)}); use --force to replace it"
+        changed = self._changed_files()
+        if changed:
+            return (f"{option} {p}: {changed}: the file was changed after dualpose wrote it, so --force does not "
+                    "replace it; move it away or give a new directory")  # fmt: skip
         return None
+
+    def _manifest_files(self) -> list[dict[str, Any]] | None:
+        """The ``files`` entries of the earlier set's manifest; None without a readable one."""
+        try:
+            with open(self.path / MANIFEST, encoding="utf-8") as f:
+                files = json.load(f)["files"]
+            return [dict(entry) for entry in files]
+        except (OSError, ValueError, KeyError, TypeError):
+            return None
 
     def _earlier_set(self) -> frozenset[str]:
         """The names an earlier output set in :attr:`path` may hold: its manifest's files, else :attr:`names`."""
-        manifest = self.path / MANIFEST
-        try:
-            with open(manifest, encoding="utf-8") as f:
-                files = json.load(f)["files"]
-            return frozenset([MANIFEST, *(str(entry["name"]) for entry in files)])
-        except (OSError, ValueError, KeyError, TypeError):
+        files = self._manifest_files()
+        if files is None:
             return self.names
+        try:
+            return frozenset([MANIFEST, *(str(entry["name"]) for entry in files)])
+        except KeyError:
+            return self.names
+
+    def _changed_files(self) -> str | None:
+        """The first file of the earlier set whose size or SHA-256 disagrees with its manifest entry (the manifest
+        repeats what each file holds): a file a user changed after the run is no longer dualpose's to replace."""
+        for entry in self._manifest_files() or ():
+            f = self.path / str(entry.get("name", ""))
+            if not f.is_file():
+                continue
+            got: object
+            if "bytes" in entry and entry["bytes"] != f.stat().st_size:
+                key, got = "bytes", f.stat().st_size
+            elif "sha256" in entry and entry["sha256"] != _sha256(f):
+                key, got = "sha256", _sha256(f)
+            else:
+                continue
+            return str(_inputs.disagreement(str(entry["name"]), MANIFEST, "what the run wrote", f"the file's {key} "
+                                            f"is {got}, the manifest lists {entry[key]}"))  # fmt: skip
+        return None
 
     @contextlib.contextmanager
     def writing(self) -> Iterator[Path]:

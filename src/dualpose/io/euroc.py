@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dualpose.io._text import open_for_writing, parse_float_columns, parse_int_column, read_table
+from dualpose.types import _inputs
 from dualpose.types.trajectory import Trajectory, seconds_from_ns
 
 __all__ = ["ImuData", "read_euroc_imu", "write_euroc_imu", "read_euroc_groundtruth", "write_euroc_groundtruth"]
@@ -46,7 +47,7 @@ class ImuData:
     stamps_ns : ndarray of int64, shape (N,)
         Exact timestamps, nanoseconds.
     stamps : ndarray, shape (N,)
-        The same in float64 seconds.
+        The same in float64 seconds (refused when they disagree with ``stamps_ns``).
     gyro : ndarray, shape (N, 3)
         Angular rate of the sensor frame, in the sensor frame, rad/s.
     accel : ndarray, shape (N, 3)
@@ -59,6 +60,16 @@ class ImuData:
     gyro: np.ndarray
     accel: np.ndarray
     name: str = ""
+
+    def __post_init__(self) -> None:
+        """``stamps`` repeat ``stamps_ns`` (:func:`~dualpose.types._inputs.check_stamps_agree`); one row per
+        stamp in every array."""
+        n = len(self.stamps_ns)
+        for name, shape in (("stamps", (n,)), ("gyro", (n, 3)), ("accel", (n, 3))):
+            if np.shape(getattr(self, name)) != shape:
+                raise ValueError(f"{name} must have shape {shape} (one row per stamps_ns); got "
+                                 f"{np.shape(getattr(self, name))}")  # fmt: skip
+        _inputs.check_stamps_agree(self.stamps, self.stamps_ns)
 
     def __len__(self) -> int:
         return int(self.stamps_ns.shape[0])

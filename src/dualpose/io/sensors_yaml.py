@@ -45,6 +45,7 @@ from numpy.typing import NDArray
 
 from dualpose.io._text import check_path, open_input
 from dualpose.io.recording import RecordingError
+from dualpose.types import _inputs
 from dualpose.types.camera_models import (
     CAMERA_MODEL_NAMES,
     DistortedCamera,
@@ -150,9 +151,10 @@ class _Doc:
                 a = a.reshape(4, 4)
             if a.shape != (4, 4):
                 raise self.error(keys, f"must be a 4x4 matrix (4 rows or 16 numbers, row-major); got shape {a.shape}")
-            if not np.allclose(a[3], [0, 0, 0, 1]) or not np.allclose(a[:3, :3] @ a[:3, :3].T, np.eye(3), atol=1e-6):
-                raise self.error(keys, "must be a rigid transform (orthonormal rotation, last row 0 0 0 1)")
-            return a
+            try:
+                return _inputs.check_rigid(a, "T")
+            except ValueError as exc:
+                raise self.error(keys, f"must be a rigid transform: {exc}") from None
         raise AssertionError(kind)  # pragma: no cover
 
     def _array(self, keys: _Keys, value: Any) -> NDArray[np.float64]:
@@ -197,8 +199,13 @@ def _camera(doc: _Doc, name: str) -> RadTanCamera | EquidistantCamera:
         dist = doc.get((name, "distortion_coeffs"), "numbers:4")
     else:
         intr = doc.get((name, "intrinsics_fx_fy_cx_cy"), "numbers:4")
-        dkey = next((k for k in cam if str(k).startswith("distortion_k")), "distortion_k1_k2_p1_p2")
-        dist = doc.get((name, dkey), "numbers:4")
+        want = "distortion_" + "_".join(CAMERA_MODEL_NAMES[model.strip().lower()].DISTORTION_NAMES)
+        dkeys = [str(k) for k in cam if str(k).startswith("distortion_k")]
+        for dkey in dkeys:  # the key names the coefficients, the model names them too: they must agree
+            if dkey != want:
+                raise doc.error((name, dkey), f"the key names the coefficients of another distortion model than "
+                                f"distortion_model {model!r}, whose coefficients are {want}")  # fmt: skip
+        dist = doc.get((name, want), "numbers:4")
     res = doc.get((name, "resolution"), "numbers:2")
     if not (res == np.round(res)).all() or (res <= 0).any():
         raise doc.error((name, "resolution"), f"must be two positive whole numbers of pixels; got {res.tolist()}")
@@ -206,6 +213,36 @@ def _camera(doc: _Doc, name: str) -> RadTanCamera | EquidistantCamera:
         return camera_from_parameters(model, intr, dist, int(res[0]), int(res[1]))
     except ValueError as exc:
         raise doc.error((name,), str(exc)) from None
+
+
+def _inverse(T: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The inverse of a rigid transform (4, 4): ``[[Rᵀ, −Rᵀ t], [0, 1]]``."""
+    inv = np.eye(4)
+    inv[:3, :3] = T[:3, :3].T
+    inv[:3, 3] = -T[:3, :3].T @ T[:3, 3]
+    return inv
+
+
+def _check_repeated_extrinsics(doc: _Doc, names: list[str], extrinsics: dict[tuple[str, str], NDArray[np.float64]],
+                               t_cam_imu: dict[str, NDArray[np.float64]]) -> None:  # fmt: skip
+    """Refuse camera extrinsics the file states twice that disagree: ``T_camA_camB`` and ``T_camB_camA`` (inverses
+    of each other), and Kalibr's ``T_cn_cnm1`` next to both cameras' ``T_cam_imu`` (``T_cn_imu T_cnm1_imu⁻¹``);
+    to :data:`~dualpose.types._inputs.RIGID_TOLERANCE` (:func:`~dualpose.types._inputs.check_same_transform`)."""
+    pairs: list[tuple[str, NDArray[np.float64], str, NDArray[np.float64], tuple[str, ...]]] = []
+    for (a, b), T in extrinsics.items():
+        if (b, a) in extrinsics and a < b:
+            pairs.append((f"T_{a}_{b}", T, f"T_{b}_{a}⁻¹", _inverse(extrinsics[(b, a)]), (f"T_{b}_{a}",)))
+    for i, n in enumerate(names[1:], 1):
+        prev = names[i - 1]
+        if (n, prev) in extrinsics and n in t_cam_imu and prev in t_cam_imu and "T_cn_cnm1" in doc.data[n]:
+            via_imu = t_cam_imu[n] @ _inverse(t_cam_imu[prev])
+            pairs.append((f"{n}.T_cn_cnm1", extrinsics[(n, prev)], f"{n}.T_cam_imu {prev}.T_cam_imu⁻¹", via_imu,
+                          (n, "T_cn_cnm1")))  # fmt: skip
+    for name_a, T_a, name_b, T_b, keys in pairs:
+        try:
+            _inputs.check_same_transform(name_a, T_a, name_b, T_b)
+        except ValueError as exc:
+            raise doc.error(keys, str(exc)) from None
 
 
 def read_rig_sensors(path: str | os.PathLike[str]) -> RigSensors:
@@ -250,12 +287,20 @@ def read_rig_sensors(path: str | os.PathLike[str]) -> RigSensors:
             if i == 0:
                 raise doc.error((n, "T_cn_cnm1"), "the first camera has no previous camera")
             extrinsics[(n, names[i - 1])] = doc.get((n, "T_cn_cnm1"), "matrix4")
+    _check_repeated_extrinsics(doc, names, extrinsics, t_cam_imu)
     noise, rate, gravity = None, math.nan, math.nan
     if "imu0" in doc.data:
         doc.get(("imu0",), "map")
         rate = float(doc.get(("imu0", "rate_hz"), "number", required=False, default=math.nan))
         if "update_rate" in doc.data["imu0"]:
-            rate = float(doc.get(("imu0", "update_rate"), "number"))
+            update_rate = float(doc.get(("imu0", "update_rate"), "number"))
+            if math.isfinite(rate):  # one rate under two keys
+                try:
+                    _inputs.check_agree("imu0.rate_hz", rate, "imu0.update_rate", update_rate,
+                                        _inputs.RIGID_TOLERANCE * abs(update_rate), what="the IMU rate", unit="Hz")
+                except ValueError as exc:
+                    raise doc.error(("imu0", "update_rate"), str(exc)) from None
+            rate = update_rate
         if math.isfinite(rate) and not rate > 0:  # NaN: not given
             key = "update_rate" if "update_rate" in doc.data["imu0"] else "rate_hz"
             raise doc.error(("imu0", key), f"must be > 0 Hz; got {rate}")

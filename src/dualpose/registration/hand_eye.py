@@ -15,6 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from dualpose.algebra import _agreement
+
 __all__ = ["HandEyeResult", "HandEyeWarning", "calibrate_hand_eye", "hand_eye_motions"]
 
 
@@ -60,6 +62,11 @@ class HandEyeResult:
     incongruent_pairs: np.ndarray
     parallel_axes: bool
     covariance: np.ndarray
+
+    def __post_init__(self) -> None:
+        """The four forms of ``X`` repeat one pose: refused when they disagree
+        (:func:`~dualpose.algebra._agreement.check_pose_agrees`)."""
+        _agreement.check_pose_agrees(self.quat, self.translation, self.dualquat, self.matrix)
 
 
 def _as_dualquats(m: ArrayLike, name: str) -> NDArray[np.float64]:

@@ -12,6 +12,12 @@
   missing component, a wrong order).
 * **Saved states** (:func:`seal`, :func:`check_seal`): a BLAKE2b checksum over the whole saved dictionary, checked on
   load; the values themselves are checked by the stream's ``from_state`` with the functions above.
+* **Repeated information** (:func:`check_agree` and :func:`check_pose_agrees`, from
+  :mod:`dualpose.algebra._agreement` so that every layer can use them; :func:`check_stamps_agree`,
+  :func:`check_rigid`, :func:`check_rotation_matrix`, :func:`check_same_transform`): a container or file whose
+  fields state the same thing twice (seconds and integer nanoseconds, a transform and its inverse, a rate given
+  under two keys, a quaternion and a matrix) is refused when they disagree beyond the precision they are stored
+  with; the message names both fields, the difference and the tolerance.
 * **Sensor set-ups** (:func:`rate_doubt`, :func:`gyro_unit_doubt`, :func:`accel_unit_problem`,
   :func:`rest_problem`, :func:`gap_doubt`): what is impossible is refused (ValueError); what a user may mean but
   probably does not is a :class:`Doubt` that the caller warns about *and* reports with its result.
@@ -32,6 +38,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from dualpose.algebra._agreement import COMPUTED_TOLERANCE, check_agree, check_pose_agrees, disagreement
 from dualpose.types.imu import ImuNoise
 
 __all__ = [
@@ -40,13 +47,22 @@ __all__ = [
     "RATE_RANGE_HZ",
     "UNIT_TOLERANCE",
     "Doubt",
+    "COMPUTED_TOLERANCE",
+    "RIGID_TOLERANCE",
     "accel_unit_problem",
+    "check_agree",
     "check_camera",
+    "check_pose_agrees",
     "check_imu_noise",
     "check_rate",
     "check_rest_samples",
+    "check_rigid",
+    "check_rotation_matrix",
+    "check_same_transform",
     "check_seal",
+    "check_stamps_agree",
     "covariance_matrix",
+    "disagreement",
     "finite_vector",
     "frame_points",
     "gap_doubt",
@@ -380,6 +396,67 @@ def check_imu_noise(noise: ImuNoise, name: str = "imu_noise") -> None:
         if not (isinstance(v, (int, float)) and math.isfinite(v) and 0 <= v <= hi):
             raise ValueError(f"{name}.{f.name} must be finite and in [0, {hi:g}]; got {v!r}")
     check_rate(noise.update_rate, f"{name}.update_rate")
+
+
+# ------------------------------------------------------------------------------------------------ agreement
+
+#: a rotation matrix or rigid transform read from a file or built by a caller is orthonormal to this (entries of
+#: ``RᵀR − I``; files print 7 or more significant digits), and two that should be the same transform agree to this
+#: (entries of ``R_a R_bᵀ − I``, translations relative to ``max(1, |t|)``)
+RIGID_TOLERANCE = 1.0e-6
+
+
+def check_stamps_agree(seconds: Any, stamps_ns: Any, seconds_name: str = "stamps",
+                       ns_name: str = "stamps_ns") -> None:  # fmt: skip
+    """Refuse float seconds ``seconds`` (N,) that are not the integer nanoseconds ``stamps_ns`` (N,) they repeat:
+    each must be within half a nanosecond (the integer's rounding) plus two float64 units in the last place of the
+    stamp (its own rounding: 0.5 µs at the Unix epoch) of ``stamps_ns · 1e-9``, computed exactly as whole seconds
+    plus the remainder."""
+    ns = np.asarray(stamps_ns).astype(np.int64, copy=False)
+    whole, frac = np.divmod(ns, 1_000_000_000)
+    exact = whole.astype(np.float64) + frac.astype(np.float64) * 1e-9
+    t = np.asarray(seconds, dtype=np.float64)
+    check_agree(seconds_name, t, ns_name + " · 1e-9", exact, 0.5e-9 + 2.0 * np.spacing(np.abs(exact)),
+                what="the time of each sample", unit="s")  # fmt: skip
+
+
+def check_rotation_matrix(r: Any, name: str, tolerance: float = RIGID_TOLERANCE) -> NDArray[np.float64]:
+    """``r`` as a float64 (3, 3) proper rotation matrix: finite, ``RᵀR`` within ``tolerance`` of the identity (its
+    columns repeat one another's information: unit length, orthogonal), determinant +1 (not a reflection)."""
+    a = np.asarray(_as_float(r, name), dtype=np.float64)
+    if a.shape != (3, 3) or not np.isfinite(a).all():
+        raise ValueError(f"{name} must be a finite 3 x 3 rotation matrix; got shape {a.shape}")
+    check_agree(f"{name}ᵀ{name}", a.T @ a, "the identity", np.eye(3), tolerance,
+                what="a rotation's columns are orthonormal")  # fmt: skip
+    if np.linalg.det(a) <= 0.0:
+        raise ValueError(f"{name} must be a proper rotation (determinant +1); its determinant is "
+                         f"{float(np.linalg.det(a)):.6g}: a reflection (a flipped axis)")  # fmt: skip
+    return a
+
+
+def check_rigid(T: Any, name: str, tolerance: float = RIGID_TOLERANCE) -> NDArray[np.float64]:
+    """``T`` as a float64 (4, 4) rigid transform ``[[R, t], [0 0 0 1]]``: a proper rotation block
+    (:func:`check_rotation_matrix`), a finite translation and the last row 0 0 0 1 (to ``tolerance``)."""
+    a = np.asarray(_as_float(T, name), dtype=np.float64)
+    if a.shape != (4, 4) or not np.isfinite(a).all():
+        raise ValueError(f"{name} must be a finite 4 x 4 transform; got shape {a.shape}")
+    check_agree(f"{name} last row", a[3], "0 0 0 1", [0.0, 0.0, 0.0, 1.0], tolerance,
+                what="the last row of a rigid transform")  # fmt: skip
+    check_rotation_matrix(a[:3, :3], f"{name} rotation block", tolerance)
+    return a
+
+
+def check_same_transform(name_a: str, T_a: NDArray[np.float64], name_b: str, T_b: NDArray[np.float64],
+                         tolerance: float = RIGID_TOLERANCE) -> None:  # fmt: skip
+    """Refuse two rigid transforms (4, 4) that should be the same and are not: their rotations within
+    ``10 · tolerance`` (entries of ``R_a R_bᵀ − I``: each is orthonormal to ``tolerance`` only) and their
+    translations within ``10 · tolerance · max(1, |t|)`` (in the translation's unit)."""
+    tol = 10.0 * tolerance
+    check_agree(f"{name_a} rotation", T_a[:3, :3] @ T_b[:3, :3].T, f"{name_b} rotation", np.eye(3), tol,
+                what="one rotation: R_a R_bᵀ must be the identity")  # fmt: skip
+    scale = max(1.0, float(np.abs(T_a[:3, 3]).max()), float(np.abs(T_b[:3, 3]).max()))
+    check_agree(f"{name_a} translation", T_a[:3, 3], f"{name_b} translation", T_b[:3, 3], tol * scale,
+                what="one transform")  # fmt: skip
 
 
 # ------------------------------------------------------------------------------------------------ saved states

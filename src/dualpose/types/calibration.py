@@ -17,6 +17,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from dualpose.types import _inputs
+
 __all__ = ["CameraImuCalibration"]
 
 
@@ -48,7 +50,9 @@ class CameraImuCalibration:
     gravity_target : ndarray, shape (3,), or None
         Gravity in the target frame, m/s²; None when not stated.
     std : dict
-        Standard deviations the calibration states (free form: name -> number or list), kept as read.
+        Standard deviations the calibration states (name -> number or list), kept as read; one under the name of a
+        field (``translation_m``, ``gyro_bias``, ``accel_bias``, ``time_offset_s``) must have that field's shape and
+        be >= 0, and the field must be stated.
     gyro_axes_matrix, accel_axes_matrix : ndarray, shape (3, 3), or None
         The IMU axis models of the calibration (``dualpose calibrate camera-imu --imu-model scale_misalignment``,
         docs/euroc.md): the measured rate and specific force are ``ω̃ = M_g (ω + b_g)``, ``f̃ = M_a (f + b_a)``
@@ -103,6 +107,28 @@ class CameraImuCalibration:
                 object.__setattr__(self, name, m)
         if not isinstance(self.std, dict):
             raise ValueError(f"std must be a mapping of names to standard deviations; got {type(self.std).__name__}")
+        self._check_std_agrees()
+
+    def _check_std_agrees(self) -> None:
+        """A standard deviation in ``std`` under a field's name (``translation_m``, ``gyro_bias``, ``accel_bias``,
+        ``time_offset_s``) repeats that field's shape and must be there only with it: one finite number >= 0 per
+        component."""
+        for name in ("translation_m", "gyro_bias", "accel_bias", "time_offset_s"):
+            if name not in self.std or self.std[name] is None:
+                continue
+            value = getattr(self, name)
+            if value is None:
+                raise _inputs.disagreement(f"std.{name}", name, "one estimated value", "the calibration states a "
+                                           f"standard deviation of {name} but not {name} itself")  # fmt: skip
+            try:
+                sd = np.asarray(self.std[name], dtype=np.float64)
+            except (TypeError, ValueError):
+                raise ValueError(f"std.{name} must be numbers; got {self.std[name]!r}") from None
+            if sd.shape != np.shape(value):
+                raise _inputs.disagreement(f"std.{name}", name, "one estimated value", f"{name} has shape "
+                                           f"{np.shape(value)} but its standard deviation {sd.shape}")  # fmt: skip
+            if not (np.isfinite(sd) & (sd >= 0)).all():
+                raise ValueError(f"std.{name} must be finite standard deviations >= 0; got {sd.tolist()}")
 
     def as_dict(self) -> dict[str, Any]:
         """The JSON-ready mapping of the calibration file (keys as the attributes; None for absent biases)."""

@@ -42,6 +42,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from dualpose import _native
+from dualpose.types import _inputs
 from dualpose.types.camera import CameraIntrinsics, PinholeModel
 
 __all__ = [
@@ -133,6 +134,7 @@ class DistortedCamera(_KernelRow, abc.ABC):
             if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or v <= 0:
                 raise ValueError(f"{name} must be a positive whole number of pixels; got {v!r}")
             object.__setattr__(self, name, int(v))
+        _inputs.check_camera(self, self.model)  # the principal point and the image size must agree
         object.__setattr__(self, "_params", np.array([self.fx, self.fy, self.cx, self.cy, *self.distortion]))
         object.__setattr__(self, "_bound", self._limit())
 

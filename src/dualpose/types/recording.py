@@ -101,7 +101,8 @@ class Recording:
     ground_truth : Trajectory or None
         Body poses (world frame, ``q_wb`` xyzw) to evaluate against; None when the recording has none.
     stamps_ns : ndarray of int64, shape (N,), or None
-        The IMU stamps as exact integer nanoseconds when the source had them (used for the output trajectory).
+        The IMU stamps as exact integer nanoseconds when the source had them (used for the output trajectory);
+        refused when they are not the times ``t``.
     name : str
         A label (the source path, or "sim").
     info : dict
@@ -133,6 +134,11 @@ class Recording:
         for name in ("gyro", "accel"):  # the IMU sample checks every path shares (docs/refusals.md)
             a = _inputs.imu_rows(getattr(self, name), name, name, n, lambda k: f"sample {k} (t = {self.t[k]:.6f} s)")
             setattr(self, name, a)
+        if self.stamps_ns is not None:  # the same times twice: they must agree (docs/refusals.md)
+            ns = np.asarray(self.stamps_ns)
+            if ns.dtype.kind not in "iu" or ns.shape != (n,):
+                raise ValueError(f"stamps_ns must be an integer array of shape ({n},); got {ns.dtype} {ns.shape}")
+            _inputs.check_stamps_agree(self.t, ns, "t")
         _check_setup(self)
 
     @property

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from dualpose.types import _inputs
 from dualpose.types.camera import FrameCorrespondences
 from dualpose.types.camera_models import DistortedCamera
 from dualpose.types.imu import ImuNoise
@@ -30,7 +31,8 @@ class TargetDetections:
     stamps_ns : ndarray of int64, shape (F,)
         Exact frame timestamps, nanoseconds, strictly increasing.
     t : ndarray, shape (F,)
-        The same in float64 seconds (:func:`~dualpose.types.trajectory.seconds_from_ns`).
+        The same in float64 seconds (:func:`~dualpose.types.trajectory.seconds_from_ns`; refused when they
+        disagree).
     offsets : ndarray of int64, shape (F + 1,)
         Frame ``k`` owns corner rows ``offsets[k]:offsets[k+1]`` (frames without detections own none).
     pixels : ndarray, shape (M, 2)
@@ -68,6 +70,7 @@ class TargetDetections:
                 raise ValueError(f"{name} must have shape {want}; got {getattr(self, name).shape}")
         if f and (self.offsets[0] != 0 or self.offsets[-1] != m or (np.diff(self.offsets) < 0).any()):
             raise ValueError("offsets must rise from 0 to M (the number of corner rows)")
+        _inputs.check_stamps_agree(self.t, self.stamps_ns, "t")
 
     def __len__(self) -> int:
         return len(self.stamps_ns)

@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 import dualpose as dp
+from dualpose.types import _inputs
 
 __all__ = ["Trajectory", "seconds_from_ns", "interpolate_poses", "as_positions", "as_quats", "check_same_length"]
 
@@ -46,7 +47,8 @@ class Trajectory:
         Orientations body -> world, xyzw, Hamilton.  Stored as given (files often round them to a few digits, so
         they need not be exactly unit); the metrics normalize them.  Never zero.
     stamps_ns : ndarray of int64, shape (N,), optional
-        Exact integer nanoseconds when the source had them; ``stamps`` then equals ``seconds_from_ns(stamps_ns)``.
+        Exact integer nanoseconds when the source had them; ``stamps`` then equals ``seconds_from_ns(stamps_ns)``
+        (refused when not, to half a nanosecond plus the float's rounding: the two repeat one time).
     name : str
         A label (usually the file path).
     extra : mapping of str -> ndarray with leading dimension N
@@ -88,6 +90,7 @@ class Trajectory:
             if ns.dtype.kind not in "iu" or ns.shape != (n,):
                 raise ValueError(f"stamps_ns must be an integer array of shape ({n},); got {ns.dtype} {ns.shape}")
             object.__setattr__(self, "stamps_ns", ns.astype(np.int64, copy=False))
+            _inputs.check_stamps_agree(stamps, self.stamps_ns)  # two fields, one time (docs/refusals.md)
         extra = {}
         for key, arr in dict(self.extra).items():
             arr = np.asarray(arr)

@@ -27,12 +27,14 @@ import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from dualpose.io._text import check_path, open_for_writing, open_input
 from dualpose.io.euroc import ImuData
 from dualpose.io.recording import RecordingError, read_imu
 from dualpose.io.sensors_yaml import read_rig_sensors
 from dualpose.io.target.detections import read_target_detections
+from dualpose.types import _inputs
 from dualpose.types.calibration import CameraImuCalibration
 from dualpose.types.target import RigSensors, TargetDetections
 
@@ -172,9 +174,27 @@ def read_camera_imu_calibration(path: str | os.PathLike[str]) -> CameraImuCalibr
                              f"{', '.join(k for k, r in CALIBRATION_KEYS.items() if r)}){hint}")  # fmt: skip
     try:
         known = {k: v for k, v in data.items() if k in CALIBRATION_KEYS and not (k == "std" and v is None)}
-        return CameraImuCalibration(**known)
+        calibration = CameraImuCalibration(**known)
+        _check_imu_model(data)
     except (TypeError, ValueError) as exc:
         raise RecordingError(f"{p}: {exc}") from None
+    return calibration
+
+
+def _check_imu_model(data: dict[str, Any]) -> None:
+    """``imu_model`` (when the file states it, as ``dualpose calibrate camera-imu --json`` does) and the axis
+    matrices repeat one fact: ``"scale_misalignment"`` has both matrices, ``"calibrated"`` neither."""
+    model = data.get("imu_model")
+    if model is None:
+        return
+    if model not in ("calibrated", "scale_misalignment"):
+        raise ValueError(f"imu_model must be 'calibrated' or 'scale_misalignment'; got {model!r}")
+    for key in ("gyro_axes_matrix", "accel_axes_matrix"):
+        stated = data.get(key) is not None
+        if stated != (model == "scale_misalignment"):
+            detail = (f"imu_model is {model!r} but {key} is {'given' if stated else 'missing'}: the axis models are "
+                      "what 'scale_misalignment' estimates and 'calibrated' does not")  # fmt: skip
+            raise _inputs.disagreement("imu_model", key, "the IMU model of the calibration", detail)
 
 
 def write_camera_imu_calibration(
