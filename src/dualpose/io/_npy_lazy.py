@@ -2,9 +2,9 @@
 "Out-of-core rate").
 
 ``dask.array.from_array(np.load(path, mmap_mode="r"))`` is the obvious way to put a ``.npy`` file under dask, but
-dask copies any array-like that has a ``copy`` method when the graph is built (from release 2024.12.0 on: dask
-issue 11850, "``dask.array.from_array`` loads entire ``memmap`` into memory"): the whole file is read into
-anonymous memory before any task runs.  :func:`read_npy_lazy` hands dask an object without ``copy`` instead, so
+dask copies any array-like that has a ``copy`` method when the graph is built (``x = x.copy()`` at the start of
+``dask.array.from_array``, from release 2024.12.0 on): the whole file is read into anonymous memory before any task
+runs.  :func:`read_npy_lazy` hands dask an object without ``copy`` instead, so
 each block is read only when a task needs it, as a view of the pages the kernel maps (no copy, no allocation).
 """
 
