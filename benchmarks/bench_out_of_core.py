@@ -2,15 +2,16 @@
 
 Two ``(N, 4)`` float64 inputs are written as ``.npy`` files (``numpy.lib.format.open_memmap``) and read back as lazy
 dask arrays with :func:`dualpose.io.read_npy_lazy` (leading axis in chunks of ``--chunk-rows``; each block a view of
-the file's memory map; threaded scheduler, ``--workers`` threads, the native kernels release the GIL).  Not through
-``dask.array.from_array`` of the memmaps: that copies each file whole into memory when the graph is made.  Per kind
+the file's memory map; threaded scheduler, ``--workers`` threads, the native kernels release the GIL). Not through
+``dask.array.from_array`` of the memmaps: that copies each file whole into memory when the graph is made. Per kind
 of run, four runs separate the costs: the *read floor* (``sum(p) + sum(q)`` chunk by chunk over fresh memory maps,
 in one thread, no dask: the rate at which the files can be read), *read only* (the same sum through dask), *product,
 reduced* (``sum(p ⊗ q)``: read + product, nothing written) and *product, stored* (``dask.array.store`` into a third
-``.npy`` memmap with ``lock=False``, flushed to the file inside the timing).  Every run maps the files afresh and
-builds its graph inside the timing.  "cold": the files' cached pages dropped first
+``.npy`` memmap with ``lock=False``, flushed to the file inside the timing). Every run maps the files afresh and
+builds its graph inside the timing. "cold": the files' cached pages dropped first
 (``posix_fadvise(POSIX_FADV_DONTNEED)`` on these files only, before they are mapped); "warm": whatever the page
-cache holds after the cold runs.  ``--repeat K`` makes K passes and keeps each run's fastest.
+cache holds after the cold runs. ``--repeat K`` makes K passes and keeps each run's fastest (the ratio to the read
+floor is then to the fastest read floor).
 
 The reference rate is ``dp.quat_mul(p, q, out=o)`` on in-memory arrays of ``--memory-rows`` rows (inputs in RAM,
 output allocated: the memory-bound floor of the kernel, one thread); NumPy's ``sum(p) + sum(q)`` and the three dask
@@ -246,10 +247,10 @@ def main(argv: list[str] | None = None) -> int:
                         if len(best) <= k:
                             best.append(result)
                         elif measured[0] < best[k][2][0]:
-                            # the fastest pass, its ratio to the read floor of that same pass
                             best[k] = result
                         del om, run
-                results += best
+                # each run's fastest pass, as a ratio to the fastest read floor
+                results += [(name, n, measured, best[0][2][0], load) for name, n, measured, _, load in best]
             pm, qm = np.load(pp, mmap_mode="r"), np.load(qp, mmap_mode="r")
             om = np.lib.format.open_memmap(op, mode="r")
             # spot check against the in-memory product
