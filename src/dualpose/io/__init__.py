@@ -8,7 +8,8 @@ Calibration-target corner files (:func:`read_target_detections`) and rig sensor 
 Kalibr ``camchain.yaml`` (:func:`read_rig_sensors`).  Target-recording directories (``imu0.csv``,
 ``camN_aprilgrid.csv``, ``sensors.yaml``: :func:`read_target_recording`) and the camera-IMU calibration JSON
 (:func:`read_camera_imu_calibration`, :func:`write_camera_imu_calibration`).
-Pose streams ``t, x, y, z, qx, qy, qz, qw`` for ``dualpose calibrate hand-eye``: :func:`read_pose_csv`.  ROS 1 and
+Pose streams ``t, x, y, z, qx, qy, qz, qw`` for ``dualpose calibrate hand-eye``: :func:`read_pose_csv`.  A ``.npy``
+file as a lazy dask array read block by block from its memory map (out-of-core work): :func:`read_npy_lazy`.  ROS 1 and
 ROS 2 bags (``FILE.bag:/topic``, read by :func:`read_trajectory` and the IMU readers too): :mod:`dualpose.io.rosbag`
 (needs ``rosbags``, the extra ``dualpose[ros]``).  Import explicitly; ``import dualpose`` does not load this.
 
@@ -16,6 +17,7 @@ Quaternions are returned xyzw (scalar last) whatever the file stores; EuRoC nano
 int64.  Writers never replace an existing file unless ``overwrite=True``.
 """
 
+from dualpose.io._npy_lazy import read_npy_lazy
 from dualpose.io.broad import load_broad
 from dualpose.io.detect import detect_format, read_trajectory
 from dualpose.io.euroc import ImuData, read_euroc_groundtruth, read_euroc_imu, write_euroc_groundtruth, write_euroc_imu
@@ -55,6 +57,7 @@ __all__ = [
     "detect_format",
     "read_trajectory",
     "read_pose_csv",
+    "read_npy_lazy",
     "load_broad",
     "RecordingError",
     "read_recording",
