@@ -381,14 +381,22 @@ def _gauss_newton_batch(
     R: NDArray[np.float64], t: NDArray[np.float64], pixels: NDArray[np.float64], points: NDArray[np.float64],
     w: NDArray[np.float64], K: NDArray[np.float64], iterations: int, tol: float,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Batched :func:`pnp_refine` over rows weighted by ``w`` (B, M) (0 / 1); returns ``(R, t, JᵀJ, r, Z)``."""
+    """Batched :func:`pnp_refine` over rows weighted by ``w`` (B, M) (0 / 1); returns ``(R, t, JᵀJ, r, Z)``.
+
+    Each problem stops after the iteration whose step has no component above ``tol`` (JᵀJ and r are those of its
+    last iterate: changes of O(tol)); only the problems still moving are computed in the next iteration."""
+    R, t = R.copy(), t.copy()
     points = np.ascontiguousarray(points)
     fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
-    for it in range(1, iterations + 1):
-        rx = points @ np.swapaxes(R, 1, 2)
-        pc = rx + t[:, None, :]
+    b, m = w.shape
+    JtJ_all, r_all, Z_all = np.zeros((b, 6, 6)), np.zeros((b, m, 2)), np.zeros((b, m))
+    act = np.arange(b)
+    for _ in range(iterations):
+        Ra, X = R[act], points[act]
+        rx = X @ np.swapaxes(Ra, 1, 2)
+        pc = rx + t[act][:, None, :]
         Z = np.where(np.abs(pc[..., 2]) > 1e-12, pc[..., 2], 1e-12)
-        r = pixels - np.stack([fx * pc[..., 0] / Z + cx, fy * pc[..., 1] / Z + cy], axis=-1)
+        r = pixels[act] - np.stack([fx * pc[..., 0] / Z + cx, fy * pc[..., 1] / Z + cy], axis=-1)
         # ∂π/∂X_c rows (A, 0, C) and (0, D, E); ∂π/∂δφ = −Jp [R X]×, row a = (R X) × Jp_a; ∂π/∂δt = Jp
         A, C = fx / Z, -fx * pc[..., 0] / Z**2
         D, E = fy / Z, -fy * pc[..., 1] / Z**2
@@ -397,15 +405,17 @@ def _gauss_newton_batch(
         J[..., 0, 0], J[..., 0, 1], J[..., 0, 2] = q * C, s * A - p * C, -q * A
         J[..., 1, 0], J[..., 1, 1], J[..., 1, 2] = q * E - s * D, -p * E, p * D
         J[..., 0, 3], J[..., 0, 5], J[..., 1, 4], J[..., 1, 5] = A, C, D, E
-        J = J.reshape(len(R), -1, 6)  # (B, 2M, 6)
-        Jw = J * np.repeat(w, 2, axis=1)[:, :, None]
+        J = J.reshape(len(act), -1, 6)  # (B, 2M, 6)
+        Jw = J * np.repeat(w[act], 2, axis=1)[:, :, None]
         JtJ = np.swapaxes(Jw, 1, 2) @ J
-        step = np.linalg.solve(JtJ, np.swapaxes(Jw, 1, 2) @ r.reshape(len(R), -1, 1))[..., 0]
-        R = dp.matrix_from_quat(dp.quat_from_rotvec(step[:, :3])) @ R
-        t = t + step[:, 3:]
-        if it >= iterations or np.abs(step).max() < tol:  # JᵀJ and r of the last iterate: changes of O(tol)
+        step = np.linalg.solve(JtJ, np.swapaxes(Jw, 1, 2) @ r.reshape(len(act), -1, 1))[..., 0]
+        R[act] = dp.matrix_from_quat(dp.quat_from_rotvec(step[:, :3])) @ Ra
+        t[act] = t[act] + step[:, 3:]
+        JtJ_all[act], r_all[act], Z_all[act] = JtJ, r, Z
+        act = act[np.abs(step).max(axis=1) >= tol]
+        if not len(act):
             break
-    return R, t, JtJ, r, Z
+    return R, t, JtJ_all, r_all, Z_all
 
 
 def solve_pnp_batch(
