@@ -192,3 +192,24 @@ def test_batched_dlt_names_the_degenerate_problem(run: sim.SimulatedRun) -> None
     pts[1, valid[1]] = pts[1, 0]
     with pytest.raises(ValueError, match=r"same world point.*\(problem 1\)"):
         pnp.pnp_dlt_batch(pix, pts, valid, run.camera.matrix)
+
+
+def test_batched_pnp_loses_a_problem_to_nan_or_raises(run: sim.SimulatedRun) -> None:
+    problems = [(p, x) for p, x in _planar_and_general_problems(run) if len(p) >= 12][:6]
+    pix, pts, valid = _padded(problems)
+    K = run.camera.matrix
+    whole = pnp.solve_pnp_batch(pix, pts, valid, K, threshold_px=20.0)
+    bad = pix.copy()
+    keep = np.flatnonzero(valid[2])[:5]  # problem 2: all but 5 corners thrown 100 px off
+    off = np.setdiff1d(np.flatnonzero(valid[2]), keep)
+    bad[2, off] += np.random.default_rng(4).normal(0.0, 100.0, (len(off), 2))
+    with pytest.raises(ValueError, match="fewer than 6"):
+        pnp.solve_pnp_batch(bad, pts, valid, K, threshold_px=20.0)
+    lost = pnp.solve_pnp_batch(bad, pts, valid, K, threshold_px=20.0, failed="nan")
+    assert np.all(np.isnan(lost.q_wc[2])) and np.all(np.isnan(lost.c_w[2])) and np.isnan(lost.rms_px[2])
+    assert np.all(np.isnan(lost.covariance[2])) and not lost.inliers[2].any()
+    others = np.arange(len(problems)) != 2
+    np.testing.assert_allclose(lost.q_wc[others], whole.q_wc[others], atol=1e-12)
+    np.testing.assert_allclose(lost.c_w[others], whole.c_w[others], atol=1e-12)
+    with pytest.raises(ValueError, match="failed must be"):
+        pnp.solve_pnp_batch(pix, pts, valid, K, failed="skip")

@@ -261,12 +261,13 @@ def _initial_poses(frames: FrameCorrespondences, keep: NDArray[np.intp], camera:
     c = np.full((b, 3), np.nan)
     rms = np.full(b, np.nan)
     try:
-        res = solve_pnp_batch(pix, pts, valid, K, threshold_px=10.0)
-        R[:] = dp.matrix_from_quat(res.q_wc)
-        c[:] = res.c_w
-        rms[:] = res.rms_px
+        res = solve_pnp_batch(pix, pts, valid, K, threshold_px=10.0, failed="nan")  # a lost frame: NaN
+        solved = np.isfinite(res.rms_px)
+        R[solved] = dp.matrix_from_quat(res.q_wc[solved])
+        c[solved] = res.c_w[solved]
+        rms[solved] = res.rms_px[solved]
     except (ValueError, np.linalg.LinAlgError):
-        for i in range(b):  # the batch refused a frame (too few inliers): one frame at a time
+        for i in range(b):  # the batch refused a frame (degenerate points): one frame at a time
             try:
                 r1 = solve_pnp(pix[i, valid[i]], pts[i, valid[i]], K)
             except (ValueError, np.linalg.LinAlgError):

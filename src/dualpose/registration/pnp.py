@@ -426,6 +426,7 @@ def solve_pnp_batch(
     pixel_sigma: float = 1.0,
     threshold_px: float = 6.0,
     iterations: int = 10,
+    failed: str = "raise",
 ) -> PnPBatch:
     """``B`` independent PnP problems at once: :func:`solve_pnp` vectorised over the batch axis.
 
@@ -436,13 +437,19 @@ def solve_pnp_batch(
         that are real (the rest is padding).  At least 6 valid rows per problem.
     K : (3, 3) intrinsics shared by all problems, px.
 
+    failed : ``"raise"`` (default) or ``"nan"``
+        A problem left with fewer than 6 correspondences within ``threshold_px`` of its fit raises ``ValueError``,
+        or (``"nan"``) gets NaN pose, covariance and RMS and no inliers while the others are solved.
+
     The linear start is the 12-unknown DLT of :func:`pnp_dlt` (normal equations, batched eigen-solve); problems
-    whose points are close to a plane fall back to :func:`pnp_dlt` one by one.  Gauss–Newton then refines all
-    problems together; correspondences with a reprojection error above ``threshold_px`` are dropped and the
-    problems that lost any are refined again (one robust pass; for heavy outlier rates use
-    :func:`solve_pnp_ransac`).  Gauss–Newton stops when no problem's step exceeds 1e-8 (rad, m); covariances as
-    :func:`solve_pnp`.
+    whose points are close to a plane take :func:`pnp_dlt_batch` (the steps of :func:`pnp_dlt`, batched).
+    Gauss–Newton then refines all problems together; correspondences with a reprojection error above
+    ``threshold_px`` are dropped and the problems that lost any are refined again (one robust pass; for heavy
+    outlier rates use :func:`solve_pnp_ransac`).  Each problem's Gauss–Newton stops when its step has no component
+    above 1e-8 (rad, m); covariances as :func:`solve_pnp`.
     """
+    if failed not in ("raise", "nan"):
+        raise ValueError(f"failed must be 'raise' or 'nan'; got {failed!r}")
     pixels = np.asarray(pixels, dtype=np.float64)
     points = np.asarray(points, dtype=np.float64)
     valid = np.asarray(valid, dtype=bool)
@@ -483,9 +490,14 @@ def solve_pnp_batch(
     R, t, JtJ, r, Z = _gauss_newton_batch(R, t, pixels, points, w, K, iterations, 1e-8)
     inl = valid & (np.linalg.norm(r, axis=2) < threshold_px) & (Z > 0)
     redo = np.flatnonzero(np.any(inl != valid, axis=1))
-    if len(redo):
-        if np.any(inl[redo].sum(axis=1) < 6):
+    lost = redo[inl[redo].sum(axis=1) < 6]
+    if len(lost):
+        if failed == "raise":
             raise ValueError("PnP: fewer than 6 correspondences within threshold_px of the fit in some problem")
+        redo = np.setdiff1d(redo, lost)
+        inl[lost] = False
+        JtJ[lost] = np.eye(6)
+    if len(redo):
         out = _gauss_newton_batch(R[redo], t[redo], pixels[redo], points[redo], inl[redo].astype(float), K,
                                   iterations, 1e-8)  # fmt: skip
         R[redo], t[redo], JtJ[redo], r[redo] = out[:4]
@@ -496,8 +508,15 @@ def solve_pnp_batch(
     Jc[:, 3:6, 0:3] = -Rt @ dp.so3_hat(t)
     Jc[:, 3:6, 3:6] = -Rt
     cov = Jc @ cov_lt @ np.swapaxes(Jc, 1, 2)
-    rms = np.sqrt(np.einsum("bm,bma->b", inl.astype(float), r**2) / (2 * inl.sum(axis=1)))
+    with np.errstate(invalid="ignore"):  # the lost problems (no inliers): NaN below
+        rms = np.sqrt(np.einsum("bm,bma->b", inl.astype(float), r**2) / (2 * inl.sum(axis=1)))
+    q_wc = np.full((b, 4), np.nan)
+    ok = np.ones(b, dtype=bool)
+    ok[lost] = False
+    q_wc[ok] = dp.quat_from_matrix(Rt[ok])
+    c_w = -np.einsum("bij,bj->bi", Rt, t)
+    c_w[lost], cov[lost], rms[lost] = np.nan, np.nan, np.nan
     return PnPBatch(
-        q_wc=dp.quat_from_matrix(Rt), c_w=-np.einsum("bij,bj->bi", Rt, t),
+        q_wc=q_wc, c_w=c_w,
         covariance=0.5 * (cov + np.swapaxes(cov, 1, 2)), rms_px=rms, inliers=inl,
     )  # fmt: skip
