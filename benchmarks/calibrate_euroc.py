@@ -2,12 +2,16 @@
 compared with EuRoC's published Kalibr extrinsics (Burri et al. 2016, mav0/cam0|cam1/sensor.yaml ``T_BS``) and,
 composed (``T_cam0_cam1 = T_b_c0⁻¹ T_b_c1``), with the stereo extrinsic of sensors.yaml.
 
-Run ``nice .venv/bin/python benchmarks/calibrate_euroc.py [--imu-models scale_misalignment calibrated]
-[--bias-models random_walk constant] [--noise-scales 1 3 10] [--option noise_model=motion huber=3 ...]
-[--window START END] [--stereo-ba] [--markdown PATH]`` (one full calibration per camera and model pair, ≈ 10–30 s
-each on 2 shared cores).  ``--option KEY=VALUE`` passes options to ``calibrate_camera_imu`` (the hypotheses of
-docs/euroc.md); ``--stereo-ba`` adds the camera-only stereo bundle adjustment of the same corner files (intrinsics
-fixed as in sensors.yaml): the stereo extrinsic that the detections themselves imply.
+Run ``nice .venv/bin/python benchmarks/calibrate_euroc.py [--imu-models scale_misalignment calibrated] [--bias-models
+random_walk constant] [--noise-scales 1 3 10] [--option noise_model=motion huber=3 ...] [--intrinsics fixed distortion
+focal+distortion focal all] [--window START END] [--stereo-ba] [--markdown PATH]`` (one full calibration per camera
+and model pair, ≈ 10–30 s each on 2 shared cores; 1.5–4 min with refined camera parameters, which take the NumPy
+path). ``--intrinsics`` refines the named camera parameters in the batch, the others held at sensors.yaml's values by
+``intrinsics_prior_sigma``. The composition table gives the formal σ of the composition from the two runs' covariances
+(taken as independent) and the error's Mahalanobis distance. ``--option KEY=VALUE`` passes options to
+``calibrate_camera_imu`` (the hypotheses of docs/euroc.md); ``--stereo-ba`` adds the camera-only stereo bundle
+adjustment of the same corner files (intrinsics fixed as in sensors.yaml): the stereo extrinsic that the detections
+themselves imply.
 """
 
 from __future__ import annotations
@@ -132,9 +136,36 @@ def stereo_table(window: tuple[float, float] | None) -> str:
         ""])  # fmt: skip
 
 
+#: camera-parameter refinements in the batch (``--intrinsics``): the σ of the prior on (fx, fy, cx, cy, k1, k2, p1,
+#: p2) at the values of sensors.yaml (``inf``: free; 1e-3 px / 1e-6 holds a parameter)
+INTRINSICS = {
+    "fixed": None,
+    "focal": [math.inf, math.inf, 1e-3, 1e-3, 1e-6, 1e-6, 1e-6, 1e-6],
+    "distortion": [1e-3, 1e-3, 1e-3, 1e-3, math.inf, math.inf, math.inf, math.inf],
+    "focal+distortion": [math.inf, math.inf, 1e-3, 1e-3, math.inf, math.inf, math.inf, math.inf],
+    "all": [math.inf] * 8,
+}
+
+
+def composition_covariance(m0: dict, m1: dict) -> np.ndarray:
+    """Covariance (6, 6) of the composition ``T_b_c0⁻¹ T_b_c1``'s error ``[rotation vector in cam0 (rad),
+    translation (m)]`` from the two calibrations' ``covariance`` (``[ε, p_bc]`` blocks; ``R̂_bc = Exp(ε) R_bc``),
+    first order, the two runs taken as independent (they share the IMU record, so this is not exact)."""
+    R0 = pose_matrix(m0)[:3, :3]
+    dp_ = np.asarray(m1["translation_m"]) - np.asarray(m0["translation_m"])
+    J0, J1 = np.zeros((6, 6)), np.zeros((6, 6))
+    J0[:3, :3], J0[3:, 0:3], J0[3:, 3:] = -R0.T, R0.T @ dp.so3_hat(dp_), -R0.T
+    J1[:3, :3], J1[3:, 3:] = R0.T, R0.T
+    S0, S1 = (np.asarray(m["covariance"])[:6, :6] for m in (m0, m1))
+    out: np.ndarray = J0 @ S0 @ J0.T + J1 @ S1 @ J1.T
+    return out
+
+
 def tables(imu_model: str, bias_model: str, noise_scale: float = 1.0, window: tuple[float, float] | None = None,
-           options: dict | None = None) -> str:  # fmt: skip
+           options: dict | None = None, intrinsics: str = "fixed") -> str:  # fmt: skip
     res = {}
+    if INTRINSICS[intrinsics] is not None:
+        options = {**(options or {}), "estimate_intrinsics": True, "intrinsics_prior_sigma": INTRINSICS[intrinsics]}
     for cam in ("cam0", "cam1"):
         res[cam] = calibrate_camera_imu_files(str(DATA / "imu0.csv"), str(DATA / f"{cam}_aprilgrid.csv"),
                                               str(DATA / "sensors.yaml"), cam, bias_model, imu_model=imu_model,
@@ -142,7 +173,9 @@ def tables(imu_model: str, bias_model: str, noise_scale: float = 1.0, window: tu
                                               **(options or {}))  # fmt: skip
     scale = "" if noise_scale == 1.0 else f", IMU noise × {noise_scale:g}"
     scale += "" if window is None else f", frames {window[0]:g}–{window[1]:g} s"
-    scale += "".join(f", {k}={v}" for k, v in (options or {}).items())
+    scale += "".join(f", {k}={v}" for k, v in (options or {}).items() if k not in ("estimate_intrinsics",
+                                                                                  "intrinsics_prior_sigma"))
+    scale += "" if intrinsics == "fixed" else f", camera parameters refined: {intrinsics}"
     out = [f"#### IMU model `{imu_model}`, bias model `{bias_model}`{scale}", "",
            "| camera | rotation vs Kalibr [deg] | translation − Kalibr [mm] (x y z) | ‖·‖ [mm] | τ [ms] | "
            "reprojection RMS [px] | frames used | corners rejected | runtime [s] |",
@@ -163,7 +196,16 @@ def tables(imu_model: str, bias_model: str, noise_scale: float = 1.0, window: tu
     out += ["", "| composition `T_b_c0⁻¹ T_b_c1` vs sensors.yaml `T_cam0_cam1` | value |", "|---|---|",
             f"| rotation error [deg] (rotation vector in cam0: {_vec(rv, fmt='{:+.4f}')}) | "
             f"{_angle_deg(stereo[:3, :3].T @ est[:3, :3]):.4f} |",
-            f"| translation error [mm] (x y z) | {_vec(d)} (‖·‖ {np.linalg.norm(d):.2f}) |", ""]  # fmt: skip
+            f"| translation error [mm] (x y z) | {_vec(d)} (‖·‖ {np.linalg.norm(d):.2f}) |"]  # fmt: skip
+    cov = composition_covariance(res["cam0"], res["cam1"])
+    sr, st = np.degrees(np.sqrt(np.diag(cov)[:3])), 1e3 * np.sqrt(np.diag(cov)[3:])
+    e = np.concatenate([np.radians(rv), d * 1e-3])
+    out += [f"| formal σ of the composition (the two runs' covariances, taken as independent): rotation [deg] "
+            f"(cam0 x y z), translation [mm] | {_vec(sr, fmt='{:.4f}')}, {_vec(st)} |",
+            f"| error / σ per axis: rotation, translation | {_vec(e[:3] / np.sqrt(np.diag(cov)[:3]), fmt='{:+.1f}')}, "
+            f"{_vec(e[3:] / np.sqrt(np.diag(cov)[3:]), fmt='{:+.1f}')} |",
+            f"| Mahalanobis distance of the 6-dof error (χ²(6) 99 %: 4.1) | "
+            f"{math.sqrt(float(e @ np.linalg.solve(cov, e))):.1f} |", ""]  # fmt: skip
     out += ["| camera | σ rotation [deg] (IMU x y z) | σ translation [mm] | gyro bias [rad/s] (σ) | "
             "accel bias [m/s²] (σ) | gravity in target [m/s²] (σ deg) | IMU χ²/dof |",
             "|---|---|---|---|---|---|---|"]  # fmt: skip
@@ -176,6 +218,13 @@ def tables(imu_model: str, bias_model: str, noise_scale: float = 1.0, window: tu
             f"{_vec(m['gravity_target'], fmt='{:+.4f}')} ({s['gravity_target_deg']:.4f}) | "
             f"{m['imu_chi2_per_dof']:.2f} |"
         )
+    if intrinsics != "fixed":
+        out += ["", "| camera | refined − sensors.yaml: fx fy cx cy [px], k1 k2 p1 p2 (σ) |", "|---|---|"]
+        for cam, m in res.items():
+            d = np.asarray(m["camera_parameters"]) - read_rig_sensors(DATA / "sensors.yaml").camera(cam).parameters
+            sd = np.asarray(m["camera_parameters_std"])
+            out.append(f"| {cam} | {_vec(d[:4], fmt='{:+.3f}')}, {_vec(d[4:], fmt='{:+.4f}')} "
+                       f"({_vec(sd[:4], fmt='{:.3f}')}, {_vec(sd[4:], fmt='{:.4f}')}) |")
     out += ["", "| camera | axis matrices | gyro `M − I` [‰] (rows) | accelerometer `M − I` [‰] (rows) |",
             "|---|---|---|---|"]  # fmt: skip
     for cam, m in res.items():
@@ -200,6 +249,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="multiply the IMU noise of sensors.yaml (sensitivity study)")
     ap.add_argument("--option", nargs="+", default=[], metavar="KEY=VALUE",
                     help="options of calibrate_camera_imu, e.g. noise_model=motion huber=3 reject_sigmas=3")
+    ap.add_argument("--intrinsics", nargs="+", choices=tuple(INTRINSICS), default=["fixed"],
+                    help="camera parameters refined in the batch (the rest held at sensors.yaml's values)")
     ap.add_argument("--window", nargs=2, type=float, default=None, metavar=("START", "END"),
                     help="only the frames in [START, END] s from the first IMU sample")
     ap.add_argument("--stereo-ba", action="store_true", help="add the camera-only stereo bundle adjustment")
@@ -218,8 +269,8 @@ def main(argv: list[str] | None = None) -> int:
         except ValueError:
             options[key] = value
     window = tuple(args.window) if args.window else None
-    text = "\n\n".join(tables(i, b, f, window, options) for i in args.imu_models for b in args.bias_models
-                        for f in args.noise_scales)  # fmt: skip
+    text = "\n\n".join(tables(i, b, f, window, options, c) for i in args.imu_models for b in args.bias_models
+                        for f in args.noise_scales for c in args.intrinsics)  # fmt: skip
     if args.stereo_ba:
         text += "\n\n" + stereo_table(window)
     return emit(text, args.markdown)

@@ -123,3 +123,93 @@ def test_coplanar_points_use_the_homography_path() -> None:
         R, t = pnp.pnp_dlt(pix[wall], pts[wall], clean.camera.matrix)
         np.testing.assert_allclose(R.T, dp.matrix_from_quat(q_wc), atol=1e-8)
         np.testing.assert_allclose(-R.T @ t, c_w, atol=1e-8)
+
+
+def _padded(problems: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Stack ``(pixels, points)`` problems into (B, M, ·) arrays padded with copies of the first row."""
+    m = max(len(p) for p, _ in problems)
+    pix, pts = np.zeros((len(problems), m, 2)), np.zeros((len(problems), m, 3))
+    valid = np.zeros((len(problems), m), dtype=bool)
+    for k, (p, x) in enumerate(problems):
+        pix[k], pts[k] = p[0], x[0]
+        pix[k, : len(p)], pts[k, : len(p)], valid[k, : len(p)] = p, x, True
+    return pix, pts, valid
+
+
+def _planar_and_general_problems(run: sim.SimulatedRun) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Frames of a noisy run: the wall plane alone (coplanar: the homography), the whole two-plane scene (the
+    12-unknown DLT) and the wall with a few off-plane points (both candidates are tried)."""
+    out = []
+    for k in range(0, len(run.frames), 5):
+        pix, pts = run.frames.frame(k)
+        wall = np.abs(pts[:, 1]) < 1e-12
+        if wall.sum() >= 8:
+            out.append((pix[wall], pts[wall]))
+            out.append((pix[wall | (np.cumsum(~wall) <= 2)], pts[wall | (np.cumsum(~wall) <= 2)]))
+        out.append((pix, pts))
+    return out
+
+
+def test_batched_dlt_equals_one_problem_at_a_time(run: sim.SimulatedRun) -> None:
+    problems = _planar_and_general_problems(run)
+    pix, pts, valid = _padded(problems)
+    K = run.camera.matrix
+    R, t = pnp.pnp_dlt_batch(pix, pts, valid, K)
+    for k, (p, x) in enumerate(problems):
+        R1, t1 = pnp.pnp_dlt(p, x, K)  # the problem alone, no padding rows
+        np.testing.assert_allclose(R[k], R1, atol=1e-11)
+        np.testing.assert_allclose(t[k], t1, atol=1e-11)
+
+
+def test_batched_pnp_on_planar_frames_equals_solve_pnp_and_opencv(run: sim.SimulatedRun) -> None:
+    # a planar target (every problem takes the homography start): the batch against solve_pnp frame by frame and
+    # against OpenCV's planar solver refined by its Levenberg–Marquardt
+    problems = [(p, x) for p, x in _planar_and_general_problems(run) if np.all(np.abs(x[:, 1]) < 1e-12)]
+    assert len(problems) >= 10
+    pix, pts, valid = _padded(problems)
+    K = run.camera.matrix
+    batch = pnp.solve_pnp_batch(pix, pts, valid, K, threshold_px=50.0)
+    for k, (p, x) in enumerate(problems):
+        one = pnp.solve_pnp(p, x, K)
+        assert dp.quat_angle(batch.q_wc[k], one.q_wc) < 1e-9
+        np.testing.assert_allclose(batch.c_w[k], one.c_w, atol=1e-9)
+        ok, rvec, tvec = cv2.solvePnP(x, p, K, None, flags=cv2.SOLVEPNP_IPPE)
+        assert ok
+        rvec, tvec = cv2.solvePnPRefineLM(x, p, K, None, rvec, tvec)
+        R_cv = cv2.Rodrigues(rvec)[0]
+        assert dp.quat_angle(batch.q_wc[k], dp.quat_from_matrix(R_cv.T)) < 1e-5
+        np.testing.assert_allclose(batch.c_w[k], -R_cv.T @ tvec.ravel(), atol=1e-5)
+
+
+def test_batched_dlt_names_the_degenerate_problem(run: sim.SimulatedRun) -> None:
+    problems = _planar_and_general_problems(run)[:3]
+    p, x = problems[0]
+    line = np.column_stack([np.linspace(0, 1, len(x)), np.zeros(len(x)), np.zeros(len(x))])
+    pix, pts, valid = _padded([*problems, (p, line)])
+    with pytest.raises(ValueError, match=r"one line.*\(problem 3\)"):
+        pnp.pnp_dlt_batch(pix, pts, valid, run.camera.matrix)
+    pix[1, valid[1]] = pix[1, 0]
+    pts[1, valid[1]] = pts[1, 0]
+    with pytest.raises(ValueError, match=r"same world point.*\(problem 1\)"):
+        pnp.pnp_dlt_batch(pix, pts, valid, run.camera.matrix)
+
+
+def test_batched_pnp_loses_a_problem_to_nan_or_raises(run: sim.SimulatedRun) -> None:
+    problems = [(p, x) for p, x in _planar_and_general_problems(run) if len(p) >= 12][:6]
+    pix, pts, valid = _padded(problems)
+    K = run.camera.matrix
+    whole = pnp.solve_pnp_batch(pix, pts, valid, K, threshold_px=20.0)
+    bad = pix.copy()
+    keep = np.flatnonzero(valid[2])[:5]  # problem 2: all but 5 corners thrown 100 px off
+    off = np.setdiff1d(np.flatnonzero(valid[2]), keep)
+    bad[2, off] += np.random.default_rng(4).normal(0.0, 100.0, (len(off), 2))
+    with pytest.raises(ValueError, match="fewer than 6"):
+        pnp.solve_pnp_batch(bad, pts, valid, K, threshold_px=20.0)
+    lost = pnp.solve_pnp_batch(bad, pts, valid, K, threshold_px=20.0, failed="nan")
+    assert np.all(np.isnan(lost.q_wc[2])) and np.all(np.isnan(lost.c_w[2])) and np.isnan(lost.rms_px[2])
+    assert np.all(np.isnan(lost.covariance[2])) and not lost.inliers[2].any()
+    others = np.arange(len(problems)) != 2
+    np.testing.assert_allclose(lost.q_wc[others], whole.q_wc[others], atol=1e-12)
+    np.testing.assert_allclose(lost.c_w[others], whole.c_w[others], atol=1e-12)
+    with pytest.raises(ValueError, match="failed must be"):
+        pnp.solve_pnp_batch(pix, pts, valid, K, failed="skip")

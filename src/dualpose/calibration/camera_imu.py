@@ -261,12 +261,13 @@ def _initial_poses(frames: FrameCorrespondences, keep: NDArray[np.intp], camera:
     c = np.full((b, 3), np.nan)
     rms = np.full(b, np.nan)
     try:
-        res = solve_pnp_batch(pix, pts, valid, K, threshold_px=10.0)
-        R[:] = dp.matrix_from_quat(res.q_wc)
-        c[:] = res.c_w
-        rms[:] = res.rms_px
+        res = solve_pnp_batch(pix, pts, valid, K, threshold_px=10.0, failed="nan")  # a lost frame: NaN
+        solved = np.isfinite(res.rms_px)
+        R[solved] = dp.matrix_from_quat(res.q_wc[solved])
+        c[solved] = res.c_w[solved]
+        rms[solved] = res.rms_px[solved]
     except (ValueError, np.linalg.LinAlgError):
-        for i in range(b):  # the batch refused a frame (too few inliers): one frame at a time
+        for i in range(b):  # the batch refused a frame (degenerate points): one frame at a time
             try:
                 r1 = solve_pnp(pix[i, valid[i]], pts[i, valid[i]], K)
             except (ValueError, np.linalg.LinAlgError):
@@ -330,6 +331,8 @@ class _Problem:
         self.blur_time = 0.0
         #: the compiled reprojection blocks (radial-tangential camera, intrinsics fixed); the NumPy path otherwise
         self.native = isinstance(camera, RadTanCamera) and not intrinsics
+        self.intr0 = np.asarray(camera.parameters, dtype=np.float64).copy()
+        self.intr_info = np.zeros(self.n_intr)  # 1/σ of a prior on the camera parameters at their given values
 
     # ----- state ---------------------------------------------------------------------------------------------
     def set_state(self, R: _Arr, p: _Arr, v: _Arr, bias: _Arr, R_bc: _Arr, p_bc: _Arr, tau: float, g: _Arr,
@@ -503,7 +506,14 @@ class _Problem:
         rw = self.imu_whitened(False)[0]
         rb = np.diff(self.bias, axis=0) * self.rw_scale
         rp = self.bias[0] / _BIAS_PRIOR
-        return float(np.sum(rw**2) + np.sum(rb**2) + np.sum(rp**2) + np.sum((self.theta / _AXES_PRIOR) ** 2))
+        return float(np.sum(rw**2) + np.sum(rb**2) + np.sum(rp**2) + np.sum((self.theta / _AXES_PRIOR) ** 2)
+                     + np.sum(self._intr_prior() ** 2))
+
+    def _intr_prior(self) -> _Arr:
+        if not self.n_intr:
+            return np.zeros(0)
+        r: _Arr = (np.asarray(self.camera.parameters, dtype=np.float64) - self.intr0) * self.intr_info
+        return r
 
     def normal_equations(self) -> tuple[_Normal, np.ndarray, float]:
         """``H = JᵀWJ`` as :class:`_Normal` (band + border), the gradient ``JᵀWr`` and the cost."""
@@ -566,8 +576,11 @@ class _Problem:
         ra = self.theta / _AXES_PRIOR
         if self.n_axes:
             add((gb + _NG + np.arange(self.n_axes))[None], np.eye(self.n_axes)[None] / _AXES_PRIOR, ra[None])
+        ri = self._intr_prior()
+        if self.n_intr:
+            add((gb + _NG + self.n_axes + np.arange(self.n_intr))[None], np.diag(self.intr_info)[None], ri[None])
         H, grad = acc, acc.gradient()
-        cost = c_cam + float(np.sum(rI**2) + np.sum(rb**2) + np.sum(rp**2) + np.sum(ra**2))
+        cost = c_cam + float(np.sum(rI**2) + np.sum(rb**2) + np.sum(rp**2) + np.sum(ra**2) + np.sum(ri**2))
         return H, grad, cost
 
 
@@ -776,6 +789,7 @@ def calibrate_camera_imu(
     imu_model: str = "scale_misalignment",
     noise_model: str = "uniform",
     huber: float = 1.5,
+    intrinsics_prior_sigma: ArrayLike | None = None,
 ) -> CameraImuCalibration:
     """Calibrate the camera–IMU extrinsic, time offset, IMU biases and target gravity from one recording.
 
@@ -815,6 +829,12 @@ def calibrate_camera_imu(
         squared residuals after each pass — motion blur of a global-shutter camera (docs/euroc.md).
     huber : float
         Huber threshold of the reprojection loss, in σ (IRLS weights).
+    intrinsics_prior_sigma : (8,) array, optional
+        With ``estimate_intrinsics``: σ of a Gaussian prior on each camera parameter (``camera.parameters``: fx, fy,
+        cx, cy in px, then the distortion coefficients) at its given value; ``inf`` leaves it free (the default
+        when omitted: all free).  A small σ on the principal point keeps it where the intrinsic calibration put it:
+        the pan and tilt of the extrinsic and the principal point are otherwise nearly interchangeable
+        (docs/euroc.md).
 
     Raises
     ------
@@ -833,6 +853,15 @@ def calibrate_camera_imu(
         raise ValueError(f"noise_model must be 'uniform' or 'motion'; got {noise_model!r}")
     if not huber > 0:
         raise ValueError(f"huber must be > 0 (in pixel σ); got {huber!r}")
+    prior_sigma = None
+    if intrinsics_prior_sigma is not None:
+        prior_sigma = np.asarray(intrinsics_prior_sigma, dtype=np.float64)
+        n_par = len(np.asarray(camera.parameters))
+        if not estimate_intrinsics:
+            raise ValueError("intrinsics_prior_sigma needs estimate_intrinsics=True")
+        if prior_sigma.shape != (n_par,) or not np.all(prior_sigma > 0):  # NaN fails the comparison
+            raise ValueError(f"intrinsics_prior_sigma must have shape ({n_par},) (the camera's parameters) with "
+                             f"every σ > 0 (inf: free); got {intrinsics_prior_sigma!r}")  # fmt: skip
     ft = np.asarray(frames.t, dtype=np.float64)
     inside = (ft - max_offset > imu_t[0]) & (ft + max_offset < imu_t[-1])
     if not inside.any():
@@ -866,6 +895,8 @@ def calibrate_camera_imu(
     prob = _Problem(imu_t, gyro, accel, t_used, sub, frames.pixels[rows], frames.points[rows], camera, imu_noise,
                     float(gravity_magnitude), bias_model, estimate_intrinsics,
                     imu_model == "scale_misalignment")  # fmt: skip
+    if prior_sigma is not None:
+        prob.intr_info = 1.0 / prior_sigma
     bias = np.zeros((prob.K, 6))
     bias[:, :3] = coarse.gyro_bias
     # gravity from the telescoped velocity change: Σ (v_j − v_i) = g T + Σ R_i Δv_ij

@@ -85,6 +85,9 @@ def calibration_summary(res: CameraImuCalibration, camera: str) -> dict[str, Any
             "accel_bias": _floats(res.std["accel_bias"]),
             "gravity_target_deg": float(res.std["gravity_target_deg"]),
         },
+        "covariance": [_floats(r) for r in res.covariance],
+        "camera_parameters": _floats(res.camera_parameters),
+        "camera_parameters_std": _floats(res.camera_parameters_std),
         "imu_chi2_per_dof": float(res.imu_chi2_per_dof),
         "frames_used": int(res.frames_used),
         "outliers": {

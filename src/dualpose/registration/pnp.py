@@ -19,8 +19,8 @@ from numpy.typing import ArrayLike, NDArray
 
 import dualpose as dp
 
-__all__ = ["PnPBatch", "PnPResult", "pnp_dlt", "pnp_refine", "solve_pnp", "solve_pnp_batch", "solve_pnp_ransac",
-           "PNP_UNDETERMINED_ROTATION_RAD"]
+__all__ = ["PnPBatch", "PnPResult", "pnp_dlt", "pnp_dlt_batch", "pnp_refine", "solve_pnp", "solve_pnp_batch",
+           "solve_pnp_ransac", "PNP_UNDETERMINED_ROTATION_RAD"]
 
 #: a PnP pose whose rotation standard deviation (largest axis) exceeds this is refused (radians, ~11.5 deg: a pose
 #: that loose is of no use, and a solve on nearly collinear points can stop at a wrong pose whose own σ is smaller
@@ -85,71 +85,138 @@ def pnp_dlt(pixels: ArrayLike, points: ArrayLike, K: ArrayLike) -> tuple[NDArray
     candidate with the lower reprojection error is returned; exactly coplanar points use the homography only.
     """
     pixels, world, K = _check(pixels, points, K)
-    points, mu_w, r_w = _normalised(world)  # solved at spread ~1; the pose mapped back below
-    xn = np.linalg.solve(K, np.column_stack([pixels, np.ones(len(pixels))]).T).T[:, :2]
-    mu = points.mean(axis=0)
-    _, sv_pts, vt_pts = np.linalg.svd(points - mu, full_matrices=False)
-    flatness = sv_pts[2] / sv_pts[0]
-    candidates = []
-    if flatness > 1e-3:
-        try:
-            candidates.append(_general_dlt(xn, points, mu))
-        except ValueError:
-            pass
-    if flatness < 0.2 or not candidates:
-        candidates.append(_planar_dlt(xn, points, mu, vt_pts))
-    costs = [np.sum(_residuals(R, t, pixels, points, K)[0] ** 2) for R, t in candidates]
-    R, t = candidates[int(np.nanargmin(costs))]
-    return R, r_w * t - R @ mu_w  # X_c = R X_w + t with X_w = r_w X_n + mu_w
+    R, t = pnp_dlt_batch(pixels[None], world[None], np.ones((1, len(pixels)), dtype=bool), K)
+    return R[0], t[0]
+
+
+def pnp_dlt_batch(
+    pixels: ArrayLike, points: ArrayLike, valid: ArrayLike, K: ArrayLike,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`pnp_dlt` of ``B`` problems at once: ``pixels`` (B, M, 2), world ``points`` (B, M, 3), ``valid``
+    (B, M) bool (the rows that are real; at least 6 a problem), ``K`` (3, 3); returns ``R_cw`` (B, 3, 3) and ``t``
+    (B, 3).  Each problem follows the same steps as :func:`pnp_dlt` (its points normalised to spread ~1, the
+    12-unknown DLT unless the points are nearly coplanar, the homography when they are close to a plane, the
+    candidate with the lower reprojection error), the singular-value decompositions batched over the problems;
+    padding rows enter as zero rows of the design matrices.  ``ValueError`` names the first problem whose points
+    are all at one place or on one line.
+    """
+    pixels = np.asarray(pixels, dtype=np.float64)
+    world = np.asarray(points, dtype=np.float64)
+    valid = np.asarray(valid, dtype=bool)
+    K = np.asarray(K, dtype=np.float64)
+    b, m = valid.shape
+    w = valid.astype(np.float64)
+    n = w.sum(axis=1)
+    # normalisation of the world points (as _normalised): centroid and largest coordinate spread per problem
+    mu_w = np.einsum("bm,bmi->bi", w, world) / n[:, None]
+    d = (world - mu_w[:, None, :]) * w[..., None]
+    r_w = np.abs(d).max(axis=(1, 2))
+    where = " (problem {})" if b > 1 else ""
+    bad = np.flatnonzero(~(r_w > 0.0))
+    if len(bad):
+        raise ValueError("points: every correspondence has the same world point; PnP needs points spread in space"
+                         + where.format(int(bad[0])))  # fmt: skip
+    pts = d / r_w[:, None, None]
+    sv = np.linalg.svd(pts, compute_uv=False)
+    bad = np.flatnonzero(~(sv[:, 1] > 1e-9 * sv[:, 0]))
+    if len(bad):
+        raise ValueError("points: the world points lie on one line; the rotation about it is undetermined"
+                         + where.format(int(bad[0])))  # fmt: skip
+    xn = np.concatenate([pixels, np.ones((b, m, 1))], axis=2) @ np.linalg.inv(K).T
+    xn = xn[..., :2]
+    mu = np.einsum("bm,bmi->bi", w, pts) / n[:, None]
+    c = (pts - mu[:, None, :]) * w[..., None]  # centred, zero on padding rows
+    _, sv_pts, vt_pts = np.linalg.svd(c, full_matrices=False)
+    flatness = sv_pts[:, 2] / sv_pts[:, 0]
+    R = np.full((b, 3, 3), np.nan)
+    t = np.full((b, 3), np.nan)
+    cost = np.full(b, np.inf)
+    general = np.flatnonzero(flatness > 1e-3)
+    if len(general):
+        Rg, tg, ok = _general_dlt_batch(xn[general], c[general], mu[general], w[general])
+        cg = _dlt_cost(Rg, tg, pixels[general], pts[general], w[general], K)
+        keep = ok & np.isfinite(cg)
+        R[general[keep]], t[general[keep]], cost[general[keep]] = Rg[keep], tg[keep], cg[keep]
+    planar = np.flatnonzero((flatness < 0.2) | ~np.isfinite(cost))
+    if len(planar):
+        Rp, tp = _planar_dlt_batch(xn[planar], c[planar], mu[planar], vt_pts[planar], w[planar])
+        cp = _dlt_cost(Rp, tp, pixels[planar], pts[planar], w[planar], K)
+        better = (cp < cost[planar]) | ~np.isfinite(cost[planar])  # the general DLT wins ties (pnp_dlt's order)
+        sel = planar[better]
+        R[sel], t[sel] = Rp[better], tp[better]
+    # X_c = R X_w + t with X_w = r_w X_n + mu_w
+    return R, r_w[:, None] * t - np.einsum("bij,bj->bi", R, mu_w)
+
+
+def _dlt_cost(
+    R: NDArray[np.float64], t: NDArray[np.float64], pixels: NDArray[np.float64], points: NDArray[np.float64],
+    w: NDArray[np.float64], K: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """Sum of squared reprojection residuals (B,) of the rows weighted by ``w`` (B, M), as :func:`_residuals`."""
+    pc = points @ np.swapaxes(R, 1, 2) + t[:, None, :]
+    z = np.where(np.abs(pc[..., 2]) > 1e-12, pc[..., 2], 1e-12)
+    ru = pixels[..., 0] - (K[0, 0] * pc[..., 0] / z + K[0, 2])
+    rv = pixels[..., 1] - (K[1, 1] * pc[..., 1] / z + K[1, 2])
+    out: NDArray[np.float64] = np.einsum("bm,bm->b", w, ru**2 + rv**2)
+    return out
 
 
 def _dlt_design(xn: np.ndarray, X: np.ndarray) -> NDArray[np.float64]:
-    """DLT design matrix (2m, 3k) of ``x ~ M X`` for normalized image points ``xn`` (m, 2) and homogeneous ``X``
-    (m, k): rows ``[Xᵀ, 0, −u Xᵀ]`` and ``[0, Xᵀ, −v Xᵀ]`` (k = 4: the 3x4 projection, k = 3: a homography)."""
-    m, k = X.shape
-    A = np.zeros((2 * m, 3 * k))
-    A[0::2, 0:k] = X
-    A[0::2, 2 * k :] = -xn[:, :1] * X
-    A[1::2, k : 2 * k] = X
-    A[1::2, 2 * k :] = -xn[:, 1:2] * X
+    """DLT design matrices (..., 2m, 3k) of ``x ~ M X`` for normalized image points ``xn`` (..., m, 2) and
+    homogeneous ``X`` (..., m, k): rows ``[Xᵀ, 0, −u Xᵀ]`` and ``[0, Xᵀ, −v Xᵀ]`` (k = 4: the 3x4 projection, k = 3:
+    a homography); rows whose ``X`` is zero are zero."""
+    *lead, m, k = X.shape
+    A = np.zeros((*lead, 2 * m, 3 * k))
+    A[..., 0::2, 0:k] = X
+    A[..., 0::2, 2 * k :] = -xn[..., :1] * X
+    A[..., 1::2, k : 2 * k] = X
+    A[..., 1::2, 2 * k :] = -xn[..., 1:2] * X
     return A
 
 
-def _general_dlt(xn: np.ndarray, points: np.ndarray, mu: np.ndarray) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    s = np.sqrt(3.0) / np.mean(np.linalg.norm(points - mu, axis=1))
-    Xh = np.column_stack([(points - mu) * s, np.ones(len(points))])
-    _, _, vt = np.linalg.svd(_dlt_design(xn, Xh), full_matrices=False)
-    Pm = vt[-1].reshape(3, 4)
-    if np.mean(Xh @ Pm[2]) < 0:  # P is defined up to sign: put the points in front of the camera
-        Pm = -Pm
+def _general_dlt_batch(
+    xn: np.ndarray, c: np.ndarray, mu: np.ndarray, w: np.ndarray,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """12-unknown DLT of each problem on its centred points ``c`` (B, M, 3) (zero on padding) with centroid ``mu``
+    (B, 3); returns ``R`` (B, 3, 3), ``t`` (B, 3) and whether the rotation is proper (B,) (a reflection means
+    degenerate or inconsistent correspondences)."""
+    n = w.sum(axis=1)
+    s = np.sqrt(3.0) * n / np.linalg.norm(c, axis=2).sum(axis=1)
+    Xh = np.concatenate([c * s[:, None, None], w[..., None]], axis=2)
+    Pm = np.linalg.svd(_dlt_design(xn, Xh), full_matrices=False)[2][:, -1].reshape(-1, 3, 4)
+    flip = np.einsum("bmi,bi->b", Xh, Pm[:, 2]) < 0  # P is defined up to sign: the points in front of the camera
+    Pm[flip] *= -1
     # undo the point normalization: X' = s (X − mu)
-    M = Pm[:, :3] * s
-    t = Pm[:, 3] - M @ mu
+    M = Pm[:, :, :3] * s[:, None, None]
+    t = Pm[:, :, 3] - np.einsum("bij,bj->bi", M, mu)
     u, sv, vt2 = np.linalg.svd(M)
     R = u @ vt2
-    if np.linalg.det(R) < 0:
-        raise ValueError("DLT failed: degenerate or inconsistent correspondences (reflection)")
-    return R, t / sv.mean()
+    return R, t / sv.mean(axis=1, keepdims=True), np.linalg.det(R) > 0
 
 
-def _planar_dlt(
-    xn: np.ndarray, points: np.ndarray, mu: np.ndarray, vt: np.ndarray,
+def _planar_dlt_batch(
+    xn: np.ndarray, c: np.ndarray, mu: np.ndarray, vt: np.ndarray, w: np.ndarray,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Pose from a plane-to-image homography (Zhang 2000 §2-3): ``H ∝ [r1 r2 t]`` in plane coordinates."""
-    B = vt.T.copy()  # columns: in-plane axes e1, e2 and the normal
-    B[:, 2] = np.cross(B[:, 0], B[:, 1])
-    uv = (points - mu) @ B[:, :2]
-    sc = np.sqrt(2.0) / np.mean(np.linalg.norm(uv, axis=1))
-    U = np.column_stack([uv * sc, np.ones(len(uv))])
-    Hm = np.linalg.svd(_dlt_design(xn, U), full_matrices=False)[2][-1].reshape(3, 3) @ np.diag([sc, sc, 1.0])
-    lam = 2.0 / (np.linalg.norm(Hm[:, 0]) + np.linalg.norm(Hm[:, 1]))
-    if Hm[2, 2] * lam < 0:  # the plane origin must be in front of the camera
-        lam = -lam
-    r1, r2, tp = lam * Hm[:, 0], lam * Hm[:, 1], lam * Hm[:, 2]
-    u, _, vt2 = np.linalg.svd(np.column_stack([r1, r2, np.cross(r1, r2)]))
-    Rp = u @ np.diag([1.0, 1.0, np.linalg.det(u @ vt2)]) @ vt2
-    R = Rp @ B.T
-    return R, tp - R @ mu
+    """Pose of each problem from a plane-to-image homography (Zhang 2000 §2-3): ``H ∝ [r1 r2 t]`` in plane
+    coordinates; ``c`` (B, M, 3) the centred points (zero on padding), ``mu`` (B, 3) their centroid, ``vt``
+    (B, 3, 3) their principal axes (rows)."""
+    B = np.swapaxes(vt, 1, 2).copy()  # columns: in-plane axes e1, e2 and the normal
+    B[:, :, 2] = np.cross(B[:, :, 0], B[:, :, 1])
+    uv = c @ B[:, :, :2]
+    sc = np.sqrt(2.0) * w.sum(axis=1) / np.linalg.norm(uv, axis=2).sum(axis=1)
+    U = np.concatenate([uv * sc[:, None, None], w[..., None]], axis=2)
+    Hm = np.linalg.svd(_dlt_design(xn, U), full_matrices=False)[2][:, -1].reshape(-1, 3, 3)
+    Hm = Hm * np.stack([sc, sc, np.ones_like(sc)], axis=1)[:, None, :]
+    lam = 2.0 / (np.linalg.norm(Hm[:, :, 0], axis=1) + np.linalg.norm(Hm[:, :, 1], axis=1))
+    lam = np.where(Hm[:, 2, 2] * lam < 0, -lam, lam)  # the plane origin must be in front of the camera
+    r1, r2, tp = lam[:, None] * Hm[:, :, 0], lam[:, None] * Hm[:, :, 1], lam[:, None] * Hm[:, :, 2]
+    u, _, vt2 = np.linalg.svd(np.stack([r1, r2, np.cross(r1, r2)], axis=2))
+    D = np.zeros((len(u), 3, 3))
+    D[:, 0, 0] = D[:, 1, 1] = 1.0
+    D[:, 2, 2] = np.linalg.det(u @ vt2)
+    Rp = u @ D @ vt2
+    R = Rp @ np.swapaxes(B, 1, 2)
+    return R, tp - np.einsum("bij,bj->bi", R, mu)
 
 
 def _residuals(
@@ -314,14 +381,22 @@ def _gauss_newton_batch(
     R: NDArray[np.float64], t: NDArray[np.float64], pixels: NDArray[np.float64], points: NDArray[np.float64],
     w: NDArray[np.float64], K: NDArray[np.float64], iterations: int, tol: float,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Batched :func:`pnp_refine` over rows weighted by ``w`` (B, M) (0 / 1); returns ``(R, t, JᵀJ, r, Z)``."""
+    """Batched :func:`pnp_refine` over rows weighted by ``w`` (B, M) (0 / 1); returns ``(R, t, JᵀJ, r, Z)``.
+
+    Each problem stops after the iteration whose step has no component above ``tol`` (JᵀJ and r are those of its
+    last iterate: changes of O(tol)); only the problems still moving are computed in the next iteration."""
+    R, t = R.copy(), t.copy()
     points = np.ascontiguousarray(points)
     fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
-    for it in range(1, iterations + 1):
-        rx = points @ np.swapaxes(R, 1, 2)
-        pc = rx + t[:, None, :]
+    b, m = w.shape
+    JtJ_all, r_all, Z_all = np.zeros((b, 6, 6)), np.zeros((b, m, 2)), np.zeros((b, m))
+    act = np.arange(b)
+    for _ in range(iterations):
+        Ra, X = R[act], points[act]
+        rx = X @ np.swapaxes(Ra, 1, 2)
+        pc = rx + t[act][:, None, :]
         Z = np.where(np.abs(pc[..., 2]) > 1e-12, pc[..., 2], 1e-12)
-        r = pixels - np.stack([fx * pc[..., 0] / Z + cx, fy * pc[..., 1] / Z + cy], axis=-1)
+        r = pixels[act] - np.stack([fx * pc[..., 0] / Z + cx, fy * pc[..., 1] / Z + cy], axis=-1)
         # ∂π/∂X_c rows (A, 0, C) and (0, D, E); ∂π/∂δφ = −Jp [R X]×, row a = (R X) × Jp_a; ∂π/∂δt = Jp
         A, C = fx / Z, -fx * pc[..., 0] / Z**2
         D, E = fy / Z, -fy * pc[..., 1] / Z**2
@@ -330,15 +405,17 @@ def _gauss_newton_batch(
         J[..., 0, 0], J[..., 0, 1], J[..., 0, 2] = q * C, s * A - p * C, -q * A
         J[..., 1, 0], J[..., 1, 1], J[..., 1, 2] = q * E - s * D, -p * E, p * D
         J[..., 0, 3], J[..., 0, 5], J[..., 1, 4], J[..., 1, 5] = A, C, D, E
-        J = J.reshape(len(R), -1, 6)  # (B, 2M, 6)
-        Jw = J * np.repeat(w, 2, axis=1)[:, :, None]
+        J = J.reshape(len(act), -1, 6)  # (B, 2M, 6)
+        Jw = J * np.repeat(w[act], 2, axis=1)[:, :, None]
         JtJ = np.swapaxes(Jw, 1, 2) @ J
-        step = np.linalg.solve(JtJ, np.swapaxes(Jw, 1, 2) @ r.reshape(len(R), -1, 1))[..., 0]
-        R = dp.matrix_from_quat(dp.quat_from_rotvec(step[:, :3])) @ R
-        t = t + step[:, 3:]
-        if it >= iterations or np.abs(step).max() < tol:  # JᵀJ and r of the last iterate: changes of O(tol)
+        step = np.linalg.solve(JtJ, np.swapaxes(Jw, 1, 2) @ r.reshape(len(act), -1, 1))[..., 0]
+        R[act] = dp.matrix_from_quat(dp.quat_from_rotvec(step[:, :3])) @ Ra
+        t[act] = t[act] + step[:, 3:]
+        JtJ_all[act], r_all[act], Z_all[act] = JtJ, r, Z
+        act = act[np.abs(step).max(axis=1) >= tol]
+        if not len(act):
             break
-    return R, t, JtJ, r, Z
+    return R, t, JtJ_all, r_all, Z_all
 
 
 def solve_pnp_batch(
@@ -349,6 +426,7 @@ def solve_pnp_batch(
     pixel_sigma: float = 1.0,
     threshold_px: float = 6.0,
     iterations: int = 10,
+    failed: str = "raise",
 ) -> PnPBatch:
     """``B`` independent PnP problems at once: :func:`solve_pnp` vectorised over the batch axis.
 
@@ -359,13 +437,19 @@ def solve_pnp_batch(
         that are real (the rest is padding).  At least 6 valid rows per problem.
     K : (3, 3) intrinsics shared by all problems, px.
 
+    failed : ``"raise"`` (default) or ``"nan"``
+        A problem left with fewer than 6 correspondences within ``threshold_px`` of its fit raises ``ValueError``,
+        or (``"nan"``) gets NaN pose, covariance and RMS and no inliers while the others are solved.
+
     The linear start is the 12-unknown DLT of :func:`pnp_dlt` (normal equations, batched eigen-solve); problems
-    whose points are close to a plane fall back to :func:`pnp_dlt` one by one.  Gauss–Newton then refines all
-    problems together; correspondences with a reprojection error above ``threshold_px`` are dropped and the
-    problems that lost any are refined again (one robust pass; for heavy outlier rates use
-    :func:`solve_pnp_ransac`).  Gauss–Newton stops when no problem's step exceeds 1e-8 (rad, m); covariances as
-    :func:`solve_pnp`.
+    whose points are close to a plane take :func:`pnp_dlt_batch` (the steps of :func:`pnp_dlt`, batched).
+    Gauss–Newton then refines all problems together; correspondences with a reprojection error above
+    ``threshold_px`` are dropped and the problems that lost any are refined again (one robust pass; for heavy
+    outlier rates use :func:`solve_pnp_ransac`).  Each problem's Gauss–Newton stops when its step has no component
+    above 1e-8 (rad, m); covariances as :func:`solve_pnp`.
     """
+    if failed not in ("raise", "nan"):
+        raise ValueError(f"failed must be 'raise' or 'nan'; got {failed!r}")
     pixels = np.asarray(pixels, dtype=np.float64)
     points = np.asarray(points, dtype=np.float64)
     valid = np.asarray(valid, dtype=bool)
@@ -400,14 +484,20 @@ def solve_pnp_batch(
     u, sv, vt = np.linalg.svd(Mx)
     R = u @ vt
     t = t / sv.mean(axis=1, keepdims=True)
-    for k in np.flatnonzero((np.linalg.det(R) < 0) | (flat < 0.2)):  # near-planar: the one-by-one DLT
-        R[k], t[k] = pnp_dlt(pixels[k, valid[k]], points[k, valid[k]], K)
+    near = np.flatnonzero((np.linalg.det(R) < 0) | (flat < 0.2))  # near-planar: pnp_dlt's steps, batched
+    if len(near):
+        R[near], t[near] = pnp_dlt_batch(pixels[near], points[near], valid[near], K)
     R, t, JtJ, r, Z = _gauss_newton_batch(R, t, pixels, points, w, K, iterations, 1e-8)
     inl = valid & (np.linalg.norm(r, axis=2) < threshold_px) & (Z > 0)
     redo = np.flatnonzero(np.any(inl != valid, axis=1))
-    if len(redo):
-        if np.any(inl[redo].sum(axis=1) < 6):
+    lost = redo[inl[redo].sum(axis=1) < 6]
+    if len(lost):
+        if failed == "raise":
             raise ValueError("PnP: fewer than 6 correspondences within threshold_px of the fit in some problem")
+        redo = np.setdiff1d(redo, lost)
+        inl[lost] = False
+        JtJ[lost] = np.eye(6)
+    if len(redo):
         out = _gauss_newton_batch(R[redo], t[redo], pixels[redo], points[redo], inl[redo].astype(float), K,
                                   iterations, 1e-8)  # fmt: skip
         R[redo], t[redo], JtJ[redo], r[redo] = out[:4]
@@ -418,8 +508,15 @@ def solve_pnp_batch(
     Jc[:, 3:6, 0:3] = -Rt @ dp.so3_hat(t)
     Jc[:, 3:6, 3:6] = -Rt
     cov = Jc @ cov_lt @ np.swapaxes(Jc, 1, 2)
-    rms = np.sqrt(np.einsum("bm,bma->b", inl.astype(float), r**2) / (2 * inl.sum(axis=1)))
+    with np.errstate(invalid="ignore"):  # the lost problems (no inliers): NaN below
+        rms = np.sqrt(np.einsum("bm,bma->b", inl.astype(float), r**2) / (2 * inl.sum(axis=1)))
+    q_wc = np.full((b, 4), np.nan)
+    ok = np.ones(b, dtype=bool)
+    ok[lost] = False
+    q_wc[ok] = dp.quat_from_matrix(Rt[ok])
+    c_w = -np.einsum("bij,bj->bi", Rt, t)
+    c_w[lost], cov[lost], rms[lost] = np.nan, np.nan, np.nan
     return PnPBatch(
-        q_wc=dp.quat_from_matrix(Rt), c_w=-np.einsum("bij,bj->bi", Rt, t),
+        q_wc=q_wc, c_w=c_w,
         covariance=0.5 * (cov + np.swapaxes(cov, 1, 2)), rms_px=rms, inliers=inl,
     )  # fmt: skip
