@@ -205,43 +205,54 @@ BATCH_OPS = {
                            lambda r, n: (r.normal(size=(n, 8)), r.normal(size=(n, 3))), 3),
     "quat_rotate": ("dp.quat_rotate(u, v)", "dp.quat_rotate(u, v, out=o)",
                     lambda r, n: (r.normal(size=(n, 4)), r.normal(size=(n, 3))), 3),
+    # one-input functions (no out= argument: the out= columns stay empty)
+    "quat_conj": ("dp.quat_conj(u)", None, lambda r, n: (r.normal(size=(n, 4)),), 4),
+    "quat_inv": ("dp.quat_inv(u)", None, lambda r, n: (r.normal(size=(n, 4)),), 4),
+    "dualquat_conj": ("dp.dualquat_conj(u)", None, lambda r, n: (r.normal(size=(n, 8)),), 8),
+    "dualquat_inv": ("dp.dualquat_inv(u)", None, lambda r, n: (r.normal(size=(n, 8)),), 8),
 }
+#: the operations of the small-batch table (the one-input functions are in the allocating table only)
+SMALL_OPS = ["quat_mul", "dualquat_mul", "dualquat_transform", "quat_rotate"]
 
 
 #: array placements tried for each floor (np.add on small arrays runs up to 4x slower at some relative placements)
 PLACEMENTS = 4
 
 
-def batch_table(sizes: list[int], rounds: int, rng: np.random.Generator) -> str:
+def batch_table(sizes: list[int], rounds: int, rng: np.random.Generator, ops: list[str] | None = None) -> str:
     lines = ["| operation | N | allocating call | / `np.add` same output | / `np.add` same bytes | with `out=` | "
-             "/ `np.add(out=)` same bytes |", "|---|---:|---:|---:|---:|---:|---:|"]
-    for name, (stmt, stmt_out, build, width) in BATCH_OPS.items():
+             "/ `np.add(out=)` same output | / `np.add(out=)` same bytes |", "|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for name in ops or list(BATCH_OPS):
+        stmt, stmt_out, build, width = BATCH_OPS[name]
         for n in sizes:
-            u, v = build(rng, n)
-            third = (u.size + v.size + n * width) // 3  # a, b, c of the same-bytes floor: a third each
+            args = build(rng, n)
+            u, v = args[0], args[-1]
+            third = (sum(a.size for a in args) + n * width) // 3  # a, b, c of the same-bytes floor: a third each
             ns = {"np": np, "dp": dp, "u": u, "v": v, "o": np.empty((n, width))}
-            stmts = {"call": stmt, "call_out": stmt_out}
+            stmts = {"call": stmt, **({"call_out": stmt_out} if stmt_out else {})}
             pads = []  # kept alive: they shift where the next arrays land
             for k in range(PLACEMENTS):
                 pads.append([np.empty(37 * k + 1) for _ in range(3)])
-                ns.update({f"fa{k}": np.ones((n, width)), f"fb{k}": np.ones((n, width)), f"ba{k}": np.ones(third),
-                           f"bb{k}": np.ones(third), f"bc{k}": np.empty(third)})
+                ns.update({f"fa{k}": np.ones((n, width)), f"fb{k}": np.ones((n, width)), f"fc{k}": np.empty((n, width)),
+                           f"ba{k}": np.ones(third), f"bb{k}": np.ones(third), f"bc{k}": np.empty(third)})
                 stmts.update({f"floor{k}": f"np.add(fa{k}, fb{k})", f"bytes{k}": f"np.add(ba{k}, bb{k})",
+                              f"floor_out{k}": f"np.add(fa{k}, fb{k}, out=fc{k})",
                               f"bytes_out{k}": f"np.add(ba{k}, bb{k}, out=bc{k})"})
             big = n >= 100_000
             t = median_times(stmts, ns, max(15, rounds // 2) if big else rounds, target=0.0 if big else 2e-3)
-            for f in ("floor", "bytes", "bytes_out"):  # the floor: the fastest placement of NumPy's arrays
+            for f in ("floor", "bytes", "floor_out", "bytes_out"):  # the floor: the fastest placement of the arrays
                 t[f] = min(t[f"{f}{k}"] for k in range(PLACEMENTS))
+            out_cells = (f"{t['call_out'] * 1e6:.2f} µs | {t['call_out'] / t['floor_out']:.2f} | "
+                         f"{t['call_out'] / t['bytes_out']:.2f}") if stmt_out else "– | – | –"
             lines.append(f"| {name} | {n:,} | {t['call'] * 1e6:.2f} µs | {t['call'] / t['floor']:.2f} | "
-                         f"{t['call'] / t['bytes']:.2f} | {t['call_out'] * 1e6:.2f} µs | "
-                         f"{t['call_out'] / t['bytes_out']:.2f} |")
+                         f"{t['call'] / t['bytes']:.2f} | {out_cells} |")
     lines.append("")
-    lines.append("Ratios of medians.  *Same output*: `np.add(a, b)` with `a`, `b` of the call's output shape (the "
-                 "allocating floor of the same output size).  *Same bytes*: `np.add(a, b)` with `a`, `b` and the "
-                 "result each a third of the call's inputs plus output (as `bench_algebra.py`'s floor); for "
-                 "`quat_mul` and `dualquat_mul` the two are the same arrays, for the width-3 outputs of "
-                 "`dualquat_transform` and `quat_rotate` (8- or 4-wide input read per 3-wide row written) only the "
-                 "second moves what the call moves.")
+    lines.append("Ratios of medians.  *Same output*: `np.add(a, b)` (or `np.add(a, b, out=c)`) with `a`, `b`, `c` of "
+                 "the call's output shape (the allocating floor of the same output size).  *Same bytes*: `np.add` "
+                 "with `a`, `b` and the result each a third of the call's inputs plus output (as "
+                 "`bench_algebra.py`'s floor); for `quat_mul` and `dualquat_mul` the two are the same arrays, for "
+                 "the width-3 outputs of `dualquat_transform` and `quat_rotate` (8- or 4-wide input read per 3-wide "
+                 "row written) only the second moves what the call moves.  The one-input functions take no `out=`.")
     return "\n".join(lines)
 
 
@@ -249,18 +260,34 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="fewer samples (a smoke run)")
     ap.add_argument("--markdown", metavar="PATH", help="write the tables into PATH's bench_small block")
+    ap.add_argument("--batches-only", action="store_true",
+                    help="only the allocating-batch table (for comparing builds; not with --markdown)")
+    ap.add_argument("--sizes", type=lambda t: [int(float(x)) for x in t.split(",")],
+                    default=[10, 100, 1_000, 10_000, 100_000, 1_000_000],
+                    help="batch sizes of the allocating-batch table, comma-separated (default 1e1,...,1e6)")
+    ap.add_argument("--ops", type=lambda t: t.split(","), default=None,
+                    help="operations of the allocating-batch table, comma-separated (default: all of "
+                    + ", ".join(BATCH_OPS) + ")")
     args = ap.parse_args(argv)
+    if args.batches_only and args.markdown:
+        ap.error("--markdown writes every table: leave out --batches-only")
     rounds = 9 if args.quick else 41
     rng = np.random.default_rng(2026)
     v = pz.versions()
+    load = os.getloadavg()
     head = (f"Python {platform.python_version()}, " + ", ".join(f"{k} {v[k]}" for k in
             ("numpy", "scipy", "numpy-quaternion", "pytransform3d")) + f"; {platform.machine()}, "
             f"{os.cpu_count()} CPUs; median of {rounds} interleaved rounds.  Command: `{COMMAND}`.")
+    large = batch_table(args.sizes, rounds, rng, args.ops)
+    load = (f"Load average {load[0]:.1f} at the start, {os.getloadavg()[0]:.1f} at the end"
+            if args.batches_only else f"Load average {load[0]:.1f} at the start")
+    if args.batches_only:
+        print(f"{head}\n{load}.\n\n{large}")
+        return 0
     single = single_table(rounds, rng)
-    small = batch_table([1, 8, 64], rounds, rng)
-    large = batch_table([1_000, 100_000, 1_000_000], rounds, rng)
-    text = (f"{head}\n\n#### One element\n\n{single}\n\n#### Small batches\n\n{small}\n\n"
-            f"#### Allocating batches\n\n{large}")
+    small = batch_table([1, 8, 64], rounds, rng, SMALL_OPS)
+    text = (f"{head}  {load}, {os.getloadavg()[0]:.1f} at the end.\n\n#### One element\n\n{single}\n\n"
+            f"#### Small batches\n\n{small}\n\n#### Allocating batches\n\n{large}")
     print(text)
     if args.markdown:
         write_marked_block(Path(args.markdown), text, BEGIN, END)
