@@ -133,3 +133,16 @@ def test_dualquat_mul_rounds_as_its_formula() -> None:
 def test_kernels_are_numpy_gufuncs(name: str) -> None:
     f = getattr(_native, name)
     assert isinstance(f, np.ufunc) and f.signature is not None
+
+
+@pytest.mark.parametrize("name,width", [("quat_conj", 4), ("dualquat_conj", 8)])
+@given(data=st.data(), n=st.integers(0, 19))
+def test_conjugates_multiply_as_numpy(name: str, width: int, data: st.DataObject, n: int) -> None:
+    # the kernels multiply by the sign pattern as NumPy does: the same bytes, NaN signs and payloads included
+    q = data.draw(arrays(np.float64, (n, width), elements=ANY))
+    signs = np.tile([-1.0, -1.0, -1.0, 1.0], width // 4)
+    f = getattr(_native, name)
+    with np.errstate(all="ignore"):
+        want = (q * signs).tobytes()
+        assert f(q).tobytes() == want
+        assert f(strided(q)).tobytes() == want

@@ -179,6 +179,20 @@ DUALPOSE_TARGET_AVX512 npy_intp quat_rotate_rows8(const double* q, const double*
 }  // namespace
 #endif
 
+const volatile double kMinusOne = -1.0, kPlusOne = 1.0;
+
+// The sign pattern read once, then a loop the compiler vectorises (elementwise: o may be q).
+DUALPOSE_CLONES void quat_conj_rows(const double* q, double* o, npy_intp n) {
+    const double m = kMinusOne, p = kPlusOne;
+    for (npy_intp i = 0; i < 4 * n; i += 4) {
+        o[i] = q[i] * m;
+        o[i + 1] = q[i + 1] * m;
+        o[i + 2] = q[i + 2] * m;
+        o[i + 3] = q[i + 3] * p;
+    }
+}
+DUALPOSE_CLONES void dualquat_conj_rows(const double* s, double* o, npy_intp n) { quat_conj_rows(s, o, 2 * n); }
+
 void quat_mul_rows(const double* p, const double* q, double* o, npy_intp n) { quat_mul_rows4(p, q, o, n); }
 
 int quat_rotate_rows(const double* q, const double* v, double* o, npy_intp n) {
