@@ -129,6 +129,18 @@ inline __attribute__((always_inline)) void split4x8(const double* p, v8* c) {
     c[3] = __builtin_shuffle(t1, t3, m8{2, 6, 3, 7, 10, 14, 11, 15});
 }
 
+// Inverse of split4x8.
+inline __attribute__((always_inline)) void join4x8(const v8* c, double* p) {
+    const v8 t0 = __builtin_shuffle(c[0], c[2], m8{0, 2, 8, 10, 1, 3, 9, 11});    // x0 x2 z0 z2 x1 x3 z1 z3
+    const v8 t1 = __builtin_shuffle(c[1], c[3], m8{0, 2, 8, 10, 1, 3, 9, 11});    // y0 y2 w0 w2 y1 y3 w1 w3
+    const v8 t2 = __builtin_shuffle(c[0], c[2], m8{4, 6, 12, 14, 5, 7, 13, 15});  // rows 4..7 alike
+    const v8 t3 = __builtin_shuffle(c[1], c[3], m8{4, 6, 12, 14, 5, 7, 13, 15});
+    store8(p, __builtin_shuffle(t0, t1, m8{0, 8, 2, 10, 4, 12, 6, 14}));
+    store8(p + 8, __builtin_shuffle(t0, t1, m8{1, 9, 3, 11, 5, 13, 7, 15}));
+    store8(p + 16, __builtin_shuffle(t2, t3, m8{0, 8, 2, 10, 4, 12, 6, 14}));
+    store8(p + 24, __builtin_shuffle(t2, t3, m8{1, 9, 3, 11, 5, 13, 7, 15}));
+}
+
 // Eight rows of 3 doubles (24 consecutive doubles) -> x, y, z vectors.
 inline __attribute__((always_inline)) void split3x8(const double* p, v8& x, v8& y, v8& z) {
     const v8 a = load8(p), b = load8(p + 8), c = load8(p + 16);  // x0 y0 z0 x1 y1 z1 x2 y2 | z2 x3 .. x5 | y5 .. z7

@@ -7,7 +7,8 @@
 // On a CPU with AVX-512F the loops take blocks of eight rows in 512-bit registers first (the *_rows8 functions,
 // compiled for AVX-512F only and chosen at run time): explicit vector code with no scalar floating-point arithmetic,
 // so the vectoriser has nothing to fuse and -ffp-contract=off keeps every multiply and add separate; the last
-// n mod 8 rows, and any block of eight with a row outside the ordinary range, go to the four-row loops.
+// n mod 8 rows, and any block of eight with a row outside the ordinary range, go to the four-row loops.  (The
+// conjugates need no such code: the compiler vectorises their loops itself.)
 #include "rows.hpp"
 
 #include "../common/dispatch.hpp"
@@ -121,6 +122,20 @@ DUALPOSE_TARGET_AVX512 inline __attribute__((always_inline)) bool ordinary8(v8 x
 }
 
 // Blocks of eight rows (all loaded before any is stored); returns the rows done, a multiple of 8.
+DUALPOSE_TARGET_AVX512 npy_intp quat_mul_rows8(const double* p, const double* q, double* o, npy_intp n) {
+    npy_intp i = 0;
+    for (; i + 8 <= n; i += 8) {
+        v8 x[4], y[4];
+        lanes::split4x8(p + 4 * i, x);
+        lanes::split4x8(q + 4 * i, y);
+        const lanes::Q8 r = qmul_t(lanes::Q8{x[0], x[1], x[2], x[3]}, lanes::Q8{y[0], y[1], y[2], y[3]});
+        const v8 c[4] = {r.x, r.y, r.z, r.w};
+        lanes::join4x8(c, o + 4 * i);
+    }
+    return i;
+}
+
+// As quat_mul_rows8.
 DUALPOSE_TARGET_AVX512 npy_intp dualquat_mul_rows8(const double* a, const double* b, double* o, npy_intp n) {
     npy_intp i = 0;
     for (; i + 8 <= n; i += 8) {
@@ -193,7 +208,13 @@ DUALPOSE_CLONES void quat_conj_rows(const double* q, double* o, npy_intp n) {
 }
 DUALPOSE_CLONES void dualquat_conj_rows(const double* s, double* o, npy_intp n) { quat_conj_rows(s, o, 2 * n); }
 
-void quat_mul_rows(const double* p, const double* q, double* o, npy_intp n) { quat_mul_rows4(p, q, o, n); }
+void quat_mul_rows(const double* p, const double* q, double* o, npy_intp n) {
+    npy_intp i = 0;
+#if DUALPOSE_HAVE_AVX512
+    if (kAvx512) i = quat_mul_rows8(p, q, o, n);
+#endif
+    quat_mul_rows4(p + 4 * i, q + 4 * i, o + 4 * i, n - i);
+}
 
 int quat_rotate_rows(const double* q, const double* v, double* o, npy_intp n) {
     int flagged = 0;
