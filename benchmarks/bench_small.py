@@ -226,6 +226,21 @@ SMALL_OPS = ["quat_mul", "dualquat_mul", "dualquat_transform", "quat_rotate"]
 PLACEMENTS = 4
 
 
+def add_floors(ns: dict, stmts: dict[str, str], n: int, width: int, third: int | None = None) -> list:
+    """Put ``np.add`` (allocating ``floor{k}``, into a given output ``floor_out{k}``) on arrays of the output shape,
+    and with ``third`` on flat arrays of that length (``bytes{k}``, ``bytes_out{k}``), at each of the placements, into
+    the namespace and the statements; returns the padding arrays, which must be kept alive while timing."""
+    pads = []  # they shift where the next arrays land
+    for k in range(PLACEMENTS):
+        pads.append([np.empty(37 * k + 1) for _ in range(3)])
+        ns.update({f"fa{k}": np.ones((n, width)), f"fb{k}": np.ones((n, width)), f"fc{k}": np.empty((n, width))})
+        stmts.update({f"floor{k}": f"np.add(fa{k}, fb{k})", f"floor_out{k}": f"np.add(fa{k}, fb{k}, out=fc{k})"})
+        if third is not None:
+            ns.update({f"ba{k}": np.ones(third), f"bb{k}": np.ones(third), f"bc{k}": np.empty(third)})
+            stmts.update({f"bytes{k}": f"np.add(ba{k}, bb{k})", f"bytes_out{k}": f"np.add(ba{k}, bb{k}, out=bc{k})"})
+    return pads
+
+
 def batch_table(sizes: list[int], rounds: int, rng: np.random.Generator, ops: list[str] | None = None) -> str:
     lines = ["| operation | N | allocating call | / `np.add` same output | / `np.add` same bytes | with `out=` | "
              "/ `np.add(out=)` same output | / `np.add(out=)` same bytes |", "|---|---:|---:|---:|---:|---:|---:|---:|"]
@@ -237,14 +252,7 @@ def batch_table(sizes: list[int], rounds: int, rng: np.random.Generator, ops: li
             third = (sum(a.size for a in args) + n * width) // 3  # a, b, c of the same-bytes floor: a third each
             ns = {"np": np, "dp": dp, "u": u, "v": v, "o": np.empty((n, width))}
             stmts = {"call": stmt, **({"call_out": stmt_out} if stmt_out else {})}
-            pads = []  # kept alive: they shift where the next arrays land
-            for k in range(PLACEMENTS):
-                pads.append([np.empty(37 * k + 1) for _ in range(3)])
-                ns.update({f"fa{k}": np.ones((n, width)), f"fb{k}": np.ones((n, width)), f"fc{k}": np.empty((n, width)),
-                           f"ba{k}": np.ones(third), f"bb{k}": np.ones(third), f"bc{k}": np.empty(third)})
-                stmts.update({f"floor{k}": f"np.add(fa{k}, fb{k})", f"bytes{k}": f"np.add(ba{k}, bb{k})",
-                              f"floor_out{k}": f"np.add(fa{k}, fb{k}, out=fc{k})",
-                              f"bytes_out{k}": f"np.add(ba{k}, bb{k}, out=bc{k})"})
+            pads = add_floors(ns, stmts, n, width, third)  # noqa: F841 - kept alive while timing
             big = n >= 100_000
             t = median_times(stmts, ns, max(15, rounds // 2) if big else rounds, target=0.0 if big else 2e-3)
             for f in ("floor", "bytes", "floor_out", "bytes_out"):  # the floor: the fastest placement of the arrays
@@ -298,13 +306,7 @@ def compare_table(base, sizes: list[int], rounds: int, rng: np.random.Generator,
             stmts = {"call": stmt, "base": bstmt}
             if stmt_out:
                 stmts.update(call_out=stmt_out, base_out=stmt_out.replace("dp.", "base."))
-            pads = []  # kept alive: they shift where the next arrays land
-            for k in range(PLACEMENTS):
-                pads.append([np.empty(37 * k + 1) for _ in range(3)])
-                ns.update({f"fa{k}": np.ones((n, width)), f"fb{k}": np.ones((n, width)),
-                           f"fc{k}": np.empty((n, width))})
-                stmts.update({f"floor{k}": f"np.add(fa{k}, fb{k})",
-                              f"floor_out{k}": f"np.add(fa{k}, fb{k}, out=fc{k})"})
+            pads = add_floors(ns, stmts, n, width)  # noqa: F841 - kept alive while timing
             with np.errstate(all="ignore"):
                 for a, b in [("call", "base")] + ([("call_out", "base_out")] if stmt_out else []):
                     x, y = eval(stmts[a], ns), eval(stmts[b], ns)  # our own statements
