@@ -3,7 +3,9 @@ allocating batch calls against NumPy's allocating floor.
 
 Run ``.venv/bin/python benchmarks/bench_small.py`` (needs the ``bench`` extra: ``pip install -e '.[test,bench]'``);
 ``--quick`` takes fewer samples, ``--markdown docs/scaling.md`` also writes the tables into the page's "Small end"
-block (the text around the markers is kept).
+block (the text around the markers is kept).  ``--batches-only`` prints the allocating-batch table alone (``--sizes``,
+``--ops``, ``--rounds`` choose what it times); ``--baseline SO`` compares this build with another build of
+``dualpose._native`` (a copy of its shared object, e.g. main's) in the same process, call by call interleaved.
 
 Method
 ------
@@ -35,6 +37,7 @@ import sys
 import time
 import timeit
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -205,43 +208,122 @@ BATCH_OPS = {
                            lambda r, n: (r.normal(size=(n, 8)), r.normal(size=(n, 3))), 3),
     "quat_rotate": ("dp.quat_rotate(u, v)", "dp.quat_rotate(u, v, out=o)",
                     lambda r, n: (r.normal(size=(n, 4)), r.normal(size=(n, 3))), 3),
+    # one-input functions (no out= argument: the out= columns stay empty)
+    "quat_conj": ("dp.quat_conj(u)", None, lambda r, n: (r.normal(size=(n, 4)),), 4),
+    "quat_inv": ("dp.quat_inv(u)", None, lambda r, n: (r.normal(size=(n, 4)),), 4),
+    "dualquat_conj": ("dp.dualquat_conj(u)", None, lambda r, n: (r.normal(size=(n, 8)),), 8),
+    "dualquat_inv": ("dp.dualquat_inv(u)", None, lambda r, n: (r.normal(size=(n, 8)),), 8),
 }
+#: FastPath options of each public function (as in its ``@fast_path``), to rebuild it on a baseline build's kernel
+FAST_OPTIONS = {"quat_mul": (False, True), "dualquat_mul": (False, True), "dualquat_transform": (True, True),
+                "quat_rotate": (True, True), "quat_conj": (False, False), "quat_inv": (True, False),
+                "dualquat_conj": (False, False), "dualquat_inv": (True, False)}
+#: the operations of the small-batch table (the one-input functions are in the allocating table only)
+SMALL_OPS = ["quat_mul", "dualquat_mul", "dualquat_transform", "quat_rotate"]
 
 
 #: array placements tried for each floor (np.add on small arrays runs up to 4x slower at some relative placements)
 PLACEMENTS = 4
 
 
-def batch_table(sizes: list[int], rounds: int, rng: np.random.Generator) -> str:
+def add_floors(ns: dict, stmts: dict[str, str], n: int, width: int, third: int | None = None) -> list:
+    """Put ``np.add`` (allocating ``floor{k}``, into a given output ``floor_out{k}``) on arrays of the output shape,
+    and with ``third`` on flat arrays of that length (``bytes{k}``, ``bytes_out{k}``), at each of the placements, into
+    the namespace and the statements; returns the padding arrays, which must be kept alive while timing."""
+    pads = []  # they shift where the next arrays land
+    for k in range(PLACEMENTS):
+        pads.append([np.empty(37 * k + 1) for _ in range(3)])
+        ns.update({f"fa{k}": np.ones((n, width)), f"fb{k}": np.ones((n, width)), f"fc{k}": np.empty((n, width))})
+        stmts.update({f"floor{k}": f"np.add(fa{k}, fb{k})", f"floor_out{k}": f"np.add(fa{k}, fb{k}, out=fc{k})"})
+        if third is not None:
+            ns.update({f"ba{k}": np.ones(third), f"bb{k}": np.ones(third), f"bc{k}": np.empty(third)})
+            stmts.update({f"bytes{k}": f"np.add(ba{k}, bb{k})", f"bytes_out{k}": f"np.add(ba{k}, bb{k}, out=bc{k})"})
+    return pads
+
+
+def batch_table(sizes: list[int], rounds: int, rng: np.random.Generator, ops: list[str] | None = None) -> str:
     lines = ["| operation | N | allocating call | / `np.add` same output | / `np.add` same bytes | with `out=` | "
-             "/ `np.add(out=)` same bytes |", "|---|---:|---:|---:|---:|---:|---:|"]
-    for name, (stmt, stmt_out, build, width) in BATCH_OPS.items():
+             "/ `np.add(out=)` same output | / `np.add(out=)` same bytes |", "|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for name in ops or list(BATCH_OPS):
+        stmt, stmt_out, build, width = BATCH_OPS[name]
         for n in sizes:
-            u, v = build(rng, n)
-            third = (u.size + v.size + n * width) // 3  # a, b, c of the same-bytes floor: a third each
+            args = build(rng, n)
+            u, v = args[0], args[-1]
+            third = (sum(a.size for a in args) + n * width) // 3  # a, b, c of the same-bytes floor: a third each
             ns = {"np": np, "dp": dp, "u": u, "v": v, "o": np.empty((n, width))}
-            stmts = {"call": stmt, "call_out": stmt_out}
-            pads = []  # kept alive: they shift where the next arrays land
-            for k in range(PLACEMENTS):
-                pads.append([np.empty(37 * k + 1) for _ in range(3)])
-                ns.update({f"fa{k}": np.ones((n, width)), f"fb{k}": np.ones((n, width)), f"ba{k}": np.ones(third),
-                           f"bb{k}": np.ones(third), f"bc{k}": np.empty(third)})
-                stmts.update({f"floor{k}": f"np.add(fa{k}, fb{k})", f"bytes{k}": f"np.add(ba{k}, bb{k})",
-                              f"bytes_out{k}": f"np.add(ba{k}, bb{k}, out=bc{k})"})
+            stmts = {"call": stmt, **({"call_out": stmt_out} if stmt_out else {})}
+            pads = add_floors(ns, stmts, n, width, third)  # noqa: F841 - kept alive while timing
             big = n >= 100_000
             t = median_times(stmts, ns, max(15, rounds // 2) if big else rounds, target=0.0 if big else 2e-3)
-            for f in ("floor", "bytes", "bytes_out"):  # the floor: the fastest placement of NumPy's arrays
+            for f in ("floor", "bytes", "floor_out", "bytes_out"):  # the floor: the fastest placement of the arrays
                 t[f] = min(t[f"{f}{k}"] for k in range(PLACEMENTS))
+            out_cells = (f"{t['call_out'] * 1e6:.2f} µs | {t['call_out'] / t['floor_out']:.2f} | "
+                         f"{t['call_out'] / t['bytes_out']:.2f}") if stmt_out else "– | – | –"
             lines.append(f"| {name} | {n:,} | {t['call'] * 1e6:.2f} µs | {t['call'] / t['floor']:.2f} | "
-                         f"{t['call'] / t['bytes']:.2f} | {t['call_out'] * 1e6:.2f} µs | "
-                         f"{t['call_out'] / t['bytes_out']:.2f} |")
+                         f"{t['call'] / t['bytes']:.2f} | {out_cells} |")
     lines.append("")
-    lines.append("Ratios of medians.  *Same output*: `np.add(a, b)` with `a`, `b` of the call's output shape (the "
-                 "allocating floor of the same output size).  *Same bytes*: `np.add(a, b)` with `a`, `b` and the "
-                 "result each a third of the call's inputs plus output (as `bench_algebra.py`'s floor); for "
-                 "`quat_mul` and `dualquat_mul` the two are the same arrays, for the width-3 outputs of "
-                 "`dualquat_transform` and `quat_rotate` (8- or 4-wide input read per 3-wide row written) only the "
-                 "second moves what the call moves.")
+    lines.append("Ratios of medians.  *Same output*: `np.add(a, b)` (or `np.add(a, b, out=c)`) with `a`, `b`, `c` of "
+                 "the call's output shape (the allocating floor of the same output size).  *Same bytes*: `np.add` "
+                 "with `a`, `b` and the result each a third of the call's inputs plus output (as "
+                 "`bench_algebra.py`'s floor); for `quat_mul` and `dualquat_mul` the two are the same arrays, for "
+                 "the width-3 outputs of `dualquat_transform` and `quat_rotate` (8- or 4-wide input read per 3-wide "
+                 "row written) only the second moves what the call moves.  The one-input functions take no `out=`.")
+    return "\n".join(lines)
+
+
+def load_baseline(path: str):
+    """Another build of ``dualpose._native`` (a copy of its shared object), loaded beside this one."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("dualpose_baseline._native", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def baseline_call(base, name: str):
+    """``name`` as the baseline build runs it: its kernel behind its own direct entry, or (a kernel it lacks) the
+    function's Python body."""
+    new = getattr(dp, name)
+    if not hasattr(base, name):
+        return new.__wrapped__
+    nan_declines, takes_out = FAST_OPTIONS[name]
+    return base.FastPath(getattr(base, name), new.__wrapped__, nan_declines, -1, (), takes_out, new.__wrapped__)
+
+
+def compare_table(base, sizes: list[int], rounds: int, rng: np.random.Generator, ops: list[str] | None) -> str:
+    """Baseline build and this one, timed interleaved in this process: each call / ``np.add`` of the same output."""
+    lines = ["| operation | N | allocating / `np.add`: baseline | this build | `out=` / `np.add(out=)`: baseline | "
+             "this build | this build / baseline (allocating) |", "|---|---:|---:|---:|---:|---:|---:|"]
+    for name in ops or list(BATCH_OPS):
+        stmt, stmt_out, build, width = BATCH_OPS[name]
+        for n in sizes:
+            args = build(rng, n)
+            u, v = args[0], args[-1]
+            ns = {"np": np, "dp": dp, "u": u, "v": v, "o": np.empty((n, width)), "base": SimpleNamespace()}
+            setattr(ns["base"], name, baseline_call(base, name))
+            bstmt = stmt.replace("dp.", "base.")
+            stmts = {"call": stmt, "base": bstmt}
+            if stmt_out:
+                stmts.update(call_out=stmt_out, base_out=stmt_out.replace("dp.", "base."))
+            pads = add_floors(ns, stmts, n, width)  # noqa: F841 - kept alive while timing
+            with np.errstate(all="ignore"):
+                for a, b in [("call", "base")] + ([("call_out", "base_out")] if stmt_out else []):
+                    x, y = eval(stmts[a], ns), eval(stmts[b], ns)  # our own statements
+                    if np.asarray(x).tobytes() != np.asarray(y).tobytes():
+                        raise AssertionError(f"{name}, N = {n}: the two builds disagree")
+            big = n >= 100_000
+            t = median_times(stmts, ns, max(15, rounds // 2) if big else rounds, target=0.0 if big else 2e-3)
+            for f in ("floor", "floor_out"):
+                t[f] = min(t[f"{f}{k}"] for k in range(PLACEMENTS))
+            outs = (f"{t['base_out'] / t['floor_out']:.2f} | {t['call_out'] / t['floor_out']:.2f}" if stmt_out
+                    else "– | –")
+            lines.append(f"| {name} | {n:,} | {t['base'] / t['floor']:.2f} | {t['call'] / t['floor']:.2f} | {outs} | "
+                         f"{t['call'] / t['base']:.2f} |")
+    lines.append("")
+    lines.append("Ratios of medians, every statement of a row timed interleaved in one process.  `np.add` has "
+                 "arrays of the call's output shape (the fastest of four placements in memory).  The baseline's "
+                 "results are checked to equal this build's byte for byte before timing.")
     return "\n".join(lines)
 
 
@@ -249,18 +331,42 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="fewer samples (a smoke run)")
     ap.add_argument("--markdown", metavar="PATH", help="write the tables into PATH's bench_small block")
+    ap.add_argument("--batches-only", action="store_true",
+                    help="only the allocating-batch table (for comparing builds; not with --markdown)")
+    ap.add_argument("--sizes", type=lambda t: [int(float(x)) for x in t.split(",")],
+                    default=[10, 100, 1_000, 10_000, 100_000, 1_000_000],
+                    help="batch sizes of the allocating-batch table, comma-separated (default 1e1,...,1e6)")
+    ap.add_argument("--ops", type=lambda t: t.split(","), default=None,
+                    help="operations of the allocating-batch table, comma-separated (default: all of "
+                    + ", ".join(BATCH_OPS) + ")")
+    ap.add_argument("--rounds", type=int, default=None, help="interleaved rounds (default 41, 9 with --quick)")
+    ap.add_argument("--baseline", metavar="SO",
+                    help="only compare with another build of dualpose._native (a copy of its .so), in this process")
     args = ap.parse_args(argv)
-    rounds = 9 if args.quick else 41
+    if args.batches_only and args.markdown:
+        ap.error("--markdown writes every table: leave out --batches-only")
+    rounds = args.rounds or (9 if args.quick else 41)
     rng = np.random.default_rng(2026)
     v = pz.versions()
+    load = os.getloadavg()
     head = (f"Python {platform.python_version()}, " + ", ".join(f"{k} {v[k]}" for k in
             ("numpy", "scipy", "numpy-quaternion", "pytransform3d")) + f"; {platform.machine()}, "
-            f"{os.cpu_count()} CPUs; median of {rounds} interleaved rounds.  Command: `{COMMAND}`.")
+            f"{os.cpu_count()} CPUs; median of {rounds} interleaved rounds.  Command: "
+            f"`{' '.join([COMMAND.split(' --')[0], *(argv if argv is not None else sys.argv[1:])])}`.")
+    if args.baseline:
+        table = compare_table(load_baseline(args.baseline), args.sizes, rounds, rng, args.ops)
+        print(f"{head}\nLoad average {load[0]:.1f} at the start, {os.getloadavg()[0]:.1f} at the end.\n\n{table}")
+        return 0
+    large = batch_table(args.sizes, rounds, rng, args.ops)
+    load = (f"Load average {load[0]:.1f} at the start, {os.getloadavg()[0]:.1f} at the end"
+            if args.batches_only else f"Load average {load[0]:.1f} at the start")
+    if args.batches_only:
+        print(f"{head}\n{load}.\n\n{large}")
+        return 0
     single = single_table(rounds, rng)
-    small = batch_table([1, 8, 64], rounds, rng)
-    large = batch_table([1_000, 100_000, 1_000_000], rounds, rng)
-    text = (f"{head}\n\n#### One element\n\n{single}\n\n#### Small batches\n\n{small}\n\n"
-            f"#### Allocating batches\n\n{large}")
+    small = batch_table([1, 8, 64], rounds, rng, SMALL_OPS)
+    text = (f"{head}  {load}, {os.getloadavg()[0]:.1f} at the end.\n\n#### One element\n\n{single}\n\n"
+            f"#### Small batches\n\n{small}\n\n#### Allocating batches\n\n{large}")
     print(text)
     if args.markdown:
         write_marked_block(Path(args.markdown), text, BEGIN, END)

@@ -158,6 +158,7 @@ dlogc: np.ufunc  # elementwise
 dqalpha: np.ufunc  # elementwise
 dsinc: np.ufunc  # elementwise
 dualquat_canonical: np.ufunc  # (8)->(8)
+dualquat_conj: np.ufunc  # (8)->(8)
 dualquat_exp: np.ufunc  # (8)->(8)
 dualquat_from_qt: np.ufunc  # (4),(3)->(8)
 dualquat_from_rt: np.ufunc  # (4,4),(4)->(8)
@@ -262,6 +263,7 @@ qt_mul_derivative: np.ufunc  # (4),(3),(4),(3),(4),(3),(4),(3)->(4),(3)
 qt_transform: np.ufunc  # (4),(3),(3)->(3)
 quat_angle: np.ufunc  # (4),(4)->()
 quat_canonical: np.ufunc  # (4)->(4)
+quat_conj: np.ufunc  # (4)->(4)
 quat_derivative: np.ufunc  # (4),(3),()->(4)
 quat_derivative_from_rotvec_rate: np.ufunc  # (3),(3)->(4)
 quat_exp: np.ufunc  # (4)->(4)

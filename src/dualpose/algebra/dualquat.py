@@ -98,6 +98,7 @@ def dualquat_mul(a: ArrayLike, b: ArrayLike, out: np.ndarray | None = None) -> N
     return call_kernel(_native.dualquat_mul, (a, b), ("a", "b"), out)
 
 
+@fast_path(_native.dualquat_conj)
 def dualquat_conj(s: ArrayLike) -> NDArray[np.float64]:
     """Quaternion conjugate of both parts, ``(r*, d*)`` (Dantam 2014 eq. (81)); (..., 8) -> (..., 8).
 

@@ -96,6 +96,7 @@ def quat_mul(p: ArrayLike, q: ArrayLike, out: np.ndarray | None = None) -> NDArr
     return call_kernel(_native.quat_mul, (p, q), ("p", "q"), out)
 
 
+@fast_path(_native.quat_conj)
 def quat_conj(q: ArrayLike) -> NDArray[np.float64]:
     """Conjugate ``q* = [-x, -y, -z, w]`` (Dantam 2014 eq. (13)); shape (..., 4) -> (..., 4), xyzw."""
     q = as_array(q, "q", 4)

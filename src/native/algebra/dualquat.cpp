@@ -201,6 +201,8 @@ using V6 = V<6>;
 bool add_dualquat_gufuncs(PyObject* m) {
     return add_gufunc<Gufunc<dualquat_mul_row, In<D, D>, Out<D>, dualquat_mul_rows>>(m, "dualquat_mul",
                                                                                      "(a + ε b)(c + ε d).") &&
+           add_gufunc<Gufunc<dualquat_conj_row, In<D>, Out<D>, dualquat_conj_rows>>(
+               m, "dualquat_conj", "S [-1, -1, -1, 1, -1, -1, -1, 1], as NumPy.") &&
            add_gufunc<Gufunc<dualquat_inv, In<D>, Out<D>>>(m, "dualquat_inv", "S^-1 (NaN for a zero real part).") &&
            add_gufunc<Gufunc<dualquat_norm, In<D>, Out<V<2>>>>(m, "dualquat_norm", "Dual-number norm [|r|, r.d/|r|].") &&
            add_gufunc<Gufunc<dualquat_normalize, In<D>, Out<D>>>(m, "dualquat_normalize", "S/|S|.") &&

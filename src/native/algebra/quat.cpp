@@ -186,6 +186,8 @@ using V3 = V<3>;
 bool add_quat_gufuncs(PyObject* m) {
     return add_gufunc<Gufunc<quat_mul_row, In<Q, Q>, Out<Q>, quat_mul_rows>>(m, "quat_mul",
                                                                                 "Hamilton product p (x) q, xyzw.") &&
+           add_gufunc<Gufunc<quat_conj_row, In<Q>, Out<Q>, quat_conj_rows>>(m, "quat_conj",
+                                                                            "q [-1, -1, -1, 1], as NumPy.") &&
            add_gufunc<Gufunc<quat_norm, In<Q>, Out<S>>>(m, "quat_norm", "|q| without under/overflow.") &&
            add_gufunc<Gufunc<quat_normalize, In<Q>, Out<Q>>>(m, "quat_normalize", "q/|q| (NaN for zero).") &&
            add_gufunc<Gufunc<quat_inv, In<Q>, Out<Q>>>(m, "quat_inv", "q*/|q|**2 (NaN for zero).") &&

@@ -3,6 +3,12 @@
 // FMA in any clone, so every clone rounds as the baseline.  There is no AVX-512 clone: GCC 12's SLP vectoriser fuses
 // the alternating +/- lanes of the Hamilton product into vfmsubadd (an FMA) on zmm registers even under
 // -ffp-contract=off, which changes the last bit; AVX2 without the FMA extension has no fused instruction to pick.
+//
+// On a CPU with AVX-512F the loops take blocks of eight rows in 512-bit registers first (the *_rows8 functions,
+// compiled for AVX-512F only and chosen at run time): explicit vector code with no scalar floating-point arithmetic,
+// so the vectoriser has nothing to fuse and -ffp-contract=off keeps every multiply and add separate; the last
+// n mod 8 rows, and any block of eight with a row outside the ordinary range, go to the four-row loops.  (The
+// conjugates need no such code: the compiler vectorises their loops itself.)
 #include "rows.hpp"
 
 #include "../common/dispatch.hpp"
@@ -14,6 +20,7 @@ namespace dualpose {
 
 namespace {
 using lanes::v4;
+using lanes::v8;
 
 // The row kernels' magnitude test (common/kutil.hpp ordinary_sum) on one row and on four rows in lanes: the sum
 // of the absolute components over 8, so no extreme value is squared before the test.
@@ -26,7 +33,7 @@ bool ordinary(const lanes::Q4& a) {
 }  // namespace
 
 // Blocks of four rows in lanes (loaded before stored, so o may be p or q), then the last n mod 4 rows.
-DUALPOSE_CLONES void quat_mul_rows(const double* p, const double* q, double* o, npy_intp n) {
+DUALPOSE_CLONES void quat_mul_rows4(const double* p, const double* q, double* o, npy_intp n) {
     npy_intp i = 0;
     for (; i + 4 <= n; i += 4) lanes::join4(qmul_t(lanes::split4(p + 4 * i, 4), lanes::split4(q + 4 * i, 4)), o + 4 * i, 4);
     for (; i < n; ++i) quat_mul_row(p + 4 * i, q + 4 * i, o + 4 * i);
@@ -35,7 +42,7 @@ DUALPOSE_CLONES void quat_mul_rows(const double* p, const double* q, double* o, 
 // Blocks of four rows whose squared norms are all ordinary take the vector path with s2 = 2/|q|**2; any other
 // block, and the last n mod 4 rows, take the row kernel.  A block's inputs are all loaded before its outputs are
 // stored, so o may be v.
-DUALPOSE_CLONES int quat_rotate_rows(const double* q, const double* v, double* o, npy_intp n) {
+DUALPOSE_CLONES int quat_rotate_rows4(const double* q, const double* v, double* o, npy_intp n) {
     int flagged = 0;
     npy_intp i = 0;
     for (; i + 4 <= n; i += 4) {
@@ -59,22 +66,24 @@ DUALPOSE_CLONES int quat_rotate_rows(const double* q, const double* v, double* o
     return flagged;
 }
 
-DUALPOSE_CLONES int dualquat_mul_rows(const double* a, const double* b, double* o, npy_intp n) {
+DUALPOSE_CLONES int dualquat_mul_rows4(const double* a, const double* b, double* o, npy_intp n) {
     npy_intp i = 0;
     for (; i + 4 <= n; i += 4) {
         const double *pa = a + 8 * i, *pb = b + 8 * i;
         const lanes::DQ4 x = {lanes::split4(pa, 8), lanes::split4(pa + 4, 8)};
         const lanes::DQ4 y = {lanes::split4(pb, 8), lanes::split4(pb + 4, 8)};
-        const lanes::DQ4 c = dq_mul_t(x, y);
-        lanes::join4(c.r, o + 8 * i, 8);
-        lanes::join4(c.d, o + 8 * i + 4, 8);
+        // dq_mul_t's formula, written out on the three products: returning the DQ4 aggregate made GCC copy its
+        // vectors through memory and general registers
+        const lanes::Q4 r = qmul_t(x.r, y.r), e = qmul_t(x.r, y.d), f = qmul_t(x.d, y.r);
+        lanes::join4(r, o + 8 * i, 8);
+        lanes::join4(lanes::Q4{e.x + f.x, e.y + f.y, e.z + f.z, e.w + f.w}, o + 8 * i + 4, 8);
     }
     for (; i < n; ++i) dualquat_mul_row(a + 8 * i, b + 8 * i, o + 8 * i);
     return 0;
 }
 
 // As quat_rotate_rows, on the real parts' norms.
-DUALPOSE_CLONES int dualquat_transform_rows(const double* s, const double* p, double* o, npy_intp n) {
+DUALPOSE_CLONES int dualquat_transform_rows4(const double* s, const double* p, double* o, npy_intp n) {
     int flagged = 0;
     npy_intp i = 0;
     for (; i + 4 <= n; i += 4) {
@@ -96,6 +105,141 @@ DUALPOSE_CLONES int dualquat_transform_rows(const double* s, const double* p, do
         dualquat_transform_row(r, p + 3 * i, o + 3 * i);
     }
     return flagged;
+}
+
+
+#if DUALPOSE_HAVE_AVX512
+namespace {
+const bool kAvx512 = cpu_has_avx512f();
+
+DUALPOSE_TARGET_AVX512 inline __attribute__((always_inline)) v8 vabs(v8 x) {
+    return (v8)((lanes::m8)x & 0x7fffffffffffffffLL);
+}
+// ordinary(Q4) on eight rows.
+DUALPOSE_TARGET_AVX512 inline __attribute__((always_inline)) bool ordinary8(v8 x, v8 y, v8 z, v8 w) {
+    const v8 s = vabs(x) * 0.125 + vabs(y) * 0.125 + vabs(z) * 0.125 + vabs(w) * 0.125;
+    return lanes::all((s >= kOrdinaryLo) & (s <= kOrdinaryHi));
+}
+
+// Blocks of eight rows (all loaded before any is stored); returns the rows done, a multiple of 8.
+DUALPOSE_TARGET_AVX512 npy_intp quat_mul_rows8(const double* p, const double* q, double* o, npy_intp n) {
+    npy_intp i = 0;
+    for (; i + 8 <= n; i += 8) {
+        v8 x[4], y[4];
+        lanes::split4x8(p + 4 * i, x);
+        lanes::split4x8(q + 4 * i, y);
+        const lanes::Q8 r = qmul_t(lanes::Q8{x[0], x[1], x[2], x[3]}, lanes::Q8{y[0], y[1], y[2], y[3]});
+        const v8 c[4] = {r.x, r.y, r.z, r.w};
+        lanes::join4x8(c, o + 4 * i);
+    }
+    return i;
+}
+
+// As quat_mul_rows8.
+DUALPOSE_TARGET_AVX512 npy_intp dualquat_mul_rows8(const double* a, const double* b, double* o, npy_intp n) {
+    npy_intp i = 0;
+    for (; i + 8 <= n; i += 8) {
+        v8 x[8], y[8];
+        lanes::split8x8(a + 8 * i, x);
+        lanes::split8x8(b + 8 * i, y);
+        // dq_mul_t's formula, written out on the three products (one struct per product keeps GCC from copying the
+        // vectors through memory)
+        const lanes::Q8 xr{x[0], x[1], x[2], x[3]}, xd{x[4], x[5], x[6], x[7]};
+        const lanes::Q8 yr{y[0], y[1], y[2], y[3]}, yd{y[4], y[5], y[6], y[7]};
+        const lanes::Q8 r = qmul_t(xr, yr), e = qmul_t(xr, yd), f = qmul_t(xd, yr);
+        v8 c[8] = {r.x, r.y, r.z, r.w, e.x + f.x, e.y + f.y, e.z + f.z, e.w + f.w};
+        lanes::join8x8(c, o + 8 * i);
+    }
+    return i;
+}
+
+// As dualquat_transform_rows4, eight rows a block: *flagged is set when a block went to the four-row loop with a
+// row outside the ordinary range.
+DUALPOSE_TARGET_AVX512 npy_intp dualquat_transform_rows8(const double* s, const double* p, double* o, npy_intp n,
+                                                         int* flagged) {
+    npy_intp i = 0;
+    for (; i + 8 <= n; i += 8) {
+        v8 c[8], px, py, pz, ox, oy, oz;
+        lanes::split8x8(s + 8 * i, c);
+        lanes::split3x8(p + 3 * i, px, py, pz);
+        if (ordinary8(c[0], c[1], c[2], c[3])) {
+            const v8 n2 = c[0] * c[0] + c[1] * c[1] + c[2] * c[2] + c[3] * c[3];
+            transform_lanes(c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], px, py, pz, 2.0 / n2, ox, oy, oz);
+            lanes::join3x8(ox, oy, oz, o + 3 * i);
+        } else {
+            *flagged |= dualquat_transform_rows4(s + 8 * i, p + 3 * i, o + 3 * i, 8);
+        }
+    }
+    return i;
+}
+
+// As quat_rotate_rows4, eight rows a block (two rows of 4 per 512-bit load).
+DUALPOSE_TARGET_AVX512 npy_intp quat_rotate_rows8(const double* q, const double* v, double* o, npy_intp n,
+                                                  int* flagged) {
+    npy_intp i = 0;
+    for (; i + 8 <= n; i += 8) {
+        v8 c[8], vx, vy, vz, ox, oy, oz;
+        lanes::split4x8(q + 4 * i, c);
+        lanes::split3x8(v + 3 * i, vx, vy, vz);
+        if (ordinary8(c[0], c[1], c[2], c[3])) {
+            const v8 n2 = c[0] * c[0] + c[1] * c[1] + c[2] * c[2] + c[3] * c[3];
+            rotate_lanes(c[0], c[1], c[2], c[3], vx, vy, vz, 2.0 / n2, ox, oy, oz);
+            lanes::join3x8(ox, oy, oz, o + 3 * i);
+        } else {
+            *flagged |= quat_rotate_rows4(q + 4 * i, v + 3 * i, o + 3 * i, 8);
+        }
+    }
+    return i;
+}
+}  // namespace
+#endif
+
+const volatile double kMinusOne = -1.0, kPlusOne = 1.0;
+
+// The sign pattern read once, then a loop the compiler vectorises (elementwise: o may be q).
+DUALPOSE_CLONES void quat_conj_rows(const double* q, double* o, npy_intp n) {
+    const double m = kMinusOne, p = kPlusOne;
+    for (npy_intp i = 0; i < 4 * n; i += 4) {
+        o[i] = q[i] * m;
+        o[i + 1] = q[i + 1] * m;
+        o[i + 2] = q[i + 2] * m;
+        o[i + 3] = q[i + 3] * p;
+    }
+}
+DUALPOSE_CLONES void dualquat_conj_rows(const double* s, double* o, npy_intp n) { quat_conj_rows(s, o, 2 * n); }
+
+void quat_mul_rows(const double* p, const double* q, double* o, npy_intp n) {
+    npy_intp i = 0;
+#if DUALPOSE_HAVE_AVX512
+    if (kAvx512) i = quat_mul_rows8(p, q, o, n);
+#endif
+    quat_mul_rows4(p + 4 * i, q + 4 * i, o + 4 * i, n - i);
+}
+
+int quat_rotate_rows(const double* q, const double* v, double* o, npy_intp n) {
+    int flagged = 0;
+    npy_intp i = 0;
+#if DUALPOSE_HAVE_AVX512
+    if (kAvx512) i = quat_rotate_rows8(q, v, o, n, &flagged);
+#endif
+    return quat_rotate_rows4(q + 4 * i, v + 3 * i, o + 3 * i, n - i) | flagged;
+}
+
+int dualquat_mul_rows(const double* a, const double* b, double* o, npy_intp n) {
+    npy_intp i = 0;
+#if DUALPOSE_HAVE_AVX512
+    if (kAvx512) i = dualquat_mul_rows8(a, b, o, n);
+#endif
+    return dualquat_mul_rows4(a + 8 * i, b + 8 * i, o + 8 * i, n - i);
+}
+
+int dualquat_transform_rows(const double* s, const double* p, double* o, npy_intp n) {
+    int flagged = 0;
+    npy_intp i = 0;
+#if DUALPOSE_HAVE_AVX512
+    if (kAvx512) i = dualquat_transform_rows8(s, p, o, n, &flagged);
+#endif
+    return dualquat_transform_rows4(s + 8 * i, p + 3 * i, o + 3 * i, n - i) | flagged;
 }
 
 }  // namespace dualpose

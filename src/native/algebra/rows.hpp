@@ -37,6 +37,24 @@ DUALPOSE_ROW void dualquat_transform_row(const double* s, const double* p, doubl
     store(o, transform_point(d, load3(p), u.s2));
 }
 
+// q* = q [-1, -1, -1, 1] (and both parts of a dual quaternion alike), multiplied as NumPy multiplies by the sign
+// pattern (a NaN stays the NaN it was, a signalling NaN is quieted): the signs are read through a volatile, so the
+// compiler cannot fold the products into sign flips.
+extern const volatile double kMinusOne, kPlusOne;
+DUALPOSE_ROW void quat_conj_row(const double* q, double* o) {
+    const double m = kMinusOne, p = kPlusOne;
+    o[0] = q[0] * m;
+    o[1] = q[1] * m;
+    o[2] = q[2] * m;
+    o[3] = q[3] * p;
+}
+DUALPOSE_ROW void dualquat_conj_row(const double* s, double* o) {
+    quat_conj_row(s, o);
+    quat_conj_row(s + 4, o + 4);
+}
+
+void quat_conj_rows(const double* q, double* o, npy_intp n);
+void dualquat_conj_rows(const double* s, double* o, npy_intp n);
 void quat_mul_rows(const double* p, const double* q, double* o, npy_intp n);
 int quat_rotate_rows(const double* q, const double* v, double* o, npy_intp n);
 int dualquat_mul_rows(const double* a, const double* b, double* o, npy_intp n);

@@ -9,7 +9,20 @@
 #define DUALPOSE_CLONES_AVX2 __attribute__((target_clones("default", "avx2")))
 // baseline, AVX2 and x86-64-v4 (AVX-512)
 #define DUALPOSE_CLONES_V4 __attribute__((target_clones("default", "avx2", "arch=x86-64-v4")))
+// Functions written for AVX-512 only (8 x double vectors), called after a run-time check of the CPU
+// (cpu_has_avx512f).  The target enables fused multiply-adds, which -ffp-contract=off keeps out of explicit vector
+// code; such functions hold no scalar floating-point code that the SLP vectoriser could fuse (see algebra/rows.cpp).
+#define DUALPOSE_HAVE_AVX512 1
+#define DUALPOSE_TARGET_AVX512 __attribute__((target("avx512f")))
+namespace dualpose {
+// Whether the CPU and the operating system support AVX-512F (libgcc's check: CPUID and the saved register state).
+inline bool cpu_has_avx512f() {
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx512f");
+}
+}  // namespace dualpose
 #else
 #define DUALPOSE_CLONES_AVX2
 #define DUALPOSE_CLONES_V4
+#define DUALPOSE_HAVE_AVX512 0
 #endif
