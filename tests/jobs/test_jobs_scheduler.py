@@ -69,6 +69,36 @@ def test_cluster_gives_the_serial_outcomes_in_order(cluster_address: str) -> Non
     assert seen == list(range(1, len(ITEMS) + 1))
 
 
+def _worker_settings() -> dict[str, object]:
+    import dask.config
+
+    return {"trim": os.environ.get("MALLOC_TRIM_THRESHOLD_"), "blas": os.environ.get("OPENBLAS_NUM_THREADS"),
+            "omp": os.environ.get("OMP_NUM_THREADS"), "profile": dask.config.get("distributed.worker.profile.enabled"),
+            "tick": dask.config.get("distributed.admin.tick.interval")}  # fmt: skip
+
+
+def test_local_cluster_workers_allocate_as_the_serial_process(cluster_address: str) -> None:
+    """The workers of ``local_cluster`` run without the nanny's ``MALLOC_TRIM_THRESHOLD_`` (glibc then keeps its
+    adaptive mmap threshold) and without the profiler, with one BLAS thread."""
+    distributed = pytest.importorskip("distributed", reason="dask.distributed is not installed")
+    with distributed.Client(cluster_address, set_as_default=False) as client:
+        settings = client.run(_worker_settings)
+    assert len(settings) == 2
+    for got in settings.values():
+        assert got == {"trim": None, "blas": "1", "omp": "1", "profile": False, "tick": "1s"}
+
+
+def test_own_local_cluster_gives_the_serial_outcomes() -> None:
+    """The default scheduler starts its own cluster (:func:`scheduler.local_cluster`) for the job and closes it."""
+    pytest.importorskip("distributed", reason="dask.distributed is not installed")
+    _check(run_tasks(math.sqrt, ITEMS, scheduler="processes", workers=2))
+
+
+def test_local_cluster_refuses_bad_workers() -> None:
+    with pytest.raises(ValueError, match="workers must be an integer >= 1"):
+        scheduler.local_cluster(0)
+
+
 def test_dask_process_pool_without_a_cluster() -> None:
     """The fallback when distributed is missing: dask's multiprocessing scheduler (called directly here)."""
     pytest.importorskip("dask", reason="dask is not installed")

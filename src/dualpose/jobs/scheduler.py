@@ -34,9 +34,13 @@ import traceback
 import uuid
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Generic, TypeVar
+from typing import TYPE_CHECKING, Generic, TypeVar
 
-__all__ = ["SCHEDULERS", "TaskFailure", "chunk_bounds", "default_scheduler", "run_tasks"]
+if TYPE_CHECKING:
+    from distributed import LocalCluster as LocalClusterType
+
+__all__ = ["LOCAL_CLUSTER_CONFIG", "SCHEDULERS", "TaskFailure", "chunk_bounds", "default_scheduler", "local_cluster",
+           "run_tasks"]
 
 _T = TypeVar("_T")
 _R = TypeVar("_R")
@@ -53,6 +57,24 @@ MAX_CHUNK = 64
 #: dask tasks per worker (:func:`chunk_bounds`): enough for the workers to even out their speeds, few enough that the
 #: scheduler's cost per task stays small
 TASKS_PER_WORKER = 4
+
+#: dask settings of the local cluster that :func:`run_tasks` starts (:func:`local_cluster`; docs/scaling.md, "Where the
+#: time goes"), each changing only what a worker does besides running tasks:
+#:
+#: * ``MALLOC_TRIM_THRESHOLD_`` is not set in the workers (distributed's nanny sets it to 65536 by default, to hand
+#:   freed memory back to the system at once).  Setting it also turns off glibc's adaptive mmap threshold, so every
+#:   NumPy array above 128 KiB is mapped afresh and its pages faulted in again: an evaluation row took 660-690 page
+#:   faults instead of 7 and 20-35 % more CPU, a Monte-Carlo run 1760 instead of 800.  The workers then allocate as
+#:   the serial process does.  BLAS stays at one thread (the nanny's other default variables are kept).
+#: * no statistical profiler (a thread sampling the task's stack every 10 ms for the dashboard);
+#: * the event loop's health check every second instead of every 20 ms, and the system monitor every 5 s instead
+#:   of 0.5 s (both only feed diagnostics).
+LOCAL_CLUSTER_CONFIG: dict[str, object] = {
+    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "5s",
+}
 
 #: how often the distributed scheduler retries a task that raised (the task functions catch their errors: this only
 #: covers failures outside them, such as a result that cannot be sent back)
@@ -157,12 +179,11 @@ def run_tasks(
         return out
     if kind == "processes":
         try:
-            from distributed import LocalCluster
+            import distributed
         except ImportError:
             return _dask_processes(guarded, items, workers, progress)
         n = workers or os.cpu_count() or 1
-        with LocalCluster(n_workers=min(n, total), threads_per_worker=1, processes=True, dashboard_address=":0",
-                          silence_logs=logging.ERROR) as cluster:  # type: ignore[no-untyped-call]  # fmt: skip
+        with local_cluster(min(n, total)) as cluster:
             return _distributed(guarded, items, cluster, progress)
     if kind in SCHEDULERS or "://" not in kind and ":" not in kind:
         raise ValueError(f"scheduler must be 'serial', 'processes' or a cluster address (tcp://HOST:PORT); "
@@ -172,6 +193,33 @@ def run_tasks(
     except ImportError as exc:
         raise ImportError(f"scheduler {kind!r} needs dask.distributed: pip install 'dualpose[dask]'") from exc
     return _distributed(guarded, items, kind, progress)
+
+
+def local_cluster(workers: int | None = None) -> LocalClusterType:
+    """A ``dask.distributed.LocalCluster`` of ``workers`` processes (default: the CPU count), one thread each, no
+    dashboard, with :data:`LOCAL_CLUSTER_CONFIG`: the pool ``run_tasks(..., scheduler="processes")`` starts for one job.
+
+    Use it as a context manager; its ``scheduler_address`` can be given to several jobs as ``scheduler``, so that
+    they share one start (about a second).
+
+    Raises
+    ------
+    ValueError
+        A bad ``workers``.
+    ImportError
+        distributed is not installed (``pip install 'dualpose[dask]'``).
+    """
+    _check("processes", workers)
+    try:
+        import dask
+        from distributed import LocalCluster
+    except ImportError as exc:
+        raise ImportError("a local cluster needs dask.distributed: pip install 'dualpose[dask]'") from exc
+    with dask.config.set(LOCAL_CLUSTER_CONFIG):  # read by the nannies before they spawn, and sent to the workers
+        cluster: LocalClusterType = LocalCluster(
+            n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True, dashboard_address=None,
+            silence_logs=logging.ERROR)  # type: ignore[no-untyped-call]  # fmt: skip
+    return cluster
 
 
 @dataclass(frozen=True)
@@ -212,18 +260,21 @@ def _distributed(
     with client:
         bounds = chunk_bounds(len(items), sum(client.nthreads().values()))  # type: ignore[no-untyped-call]
         prefix = f"dualpose-task-{uuid.uuid4().hex}"
-        run_chunk = _Chunk(guarded)
-        futures = [client.submit(run_chunk, items[k:stop], key=f"{prefix}-{k}", pure=False, retries=_RETRIES)
-                   for k, stop in bounds]  # fmt: skip
+        # one message to the scheduler for all chunks (the client sends its messages in batches at most every
+        # 10 ms, so chunks submitted one by one can reach the workers in two rounds)
+        futures = client.map(_Chunk(guarded), [items[k:stop] for k, stop in bounds],
+                             key=[f"{prefix}-{k}" for k, _ in bounds], pure=False, retries=_RETRIES)  # fmt: skip
         span = {f.key: b for b, f in zip(bounds, futures, strict=True)}
         out: dict[int, _R | TaskFailure] = {}
-        for future in as_completed(futures, loop=client.loop):  # type: ignore[no-untyped-call]
+        # each result is fetched by the client's event loop as its chunk finishes, not by a blocking call per chunk
+        # from this thread; a failed future yields its exception as (type, value, traceback)
+        done = as_completed(futures, with_results=True, raise_errors=False, loop=client.loop)  # type: ignore[no-untyped-call]
+        for future, outcomes in done:
             k, stop = span[future.key]
             n = stop - k
-            try:
-                outcomes = future.result()
-            except Exception as exc:  # lost more often than the scheduler allows (KilledWorker), or unpicklable
-                outcomes = [TaskFailure(f"{type(exc).__name__}: {' '.join(str(exc).split())}")] * n
+            if future.status != "finished":  # lost more often than the scheduler allows (KilledWorker), or unpicklable
+                error = outcomes[1] if isinstance(outcomes, tuple) else outcomes
+                outcomes = [TaskFailure(f"{type(error).__name__}: {' '.join(str(error).split())}")] * n
             future.release()
             out.update(zip(range(k, k + n), outcomes, strict=True))
             if progress is not None:
