@@ -215,10 +215,12 @@ def local_cluster(workers: int | None = None) -> LocalClusterType:
         from distributed import LocalCluster
     except ImportError as exc:
         raise ImportError("a local cluster needs dask.distributed: pip install 'dualpose[dask]'") from exc
-    with dask.config.set(LOCAL_CLUSTER_CONFIG):  # read by the nannies before they spawn, and sent to the workers
+    # the config is read by the nannies before they spawn and sent to the workers; the scheduler's small HTTP server
+    # listens on a free port, without the dashboard (bokeh) on it
+    with dask.config.set(LOCAL_CLUSTER_CONFIG):
         cluster: LocalClusterType = LocalCluster(
-            n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True, dashboard_address=None,
-            silence_logs=logging.ERROR)  # type: ignore[no-untyped-call]  # fmt: skip
+            n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True, silence_logs=logging.ERROR,
+            dashboard_address=":0", scheduler_kwargs={"dashboard": False})  # type: ignore[no-untyped-call]  # fmt: skip
     return cluster
 
 
