@@ -3,8 +3,9 @@
 :func:`run_tasks` is the plumbing under every many-run job of :mod:`dualpose.jobs`: ``func(item)`` for each item, on
 
 * ``"serial"``: in this process, one after the other (no dask needed);
-* ``None`` / ``"processes"`` (default): a local pool of worker processes -- a ``dask.distributed.LocalCluster``
-  (one thread per worker process) when ``distributed`` is installed, otherwise dask's multiprocessing scheduler;
+* ``None`` / ``"processes"`` (default): a local pool of worker processes started for the call -- the
+  ``dask.distributed.LocalCluster`` of :func:`local_cluster` (one thread per worker process, worker settings
+  :data:`LOCAL_CLUSTER_CONFIG`) when ``distributed`` is installed, otherwise dask's multiprocessing scheduler;
 * an address (``"tcp://host:8786"``, ``"host:8786"``): an existing ``dask.distributed`` cluster.
 
 Guarantees, whatever the scheduler:
@@ -37,7 +38,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Generic, TypeVar
 
 if TYPE_CHECKING:
-    from distributed import LocalCluster as LocalClusterType
+    import distributed
 
 __all__ = ["LOCAL_CLUSTER_CONFIG", "SCHEDULERS", "TaskFailure", "chunk_bounds", "default_scheduler", "local_cluster",
            "run_tasks"]
@@ -195,7 +196,7 @@ def run_tasks(
     return _distributed(guarded, items, kind, progress)
 
 
-def local_cluster(workers: int | None = None) -> LocalClusterType:
+def local_cluster(workers: int | None = None) -> distributed.LocalCluster:
     """A ``dask.distributed.LocalCluster`` of ``workers`` processes (default: the CPU count), one thread each, no
     dashboard, with :data:`LOCAL_CLUSTER_CONFIG`: the pool ``run_tasks(..., scheduler="processes")`` starts for one job.
 
@@ -218,7 +219,7 @@ def local_cluster(workers: int | None = None) -> LocalClusterType:
     # the config is read by the nannies before they spawn and sent to the workers; the scheduler's small HTTP server
     # listens on a free port, without the dashboard (bokeh) on it
     with dask.config.set(LOCAL_CLUSTER_CONFIG):
-        cluster: LocalClusterType = LocalCluster(
+        cluster: distributed.LocalCluster = LocalCluster(
             n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True, silence_logs=logging.ERROR,
             dashboard_address=":0", scheduler_kwargs={"dashboard": False})  # type: ignore[no-untyped-call]  # fmt: skip
     return cluster
