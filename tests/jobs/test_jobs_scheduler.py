@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 import os
 import signal
+import sqlite3
 
 import pytest
 
@@ -86,6 +87,13 @@ def test_local_cluster_workers_allocate_as_the_serial_process(cluster_address: s
     assert len(settings) == 2
     for got in settings.values():
         assert got == {"trim": None, "blas": "1", "omp": "1", "profile": False, "tick": "1s"}
+
+
+def test_a_result_that_cannot_be_sent_back_is_that_rows_failure(cluster_address: str) -> None:
+    """``sqlite3.connect`` returns a connection, which cannot be pickled back to the client: the row fails with the
+    reason, and the job ends."""
+    out = run_tasks(sqlite3.connect, [":memory:"], scheduler=cluster_address)
+    assert len(out) == 1 and isinstance(out[0], TaskFailure) and "serialize" in out[0].reason
 
 
 def test_own_local_cluster_gives_the_serial_outcomes() -> None:

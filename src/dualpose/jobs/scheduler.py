@@ -64,9 +64,9 @@ TASKS_PER_WORKER = 4
 #:
 #: * ``MALLOC_TRIM_THRESHOLD_`` is not set in the workers (distributed's nanny sets it to 65536 by default, to hand
 #:   freed memory back to the system at once).  Setting it also turns off glibc's adaptive mmap threshold, so every
-#:   NumPy array above 128 KiB is mapped afresh and its pages faulted in again: an evaluation row took 660-690 page
-#:   faults instead of 7 and 20-35 % more CPU, a Monte-Carlo run 1760 instead of 800.  The workers then allocate as
-#:   the serial process does.  BLAS stays at one thread (the nanny's other default variables are kept).
+#:   NumPy array above 128 KiB is mapped afresh and its pages faulted in again at each allocation: hundreds of page
+#:   faults and a quarter more CPU per evaluation row.  The workers then allocate as the serial process does.  BLAS
+#:   stays at one thread (the nanny's other default variables are kept).
 #: * no statistical profiler (a thread sampling the task's stack every 10 ms for the dashboard);
 #: * the event loop's health check every second instead of every 20 ms, and the system monitor every 5 s instead
 #:   of 0.5 s (both only feed diagnostics).
@@ -269,15 +269,15 @@ def _distributed(
                              key=[f"{prefix}-{k}" for k, _ in bounds], pure=False, retries=_RETRIES)  # fmt: skip
         span = {f.key: b for b, f in zip(bounds, futures, strict=True)}
         out: dict[int, _R | TaskFailure] = {}
-        # each result is fetched by the client's event loop as its chunk finishes, not by a blocking call per chunk
-        # from this thread; a failed future yields its exception as (type, value, traceback)
-        done = as_completed(futures, with_results=True, raise_errors=False, loop=client.loop)  # type: ignore[no-untyped-call]
-        for future, outcomes in done:
+        # fetched here, one chunk at a time: as_completed(with_results=True) would hang on a result that cannot be
+        # sent back (its fetch raises inside the client's event loop, and the chunk never comes out)
+        for future in as_completed(futures, loop=client.loop):  # type: ignore[no-untyped-call]
             k, stop = span[future.key]
             n = stop - k
-            if future.status != "finished":  # lost more often than the scheduler allows (KilledWorker), or unpicklable
-                error = outcomes[1] if isinstance(outcomes, tuple) else outcomes
-                outcomes = [TaskFailure(f"{type(error).__name__}: {' '.join(str(error).split())}")] * n
+            try:
+                outcomes = future.result()
+            except Exception as exc:  # lost more often than the scheduler allows (KilledWorker), or unpicklable
+                outcomes = [TaskFailure(f"{type(exc).__name__}: {' '.join(str(exc).split())}")] * n
             future.release()
             out.update(zip(range(k, k + n), outcomes, strict=True))
             if progress is not None:
