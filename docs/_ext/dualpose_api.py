@@ -268,6 +268,7 @@ _NP = "https://numpy.org/doc/stable/"
 _SP = "https://docs.scipy.org/doc/scipy/"
 _PY = "https://docs.python.org/3/"
 _MPL = "https://matplotlib.org/stable/"
+_DASK = "https://distributed.dask.org/en/stable/"
 
 #: project -> (base URL, [(name, role, relative URI[, title])]) of the outside names the docs refer to
 EXTERNAL: dict[str, tuple[str, list[tuple[str, ...]]]] = {
@@ -347,6 +348,9 @@ EXTERNAL: dict[str, tuple[str, list[tuple[str, ...]]]] = {
         ("scipy.interpolate.CubicSpline", "py:class", "reference/generated/scipy.interpolate.CubicSpline.html"),
         ("scipy.linalg.cho_factor", "py:function", "reference/generated/scipy.linalg.cho_factor.html"),
         ("scipy.linalg.expm", "py:function", "reference/generated/scipy.linalg.expm.html"),
+    ]),
+    "distributed": (_DASK, [
+        ("distributed.LocalCluster", "py:class", "api.html#distributed.LocalCluster"),
     ]),
     "matplotlib": (_MPL, [
         ("matplotlib.figure.Figure", "py:class", "api/_as_gen/matplotlib.figure.Figure.html"),

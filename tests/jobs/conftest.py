@@ -1,10 +1,10 @@
-"""Fixtures of the many-run job tests: a real ``dask.distributed.LocalCluster`` with two worker processes (skipped,
+"""Fixtures of the many-run job tests: a real ``dask.distributed.LocalCluster`` with two worker processes, the one
+``run_tasks`` starts (:func:`dualpose.jobs.scheduler.local_cluster`; skipped,
 with the reason, when distributed is not installed) and trajectory files laid out as a manifest and as an
 rpg_trajectory_evaluation results folder."""
 
 from __future__ import annotations
 
-import logging
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -15,10 +15,11 @@ from jobfiles import write_eval_manifest, write_rpg_results
 @pytest.fixture(scope="module")
 def cluster_address() -> Iterator[str]:
     """The address of a LocalCluster of 2 worker processes (1 thread each), closed after the module."""
-    distributed = pytest.importorskip("distributed", reason="dask.distributed is not installed (pip install "
-                                      "'dualpose[dask]'; the test extra installs it)")  # fmt: skip
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
-                                  silence_logs=logging.ERROR) as cluster:  # fmt: skip
+    pytest.importorskip("distributed", reason="dask.distributed is not installed (pip install 'dualpose[dask]'; the "
+                        "test extra installs it)")  # fmt: skip
+    from dualpose.jobs.scheduler import local_cluster
+
+    with local_cluster(2) as cluster:
         yield cluster.scheduler_address
 
 

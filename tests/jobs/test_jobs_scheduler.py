@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 import os
 import signal
+import sqlite3
 
 import pytest
 
@@ -67,6 +68,43 @@ def test_cluster_gives_the_serial_outcomes_in_order(cluster_address: str) -> Non
     out = run_tasks(math.sqrt, ITEMS, scheduler=cluster_address, progress=lambda d, t: seen.append(d))
     _check(out)
     assert seen == list(range(1, len(ITEMS) + 1))
+
+
+def _worker_settings() -> dict[str, object]:
+    import dask.config
+
+    return {"trim": os.environ.get("MALLOC_TRIM_THRESHOLD_"), "blas": os.environ.get("OPENBLAS_NUM_THREADS"),
+            "omp": os.environ.get("OMP_NUM_THREADS"), "profile": dask.config.get("distributed.worker.profile.enabled"),
+            "tick": dask.config.get("distributed.admin.tick.interval")}  # fmt: skip
+
+
+def test_local_cluster_workers_allocate_as_the_serial_process(cluster_address: str) -> None:
+    """The workers of ``local_cluster`` run without the nanny's ``MALLOC_TRIM_THRESHOLD_`` (glibc then keeps its
+    adaptive mmap threshold) and without the profiler, with one BLAS thread."""
+    distributed = pytest.importorskip("distributed", reason="dask.distributed is not installed")
+    with distributed.Client(cluster_address, set_as_default=False) as client:
+        settings = client.run(_worker_settings)
+    assert len(settings) == 2
+    for got in settings.values():
+        assert got == {"trim": None, "blas": "1", "omp": "1", "profile": False, "tick": "1s"}
+
+
+def test_a_result_that_cannot_be_sent_back_is_that_rows_failure(cluster_address: str) -> None:
+    """``sqlite3.connect`` returns a connection, which cannot be pickled back to the client: the row fails with the
+    reason, and the job ends."""
+    out = run_tasks(sqlite3.connect, [":memory:"], scheduler=cluster_address)
+    assert len(out) == 1 and isinstance(out[0], TaskFailure) and "serialize" in out[0].reason
+
+
+def test_own_local_cluster_gives_the_serial_outcomes() -> None:
+    """The default scheduler starts its own cluster (:func:`scheduler.local_cluster`) for the job and closes it."""
+    pytest.importorskip("distributed", reason="dask.distributed is not installed")
+    _check(run_tasks(math.sqrt, ITEMS, scheduler="processes", workers=2))
+
+
+def test_local_cluster_refuses_bad_workers() -> None:
+    with pytest.raises(ValueError, match="workers must be an integer >= 1"):
+        scheduler.local_cluster(0)
 
 
 def test_dask_process_pool_without_a_cluster() -> None:

@@ -3,8 +3,9 @@
 :func:`run_tasks` is the plumbing under every many-run job of :mod:`dualpose.jobs`: ``func(item)`` for each item, on
 
 * ``"serial"``: in this process, one after the other (no dask needed);
-* ``None`` / ``"processes"`` (default): a local pool of worker processes -- a ``dask.distributed.LocalCluster``
-  (one thread per worker process) when ``distributed`` is installed, otherwise dask's multiprocessing scheduler;
+* ``None`` / ``"processes"`` (default): a local pool of worker processes started for the call -- the
+  ``dask.distributed.LocalCluster`` of :func:`local_cluster` (one thread per worker process, worker settings
+  :data:`LOCAL_CLUSTER_CONFIG`) when ``distributed`` is installed, otherwise dask's multiprocessing scheduler;
 * an address (``"tcp://host:8786"``, ``"host:8786"``): an existing ``dask.distributed`` cluster.
 
 Guarantees, whatever the scheduler:
@@ -34,9 +35,13 @@ import traceback
 import uuid
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Generic, TypeVar
+from typing import TYPE_CHECKING, Generic, TypeVar
 
-__all__ = ["SCHEDULERS", "TaskFailure", "chunk_bounds", "default_scheduler", "run_tasks"]
+if TYPE_CHECKING:
+    import distributed
+
+__all__ = ["LOCAL_CLUSTER_CONFIG", "SCHEDULERS", "TaskFailure", "chunk_bounds", "default_scheduler", "local_cluster",
+           "run_tasks"]
 
 _T = TypeVar("_T")
 _R = TypeVar("_R")
@@ -53,6 +58,24 @@ MAX_CHUNK = 64
 #: dask tasks per worker (:func:`chunk_bounds`): enough for the workers to even out their speeds, few enough that the
 #: scheduler's cost per task stays small
 TASKS_PER_WORKER = 4
+
+#: dask settings of the local cluster that :func:`run_tasks` starts (:func:`local_cluster`; docs/scaling.md, "Where the
+#: time goes"), each changing only what a worker does besides running tasks:
+#:
+#: * ``MALLOC_TRIM_THRESHOLD_`` is not set in the workers (distributed's nanny sets it to 65536 by default, to hand
+#:   freed memory back to the system at once).  Setting it also turns off glibc's adaptive mmap threshold, so every
+#:   NumPy array above 128 KiB is mapped afresh and its pages faulted in again at each allocation: hundreds of page
+#:   faults and a quarter more CPU per evaluation row.  The workers then allocate as the serial process does.  BLAS
+#:   stays at one thread (the nanny's other default variables are kept).
+#: * no statistical profiler (a thread sampling the task's stack every 10 ms for the dashboard);
+#: * the event loop's health check every second instead of every 20 ms, and the system monitor every 5 s instead
+#:   of 0.5 s (both only feed diagnostics).
+LOCAL_CLUSTER_CONFIG: dict[str, object] = {
+    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "5s",
+}
 
 #: how often the distributed scheduler retries a task that raised (the task functions catch their errors: this only
 #: covers failures outside them, such as a result that cannot be sent back)
@@ -157,12 +180,11 @@ def run_tasks(
         return out
     if kind == "processes":
         try:
-            from distributed import LocalCluster
+            import distributed
         except ImportError:
             return _dask_processes(guarded, items, workers, progress)
         n = workers or os.cpu_count() or 1
-        with LocalCluster(n_workers=min(n, total), threads_per_worker=1, processes=True, dashboard_address=":0",
-                          silence_logs=logging.ERROR) as cluster:  # type: ignore[no-untyped-call]  # fmt: skip
+        with local_cluster(min(n, total)) as cluster:
             return _distributed(guarded, items, cluster, progress)
     if kind in SCHEDULERS or "://" not in kind and ":" not in kind:
         raise ValueError(f"scheduler must be 'serial', 'processes' or a cluster address (tcp://HOST:PORT); "
@@ -172,6 +194,35 @@ def run_tasks(
     except ImportError as exc:
         raise ImportError(f"scheduler {kind!r} needs dask.distributed: pip install 'dualpose[dask]'") from exc
     return _distributed(guarded, items, kind, progress)
+
+
+def local_cluster(workers: int | None = None) -> distributed.LocalCluster:
+    """A ``dask.distributed.LocalCluster`` of ``workers`` processes (default: the CPU count), one thread each, no
+    dashboard, with :data:`LOCAL_CLUSTER_CONFIG`: the pool ``run_tasks(..., scheduler="processes")`` starts for one job.
+
+    Use it as a context manager; its ``scheduler_address`` can be given to several jobs as ``scheduler``, so that
+    they share one start (about a second).
+
+    Raises
+    ------
+    ValueError
+        A bad ``workers``.
+    ImportError
+        distributed is not installed (``pip install 'dualpose[dask]'``).
+    """
+    _check("processes", workers)
+    try:
+        import dask
+        from distributed import LocalCluster
+    except ImportError as exc:
+        raise ImportError("a local cluster needs dask.distributed: pip install 'dualpose[dask]'") from exc
+    # the config is read by the nannies before they spawn and sent to the workers; the scheduler's small HTTP server
+    # listens on a free port, without the dashboard (bokeh) on it
+    with dask.config.set(LOCAL_CLUSTER_CONFIG):
+        cluster: distributed.LocalCluster = LocalCluster(
+            n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True, silence_logs=logging.ERROR,
+            dashboard_address=":0", scheduler_kwargs={"dashboard": False})  # type: ignore[no-untyped-call]  # fmt: skip
+    return cluster
 
 
 @dataclass(frozen=True)
@@ -212,11 +263,14 @@ def _distributed(
     with client:
         bounds = chunk_bounds(len(items), sum(client.nthreads().values()))  # type: ignore[no-untyped-call]
         prefix = f"dualpose-task-{uuid.uuid4().hex}"
-        run_chunk = _Chunk(guarded)
-        futures = [client.submit(run_chunk, items[k:stop], key=f"{prefix}-{k}", pure=False, retries=_RETRIES)
-                   for k, stop in bounds]  # fmt: skip
+        # one message to the scheduler for all chunks (the client sends its messages in batches at most every
+        # 10 ms, so chunks submitted one by one can reach the workers in two rounds)
+        futures = client.map(_Chunk(guarded), [items[k:stop] for k, stop in bounds],
+                             key=[f"{prefix}-{k}" for k, _ in bounds], pure=False, retries=_RETRIES)  # fmt: skip
         span = {f.key: b for b, f in zip(bounds, futures, strict=True)}
         out: dict[int, _R | TaskFailure] = {}
+        # fetched here, one chunk at a time: as_completed(with_results=True) would hang on a result that cannot be
+        # sent back (its fetch raises inside the client's event loop, and the chunk never comes out)
         for future in as_completed(futures, loop=client.loop):  # type: ignore[no-untyped-call]
             k, stop = span[future.key]
             n = stop - k
