@@ -166,7 +166,8 @@ def quat_log(q: ArrayLike) -> NDArray[np.float64]:
     q = as_array(q, "q", 4)
     if q.size >= 4 * FLAT_MIN_ELEMENTS and q.flags.c_contiguous:
         return _quat_log_flat(q)
-    out = _native.quat_log(q)
+    with np.errstate(divide="ignore"):  # ln 0 of a zero quaternion: refused just below, never a raw warning
+        out = _native.quat_log(q)
     raise_if_zero_norm(out, q, "q")
     result: NDArray[np.float64] = out
     return result
