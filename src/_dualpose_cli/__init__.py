@@ -14,8 +14,12 @@ import sys  # already loaded by the interpreter: the module's body takes microse
 _EXIT_INTERRUPTED = 130
 
 
-def main() -> int:
-    """Import the command line and run it (``dualpose.cli.main.main``); Ctrl-C while importing exits 130."""
+def main(unblock_sigint: bool = False) -> int:
+    """Import the command line and run it (``dualpose.cli.main.main``); Ctrl-C while importing exits 130.
+
+    ``unblock_sigint``: SIGINT was blocked by the launcher; unblocked once the handler is in place, so that a Ctrl-C
+    pending since the interpreter's start-up is delivered to it.
+    """
     caught: list[int] = []
 
     def interrupted(signum: int, frame: object) -> None:
@@ -29,6 +33,8 @@ def main() -> int:
         replace = signal.getsignal(signal.SIGINT) is signal.default_int_handler
         if replace:
             signal.signal(signal.SIGINT, interrupted)
+        if unblock_sigint:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
         try:
             from dualpose.cli.main import main as run
         finally:
