@@ -1,9 +1,9 @@
-"""Entry point of the ``dualpose`` console script, outside the :mod:`dualpose` package on purpose.
+"""Entry point of the ``dualpose`` command, outside the :mod:`dualpose` package on purpose.
 
 Importing :mod:`dualpose.cli.main` first runs ``dualpose/__init__.py``, which imports the algebra and NumPy (about
-0.1--0.3 s).  A Ctrl-C in that time would end in a ``KeyboardInterrupt`` traceback printed by the console-script
-wrapper, before :func:`dualpose.cli.main.main` and its guard run, or in an ``ImportError`` (NumPy turns an exception
-raised while its extension modules load into one).  This module imports nothing of dualpose's, so that the heavy
+0.1--0.3 s).  A Ctrl-C in that time would end in a ``KeyboardInterrupt`` traceback printed by the caller, before
+:func:`dualpose.cli.main.main` and its guard run, or in an ``ImportError`` (NumPy turns an exception raised while its
+extension modules load into one).  This module imports nothing of dualpose's, so that the heavy
 imports happen inside :func:`main`, where a Ctrl-C exits with status 130 quietly.  ``import dualpose`` never imports
 it: a library user's signal handling is left alone.
 """
