@@ -3,14 +3,15 @@
 Run ``.venv/bin/python benchmarks/bench_startup.py [--rounds 7]``; prints a markdown table (best of the rounds, each
 round a new interpreter) for: the bare interpreter, ``import dualpose``, the first-use script of
 ``tests/test_processes.py`` (quat_from_rotvec, quat_mul, dualquat_sclerp, register_pose, integrate_attitude), the
-installed command ``dualpose --version`` (``--command PATH`` times another one), and the same peers' imports for
-scale (scipy.spatial.transform, pytransform3d when installed).
+installed command ``dualpose --version`` (``--command PATH``, repeatable, times others, interleaved round by round;
+best and median), and the same peers' imports for scale (scipy.spatial.transform, pytransform3d when installed).
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib.util
+import statistics
 import subprocess
 import sys
 import time
@@ -42,14 +43,20 @@ def seconds(command: list[str], rounds: int) -> float:
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--rounds", type=int, default=7)
-    p.add_argument("--command", type=Path, default=Path(sys.executable).parent / "dualpose",
-                   help="the dualpose command to time (default: the environment's)")
+    p.add_argument("--command", type=Path, action="append",
+                   help="a dualpose command to time (repeatable; default: the environment's)")
     args = p.parse_args(argv)
     print(f"| process | seconds (best of {args.rounds}) |")
     print("|---|---|")
     for label, code in CASES:
         print(f"| {label} | {seconds([sys.executable, '-c', code, '0'], args.rounds):.3f} |")  # 0: SCRIPT's argument
-    print(f"| `dualpose --version` ({args.command}) | {seconds([str(args.command), '--version'], args.rounds):.3f} |")
+    commands = args.command or [Path(sys.executable).parent / "dualpose"]
+    times: list[list[float]] = [[] for _ in commands]
+    for _ in range(args.rounds):  # interleaved: a change of load hits every command alike
+        for cmd, t in zip(commands, times, strict=True):
+            t.append(seconds([str(cmd), "--version"], 1))
+    for cmd, t in zip(commands, times, strict=True):
+        print(f"| `dualpose --version` ({cmd}) | {min(t):.3f} (median {statistics.median(t):.3f}) |")
     return 0
 
 
