@@ -12,7 +12,7 @@ RUFF_PATHS := src tests benchmarks docs/conf.py docs/_ext docs/examples
 $(PY):
 	$(PYTHON) -m venv $(VENV)
 
-NATIVE := CMakeLists.txt $(shell find src/native -type f 2>/dev/null)
+NATIVE := CMakeLists.txt $(shell find src/native src/launcher -type f 2>/dev/null)
 
 # the native kernels compile here, at install (scikit-build-core + the machine's cmake/ninja/g++); the build
 # directory is kept, so an edit of src/native recompiles only what changed

@@ -2,7 +2,7 @@
 before dualpose runs").
 
 Run ``.venv/bin/python benchmarks/diag_startup_sigint.py [--max-ms 60] [--repeats 3]``.  Starts the installed
-console script (``dualpose --version``) with SIGINT at its default disposition, as a terminal's foreground process
+command (``dualpose --version``) with SIGINT at its default disposition, as a terminal's foreground process
 has it, sends SIGINT after 0, 1, 2, ... ``--max-ms`` ms and sorts the outcomes: *quiet* (no traceback: killed by the
 signal before CPython installed its handler, exit 130 from dualpose's guards, or finished), *CPython's message*
 (a traceback or ``Fatal Python error`` with no frame of dualpose's: the interpreter's start or the installer's

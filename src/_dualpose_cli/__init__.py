@@ -1,9 +1,9 @@
-"""Entry point of the ``dualpose`` console script, outside the :mod:`dualpose` package on purpose.
+"""Entry point of the ``dualpose`` command, outside the :mod:`dualpose` package on purpose.
 
 Importing :mod:`dualpose.cli.main` first runs ``dualpose/__init__.py``, which imports the algebra and NumPy (about
-0.1--0.3 s).  A Ctrl-C in that time would end in a ``KeyboardInterrupt`` traceback printed by the console-script
-wrapper, before :func:`dualpose.cli.main.main` and its guard run, or in an ``ImportError`` (NumPy turns an exception
-raised while its extension modules load into one).  This module imports nothing of dualpose's, so that the heavy
+0.1--0.3 s).  A Ctrl-C in that time would end in a ``KeyboardInterrupt`` traceback printed by the caller, before
+:func:`dualpose.cli.main.main` and its guard run, or in an ``ImportError`` (NumPy turns an exception raised while its
+extension modules load into one).  This module imports nothing of dualpose's, so that the heavy
 imports happen inside :func:`main`, where a Ctrl-C exits with status 130 quietly.  ``import dualpose`` never imports
 it: a library user's signal handling is left alone.
 """
@@ -14,8 +14,12 @@ import sys  # already loaded by the interpreter: the module's body takes microse
 _EXIT_INTERRUPTED = 130
 
 
-def main() -> int:
-    """Import the command line and run it (``dualpose.cli.main.main``); Ctrl-C while importing exits 130."""
+def main(unblock_sigint: bool = False) -> int:
+    """Import the command line and run it (``dualpose.cli.main.main``); Ctrl-C while importing exits 130.
+
+    ``unblock_sigint``: SIGINT was blocked by the launcher; unblocked once the handler is in place, so that a Ctrl-C
+    pending since the interpreter's start-up is delivered to it.
+    """
     caught: list[int] = []
 
     def interrupted(signum: int, frame: object) -> None:
@@ -29,6 +33,8 @@ def main() -> int:
         replace = signal.getsignal(signal.SIGINT) is signal.default_int_handler
         if replace:
             signal.signal(signal.SIGINT, interrupted)
+        if unblock_sigint:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
         try:
             from dualpose.cli.main import main as run
         finally:

@@ -10,6 +10,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 from _pipes import LineReader, dualpose_process
 
@@ -45,42 +46,105 @@ def test_ctrl_c_stops_a_stream_quietly_with_exit_130() -> None:
     assert "Traceback" not in err and "KeyboardInterrupt" not in err
 
 
-def _console_script() -> list[str]:
-    """The installed ``dualpose`` console script, or what its wrapper runs (``from ENTRY import main;
-    sys.exit(main())``) when the tests run without one."""
-    from importlib.metadata import entry_points
+def _command() -> str:
+    """The installed ``dualpose`` command: on POSIX the compiled launcher (src/launcher/dualpose.c)."""
+    command = Path(sys.executable).parent / "dualpose"
+    assert command.is_file(), f"{command}: the install puts the dualpose command next to the interpreter"
+    assert command.read_bytes()[:4] == b"\x7fELF" or sys.platform == "darwin", "not the compiled launcher"
+    return str(command)
 
-    (entry,) = entry_points(group="console_scripts", name="dualpose")
-    assert entry.value == "_dualpose_cli:main"  # the entry imports nothing heavy before its Ctrl-C guard
-    script = Path(sys.executable).parent / "dualpose"
-    if script.is_file():
-        return [str(script)]
-    return [sys.executable, "-c", "import sys; from _dualpose_cli import main; sys.exit(main())"]
+
+def _src_env() -> dict[str, str]:
+    """The environment in which a child imports the dualpose the tests imported."""
+    src = str(Path(dp.__file__).resolve().parents[1])
+    return dict(os.environ, PYTHONPATH=os.pathsep.join([src, os.environ.get("PYTHONPATH", "")]))
+
+
+def _interrupted_at(delay_ms: float, args: list[str]) -> tuple[int, str]:
+    """Exit status and stderr of the installed command sent SIGINT ``delay_ms`` after its start."""
+    import time
+
+    proc = subprocess.Popen([_command(), *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=_src_env(),
+                            text=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # fmt: skip
+    time.sleep(delay_ms / 1000)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    return proc.returncode, err
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
 def test_ctrl_c_while_starting_exits_quietly() -> None:
-    # Ctrl-C while `import dualpose` loads NumPy (before the command's own guard runs) is quiet too: exit 130, never a
-    # traceback through dualpose.  Before the entry point is called, the interpreter's start (`site`) and the
-    # installer's two-line wrapper are CPython's and pip's: a traceback there has no frame of ours (docs/refusals.md)
-    import time
-
-    src = Path(dp.__file__).resolve().parents[1]
-    ours = (str(src / "dualpose"), str(src / "_dualpose_cli"))
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(src), os.environ.get("PYTHONPATH", "")]))
+    # Ctrl-C at any moment of the start: the launcher's own microseconds (killed by the signal, silently), CPython's
+    # start-up (`site`, the .pth hook of an editable install: SIGINT is blocked, pending), the import of dualpose and
+    # NumPy (the entry point's handler), the command (its guard).  Never a traceback; 130 once dualpose has it
+    rng = np.random.default_rng(20261203)
+    delays = [*np.sort(rng.uniform(0.0, 80.0, 24)), 100, 150, 200, 300, 400]
     codes = []
-    for delay_ms in (0, 5, 10, 20, 35, 50, 75, 100, 150, 200, 300, 400):
-        proc = subprocess.Popen([*_console_script(), "ahrs", "--help"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                env=env, text=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
-        time.sleep(delay_ms / 1000)
-        proc.send_signal(signal.SIGINT)
-        _, err = proc.communicate(timeout=120)
-        frames = [ln for ln in err.splitlines() if ln.strip().startswith("File ")]
-        assert not [ln for ln in frames if any(p in ln for p in ours)], (delay_ms, err)
-        if "Traceback" not in err:
-            assert proc.returncode in (0, 130, -signal.SIGINT), (delay_ms, err)
-        codes.append(proc.returncode)
-    assert 130 in codes  # some Ctrl-C came while dualpose was loading, and was caught there
+    for delay_ms in delays:
+        code, err = _interrupted_at(delay_ms, ["ahrs", "--help"])
+        assert "Traceback" not in err and "Fatal Python error" not in err and "KeyboardInterrupt" not in err, (
+            delay_ms, err)  # fmt: skip
+        assert code in (0, 130, -signal.SIGINT), (delay_ms, code, err)
+        codes.append(code)
+    assert 130 in codes  # some Ctrl-C came while dualpose was starting, and was held for it
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
+def test_an_ignored_ctrl_c_stays_ignored() -> None:
+    # a background job inherits SIGINT ignored: the launcher neither blocks nor unblocks it, and the command runs on
+    proc = subprocess.Popen([_command(), "ahrs", "--stream", "--rate", "100", "--no-mag", "--rest-seconds", "0"],
+                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=_src_env(),
+                            text=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))  # fmt: skip
+    reader = LineReader(proc)
+    proc.stdin.write(SAMPLE.format(t=0.0))
+    proc.stdin.flush()
+    assert reader.readline().count(",") >= 4
+    proc.send_signal(signal.SIGINT)
+    proc.stdin.write(SAMPLE.format(t=0.01))
+    proc.stdin.flush()
+    assert reader.readline().count(",") >= 4  # still running
+    proc.stdin.close()
+    assert proc.wait(timeout=60) == 0
+
+
+@pytest.mark.parametrize("args", [
+    ["--version"],
+    ["--no-such-option"],
+    ["eval", "a file with spaces ü σ 名.tum", "another one.tum"],
+    ["register", "--help"],
+    ["ahrs", "--rate", "-1", "x y"],
+])  # fmt: skip
+def test_the_command_runs_as_the_module_does(args: list[str]) -> None:
+    # arguments (spaces, non-ASCII), exit status, stdout and stderr as ``python -m dualpose.cli.main`` gives them
+    mine = subprocess.run([_command(), *args], capture_output=True, text=True, env=_src_env(), timeout=120)
+    module = _run(args)
+    assert (mine.returncode, mine.stdout, mine.stderr) == (module.returncode, module.stdout, module.stderr)
+    if len(args) > 1 and args[0] == "eval":
+        assert mine.returncode != 0 and args[1] in mine.stderr
+
+
+def test_the_command_on_pipes_and_in_any_folder(tmp_path: Path) -> None:
+    # a stream from a pipe to a pipe; run from a folder whose files shadow the entry module and the package, which
+    # the installer's wrapper never imports (its sys.path[0] is its own folder) and the launcher does not either
+    (tmp_path / "_dualpose_cli.py").write_text("raise SystemExit('shadowed')\n")
+    (tmp_path / "dualpose").mkdir()
+    (tmp_path / "dualpose" / "__init__.py").write_text("raise SystemExit('shadowed')\n")
+    lines = "".join(SAMPLE.format(t=0.01 * k) for k in range(5))
+    args = ["ahrs", "--stream", "--rate", "100", "--no-mag", "--rest-seconds", "0"]
+    mine = subprocess.run([_command(), *args], input=lines, capture_output=True, text=True, cwd=tmp_path,
+                          env=dict(os.environ), timeout=120)  # fmt: skip
+    module = _run(args, input=lines, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert mine.returncode == 0, mine.stderr
+    assert mine.stdout == module.stdout and len(mine.stdout.splitlines()) == 5
+
+
+def test_the_command_away_from_its_environment(tmp_path: Path) -> None:
+    # a copy with no interpreter next to it falls back on the interpreter that built it
+    copy = tmp_path / "dualpose"
+    copy.write_bytes(Path(_command()).read_bytes())
+    copy.chmod(0o755)
+    res = subprocess.run([str(copy), "--version"], capture_output=True, text=True, env=_src_env(), timeout=120)
+    assert res.returncode == 0 and res.stdout.startswith("dualpose "), res.stderr
 
 
 def test_closed_stdin_reads_as_empty_input() -> None:
