@@ -55,9 +55,10 @@ CONNECT_TIMEOUT_S = 20.0
 #: most items one dask task runs (:func:`chunk_bounds`): bounds what a lost worker makes the cluster recompute
 MAX_CHUNK = 64
 
-#: dask tasks per worker (:func:`chunk_bounds`): enough for the workers to even out their speeds, few enough that the
-#: scheduler's cost per task stays small
-TASKS_PER_WORKER = 4
+#: dask tasks per worker (:func:`chunk_bounds`; docs/scaling.md, "Where the time goes"): two, so that a worker always
+#: has its next task at hand (the scheduler hands a one-thread worker two tasks at a time) and a faster worker can take
+#: over a slower one's second task; each task more costs the client about a millisecond of CPU and of wall time
+TASKS_PER_WORKER = 2
 
 #: dask settings of the local cluster that :func:`run_tasks` starts (:func:`local_cluster`; docs/scaling.md, "Where the
 #: time goes"), each changing only what a worker does besides running tasks:
