@@ -98,6 +98,19 @@ def test_a_result_that_cannot_be_sent_back_is_that_rows_failure(cluster_address:
     assert len(out) == 1 and isinstance(out[0], TaskFailure) and "serialize" in out[0].reason
 
 
+def test_a_chunk_that_cannot_be_sent_back_leaves_the_other_chunks_outcomes(cluster_address: str) -> None:
+    """The outcomes are fetched in one gather; when one chunk's cannot be sent back (an sqlite3 connection), each chunk
+    is fetched on its own: that chunk's rows fail with the reason, the other rows keep their own outcomes (here
+    ``sqlite3.connect``'s refusal of an int)."""
+    items = [":memory:", 1, 2, 3]
+    bounds = chunk_bounds(len(items), 2)
+    assert len(bounds) > 1 and bounds[0] == (0, 1)
+    out = run_tasks(sqlite3.connect, items, scheduler=cluster_address)
+    assert isinstance(out[0], TaskFailure) and "serialize" in out[0].reason
+    serial = run_tasks(sqlite3.connect, items[1:], scheduler="serial")
+    assert out[1:] == serial and all(isinstance(got, TaskFailure) and "int" in got.reason for got in serial)
+
+
 def test_own_local_cluster_gives_the_serial_outcomes() -> None:
     """The default scheduler starts its own cluster (:func:`scheduler.local_cluster`) for the job and closes it."""
     pytest.importorskip("distributed", reason="dask.distributed is not installed")
