@@ -67,7 +67,9 @@ def test_cluster_gives_the_serial_outcomes_in_order(cluster_address: str) -> Non
     seen: list[int] = []
     out = run_tasks(math.sqrt, ITEMS, scheduler=cluster_address, progress=lambda d, t: seen.append(d))
     _check(out)
-    assert seen == list(range(1, len(ITEMS) + 1))
+    # one report per dask task, as each finishes (in any order): the rows done so far, up to all of them
+    sizes = sorted(b - a for a, b in chunk_bounds(len(ITEMS), 2))
+    assert sorted(b - a for a, b in zip([0, *seen[:-1]], seen, strict=True)) == sizes and seen[-1] == len(ITEMS)
 
 
 def _worker_settings() -> dict[str, object]:
@@ -94,6 +96,19 @@ def test_a_result_that_cannot_be_sent_back_is_that_rows_failure(cluster_address:
     reason, and the job ends."""
     out = run_tasks(sqlite3.connect, [":memory:"], scheduler=cluster_address)
     assert len(out) == 1 and isinstance(out[0], TaskFailure) and "serialize" in out[0].reason
+
+
+def test_a_chunk_that_cannot_be_sent_back_leaves_the_other_chunks_outcomes(cluster_address: str) -> None:
+    """The outcomes are fetched in one gather; when one chunk's cannot be sent back (an sqlite3 connection), each chunk
+    is fetched on its own: that chunk's rows fail with the reason, the other rows keep their own outcomes (here
+    ``sqlite3.connect``'s refusal of an int)."""
+    items = [":memory:", 1, 2, 3]
+    bounds = chunk_bounds(len(items), 2)
+    assert len(bounds) > 1 and bounds[0] == (0, 1)
+    out = run_tasks(sqlite3.connect, items, scheduler=cluster_address)
+    assert isinstance(out[0], TaskFailure) and "serialize" in out[0].reason
+    serial = run_tasks(sqlite3.connect, items[1:], scheduler="serial")
+    assert out[1:] == serial and all(isinstance(got, TaskFailure) and "int" in got.reason for got in serial)
 
 
 def test_own_local_cluster_gives_the_serial_outcomes() -> None:

@@ -55,9 +55,10 @@ CONNECT_TIMEOUT_S = 20.0
 #: most items one dask task runs (:func:`chunk_bounds`): bounds what a lost worker makes the cluster recompute
 MAX_CHUNK = 64
 
-#: dask tasks per worker (:func:`chunk_bounds`): enough for the workers to even out their speeds, few enough that the
-#: scheduler's cost per task stays small
-TASKS_PER_WORKER = 4
+#: dask tasks per worker (:func:`chunk_bounds`; docs/scaling.md, "Where the time goes"): two, so that a worker always
+#: has its next task at hand (the scheduler hands a one-thread worker two tasks at a time) and a faster worker can take
+#: over a slower one's second task; each task more costs the client about a millisecond of CPU and of wall time
+TASKS_PER_WORKER = 2
 
 #: dask settings of the local cluster that :func:`run_tasks` starts (:func:`local_cluster`; docs/scaling.md, "Where the
 #: time goes"), each changing only what a worker does besides running tasks:
@@ -253,7 +254,7 @@ def _distributed(
     guarded: _Guarded[_T, _R], items: list[_T], where: object, progress: Callable[[int, int], None] | None
 ) -> list[_R | TaskFailure]:
     """On a ``distributed`` cluster (a ``LocalCluster`` object or an address): one future per chunk of items
-    (:func:`chunk_bounds`), keyed by its first index, collected once each."""
+    (:func:`chunk_bounds`), keyed by its first index, collected once each, in chunk order."""
     from distributed import Client, as_completed
 
     try:
@@ -267,22 +268,34 @@ def _distributed(
         # 10 ms, so chunks submitted one by one can reach the workers in two rounds)
         futures = client.map(_Chunk(guarded), [items[k:stop] for k, stop in bounds],
                              key=[f"{prefix}-{k}" for k, _ in bounds], pure=False, retries=_RETRIES)  # fmt: skip
+        # progress as each chunk finishes on the cluster; the outcomes are then fetched in one gather (one round
+        # trip per worker) rather than one ``result()`` per chunk (a call into the client's event loop and a round
+        # trip each: about 2 ms a chunk).  Only if that gather fails (a result that cannot be sent back, or a chunk
+        # lost more often than the scheduler allows) is each chunk fetched on its own, so the failure stays in its
+        # rows.  as_completed(with_results=True) would hang on a result that cannot be sent back (its fetch raises
+        # inside the client's event loop, and the chunk never comes out).
         span = {f.key: b for b, f in zip(bounds, futures, strict=True)}
-        out: dict[int, _R | TaskFailure] = {}
-        # fetched here, one chunk at a time: as_completed(with_results=True) would hang on a result that cannot be
-        # sent back (its fetch raises inside the client's event loop, and the chunk never comes out)
+        done = 0
         for future in as_completed(futures, loop=client.loop):  # type: ignore[no-untyped-call]
             k, stop = span[future.key]
-            n = stop - k
-            try:
-                outcomes = future.result()
-            except Exception as exc:  # lost more often than the scheduler allows (KilledWorker), or unpicklable
-                outcomes = [TaskFailure(f"{type(exc).__name__}: {' '.join(str(exc).split())}")] * n
-            future.release()
-            out.update(zip(range(k, k + n), outcomes, strict=True))
+            done += stop - k
             if progress is not None:
-                progress(len(out), len(items))
-    return [out[i] for i in range(len(items))]
+                progress(done, len(items))
+        try:
+            chunks: list[list[_R | TaskFailure]] = client.gather(futures)  # type: ignore[no-untyped-call]
+        except Exception:
+            chunks = [_chunk_outcome(future, stop - k) for future, (k, stop) in zip(futures, bounds, strict=True)]
+        out = [outcome for chunk in chunks for outcome in chunk]
+    return out
+
+
+def _chunk_outcome(future: distributed.Future[list[_R | TaskFailure]], n: int) -> list[_R | TaskFailure]:
+    """The outcomes of one chunk's future, or ``n`` copies of its failure."""
+    try:
+        outcomes = future.result()
+    except Exception as exc:  # lost more often than the scheduler allows (KilledWorker), or unpicklable
+        return [TaskFailure(f"{type(exc).__name__}: {' '.join(str(exc).split())}")] * n
+    return outcomes
 
 
 def _dask_processes(
