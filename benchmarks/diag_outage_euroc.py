@@ -300,6 +300,30 @@ def main() -> int:
     lines += ["", f"gyro–camera time shift δ (the cameras' attitude is the gyro's δ later; 0.2 s intervals, both "
               f"cameras): {1e3 * shift:+.2f} ms; per 8 s segment, cam0 / cam1 [ms]: " + "; ".join(seg)]  # fmt: skip
 
+    # --- what online gyro states could learn: fitted on cam0 over the 8 s before each window, scored inside it
+    lines += ["", "Learned before the window, used inside it (what gyro states in the filter could do at best): E, "
+              "E + δ fitted to cam0 − gyro on the 0.2 s / 0.5 s intervals of the 8 s before the window, scored on "
+              "cam1 − gyro over the intervals inside the window (explained fraction; RMS |cam1 − gyro| before → after "
+              "[deg]):", "", "| interval | model | " + " | ".join(f"{a:g}–{b:g}" for a, b in OUTAGES) + " |",
+              "|---|---|" + "---|" * len(OUTAGES)]  # fmt: skip
+    for n in (4, 10):
+        a, b = _pairs(tc, n)
+        blocks = _model_blocks(path, tc, G, wv, a, b)
+        rg = _rel(G, a, b)
+        y0, y1 = _log_diff(rg, _rel(B0, a, b)), _log_diff(rg, _rel(B1, a, b))
+        for combo in (["E"], ["E", "dt"]):
+            X = np.concatenate([blocks[k] for k in combo], axis=2)
+            cells = []
+            for wa, wb in OUTAGES:
+                before = (tc[a] - t0 >= wa - 8.0) & (tc[b] - t0 < wa)
+                inside = (tc[a] - t0 >= wa) & (tc[b] - t0 <= wb + 0.01)
+                c, *_ = np.linalg.lstsq(X[before].reshape(-1, X.shape[2]), y0[before].ravel(), rcond=None)
+                r = y1[inside].ravel() - X[inside].reshape(-1, X.shape[2]) @ c
+                y = y1[inside].ravel()
+                cells.append(f"{1 - float(r @ r) / float(y @ y):+.2f} ({_rms(_norm_deg(y1[inside])):.2f} → "
+                             f"{_rms(_norm_deg(r.reshape(-1, 3))):.2f})")  # fmt: skip
+            lines.append(f"| {0.05 * n:.1f} s | {' + '.join(combo)} | " + " | ".join(cells) + " |")
+
     # --- re-runs: the best constant E (cam0, whole run) and the shifted IMU
     a, b = _pairs(tc, 10)
     S = _model_blocks(path, tc, G, wv, a, b)["E"]
