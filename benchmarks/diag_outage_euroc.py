@@ -277,7 +277,7 @@ def main() -> int:
               "first half of the recording / scored on the second):", "",
               "| interval | E ω (scale, misalignment) | G f (g-sensitivity) | ω\\|ω\\| (quadratic) | time shift δ | "
               "E + δ | E + G + δ |", "|---|---|---|---|---|---|---|"]  # fmt: skip
-    for n in (4, 10):
+    for n in (4, 10, 20):
         a, b = _pairs(tc, n)
         blocks = _model_blocks(path, tc, G, wv, a, b)
         m = 0.5 * (_log_diff(_rel(G, a, b), _rel(B0, a, b)) + _log_diff(_rel(G, a, b), _rel(B1, a, b)))
