@@ -285,6 +285,11 @@ def main() -> int:
     hat, shift = _hat_lines(tc, B0, B1, G, wv)
     lines += ["", "Relative rotation over an interval: cam0 PnP, cam1 PnP, gyro (calibration's axis matrix and bias), "
               "three-cornered hat (body axes):", ""] + hat  # fmt: skip
+    after = imu.stamps - t0 >= 10.0
+    z_cam = dp.matrix_from_quat(np.asarray(q0))[:, 2]
+    lines += ["", f"RMS body rate per axis (x y z) after the first 10 s: "
+              f"{np.round(np.sqrt(np.mean(imu.gyro[after] ** 2, axis=0)), 2).tolist()} rad/s; cam0's optical axis "
+              f"in the body frame {np.round(z_cam, 3).tolist()}"]  # fmt: skip
 
     # --- gyro error models, fitted on the first half, scored on the second
     lines += ["", "Mean of the two cameras minus the gyro, explained fraction by each gyro error model (fitted on the "
