@@ -165,7 +165,7 @@ def main() -> int:
     gyro_norm = np.linalg.norm(src.imu.gyro, axis=1)
     rel = src.imu.stamps - src.imu.stamps[0]
     lines += ["", "| outage [s] | max rate [rad/s] | frames scored | ESKF + RTS max / RMS position [mm] | ESKF + RTS "
-              "max rotation [deg] | ESKF filter max / RMS position [mm] | ESKF filter max rotation "
+              "max / RMS rotation [deg] | ESKF filter max / RMS position [mm] | ESKF filter max rotation "
               "[deg] | Hol22 max / RMS position [mm] | Hol22 max rotation [deg] | no outage: ESKF + RTS / cam0 PnP max "
               "rotation [deg] |",
               "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]  # fmt: skip
@@ -181,7 +181,8 @@ def main() -> int:
         w_max = float(gyro_norm[(rel >= a) & (rel < b)].max())
         lines.append(
             f"| {a:g}–{b:g} | {w_max:.2f} | {we['frames']} | {_mm(ws['position_max_m'])} / {_mm(ws['position_rmse_m'])}"
-            f" | {_deg(ws['rotation_max_deg'])} | {_mm(we['position_max_m'])} / {_mm(we['position_rmse_m'])}"
+            f" | {_deg(ws['rotation_max_deg'])} / {_deg(ws['rotation_rmse_deg'])} | {_mm(we['position_max_m'])} / "
+            f"{_mm(we['position_rmse_m'])}"
             f" | {_deg(we['rotation_max_deg'])} | {_mm(wh['position_max_m'])} / {_mm(wh['position_rmse_m'])} | "
             f"{_deg(wh['rotation_max_deg'])} | {_deg(smoothed_run.metrics['outages'][i]['rotation_max_deg'], 2)} / "
             f"{_deg(float(pnp_err.rotation_deg[(pnp_rel >= a) & (pnp_rel < b)].max()), 2)} |"

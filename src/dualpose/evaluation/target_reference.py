@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 import dualpose as dp
 from dualpose.registration.pnp import solve_pnp_batch
@@ -21,7 +22,10 @@ from dualpose.types import Trajectory
 from dualpose.types.camera_models import DistortedCamera
 from dualpose.types.target import TargetDetections
 
-__all__ = ["CameraPoses", "camera_poses", "body_trajectory", "reference_trajectory", "errors_against", "ErrorsAgainst"]
+__all__ = [
+    "CameraPoses", "camera_poses", "body_trajectory", "reference_trajectory", "errors_against", "ErrorsAgainst",
+    "three_cornered_hat",
+]
 
 #: outlier threshold of the PnP (ideal pixels) and of the refinement (measured pixels), px
 OUTLIER_PX = 3.0
@@ -204,3 +208,39 @@ def errors_against(reference: Trajectory, estimate: Trajectory, max_gap: float |
     est = Trajectory(tr[idx], p, q, reference.stamps_ns[idx] if reference.stamps_ns is not None else None,
                      name=estimate.name)  # fmt: skip
     return ErrorsAgainst(idx, p - ref.positions, np.degrees(dp.quat_angle(q, ref.quats)), est)
+
+
+def three_cornered_hat(
+    d_ab: ArrayLike, d_ac: ArrayLike, d_bc: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Error variances of three instruments a, b, c from the differences of their readings of the same quantity
+    (the "three-cornered hat", Gray & Allan 1974).
+
+    With mutually independent, zero-mean errors ``e_a, e_b, e_c``, the mean squares of the differences are
+    ``M_ab = σ_a² + σ_b²``, ``M_ac = σ_a² + σ_c²``, ``M_bc = σ_b² + σ_c²``, so ``σ_a² = (M_ab + M_ac − M_bc) / 2`` and
+    alike.  The mean squares are taken about zero (a common bias of one instrument counts as its error).  An error
+    shared by two instruments is attributed to the third, and a negative result says the errors are correlated (it is
+    returned as it is, not clipped).
+
+    Parameters
+    ----------
+    d_ab, d_ac, d_bc : (K,) or (K, D)
+        The differences ``a − b``, ``a − c``, ``b − c`` over the same K samples (each component on the last axis
+        separately, e.g. the rotation-vector components of relative-rotation differences in a common frame).
+
+    Returns
+    -------
+    (var_a, var_b, var_c) : each () or (D,), the estimated error variances (units of the input squared).
+    """
+    arrays = []
+    for name, d in (("d_ab", d_ab), ("d_ac", d_ac), ("d_bc", d_bc)):
+        a = np.asarray(d, dtype=np.float64)
+        if a.ndim not in (1, 2) or a.shape[0] < 2:
+            raise ValueError(f"{name} must have shape (K,) or (K, D) with K >= 2; got shape {a.shape}")
+        if not np.isfinite(a).all():
+            raise ValueError(f"{name} must be finite")
+        arrays.append(a)
+    if not arrays[0].shape == arrays[1].shape == arrays[2].shape:
+        raise ValueError(f"d_ab, d_ac, d_bc must have the same shape; got {[a.shape for a in arrays]}")
+    m_ab, m_ac, m_bc = (np.mean(a * a, axis=0) for a in arrays)
+    return 0.5 * (m_ab + m_ac - m_bc), 0.5 * (m_ab + m_bc - m_ac), 0.5 * (m_ac + m_bc - m_ab)
