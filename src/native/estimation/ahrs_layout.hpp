@@ -49,7 +49,7 @@ constexpr int P_REST_OFFSET_VAR = 32;  // variance of the bias at rest minus the
 constexpr int P_ACC_CLIP = 33;       // k of the accelerometer's impulse clipping (ahrs_run.cpp; 0: off)
 constexpr int P_ACC_MOTION_TIME = 34;  // s, time constant of the running mean of the acceleration bound² (0: none)
 constexpr int P_ACC_ADAPT_MATRIX = 35;  // 1.0: the innovation-based estimate is a 2×2 covariance; 0.0: one variance
-constexpr int P_ACC_ADAPT_REST_HOLD = 36;  // 1.0: held, and left out of the noise, while at rest
+constexpr int P_ACC_ADAPT_REST_HOLD = 36;  // 1.0: held at rest, fading out of the noise with the low-pass's memory
 constexpr int N_PARAMS = 37;
 
 // stats indices

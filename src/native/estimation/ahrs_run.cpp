@@ -70,6 +70,9 @@ Params make_params(const double* params, const double* Ha, const double* Hm, dou
     p.acc_motion_alpha = motion_time > 0.0 ? std::min(1.0, double(p.stride) * dt / motion_time) : 1.0;
     p.acc_adapt_matrix = params[P_ACC_ADAPT_MATRIX] > 0.5;
     p.acc_adapt_rest_hold = params[P_ACC_ADAPT_REST_HOLD] > 0.5;
+    // the low-pass's poles have real part −1/τ (τ its DC delay, n_win dt / 2): what it holds of an input that has
+    // stopped decays as exp(−t/τ), its variance as exp(−2t/τ), per update exp(−2 stride dt / τ)
+    p.acc_fade = std::exp(-4.0 * double(p.stride) / double(p.n_win));
     return p;
 }
 
@@ -189,7 +192,8 @@ void step(State& s, double* ring, const Params& p, const double* gyr, const doub
             s.acc_motion_ms = dev * dev;  // acc_motion_time 0: the bound of this update alone
         // at rest (the rest detector's window quiet since its last bias update) the body does not accelerate: the
         // innovations say nothing about the filtered linear acceleration of the motion, which the estimate below
-        // describes, and none of it is present, so the estimate is held for the motion to come and left out
+        // describes, so it is held for the motion to come; and what the low-pass still holds of the motion's
+        // acceleration dies out as its impulse response does, so the estimate enters the noise with that share
         const bool hold = p.acc_adapt_rest_hold && s.rest.quiet != 0;
         for (int i = 0; i < NE; ++i)
             for (int c = 0; c < 2; ++c) {
@@ -230,16 +234,15 @@ void step(State& s, double* ring, const Params& p, const double* gyr, const doub
         // window's information (the low-pass averages white noise as the n_win-sample boxcar does: same
         // noise-equivalent bandwidth).  rm = (xx, xy, yy) of the noise matrix
         double rm[3];
-        if (hold) {
-            rm[0] = rm[2] = (acc_var / n_win + p.acc_cal_var + s.acc_motion_ms) * overlap;
-            rm[1] = 0.0;
-        } else if (p.acc_adapt_matrix) {
+        s.acc_extra_fade = hold ? s.acc_extra_fade * p.acc_fade : 1.0;
+        if (p.acc_adapt_matrix) {
             const double base = acc_var / n_win + p.acc_cal_var + s.acc_motion_ms;
-            rm[0] = (base + s.acc_extra_m[0]) * overlap;
-            rm[1] = s.acc_extra_m[1] * overlap;
-            rm[2] = (base + s.acc_extra_m[2]) * overlap;
+            const double f = s.acc_extra_fade;
+            rm[0] = (base + f * s.acc_extra_m[0]) * overlap;
+            rm[1] = f * s.acc_extra_m[1] * overlap;
+            rm[2] = (base + f * s.acc_extra_m[2]) * overlap;
         } else {
-            rm[0] = rm[2] = (acc_var / n_win + p.acc_cal_var + s.acc_motion_ms + acc_extra) * overlap;
+            rm[0] = rm[2] = (acc_var / n_win + p.acc_cal_var + s.acc_motion_ms + s.acc_extra_fade * acc_extra) * overlap;
             rm[1] = 0.0;
         }
         // S = H P Hᵀ + R

@@ -23,7 +23,8 @@ struct Params {
     double acc_cal_var;  // per-axis variance of its direction error: (δ g)² / 3 (m/s²)²
     double acc_motion_alpha;  // forgetting factor (per update) of the acceleration bound's mean square (1: none)
     bool acc_adapt_matrix;     // the innovation-based estimate: 2×2 covariance (true) or one variance per axis
-    bool acc_adapt_rest_hold;  // held, and left out of the accelerometer noise, while the rest detector is quiet
+    bool acc_adapt_rest_hold;  // held while the rest detector is quiet, entering the noise with the fading share
+    double acc_fade;           // per update at rest: the low-pass's energy decay exp(−2 stride dt / τ)
     double Ha[2 * ERROR_DIM], Hm[ERROR_DIM];  // measurement Jacobians (2, 6) and (1, 6)
     LowPass2 acc_lp;                          // the specific force's earth-frame low-pass (tau = window / 2)
     std::int64_t n_win, stride, use_mag;
@@ -45,6 +46,7 @@ struct State {
     double mag_dist_sum, mag_dist;                // window sum / mean of the field's disturbance lower bound
     double acc_extra, mag_extra;                  // adaptive-noise estimates (acc_extra: one variance per axis)
     double acc_extra_m[3];                        // ... or the 2×2 covariance (xx, xy, yy), (m/s²)²
+    double acc_extra_fade;                        // share of it still inside the low-pass at rest (1 in motion)
     double stats[N_STATS];                        // counters (ahrs_layout.hpp)
     std::int64_t head, filled, since;             // ring position, samples in the window, samples since an update
     std::int64_t acc_closed, mag_closed;          // gate counters

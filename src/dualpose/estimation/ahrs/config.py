@@ -160,9 +160,11 @@ class AhrsConfig:
         the earlier rule): what the low-pass lets through of hand motion lies along the direction the hand moves,
         so the accelerometer is distrusted along it and not across it (docs/broad.md, "Twelve trials", (e)).
     acc_adapt_rest_hold : bool
-        While the rest detector reports rest (``rest_window``), that estimate is held and left out of the
-        accelerometer noise (default True): a body at rest does not accelerate, so its innovations say nothing
-        about the motion's acceleration, and none is present.  Both False: the earlier rule bit for bit.
+        While the rest detector reports rest (``rest_window``), that estimate is held for the motion to come, and
+        it enters the accelerometer noise with the share of the motion's acceleration still inside the low-pass,
+        ``exp(−2 t / τ)`` after t seconds of rest (τ = ``window / 2``, the low-pass's poles have real part −1/τ)
+        (default True): a body at rest does not accelerate, so its innovations say nothing about the motion's
+        acceleration.  Both False: the earlier rule bit for bit.
     """
 
     noise: AhrsNoise | None = None
