@@ -105,8 +105,8 @@ class AhrsConfig:
     gate_release : float
         Seconds of uninterrupted rejection after which a gate re-opens (default 2 s).
     adapt_time : float
-        Time constant (s) of the innovation-based (Sage-Husa) estimate of the unmodelled acceleration variance that
-        is added to the accelerometer noise (default 6 s; 0 switches it off).
+        Time constant (s) of the innovation-based (Sage-Husa) estimate of the unmodelled acceleration's covariance
+        that is added to the accelerometer noise (default 6 s; 0 switches it off; ``acc_adapt_matrix``).
     window : float
         Seconds of samples averaged in the estimated earth frame per magnetometer update (default 3 s); the
         accelerometer's earth-frame low-pass has the same delay and noise bandwidth (2nd-order Butterworth, DC group
