@@ -68,8 +68,8 @@ Params make_params(const double* params, const double* Ha, const double* Hm, dou
     p.acc_cal_var = dg * dg / 3.0;
     const double motion_time = params[P_ACC_MOTION_TIME];
     p.acc_motion_alpha = motion_time > 0.0 ? std::min(1.0, double(p.stride) * dt / motion_time) : 1.0;
-    p.acc_adapt_matrix = params[P_ACC_ADAPT_MATRIX] > 0.5;
-    p.acc_adapt_rest_hold = params[P_ACC_ADAPT_REST_HOLD] > 0.5;
+    p.acc_adapt_matrix = params[P_ACC_ADAPT_MATRIX] > 0.5 ? 1 : 0;
+    p.acc_adapt_rest_hold = params[P_ACC_ADAPT_REST_HOLD] > 0.5 ? 1 : 0;
     // the low-pass's poles have real part −1/τ (τ its DC delay, n_win dt / 2): what it holds of an input that has
     // stopped decays as exp(−t/τ), its variance as exp(−2t/τ), per update exp(−2 stride dt / τ)
     p.acc_fade = std::exp(-4.0 * double(p.stride) / double(p.n_win));
@@ -194,7 +194,7 @@ void step(State& s, double* ring, const Params& p, const double* gyr, const doub
         // innovations say nothing about the filtered linear acceleration of the motion, which the estimate below
         // describes, so it is held for the motion to come; and what the low-pass still holds of the motion's
         // acceleration dies out as its impulse response does, so the estimate enters the noise with that share
-        const bool hold = p.acc_adapt_rest_hold && s.rest.quiet != 0;
+        const bool hold = p.acc_adapt_rest_hold != 0 && s.rest.quiet != 0;
         for (int i = 0; i < NE; ++i)
             for (int c = 0; c < 2; ++c) {
                 double t = 0.0;
@@ -209,7 +209,7 @@ void step(State& s, double* ring, const Params& p, const double* gyr, const doub
         // (docs/broad.md, "Twelve trials", (e)).  acc_adapt_matrix false: one variance for both axes,
         // r̂ <- (1 − α) r̂ + α max(νᵀν/2 − tr(HPHᵀ)/2 − σ²/N − (δg)²/3, 0)
         if (acc_alpha > 0.0 && !hold) {
-            if (p.acc_adapt_matrix) {
+            if (p.acc_adapt_matrix != 0) {
                 double hph[3] = {0.0, 0.0, 0.0};  // H P Hᵀ (xx, xy, yy)
                 for (int m = 0; m < NE; ++m) {
                     hph[0] += Ha[m] * PH[m * 2];
@@ -235,14 +235,15 @@ void step(State& s, double* ring, const Params& p, const double* gyr, const doub
         // noise-equivalent bandwidth).  rm = (xx, xy, yy) of the noise matrix
         double rm[3];
         s.acc_extra_fade = hold ? s.acc_extra_fade * p.acc_fade : 1.0;
-        if (p.acc_adapt_matrix) {
+        if (p.acc_adapt_matrix != 0) {
             const double base = acc_var / n_win + p.acc_cal_var + s.acc_motion_ms;
             const double f = s.acc_extra_fade;
             rm[0] = (base + f * s.acc_extra_m[0]) * overlap;
             rm[1] = f * s.acc_extra_m[1] * overlap;
             rm[2] = (base + f * s.acc_extra_m[2]) * overlap;
         } else {
-            rm[0] = rm[2] = (acc_var / n_win + p.acc_cal_var + s.acc_motion_ms + s.acc_extra_fade * acc_extra) * overlap;
+            const double extra = s.acc_extra_fade * acc_extra;
+            rm[0] = rm[2] = (acc_var / n_win + p.acc_cal_var + s.acc_motion_ms + extra) * overlap;
             rm[1] = 0.0;
         }
         // S = H P Hᵀ + R

@@ -22,8 +22,8 @@ struct Params {
     double acc_tol;      // magnitude error the accelerometer can make by itself, vs. the rest magnitude: 2 δ g (m/s²)
     double acc_cal_var;  // per-axis variance of its direction error: (δ g)² / 3 (m/s²)²
     double acc_motion_alpha;  // forgetting factor (per update) of the acceleration bound's mean square (1: none)
-    bool acc_adapt_matrix;     // the innovation-based estimate: 2×2 covariance (true) or one variance per axis
-    bool acc_adapt_rest_hold;  // held while the rest detector is quiet, entering the noise with the fading share
+    std::int64_t acc_adapt_matrix;     // 1: the innovation-based estimate is a 2×2 covariance; 0: one variance
+    std::int64_t acc_adapt_rest_hold;  // 1: held at rest, entering the noise with a fading share
     double acc_fade;           // per update at rest: the low-pass's energy decay exp(−2 stride dt / τ)
     double Ha[2 * ERROR_DIM], Hm[ERROR_DIM];  // measurement Jacobians (2, 6) and (1, 6)
     LowPass2 acc_lp;                          // the specific force's earth-frame low-pass (tau = window / 2)
@@ -109,7 +109,7 @@ void rest_run(std::ptrdiff_t n, const double* gyr, const double* acc, const doub
 // detector's parameters, state and ring; 5: the rest-offset variance and the accelerometer's impulse clipping in
 // Params, the spell count and the clipping's last output and running mean square in State; 6: the running mean
 // square of the filtered linear acceleration's bound in State, its forgetting factor in Params; 7: the 2×2
-// innovation-based covariance in State, its two switches in Params).
+// innovation-based covariance and its share at rest in State, its two switches and the share's decay in Params).
 constexpr std::uint64_t STREAM_MAGIC = 0x3153524841504455ULL;  // "UDPAHRS1" little-endian
 constexpr std::uint64_t STREAM_VERSION = 7;
 struct StreamHeader {
