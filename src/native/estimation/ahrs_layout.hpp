@@ -48,7 +48,9 @@ constexpr int P_REST_SKIP = 31;      // leading samples not seen by the detector
 constexpr int P_REST_OFFSET_VAR = 32;  // variance of the bias at rest minus the bias in motion, rad²/s² (per axis)
 constexpr int P_ACC_CLIP = 33;       // k of the accelerometer's impulse clipping (ahrs_run.cpp; 0: off)
 constexpr int P_ACC_MOTION_TIME = 34;  // s, time constant of the running mean of the acceleration bound² (0: none)
-constexpr int N_PARAMS = 35;
+constexpr int P_ACC_ADAPT_MATRIX = 35;  // 1.0: the innovation-based estimate is a 2×2 covariance; 0.0: one variance
+constexpr int P_ACC_ADAPT_REST_HOLD = 36;  // 1.0: held at rest, fading out of the noise with the low-pass's memory
+constexpr int N_PARAMS = 37;
 
 // stats indices
 constexpr int S_ACC_REJECTED = 0;
@@ -72,7 +74,7 @@ constexpr int N_STATS = 12;
             X(P_MAG_ADAPT) X(P_WINDOW) X(P_GYR_SCALE_VAR) X(P_STRIDE) X(P_LAG_ONLINE) X(P_LAG_FIXED)            \
                 X(P_LAG_BOX) X(P_LAG_MAX) X(P_LAG_STEP) X(P_LAG_MIN_RATE) X(P_LAG_NORM_TOL) X(P_LAG_THIN)       \
                     X(P_LAG_MIN_COUNT) X(P_ACC_SCALE) X(P_REST_WINDOW) X(P_REST_GYR_TH) X(P_REST_ACC_TH)        \
-                        X(P_REST_GYR_VAR) X(P_REST_GATE) X(P_REST_SKIP) X(P_REST_OFFSET_VAR) X(P_ACC_CLIP) X(P_ACC_MOTION_TIME) X(N_PARAMS) X(S_ACC_REJECTED)           \
+                        X(P_REST_GYR_VAR) X(P_REST_GATE) X(P_REST_SKIP) X(P_REST_OFFSET_VAR) X(P_ACC_CLIP) X(P_ACC_MOTION_TIME) X(P_ACC_ADAPT_MATRIX) X(P_ACC_ADAPT_REST_HOLD) X(N_PARAMS) X(S_ACC_REJECTED)           \
                             X(S_MAG_REJECTED) X(S_ACC_NIS_SUM) X(S_MAG_NIS_SUM) X(S_ACC_INSIDE) X(S_MAG_INSIDE) \
                                 X(S_MAG_SKIPPED) X(S_MAG_LAG) X(S_MAG_LAG_SAMPLES) X(S_REST_SAMPLES)            \
                                     X(S_REST_UPDATES) X(S_REST_REJECTED) X(N_STATS)

@@ -15,6 +15,25 @@ namespace dualpose::ahrs {
 namespace {
 constexpr double CHI2_2_LO = 0.0506356, CHI2_2_HI = 7.3777589;    // two-sided 95% band of χ²(2)
 constexpr double CHI2_1_LO = 0.000982069, CHI2_1_HI = 5.0238862;  // two-sided 95% band of χ²(1)
+
+// The positive semidefinite part of a symmetric 2×2 matrix x = (xx, xy, yy), in place: its eigenvalues clipped at
+// zero, l₁ ≥ l₂, with the spectral projectors (x − l₂ I)/(l₁ − l₂) and (l₁ I − x)/(l₁ − l₂) (no trigonometry); a
+// multiple of the identity (l₁ = l₂ to rounding) becomes max(l, 0) I.
+inline void psd_part_2x2(double* x) {
+    const double m = 0.5 * (x[0] + x[2]), h = 0.5 * (x[0] - x[2]);
+    const double d = std::sqrt(h * h + x[1] * x[1]);
+    const double l1 = m + d, l2 = m - d;
+    if (l2 >= 0.0) return;  // already semidefinite
+    if (l1 <= 0.0) {
+        x[0] = x[1] = x[2] = 0.0;
+        return;
+    }
+    // l₁ > 0 > l₂: the part along l₁'s eigenvector, l₁ (x − l₂ I) / (l₁ − l₂)
+    const double f = l1 / (l1 - l2);
+    x[0] = f * (x[0] - l2);
+    x[1] = f * x[1];
+    x[2] = f * (x[2] - l2);
+}
 }  // namespace
 
 Params make_params(const double* params, const double* Ha, const double* Hm, double dt) {
@@ -49,6 +68,11 @@ Params make_params(const double* params, const double* Ha, const double* Hm, dou
     p.acc_cal_var = dg * dg / 3.0;
     const double motion_time = params[P_ACC_MOTION_TIME];
     p.acc_motion_alpha = motion_time > 0.0 ? std::min(1.0, double(p.stride) * dt / motion_time) : 1.0;
+    p.acc_adapt_matrix = params[P_ACC_ADAPT_MATRIX] > 0.5 ? 1 : 0;
+    p.acc_adapt_rest_hold = params[P_ACC_ADAPT_REST_HOLD] > 0.5 ? 1 : 0;
+    // the low-pass's poles have real part −1/τ (τ its DC delay, n_win dt / 2): what it holds of an input that has
+    // stopped decays as exp(−t/τ), its variance as exp(−2t/τ), per update exp(−2 stride dt / τ)
+    p.acc_fade = std::exp(-4.0 * double(p.stride) / double(p.n_win));
     return p;
 }
 
@@ -166,29 +190,64 @@ void step(State& s, double* ring, const Params& p, const double* gyr, const doub
             s.acc_motion_ms += p.acc_motion_alpha * (dev * dev - s.acc_motion_ms);
         else
             s.acc_motion_ms = dev * dev;  // acc_motion_time 0: the bound of this update alone
-        // innovation-based (Sage-Husa / Mehra) estimate of the unmodelled acceleration variance per axis:
-        // E[νᵀν]/2 = tr(HPHᵀ)/2 + r  =>  r̂ <- (1 − α) r̂ + α max(νᵀν/2 − tr(HPHᵀ)/2 − σ²/N − (δg)²/3, 0)
-        if (acc_alpha > 0.0) {
-            double hph = 0.0;  // tr(H P Hᵀ) / 2
-            for (int i = 0; i < 2; ++i)
-                for (int j = 0; j < NE; ++j)
-                    for (int m = 0; m < NE; ++m) hph += 0.5 * Ha[i * NE + j] * P[j * NE + m] * Ha[i * NE + m];
-            acc_extra = (1.0 - acc_alpha) * acc_extra +
-                        acc_alpha * std::max(0.5 * (v[0] * v[0] + v[1] * v[1]) - hph - acc_var / n_win - p.acc_cal_var, 0.0);
-        }
-        // white noise, the accelerometer's own direction error (δg)²/3 per axis, the acceleration bound's mean
-        // square and the innovation-based estimate; consecutive updates share samples: each carries 1/overlap of a
-        // window's information (the low-pass averages white noise as the n_win-sample boxcar does: same
-        // noise-equivalent bandwidth)
-        const double r = (acc_var / n_win + p.acc_cal_var + s.acc_motion_ms + acc_extra) * overlap;
-        // S = H P Hᵀ + r I
+        // at rest (the rest detector's window quiet since its last bias update) the body does not accelerate: the
+        // innovations say nothing about the filtered linear acceleration of the motion, which the estimate below
+        // describes, so it is held for the motion to come; and what the low-pass still holds of the motion's
+        // acceleration dies out as its impulse response does, so the estimate enters the noise with that share
+        const bool hold = p.acc_adapt_rest_hold != 0 && s.rest.quiet != 0;
         for (int i = 0; i < NE; ++i)
             for (int c = 0; c < 2; ++c) {
                 double t = 0.0;
                 for (int m = 0; m < NE; ++m) t += P[i * NE + m] * Ha[c * NE + m];
                 PH[i * 2 + c] = t;
             }
-        double s00 = r, s01 = 0.0, s11 = r;
+        // innovation-based (Sage-Husa / Mehra) estimate of the unmodelled acceleration's covariance in the estimated
+        // horizontal plane, E[ν νᵀ] = H P Hᵀ + R: the positive semidefinite part of each update's
+        // ν νᵀ − H P Hᵀ − (σ²/N + (δg)²/3) I (rank one at most: ν νᵀ minus a definite matrix) into a running mean.
+        // Hand motion is not isotropic: the hand moves along a direction, and what the low-pass lets through lies
+        // along it, so the accelerometer is distrusted along that direction and not across it
+        // (docs/broad.md, "Twelve trials", (e)).  acc_adapt_matrix false: one variance for both axes,
+        // r̂ <- (1 − α) r̂ + α max(νᵀν/2 − tr(HPHᵀ)/2 − σ²/N − (δg)²/3, 0)
+        if (acc_alpha > 0.0 && !hold) {
+            if (p.acc_adapt_matrix != 0) {
+                double hph[3] = {0.0, 0.0, 0.0};  // H P Hᵀ (xx, xy, yy)
+                for (int m = 0; m < NE; ++m) {
+                    hph[0] += Ha[m] * PH[m * 2];
+                    hph[1] += Ha[m] * PH[m * 2 + 1];
+                    hph[2] += Ha[NE + m] * PH[m * 2 + 1];
+                }
+                const double w = acc_var / n_win + p.acc_cal_var;
+                double x[3] = {v[0] * v[0] - hph[0] - w, v[0] * v[1] - hph[1], v[1] * v[1] - hph[2] - w};
+                psd_part_2x2(x);
+                for (int i = 0; i < 3; ++i) s.acc_extra_m[i] = (1.0 - acc_alpha) * s.acc_extra_m[i] + acc_alpha * x[i];
+            } else {
+                double hph = 0.0;  // tr(H P Hᵀ) / 2
+                for (int i = 0; i < 2; ++i)
+                    for (int j = 0; j < NE; ++j)
+                        for (int m = 0; m < NE; ++m) hph += 0.5 * Ha[i * NE + j] * P[j * NE + m] * Ha[i * NE + m];
+                acc_extra = (1.0 - acc_alpha) * acc_extra +
+                            acc_alpha * std::max(0.5 * (v[0] * v[0] + v[1] * v[1]) - hph - acc_var / n_win - p.acc_cal_var, 0.0);
+            }
+        }
+        // white noise, the accelerometer's own direction error (δg)²/3 per axis, the acceleration bound's mean
+        // square and the innovation-based estimate; consecutive updates share samples: each carries 1/overlap of a
+        // window's information (the low-pass averages white noise as the n_win-sample boxcar does: same
+        // noise-equivalent bandwidth).  rm = (xx, xy, yy) of the noise matrix
+        double rm[3];
+        s.acc_extra_fade = hold ? s.acc_extra_fade * p.acc_fade : 1.0;
+        if (p.acc_adapt_matrix != 0) {
+            const double base = acc_var / n_win + p.acc_cal_var + s.acc_motion_ms;
+            const double f = s.acc_extra_fade;
+            rm[0] = (base + f * s.acc_extra_m[0]) * overlap;
+            rm[1] = f * s.acc_extra_m[1] * overlap;
+            rm[2] = (base + f * s.acc_extra_m[2]) * overlap;
+        } else {
+            const double extra = s.acc_extra_fade * acc_extra;
+            rm[0] = rm[2] = (acc_var / n_win + p.acc_cal_var + s.acc_motion_ms + extra) * overlap;
+            rm[1] = 0.0;
+        }
+        // S = H P Hᵀ + R
+        double s00 = rm[0], s01 = rm[1], s11 = rm[2];
         for (int m = 0; m < NE; ++m) {
             s00 += Ha[m] * PH[m * 2];
             s01 += Ha[m] * PH[m * 2 + 1];
@@ -212,7 +271,8 @@ void step(State& s, double* ring, const Params& p, const double* gyr, const doub
             Ka[(D_ATTITUDE + 2) * 2] = 0.0;  // the accelerometer never corrects heading
             Ka[(D_ATTITUDE + 2) * 2 + 1] = 0.0;
             for (int i = 0; i < NE; ++i) dx[i] = Ka[i * 2] * v[0] + Ka[i * 2 + 1] * v[1];
-            joseph_update<2>(P, Ka, Ha, r);
+            const double Rm[4] = {rm[0], rm[1], rm[1], rm[2]};
+            joseph_rows<NE, 2>(P, Ka, Ha, Rm);
             inject_and_reset(q, b, P, dx);
             left_rotate_inplace(Cm, dx);
         }

@@ -22,6 +22,9 @@ struct Params {
     double acc_tol;      // magnitude error the accelerometer can make by itself, vs. the rest magnitude: 2 δ g (m/s²)
     double acc_cal_var;  // per-axis variance of its direction error: (δ g)² / 3 (m/s²)²
     double acc_motion_alpha;  // forgetting factor (per update) of the acceleration bound's mean square (1: none)
+    std::int64_t acc_adapt_matrix;     // 1: the innovation-based estimate is a 2×2 covariance; 0: one variance
+    std::int64_t acc_adapt_rest_hold;  // 1: held at rest, entering the noise with a fading share
+    double acc_fade;           // per update at rest: the low-pass's energy decay exp(−2 stride dt / τ)
     double Ha[2 * ERROR_DIM], Hm[ERROR_DIM];  // measurement Jacobians (2, 6) and (1, 6)
     LowPass2 acc_lp;                          // the specific force's earth-frame low-pass (tau = window / 2)
     std::int64_t n_win, stride, use_mag;
@@ -41,7 +44,9 @@ struct State {
     double mag_sum[3];                            // field window sum (uncorrected frame)
     double Cm[9];                                 // accumulated corrections: current earth frame = Cm · uncorrected
     double mag_dist_sum, mag_dist;                // window sum / mean of the field's disturbance lower bound
-    double acc_extra, mag_extra;                  // adaptive-noise estimates
+    double acc_extra, mag_extra;                  // adaptive-noise estimates (acc_extra: one variance per axis)
+    double acc_extra_m[3];                        // ... or the 2×2 covariance (xx, xy, yy), (m/s²)²
+    double acc_extra_fade;                        // share of it still inside the low-pass at rest (1 in motion)
     double stats[N_STATS];                        // counters (ahrs_layout.hpp)
     std::int64_t head, filled, since;             // ring position, samples in the window, samples since an update
     std::int64_t acc_closed, mag_closed;          // gate counters
@@ -103,9 +108,10 @@ void rest_run(std::ptrdiff_t n, const double* gyr, const double* acc, const doub
 // parameters, state and rings, and n_ring in the header; 3: the accelerometer's own error in Params; 4: the rest
 // detector's parameters, state and ring; 5: the rest-offset variance and the accelerometer's impulse clipping in
 // Params, the spell count and the clipping's last output and running mean square in State; 6: the running mean
-// square of the filtered linear acceleration's bound in State, its forgetting factor in Params).
+// square of the filtered linear acceleration's bound in State, its forgetting factor in Params; 7: the 2×2
+// innovation-based covariance and its share at rest in State, its two switches and the share's decay in Params).
 constexpr std::uint64_t STREAM_MAGIC = 0x3153524841504455ULL;  // "UDPAHRS1" little-endian
-constexpr std::uint64_t STREAM_VERSION = 6;
+constexpr std::uint64_t STREAM_VERSION = 7;
 struct StreamHeader {
     std::uint64_t magic, version, size, n_win, n_ring;  // size: total bytes of the buffer; n_ring = ring_doubles
 };

@@ -126,8 +126,11 @@ def test_backward_covariance_matches_the_linear_rts_smoother(run):
     _, P_lin = rts_smooth_linear(zeros, Pf, zeros, prior, F)
     # the linear RTS ends at the filter: compare from the same end point (the last sample of the shortened run)
     err = np.abs(P_lin - s.covariance[k0:]).max(axis=(1, 2)) / np.abs(P_lin).max(axis=(1, 2))
-    assert err.max() < 1e-3  # measured 1.1e-4
-    assert np.median(err) < 2e-4  # measured 3e-5
+    # measured 8.2e-4 / 2.3e-4; 1.5e-4 / 3e-5 with one accelerometer noise variance for both horizontal axes
+    # (acc_adapt_matrix=False): a chart change J P Jᵀ leaves a horizontally isotropic attitude block unchanged to
+    # first order, and the 2×2 acceleration covariance makes that block anisotropic
+    assert err.max() < 1e-3
+    assert np.median(err) < 5e-4
 
 
 @pytest.mark.parametrize(

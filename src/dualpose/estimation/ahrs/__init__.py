@@ -36,7 +36,9 @@ The error-state filter of :mod:`dualpose.estimation.eskf` reduced to orientation
   per axis is part of the noise too), the
   window mean of ``(|m| − m₀)² + (m₀ Δdip)²`` for the magnetometer (change of the field's magnitude and dip from the
   reference measured at rest) -- and the accelerometer noise additionally gets an innovation-based (Sage-Husa /
-  Mehra) estimate of the unmodelled acceleration variance (time constant ``adapt_time``).  Every innovation is
+  Mehra) estimate of the unmodelled acceleration's 2×2 covariance in the horizontal plane (time constant
+  ``adapt_time``; ``acc_adapt_matrix``), held while the rest detector reports rest and fading out of the noise
+  there as the low-pass's memory of the motion (``acc_adapt_rest_hold``).  Every innovation is
   χ²-gated (NIS above the ``gate_probability`` quantile is rejected; after ``gate_release`` seconds of
   uninterrupted rejection the gate re-opens and stays open until an innovation fits again, so that the filter
   re-acquires instead of locking itself out);

@@ -105,8 +105,8 @@ class AhrsConfig:
     gate_release : float
         Seconds of uninterrupted rejection after which a gate re-opens (default 2 s).
     adapt_time : float
-        Time constant (s) of the innovation-based (Sage-Husa) estimate of the unmodelled acceleration variance that
-        is added to the accelerometer noise (default 6 s; 0 switches it off).
+        Time constant (s) of the innovation-based (Sage-Husa) estimate of the unmodelled acceleration's covariance
+        that is added to the accelerometer noise (default 6 s; 0 switches it off; ``acc_adapt_matrix``).
     window : float
         Seconds of samples averaged in the estimated earth frame per magnetometer update (default 3 s); the
         accelerometer's earth-frame low-pass has the same delay and noise bandwidth (2nd-order Butterworth, DC group
@@ -154,6 +154,17 @@ class AhrsConfig:
         earlier rule).  The bound is one realisation of the filtered linear acceleration along the vertical, while
         the update needs its variance along the horizontal axes; in oscillating motion the instantaneous value passes
         zero twice a cycle, when the horizontal components need not (docs/broad.md, "Twelve trials", (d)).
+    acc_adapt_matrix : bool
+        The innovation-based estimate of the unmodelled acceleration (``adapt_time``) is a 2×2 covariance in the
+        estimated horizontal plane (default True) instead of one variance shared by both horizontal axes (False,
+        the earlier rule): what the low-pass lets through of hand motion lies along the direction the hand moves,
+        so the accelerometer is distrusted along it and not across it (docs/broad.md, "Twelve trials", (e)).
+    acc_adapt_rest_hold : bool
+        While the rest detector reports rest (``rest_window``), that estimate is held for the motion to come, and
+        it enters the accelerometer noise with the share of the motion's acceleration still inside the low-pass,
+        ``exp(−2 t / τ)`` after t seconds of rest (τ = ``window / 2``, the low-pass's poles have real part −1/τ)
+        (default True): a body at rest does not accelerate, so its innovations say nothing about the motion's
+        acceleration.  Both False: the earlier rule bit for bit.
     """
 
     noise: AhrsNoise | None = None
@@ -170,6 +181,8 @@ class AhrsConfig:
     rest_bias_sigma: float = REST_BIAS_SIGMA
     acc_clip: float = 5.0
     acc_motion_time: float | None = None
+    acc_adapt_matrix: bool = True
+    acc_adapt_rest_hold: bool = True
 
     def __post_init__(self) -> None:
         if self.noise is not None and not isinstance(self.noise, AhrsNoise):
@@ -184,6 +197,9 @@ class AhrsConfig:
                   ("rest_bias_sigma", self.rest_bias_sigma, False), ("acc_clip", self.acc_clip, False),
                   ("acc_motion_time", 0.0 if self.acc_motion_time is None else self.acc_motion_time,
                    False))  # fmt: skip
+        for name in ("acc_adapt_matrix", "acc_adapt_rest_hold"):
+            if not isinstance(getattr(self, name), bool):
+                raise TypeError(f"{name} must be a bool; got {type(getattr(self, name)).__name__}")
         for name, value, positive in checks:
             if not (math.isfinite(value) and (value > 0.0 if positive else value >= 0.0)):
                 kind = "a positive" if positive else "a non-negative"
@@ -518,6 +534,8 @@ def _set_rest_params(params: np.ndarray, rate: float, noise: AhrsNoise, c: AhrsC
     params[_native.AHRS_P_ACC_CLIP] = c.acc_clip
     motion_time = 0.5 * c.window if c.acc_motion_time is None else c.acc_motion_time
     params[_native.AHRS_P_ACC_MOTION_TIME] = motion_time
+    params[_native.AHRS_P_ACC_ADAPT_MATRIX] = 1.0 if c.acc_adapt_matrix else 0.0
+    params[_native.AHRS_P_ACC_ADAPT_REST_HOLD] = 1.0 if c.acc_adapt_rest_hold else 0.0
 
 
 def check_field_samples(mag: NDArray[np.float64], name: str = "mag", single: bool = False) -> None:
