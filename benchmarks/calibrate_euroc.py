@@ -40,7 +40,7 @@ def _vec(v, scale: float = 1.0, fmt: str = "{:+.2f}") -> str:
     return " ".join(fmt.format(scale * x) for x in v)
 
 
-def stereo_bundle_adjustment(window: tuple[float, float] | None = None) -> tuple[np.ndarray, int, float, dict]:
+def stereo_bundle_adjustment(window: tuple[float, float] | None = None, details: bool = False) -> tuple:
     """Camera-only stereo calibration of the corner files with the intrinsics of sensors.yaml held fixed: a pose per
     frame seen by both cameras (≥ 8 corners each; started from cam0's PnP) and one ``T_cam0_cam1``, Gauss–Newton on
     the reprojection errors of both cameras (Huber at 1.5 σ, corners beyond 5 σ dropped after 5, 10 and 15 steps),
@@ -111,12 +111,18 @@ def stereo_bundle_adjustment(window: tuple[float, float] | None = None) -> tuple
     T = np.eye(4)
     T[:3, :3], T[:3, 3] = R10, t10
     pnp = {}
+    per_frame: dict[str, np.ndarray] = {"R_c0_target": R, "t_c0_target": t, "stamps_ns": ps0.stamps_ns[ok]}
     for cam, frames, R_ba in (("cam0", ps0.frame[ok], R), ("cam1", f1[ok], np.einsum("ij,kjl->kil", R10, R))):
         ps = ps0 if cam == "cam0" else camera_poses(det[cam], cams[cam], 8)
         j = np.clip(np.searchsorted(ps.frame, frames), 0, len(ps.frame) - 1)
         m = (ps.frame[j] == frames) & (ps.rms_px[j] < 0.7)
         e = np.degrees(dp.so3_log(dp.matrix_from_quat(ps.q_wc[j[m]]).swapaxes(1, 2) @ np.swapaxes(R_ba[m], 1, 2)))
         pnp[cam] = (e.mean(axis=0), np.sqrt(np.mean(e**2, axis=0)))
+        err = np.full((n, 3), np.nan)
+        err[m] = e
+        per_frame[f"{cam}_pnp_error_deg"] = err
+    if details:
+        return np.linalg.inv(T), n, sigma, pnp, per_frame
     return np.linalg.inv(T), n, sigma, pnp
 
 

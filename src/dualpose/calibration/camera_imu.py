@@ -445,11 +445,17 @@ class _Problem:
         xdot_c = xdot_b @ self.R_bc
         return np.asarray(np.linalg.norm(np.einsum("nmij,nmj->nmi", D, xdot_c), axis=-1), dtype=np.float64)
 
-    def fit_noise(self, r: np.ndarray, use: np.ndarray, motion: bool) -> None:
+    def fit_noise(self, r: np.ndarray, use: np.ndarray, model: str) -> None:
         """Re-estimate the pixel noise from the residuals ``r`` (N, M, 2) of the corners ``use``: ``sigma_px`` the
-        robust (MAD) σ, and with ``motion`` the per-corner model ``σ² = σ₀² + (κ |u̇|)²`` (``κ`` s: the blur's
-        effective duration; least squares of the squared residuals on the squared image speed)."""
-        if not motion:
+        robust (MAD) σ; with ``model="motion"`` the per-corner model ``σ² = σ₀² + (κ |u̇|)²`` (``κ`` s: the blur's
+        effective duration; least squares of the squared residuals on the squared image speed); with
+        ``model="frame"`` one σ per frame (:func:`_frame_sigmas`)."""
+        if model == "frame":
+            self.corner_scale = np.ones(self.valid0.shape)
+            self.sigma_px = max(1.4826 * float(np.median(np.abs(r[use]))), 1e-3)
+            self.corner_scale[:] = (_frame_sigmas(r, use, self.sigma_px) / self.sigma_px)[:, None]
+            return
+        if model != "motion":
             self.sigma_px = max(1.4826 * float(np.median(np.abs(r[use]))), 1e-3)
             return
         speed = self.image_speed()[use]
@@ -582,6 +588,24 @@ class _Problem:
         H, grad = acc, acc.gradient()
         cost = c_cam + float(np.sum(rI**2) + np.sum(rb**2) + np.sum(rp**2) + np.sum(ra**2) + np.sum(ri**2))
         return H, grad, cost
+
+
+def _frame_sigmas(r: _Arr, use: NDArray[np.bool_], sigma: float) -> _Arr:
+    """One pixel σ per frame (N,) from the residuals ``r`` (N, M, 2) of the corners ``use`` (N, M): a
+    variance-component estimate (Förstner 1979; Koch, "Parameter estimation and hypothesis testing in linear
+    models", 1999, § 3.6), made robust by taking the frame's MAD instead of its mean square, and corrected for the 6
+    pose degrees of freedom the frame's own corners absorb (redundancy ``2 n − 6`` of ``2 n`` coordinates).  It is
+    pooled with the recording's σ (``sigma``) in proportion to the redundancies, with the recording's σ counted as
+    one frame's worth of 6 coordinates, so that a frame of few corners cannot set its own weight."""
+    a = np.where(use[..., None], np.abs(r), np.nan).reshape(len(r), -1)
+    n2 = 2.0 * use.sum(axis=1)
+    red = np.maximum(n2 - 6.0, 1.0)
+    with np.errstate(all="ignore"):
+        mad = np.nanmedian(a, axis=1) if a.shape[1] else np.full(len(r), np.nan)
+    s2 = np.where(np.isfinite(mad), (1.4826 * mad) ** 2 * n2 / red, sigma**2)
+    pooled = (red * s2 + 6.0 * sigma**2) / (red + 6.0)
+    out: _Arr = np.sqrt(np.maximum(pooled, 1e-6))
+    return out
 
 
 def _as_slice(index: np.ndarray) -> slice | np.ndarray:
@@ -826,7 +850,9 @@ def calibrate_camera_imu(
     noise_model : ``"uniform"`` (default): one pixel σ for every corner (MAD of the residuals after each pass);
         ``"motion"``: per-corner ``σ² = σ₀² + (κ |u̇|)²`` with ``|u̇|`` the speed of the corner's image (px/s, from
         the frame's body rate and velocity) and ``σ₀``, ``κ`` (s, the blur's effective duration) fitted to the
-        squared residuals after each pass — motion blur of a global-shutter camera (docs/euroc.md).
+        squared residuals after each pass — motion blur of a global-shutter camera (docs/euroc.md); ``"frame"``: one
+        σ per frame, a robust variance-component estimate from that frame's residuals after each pass, pooled with
+        the recording's σ (blur, exposure and focus differ from frame to frame; docs/euroc.md).
     huber : float
         Huber threshold of the reprojection loss, in σ (IRLS weights).
     intrinsics_prior_sigma : (8,) array, optional
@@ -849,8 +875,8 @@ def calibrate_camera_imu(
         raise ValueError(f"imu_model must be 'calibrated' or 'scale_misalignment'; got {imu_model!r}")
     if bias_model not in ("random_walk", "constant"):
         raise ValueError(f"bias_model must be 'random_walk' or 'constant'; got {bias_model!r}")
-    if noise_model not in ("uniform", "motion"):
-        raise ValueError(f"noise_model must be 'uniform' or 'motion'; got {noise_model!r}")
+    if noise_model not in ("uniform", "motion", "frame"):
+        raise ValueError(f"noise_model must be 'uniform', 'motion' or 'frame'; got {noise_model!r}")
     if not huber > 0:
         raise ValueError(f"huber must be > 0 (in pixel σ); got {huber!r}")
     prior_sigma = None
@@ -916,7 +942,7 @@ def calibrate_camera_imu(
         iterations += _levenberg_marquardt(prob, max_iterations, _PASS_TOLERANCE)
         r, use, _ = prob.reprojection(False)
         rn = np.linalg.norm(r, axis=-1)
-        prob.fit_noise(r, prob.inlier & use, noise_model == "motion")
+        prob.fit_noise(r, prob.inlier & use, noise_model)
         prob.inlier = prob.valid0 & (rn < reject_sigmas * prob.sigma_px * prob.corner_scale)
         prob.reanchor()
     iterations += _levenberg_marquardt(prob, max_iterations)
