@@ -4,14 +4,17 @@ composed (``T_cam0_cam1 = T_b_c0⁻¹ T_b_c1``), with the stereo extrinsic of se
 
 Run ``nice .venv/bin/python benchmarks/calibrate_euroc.py [--imu-models scale_misalignment calibrated] [--bias-models
 random_walk constant] [--noise-scales 1 3 10] [--option noise_model=motion huber=3 ...] [--intrinsics fixed distortion
-focal+distortion focal all] [--window START END] [--stereo-ba] [--markdown PATH]`` (one full calibration per camera
+focal+distortion focal all] [--window START END] [--stereo-ba] [--pan-by-view] [--min-obliquity 0 10 15 20]
+[--markdown PATH]`` (one full calibration per camera
 and model pair, ≈ 10–30 s each on 2 shared cores; 1.5–4 min with refined camera parameters, which take the NumPy
 path). ``--intrinsics`` refines the named camera parameters in the batch, the others held at sensors.yaml's values by
 ``intrinsics_prior_sigma``. The composition table gives the formal σ of the composition from the two runs' covariances
 (taken as independent) and the error's Mahalanobis distance. ``--option KEY=VALUE`` passes options to
 ``calibrate_camera_imu`` (the hypotheses of docs/euroc.md); ``--stereo-ba`` adds the camera-only stereo bundle
 adjustment of the same corner files (intrinsics fixed as in sensors.yaml): the stereo extrinsic that the detections
-themselves imply.
+themselves imply; ``--pan-by-view`` each camera's per-frame PnP pan against it by view obliquity, target distance,
+rate and time; ``--min-obliquity DEG`` (a diagnostic, not a method) calibrates from the frames whose own PnP view is
+at least DEG from frontal.
 """
 
 from __future__ import annotations
@@ -25,10 +28,18 @@ import numpy as np
 
 import dualpose as dp
 from _common import emit
+from dualpose.calibration.camera_imu import calibrate_camera_imu
 from dualpose.evaluation.target_reference import camera_poses
-from dualpose.io import read_rig_sensors
+from dualpose.io import read_rig_sensors, read_target_detections
+from dualpose.io.recording import read_imu
 from dualpose.io.target.recording import read_target_recording
-from dualpose.pipelines.calibrate_camera_imu import EUROC_KALIBR_T_BS, calibrate_camera_imu_files, pose_matrix
+from dualpose.pipelines.calibrate_camera_imu import (
+    EUROC_KALIBR_T_BS,
+    calibrate_camera_imu_files,
+    calibration_summary,
+    pose_matrix,
+)
+from dualpose.types.camera import FrameCorrespondences
 
 DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "euroc" / "imu_april"
 
@@ -142,6 +153,68 @@ def stereo_table(window: tuple[float, float] | None) -> str:
         ""])  # fmt: skip
 
 
+def obliquity_deg(R_ct: np.ndarray) -> np.ndarray:
+    """Angle (deg) between the optical axis and the target's normal for camera←target rotations ``R_ct`` (F, 3, 3):
+    0 for a frontal view."""
+    n = R_ct[:, :, 2]
+    out: np.ndarray = np.degrees(np.arctan2(np.linalg.norm(n[:, :2], axis=1), np.abs(n[:, 2])))
+    return out
+
+
+def pan_by_view_table() -> str:
+    """Each camera's per-frame PnP rotation about its y axis (pan) relative to the stereo bundle adjustment's pose of
+    that camera, by quintiles of the view's obliquity, the target's distance, the body rate and the time."""
+    src = read_target_recording(DATA)
+    T, n, _, _, pf = stereo_bundle_adjustment(None, details=True)
+    T10 = np.linalg.inv(T)
+    ts = pf["stamps_ns"] * 1e-9
+    centre = src.detections["cam0"].points.mean(axis=0)
+    out = ["| camera | feature | quintile ranges: mean pan of the per-frame PnP vs the stereo BA [deg] |",
+           "|---|---|---|"]
+    for cam in ("cam0", "cam1"):
+        R, t = pf["R_c0_target"], pf["t_c0_target"]
+        if cam == "cam1":
+            R, t = np.einsum("ij,kjl->kil", T10[:3, :3], R), np.einsum("ij,kj->ki", T10[:3, :3], t) + T10[:3, 3]
+        rel = np.einsum("kji,kjl->kil", R[:-1], R[1:])
+        rate = np.linalg.norm(dp.so3_log(rel), axis=1) / np.diff(ts)
+        feats = {"obliquity [deg]": obliquity_deg(R), "distance [m]": (np.einsum("kij,j->ki", R, centre) + t)[:, 2],
+                 "rate [rad/s]": np.concatenate([rate, rate[-1:]]), "time [s]": ts - ts[0]}  # fmt: skip
+        pan = pf[f"{cam}_pnp_error_deg"][:, 1]
+        ok = np.isfinite(pan)
+        out.append(f"| {cam} | all ({int(ok.sum())} frames) | {np.mean(pan[ok]):+.3f} |")
+        for name, f in feats.items():
+            q = np.quantile(f[ok], np.linspace(0.0, 1.0, 6))
+            cells = [f"{a:.2f}–{b:.2f}: {np.mean(pan[ok & (f >= a) & (f <= b)]):+.3f}"
+                     for a, b in zip(q[:-1], q[1:], strict=True)]
+            out.append(f"| {cam} | {name} | {' · '.join(cells)} |")
+    return "\n".join(out) + "\n"
+
+
+def calibrate_oblique_views(cam: str, min_obliquity: float, window: tuple[float, float] | None,
+                            **options: object) -> dict:  # fmt: skip
+    """A diagnostic, not a method: ``cam`` calibrated from the frames whose own PnP view is at least
+    ``min_obliquity`` degrees from frontal (the others left out, the IMU bridging them); returns the summary of
+    ``calibrate_camera_imu_files``."""
+    rig = read_rig_sensors(DATA / "sensors.yaml")
+    imu = read_imu(str(DATA / "imu0.csv"))
+    det = read_target_detections(str(DATA / f"{cam}_aprilgrid.csv"))
+    ps = camera_poses(det, rig.camera(cam), 8)
+    keep = np.zeros(len(det.stamps_ns), dtype=bool)
+    keep[ps.frame[obliquity_deg(dp.matrix_from_quat(ps.q_wc).swapaxes(1, 2)) >= min_obliquity]] = True
+    ns0 = int(imu.stamps_ns[0])
+    imu_t = (imu.stamps_ns - ns0) * 1e-9
+    ft = (det.stamps_ns - ns0) * 1e-9
+    use_imu = np.ones(len(imu_t), dtype=bool)
+    if window is not None:
+        keep &= (ft >= window[0]) & (ft <= window[1])
+        use_imu = (imu_t >= window[0] - 0.5) & (imu_t <= window[1] + 0.5)
+    sel = det.select(keep)
+    frames = FrameCorrespondences((sel.stamps_ns - ns0) * 1e-9, sel.offsets, sel.pixels, sel.points)
+    res = calibrate_camera_imu(imu_t[use_imu], imu.gyro[use_imu], imu.accel[use_imu], frames, rig.camera(cam),
+                               rig.imu_noise, rig.gravity_magnitude, **options)  # type: ignore[arg-type]
+    return calibration_summary(res, cam)
+
+
 #: camera-parameter refinements in the batch (``--intrinsics``): the σ of the prior on (fx, fy, cx, cy, k1, k2, p1,
 #: p2) at the values of sensors.yaml (``inf``: free; 1e-3 px / 1e-6 holds a parameter)
 INTRINSICS = {
@@ -168,11 +241,15 @@ def composition_covariance(m0: dict, m1: dict) -> np.ndarray:
 
 
 def tables(imu_model: str, bias_model: str, noise_scale: float = 1.0, window: tuple[float, float] | None = None,
-           options: dict | None = None, intrinsics: str = "fixed") -> str:  # fmt: skip
+           options: dict | None = None, intrinsics: str = "fixed", min_obliquity: float = 0.0) -> str:  # fmt: skip
     res = {}
     if INTRINSICS[intrinsics] is not None:
         options = {**(options or {}), "estimate_intrinsics": True, "intrinsics_prior_sigma": INTRINSICS[intrinsics]}
     for cam in ("cam0", "cam1"):
+        if min_obliquity > 0:
+            res[cam] = calibrate_oblique_views(cam, min_obliquity, window, bias_model=bias_model, imu_model=imu_model,
+                                               **(options or {}))  # fmt: skip
+            continue
         res[cam] = calibrate_camera_imu_files(str(DATA / "imu0.csv"), str(DATA / f"{cam}_aprilgrid.csv"),
                                               str(DATA / "sensors.yaml"), cam, bias_model, imu_model=imu_model,
                                               imu_noise_scale=noise_scale, frame_window=window,
@@ -182,6 +259,7 @@ def tables(imu_model: str, bias_model: str, noise_scale: float = 1.0, window: tu
     scale += "".join(f", {k}={v}" for k, v in (options or {}).items() if k not in ("estimate_intrinsics",
                                                                                   "intrinsics_prior_sigma"))
     scale += "" if intrinsics == "fixed" else f", camera parameters refined: {intrinsics}"
+    scale += f", only views ≥ {min_obliquity:g}° from frontal (diagnostic)" if min_obliquity > 0 else ""
     out = [f"#### IMU model `{imu_model}`, bias model `{bias_model}`{scale}", "",
            "| camera | rotation vs Kalibr [deg] | translation − Kalibr [mm] (x y z) | ‖·‖ [mm] | τ [ms] | "
            "reprojection RMS [px] | frames used | corners rejected | runtime [s] |",
@@ -260,6 +338,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--window", nargs=2, type=float, default=None, metavar=("START", "END"),
                     help="only the frames in [START, END] s from the first IMU sample")
     ap.add_argument("--stereo-ba", action="store_true", help="add the camera-only stereo bundle adjustment")
+    ap.add_argument("--pan-by-view", action="store_true",
+                    help="add the per-frame PnP pan against the stereo bundle adjustment by obliquity, distance, rate")
+    ap.add_argument("--min-obliquity", nargs="+", type=float, default=[0.0], metavar="DEG",
+                    help="diagnostic: leave out the frames whose own PnP view is within DEG of frontal")
     ap.add_argument("--markdown", default=None, help="also write the tables to this file (never overwritten)")
     args = ap.parse_args(argv)
     if not DATA.is_dir():
@@ -275,10 +357,12 @@ def main(argv: list[str] | None = None) -> int:
         except ValueError:
             options[key] = value
     window = tuple(args.window) if args.window else None
-    text = "\n\n".join(tables(i, b, f, window, options, c) for i in args.imu_models for b in args.bias_models
-                        for f in args.noise_scales for c in args.intrinsics)  # fmt: skip
+    text = "\n\n".join(tables(i, b, f, window, options, c, o) for i in args.imu_models for b in args.bias_models
+                        for f in args.noise_scales for c in args.intrinsics for o in args.min_obliquity)  # fmt: skip
     if args.stereo_ba:
         text += "\n\n" + stereo_table(window)
+    if args.pan_by_view:
+        text += "\n\n" + pan_by_view_table()
     return emit(text, args.markdown)
 
 
