@@ -4,8 +4,8 @@ composed (``T_cam0_cam1 = T_b_c0⁻¹ T_b_c1``), with the stereo extrinsic of se
 
 Run ``nice .venv/bin/python benchmarks/calibrate_euroc.py [--imu-models scale_misalignment calibrated] [--bias-models
 random_walk constant] [--noise-scales 1 3 10] [--option noise_model=motion huber=3 ...] [--intrinsics fixed distortion
-focal+distortion focal all] [--window START END] [--stereo-ba] [--pan-by-view] [--min-obliquity 0 10 15 20]
-[--markdown PATH]`` (one full calibration per camera
+focal+distortion focal all] [--window START END] [--stereo-ba] [--pan-by-view] [--frame-consistency]
+[--min-obliquity 0 10 15 20] [--markdown PATH]`` (one full calibration per camera
 and model pair, ≈ 10–30 s each on 2 shared cores; 1.5–4 min with refined camera parameters, which take the NumPy
 path). ``--intrinsics`` refines the named camera parameters in the batch, the others held at sensors.yaml's values by
 ``intrinsics_prior_sigma``. The composition table gives the formal σ of the composition from the two runs' covariances
@@ -13,7 +13,8 @@ path). ``--intrinsics`` refines the named camera parameters in the batch, the ot
 ``calibrate_camera_imu`` (the hypotheses of docs/euroc.md); ``--stereo-ba`` adds the camera-only stereo bundle
 adjustment of the same corner files (intrinsics fixed as in sensors.yaml): the stereo extrinsic that the detections
 themselves imply; ``--pan-by-view`` each camera's per-frame PnP pan against it by view obliquity, target distance,
-rate and time; ``--min-obliquity DEG`` (a diagnostic, not a method) calibrates from the frames whose own PnP view is
+rate and time; ``--frame-consistency`` the per-frame χ² and the time correlation of the per-frame pose
+corrections; ``--min-obliquity DEG`` (a diagnostic, not a method) calibrates from the frames whose own PnP view is
 at least DEG from frontal.
 """
 
@@ -23,6 +24,7 @@ import argparse
 import math
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -191,10 +193,10 @@ def pan_by_view_table() -> str:
 
 
 def calibrate_oblique_views(cam: str, min_obliquity: float, window: tuple[float, float] | None,
-                            **options: object) -> dict:  # fmt: skip
+                            full: bool = False, **options: object) -> Any:  # fmt: skip
     """A diagnostic, not a method: ``cam`` calibrated from the frames whose own PnP view is at least
     ``min_obliquity`` degrees from frontal (the others left out, the IMU bridging them); returns the summary of
-    ``calibrate_camera_imu_files``."""
+    ``calibrate_camera_imu_files`` (with ``full``: the ``CameraImuCalibration`` itself)."""
     rig = read_rig_sensors(DATA / "sensors.yaml")
     imu = read_imu(str(DATA / "imu0.csv"))
     det = read_target_detections(str(DATA / f"{cam}_aprilgrid.csv"))
@@ -212,7 +214,27 @@ def calibrate_oblique_views(cam: str, min_obliquity: float, window: tuple[float,
     frames = FrameCorrespondences((sel.stamps_ns - ns0) * 1e-9, sel.offsets, sel.pixels, sel.points)
     res = calibrate_camera_imu(imu_t[use_imu], imu.gyro[use_imu], imu.accel[use_imu], frames, rig.camera(cam),
                                rig.imu_noise, rig.gravity_magnitude, **options)  # type: ignore[arg-type]
-    return calibration_summary(res, cam)
+    return res if full else calibration_summary(res, cam)
+
+
+def frame_consistency_table(window: tuple[float, float] | None, options: dict | None) -> str:
+    """Per-frame consistency of the corners with the IMU-tied trajectory (``frame_pose_correction``,
+    ``frame_pose_chi2`` of the result): χ², the mean pan correction and the autocorrelation of the rotation
+    corrections over frames (lags in frames, 20 Hz), with the effective number of independent frames
+    ``N / (1 + 2 Σ ρ)`` (lags 1–40)."""
+    out = ["| camera | per-frame χ² (6 dof) mean, median | mean rotation correction [deg] (camera x y z) | "
+           "autocorrelation of the pan correction, lags 1 2 5 10 20 40 | effective independent frames (pan) |",
+           "|---|---|---|---|---|"]  # fmt: skip
+    for cam in ("cam0", "cam1"):
+        res = calibrate_oblique_views(cam, 0.0, window, full=True, **(options or {}))
+        c, chi2 = res.frame_pose_correction, res.frame_pose_chi2
+        rot = np.degrees(c[:, :3])
+        x = rot[:, 1] - rot[:, 1].mean()
+        rho = np.array([np.dot(x[:-k], x[k:]) / np.dot(x, x) for k in range(1, 41)])
+        n_eff = len(x) / (1.0 + 2.0 * float(np.sum(rho)))
+        out.append(f"| {cam} | {np.mean(chi2):.1f}, {np.median(chi2):.1f} | {_vec(rot.mean(axis=0), fmt='{:+.4f}')} | "
+                   f"{_vec(rho[[0, 1, 4, 9, 19, 39]], fmt='{:.2f}')} | {n_eff:.0f} of {len(x)} |")  # fmt: skip
+    return "\n".join(out) + "\n"
 
 
 #: camera-parameter refinements in the batch (``--intrinsics``): the σ of the prior on (fx, fy, cx, cy, k1, k2, p1,
@@ -340,6 +362,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--stereo-ba", action="store_true", help="add the camera-only stereo bundle adjustment")
     ap.add_argument("--pan-by-view", action="store_true",
                     help="add the per-frame PnP pan against the stereo bundle adjustment by obliquity, distance, rate")
+    ap.add_argument("--frame-consistency", action="store_true",
+                    help="add the per-frame χ² and the autocorrelation of the per-frame pose corrections")
     ap.add_argument("--min-obliquity", nargs="+", type=float, default=[0.0], metavar="DEG",
                     help="diagnostic: leave out the frames whose own PnP view is within DEG of frontal")
     ap.add_argument("--markdown", default=None, help="also write the tables to this file (never overwritten)")
@@ -363,6 +387,8 @@ def main(argv: list[str] | None = None) -> int:
         text += "\n\n" + stereo_table(window)
     if args.pan_by_view:
         text += "\n\n" + pan_by_view_table()
+    if args.frame_consistency:
+        text += "\n\n" + frame_consistency_table(window, options)
     return emit(text, args.markdown)
 
 
