@@ -161,6 +161,30 @@ def test_frame_sigmas_recover_the_per_frame_noise():
     assert np.all(np.abs(est8 - 0.4) < np.abs(own - 0.4))
 
 
+def test_frame_pose_chi2_detects_a_camera_model_error():
+    """The per-frame pose corrections' χ² (6 dof) stay below 6 when the camera model is right (each frame's own
+    corners are in the batch's pose; a near noise-free IMU pins the trajectory) and grow by more than a third with
+    a radial distortion off by 0.03 although the pixel σ, re-estimated, absorbs part of it."""
+    cam = RadTanCamera(213.3, 213.3, 160.0, 120.0, -0.2, 0.05, 1e-3, -1e-3, 320, 240)
+    noise = ImuNoise(1e-5, 1e-6, 1e-4, 1e-5, 0.0, 0.0, 200.0)
+    run = sim.simulate(sim.eight_motion(), seed=5, imu_noise=noise, camera_rate=20, pixel_sigma=0.0,
+                       landmarks_per_frame=40)  # fmt: skip
+    f = run.frames
+    K = run.camera.matrix
+    xyz = np.column_stack([(f.pixels - K[:2, 2]) / np.diag(K)[:2], np.ones(len(f.pixels))])
+    pixels = cam.project(xyz) + np.random.default_rng(8).normal(0.0, 0.3, (len(xyz), 2))
+    frames = FrameCorrespondences(f.t, f.offsets, pixels, f.points)
+    chi2 = []
+    for c in (cam, dataclasses.replace(cam, k1=cam.k1 + 0.03)):
+        res = calibrate_camera_imu(run.t, run.gyro, run.accel, frames, c, noise, min_frames=20,
+                                   imu_model="calibrated")  # fmt: skip
+        assert res.frame_pose_correction.shape == (res.frames_used, 6)
+        assert res.frame_pose_chi2.shape == (res.frames_used,)
+        chi2.append(float(np.mean(res.frame_pose_chi2)))
+    assert 2.0 < chi2[0] < 6.0
+    assert chi2[1] > 1.3 * chi2[0]
+
+
 class _Captured(Exception):
     pass
 
