@@ -161,6 +161,17 @@ def test_frame_sigmas_recover_the_per_frame_noise():
     assert np.all(np.abs(est8 - 0.4) < np.abs(own - 0.4))
 
 
+def test_frame_noise_model_on_frames_of_equal_noise(simulated):
+    """White noise of one σ: the per-frame model's extrinsic is that of the uniform σ to within half its σ."""
+    run, uniform = simulated
+    _, cam, noise, frames = _simulated(1)
+    res = calibrate_camera_imu(run.t, run.gyro, run.accel, frames, cam, noise, min_frames=20, imu_model="calibrated",
+                               noise_model="frame")  # fmt: skip
+    assert res.pixel_sigma == pytest.approx(0.3, rel=0.1)
+    assert np.degrees(dp.quat_angle(res.q_bc, uniform.q_bc)) < 0.5 * np.max(uniform.std["rotation_deg"])
+    assert np.all(np.abs(res.p_bc - uniform.p_bc) < 0.5 * uniform.std["translation_m"])
+
+
 def test_frame_pose_chi2_detects_a_camera_model_error():
     """The per-frame pose corrections' χ² (6 dof) stay below 6 when the camera model is right (each frame's own
     corners are in the batch's pose; a near noise-free IMU pins the trajectory) and grow by more than a third with
