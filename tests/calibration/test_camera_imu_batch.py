@@ -159,6 +159,9 @@ def test_frame_sigmas_recover_the_per_frame_noise():
     own = 1.4826 * np.median(np.abs(r[:, :8]), axis=(1, 2)) * np.sqrt(16 / 10)  # the frame's own, 16 − 6 dof
     assert np.all((est8 >= np.minimum(own, 0.4) - 1e-12) & (est8 <= np.maximum(own, 0.4) + 1e-12))
     assert np.all(np.abs(est8 - 0.4) < np.abs(own - 0.4))
+    none = use.copy()
+    none[3] = False  # a frame whose corners were all rejected keeps the recording's σ
+    assert _frame_sigmas(r, none, 0.4)[3] == pytest.approx(0.4, rel=1e-12)
 
 
 def test_frame_noise_model_on_frames_of_equal_noise(simulated):

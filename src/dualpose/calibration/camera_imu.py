@@ -611,9 +611,10 @@ def _frame_sigmas(r: _Arr, use: NDArray[np.bool_], sigma: float) -> _Arr:
     a = np.where(use[..., None], np.abs(r), np.nan).reshape(len(r), -1)
     n2 = 2.0 * use.sum(axis=1)
     red = np.maximum(n2 - 6.0, 1.0)
-    with np.errstate(all="ignore"):
-        mad = np.nanmedian(a, axis=1) if a.shape[1] else np.full(len(r), np.nan)
-    s2 = np.where(np.isfinite(mad), (1.4826 * mad) ** 2 * n2 / red, sigma**2)
+    some = n2 > 0
+    mad = np.zeros(len(r))
+    mad[some] = np.nanmedian(a[some], axis=1)
+    s2 = np.where(some, (1.4826 * mad) ** 2 * n2 / red, sigma**2)
     pooled = (red * s2 + 6.0 * sigma**2) / (red + 6.0)
     out: _Arr = np.sqrt(np.maximum(pooled, 1e-6))
     return out
