@@ -4,7 +4,7 @@ composed (``T_cam0_cam1 = T_b_c0⁻¹ T_b_c1``), with the stereo extrinsic of se
 
 Run ``nice .venv/bin/python benchmarks/calibrate_euroc.py [--imu-models scale_misalignment calibrated] [--bias-models
 random_walk constant] [--noise-scales 1 3 10] [--option noise_model=motion huber=3 ...] [--intrinsics fixed distortion
-focal+distortion focal all] [--window START END] [--stereo-ba] [--pan-by-view] [--frame-consistency]
+radial focal+distortion focal all] [--window START END] [--stereo-ba] [--pan-by-view] [--frame-consistency]
 [--min-obliquity 0 10 15 20] [--min-rate 0.2 0.4] [--target-scale 0.99 1.01] [--target-bow X_MM Y_MM]
 [--markdown PATH]`` (one full calibration per camera and model pair, ≈ 5–30 s each on 2 shared cores; 1–4 min with
 refined camera parameters, which take the NumPy path). ``--intrinsics`` refines the named
@@ -277,6 +277,7 @@ INTRINSICS = {
     "fixed": None,
     "focal": [math.inf, math.inf, 1e-3, 1e-3, 1e-6, 1e-6, 1e-6, 1e-6],
     "distortion": [1e-3, 1e-3, 1e-3, 1e-3, math.inf, math.inf, math.inf, math.inf],
+    "radial": [1e-3, 1e-3, 1e-3, 1e-3, math.inf, math.inf, 1e-6, 1e-6],
     "focal+distortion": [math.inf, math.inf, 1e-3, 1e-3, math.inf, math.inf, math.inf, math.inf],
     "all": [math.inf] * 8,
 }
