@@ -110,6 +110,95 @@ def test_motion_noise_model_on_a_sharp_run(simulated):
     assert np.all(np.abs(res.p_bc - uniform.p_bc) < uniform.std["translation_m"])
 
 
+def test_frame_noise_model_on_frames_of_unequal_noise():
+    """Frames of very unequal noise (σ 0.1–1.2 px, log-uniform per frame, as blur and focus vary): the per-frame
+    variance components weight them accordingly, so the extrinsic is within its (smaller) predicted σ, while one σ
+    for every corner gives larger formal σ; on a run of equal noise the per-frame model changes nothing."""
+    run, cam, noise, frames = _simulated(4, pixel_sigma=0.0)
+    rng = np.random.default_rng(44)
+    sig = np.exp(rng.uniform(np.log(0.1), np.log(1.2), len(frames.t)))
+    per_corner = np.repeat(sig, np.diff(frames.offsets))
+    pixels = frames.pixels + rng.normal(size=frames.pixels.shape) * per_corner[:, None]
+    frames = FrameCorrespondences(frames.t, frames.offsets, pixels, frames.points)
+    out = {m: calibrate_camera_imu(run.t, run.gyro, run.accel, frames, cam, noise, min_frames=20,
+                                   imu_model="calibrated", noise_model=m) for m in ("uniform", "frame")}  # fmt: skip
+    res = out["frame"]
+    eps = dp.so3_log(res.rotation_matrix @ dp.matrix_from_quat(run.q_bc).T)
+    dt = res.p_bc - run.p_bc
+    assert float(eps @ np.linalg.solve(res.covariance[:3, :3], eps)) < 16.3  # χ²(3) 99.9 %
+    assert float(dt @ np.linalg.solve(res.covariance[3:6, 3:6], dt)) < 16.3
+    # weighted by their own σ, the frames carry more information than under one pooled σ
+    assert np.all(res.std["translation_m"] < out["uniform"].std["translation_m"])
+    assert np.all(res.std["rotation_deg"] < out["uniform"].std["rotation_deg"])
+
+
+def test_frame_sigmas_recover_the_per_frame_noise():
+    """The per-frame variance components of residuals with known σ per frame (a fitted pose absorbs 6 of the 2 n
+    coordinates: residuals of a least-squares fit are drawn with that redundancy) on 60-corner frames, and a frame of
+    8 corners pulled towards the recording's σ."""
+    from dualpose.calibration.camera_imu import _frame_sigmas
+
+    rng = np.random.default_rng(9)
+    n_frames, m = 400, 60
+    sig = np.exp(rng.uniform(np.log(0.1), np.log(1.2), n_frames))
+    r = np.empty((n_frames, m, 2))
+    for k in range(n_frames):  # residuals of a 6-parameter linear fit: (I − P) e
+        A = rng.normal(size=(2 * m, 6))
+        e = rng.normal(0.0, sig[k], 2 * m)
+        r[k] = (e - A @ np.linalg.lstsq(A, e, rcond=None)[0]).reshape(m, 2)
+    use = np.ones((n_frames, m), dtype=bool)
+    est = _frame_sigmas(r, use, 0.4)
+    # the estimate is the frame's σ pooled with the recording's (0.4 px, 6 coordinates' worth): within 25 % of that
+    # for 90 % of the frames (the MAD of 120 coordinates scatters by 11 %: 2.3 of its σ), and ranked as the true σ
+    expected = np.sqrt((114 * sig**2 + 6 * 0.4**2) / 120)
+    assert np.mean(np.abs(est / expected - 1.0) < 0.25) > 0.9
+    assert np.corrcoef(np.argsort(np.argsort(est)), np.argsort(np.argsort(sig)))[0, 1] > 0.95
+    few = use.copy()
+    few[:, 8:] = False
+    est8 = _frame_sigmas(r, few, 0.4)
+    own = 1.4826 * np.median(np.abs(r[:, :8]), axis=(1, 2)) * np.sqrt(16 / 10)  # the frame's own, 16 − 6 dof
+    assert np.all((est8 >= np.minimum(own, 0.4) - 1e-12) & (est8 <= np.maximum(own, 0.4) + 1e-12))
+    assert np.all(np.abs(est8 - 0.4) < np.abs(own - 0.4))
+    none = use.copy()
+    none[3] = False  # a frame whose corners were all rejected keeps the recording's σ
+    assert _frame_sigmas(r, none, 0.4)[3] == pytest.approx(0.4, rel=1e-12)
+
+
+def test_frame_noise_model_on_frames_of_equal_noise(simulated):
+    """White noise of one σ: the per-frame model's extrinsic is that of the uniform σ to within half its σ."""
+    run, uniform = simulated
+    _, cam, noise, frames = _simulated(1)
+    res = calibrate_camera_imu(run.t, run.gyro, run.accel, frames, cam, noise, min_frames=20, imu_model="calibrated",
+                               noise_model="frame")  # fmt: skip
+    assert res.pixel_sigma == pytest.approx(0.3, rel=0.1)
+    assert np.degrees(dp.quat_angle(res.q_bc, uniform.q_bc)) < 0.5 * np.max(uniform.std["rotation_deg"])
+    assert np.all(np.abs(res.p_bc - uniform.p_bc) < 0.5 * uniform.std["translation_m"])
+
+
+def test_frame_pose_chi2_detects_a_camera_model_error():
+    """The per-frame pose corrections' χ² (6 dof) stay below 6 when the camera model is right (each frame's own
+    corners are in the batch's pose; a near noise-free IMU pins the trajectory) and grow by more than a third with
+    a radial distortion off by 0.03 although the pixel σ, re-estimated, absorbs part of it."""
+    cam = RadTanCamera(213.3, 213.3, 160.0, 120.0, -0.2, 0.05, 1e-3, -1e-3, 320, 240)
+    noise = ImuNoise(1e-5, 1e-6, 1e-4, 1e-5, 0.0, 0.0, 200.0)
+    run = sim.simulate(sim.eight_motion(), seed=5, imu_noise=noise, camera_rate=20, pixel_sigma=0.0,
+                       landmarks_per_frame=40)  # fmt: skip
+    f = run.frames
+    K = run.camera.matrix
+    xyz = np.column_stack([(f.pixels - K[:2, 2]) / np.diag(K)[:2], np.ones(len(f.pixels))])
+    pixels = cam.project(xyz) + np.random.default_rng(8).normal(0.0, 0.3, (len(xyz), 2))
+    frames = FrameCorrespondences(f.t, f.offsets, pixels, f.points)
+    chi2 = []
+    for c in (cam, dataclasses.replace(cam, k1=cam.k1 + 0.03)):
+        res = calibrate_camera_imu(run.t, run.gyro, run.accel, frames, c, noise, min_frames=20,
+                                   imu_model="calibrated")  # fmt: skip
+        assert res.frame_pose_correction.shape == (res.frames_used, 6)
+        assert res.frame_pose_chi2.shape == (res.frames_used,)
+        chi2.append(float(np.mean(res.frame_pose_chi2)))
+    assert 2.0 < chi2[0] < 6.0
+    assert chi2[1] > 1.3 * chi2[0]
+
+
 class _Captured(Exception):
     pass
 

@@ -156,6 +156,11 @@ class CameraImuCalibration:
     imu_axes : tuple
         With ``imu_model="scale_misalignment"``: ``(M_g, M_a)`` (3, 3) each, ``ω̃ = M_g (ω + b_g)``,
         ``f̃ = M_a (f + b_a)``; ``imu_axes_std`` (15,) the σ of the 6 gyro and 9 accelerometer parameters.
+    frame_pose_correction : ndarray (N, 6)
+        Per used frame (times ``bias_t`` with the random-walk bias): the correction one Gauss–Newton step on the
+        frame's corners alone would apply to the batch's pose of it, ``[rotation vector in the camera axes (rad),
+        position in the target frame (m)]``; ``frame_pose_chi2`` (N,) its χ² under the pixel σ (≈ 6 when the
+        corners and the IMU-tied trajectory agree; docs/euroc.md).
     initial : dict
         The starting values (gyro/camera rate registration): ``q_bc``, ``time_offset``, ``gyro_bias``.
     """
@@ -186,6 +191,8 @@ class CameraImuCalibration:
     imu_axes_std: np.ndarray = field(default_factory=lambda: np.zeros(0))
     camera_parameters_std: np.ndarray = field(default_factory=lambda: np.zeros(0))
     blur_time_s: float = 0.0
+    frame_pose_correction: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
+    frame_pose_chi2: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def rotation_matrix(self) -> np.ndarray:
@@ -445,11 +452,17 @@ class _Problem:
         xdot_c = xdot_b @ self.R_bc
         return np.asarray(np.linalg.norm(np.einsum("nmij,nmj->nmi", D, xdot_c), axis=-1), dtype=np.float64)
 
-    def fit_noise(self, r: np.ndarray, use: np.ndarray, motion: bool) -> None:
+    def fit_noise(self, r: np.ndarray, use: np.ndarray, model: str) -> None:
         """Re-estimate the pixel noise from the residuals ``r`` (N, M, 2) of the corners ``use``: ``sigma_px`` the
-        robust (MAD) σ, and with ``motion`` the per-corner model ``σ² = σ₀² + (κ |u̇|)²`` (``κ`` s: the blur's
-        effective duration; least squares of the squared residuals on the squared image speed)."""
-        if not motion:
+        robust (MAD) σ; with ``model="motion"`` the per-corner model ``σ² = σ₀² + (κ |u̇|)²`` (``κ`` s: the blur's
+        effective duration; least squares of the squared residuals on the squared image speed); with
+        ``model="frame"`` one σ per frame (:func:`_frame_sigmas`)."""
+        if model == "frame":
+            self.corner_scale = np.ones(self.valid0.shape)
+            self.sigma_px = max(1.4826 * float(np.median(np.abs(r[use]))), 1e-3)
+            self.corner_scale[:] = (_frame_sigmas(r, use, self.sigma_px) / self.sigma_px)[:, None]
+            return
+        if model != "motion":
             self.sigma_px = max(1.4826 * float(np.median(np.abs(r[use]))), 1e-3)
             return
         speed = self.image_speed()[use]
@@ -515,6 +528,40 @@ class _Problem:
         r: _Arr = (np.asarray(self.camera.parameters, dtype=np.float64) - self.intr0) * self.intr_info
         return r
 
+    def camera_blocks(self) -> tuple[_Arr, _Arr, float]:
+        """The per-frame reprojection blocks ``JᵀWJ`` (N, c, c) and ``JᵀWr`` (N, c) over [φ, p, v of the frame's
+        node, ε, p_bc, τ (, the camera parameters)] (c = 16, + 8 with refined intrinsics), and the robust cost."""
+        if self.native:
+            return self._native_reprojection(True)
+        n = self.N
+        r, use, (D, E, Rt, y, xb, xc_safe) = self.reprojection(True)
+        c_cam, w = self.robust(r, use)
+        d = self.tau - self.tau_ref
+        Rbc_t = self.R_bc.T
+        A = Rbc_t @ np.swapaxes(E, 1, 2)  # (N, 3, 3): d x_c / d x_b ∘ Eᵀ
+        m = D.shape[1]
+        D2 = D.reshape(n, 2 * m, 3)
+        DA = D2 @ A  # row-vector products as batched (2M × 3)(3 × 3) matrices
+        DART = (DA @ Rt).reshape(n, m, 2, 3)
+        DA = DA.reshape(n, m, 2, 3)
+        DB = (D2 @ Rbc_t).reshape(n, m, 2, 3)
+        nc = 16 + self.n_intr
+        J = np.empty((n, m, 2, nc))
+        _cross_into(J[..., 0:3], DA, y[:, :, None, :])  # aᵀ [y]× = (a × y)ᵀ
+        J[..., 3:6] = -DART
+        J[..., 6:9] = -DART * d
+        _cross_into(J[..., 9:12], DB, (xb - self.p_bc)[:, :, None, :])
+        J[..., 12:15] = -DB
+        vb = np.einsum("nij,nj->ni", Rt, self.v)
+        dxb_dtau = np.cross(xb, self.omega[:, None, :]) - np.einsum("nji,nj->ni", E, vb)[:, None, :]
+        J[..., 15] = np.sum(DB * dxb_dtau[:, :, None, :], axis=-1)
+        if self.n_intr:
+            J[..., 16:] = self.camera.intrinsics_jacobian(xc_safe)
+        sw = np.sqrt(w) / (self.sigma_px * self.corner_scale)
+        Jw = (J * sw[..., None, None]).reshape(n, -1, nc)
+        rw = (r * sw[..., None]).reshape(n, -1)
+        return np.swapaxes(Jw, 1, 2) @ Jw, np.einsum("bri,br->bi", Jw, rw), c_cam
+
     def normal_equations(self) -> tuple[_Normal, np.ndarray, float]:
         """``H = JᵀWJ`` as :class:`_Normal` (band + border), the gradient ``JᵀWr`` and the cost."""
         n, K, gb = self.N, self.K, self.gbase
@@ -523,38 +570,8 @@ class _Problem:
         # reprojection: per corner 2 × 16 over [φ, p, v of its node, ε, p_bc, τ]
         glob = np.concatenate([gb + np.arange(7), gb + _NG + self.n_axes + np.arange(self.n_intr)])
         idx = np.concatenate([self.node_idx, np.broadcast_to(glob, (n, len(glob)))], axis=1)
-        if self.native:
-            Hc, gc, c_cam = self._native_reprojection(True)
-            acc.add_blocks(idx, Hc, gc)
-        else:
-            r, use, (D, E, Rt, y, xb, xc_safe) = self.reprojection(True)
-            c_cam, w = self.robust(r, use)
-            d = self.tau - self.tau_ref
-            Rbc_t = self.R_bc.T
-            A = Rbc_t @ np.swapaxes(E, 1, 2)  # (N, 3, 3): d x_c / d x_b ∘ Eᵀ
-            m = D.shape[1]
-            D2 = D.reshape(n, 2 * m, 3)
-            DA = D2 @ A  # row-vector products as batched (2M × 3)(3 × 3) matrices
-            DART = (DA @ Rt).reshape(n, m, 2, 3)
-            DA = DA.reshape(n, m, 2, 3)
-            DB = (D2 @ Rbc_t).reshape(n, m, 2, 3)
-            nc = 16 + self.n_intr
-            J = np.empty((n, m, 2, nc))
-            _cross_into(J[..., 0:3], DA, y[:, :, None, :])  # aᵀ [y]× = (a × y)ᵀ
-            J[..., 3:6] = -DART
-            J[..., 6:9] = -DART * d
-            _cross_into(J[..., 9:12], DB, (xb - self.p_bc)[:, :, None, :])
-            J[..., 12:15] = -DB
-            vb = np.einsum("nij,nj->ni", Rt, self.v)
-            dxb_dtau = np.cross(xb, self.omega[:, None, :]) - np.einsum("nji,nj->ni", E, vb)[:, None, :]
-            J[..., 15] = np.sum(DB * dxb_dtau[:, :, None, :], axis=-1)
-            if self.n_intr:
-                J[..., 16:] = self.camera.intrinsics_jacobian(xc_safe)
-            sw = np.sqrt(w) / (self.sigma_px * self.corner_scale)
-            Jw = (J * sw[..., None, None]).reshape(n, -1, nc)
-            rw = (r * sw[..., None]).reshape(n, -1)
-            add(idx, Jw, rw)
-        # IMU factors: 9 × 26 over [node i, node j, bias knot of i, δg]
+        Hc, gc, c_cam = self.camera_blocks()
+        acc.add_blocks(idx, Hc, gc)
         # IMU factors: 9 × 26 over [node i, node j, bias knot of i, δg]
         rI, JI = self.imu_whitened(True)
         assert JI is not None  # with jac=True
@@ -582,6 +599,25 @@ class _Problem:
         H, grad = acc, acc.gradient()
         cost = c_cam + float(np.sum(rI**2) + np.sum(rb**2) + np.sum(rp**2) + np.sum(ra**2) + np.sum(ri**2))
         return H, grad, cost
+
+
+def _frame_sigmas(r: _Arr, use: NDArray[np.bool_], sigma: float) -> _Arr:
+    """One pixel σ per frame (N,) from the residuals ``r`` (N, M, 2) of the corners ``use`` (N, M): a
+    variance-component estimate (Förstner 1979; Koch, "Parameter estimation and hypothesis testing in linear
+    models", 1999, § 3.6), made robust by taking the frame's MAD instead of its mean square, and corrected for the 6
+    pose degrees of freedom the frame's own corners absorb (redundancy ``2 n − 6`` of ``2 n`` coordinates).  It is
+    pooled with the recording's σ (``sigma``) in proportion to the redundancies, with the recording's σ counted as
+    one frame's worth of 6 coordinates, so that a frame of few corners cannot set its own weight."""
+    a = np.where(use[..., None], np.abs(r), np.nan).reshape(len(r), -1)
+    n2 = 2.0 * use.sum(axis=1)
+    red = np.maximum(n2 - 6.0, 1.0)
+    some = n2 > 0
+    mad = np.zeros(len(r))
+    mad[some] = np.nanmedian(a[some], axis=1)
+    s2 = np.where(some, (1.4826 * mad) ** 2 * n2 / red, sigma**2)
+    pooled = (red * s2 + 6.0 * sigma**2) / (red + 6.0)
+    out: _Arr = np.sqrt(np.maximum(pooled, 1e-6))
+    return out
 
 
 def _as_slice(index: np.ndarray) -> slice | np.ndarray:
@@ -826,7 +862,9 @@ def calibrate_camera_imu(
     noise_model : ``"uniform"`` (default): one pixel σ for every corner (MAD of the residuals after each pass);
         ``"motion"``: per-corner ``σ² = σ₀² + (κ |u̇|)²`` with ``|u̇|`` the speed of the corner's image (px/s, from
         the frame's body rate and velocity) and ``σ₀``, ``κ`` (s, the blur's effective duration) fitted to the
-        squared residuals after each pass — motion blur of a global-shutter camera (docs/euroc.md).
+        squared residuals after each pass — motion blur of a global-shutter camera (docs/euroc.md); ``"frame"``: one
+        σ per frame, a robust variance-component estimate from that frame's residuals after each pass, pooled with
+        the recording's σ (blur, exposure and focus differ from frame to frame; docs/euroc.md).
     huber : float
         Huber threshold of the reprojection loss, in σ (IRLS weights).
     intrinsics_prior_sigma : (8,) array, optional
@@ -849,8 +887,8 @@ def calibrate_camera_imu(
         raise ValueError(f"imu_model must be 'calibrated' or 'scale_misalignment'; got {imu_model!r}")
     if bias_model not in ("random_walk", "constant"):
         raise ValueError(f"bias_model must be 'random_walk' or 'constant'; got {bias_model!r}")
-    if noise_model not in ("uniform", "motion"):
-        raise ValueError(f"noise_model must be 'uniform' or 'motion'; got {noise_model!r}")
+    if noise_model not in ("uniform", "motion", "frame"):
+        raise ValueError(f"noise_model must be 'uniform', 'motion' or 'frame'; got {noise_model!r}")
     if not huber > 0:
         raise ValueError(f"huber must be > 0 (in pixel σ); got {huber!r}")
     prior_sigma = None
@@ -916,7 +954,7 @@ def calibrate_camera_imu(
         iterations += _levenberg_marquardt(prob, max_iterations, _PASS_TOLERANCE)
         r, use, _ = prob.reprojection(False)
         rn = np.linalg.norm(r, axis=-1)
-        prob.fit_noise(r, prob.inlier & use, noise_model == "motion")
+        prob.fit_noise(r, prob.inlier & use, noise_model)
         prob.inlier = prob.valid0 & (rn < reject_sigmas * prob.sigma_px * prob.corner_scale)
         prob.reanchor()
     iterations += _levenberg_marquardt(prob, max_iterations)
@@ -939,6 +977,17 @@ def calibrate_camera_imu(
     cov_g = 0.5 * (cov_g + cov_g.T)
     c_bias = c_mean if K > 1 else c_border[:6, :6]
     std_all = np.sqrt(np.maximum(np.concatenate([np.diag(cov_g), np.diag(c_bias)]), 0.0))
+
+    # per frame: the pose correction the frame's corners alone would apply to the batch's pose (one Gauss–Newton
+    # step on its 6 pose unknowns) and its χ² (≈ 6 when corners and IMU-tied trajectory agree within the pixel σ)
+    Hc, gc, _ = prob.camera_blocks()
+    Hp, gp = Hc[:, :6, :6], gc[:, :6]
+    try:
+        corr = -np.linalg.solve(Hp, gp[..., None])[..., 0]
+    except np.linalg.LinAlgError:
+        corr = np.full((n, 6), np.nan)
+    frame_chi2 = -np.einsum("ki,ki->k", corr, gp)
+    corr[:, :3] = corr[:, :3] @ prob.R_bc  # body-frame rotation → camera axes (R_bcᵀ φ)
 
     r, use, _ = prob.reprojection(False)
     inl = prob.inlier & use
@@ -1014,4 +1063,6 @@ def calibrate_camera_imu(
         imu_axes_std=np.sqrt(np.maximum(np.diag(cov_axes), 0.0)) if na else np.zeros(0),
         camera_parameters_std=np.sqrt(np.maximum(np.diag(cov_intr), 0.0)) if prob.n_intr else np.zeros(0),
         blur_time_s=float(prob.blur_time),
+        frame_pose_correction=corr,
+        frame_pose_chi2=frame_chi2,
     )  # fmt: skip
