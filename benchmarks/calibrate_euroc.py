@@ -389,12 +389,19 @@ def tables(imu_model: str, bias_model: str, noise_scale: float = 1.0, window: tu
             gs = "; ".join(_vec(r, 1e3, "{:+.2f}") for r in g)
             acc = "; ".join(_vec(r, 1e3, "{:+.2f}") for r in a)
             out.append(f"| {cam} | {name} | {gs} | {acc} |")
+    if all("accel_axis_positions_m" in m for m in res.values()):
+        out += ["", "| camera | accelerometer y axis position r_y [mm] (σ) | z axis position r_z [mm] (σ) |",
+                "|---|---|---|"]  # fmt: skip
+        for cam, m in res.items():
+            r, sr = np.asarray(m["accel_axis_positions_m"]), np.asarray(m["accel_axis_positions_std_m"])
+            out.append(f"| {cam} | {_vec(r[1], 1e3)} ({_vec(sr[:3], 1e3)}) | {_vec(r[2], 1e3)} ({_vec(sr[3:], 1e3)}) |")
     return "\n".join(out)
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--imu-models", nargs="+", choices=("scale_misalignment", "calibrated"),
+    ap.add_argument("--imu-models", nargs="+",
+                    choices=("scale_misalignment", "calibrated", "scale_misalignment_size_effect"),
                     default=["scale_misalignment"])
     ap.add_argument("--bias-models", nargs="+", choices=("random_walk", "constant"), default=["random_walk"])
     ap.add_argument("--noise-scales", nargs="+", type=float, default=[1.0],
