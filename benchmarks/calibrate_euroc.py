@@ -2,7 +2,8 @@
 compared with EuRoC's published Kalibr extrinsics (Burri et al. 2016, mav0/cam0|cam1/sensor.yaml ``T_BS``) and,
 composed (``T_cam0_cam1 = T_b_c0⁻¹ T_b_c1``), with the stereo extrinsic of sensors.yaml.
 
-Run ``nice .venv/bin/python benchmarks/calibrate_euroc.py [--imu-models scale_misalignment calibrated] [--bias-models
+Run ``nice .venv/bin/python benchmarks/calibrate_euroc.py [--imu-models scale_misalignment calibrated
+scale_misalignment_size_effect] [--bias-models
 random_walk constant] [--noise-scales 1 3 10] [--option noise_model=motion huber=3 ...] [--intrinsics fixed distortion
 radial focal+distortion focal all] [--window START END] [--stereo-ba] [--pan-by-view] [--frame-consistency]
 [--min-obliquity 0 10 15 20] [--min-rate 0.2 0.4] [--target-scale 0.99 1.01] [--target-bow X_MM Y_MM]

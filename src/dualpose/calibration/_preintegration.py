@@ -88,7 +88,7 @@ class Preintegrated:
     ``p_ba`` (I, 3, 3); ``covariance`` (I, 9, 9) of ``[δφ, δv, δp]``.  With ``axes=True`` also the Jacobians with
     respect to the axis-model parameters (the measurements corrected as ``(I − Δ) y``): ``R_Mg``, ``v_Mg``,
     ``p_Mg`` (I, 3, 6), ``v_Ma``, ``p_Ma`` (I, 3, 9); None otherwise.  With ``size_effect`` also ``v_r``, ``p_r``
-    (I, 3, 6) with respect to the accelerometer axis positions (:func:`size_effect_jacobian`).
+    (I, 3, 6) with respect to the accelerometer axis positions (``size_effect_jacobian``).
     """
 
     dR: np.ndarray
@@ -158,7 +158,7 @@ def preintegrate(
     (I, 3) the linearisation biases of each interval.  The loop runs over the sub-step index (≈ samples per
     interval), vectorised over the intervals still active at that index.  ``axes``: also the Jacobians with
     respect to the gyro/accelerometer axis models (:class:`Preintegrated`).  ``size_effect`` (6,) m: the positions
-    ``(r_y, r_z)`` of the y and z accelerometer axes (:func:`size_effect_jacobian`); the specific force is then taken
+    ``(r_y, r_z)`` of the y and z accelerometer axes (``size_effect_jacobian``); the specific force is then taken
     at the body origin, ``f − s(r)``, with ``ω`` the bias-corrected gyro and ``α`` its central difference over the
     samples, and the Jacobians with respect to ``r`` are returned as well.
     """

@@ -6,7 +6,8 @@ constant pair), the camera pose in the body frame (``R_bc``, ``p_bc``: ``x_b = R
 ``τ`` (a frame stamped ``t`` by the camera was taken at IMU time ``t + τ``), the direction of gravity in the
 target frame (2 dof; its magnitude is given) and, with the default IMU model, the axis models of the gyro
 (symmetric 3 × 3: scale factors and non-orthogonality) and of the accelerometer (full 3 × 3), applied to the
-measurements as ``(I − Δ) y`` and carried through the preintegration like the biases.  The cost (a maximum
+measurements as ``(I − Δ) y`` and carried through the preintegration like the biases (optionally also the positions
+of the y and z accelerometer axes, Kalibr's size effect, Rehder et al. 2016).  The cost (a maximum
 a-posteriori batch, as in Kalibr, Furgale et al. 2013, but in discrete time):
 
 * every target corner's reprojection residual through the distorted camera model (intrinsics fixed), the body
@@ -889,7 +890,7 @@ def calibrate_camera_imu(
         full 3 × 3 accelerometer axis model, ``ω̃ = M_g (ω + b_g)``, ``f̃ = M_a (f + b_a)`` (scale factors,
         non-orthogonality, the accelerometer's rotation relative to the gyro); ``"calibrated"``: without the axis
         models (``M = I``); ``"scale_misalignment_size_effect"``: the axis models and Kalibr's accelerometer size
-        effect (Rehder et al. 2016, ICRA; :func:`~dualpose.calibration._preintegration.size_effect_jacobian`): the
+        effect (Rehder et al. 2016, ICRA; ``calibration._preintegration.size_effect_jacobian``): the
         y and z accelerometer axes sit at their own positions ``r_y``, ``r_z`` (m, body frame; the x axis is the
         origin of the body frame, so ``p_bc`` refers to it), each measuring the specific force of its point,
         ``e_iᵀ (f + α × r_i + ω × (ω × r_i))`` with ``α`` the central difference of the gyro samples.
