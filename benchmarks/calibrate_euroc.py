@@ -2,7 +2,8 @@
 compared with EuRoC's published Kalibr extrinsics (Burri et al. 2016, mav0/cam0|cam1/sensor.yaml ``T_BS``) and,
 composed (``T_cam0_cam1 = T_b_c0⁻¹ T_b_c1``), with the stereo extrinsic of sensors.yaml.
 
-Run ``nice .venv/bin/python benchmarks/calibrate_euroc.py [--imu-models scale_misalignment calibrated] [--bias-models
+Run ``nice .venv/bin/python benchmarks/calibrate_euroc.py [--imu-models scale_misalignment calibrated
+scale_misalignment_size_effect] [--bias-models
 random_walk constant] [--noise-scales 1 3 10] [--option noise_model=motion huber=3 ...] [--intrinsics fixed distortion
 radial focal+distortion focal all] [--window START END] [--stereo-ba] [--pan-by-view] [--frame-consistency]
 [--min-obliquity 0 10 15 20] [--min-rate 0.2 0.4] [--target-scale 0.99 1.01] [--target-bow X_MM Y_MM]
@@ -389,12 +390,19 @@ def tables(imu_model: str, bias_model: str, noise_scale: float = 1.0, window: tu
             gs = "; ".join(_vec(r, 1e3, "{:+.2f}") for r in g)
             acc = "; ".join(_vec(r, 1e3, "{:+.2f}") for r in a)
             out.append(f"| {cam} | {name} | {gs} | {acc} |")
+    if all("accel_axis_positions_m" in m for m in res.values()):
+        out += ["", "| camera | accelerometer y axis position r_y [mm] (σ) | z axis position r_z [mm] (σ) |",
+                "|---|---|---|"]  # fmt: skip
+        for cam, m in res.items():
+            r, sr = np.asarray(m["accel_axis_positions_m"]), np.asarray(m["accel_axis_positions_std_m"])
+            out.append(f"| {cam} | {_vec(r[1], 1e3)} ({_vec(sr[:3], 1e3)}) | {_vec(r[2], 1e3)} ({_vec(sr[3:], 1e3)}) |")
     return "\n".join(out)
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--imu-models", nargs="+", choices=("scale_misalignment", "calibrated"),
+    ap.add_argument("--imu-models", nargs="+",
+                    choices=("scale_misalignment", "calibrated", "scale_misalignment_size_effect"),
                     default=["scale_misalignment"])
     ap.add_argument("--bias-models", nargs="+", choices=("random_walk", "constant"), default=["random_walk"])
     ap.add_argument("--noise-scales", nargs="+", type=float, default=[1.0],

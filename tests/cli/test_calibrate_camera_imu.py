@@ -47,6 +47,20 @@ def test_json_keys_on_a_cut(euroc, capsys):
     assert out["outliers"]["frames_total"] > 15 * (W1 - W0)  # 20 Hz
 
 
+def test_size_effect_model_json(euroc, capsys):
+    """``--imu-model scale_misalignment_size_effect`` adds the accelerometer axis positions (x axis at the origin)."""
+    assert main(_args(euroc, "--window", str(W0), str(W1), "--imu-model", "scale_misalignment_size_effect",
+                      "--json")) == 0  # fmt: skip
+    out = json.loads(capsys.readouterr().out)
+    assert out["imu_model"] == "scale_misalignment_size_effect" and KEYS <= set(out)
+    r = np.array(out["accel_axis_positions_m"])
+    assert r.shape == (3, 3) and np.all(r[0] == 0.0) and np.all(np.abs(r) < 0.1)
+    assert len(out["accel_axis_positions_std_m"]) == 6 and min(out["accel_axis_positions_std_m"]) > 0
+    with pytest.raises(SystemExit) as exc:
+        main(_args(euroc, "--imu-model", "size_effect"))
+    assert exc.value.code == 2
+
+
 def test_usage_errors_exit_2(euroc, capsys):
     assert main(_args(euroc, "--camera", "cam7")) == 2
     assert "unknown camera 'cam7'" in capsys.readouterr().err

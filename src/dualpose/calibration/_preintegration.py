@@ -22,12 +22,16 @@ import numpy as np
 
 import dualpose as dp
 
-__all__ = ["Preintegrated", "gyro_axes_matrix", "accel_axes_matrix", "imu_factors", "preintegrate"]
+__all__ = ["Preintegrated", "gyro_axes_matrix", "accel_axes_matrix", "imu_factors", "preintegrate",
+           "size_effect_jacobian"]
 
 #: parameters of the axis models: a symmetric 3 × 3 perturbation of the gyro (xx, yy, zz, xy, xz, yz) and a full
 #: 3 × 3 one of the accelerometer (row-major)
 N_GYRO_AXES = 6
 N_ACCEL_AXES = 9
+#: parameters of the size effect: the positions of the y and the z accelerometer axes in the body frame (m), the x
+#: axis at the body origin (Rehder et al. 2016)
+N_SIZE_EFFECT = 6
 
 
 def gyro_axes_matrix(theta: np.ndarray) -> np.ndarray:
@@ -59,6 +63,23 @@ def _accel_axes_jacobian(f: np.ndarray) -> np.ndarray:
     return A
 
 
+def size_effect_jacobian(w: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """``∂s/∂r`` (…, 3, 6) of the accelerometer size effect, ``r = (r_y, r_z)``.
+
+    J. Rehder, J. Nikolic, T. Schneider, T. Hinzmann, R. Siegwart, "Extending kalibr: calibrating the extrinsics of
+    multiple IMUs and of individual axes", ICRA 2016: accelerometer axis ``i`` sits at ``r_i`` in the body frame
+    (``r_x = 0``: the body origin is the x axis' position) and measures ``e_iᵀ f(r_i)`` with the specific force of a
+    point at ``r``, ``f(r) = f(0) + α × r + ω × (ω × r)`` (``ω`` rad/s, ``α`` rad/s², body frame, (…, 3) each).  The
+    measured specific force minus the origin's is ``s = [0, e_yᵀ K r_y, e_zᵀ K r_z]`` with ``K = [α]× + [ω]×²``,
+    linear in ``r``.
+    """
+    K = dp.so3_hat(alpha) + dp.so3_hat(w) @ dp.so3_hat(w)
+    S = np.zeros(K.shape[:-2] + (3, 6))
+    S[..., 1, 0:3] = K[..., 1, :]
+    S[..., 2, 3:6] = K[..., 2, :]
+    return S
+
+
 @dataclass
 class Preintegrated:
     """Preintegrated measurements of ``I`` intervals, linearised at the biases ``bias_gyro``, ``bias_accel`` (I, 3).
@@ -66,7 +87,8 @@ class Preintegrated:
     ``dR`` (I, 3, 3), ``dv``, ``dp`` (I, 3), ``dt`` (I,) s; bias Jacobians ``R_bg``, ``v_bg``, ``v_ba``, ``p_bg``,
     ``p_ba`` (I, 3, 3); ``covariance`` (I, 9, 9) of ``[δφ, δv, δp]``.  With ``axes=True`` also the Jacobians with
     respect to the axis-model parameters (the measurements corrected as ``(I − Δ) y``): ``R_Mg``, ``v_Mg``,
-    ``p_Mg`` (I, 3, 6), ``v_Ma``, ``p_Ma`` (I, 3, 9); None otherwise.
+    ``p_Mg`` (I, 3, 6), ``v_Ma``, ``p_Ma`` (I, 3, 9); None otherwise.  With ``size_effect`` also ``v_r``, ``p_r``
+    (I, 3, 6) with respect to the accelerometer axis positions (``size_effect_jacobian``).
     """
 
     dR: np.ndarray
@@ -86,12 +108,20 @@ class Preintegrated:
     p_Mg: np.ndarray | None = None
     v_Ma: np.ndarray | None = None
     p_Ma: np.ndarray | None = None
+    v_r: np.ndarray | None = None
+    p_r: np.ndarray | None = None
 
     def axis_jacobians(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``(R_Mg, v_Mg, p_Mg, v_Ma, p_Ma)``; ValueError when preintegrated without ``axes=True``."""
         if self.R_Mg is None or self.v_Mg is None or self.p_Mg is None or self.v_Ma is None or self.p_Ma is None:
             raise ValueError("the preintegration holds no axis-model Jacobians (preintegrate with axes=True)")
         return self.R_Mg, self.v_Mg, self.p_Mg, self.v_Ma, self.p_Ma
+
+    def size_effect_jacobians(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(v_r, p_r)``; ValueError when preintegrated without ``size_effect``."""
+        if self.v_r is None or self.p_r is None:
+            raise ValueError("the preintegration holds no size-effect Jacobians (preintegrate with size_effect)")
+        return self.v_r, self.p_r
 
 
 def _substeps(imu_t: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -120,13 +150,17 @@ def preintegrate(
     gyro_noise_density: float,
     accel_noise_density: float,
     axes: bool = False,
+    size_effect: np.ndarray | None = None,
 ) -> Preintegrated:
     """Preintegrate the IMU over the ``I = len(s) − 1`` intervals between node times ``s`` (N,) s.
 
     ``imu_t`` (S,) s, ``gyro`` (S, 3) rad/s, ``accel`` (S, 3) m/s² (body frame); ``bias_gyro``, ``bias_accel``
     (I, 3) the linearisation biases of each interval.  The loop runs over the sub-step index (≈ samples per
     interval), vectorised over the intervals still active at that index.  ``axes``: also the Jacobians with
-    respect to the gyro/accelerometer axis models (:class:`Preintegrated`).
+    respect to the gyro/accelerometer axis models (:class:`Preintegrated`).  ``size_effect`` (6,) m: the positions
+    ``(r_y, r_z)`` of the y and z accelerometer axes (``size_effect_jacobian``); the specific force is then taken
+    at the body origin, ``f − s(r)``, with ``ω`` the bias-corrected gyro and ``α`` its central difference over the
+    samples, and the Jacobians with respect to ``r`` are returned as well.
     """
     a, b = s[:-1], s[1:]
     bp, n = _substeps(imu_t, a, b)
@@ -134,6 +168,12 @@ def preintegrate(
     h = np.diff(bp, axis=1)
     w_all = _interp(imu_t, gyro, tm) - bias_gyro[:, None, :]
     f_all = _interp(imu_t, accel, tm) - bias_accel[:, None, :]
+    f_meas = f_all  # before the size-effect correction (the accelerometer axis model acts on the measurement)
+    if size_effect is not None:
+        alpha = np.gradient(gyro, imu_t, axis=0)  # central differences (one-sided at the ends)
+        S_all = size_effect_jacobian(w_all, _interp(imu_t, alpha, tm))
+        f_all = f_all - S_all @ np.asarray(size_effect, dtype=np.float64)
+        v_r, p_r = np.zeros((len(a), 3, N_SIZE_EFFECT)), np.zeros((len(a), 3, N_SIZE_EFFECT))
     m = len(a)
     dR = np.broadcast_to(np.eye(3), (m, 3, 3)).copy()
     dv = np.zeros((m, 3))
@@ -183,12 +223,16 @@ def preintegrate(
         R_bg[k] = np.swapaxes(E, 1, 2) @ R_bg[k] - Jr * dt
         if axes:  # δω = −Δ_g ω̃, δf = −Δ_a f̃: biases with a per-step multiplier (ω̃, f̃ before the bias)
             Gk = _gyro_axes_jacobian(w_all[k, j] + bias_gyro[k])
-            Ak = _accel_axes_jacobian(f_all[k, j] + bias_accel[k])
+            Ak = _accel_axes_jacobian(f_meas[k, j] + bias_accel[k])
             p_Ma[k] += v_Ma[k] * dt - 0.5 * (Rk @ Ak) * dt**2
             p_Mg[k] += v_Mg[k] * dt - 0.5 * (Rfx @ R_Mg[k]) * dt**2
             v_Ma[k] -= (Rk @ Ak) * dt
             v_Mg[k] -= (Rfx @ R_Mg[k]) * dt
             R_Mg[k] = np.swapaxes(E, 1, 2) @ R_Mg[k] - (Jr @ Gk) * dt
+        if size_effect is not None:  # δf = −S δr: a known per-sample input, linear in r
+            RS = Rk @ S_all[k, j]
+            p_r[k] += v_r[k] * dt - 0.5 * RS * dt**2
+            v_r[k] -= RS * dt
         # measurements (eq. 33–35)
         dpos[k] += dv[k] * h[k, j][:, None] + 0.5 * Rf * h[k, j][:, None] ** 2
         dv[k] += Rf * h[k, j][:, None]
@@ -196,6 +240,8 @@ def preintegrate(
     out = Preintegrated(dR, dv, dpos, b - a, R_bg, v_bg, v_ba, p_bg, p_ba, cov, bias_gyro.copy(), bias_accel.copy())
     if axes:
         out.R_Mg, out.v_Mg, out.p_Mg, out.v_Ma, out.p_Ma = R_Mg, v_Mg, p_Mg, v_Ma, p_Ma
+    if size_effect is not None:
+        out.v_r, out.p_r = v_r, p_r
     return out
 
 
@@ -214,6 +260,7 @@ def imu_factors(
     jacobians: bool = True,
     axes_gyro: np.ndarray | None = None,
     axes_accel: np.ndarray | None = None,
+    size_effect: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """Residuals ``[r_R, r_v, r_p]`` (I, 9) of eq. (45) with the first-order bias correction (eq. 44).
 
@@ -221,7 +268,8 @@ def imu_factors(
     gravity ``g ← Exp(B δg) g`` with ``B = gravity_basis`` (3, 2) orthogonal to ``g``.  Returns the residuals and
     (with ``jacobians``) the Jacobian (I, 9, 26) over ``[φ_i, p_i, v_i, φ_j, p_j, v_j, b_g, b_a, δg]``, or
     (I, 9, 41) with the axis-model deviations ``axes_gyro`` (6,), ``axes_accel`` (9,) from the linearisation point
-    (then ``pre`` must hold the axis Jacobians) appended.
+    (then ``pre`` must hold the axis Jacobians) appended, and then 6 more columns with the size-effect deviation
+    ``size_effect`` (6,) m from the linearisation point (``pre`` preintegrated with ``size_effect``).
     """
     dbg = bias_gyro - pre.bias_gyro
     dba = bias_accel - pre.bias_accel
@@ -236,6 +284,10 @@ def imu_factors(
         corr = corr + R_Mg @ axes_gyro
         dvc = dvc + v_Mg @ axes_gyro + v_Ma @ axes_accel
         dpc = dpc + p_Mg @ axes_gyro + p_Ma @ axes_accel
+    if size_effect is not None:
+        v_r, p_r = pre.size_effect_jacobians()
+        dvc = dvc + v_r @ size_effect
+        dpc = dpc + p_r @ size_effect
     dRc = pre.dR @ dp.so3_exp(corr)
     Rit = np.swapaxes(R_i, 1, 2)
     T = pre.dt[:, None]
@@ -246,7 +298,8 @@ def imu_factors(
     r = np.concatenate([rR, yv - dvc, yp - dpc], axis=1)
     if not jacobians:
         return r, None
-    J = np.zeros((len(r), 9, 41 if axes else 26))
+    n_axes = N_GYRO_AXES + N_ACCEL_AXES if axes else 0
+    J = np.zeros((len(r), 9, 26 + n_axes + (N_SIZE_EFFECT if size_effect is not None else 0)))
     Jinv = dp.so3_right_jacobian_inv(rR)
     J[:, 0:3, 0:3] = -Jinv @ np.swapaxes(rel, 1, 2)
     J[:, 0:3, 9:12] = Jinv
@@ -259,6 +312,10 @@ def imu_factors(
         J[:, 3:6, 32:41] = -v_Ma
         J[:, 6:9, 26:32] = -p_Mg
         J[:, 6:9, 32:41] = -p_Ma
+    if size_effect is not None:
+        v_r, p_r = pre.size_effect_jacobians()
+        J[:, 3:6, 26 + n_axes :] = -v_r
+        J[:, 6:9, 26 + n_axes :] = -p_r
     J[:, 3:6, 0:3] = dp.so3_hat(yv)
     J[:, 3:6, 6:9] = -Rit
     J[:, 3:6, 15:18] = Rit

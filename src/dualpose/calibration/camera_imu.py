@@ -6,7 +6,8 @@ constant pair), the camera pose in the body frame (``R_bc``, ``p_bc``: ``x_b = R
 ``τ`` (a frame stamped ``t`` by the camera was taken at IMU time ``t + τ``), the direction of gravity in the
 target frame (2 dof; its magnitude is given) and, with the default IMU model, the axis models of the gyro
 (symmetric 3 × 3: scale factors and non-orthogonality) and of the accelerometer (full 3 × 3), applied to the
-measurements as ``(I − Δ) y`` and carried through the preintegration like the biases.  The cost (a maximum
+measurements as ``(I − Δ) y`` and carried through the preintegration like the biases (optionally also the positions
+of the y and z accelerometer axes, Kalibr's size effect, Rehder et al. 2016).  The cost (a maximum
 a-posteriori batch, as in Kalibr, Furgale et al. 2013, but in discrete time):
 
 * every target corner's reprojection residual through the distorted camera model (intrinsics fixed), the body
@@ -48,6 +49,7 @@ from dualpose import _native
 from dualpose.calibration._preintegration import (
     N_ACCEL_AXES,
     N_GYRO_AXES,
+    N_SIZE_EFFECT,
     Preintegrated,
     accel_axes_matrix,
     gyro_axes_matrix,
@@ -72,6 +74,8 @@ _BIAS_PRIOR = np.array([0.1, 0.1, 0.1, 1.0, 1.0, 1.0])  # rad/s, m/s²: only fix
 _AXES_PRIOR = 0.1  # the axis-model parameters (dimensionless), likewise
 #: relative cost decrease that ends the LM of a re-weighting pass (the final pass runs to 1e-7)
 _PASS_TOLERANCE = 1e-5
+#: the accepted ``imu_model`` values of :func:`calibrate_camera_imu`
+_IMU_MODELS = ("calibrated", "scale_misalignment", "scale_misalignment_size_effect")
 
 
 class CameraImuStd(TypedDict):
@@ -156,6 +160,10 @@ class CameraImuCalibration:
     imu_axes : tuple
         With ``imu_model="scale_misalignment"``: ``(M_g, M_a)`` (3, 3) each, ``ω̃ = M_g (ω + b_g)``,
         ``f̃ = M_a (f + b_a)``; ``imu_axes_std`` (15,) the σ of the 6 gyro and 9 accelerometer parameters.
+    accel_axis_positions : ndarray (3, 3)
+        With ``imu_model="scale_misalignment_size_effect"``: the positions (rows ``r_x = 0``, ``r_y``, ``r_z``, m,
+        body frame) of the accelerometer axes; ``accel_axis_positions_std`` (6,) the σ of ``r_y``, ``r_z``.  Empty
+        otherwise.
     frame_pose_correction : ndarray (N, 6)
         Per used frame (times ``bias_t`` with the random-walk bias): the correction one Gauss–Newton step on the
         frame's corners alone would apply to the batch's pose of it, ``[rotation vector in the camera axes (rad),
@@ -193,6 +201,8 @@ class CameraImuCalibration:
     blur_time_s: float = 0.0
     frame_pose_correction: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
     frame_pose_chi2: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    accel_axis_positions: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    accel_axis_positions_std: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def rotation_matrix(self) -> np.ndarray:
@@ -295,7 +305,8 @@ class _Problem:
 
     def __init__(self, imu_t: _Arr, gyro: _Arr, accel: _Arr, t_frames: _Arr, offsets: NDArray[np.intp], pixels: _Arr,
                  points: _Arr, camera: DistortedCamera, noise: ImuNoise, gmag: float, bias_model: str,
-                 intrinsics: bool = False, axes: bool = False) -> None:  # fmt: skip
+                 intrinsics: bool = False, axes: bool = False, size_effect: bool = False,
+                 size_effect_prior: float = 0.05) -> None:  # fmt: skip
         self.imu_t, self.gyro, self.accel = imu_t, gyro, accel
         self.t = t_frames  # (N,) camera stamps of the nodes, s
         n = len(t_frames)
@@ -323,8 +334,13 @@ class _Problem:
         self.node_off = stride * np.arange(n)
         self.knot_off = self.node_off + 9 if rw else np.array([self.nb])
         self.gbase = self.nb + (0 if rw else 6)
-        # after δg: the IMU axis models (gyro symmetric 6, accelerometer 9), then the camera parameters (8)
-        self.n_axes = N_GYRO_AXES + N_ACCEL_AXES if axes else 0
+        # after δg: the IMU model (the axis models, gyro symmetric 6 and accelerometer 9, then the size effect's 6
+        # accelerometer axis positions), then the camera parameters (8); n_axes counts the whole IMU model
+        self.n_matrices = N_GYRO_AXES + N_ACCEL_AXES if axes or size_effect else 0
+        self.n_size = N_SIZE_EFFECT if size_effect else 0
+        self.n_axes = self.n_matrices + self.n_size
+        self.size_r = np.zeros(self.n_size)  # accelerometer y, z axis positions at the linearisation point, m
+        self.size_prior = size_effect_prior
         self.n_intr = 8 if intrinsics else 0
         self.nvar = self.gbase + _NG + self.n_axes + self.n_intr
         self.correct_g = np.eye(3)  # measurement corrections (I − Δ) at the linearisation point
@@ -358,15 +374,17 @@ class _Problem:
 
     def axes_matrices(self) -> tuple[np.ndarray, np.ndarray]:
         """The current measurement corrections ``(I − Δ)`` of the gyro and the accelerometer (3, 3) each."""
-        if not self.n_axes:
+        if not self.n_matrices:
             return self.correct_g, self.correct_a
+        nm = self.n_matrices
         return ((np.eye(3) - gyro_axes_matrix(self.theta[:N_GYRO_AXES])) @ self.correct_g,
-                (np.eye(3) - accel_axes_matrix(self.theta[N_GYRO_AXES:])) @ self.correct_a)  # fmt: skip
+                (np.eye(3) - accel_axes_matrix(self.theta[N_GYRO_AXES:nm])) @ self.correct_a)  # fmt: skip
 
     def relinearize(self) -> None:
         """Node times ``t + τ_ref``, body rates there and the preintegration at the current biases."""
         self.s = self.t + self.tau_ref
         self.correct_g, self.correct_a = self.axes_matrices()
+        self.size_r = self.size_r + self.theta[self.n_matrices :]
         self.theta = np.zeros(self.n_axes)
         self.gyro_c = self.gyro @ self.correct_g.T
         self.accel_c = self.accel @ self.correct_a.T
@@ -375,7 +393,8 @@ class _Problem:
         n = self.noise
         self.pre: Preintegrated = preintegrate(
             self.imu_t, self.gyro_c, self.accel_c, self.s, bn[:-1, :3], bn[:-1, 3:],
-            n.gyroscope_noise_density, n.accelerometer_noise_density, axes=self.n_axes > 0,
+            n.gyroscope_noise_density, n.accelerometer_noise_density, axes=self.n_matrices > 0,
+            size_effect=self.size_r if self.n_size else None,
         )  # fmt: skip
         L = np.linalg.cholesky(np.linalg.inv(self.pre.covariance))  # Σ⁻¹ = L Lᵀ
         self.imu_whiten = np.swapaxes(L, 1, 2)
@@ -509,8 +528,10 @@ class _Problem:
                 bk[:-1, 3:], self.g, _tangent_basis(self.g))  # fmt: skip
 
     def imu_whitened(self, jac: bool) -> tuple[_Arr, _Arr | None]:
-        ag, aa = (self.theta[:N_GYRO_AXES], self.theta[N_GYRO_AXES:]) if self.n_axes else (None, None)
-        r, J = imu_factors(*self._imu_args(), jacobians=jac, axes_gyro=ag, axes_accel=aa)
+        nm = self.n_matrices
+        ag, aa = (self.theta[:N_GYRO_AXES], self.theta[N_GYRO_AXES:nm]) if nm else (None, None)
+        r, J = imu_factors(*self._imu_args(), jacobians=jac, axes_gyro=ag, axes_accel=aa,
+                           size_effect=self.theta[nm:] if self.n_size else None)  # fmt: skip
         rw = np.einsum("kij,kj->ki", self.imu_whiten, r)
         Jw = self.imu_whiten @ J if J is not None else None
         return rw, Jw
@@ -519,8 +540,15 @@ class _Problem:
         rw = self.imu_whitened(False)[0]
         rb = np.diff(self.bias, axis=0) * self.rw_scale
         rp = self.bias[0] / _BIAS_PRIOR
-        return float(np.sum(rw**2) + np.sum(rb**2) + np.sum(rp**2) + np.sum((self.theta / _AXES_PRIOR) ** 2)
+        return float(np.sum(rw**2) + np.sum(rb**2) + np.sum(rp**2) + np.sum(self._imu_model_prior() ** 2)
                      + np.sum(self._intr_prior() ** 2))
+
+    def _imu_model_prior(self) -> _Arr:
+        """Whitened prior residuals of the IMU model: the axis-model deviations (0 ± 0.1) and the size effect's
+        accelerometer axis positions (0 ± ``size_prior`` m)."""
+        nm = self.n_matrices
+        r: _Arr = np.concatenate([self.theta[:nm] / _AXES_PRIOR, (self.size_r + self.theta[nm:]) / self.size_prior])
+        return r
 
     def _intr_prior(self) -> _Arr:
         if not self.n_intr:
@@ -590,9 +618,11 @@ class _Problem:
             rb = np.zeros((0, 6))
         rp = self.bias[0] / _BIAS_PRIOR
         add(self.knot_idx[:1], np.diag(1.0 / _BIAS_PRIOR)[None], rp[None])
-        ra = self.theta / _AXES_PRIOR
+        ra = self._imu_model_prior()
         if self.n_axes:
-            add((gb + _NG + np.arange(self.n_axes))[None], np.eye(self.n_axes)[None] / _AXES_PRIOR, ra[None])
+            w_prior = np.concatenate([np.full(self.n_matrices, 1.0 / _AXES_PRIOR),
+                                      np.full(self.n_size, 1.0 / self.size_prior)])  # fmt: skip
+            add((gb + _NG + np.arange(self.n_axes))[None], np.diag(w_prior)[None], ra[None])
         ri = self._intr_prior()
         if self.n_intr:
             add((gb + _NG + self.n_axes + np.arange(self.n_intr))[None], np.diag(self.intr_info)[None], ri[None])
@@ -826,6 +856,7 @@ def calibrate_camera_imu(
     noise_model: str = "uniform",
     huber: float = 1.5,
     intrinsics_prior_sigma: ArrayLike | None = None,
+    size_effect_prior_sigma: float = 0.05,
 ) -> CameraImuCalibration:
     """Calibrate the camera–IMU extrinsic, time offset, IMU biases and target gravity from one recording.
 
@@ -858,7 +889,11 @@ def calibrate_camera_imu(
     imu_model : ``"scale_misalignment"`` (default): white noise, bias random walk and a symmetric 3 × 3 gyro and a
         full 3 × 3 accelerometer axis model, ``ω̃ = M_g (ω + b_g)``, ``f̃ = M_a (f + b_a)`` (scale factors,
         non-orthogonality, the accelerometer's rotation relative to the gyro); ``"calibrated"``: without the axis
-        models (``M = I``).
+        models (``M = I``); ``"scale_misalignment_size_effect"``: the axis models and Kalibr's accelerometer size
+        effect (Rehder et al. 2016, ICRA; ``calibration._preintegration.size_effect_jacobian``): the
+        y and z accelerometer axes sit at their own positions ``r_y``, ``r_z`` (m, body frame; the x axis is the
+        origin of the body frame, so ``p_bc`` refers to it), each measuring the specific force of its point,
+        ``e_iᵀ (f + α × r_i + ω × (ω × r_i))`` with ``α`` the central difference of the gyro samples.
     noise_model : ``"uniform"`` (default): one pixel σ for every corner (MAD of the residuals after each pass);
         ``"motion"``: per-corner ``σ² = σ₀² + (κ |u̇|)²`` with ``|u̇|`` the speed of the corner's image (px/s, from
         the frame's body rate and velocity) and ``σ₀``, ``κ`` (s, the blur's effective duration) fitted to the
@@ -873,6 +908,9 @@ def calibrate_camera_imu(
         when omitted: all free).  A small σ on the principal point keeps it where the intrinsic calibration put it:
         the pan and tilt of the extrinsic and the principal point are otherwise nearly interchangeable
         (docs/euroc.md).
+    size_effect_prior_sigma : float
+        With ``imu_model="scale_misalignment_size_effect"``: σ (m) of a zero-mean Gaussian prior on each coordinate
+        of ``r_y`` and ``r_z`` (the default 5 cm is weak against an IMU package of about 1 cm).
 
     Raises
     ------
@@ -883,8 +921,10 @@ def calibrate_camera_imu(
     """
     start = time.perf_counter()
     imu_t, gyro, accel = _check_inputs(imu_t, gyro, accel, frames, camera)
-    if imu_model not in ("calibrated", "scale_misalignment"):
-        raise ValueError(f"imu_model must be 'calibrated' or 'scale_misalignment'; got {imu_model!r}")
+    if imu_model not in _IMU_MODELS:
+        raise ValueError(f"imu_model must be one of {', '.join(map(repr, _IMU_MODELS))}; got {imu_model!r}")
+    if not (math.isfinite(size_effect_prior_sigma) and size_effect_prior_sigma > 0):
+        raise ValueError(f"size_effect_prior_sigma must be a finite σ > 0 (m); got {size_effect_prior_sigma!r}")
     if bias_model not in ("random_walk", "constant"):
         raise ValueError(f"bias_model must be 'random_walk' or 'constant'; got {bias_model!r}")
     if noise_model not in ("uniform", "motion", "frame"):
@@ -932,7 +972,8 @@ def calibrate_camera_imu(
     rows = np.concatenate([np.arange(frames.offsets[k], frames.offsets[k + 1]) for k in used])
     prob = _Problem(imu_t, gyro, accel, t_used, sub, frames.pixels[rows], frames.points[rows], camera, imu_noise,
                     float(gravity_magnitude), bias_model, estimate_intrinsics,
-                    imu_model == "scale_misalignment")  # fmt: skip
+                    imu_model == "scale_misalignment", imu_model == "scale_misalignment_size_effect",
+                    float(size_effect_prior_sigma))  # fmt: skip
     if prior_sigma is not None:
         prob.intr_info = 1.0 / prior_sigma
     bias = np.zeros((prob.K, 6))
@@ -1025,6 +1066,9 @@ def calibrate_camera_imu(
     acc_M = _fit_misalignment(dv_true[short] / dt[short, None], pre_nb.dv[short] / dt[short, None])
 
     q_bc = dp.quat_from_matrix(prob.R_bc)
+    positions = np.zeros((0, 3))
+    if prob.n_size:  # rows r_x = 0, r_y, r_z
+        positions = np.vstack([np.zeros(3), (prob.size_r + prob.theta[prob.n_matrices :]).reshape(2, 3)])
     std = CameraImuStd(
         rotation_deg=np.degrees(std_all[0:3]),
         translation_m=std_all[3:6],
@@ -1060,7 +1104,9 @@ def calibrate_camera_imu(
         initial={"q_bc": coarse.q_bc, "time_offset": tau0, "gyro_bias": coarse.gyro_bias},
         camera_parameters=np.asarray(prob.camera.parameters, dtype=np.float64),
         imu_axes=tuple(np.linalg.inv(m) for m in prob.axes_matrices()) if na else (),
-        imu_axes_std=np.sqrt(np.maximum(np.diag(cov_axes), 0.0)) if na else np.zeros(0),
+        imu_axes_std=np.sqrt(np.maximum(np.diag(cov_axes)[: prob.n_matrices], 0.0)) if na else np.zeros(0),
+        accel_axis_positions=positions,
+        accel_axis_positions_std=np.sqrt(np.maximum(np.diag(cov_axes)[prob.n_matrices :], 0.0)),
         camera_parameters_std=np.sqrt(np.maximum(np.diag(cov_intr), 0.0)) if prob.n_intr else np.zeros(0),
         blur_time_s=float(prob.blur_time),
         frame_pose_correction=corr,

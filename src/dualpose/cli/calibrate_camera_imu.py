@@ -34,9 +34,11 @@ def add_subparser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser
     p.add_argument("--camera", default="cam0", help="camera name in SENSORS.yaml (cam0)")
     p.add_argument("--bias-model", choices=("random_walk", "constant"), default="random_walk",
                    help="IMU biases: a random walk with a knot per frame, or constant (random_walk)")  # fmt: skip
-    p.add_argument("--imu-model", choices=("calibrated", "scale_misalignment"), default="scale_misalignment",
+    p.add_argument("--imu-model", choices=("calibrated", "scale_misalignment", "scale_misalignment_size_effect"),
+                   default="scale_misalignment",
                    help="IMU model: white noise + bias random walk (calibrated), and also the gyro and accelerometer "
-                   "axis matrices (scale_misalignment, the default)")  # fmt: skip
+                   "axis matrices (scale_misalignment, the default), and also the positions of the y and z "
+                   "accelerometer axes (scale_misalignment_size_effect, Kalibr's size effect)")  # fmt: skip
     p.add_argument("--min-frames", type=int, default=40, metavar="N", help="refuse with fewer usable frames (40)")
     p.add_argument("--window", type=float, nargs=2, default=None, metavar=("START", "END"),
                    help="use only the frames between START and END s after the first IMU sample")  # fmt: skip

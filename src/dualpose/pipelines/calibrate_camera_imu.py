@@ -61,11 +61,14 @@ def calibration_summary(res: CameraImuCalibration, camera: str) -> dict[str, Any
     """The JSON-ready dictionary of a :class:`CameraImuCalibration` (all values plain floats, lists, dicts)."""
     o = res.outliers
     e = res.excitation
-    axes = {}
+    axes: dict[str, Any] = {}
     if res.imu_axes:
         axes = {"gyro_axes_matrix": [_floats(r) for r in res.imu_axes[0]],
                 "accel_axes_matrix": [_floats(r) for r in res.imu_axes[1]],
                 "imu_axes_std": _floats(res.imu_axes_std)}  # fmt: skip
+    if len(res.accel_axis_positions):
+        axes |= {"accel_axis_positions_m": [_floats(r) for r in res.accel_axis_positions],
+                 "accel_axis_positions_std_m": _floats(res.accel_axis_positions_std)}  # fmt: skip
     return {
         "camera": camera,
         "rotation_xyzw": _floats(res.q_bc),
@@ -109,7 +112,8 @@ def calibration_summary(res: CameraImuCalibration, camera: str) -> dict[str, Any
         "warnings": list(e["warnings"]),
         "gyro_misalignment": [_floats(r) for r in res.gyro_misalignment],
         "accel_misalignment": [_floats(r) for r in res.accel_misalignment],
-        "imu_model": "scale_misalignment" if res.imu_axes else "calibrated",
+        "imu_model": ("scale_misalignment_size_effect" if len(res.accel_axis_positions)
+                      else "scale_misalignment" if res.imu_axes else "calibrated"),
         "iterations": int(res.iterations),
         "runtime_s": float(res.runtime_s),
     } | axes
