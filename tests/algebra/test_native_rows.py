@@ -2,7 +2,8 @@
 
 A C-contiguous batch runs the vectorised loop (blocks of eight rows on a CPU with AVX-512, then blocks of four, then
 a scalar tail); a strided view of the same data runs the element kernel.  Both must agree bit for bit for every
-batch length (every tail), with zero, subnormal, extreme-norm, infinite and NaN rows inside a block, and in place;
+batch length (every tail), with zero, subnormal, extreme-norm, infinite and NaN rows inside a block, and in place
+(the products, rotation, transform and the two inverses);
 and the Hamilton and dual-quaternion products must round as their formulas written out in Python floats (IEEE
 double, no fused multiply-add), whatever instruction set the loop was dispatched to.
 """
@@ -120,6 +121,39 @@ def test_dualquat_mul_rounds_as_its_formula() -> None:
         ar, ad, br, bd = a[k, :4].tolist(), a[k, 4:].tolist(), b[k, :4].tolist(), b[k, 4:].tolist()
         e, f = qmul_floats(ar, bd), qmul_floats(ad, br)
         assert got[k].tolist() == qmul_floats(ar, br) + [e[j] + f[j] for j in range(4)], k
+
+
+#: the one-input kernels with a contiguous row loop and the same ordinary-block split (the inverses)
+INVERSES = [("quat_inv", 4), ("dualquat_inv", 8)]
+
+
+@pytest.mark.parametrize("name,width", INVERSES)
+@pytest.mark.parametrize("n", [0, 1, 3, 4, 5, 7, 8, 9, 13, 15, 16, 17, 23, 64, 203])
+def test_inverse_loop_equals_element_kernel(name: str, width: int, n: int) -> None:
+    a = rows(np.random.default_rng(n), n, width)
+    f = getattr(_native, name)
+    with np.errstate(all="ignore"):
+        got = f(a)
+        np.testing.assert_array_equal(got, f(strided(a)))
+        np.testing.assert_array_equal(got, np.array([f(r) for r in a]).reshape(got.shape))  # one row at a time
+        f(a, out=a)  # in place
+        np.testing.assert_array_equal(a, got)
+
+
+@pytest.mark.parametrize("name,width", INVERSES)
+@given(data=st.data(), n=st.integers(0, 41))
+def test_inverse_loop_equals_element_kernel_for_any_values(name: str, width: int, data: st.DataObject,
+                                                           n: int) -> None:
+    a = data.draw(arrays(np.float64, (n, width), elements=st.floats(-10.0, 10.0)))
+    if n:
+        for _ in range(data.draw(st.integers(0, 3))):
+            a[data.draw(st.integers(0, n - 1)), data.draw(st.integers(0, width - 1))] = data.draw(ANY)
+    f = getattr(_native, name)
+    with np.errstate(all="ignore"):
+        got = f(a)
+        np.testing.assert_array_equal(got, f(strided(a)))
+        f(a, out=a)
+        np.testing.assert_array_equal(a, got)
 
 
 @pytest.mark.parametrize("name", ["quat_mul", "quat_rotate", "dualquat_mul", "dualquat_transform", "quat_log"])

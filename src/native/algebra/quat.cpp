@@ -20,13 +20,6 @@ static void quat_normalize(const double* q, double* o) {
     store(o, Quat{u.x / n, u.y / n, u.z / n, u.w / n});
 }
 
-static void quat_inv(const double* q, double* o) {
-    double n = norm4(load4(q));
-    if (n == 0.0) n = kNaN;
-    const double x = q[0] / n, y = q[1] / n, z = q[2] / n, w = q[3] / n;
-    store(o, Quat{-x / n, -y / n, -z / n, w / n});
-}
-
 static void quat_canonical(const double* q, double* o) {
     const Quat v = load4(q);
     store(o, flip_sign(v) ? neg(v) : v);
@@ -190,7 +183,8 @@ bool add_quat_gufuncs(PyObject* m) {
                                                                             "q [-1, -1, -1, 1], as NumPy.") &&
            add_gufunc<Gufunc<quat_norm, In<Q>, Out<S>>>(m, "quat_norm", "|q| without under/overflow.") &&
            add_gufunc<Gufunc<quat_normalize, In<Q>, Out<Q>>>(m, "quat_normalize", "q/|q| (NaN for zero).") &&
-           add_gufunc<Gufunc<quat_inv, In<Q>, Out<Q>>>(m, "quat_inv", "q*/|q|**2 (NaN for zero).") &&
+           add_gufunc<Gufunc<quat_inv_row, In<Q>, Out<Q>, quat_inv_rows>>(m, "quat_inv",
+                                                                          "q*/|q|**2 (NaN for zero).") &&
            add_gufunc<Gufunc<quat_canonical, In<Q>, Out<Q>>>(m, "quat_canonical", "Sign representative, w > 0.") &&
            add_gufunc<Gufunc<quat_exp, In<Q>, Out<Q>>>(m, "quat_exp", "Quaternion exponential.") &&
            add_gufunc<Gufunc<quat_log, In<Q>, Out<Q>>>(m, "quat_log", "Principal quaternion logarithm.") &&

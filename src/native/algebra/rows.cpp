@@ -107,6 +107,49 @@ DUALPOSE_CLONES int dualquat_transform_rows4(const double* s, const double* p, d
     return flagged;
 }
 
+// As quat_rotate_rows4: blocks of four ordinary rows take the one-reciprocal formula in lanes, any other block and
+// the last n mod 4 rows the row kernel (elementwise rows: o may be q).
+DUALPOSE_CLONES int quat_inv_rows4(const double* q, double* o, npy_intp n) {
+    int flagged = 0;
+    npy_intp i = 0;
+    for (; i + 4 <= n; i += 4) {
+        const lanes::Q4 a = lanes::split4(q + 4 * i, 4);
+        if (ordinary(a)) {
+            lanes::join4(inv_ordinary_t(a), o + 4 * i, 4);
+        } else {
+            flagged = 1;
+            for (npy_intp k = i; k < i + 4; ++k) quat_inv_row(q + 4 * k, o + 4 * k);
+        }
+    }
+    for (; i < n; ++i) {
+        flagged |= !ordinary(q + 4 * i);
+        quat_inv_row(q + 4 * i, o + 4 * i);
+    }
+    return flagged;
+}
+
+// As quat_inv_rows4, on the real parts' norms.
+DUALPOSE_CLONES int dualquat_inv_rows4(const double* s, double* o, npy_intp n) {
+    int flagged = 0;
+    npy_intp i = 0;
+    for (; i + 4 <= n; i += 4) {
+        const lanes::Q4 r = lanes::split4(s + 8 * i, 8), d = lanes::split4(s + 8 * i + 4, 8);
+        if (ordinary(r)) {
+            lanes::Q4 oi, od;
+            dq_inv_ordinary_t(r, d, oi, od);
+            lanes::join4(oi, o + 8 * i, 8);
+            lanes::join4(od, o + 8 * i + 4, 8);
+        } else {
+            flagged = 1;
+            for (npy_intp k = i; k < i + 4; ++k) dualquat_inv_row(s + 8 * k, o + 8 * k);
+        }
+    }
+    for (; i < n; ++i) {
+        flagged |= !ordinary(s + 8 * i);
+        dualquat_inv_row(s + 8 * i, o + 8 * i);
+    }
+    return flagged;
+}
 
 #if DUALPOSE_HAVE_AVX512
 namespace {
@@ -191,6 +234,41 @@ DUALPOSE_TARGET_AVX512 npy_intp quat_rotate_rows8(const double* q, const double*
     }
     return i;
 }
+
+// As quat_inv_rows4, eight rows a block.
+DUALPOSE_TARGET_AVX512 npy_intp quat_inv_rows8(const double* q, double* o, npy_intp n, int* flagged) {
+    npy_intp i = 0;
+    for (; i + 8 <= n; i += 8) {
+        v8 c[4];
+        lanes::split4x8(q + 4 * i, c);
+        if (ordinary8(c[0], c[1], c[2], c[3])) {
+            const lanes::Q8 r = inv_ordinary_t(lanes::Q8{c[0], c[1], c[2], c[3]});
+            const v8 x[4] = {r.x, r.y, r.z, r.w};
+            lanes::join4x8(x, o + 4 * i);
+        } else {
+            *flagged |= quat_inv_rows4(q + 4 * i, o + 4 * i, 8);
+        }
+    }
+    return i;
+}
+
+// As dualquat_inv_rows4, eight rows a block.
+DUALPOSE_TARGET_AVX512 npy_intp dualquat_inv_rows8(const double* s, double* o, npy_intp n, int* flagged) {
+    npy_intp i = 0;
+    for (; i + 8 <= n; i += 8) {
+        v8 c[8];
+        lanes::split8x8(s + 8 * i, c);
+        if (ordinary8(c[0], c[1], c[2], c[3])) {
+            lanes::Q8 r, d;
+            dq_inv_ordinary_t(lanes::Q8{c[0], c[1], c[2], c[3]}, lanes::Q8{c[4], c[5], c[6], c[7]}, r, d);
+            v8 x[8] = {r.x, r.y, r.z, r.w, d.x, d.y, d.z, d.w};
+            lanes::join8x8(x, o + 8 * i);
+        } else {
+            *flagged |= dualquat_inv_rows4(s + 8 * i, o + 8 * i, 8);
+        }
+    }
+    return i;
+}
 }  // namespace
 #endif
 
@@ -240,6 +318,24 @@ int dualquat_transform_rows(const double* s, const double* p, double* o, npy_int
     if (kAvx512) i = dualquat_transform_rows8(s, p, o, n, &flagged);
 #endif
     return dualquat_transform_rows4(s + 8 * i, p + 3 * i, o + 3 * i, n - i) | flagged;
+}
+
+int quat_inv_rows(const double* q, double* o, npy_intp n) {
+    int flagged = 0;
+    npy_intp i = 0;
+#if DUALPOSE_HAVE_AVX512
+    if (kAvx512) i = quat_inv_rows8(q, o, n, &flagged);
+#endif
+    return quat_inv_rows4(q + 4 * i, o + 4 * i, n - i) | flagged;
+}
+
+int dualquat_inv_rows(const double* s, double* o, npy_intp n) {
+    int flagged = 0;
+    npy_intp i = 0;
+#if DUALPOSE_HAVE_AVX512
+    if (kAvx512) i = dualquat_inv_rows8(s, o, n, &flagged);
+#endif
+    return dualquat_inv_rows4(s + 8 * i, o + 8 * i, n - i) | flagged;
 }
 
 }  // namespace dualpose

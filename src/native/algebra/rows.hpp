@@ -37,6 +37,55 @@ DUALPOSE_ROW void dualquat_transform_row(const double* s, const double* p, doubl
     store(o, transform_point(d, load3(p), u.s2));
 }
 
+// Inverses with one reciprocal 1/|q|**2 multiplied in, for a quaternion of ordinary magnitude (common/kutil.hpp
+// ordinary_sum: no square under- or overflows): q^-1 = q* s, and (r + ε d)^-1 = i - ε i d i with i = r* s
+// (Dantam 2014 eq. (17), and the dual-number inverse).  For any arithmetic type T (double, or a GCC vector of
+// doubles holding one component of several rows), as rotate_lanes.
+template <class QT>
+inline QT inv_ordinary_t(const QT& q) {
+    const auto s = 1.0 / (q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
+    return {-q.x * s, -q.y * s, -q.z * s, q.w * s};
+}
+template <class QT>
+inline void dq_inv_ordinary_t(const QT& r, const QT& d, QT& oi, QT& od) {
+    oi = inv_ordinary_t(r);
+    const QT p = qmul_t(qmul_t(oi, d), oi);
+    od = {-p.x, -p.y, -p.z, -p.w};
+}
+
+// q*/|q|**2: the one-reciprocal formula for ordinary magnitudes; else q*/|q|/|q| with the guarded norm (no square
+// formed: exact for every finite nonzero magnitude), NaN for zero.
+DUALPOSE_ROW void quat_inv_row(const double* q, double* o) {
+    if (ordinary_sum(abs_sum(q[0], q[1], q[2], q[3]))) {
+        store(o, inv_ordinary_t(load4(q)));
+        return;
+    }
+    double n = norm4(load4(q));
+    if (n == 0.0) n = kNaN;
+    const double x = q[0] / n, y = q[1] / n, z = q[2] / n, w = q[3] / n;
+    store(o, Quat{-x / n, -y / n, -z / n, w / n});
+}
+
+// (r + ε d)^-1 = r^-1 - ε r^-1 d r^-1: dq_inv_ordinary_t for an ordinary real part; else with r^-1 = u*/n
+// (u = r/n), so no square of n is formed; NaN for a zero real part.
+DUALPOSE_ROW void dualquat_inv_row(const double* s, double* o) {
+    if (ordinary_sum(abs_sum(s[0], s[1], s[2], s[3]))) {
+        Quat i, p;
+        dq_inv_ordinary_t(load4(s), load4(s + 4), i, p);
+        store(o, i);
+        store(o + 4, p);
+        return;
+    }
+    double n = norm4(load4(s));
+    if (n == 0.0) n = kNaN;
+    const Quat u = {-s[0] / n, -s[1] / n, -s[2] / n, s[3] / n};  // u*
+    const Quat i = {u.x / n, u.y / n, u.z / n, u.w / n};
+    Quat p = qmul(u, Quat{s[4] / n, s[5] / n, s[6] / n, s[7] / n});
+    p = qmul(p, i);
+    store(o, i);
+    store(o + 4, neg(p));
+}
+
 // q* = q [-1, -1, -1, 1] (and both parts of a dual quaternion alike), multiplied as NumPy multiplies by the sign
 // pattern (a NaN stays the NaN it was, a signalling NaN is quieted): the signs are read through a volatile, so the
 // compiler cannot fold the products into sign flips.
@@ -59,5 +108,7 @@ void quat_mul_rows(const double* p, const double* q, double* o, npy_intp n);
 int quat_rotate_rows(const double* q, const double* v, double* o, npy_intp n);
 int dualquat_mul_rows(const double* a, const double* b, double* o, npy_intp n);
 int dualquat_transform_rows(const double* s, const double* p, double* o, npy_intp n);
+int quat_inv_rows(const double* q, double* o, npy_intp n);
+int dualquat_inv_rows(const double* s, double* o, npy_intp n);
 
 }  // namespace dualpose
