@@ -200,6 +200,8 @@ bool add_quat_gufuncs(PyObject* m) {
            add_gufunc<Gufunc<matrix_from_quat, In<Q>, Out<M<3, 3>>>>(m, "matrix_from_quat", "Rotation matrix.") &&
            add_gufunc<Gufunc<quat_from_matrix, In<M<3, 3>>, Out<Q>>>(m, "quat_from_matrix", "Shepperd's method.") &&
            PyModule_AddObject(m, "QUAT_FROM_MATRIX_ORTHOGONALITY_TOL", PyFloat_FromDouble(kOrthogonalityTol)) == 0 &&
+           // whether the hot kernels use fused multiply-adds on this CPU (rows.hpp)
+           PyModule_AddObject(m, "FUSED_MULTIPLY_ADD", PyBool_FromLong(kFused)) == 0 &&
            add_gufunc<Gufunc<quat_slerp, In<Q, Q, S>, Out<Q>>>(m, "quat_slerp", "Shortest-arc slerp.") &&
            add_gufunc<Gufunc<quat_angle, In<Q, Q>, Out<S>>>(m, "quat_angle", "Rotation angle between p and q.") &&
            add_gufunc<Gufunc<quat_integrate_space, In<Q, V3, S>, Out<Q>>>(m, "quat_integrate_space",

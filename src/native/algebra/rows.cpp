@@ -1,14 +1,15 @@
-// Contiguous row loops of the hot algebra kernels (see rows.hpp): compiled for the x86-64 baseline and, with GCC on
-// x86-64, cloned for AVX2 with the clone picked at load time (GCC's function multiversioning, target_clones).  No
-// FMA in any clone, so every clone rounds as the baseline.  There is no AVX-512 clone: GCC 12's SLP vectoriser fuses
-// the alternating +/- lanes of the Hamilton product into vfmsubadd (an FMA) on zmm registers even under
-// -ffp-contract=off, which changes the last bit; AVX2 without the FMA extension has no fused instruction to pick.
+// Contiguous row loops of the hot algebra kernels (see rows.hpp).  Each loop is one template on F (fused
+// multiply-add or not), instantiated twice: unfused, compiled for the x86-64 baseline and cloned for AVX2 with the
+// clone picked at load time (GCC's function multiversioning, target_clones; no FMA in any clone, so every clone rounds
+// as the baseline), and fused, compiled for AVX2 with FMA (DUALPOSE_TARGET_FUSED).  The row loops run the fused
+// instantiation on a CPU with FMA and AVX2 (kFused) and the unfused one on any other.
 //
-// On a CPU with AVX-512F the loops take blocks of eight rows in 512-bit registers first (the *_rows8 functions,
+// On a CPU with AVX-512F the fused loops take blocks of eight rows in 512-bit registers first (the *_rows8 functions,
 // compiled for AVX-512F only and chosen at run time): explicit vector code with no scalar floating-point arithmetic,
-// so the vectoriser has nothing to fuse and -ffp-contract=off keeps every multiply and add separate; the last
-// n mod 8 rows, and any block of eight with a row outside the ordinary range, go to the four-row loops.  (The
-// conjugates need no such code: the compiler vectorises their loops itself.)
+// so the vectoriser has nothing to contract and -ffp-contract=off keeps every multiply and add that is not an
+// explicit fused_mul_add separate; the last n mod 8 rows, and any block of eight with a row outside the ordinary
+// range, go to the fused four-row loops.  (The conjugates need no such code: the compiler vectorises their loops
+// itself.)
 #include "rows.hpp"
 
 #include "../common/dispatch.hpp"
@@ -18,6 +19,8 @@
 
 namespace dualpose {
 
+const bool kFused = cpu_has_fused();
+
 namespace {
 using lanes::v4;
 using lanes::v8;
@@ -25,24 +28,27 @@ using lanes::v8;
 // The row kernels' magnitude test (common/kutil.hpp ordinary_sum) on one row and on four rows in lanes: the sum
 // of the absolute components over 8, so no extreme value is squared before the test.
 bool ordinary(const double* r) { return ordinary_sum(abs_sum(r[0], r[1], r[2], r[3])); }
-v4 vabs(v4 x) { return (v4)((lanes::m4)x & 0x7fffffffffffffffLL); }
-bool ordinary(const lanes::Q4& a) {
+DUALPOSE_ROW v4 vabs(v4 x) { return (v4)((lanes::m4)x & 0x7fffffffffffffffLL); }
+DUALPOSE_ROW bool ordinary(const lanes::Q4& a) {
     const v4 s = vabs(a.x) * 0.125 + vabs(a.y) * 0.125 + vabs(a.z) * 0.125 + vabs(a.w) * 0.125;
     return lanes::all((s >= kOrdinaryLo) & (s <= kOrdinaryHi));
 }
-}  // namespace
 
 // Blocks of four rows in lanes (loaded before stored, so o may be p or q), then the last n mod 4 rows.
-DUALPOSE_CLONES void quat_mul_rows4(const double* p, const double* q, double* o, npy_intp n) {
+template <bool F>
+DUALPOSE_ROW int quat_mul_rows4_t(const double* p, const double* q, double* o, npy_intp n) {
     npy_intp i = 0;
-    for (; i + 4 <= n; i += 4) lanes::join4(qmul_t(lanes::split4(p + 4 * i, 4), lanes::split4(q + 4 * i, 4)), o + 4 * i, 4);
-    for (; i < n; ++i) quat_mul_row(p + 4 * i, q + 4 * i, o + 4 * i);
+    for (; i + 4 <= n; i += 4)
+        lanes::join4(qmul_f<F>(lanes::split4(p + 4 * i, 4), lanes::split4(q + 4 * i, 4)), o + 4 * i, 4);
+    for (; i < n; ++i) quat_mul_row_f<F>(p + 4 * i, q + 4 * i, o + 4 * i);
+    return 0;
 }
 
 // Blocks of four rows whose squared norms are all ordinary take the vector path with s2 = 2/|q|**2; any other
 // block, and the last n mod 4 rows, take the row kernel.  A block's inputs are all loaded before its outputs are
 // stored, so o may be v.
-DUALPOSE_CLONES int quat_rotate_rows4(const double* q, const double* v, double* o, npy_intp n) {
+template <bool F>
+DUALPOSE_ROW int quat_rotate_rows4_t(const double* q, const double* v, double* o, npy_intp n) {
     int flagged = 0;
     npy_intp i = 0;
     for (; i + 4 <= n; i += 4) {
@@ -51,39 +57,40 @@ DUALPOSE_CLONES int quat_rotate_rows4(const double* q, const double* v, double* 
         lanes::split3(v + 3 * i, vx, vy, vz);
         if (ordinary(a)) {
             const v4 n2 = a.x * a.x + a.y * a.y + a.z * a.z + a.w * a.w;
-            rotate_lanes(a.x, a.y, a.z, a.w, vx, vy, vz, 2.0 / n2, ox, oy, oz);
+            rotate_f<F>(a.x, a.y, a.z, a.w, vx, vy, vz, 2.0 / n2, ox, oy, oz);
             lanes::join3(ox, oy, oz, o + 3 * i);
         } else {
             flagged = 1;
-            for (npy_intp k = i; k < i + 4; ++k) quat_rotate_row(q + 4 * k, v + 3 * k, o + 3 * k);
+            for (npy_intp k = i; k < i + 4; ++k) quat_rotate_row_f<F>(q + 4 * k, v + 3 * k, o + 3 * k);
         }
     }
     for (; i < n; ++i) {
-        const double* r = q + 4 * i;
-        flagged |= !ordinary(r);
-        quat_rotate_row(r, v + 3 * i, o + 3 * i);
+        flagged |= !ordinary(q + 4 * i);
+        quat_rotate_row_f<F>(q + 4 * i, v + 3 * i, o + 3 * i);
     }
     return flagged;
 }
 
-DUALPOSE_CLONES int dualquat_mul_rows4(const double* a, const double* b, double* o, npy_intp n) {
+template <bool F>
+DUALPOSE_ROW int dualquat_mul_rows4_t(const double* a, const double* b, double* o, npy_intp n) {
     npy_intp i = 0;
     for (; i + 4 <= n; i += 4) {
         const double *pa = a + 8 * i, *pb = b + 8 * i;
-        const lanes::DQ4 x = {lanes::split4(pa, 8), lanes::split4(pa + 4, 8)};
-        const lanes::DQ4 y = {lanes::split4(pb, 8), lanes::split4(pb + 4, 8)};
-        // dq_mul_t's formula, written out on the three products: returning the DQ4 aggregate made GCC copy its
-        // vectors through memory and general registers
-        const lanes::Q4 r = qmul_t(x.r, y.r), e = qmul_t(x.r, y.d), f = qmul_t(x.d, y.r);
+        const lanes::Q4 xr = lanes::split4(pa, 8), xd = lanes::split4(pa + 4, 8);
+        const lanes::Q4 yr = lanes::split4(pb, 8), yd = lanes::split4(pb + 4, 8);
+        // the row kernel's formula on the three products (one struct per product keeps GCC from copying the vectors
+        // through memory and general registers)
+        const lanes::Q4 r = qmul_f<F>(xr, yr), e = qmul_f<F>(xr, yd), f = qmul_f<F>(xd, yr);
         lanes::join4(r, o + 8 * i, 8);
         lanes::join4(lanes::Q4{e.x + f.x, e.y + f.y, e.z + f.z, e.w + f.w}, o + 8 * i + 4, 8);
     }
-    for (; i < n; ++i) dualquat_mul_row(a + 8 * i, b + 8 * i, o + 8 * i);
+    for (; i < n; ++i) dualquat_mul_row_f<F>(a + 8 * i, b + 8 * i, o + 8 * i);
     return 0;
 }
 
-// As quat_rotate_rows, on the real parts' norms.
-DUALPOSE_CLONES int dualquat_transform_rows4(const double* s, const double* p, double* o, npy_intp n) {
+// As quat_rotate_rows4_t, on the real parts' norms.
+template <bool F>
+DUALPOSE_ROW int dualquat_transform_rows4_t(const double* s, const double* p, double* o, npy_intp n) {
     int flagged = 0;
     npy_intp i = 0;
     for (; i + 4 <= n; i += 4) {
@@ -92,70 +99,100 @@ DUALPOSE_CLONES int dualquat_transform_rows4(const double* s, const double* p, d
         lanes::split3(p + 3 * i, px, py, pz);
         if (ordinary(r)) {
             const v4 n2 = r.x * r.x + r.y * r.y + r.z * r.z + r.w * r.w;
-            transform_lanes(r.x, r.y, r.z, r.w, d.x, d.y, d.z, d.w, px, py, pz, 2.0 / n2, ox, oy, oz);
+            transform_f<F>(r.x, r.y, r.z, r.w, d.x, d.y, d.z, d.w, px, py, pz, 2.0 / n2, ox, oy, oz);
             lanes::join3(ox, oy, oz, o + 3 * i);
         } else {
             flagged = 1;
-            for (npy_intp k = i; k < i + 4; ++k) dualquat_transform_row(s + 8 * k, p + 3 * k, o + 3 * k);
+            for (npy_intp k = i; k < i + 4; ++k) dualquat_transform_row_f<F>(s + 8 * k, p + 3 * k, o + 3 * k);
         }
     }
     for (; i < n; ++i) {
-        const double* r = s + 8 * i;
-        flagged |= !ordinary(r);
-        dualquat_transform_row(r, p + 3 * i, o + 3 * i);
+        flagged |= !ordinary(s + 8 * i);
+        dualquat_transform_row_f<F>(s + 8 * i, p + 3 * i, o + 3 * i);
     }
     return flagged;
 }
 
-// As quat_rotate_rows4: blocks of four ordinary rows take the one-reciprocal formula in lanes, any other block and
-// the last n mod 4 rows the row kernel (elementwise rows: o may be q).
-DUALPOSE_CLONES int quat_inv_rows4(const double* q, double* o, npy_intp n) {
+// As quat_rotate_rows4_t: blocks of four ordinary rows take the one-reciprocal formula in lanes, any other block
+// and the last n mod 4 rows the row kernel (elementwise rows: o may be q).
+template <bool F>
+DUALPOSE_ROW int quat_inv_rows4_t(const double* q, double* o, npy_intp n) {
     int flagged = 0;
     npy_intp i = 0;
     for (; i + 4 <= n; i += 4) {
         const lanes::Q4 a = lanes::split4(q + 4 * i, 4);
         if (ordinary(a)) {
-            lanes::join4(inv_ordinary_t(a), o + 4 * i, 4);
+            lanes::join4(inv_ordinary_f<F>(a), o + 4 * i, 4);
         } else {
             flagged = 1;
-            for (npy_intp k = i; k < i + 4; ++k) quat_inv_row(q + 4 * k, o + 4 * k);
+            for (npy_intp k = i; k < i + 4; ++k) quat_inv_row_f<F>(q + 4 * k, o + 4 * k);
         }
     }
     for (; i < n; ++i) {
         flagged |= !ordinary(q + 4 * i);
-        quat_inv_row(q + 4 * i, o + 4 * i);
+        quat_inv_row_f<F>(q + 4 * i, o + 4 * i);
     }
     return flagged;
 }
 
-// As quat_inv_rows4, on the real parts' norms.
-DUALPOSE_CLONES int dualquat_inv_rows4(const double* s, double* o, npy_intp n) {
+// As quat_inv_rows4_t, on the real parts' norms.
+template <bool F>
+DUALPOSE_ROW int dualquat_inv_rows4_t(const double* s, double* o, npy_intp n) {
     int flagged = 0;
     npy_intp i = 0;
     for (; i + 4 <= n; i += 4) {
         const lanes::Q4 r = lanes::split4(s + 8 * i, 8), d = lanes::split4(s + 8 * i + 4, 8);
         if (ordinary(r)) {
             lanes::Q4 oi, od;
-            dq_inv_ordinary_t(r, d, oi, od);
+            dq_inv_ordinary_f<F>(r, d, oi, od);
             lanes::join4(oi, o + 8 * i, 8);
             lanes::join4(od, o + 8 * i + 4, 8);
         } else {
             flagged = 1;
-            for (npy_intp k = i; k < i + 4; ++k) dualquat_inv_row(s + 8 * k, o + 8 * k);
+            for (npy_intp k = i; k < i + 4; ++k) dualquat_inv_row_f<F>(s + 8 * k, o + 8 * k);
         }
     }
     for (; i < n; ++i) {
         flagged |= !ordinary(s + 8 * i);
-        dualquat_inv_row(s + 8 * i, o + 8 * i);
+        dualquat_inv_row_f<F>(s + 8 * i, o + 8 * i);
     }
     return flagged;
 }
+}  // namespace
+
+// The unfused loops (baseline and AVX2 clones), the fused loops and the fused row kernels (compiled for FMA).
+#define DUALPOSE_BOTH_INSTANTIATIONS(name, params, args)                                     \
+    DUALPOSE_CLONES int name##_rows4 params { return name##_rows4_t<false> args; }         \
+    DUALPOSE_TARGET_FUSED int name##_rows4_fused params { return name##_rows4_t<true> args; }
+DUALPOSE_BOTH_INSTANTIATIONS(quat_mul, (const double* p, const double* q, double* o, npy_intp n), (p, q, o, n))
+DUALPOSE_BOTH_INSTANTIATIONS(quat_rotate, (const double* q, const double* v, double* o, npy_intp n), (q, v, o, n))
+DUALPOSE_BOTH_INSTANTIATIONS(dualquat_mul, (const double* a, const double* b, double* o, npy_intp n), (a, b, o, n))
+DUALPOSE_BOTH_INSTANTIATIONS(dualquat_transform, (const double* s, const double* p, double* o, npy_intp n),
+                             (s, p, o, n))
+DUALPOSE_BOTH_INSTANTIATIONS(quat_inv, (const double* q, double* o, npy_intp n), (q, o, n))
+DUALPOSE_BOTH_INSTANTIATIONS(dualquat_inv, (const double* s, double* o, npy_intp n), (s, o, n))
+#undef DUALPOSE_BOTH_INSTANTIATIONS
+
+DUALPOSE_TARGET_FUSED void quat_mul_row_fused(const double* p, const double* q, double* o) {
+    quat_mul_row_f<true>(p, q, o);
+}
+DUALPOSE_TARGET_FUSED void quat_rotate_row_fused(const double* q, const double* v, double* o) {
+    quat_rotate_row_f<true>(q, v, o);
+}
+DUALPOSE_TARGET_FUSED void dualquat_mul_row_fused(const double* a, const double* b, double* o) {
+    dualquat_mul_row_f<true>(a, b, o);
+}
+DUALPOSE_TARGET_FUSED void dualquat_transform_row_fused(const double* s, const double* p, double* o) {
+    dualquat_transform_row_f<true>(s, p, o);
+}
+DUALPOSE_TARGET_FUSED void quat_inv_row_fused(const double* q, double* o) { quat_inv_row_f<true>(q, o); }
+DUALPOSE_TARGET_FUSED void dualquat_inv_row_fused(const double* s, double* o) { dualquat_inv_row_f<true>(s, o); }
 
 #if DUALPOSE_HAVE_AVX512
 #include <immintrin.h>
 
 namespace {
-const bool kAvx512 = cpu_has_avx512f();
+const bool kAvx512 = kFused && cpu_has_avx512f();  // the eight-row blocks are fused
 
 DUALPOSE_TARGET_AVX512 inline __attribute__((always_inline)) v8 vabs(v8 x) {
     return (v8)((lanes::m8)x & 0x7fffffffffffffffLL);
@@ -175,7 +212,7 @@ DUALPOSE_TARGET_AVX512 npy_intp quat_mul_rows8(const double* p, const double* q,
         v8 x[4], y[4];
         lanes::split4x8(p + 4 * i, x);
         lanes::split4x8(q + 4 * i, y);
-        const lanes::Q8 r = qmul_t(lanes::Q8{x[0], x[1], x[2], x[3]}, lanes::Q8{y[0], y[1], y[2], y[3]});
+        const lanes::Q8 r = qmul_f<true>(lanes::Q8{x[0], x[1], x[2], x[3]}, lanes::Q8{y[0], y[1], y[2], y[3]});
         const v8 c[4] = {r.x, r.y, r.z, r.w};
         lanes::join4x8(c, o + 4 * i);
     }
@@ -189,18 +226,16 @@ DUALPOSE_TARGET_AVX512 npy_intp dualquat_mul_rows8(const double* a, const double
         v8 x[8], y[8];
         lanes::split8x8(a + 8 * i, x);
         lanes::split8x8(b + 8 * i, y);
-        // dq_mul_t's formula, written out on the three products (one struct per product keeps GCC from copying the
-        // vectors through memory)
         const lanes::Q8 xr{x[0], x[1], x[2], x[3]}, xd{x[4], x[5], x[6], x[7]};
         const lanes::Q8 yr{y[0], y[1], y[2], y[3]}, yd{y[4], y[5], y[6], y[7]};
-        const lanes::Q8 r = qmul_t(xr, yr), e = qmul_t(xr, yd), f = qmul_t(xd, yr);
+        const lanes::Q8 r = qmul_f<true>(xr, yr), e = qmul_f<true>(xr, yd), f = qmul_f<true>(xd, yr);
         v8 c[8] = {r.x, r.y, r.z, r.w, e.x + f.x, e.y + f.y, e.z + f.z, e.w + f.w};
         lanes::join8x8(c, o + 8 * i);
     }
     return i;
 }
 
-// As dualquat_transform_rows4, eight rows a block: *flagged is set when a block went to the four-row loop with a
+// As dualquat_transform_rows4_t, eight rows a block: *flagged is set when a block went to the four-row loop with a
 // row outside the ordinary range.
 DUALPOSE_TARGET_AVX512 npy_intp dualquat_transform_rows8(const double* s, const double* p, double* o, npy_intp n,
                                                          int* flagged) {
@@ -211,52 +246,52 @@ DUALPOSE_TARGET_AVX512 npy_intp dualquat_transform_rows8(const double* s, const 
         lanes::split3x8(p + 3 * i, px, py, pz);
         if (ordinary8(c[0], c[1], c[2], c[3])) {
             const v8 n2 = c[0] * c[0] + c[1] * c[1] + c[2] * c[2] + c[3] * c[3];
-            transform_lanes(c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], px, py, pz, 2.0 / n2, ox, oy, oz);
+            transform_f<true>(c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], px, py, pz, 2.0 / n2, ox, oy, oz);
             lanes::join3x8(ox, oy, oz, o + 3 * i);
         } else {
-            *flagged |= dualquat_transform_rows4(s + 8 * i, p + 3 * i, o + 3 * i, 8);
+            *flagged |= dualquat_transform_rows4_fused(s + 8 * i, p + 3 * i, o + 3 * i, 8);
         }
     }
     return i;
 }
 
-// As quat_rotate_rows4, eight rows a block (two rows of 4 per 512-bit load).
+// As quat_rotate_rows4_t, eight rows a block (two rows of 4 per 512-bit load).
 DUALPOSE_TARGET_AVX512 npy_intp quat_rotate_rows8(const double* q, const double* v, double* o, npy_intp n,
                                                   int* flagged) {
     npy_intp i = 0;
     for (; i + 8 <= n; i += 8) {
-        v8 c[8], vx, vy, vz, ox, oy, oz;
+        v8 c[4], vx, vy, vz, ox, oy, oz;
         lanes::split4x8(q + 4 * i, c);
         lanes::split3x8(v + 3 * i, vx, vy, vz);
         if (ordinary8(c[0], c[1], c[2], c[3])) {
             const v8 n2 = c[0] * c[0] + c[1] * c[1] + c[2] * c[2] + c[3] * c[3];
-            rotate_lanes(c[0], c[1], c[2], c[3], vx, vy, vz, 2.0 / n2, ox, oy, oz);
+            rotate_f<true>(c[0], c[1], c[2], c[3], vx, vy, vz, 2.0 / n2, ox, oy, oz);
             lanes::join3x8(ox, oy, oz, o + 3 * i);
         } else {
-            *flagged |= quat_rotate_rows4(q + 4 * i, v + 3 * i, o + 3 * i, 8);
+            *flagged |= quat_rotate_rows4_fused(q + 4 * i, v + 3 * i, o + 3 * i, 8);
         }
     }
     return i;
 }
 
-// As quat_inv_rows4, eight rows a block.
+// As quat_inv_rows4_t, eight rows a block.
 DUALPOSE_TARGET_AVX512 npy_intp quat_inv_rows8(const double* q, double* o, npy_intp n, int* flagged) {
     npy_intp i = 0;
     for (; i + 8 <= n; i += 8) {
         v8 c[4];
         lanes::split4x8(q + 4 * i, c);
         if (ordinary8(c[0], c[1], c[2], c[3])) {
-            const lanes::Q8 r = inv_ordinary_t(lanes::Q8{c[0], c[1], c[2], c[3]});
+            const lanes::Q8 r = inv_ordinary_f<true>(lanes::Q8{c[0], c[1], c[2], c[3]});
             const v8 x[4] = {r.x, r.y, r.z, r.w};
             lanes::join4x8(x, o + 4 * i);
         } else {
-            *flagged |= quat_inv_rows4(q + 4 * i, o + 4 * i, 8);
+            *flagged |= quat_inv_rows4_fused(q + 4 * i, o + 4 * i, 8);
         }
     }
     return i;
 }
 
-// As dualquat_inv_rows4, eight rows a block.
+// As dualquat_inv_rows4_t, eight rows a block.
 DUALPOSE_TARGET_AVX512 npy_intp dualquat_inv_rows8(const double* s, double* o, npy_intp n, int* flagged) {
     npy_intp i = 0;
     for (; i + 8 <= n; i += 8) {
@@ -264,11 +299,11 @@ DUALPOSE_TARGET_AVX512 npy_intp dualquat_inv_rows8(const double* s, double* o, n
         lanes::split8x8(s + 8 * i, c);
         if (ordinary8(c[0], c[1], c[2], c[3])) {
             lanes::Q8 r, d;
-            dq_inv_ordinary_t(lanes::Q8{c[0], c[1], c[2], c[3]}, lanes::Q8{c[4], c[5], c[6], c[7]}, r, d);
+            dq_inv_ordinary_f<true>(lanes::Q8{c[0], c[1], c[2], c[3]}, lanes::Q8{c[4], c[5], c[6], c[7]}, r, d);
             v8 x[8] = {r.x, r.y, r.z, r.w, d.x, d.y, d.z, d.w};
             lanes::join8x8(x, o + 8 * i);
         } else {
-            *flagged |= dualquat_inv_rows4(s + 8 * i, o + 8 * i, 8);
+            *flagged |= dualquat_inv_rows4_fused(s + 8 * i, o + 8 * i, 8);
         }
     }
     return i;
@@ -290,56 +325,60 @@ DUALPOSE_CLONES void quat_conj_rows(const double* q, double* o, npy_intp n) {
 }
 DUALPOSE_CLONES void dualquat_conj_rows(const double* s, double* o, npy_intp n) { quat_conj_rows(s, o, 2 * n); }
 
-void quat_mul_rows(const double* p, const double* q, double* o, npy_intp n) {
-    npy_intp i = 0;
+// The row loops: unfused four-row loops without FMA; with it, the eight-row blocks (AVX-512), then the fused
+// four-row loop on the rest.
 #if DUALPOSE_HAVE_AVX512
-    if (kAvx512) i = quat_mul_rows8(p, q, o, n);
+#define DUALPOSE_BLOCKS8(call) \
+    if (kAvx512) i = call
+#else
+#define DUALPOSE_BLOCKS8(call)
 #endif
-    quat_mul_rows4(p + 4 * i, q + 4 * i, o + 4 * i, n - i);
+
+void quat_mul_rows(const double* p, const double* q, double* o, npy_intp n) {
+    if (!kFused) return (void)quat_mul_rows4(p, q, o, n);
+    npy_intp i = 0;
+    DUALPOSE_BLOCKS8(quat_mul_rows8(p, q, o, n));
+    quat_mul_rows4_fused(p + 4 * i, q + 4 * i, o + 4 * i, n - i);
 }
 
 int quat_rotate_rows(const double* q, const double* v, double* o, npy_intp n) {
+    if (!kFused) return quat_rotate_rows4(q, v, o, n);
     int flagged = 0;
     npy_intp i = 0;
-#if DUALPOSE_HAVE_AVX512
-    if (kAvx512) i = quat_rotate_rows8(q, v, o, n, &flagged);
-#endif
-    return quat_rotate_rows4(q + 4 * i, v + 3 * i, o + 3 * i, n - i) | flagged;
+    DUALPOSE_BLOCKS8(quat_rotate_rows8(q, v, o, n, &flagged));
+    return quat_rotate_rows4_fused(q + 4 * i, v + 3 * i, o + 3 * i, n - i) | flagged;
 }
 
 int dualquat_mul_rows(const double* a, const double* b, double* o, npy_intp n) {
+    if (!kFused) return dualquat_mul_rows4(a, b, o, n);
     npy_intp i = 0;
-#if DUALPOSE_HAVE_AVX512
-    if (kAvx512) i = dualquat_mul_rows8(a, b, o, n);
-#endif
-    return dualquat_mul_rows4(a + 8 * i, b + 8 * i, o + 8 * i, n - i);
+    DUALPOSE_BLOCKS8(dualquat_mul_rows8(a, b, o, n));
+    return dualquat_mul_rows4_fused(a + 8 * i, b + 8 * i, o + 8 * i, n - i);
 }
 
 int dualquat_transform_rows(const double* s, const double* p, double* o, npy_intp n) {
+    if (!kFused) return dualquat_transform_rows4(s, p, o, n);
     int flagged = 0;
     npy_intp i = 0;
-#if DUALPOSE_HAVE_AVX512
-    if (kAvx512) i = dualquat_transform_rows8(s, p, o, n, &flagged);
-#endif
-    return dualquat_transform_rows4(s + 8 * i, p + 3 * i, o + 3 * i, n - i) | flagged;
+    DUALPOSE_BLOCKS8(dualquat_transform_rows8(s, p, o, n, &flagged));
+    return dualquat_transform_rows4_fused(s + 8 * i, p + 3 * i, o + 3 * i, n - i) | flagged;
 }
 
 int quat_inv_rows(const double* q, double* o, npy_intp n) {
+    if (!kFused) return quat_inv_rows4(q, o, n);
     int flagged = 0;
     npy_intp i = 0;
-#if DUALPOSE_HAVE_AVX512
-    if (kAvx512) i = quat_inv_rows8(q, o, n, &flagged);
-#endif
-    return quat_inv_rows4(q + 4 * i, o + 4 * i, n - i) | flagged;
+    DUALPOSE_BLOCKS8(quat_inv_rows8(q, o, n, &flagged));
+    return quat_inv_rows4_fused(q + 4 * i, o + 4 * i, n - i) | flagged;
 }
 
 int dualquat_inv_rows(const double* s, double* o, npy_intp n) {
+    if (!kFused) return dualquat_inv_rows4(s, o, n);
     int flagged = 0;
     npy_intp i = 0;
-#if DUALPOSE_HAVE_AVX512
-    if (kAvx512) i = dualquat_inv_rows8(s, o, n, &flagged);
-#endif
-    return dualquat_inv_rows4(s + 8 * i, o + 8 * i, n - i) | flagged;
+    DUALPOSE_BLOCKS8(dualquat_inv_rows8(s, o, n, &flagged));
+    return dualquat_inv_rows4_fused(s + 8 * i, o + 8 * i, n - i) | flagged;
 }
+#undef DUALPOSE_BLOCKS8
 
 }  // namespace dualpose
