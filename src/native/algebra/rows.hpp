@@ -33,31 +33,48 @@ namespace dualpose {
 // Whether the kernels below use fused multiply-adds (see above).
 extern const bool kFused;
 
-// a b + c with one rounding, lane by lane for a GCC vector of doubles (one vfmadd in a function compiled for FMA).
-template <class T>
-DUALPOSE_ROW T fused_mul_add(T a, T b, T c) {
+// One rounding of a b + c (K = 0), a b - c (K = 1) or c - a b (K = 2).  For a double this is __builtin_fma (one
+// instruction in a function compiled for FMA).  For a GCC vector of doubles on x86-64 with GCC it is one
+// vfmadd231pd / vfmsub231pd / vfnmadd231pd on the whole register (inline assembly: GCC's vectoriser does not
+// reliably turn lane-by-lane __builtin_fma into one instruction, and a scalar fma per lane costs 4 to 8 times
+// more); such code runs only in functions compiled for FMA (ymm) or AVX-512 (zmm).  Elsewhere lane by lane.
+template <int K, class T>
+DUALPOSE_ROW T fused(T a, T b, T c) {
     if constexpr (std::is_same_v<T, double>) {
-        return __builtin_fma(a, b, c);
+        return K == 0 ? __builtin_fma(a, b, c) : K == 1 ? __builtin_fma(a, b, -c) : __builtin_fma(-a, b, c);
     } else {
+#if DUALPOSE_HAVE_AVX512
+        if constexpr (sizeof(T) == 64) {
+            if constexpr (K == 0) asm("vfmadd231pd %g2, %g1, %g0" : "+v"(c) : "v"(a), "v"(b));
+            else if constexpr (K == 1) asm("vfmsub231pd %g2, %g1, %g0" : "+v"(c) : "v"(a), "v"(b));
+            else asm("vfnmadd231pd %g2, %g1, %g0" : "+v"(c) : "v"(a), "v"(b));
+            return c;
+        } else if constexpr (sizeof(T) == 32) {
+            if constexpr (K == 0) asm("vfmadd231pd %t2, %t1, %t0" : "+v"(c) : "v"(a), "v"(b));
+            else if constexpr (K == 1) asm("vfmsub231pd %t2, %t1, %t0" : "+v"(c) : "v"(a), "v"(b));
+            else asm("vfnmadd231pd %t2, %t1, %t0" : "+v"(c) : "v"(a), "v"(b));
+            return c;
+        }
+#endif
         T r;
-        for (unsigned k = 0; k < sizeof(T) / sizeof(double); ++k) r[k] = __builtin_fma(a[k], b[k], c[k]);
+        for (unsigned k = 0; k < sizeof(T) / sizeof(double); ++k) r[k] = fused<K>(a[k], b[k], c[k]);
         return r;
     }
 }
 // c + a b, a b - c and c - a b: fused when F, else the product rounded first (the operands in the formulas' order).
 template <bool F, class T>
 DUALPOSE_ROW T mac(T a, T b, T c) {
-    if constexpr (F) return fused_mul_add(a, b, c);
+    if constexpr (F) return fused<0>(a, b, c);
     else return c + a * b;
 }
 template <bool F, class T>
 DUALPOSE_ROW T msub(T a, T b, T c) {
-    if constexpr (F) return fused_mul_add(a, b, -c);
+    if constexpr (F) return fused<1>(a, b, c);
     else return a * b - c;
 }
 template <bool F, class T>
 DUALPOSE_ROW T nmac(T a, T b, T c) {
-    if constexpr (F) return fused_mul_add(-a, b, c);
+    if constexpr (F) return fused<2>(a, b, c);
     else return c - a * b;
 }
 
