@@ -4,11 +4,11 @@
 // as the baseline), and fused, compiled for AVX2 with FMA (DUALPOSE_TARGET_FUSED).  The row loops run the fused
 // instantiation on a CPU with FMA and AVX2 (kFused) and the unfused one on any other.
 //
-// On a CPU with AVX-512F the fused loops take blocks of eight rows in 512-bit registers first (the *_rows8 functions,
-// compiled for AVX-512F only and chosen at run time): explicit vector code with no scalar floating-point arithmetic,
-// so the vectoriser has nothing to contract and -ffp-contract=off keeps every multiply and add that is not an
-// explicit fused_mul_add separate; the last n mod 8 rows, and any block of eight with a row outside the ordinary
-// range, go to the fused four-row loops.  (The conjugates need no such code: the compiler vectorises their loops
+// On a CPU with AVX-512F the loops take blocks of eight rows in 512-bit registers first (the *_rows8 templates, fused
+// or not as the rest, compiled for AVX-512F only and chosen at run time): explicit vector code with no scalar
+// floating-point arithmetic, so the vectoriser has nothing to contract and -ffp-contract=off keeps every multiply and
+// add that is not an explicit fused one separate; the last n mod 8 rows, and any block of eight with a row outside
+// the ordinary range, go to the four-row loops.  (The conjugates need no such code: the compiler vectorises their loops
 // itself.)
 #include "rows.hpp"
 
@@ -192,7 +192,7 @@ DUALPOSE_TARGET_FUSED void dualquat_inv_row_fused(const double* s, double* o) { 
 #include <immintrin.h>
 
 namespace {
-const bool kAvx512 = kFused && cpu_has_avx512f();  // the eight-row blocks are fused
+const bool kAvx512 = cpu_has_avx512f();
 
 DUALPOSE_TARGET_AVX512 inline __attribute__((always_inline)) v8 vabs(v8 x) {
     return (v8)((lanes::m8)x & 0x7fffffffffffffffLL);
@@ -206,13 +206,14 @@ DUALPOSE_TARGET_AVX512 inline __attribute__((always_inline)) bool ordinary8(v8 x
 }
 
 // Blocks of eight rows (all loaded before any is stored); returns the rows done, a multiple of 8.
+template <bool F>
 DUALPOSE_TARGET_AVX512 npy_intp quat_mul_rows8(const double* p, const double* q, double* o, npy_intp n) {
     npy_intp i = 0;
     for (; i + 8 <= n; i += 8) {
         v8 x[4], y[4];
         lanes::split4x8(p + 4 * i, x);
         lanes::split4x8(q + 4 * i, y);
-        const lanes::Q8 r = qmul_f<true>(lanes::Q8{x[0], x[1], x[2], x[3]}, lanes::Q8{y[0], y[1], y[2], y[3]});
+        const lanes::Q8 r = qmul_f<F>(lanes::Q8{x[0], x[1], x[2], x[3]}, lanes::Q8{y[0], y[1], y[2], y[3]});
         const v8 c[4] = {r.x, r.y, r.z, r.w};
         lanes::join4x8(c, o + 4 * i);
     }
@@ -220,6 +221,7 @@ DUALPOSE_TARGET_AVX512 npy_intp quat_mul_rows8(const double* p, const double* q,
 }
 
 // As quat_mul_rows8.
+template <bool F>
 DUALPOSE_TARGET_AVX512 npy_intp dualquat_mul_rows8(const double* a, const double* b, double* o, npy_intp n) {
     npy_intp i = 0;
     for (; i + 8 <= n; i += 8) {
@@ -228,7 +230,7 @@ DUALPOSE_TARGET_AVX512 npy_intp dualquat_mul_rows8(const double* a, const double
         lanes::split8x8(b + 8 * i, y);
         const lanes::Q8 xr{x[0], x[1], x[2], x[3]}, xd{x[4], x[5], x[6], x[7]};
         const lanes::Q8 yr{y[0], y[1], y[2], y[3]}, yd{y[4], y[5], y[6], y[7]};
-        const lanes::Q8 r = qmul_f<true>(xr, yr), e = qmul_f<true>(xr, yd), f = qmul_f<true>(xd, yr);
+        const lanes::Q8 r = qmul_f<F>(xr, yr), e = qmul_f<F>(xr, yd), f = qmul_f<F>(xd, yr);
         v8 c[8] = {r.x, r.y, r.z, r.w, e.x + f.x, e.y + f.y, e.z + f.z, e.w + f.w};
         lanes::join8x8(c, o + 8 * i);
     }
@@ -237,6 +239,7 @@ DUALPOSE_TARGET_AVX512 npy_intp dualquat_mul_rows8(const double* a, const double
 
 // As dualquat_transform_rows4_t, eight rows a block: *flagged is set when a block went to the four-row loop with a
 // row outside the ordinary range.
+template <bool F>
 DUALPOSE_TARGET_AVX512 npy_intp dualquat_transform_rows8(const double* s, const double* p, double* o, npy_intp n,
                                                          int* flagged) {
     npy_intp i = 0;
@@ -246,16 +249,17 @@ DUALPOSE_TARGET_AVX512 npy_intp dualquat_transform_rows8(const double* s, const 
         lanes::split3x8(p + 3 * i, px, py, pz);
         if (ordinary8(c[0], c[1], c[2], c[3])) {
             const v8 n2 = c[0] * c[0] + c[1] * c[1] + c[2] * c[2] + c[3] * c[3];
-            transform_f<true>(c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], px, py, pz, 2.0 / n2, ox, oy, oz);
+            transform_f<F>(c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], px, py, pz, 2.0 / n2, ox, oy, oz);
             lanes::join3x8(ox, oy, oz, o + 3 * i);
         } else {
-            *flagged |= dualquat_transform_rows4_fused(s + 8 * i, p + 3 * i, o + 3 * i, 8);
+            *flagged |= (F ? dualquat_transform_rows4_fused : dualquat_transform_rows4)(s + 8 * i, p + 3 * i, o + 3 * i, 8);
         }
     }
     return i;
 }
 
 // As quat_rotate_rows4_t, eight rows a block (two rows of 4 per 512-bit load).
+template <bool F>
 DUALPOSE_TARGET_AVX512 npy_intp quat_rotate_rows8(const double* q, const double* v, double* o, npy_intp n,
                                                   int* flagged) {
     npy_intp i = 0;
@@ -265,33 +269,35 @@ DUALPOSE_TARGET_AVX512 npy_intp quat_rotate_rows8(const double* q, const double*
         lanes::split3x8(v + 3 * i, vx, vy, vz);
         if (ordinary8(c[0], c[1], c[2], c[3])) {
             const v8 n2 = c[0] * c[0] + c[1] * c[1] + c[2] * c[2] + c[3] * c[3];
-            rotate_f<true>(c[0], c[1], c[2], c[3], vx, vy, vz, 2.0 / n2, ox, oy, oz);
+            rotate_f<F>(c[0], c[1], c[2], c[3], vx, vy, vz, 2.0 / n2, ox, oy, oz);
             lanes::join3x8(ox, oy, oz, o + 3 * i);
         } else {
-            *flagged |= quat_rotate_rows4_fused(q + 4 * i, v + 3 * i, o + 3 * i, 8);
+            *flagged |= (F ? quat_rotate_rows4_fused : quat_rotate_rows4)(q + 4 * i, v + 3 * i, o + 3 * i, 8);
         }
     }
     return i;
 }
 
 // As quat_inv_rows4_t, eight rows a block.
+template <bool F>
 DUALPOSE_TARGET_AVX512 npy_intp quat_inv_rows8(const double* q, double* o, npy_intp n, int* flagged) {
     npy_intp i = 0;
     for (; i + 8 <= n; i += 8) {
         v8 c[4];
         lanes::split4x8(q + 4 * i, c);
         if (ordinary8(c[0], c[1], c[2], c[3])) {
-            const lanes::Q8 r = inv_ordinary_f<true>(lanes::Q8{c[0], c[1], c[2], c[3]});
+            const lanes::Q8 r = inv_ordinary_f<F>(lanes::Q8{c[0], c[1], c[2], c[3]});
             const v8 x[4] = {r.x, r.y, r.z, r.w};
             lanes::join4x8(x, o + 4 * i);
         } else {
-            *flagged |= quat_inv_rows4_fused(q + 4 * i, o + 4 * i, 8);
+            *flagged |= (F ? quat_inv_rows4_fused : quat_inv_rows4)(q + 4 * i, o + 4 * i, 8);
         }
     }
     return i;
 }
 
 // As dualquat_inv_rows4_t, eight rows a block.
+template <bool F>
 DUALPOSE_TARGET_AVX512 npy_intp dualquat_inv_rows8(const double* s, double* o, npy_intp n, int* flagged) {
     npy_intp i = 0;
     for (; i + 8 <= n; i += 8) {
@@ -299,11 +305,11 @@ DUALPOSE_TARGET_AVX512 npy_intp dualquat_inv_rows8(const double* s, double* o, n
         lanes::split8x8(s + 8 * i, c);
         if (ordinary8(c[0], c[1], c[2], c[3])) {
             lanes::Q8 r, d;
-            dq_inv_ordinary_f<true>(lanes::Q8{c[0], c[1], c[2], c[3]}, lanes::Q8{c[4], c[5], c[6], c[7]}, r, d);
+            dq_inv_ordinary_f<F>(lanes::Q8{c[0], c[1], c[2], c[3]}, lanes::Q8{c[4], c[5], c[6], c[7]}, r, d);
             v8 x[8] = {r.x, r.y, r.z, r.w, d.x, d.y, d.z, d.w};
             lanes::join8x8(x, o + 8 * i);
         } else {
-            *flagged |= dualquat_inv_rows4_fused(s + 8 * i, o + 8 * i, 8);
+            *flagged |= (F ? dualquat_inv_rows4_fused : dualquat_inv_rows4)(s + 8 * i, o + 8 * i, 8);
         }
     }
     return i;
@@ -325,60 +331,55 @@ DUALPOSE_CLONES void quat_conj_rows(const double* q, double* o, npy_intp n) {
 }
 DUALPOSE_CLONES void dualquat_conj_rows(const double* s, double* o, npy_intp n) { quat_conj_rows(s, o, 2 * n); }
 
-// The row loops: unfused four-row loops without FMA; with it, the eight-row blocks (AVX-512), then the fused
-// four-row loop on the rest.
+// The row loops: the eight-row blocks (AVX-512), then the four-row loop on the rest, fused or not (kFused).
 #if DUALPOSE_HAVE_AVX512
-#define DUALPOSE_BLOCKS8(call) \
-    if (kAvx512) i = call
+#define DUALPOSE_BLOCKS8(name, ...) \
+    if (kAvx512) i = kFused ? name##_rows8<true>(__VA_ARGS__) : name##_rows8<false>(__VA_ARGS__)
 #else
-#define DUALPOSE_BLOCKS8(call)
+#define DUALPOSE_BLOCKS8(name, ...)
 #endif
+#define DUALPOSE_ROWS4(name, ...) (kFused ? name##_rows4_fused(__VA_ARGS__) : name##_rows4(__VA_ARGS__))
 
 void quat_mul_rows(const double* p, const double* q, double* o, npy_intp n) {
-    if (!kFused) return (void)quat_mul_rows4(p, q, o, n);
     npy_intp i = 0;
-    DUALPOSE_BLOCKS8(quat_mul_rows8(p, q, o, n));
-    quat_mul_rows4_fused(p + 4 * i, q + 4 * i, o + 4 * i, n - i);
+    DUALPOSE_BLOCKS8(quat_mul, p, q, o, n);
+    DUALPOSE_ROWS4(quat_mul, p + 4 * i, q + 4 * i, o + 4 * i, n - i);
 }
 
 int quat_rotate_rows(const double* q, const double* v, double* o, npy_intp n) {
-    if (!kFused) return quat_rotate_rows4(q, v, o, n);
     int flagged = 0;
     npy_intp i = 0;
-    DUALPOSE_BLOCKS8(quat_rotate_rows8(q, v, o, n, &flagged));
-    return quat_rotate_rows4_fused(q + 4 * i, v + 3 * i, o + 3 * i, n - i) | flagged;
+    DUALPOSE_BLOCKS8(quat_rotate, q, v, o, n, &flagged);
+    return DUALPOSE_ROWS4(quat_rotate, q + 4 * i, v + 3 * i, o + 3 * i, n - i) | flagged;
 }
 
 int dualquat_mul_rows(const double* a, const double* b, double* o, npy_intp n) {
-    if (!kFused) return dualquat_mul_rows4(a, b, o, n);
     npy_intp i = 0;
-    DUALPOSE_BLOCKS8(dualquat_mul_rows8(a, b, o, n));
-    return dualquat_mul_rows4_fused(a + 8 * i, b + 8 * i, o + 8 * i, n - i);
+    DUALPOSE_BLOCKS8(dualquat_mul, a, b, o, n);
+    return DUALPOSE_ROWS4(dualquat_mul, a + 8 * i, b + 8 * i, o + 8 * i, n - i);
 }
 
 int dualquat_transform_rows(const double* s, const double* p, double* o, npy_intp n) {
-    if (!kFused) return dualquat_transform_rows4(s, p, o, n);
     int flagged = 0;
     npy_intp i = 0;
-    DUALPOSE_BLOCKS8(dualquat_transform_rows8(s, p, o, n, &flagged));
-    return dualquat_transform_rows4_fused(s + 8 * i, p + 3 * i, o + 3 * i, n - i) | flagged;
+    DUALPOSE_BLOCKS8(dualquat_transform, s, p, o, n, &flagged);
+    return DUALPOSE_ROWS4(dualquat_transform, s + 8 * i, p + 3 * i, o + 3 * i, n - i) | flagged;
 }
 
 int quat_inv_rows(const double* q, double* o, npy_intp n) {
-    if (!kFused) return quat_inv_rows4(q, o, n);
     int flagged = 0;
     npy_intp i = 0;
-    DUALPOSE_BLOCKS8(quat_inv_rows8(q, o, n, &flagged));
-    return quat_inv_rows4_fused(q + 4 * i, o + 4 * i, n - i) | flagged;
+    DUALPOSE_BLOCKS8(quat_inv, q, o, n, &flagged);
+    return DUALPOSE_ROWS4(quat_inv, q + 4 * i, o + 4 * i, n - i) | flagged;
 }
 
 int dualquat_inv_rows(const double* s, double* o, npy_intp n) {
-    if (!kFused) return dualquat_inv_rows4(s, o, n);
     int flagged = 0;
     npy_intp i = 0;
-    DUALPOSE_BLOCKS8(dualquat_inv_rows8(s, o, n, &flagged));
-    return dualquat_inv_rows4_fused(s + 8 * i, o + 8 * i, n - i) | flagged;
+    DUALPOSE_BLOCKS8(dualquat_inv, s, o, n, &flagged);
+    return DUALPOSE_ROWS4(dualquat_inv, s + 8 * i, o + 8 * i, n - i) | flagged;
 }
 #undef DUALPOSE_BLOCKS8
+#undef DUALPOSE_ROWS4
 
 }  // namespace dualpose
