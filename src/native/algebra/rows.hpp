@@ -217,7 +217,9 @@ inline void dualquat_mul_row(const double* a, const double* b, double* o) {
 inline void dualquat_transform_row(const double* s, const double* p, double* o) {
     kFused ? dualquat_transform_row_fused(s, p, o) : dualquat_transform_row_f<false>(s, p, o);
 }
-inline void quat_inv_row(const double* q, double* o) { kFused ? quat_inv_row_fused(q, o) : quat_inv_row_f<false>(q, o); }
+inline void quat_inv_row(const double* q, double* o) {
+    kFused ? quat_inv_row_fused(q, o) : quat_inv_row_f<false>(q, o);
+}
 inline void dualquat_inv_row(const double* s, double* o) {
     kFused ? dualquat_inv_row_fused(s, o) : dualquat_inv_row_f<false>(s, o);
 }
