@@ -370,10 +370,10 @@ DUALPOSE_CLONES void dualquat_conj_rows(const double* s, double* o, npy_intp n) 
 #endif
 #define DUALPOSE_ROWS4(name, ...) (kFused ? name##_rows4_fused(__VA_ARGS__) : name##_rows4(__VA_ARGS__))
 
-void quat_mul_rows(const double* p, const double* q, double* o, npy_intp n) {
+int quat_mul_rows(const double* p, const double* q, double* o, npy_intp n) {
     npy_intp i = 0;
     DUALPOSE_BLOCKS8(quat_mul, p, q, o, n);
-    DUALPOSE_ROWS4(quat_mul, p + 4 * i, q + 4 * i, o + 4 * i, n - i);
+    return DUALPOSE_ROWS4(quat_mul, p + 4 * i, q + 4 * i, o + 4 * i, n - i);
 }
 
 int quat_rotate_rows(const double* q, const double* v, double* o, npy_intp n) {

@@ -242,7 +242,7 @@ DUALPOSE_ROW void dualquat_conj_row(const double* s, double* o) {
 
 void quat_conj_rows(const double* q, double* o, npy_intp n);
 void dualquat_conj_rows(const double* s, double* o, npy_intp n);
-void quat_mul_rows(const double* p, const double* q, double* o, npy_intp n);
+int quat_mul_rows(const double* p, const double* q, double* o, npy_intp n);  // 0
 int quat_rotate_rows(const double* q, const double* v, double* o, npy_intp n);
 int dualquat_mul_rows(const double* a, const double* b, double* o, npy_intp n);
 int dualquat_transform_rows(const double* s, const double* p, double* o, npy_intp n);
