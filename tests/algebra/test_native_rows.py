@@ -15,6 +15,7 @@ import os
 import subprocess
 import sys
 import textwrap
+import warnings
 from fractions import Fraction
 
 import numpy as np
@@ -219,3 +220,22 @@ def test_unfused_arithmetic_on_request() -> None:
                 t.test_inverse_loop_equals_element_kernel(name, width, n)
     """)
     subprocess.run([sys.executable, "-c", code], env={**os.environ, "DUALPOSE_NO_FMA": "1"}, check=True)
+
+
+@pytest.mark.parametrize("name,widths", KERNELS + [(name, (width, 0)) for name, width in INVERSES])
+@pytest.mark.parametrize("n", [5, 23])  # a four-row tail; eight- and four-row blocks
+def test_nan_rows_raise_no_flag_on_any_path(name: str, widths: tuple[int, int], n: int) -> None:
+    # a NaN in a row's quaternion gives NaN in that row only, quietly (no RuntimeWarning) on the contiguous, strided
+    # and broadcast paths, as the row kernel's own magnitude test (a quiet self-comparison first)
+    rng = np.random.default_rng(n)
+    a = rng.normal(size=(n, widths[0]))
+    a[2, 1] = np.nan
+    b = (rng.normal(size=(n, widths[1])),) if widths[1] else ()
+    f = getattr(_native, name)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        got = f(a, *b)
+        for other in (f(strided(a), *b), f(a, *(x[0] for x in b)) if b else f(a[2])):
+            assert np.isnan(other).any()
+        np.testing.assert_array_equal(got, f(strided(a), *b))
+    assert np.isnan(got[2]).any() and np.isfinite(np.delete(got, 2, axis=0)).all()

@@ -40,22 +40,25 @@ using lanes::v4;
 using lanes::v8;
 
 // The row kernels' magnitude test (common/kutil.hpp ordinary_sum) on one row and on four rows in lanes: the sum
-// of the absolute components over 8, so no extreme value is squared before the test.
+// of the absolute components over 8, so no extreme value is squared before the test.  As the scalar test, it raises
+// no floating-point flag for a NaN (a NaN lane is compared as 0: an ordered comparison with a NaN would raise the
+// invalid flag, and NumPy would warn).
 bool ordinary(const double* r) { return ordinary_sum(abs_sum(r[0], r[1], r[2], r[3])); }
 DUALPOSE_ROW v4 vabs(v4 x) { return (v4)((lanes::m4)x & 0x7fffffffffffffffLL); }
 DUALPOSE_ROW bool ordinary(const lanes::Q4& a) {
-    const v4 s = vabs(a.x) * 0.125 + vabs(a.y) * 0.125 + vabs(a.z) * 0.125 + vabs(a.w) * 0.125;
+    v4 s = vabs(a.x) * 0.125 + vabs(a.y) * 0.125 + vabs(a.z) * 0.125 + vabs(a.w) * 0.125;
+    s = (v4)((lanes::m4)s & (s == s));
     return lanes::all((s >= kOrdinaryLo) & (s <= kOrdinaryHi));
 }
 
 #if DUALPOSE_HAVE_AVX512
 DUALPOSE_TARGET_AVX512 DUALPOSE_ROW v8 vabs(v8 x) { return (v8)((lanes::m8)x & 0x7fffffffffffffffLL); }
-// ordinary(Q4) on eight rows: the same (signalling) comparisons, whose mask registers are tested as a whole (the
-// vector extension's all-lanes test would move each lane to a general register).
+// ordinary(Q4) on eight rows: quiet comparisons (false for NaN, no flag) into mask registers, tested as a whole
+// (the vector extension's all-lanes test would move each lane to a general register).
 DUALPOSE_TARGET_AVX512 DUALPOSE_ROW bool ordinary8(v8 x, v8 y, v8 z, v8 w) {
     const __m512d s = (__m512d)(vabs(x) * 0.125 + vabs(y) * 0.125 + vabs(z) * 0.125 + vabs(w) * 0.125);
-    const __mmask8 lo = _mm512_cmp_pd_mask(s, _mm512_set1_pd(kOrdinaryLo), _CMP_GE_OS);
-    return _mm512_mask_cmp_pd_mask(lo, s, _mm512_set1_pd(kOrdinaryHi), _CMP_LE_OS) == 0xff;
+    const __mmask8 lo = _mm512_cmp_pd_mask(s, _mm512_set1_pd(kOrdinaryLo), _CMP_GE_OQ);
+    return _mm512_mask_cmp_pd_mask(lo, s, _mm512_set1_pd(kOrdinaryHi), _CMP_LE_OQ) == 0xff;
 }
 #endif
 
