@@ -75,6 +75,7 @@ ESKF_POSITION: int
 ESKF_QUAT: int
 ESKF_STREAM_VERSION: int
 ESKF_VELOCITY: int
+FUSED_MULTIPLY_ADD: bool
 
 class Facade:
     def __mul__(self, other: Self, /) -> Self: ...

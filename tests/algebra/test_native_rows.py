@@ -2,12 +2,21 @@
 
 A C-contiguous batch runs the vectorised loop (blocks of eight rows on a CPU with AVX-512, then blocks of four, then
 a scalar tail); a strided view of the same data runs the element kernel.  Both must agree bit for bit for every
-batch length (every tail), with zero, subnormal, extreme-norm, infinite and NaN rows inside a block, and in place;
+batch length (every tail), with zero, subnormal, extreme-norm, infinite and NaN rows inside a block, and in place
+(the products, rotation, transform and the two inverses);
 and the Hamilton and dual-quaternion products must round as their formulas written out in Python floats (IEEE
-double, no fused multiply-add), whatever instruction set the loop was dispatched to.
+double; with fused multiply-adds exactly where the build uses them, _native.FUSED_MULTIPLY_ADD), whatever
+instruction set the loop was dispatched to.
 """
 
 from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+import warnings
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -63,24 +72,42 @@ def test_contiguous_loop_in_place(name: str, widths: tuple[int, int]) -> None:
             np.testing.assert_array_equal(b, expect)
 
 
-def qmul_floats(p: list[float], q: list[float]) -> list[float]:
-    """The Hamilton product p (x) q of xyzw quaternions, written out in Python floats (IEEE double, no FMA)."""
+def fma(a: float, b: float, c: float) -> float:
+    """a b + c rounded once (exact rational arithmetic; int / int is correctly rounded)."""
+    x = Fraction(a) * Fraction(b) + Fraction(c)
+    return x.numerator / x.denominator
+
+
+def qmul_floats(p: list[float], q: list[float], fused: bool) -> list[float]:
+    """The Hamilton product p (x) q of xyzw quaternions, written out in Python floats (IEEE double): term after
+    term, each added product rounded once with ``fused`` (a fused multiply-add), else rounded before the sum."""
     ax, ay, az, aw = p
     bx, by, bz, bw = q
+
+    def acc(first: float, *terms: tuple[float, float, float]) -> float:  # first + sign a b + ...
+        t = first
+        for sign, a, b in terms:
+            t = fma(sign * a, b, t) if fused else t + sign * (a * b)
+        return t
+
     return [
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-        aw * bw - ax * bx - ay * by - az * bz,
+        acc(aw * bx, (1, ax, bw), (1, ay, bz), (-1, az, by)),
+        acc(aw * by, (-1, ax, bz), (1, ay, bw), (1, az, bx)),
+        acc(aw * bz, (1, ax, by), (-1, ay, bx), (1, az, bw)),
+        acc(aw * bw, (-1, ax, bx), (-1, ay, by), (-1, az, bz)),
     ]
 
 
 def test_quat_mul_rounds_as_its_formula() -> None:
+    # the build's own choice (fused multiply-adds on a CPU with FMA and AVX2), the same on every path
     rng = np.random.default_rng(2)
     p, q = rng.normal(size=(203, 4)), rng.normal(size=(203, 4))
     got = _native.quat_mul(p, q)
+    fused = _native.FUSED_MULTIPLY_ADD
     for k in range(len(p)):
-        assert got[k].tolist() == qmul_floats(p[k].tolist(), q[k].tolist()), k
+        assert got[k].tolist() == qmul_floats(p[k].tolist(), q[k].tolist(), fused), k
+    # the two roundings differ on these rows, so the check tells them apart
+    assert any(qmul_floats(a, b, True) != qmul_floats(a, b, False) for a, b in zip(p.tolist(), q.tolist(), strict=True))
 
 
 #: any double: zero, subnormal, tiny, ordinary, huge, infinite or NaN, each sign
@@ -118,8 +145,42 @@ def test_dualquat_mul_rounds_as_its_formula() -> None:
     got = _native.dualquat_mul(a, b)
     for k in range(len(a)):
         ar, ad, br, bd = a[k, :4].tolist(), a[k, 4:].tolist(), b[k, :4].tolist(), b[k, 4:].tolist()
-        e, f = qmul_floats(ar, bd), qmul_floats(ad, br)
-        assert got[k].tolist() == qmul_floats(ar, br) + [e[j] + f[j] for j in range(4)], k
+        fused = _native.FUSED_MULTIPLY_ADD
+        e, f = qmul_floats(ar, bd, fused), qmul_floats(ad, br, fused)
+        assert got[k].tolist() == qmul_floats(ar, br, fused) + [e[j] + f[j] for j in range(4)], k
+
+
+#: the one-input kernels with a contiguous row loop and the same ordinary-block split (the inverses)
+INVERSES = [("quat_inv", 4), ("dualquat_inv", 8)]
+
+
+@pytest.mark.parametrize("name,width", INVERSES)
+@pytest.mark.parametrize("n", [0, 1, 3, 4, 5, 7, 8, 9, 13, 15, 16, 17, 23, 64, 203])
+def test_inverse_loop_equals_element_kernel(name: str, width: int, n: int) -> None:
+    a = rows(np.random.default_rng(n), n, width)
+    f = getattr(_native, name)
+    with np.errstate(all="ignore"):
+        got = f(a)
+        np.testing.assert_array_equal(got, f(strided(a)))
+        np.testing.assert_array_equal(got, np.array([f(r) for r in a]).reshape(got.shape))  # one row at a time
+        f(a, out=a)  # in place
+        np.testing.assert_array_equal(a, got)
+
+
+@pytest.mark.parametrize("name,width", INVERSES)
+@given(data=st.data(), n=st.integers(0, 41))
+def test_inverse_loop_equals_element_kernel_for_any_values(name: str, width: int, data: st.DataObject,
+                                                           n: int) -> None:
+    a = data.draw(arrays(np.float64, (n, width), elements=st.floats(-10.0, 10.0)))
+    if n:
+        for _ in range(data.draw(st.integers(0, 3))):
+            a[data.draw(st.integers(0, n - 1)), data.draw(st.integers(0, width - 1))] = data.draw(ANY)
+    f = getattr(_native, name)
+    with np.errstate(all="ignore"):
+        got = f(a)
+        np.testing.assert_array_equal(got, f(strided(a)))
+        f(a, out=a)
+        np.testing.assert_array_equal(a, got)
 
 
 @pytest.mark.parametrize("name", ["quat_mul", "quat_rotate", "dualquat_mul", "dualquat_transform", "quat_log"])
@@ -139,3 +200,42 @@ def test_conjugates_multiply_as_numpy(name: str, width: int, data: st.DataObject
         want = (q * signs).tobytes()
         assert f(q).tobytes() == want
         assert f(strided(q)).tobytes() == want
+
+
+def test_unfused_arithmetic_on_request() -> None:
+    # DUALPOSE_NO_FMA=1 at load: the arithmetic of a CPU without FMA, on every path alike (the checks above, run in a
+    # fresh process)
+    code = textwrap.dedent(f"""
+        import sys
+        sys.path.insert(0, {os.path.dirname(os.path.abspath(__file__))!r})
+        import test_native_rows as t
+        from dualpose import _native
+        assert not _native.FUSED_MULTIPLY_ADD
+        t.test_quat_mul_rounds_as_its_formula()
+        t.test_dualquat_mul_rounds_as_its_formula()
+        for n in (5, 13, 203):
+            for name, widths in t.KERNELS:
+                t.test_contiguous_loop_equals_element_kernel(name, widths, n)
+            for name, width in t.INVERSES:
+                t.test_inverse_loop_equals_element_kernel(name, width, n)
+    """)
+    subprocess.run([sys.executable, "-c", code], env={**os.environ, "DUALPOSE_NO_FMA": "1"}, check=True)
+
+
+@pytest.mark.parametrize("name,widths", KERNELS + [(name, (width, 0)) for name, width in INVERSES])
+@pytest.mark.parametrize("n", [5, 23])  # a four-row tail; eight- and four-row blocks
+def test_nan_rows_raise_no_flag_on_any_path(name: str, widths: tuple[int, int], n: int) -> None:
+    # a NaN in a row's quaternion gives NaN in that row only, quietly (no RuntimeWarning) on the contiguous, strided
+    # and broadcast paths, as the row kernel's own magnitude test (a quiet self-comparison first)
+    rng = np.random.default_rng(n)
+    a = rng.normal(size=(n, widths[0]))
+    a[2, 1] = np.nan
+    b = (rng.normal(size=(n, widths[1])),) if widths[1] else ()
+    f = getattr(_native, name)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        got = f(a, *b)
+        for other in (f(strided(a), *b), f(a, *(x[0] for x in b)) if b else f(a[2])):
+            assert np.isnan(other).any()
+        np.testing.assert_array_equal(got, f(strided(a), *b))
+    assert np.isnan(got[2]).any() and np.isfinite(np.delete(got, 2, axis=0)).all()

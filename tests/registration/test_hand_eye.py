@@ -38,8 +38,10 @@ def _x(rng):
 
 
 def _errors(x_est, x_true):
+    # the angle of R_est R_trueᵀ as atan2(sin, cos): an arccos of (trace - 1)/2 cannot resolve angles below ~2e-8
     r = x_est[:3, :3] @ x_true[:3, :3].T
-    ang = np.arccos(np.clip((np.trace(r) - 1) / 2, -1, 1))
+    s = np.linalg.norm([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]]) / 2
+    ang = np.arctan2(s, (np.trace(r) - 1) / 2)
     return float(ang), float(np.linalg.norm(x_est[:3, 3] - x_true[:3, 3]))
 
 

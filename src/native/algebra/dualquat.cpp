@@ -15,18 +15,6 @@ namespace {
 
 void fill_nan(double* o, int k) { std::fill(o, o + k, kNaN); }
 
-// (r + ε d)^-1 = r^-1 - ε r^-1 d r^-1, with r^-1 = u*/n (u = r/n) so no square of n is formed.
-void dualquat_inv(const double* s, double* o) {
-    double n = norm4(load4(s));
-    if (n == 0.0) n = kNaN;
-    const Quat u = {-s[0] / n, -s[1] / n, -s[2] / n, s[3] / n};  // u*
-    const Quat i = {u.x / n, u.y / n, u.z / n, u.w / n};
-    Quat p = qmul(u, Quat{s[4] / n, s[5] / n, s[6] / n, s[7] / n});
-    p = qmul(p, i);
-    store(o, i);
-    store(o + 4, neg(p));
-}
-
 // |S| = sqrt(S S*) = |r| + ε (r·d)/|r|
 void dualquat_norm(const double* s, double* o) {
     double n = norm4(load4(s));
@@ -203,7 +191,8 @@ bool add_dualquat_gufuncs(PyObject* m) {
                                                                                      "(a + ε b)(c + ε d).") &&
            add_gufunc<Gufunc<dualquat_conj_row, In<D>, Out<D>, dualquat_conj_rows>>(
                m, "dualquat_conj", "S [-1, -1, -1, 1, -1, -1, -1, 1], as NumPy.") &&
-           add_gufunc<Gufunc<dualquat_inv, In<D>, Out<D>>>(m, "dualquat_inv", "S^-1 (NaN for a zero real part).") &&
+           add_gufunc<Gufunc<dualquat_inv_row, In<D>, Out<D>, dualquat_inv_rows>>(
+               m, "dualquat_inv", "S^-1 (NaN for a zero real part).") &&
            add_gufunc<Gufunc<dualquat_norm, In<D>, Out<V<2>>>>(m, "dualquat_norm", "Dual-number norm [|r|, r.d/|r|].") &&
            add_gufunc<Gufunc<dualquat_normalize, In<D>, Out<D>>>(m, "dualquat_normalize", "S/|S|.") &&
            add_gufunc<Gufunc<dualquat_canonical, In<D>, Out<D>>>(m, "dualquat_canonical", "Sign representative.") &&

@@ -2,6 +2,7 @@
 #include "../common/gufunc.hpp"
 #include "../common/lie.hpp"
 #include "parts.hpp"
+#include "rows.hpp"
 
 #include <cmath>
 
@@ -11,9 +12,9 @@ namespace {
 
 Vec3 add(Vec3 a, Vec3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
 
-// Dantam 2014 eqs. (104)-(105)
+// Dantam 2014 eqs. (104)-(105); the rotation part is quat_mul's (rows.hpp), bit for bit.
 void qt_mul(const double* q1, const double* t1, const double* q2, const double* t2, double* qo, double* to) {
-    store(qo, qmul(load4(q1), load4(q2)));
+    quat_mul_row(q1, q2, qo);
     store(to, add(rotate_any(load4(q1), load3(t2)), load3(t1)));
 }
 

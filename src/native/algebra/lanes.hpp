@@ -1,6 +1,6 @@
 // Four (or eight) rows at a time in GCC vector types: whole-row loads, in-register transposes to one vector per
-// component and back.  The row loops (rows.cpp) evaluate the scalar kernels' own formulas (the *_t / *_lanes templates of
-// common/) on these vectors; IEEE arithmetic is lane-wise, so every lane rounds as the scalar kernel.  The compiler
+// component and back.  The row loops (rows.cpp) evaluate the row kernels' own formulas (the *_f templates of rows.hpp)
+// on these vectors; IEEE arithmetic is lane-wise, so every lane rounds as the row kernel.  The compiler
 // lowers a 4 x double vector to one ymm register with AVX2 and to two xmm registers on the x86-64 baseline; the
 // 8 x double vectors are used only in functions compiled for AVX-512 (one zmm register).
 #pragma once

@@ -20,13 +20,6 @@ static void quat_normalize(const double* q, double* o) {
     store(o, Quat{u.x / n, u.y / n, u.z / n, u.w / n});
 }
 
-static void quat_inv(const double* q, double* o) {
-    double n = norm4(load4(q));
-    if (n == 0.0) n = kNaN;
-    const double x = q[0] / n, y = q[1] / n, z = q[2] / n, w = q[3] / n;
-    store(o, Quat{-x / n, -y / n, -z / n, w / n});
-}
-
 static void quat_canonical(const double* q, double* o) {
     const Quat v = load4(q);
     store(o, flip_sign(v) ? neg(v) : v);
@@ -190,7 +183,8 @@ bool add_quat_gufuncs(PyObject* m) {
                                                                             "q [-1, -1, -1, 1], as NumPy.") &&
            add_gufunc<Gufunc<quat_norm, In<Q>, Out<S>>>(m, "quat_norm", "|q| without under/overflow.") &&
            add_gufunc<Gufunc<quat_normalize, In<Q>, Out<Q>>>(m, "quat_normalize", "q/|q| (NaN for zero).") &&
-           add_gufunc<Gufunc<quat_inv, In<Q>, Out<Q>>>(m, "quat_inv", "q*/|q|**2 (NaN for zero).") &&
+           add_gufunc<Gufunc<quat_inv_row, In<Q>, Out<Q>, quat_inv_rows>>(m, "quat_inv",
+                                                                          "q*/|q|**2 (NaN for zero).") &&
            add_gufunc<Gufunc<quat_canonical, In<Q>, Out<Q>>>(m, "quat_canonical", "Sign representative, w > 0.") &&
            add_gufunc<Gufunc<quat_exp, In<Q>, Out<Q>>>(m, "quat_exp", "Quaternion exponential.") &&
            add_gufunc<Gufunc<quat_log, In<Q>, Out<Q>>>(m, "quat_log", "Principal quaternion logarithm.") &&
@@ -206,6 +200,8 @@ bool add_quat_gufuncs(PyObject* m) {
            add_gufunc<Gufunc<matrix_from_quat, In<Q>, Out<M<3, 3>>>>(m, "matrix_from_quat", "Rotation matrix.") &&
            add_gufunc<Gufunc<quat_from_matrix, In<M<3, 3>>, Out<Q>>>(m, "quat_from_matrix", "Shepperd's method.") &&
            PyModule_AddObject(m, "QUAT_FROM_MATRIX_ORTHOGONALITY_TOL", PyFloat_FromDouble(kOrthogonalityTol)) == 0 &&
+           // whether the hot kernels use fused multiply-adds on this CPU (rows.hpp)
+           PyModule_AddObject(m, "FUSED_MULTIPLY_ADD", PyBool_FromLong(kFused)) == 0 &&
            add_gufunc<Gufunc<quat_slerp, In<Q, Q, S>, Out<Q>>>(m, "quat_slerp", "Shortest-arc slerp.") &&
            add_gufunc<Gufunc<quat_angle, In<Q, Q>, Out<S>>>(m, "quat_angle", "Rotation angle between p and q.") &&
            add_gufunc<Gufunc<quat_integrate_space, In<Q, V3, S>, Out<Q>>>(m, "quat_integrate_space",

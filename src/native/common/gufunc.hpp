@@ -7,9 +7,10 @@
 // operands before the loop).  Shapes: S (a scalar, core "()"), V<n> (core "(n)"), M<r, c> (core "(r,c)").
 //
 // An optional ROWS function  void rows(const double* in0, ..., double* out0, ..., npy_intp n)  replaces the
-// per-element loop when every operand is a C-contiguous stack of cores (the usual large batch): a plain,
-// non-template function that the compiler vectorises across rows and that can be cloned per instruction set
-// (target_clones); it must compute exactly what F computes, row by row, and read a row before writing it.
+// per-element loop when every operand is a C-contiguous stack of cores (the usual large batch) and, when it returns
+// int, also runs on blocks of rows gathered into contiguous buffers otherwise: a plain, non-template function that
+// the compiler vectorises across rows and that can be cloned per instruction set (target_clones); it must compute
+// exactly what F computes, row by row, and read a row before writing it.
 //
 // Every gufunc also gets a direct entry (Gufunc::direct, registered with register_direct): for inputs that need no
 // gufunc machinery -- exact float64 ndarrays, C-contiguous, aligned, native byte order, the core shapes, one common
@@ -100,6 +101,17 @@ struct Gufunc<F, In<I...>, Out<O...>, ROWS> {
     static constexpr int nin = sizeof...(I);
     static constexpr int nout = sizeof...(O);
     static constexpr int nargs = nin + nout;
+    // whether the strided loop runs ROWS on gathered blocks (an int ROWS: see run)
+    template <class>
+    using InPtr = const double*;
+    template <class>
+    using OutPtr = double*;
+    static constexpr bool blocked() {
+        if constexpr (std::is_same_v<decltype(ROWS), std::nullptr_t>) return false;
+        else return std::is_same_v<
+                 decltype(ROWS(std::declval<InPtr<I>>()..., std::declval<OutPtr<O>>()..., npy_intp{})), int>;
+    }
+    static constexpr bool kBlocked = blocked();
 
     static std::string signature() {
         std::string s;
@@ -147,9 +159,34 @@ struct Gufunc<F, In<I...>, Out<O...>, ROWS> {
             }
             return;
         }
-        std::tuple<std::array<double, I::size>...> ib;
         char* p[nargs];
         for (int j = 0; j < nargs; ++j) p[j] = args[j];
+        if constexpr (kBlocked) {
+            // strided or broadcast operands of a kernel with an int row loop (the heavy kernels of algebra/rows.hpp):
+            // blocks of rows gathered into contiguous buffers, ROWS on them (the same values as F row by row), the
+            // outputs scattered back; each block's inputs are read before its outputs are written, as NumPy's
+            // in-place calls need
+            constexpr npy_intp kBlock = 32;
+            constexpr int kIn = (I::size + ...), kOut = (O::size + ...);
+            double scratch[kBlock * (kIn + kOut)];  // not initialised: every element used is written first
+            constexpr std::array<int, nargs> sizes = {I::size..., O::size...};
+            double* buf[nargs];
+            for (int j = 0, off = 0; j < nargs; off += kBlock * sizes[j], ++j) buf[j] = scratch + off;
+            for (npy_intp i0 = 0; i0 < n; i0 += kBlock) {
+                const npy_intp m = std::min(kBlock, n - i0);
+                for (npy_intp r = 0; r < m; ++r) {
+                    (gather<I>(p[Ii], cs[Ii], buf[Ii] + r * I::size), ...);
+                    for (int j = 0; j < nin; ++j) p[j] += steps[j];
+                }
+                ROWS(static_cast<const double*>(buf[Ii])..., buf[nin + Oi]..., m);
+                for (npy_intp r = 0; r < m; ++r) {
+                    (scatter<O>(p[nin + Oi], cs[nin + Oi], buf[nin + Oi] + r * O::size), ...);
+                    for (int j = nin; j < nargs; ++j) p[j] += steps[j];
+                }
+            }
+            return;
+        }
+        std::tuple<std::array<double, I::size>...> ib;
         for (npy_intp i = 0; i < n; ++i) {
             (gather<I>(p[Ii], cs[Ii], std::get<Ii>(ib).data()), ...);
             F(std::get<Ii>(ib).data()..., std::get<Oi>(ob).data()...);

@@ -3,7 +3,9 @@
 // quaternion of a rotation matrix.  Quaternions are xyzw (scalar last, Hamilton product).
 //
 // Plain + - * / and libm only, in the order of the formulas documented below (no fast-math, no FMA contraction:
-// see CMakeLists.txt), so every caller (gufunc, flat path, whole-recording loop) rounds identically.
+// see CMakeLists.txt), so every caller (gufunc, flat path, whole-recording loop) rounds identically.  (The hot
+// kernels of algebra/rows.hpp evaluate the product, rotation and transform in the same order with fused
+// multiply-adds on a CPU that has them.)
 #pragma once
 
 #include "quat.hpp"  // Vec3, Quat, qmul
