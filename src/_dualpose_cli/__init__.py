@@ -8,7 +8,8 @@ imports happen inside :func:`main`, where a Ctrl-C exits with status 130 quietly
 it: a library user's signal handling is left alone.
 """
 
-import sys  # already loaded by the interpreter: the module's body takes microseconds
+import os  # both already loaded by the interpreter: the module's body takes microseconds
+import sys
 
 #: exit status on Ctrl-C (128 + SIGINT), as :data:`dualpose.cli.main.EXIT_INTERRUPTED`
 _EXIT_INTERRUPTED = 130
@@ -23,8 +24,11 @@ def main(unblock_sigint: bool = False) -> int:
     caught: list[int] = []
 
     def interrupted(signum: int, frame: object) -> None:
-        caught.append(signum)  # remembered: an importer may turn the KeyboardInterrupt into its own ImportError
-        raise KeyboardInterrupt
+        # Nothing of the command has run yet, so the process ends here at once.  Raising KeyboardInterrupt instead
+        # is not quiet: when the signal lands in a callback the import system runs (a module lock's weakref
+        # callback), CPython prints "Exception ignored in ..." with the traceback and goes on importing.
+        caught.append(signum)
+        os._exit(_interrupted())
 
     try:
         import signal  # (imports enum: a few ms, inside the guard)
