@@ -8,6 +8,7 @@ import math
 import os
 import signal
 import sqlite3
+import time
 
 import pytest
 
@@ -70,6 +71,43 @@ def test_cluster_gives_the_serial_outcomes_in_order(cluster_address: str) -> Non
     # one report per dask task, as each finishes (in any order): the rows done so far, up to all of them
     sizes = sorted(b - a for a, b in chunk_bounds(len(ITEMS), 2))
     assert sorted(b - a for a, b in zip([0, *seen[:-1]], seen, strict=True)) == sizes and seen[-1] == len(ITEMS)
+
+
+def _job_keys(dask_scheduler: object) -> list[str]:
+    """The job tasks the scheduler still holds (run on the scheduler)."""
+    return [str(k) for k in dask_scheduler.tasks if str(k).startswith("dualpose-task-")]  # type: ignore[attr-defined]
+
+
+def test_a_connected_client_runs_many_jobs_and_stays_connected(cluster_address: str) -> None:
+    """``client=``: the jobs run on the caller's client, which stays connected; each job releases its tasks (the
+    scheduler forgets them) and closes nothing."""
+    distributed = pytest.importorskip("distributed", reason="dask.distributed is not installed")
+    with distributed.Client(cluster_address, set_as_default=False) as client:
+        for _ in range(2):
+            seen: list[int] = []
+            _check(run_tasks(math.sqrt, ITEMS, client=client, progress=lambda d, t, seen=seen: seen.append(d)))
+            assert seen[-1] == len(ITEMS) and len(seen) == len(chunk_bounds(len(ITEMS), 2))
+            assert client.status == "running"
+        assert run_tasks(math.sqrt, [], client=client) == []
+        for _ in range(100):  # releasing is a message to the scheduler: wait for it
+            if not client.run_on_scheduler(_job_keys):
+                break
+            time.sleep(0.05)
+        assert client.run_on_scheduler(_job_keys) == []
+
+
+def test_a_bad_client_is_refused(cluster_address: str) -> None:
+    distributed = pytest.importorskip("distributed", reason="dask.distributed is not installed")
+    with pytest.raises(TypeError, match="client must be a synchronous distributed.Client; got 'tcp"):
+        run_tasks(math.sqrt, ITEMS, client=cluster_address)  # type: ignore[arg-type]
+    client = distributed.Client(cluster_address, set_as_default=False)
+    with pytest.raises(ValueError, match="give either client or scheduler/workers, not both"):
+        run_tasks(math.sqrt, ITEMS, client=client, scheduler=cluster_address)
+    with pytest.raises(ValueError, match="give either client or scheduler/workers, not both"):
+        run_tasks(math.sqrt, ITEMS, client=client, workers=2)
+    client.close()
+    with pytest.raises(ValueError, match="client must be connected; got a client whose status is 'closed'"):
+        run_tasks(math.sqrt, ITEMS, client=client)
 
 
 def _worker_settings() -> dict[str, object]:

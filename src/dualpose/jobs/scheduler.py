@@ -6,7 +6,14 @@
 * ``None`` / ``"processes"`` (default): a local pool of worker processes started for the call -- the
   ``dask.distributed.LocalCluster`` of :func:`local_cluster` (one thread per worker process, worker settings
   :data:`LOCAL_CLUSTER_CONFIG`) when ``distributed`` is installed, otherwise dask's multiprocessing scheduler;
-* an address (``"tcp://host:8786"``, ``"host:8786"``): an existing ``dask.distributed`` cluster.
+* an address (``"tcp://host:8786"``, ``"host:8786"``): an existing ``dask.distributed`` cluster;
+* ``client=``: a connected ``distributed.Client`` of the caller's, used as it is.
+
+**What a job owns.**  Given ``"processes"``, a job starts its cluster, connects its client and closes both before it
+returns; given an address, it connects its own client and closes it (the cluster keeps running).  Given a
+``client``, it owns only its tasks: it submits them on that client, collects their outcomes and releases them (the
+cluster then forgets them), and leaves the client connected, so that many jobs in one session (a notebook, a sweep)
+pay the connection once (a few tens of milliseconds a job; docs/scaling.md, "Where the time goes").
 
 Guarantees, whatever the scheduler:
 
@@ -134,6 +141,7 @@ def run_tasks(
     scheduler: str | None = None,
     workers: int | None = None,
     progress: Callable[[int, int], None] | None = None,
+    client: distributed.Client | None = None,
 ) -> list[_R | TaskFailure]:
     """``[func(item) for item in items]`` on a scheduler, failures kept per item.
 
@@ -151,6 +159,9 @@ def run_tasks(
         address.
     progress : callable, optional
         ``progress(done, total)`` after each finished task, in the calling thread.
+    client : distributed.Client, optional
+        A connected (synchronous) client of a running cluster, instead of ``scheduler`` and ``workers``: the job runs
+        there and leaves the client connected (module docstring, "What a job owns").
 
     Returns
     -------
@@ -160,18 +171,25 @@ def run_tasks(
     Raises
     ------
     ValueError
-        An unknown scheduler name or a bad ``workers``.
+        An unknown scheduler name or a bad ``workers``; ``client`` together with ``scheduler`` or ``workers``, or a
+        closed ``client``.
+    TypeError
+        ``client`` is not a synchronous ``distributed.Client``.
     ImportError
         A parallel scheduler without dask (``pip install 'dualpose[dask]'``), or an address without distributed.
     OSError
         A cluster address that cannot be reached.
     """
+    if client is not None:
+        _check_client(client, scheduler, workers)
     kind = _check(scheduler, workers)
     items = list(items)
     guarded: _Guarded[_T, _R] = _Guarded(func)
     total = len(items)
     if total == 0:
         return []
+    if client is not None:
+        return _on_client(guarded, items, client, progress)
     if kind == "serial":
         out: list[_R | TaskFailure] = []
         for item in items:
@@ -255,37 +273,60 @@ def _distributed(
 ) -> list[_R | TaskFailure]:
     """On a ``distributed`` cluster (a ``LocalCluster`` object or an address): one future per chunk of items
     (:func:`chunk_bounds`), keyed by its first index, collected once each, in chunk order."""
-    from distributed import Client, as_completed
+    from distributed import Client
 
     try:
         client = Client(where, set_as_default=False, timeout=f"{CONNECT_TIMEOUT_S}s")  # type: ignore[no-untyped-call]
     except (OSError, TimeoutError) as exc:
         raise OSError(f"cannot reach the dask scheduler at {where}: {exc}") from None
     with client:
-        bounds = chunk_bounds(len(items), sum(client.nthreads().values()))  # type: ignore[no-untyped-call]
-        prefix = f"dualpose-task-{uuid.uuid4().hex}"
-        # one message to the scheduler for all chunks (the client sends its messages in batches at most every
-        # 10 ms, so chunks submitted one by one can reach the workers in two rounds)
-        futures = client.map(_Chunk(guarded), [items[k:stop] for k, stop in bounds],
-                             key=[f"{prefix}-{k}" for k, _ in bounds], pure=False, retries=_RETRIES)  # fmt: skip
-        # progress as each chunk finishes on the cluster; the outcomes are then fetched in one gather (one round
-        # trip per worker) rather than one ``result()`` per chunk (a call into the client's event loop and a round
-        # trip each: about 2 ms a chunk).  Only if that gather fails (a result that cannot be sent back, or a chunk
-        # lost more often than the scheduler allows) is each chunk fetched on its own, so the failure stays in its
-        # rows.  as_completed(with_results=True) would hang on a result that cannot be sent back (its fetch raises
-        # inside the client's event loop, and the chunk never comes out).
-        span = {f.key: b for b, f in zip(bounds, futures, strict=True)}
-        done = 0
-        for future in as_completed(futures, loop=client.loop):  # type: ignore[no-untyped-call]
-            k, stop = span[future.key]
-            done += stop - k
-            if progress is not None:
-                progress(done, len(items))
-        try:
-            chunks: list[list[_R | TaskFailure]] = client.gather(futures)  # type: ignore[no-untyped-call]
-        except Exception:
-            chunks = [_chunk_outcome(future, stop - k) for future, (k, stop) in zip(futures, bounds, strict=True)]
-        out = [outcome for chunk in chunks for outcome in chunk]
+        return _on_client(guarded, items, client, progress)
+
+
+def _check_client(client: object, scheduler: str | None, workers: int | None) -> None:
+    """Refuse a ``client`` that is not a connected synchronous ``distributed.Client``, or comes with a scheduler."""
+    if scheduler is not None or workers is not None:
+        raise ValueError(f"give either client or scheduler/workers, not both; got client and "
+                         f"scheduler={scheduler!r}, workers={workers!r}")  # fmt: skip
+    from distributed import Client
+
+    if not isinstance(client, Client) or client.asynchronous:
+        raise TypeError(f"client must be a synchronous distributed.Client; got {client!r}")
+    if client.status != "running":
+        raise ValueError(f"client must be connected; got a client whose status is {client.status!r}")
+
+
+def _on_client(
+    guarded: _Guarded[_T, _R], items: list[_T], client: distributed.Client, progress: Callable[[int, int], None] | None
+) -> list[_R | TaskFailure]:
+    """The chunks of ``items`` as futures of ``client`` (:func:`chunk_bounds`), keyed by their first index, collected
+    once each, in chunk order; the futures are released on return (the client stays connected)."""
+    from distributed import as_completed
+
+    bounds = chunk_bounds(len(items), sum(client.nthreads().values()))  # type: ignore[no-untyped-call]
+    prefix = f"dualpose-task-{uuid.uuid4().hex}"
+    # one message to the scheduler for all chunks (the client sends its messages in batches at most every
+    # 10 ms, so chunks submitted one by one can reach the workers in two rounds)
+    futures = client.map(_Chunk(guarded), [items[k:stop] for k, stop in bounds],
+                         key=[f"{prefix}-{k}" for k, _ in bounds], pure=False, retries=_RETRIES)  # fmt: skip
+    # progress as each chunk finishes on the cluster; the outcomes are then fetched in one gather (one round
+    # trip per worker) rather than one ``result()`` per chunk (a call into the client's event loop and a round
+    # trip each: about 2 ms a chunk).  Only if that gather fails (a result that cannot be sent back, or a chunk
+    # lost more often than the scheduler allows) is each chunk fetched on its own, so the failure stays in its
+    # rows.  as_completed(with_results=True) would hang on a result that cannot be sent back (its fetch raises
+    # inside the client's event loop, and the chunk never comes out).
+    span = {f.key: b for b, f in zip(bounds, futures, strict=True)}
+    done = 0
+    for future in as_completed(futures, loop=client.loop):  # type: ignore[no-untyped-call]
+        k, stop = span[future.key]
+        done += stop - k
+        if progress is not None:
+            progress(done, len(items))
+    try:
+        chunks: list[list[_R | TaskFailure]] = client.gather(futures)  # type: ignore[no-untyped-call]
+    except Exception:
+        chunks = [_chunk_outcome(future, stop - k) for future, (k, stop) in zip(futures, bounds, strict=True)]
+    out = [outcome for chunk in chunks for outcome in chunk]
     return out
 
 
