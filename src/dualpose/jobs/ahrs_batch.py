@@ -36,7 +36,7 @@ from dualpose.estimation.ahrs import estimate_orientation
 from dualpose.io import detect_format, load_broad
 from dualpose.io.broad import BroadTrial
 from dualpose.io.euroc import read_euroc_imu
-from dualpose.jobs.scheduler import run_tasks
+from dualpose.jobs.scheduler import file_bytes, run_tasks
 from dualpose.jobs.table import Cell, JobResult, ResultsTable, outcome_rows, summarize
 from dualpose.pipelines.ahrs_offline import broad_scores, smooth_broad_trial
 
@@ -224,7 +224,8 @@ def run_ahrs_batch(
     recordings : sequence of AhrsRecording
         From :func:`ahrs_recordings`.
     scheduler, workers, progress, client
-        As :func:`dualpose.jobs.scheduler.run_tasks`.
+        As :func:`dualpose.jobs.scheduler.run_tasks`.  On a cluster the recordings are grouped into the dask tasks by
+        the size of their files (``run_tasks``'s ``cost``).
 
     Returns
     -------
@@ -234,7 +235,7 @@ def run_ahrs_batch(
     """
     recs = list(recordings)
     outcomes = run_tasks(ahrs_task, recs, scheduler=scheduler, workers=workers, progress=progress,
-                         client=client)
+                         client=client, cost=lambda r: file_bytes(r.path))
     base: list[dict[str, Cell]] = [{"row": k, "dataset": r.dataset, "recording": r.path,
                                      "mode": ("9D" if r.use_mag else "6D") + (" offline" if r.offline else "")}
                                     for k, r in enumerate(recs)]  # fmt: skip
