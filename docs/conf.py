@@ -48,6 +48,9 @@ exclude_patterns = [
 nitpicky = True
 # private dualpose names (a private base class, a TypeVar ``_B``) in signatures have no page to link to
 nitpick_ignore_regex = [(r"py:class", r"dualpose(\.\w+)*\._\w+(\.\w+)*")]
+# a signature that names a type imported only for type checking (``distributed.Client``) is shown as written, so its
+# private TypeVars stay unqualified
+nitpick_ignore = [("py:class", "_T"), ("py:class", "_R")]
 
 # --- autodoc, numpydoc ----------------------------------------------------------------------------
 autodoc_typehints = "signature"

@@ -351,6 +351,7 @@ EXTERNAL: dict[str, tuple[str, list[tuple[str, ...]]]] = {
     ]),
     "distributed": (_DASK, [
         ("distributed.LocalCluster", "py:class", "api.html#distributed.LocalCluster"),
+        ("distributed.Client", "py:class", "api.html#distributed.Client"),
     ]),
     "matplotlib": (_MPL, [
         ("matplotlib.figure.Figure", "py:class", "api/_as_gen/matplotlib.figure.Figure.html"),

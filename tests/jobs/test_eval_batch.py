@@ -100,3 +100,8 @@ def test_serial_and_cluster_tables_are_identical(eval_manifest: Path, cluster_ad
     assert parallel.table.to_csv_text() == serial.table.to_csv_text()
     assert parallel.summary.to_csv_text() == serial.summary.to_csv_text()
     assert parallel.failed == serial.failed == 1
+    distributed = pytest.importorskip("distributed", reason="dask.distributed is not installed")
+    with distributed.Client(cluster_address, set_as_default=False) as client:  # a connected client of the caller's
+        on_client = run_eval_batch(pairs, client=client)
+        assert client.status == "running"
+    assert on_client.table.to_csv_text() == serial.table.to_csv_text()

@@ -8,12 +8,24 @@ import math
 import os
 import signal
 import sqlite3
+import time
+from pathlib import Path
 
+import numpy as np
 import pytest
 
 from dualpose.jobs import scheduler
 from dualpose.jobs.monte_carlo import run_monte_carlo
-from dualpose.jobs.scheduler import MAX_CHUNK, TASKS_PER_WORKER, TaskFailure, chunk_bounds, default_scheduler, run_tasks
+from dualpose.jobs.scheduler import (
+    MAX_CHUNK,
+    TASKS_PER_WORKER,
+    TaskFailure,
+    chunk_bounds,
+    chunk_indices,
+    default_scheduler,
+    file_bytes,
+    run_tasks,
+)
 
 ITEMS = [4.0, -1.0, 9.0, 2.25, "x", 0.0]
 #: math.sqrt on ITEMS: the domain error and the type error stay in their rows
@@ -48,6 +60,39 @@ def test_chunks_cover_every_item_once_balanced_over_the_workers(n_items: int, n_
         assert len(bounds) >= min(n_items, TASKS_PER_WORKER * n_workers)
 
 
+@pytest.mark.parametrize("n_items", [0, 1, 5, 16, 64, 101, 1000, 4099])
+@pytest.mark.parametrize("n_workers", [1, 2, 3, 8])
+def test_cost_chunks_cover_every_item_once_with_balanced_costs(n_items: int, n_workers: int) -> None:
+    rng = np.random.default_rng(n_items * 10 + n_workers)
+    costs = list(rng.lognormal(0.0, 1.0, n_items))
+    tasks = chunk_indices(n_items, n_workers, costs)
+    assert sorted(i for t in tasks for i in t) == list(range(n_items)) and all(t == sorted(t) for t in tasks)
+    assert len(tasks) == len(chunk_bounds(n_items, n_workers)) and all(0 < len(t) <= MAX_CHUNK for t in tasks)
+    loads = [sum(costs[i] for i in t) for t in tasks]
+    if tasks and max(len(t) for t in tasks) < MAX_CHUNK:  # no task full: the longest-first bound
+        assert max(loads) - min(loads) <= max(costs) * (1 + 1e-12)
+    for equal in (1.0, 0.0):  # equal costs (zero too) deal the items out in turn
+        sizes = [len(t) for t in chunk_indices(n_items, n_workers, [equal] * n_items)]
+        assert not sizes or max(sizes) - min(sizes) <= 1
+    assert chunk_indices(n_items, n_workers) == [list(range(a, b)) for a, b in chunk_bounds(n_items, n_workers)]
+
+
+def test_cost_chunks_balance_sorted_lengths() -> None:
+    """Items sorted by length, 4 tasks: consecutive chunks would give one task 7 times another's cost."""
+    costs = [float(k) for k in range(1, 41)]
+    loads = [sum(costs[i] for i in t) for t in chunk_indices(40, 2, costs)]
+    assert max(loads) - min(loads) <= 1.0
+    consecutive = [sum(costs[a:b]) for a, b in chunk_bounds(40, 2)]
+    assert max(consecutive) / min(consecutive) > 6
+
+
+def test_file_bytes(tmp_path: Path) -> None:
+    (tmp_path / "a.txt").write_bytes(b"x" * 10)
+    (tmp_path / "b.bag").write_bytes(b"y" * 7)
+    assert file_bytes(str(tmp_path / "a.txt"), str(tmp_path / "b.bag") + ":/pose") == 17.0
+    assert file_bytes(str(tmp_path / "missing.txt")) == 0.0
+
+
 def test_bad_scheduler_and_workers_are_refused() -> None:
     with pytest.raises(ValueError, match="scheduler must be 'serial', 'processes' or a cluster address"):
         run_tasks(math.sqrt, [1.0], scheduler="threads")
@@ -63,6 +108,19 @@ def test_unreachable_address_is_an_oserror(monkeypatch: pytest.MonkeyPatch) -> N
         run_tasks(math.sqrt, [1.0], scheduler="tcp://127.0.0.1:9")
 
 
+def test_cluster_with_costs_gives_the_serial_outcomes_in_order(cluster_address: str) -> None:
+    """Grouped by cost, the items leave their order in the dask tasks; the outcomes come back in item order."""
+    costs = {id(item): c for item, c in zip(ITEMS, [1.0, 9.0, 2.0, 8.0, 3.0, 7.0], strict=True)}
+    assert chunk_indices(len(ITEMS), 2, list(costs.values()))[0] != [0, 1]
+    seen: list[int] = []
+    _check(run_tasks(math.sqrt, ITEMS, scheduler=cluster_address, cost=lambda item: costs[id(item)],
+                     progress=lambda d, t: seen.append(d)))  # fmt: skip
+    assert seen[-1] == len(ITEMS)
+    with pytest.raises(ValueError, match="cost must return a finite number >= 0; got -1.0"):
+        run_tasks(math.sqrt, ITEMS, scheduler=cluster_address, cost=lambda item: -1.0)
+    assert run_tasks(math.sqrt, ITEMS, scheduler="serial", cost=lambda item: -1.0)[0] == 2.0  # not called serially
+
+
 def test_cluster_gives_the_serial_outcomes_in_order(cluster_address: str) -> None:
     seen: list[int] = []
     out = run_tasks(math.sqrt, ITEMS, scheduler=cluster_address, progress=lambda d, t: seen.append(d))
@@ -70,6 +128,43 @@ def test_cluster_gives_the_serial_outcomes_in_order(cluster_address: str) -> Non
     # one report per dask task, as each finishes (in any order): the rows done so far, up to all of them
     sizes = sorted(b - a for a, b in chunk_bounds(len(ITEMS), 2))
     assert sorted(b - a for a, b in zip([0, *seen[:-1]], seen, strict=True)) == sizes and seen[-1] == len(ITEMS)
+
+
+def _job_keys(dask_scheduler: object) -> list[str]:
+    """The job tasks the scheduler still holds (run on the scheduler)."""
+    return [str(k) for k in dask_scheduler.tasks if str(k).startswith("dualpose-task-")]  # type: ignore[attr-defined]
+
+
+def test_a_connected_client_runs_many_jobs_and_stays_connected(cluster_address: str) -> None:
+    """``client=``: the jobs run on the caller's client, which stays connected; each job releases its tasks (the
+    scheduler forgets them) and closes nothing."""
+    distributed = pytest.importorskip("distributed", reason="dask.distributed is not installed")
+    with distributed.Client(cluster_address, set_as_default=False) as client:
+        for _ in range(2):
+            seen: list[int] = []
+            _check(run_tasks(math.sqrt, ITEMS, client=client, progress=lambda d, t, seen=seen: seen.append(d)))
+            assert seen[-1] == len(ITEMS) and len(seen) == len(chunk_bounds(len(ITEMS), 2))
+            assert client.status == "running"
+        assert run_tasks(math.sqrt, [], client=client) == []
+        for _ in range(100):  # releasing is a message to the scheduler: wait for it
+            if not client.run_on_scheduler(_job_keys):
+                break
+            time.sleep(0.05)
+        assert client.run_on_scheduler(_job_keys) == []
+
+
+def test_a_bad_client_is_refused(cluster_address: str) -> None:
+    distributed = pytest.importorskip("distributed", reason="dask.distributed is not installed")
+    with pytest.raises(TypeError, match="client must be a synchronous distributed.Client; got 'tcp"):
+        run_tasks(math.sqrt, ITEMS, client=cluster_address)  # type: ignore[arg-type]
+    client = distributed.Client(cluster_address, set_as_default=False)
+    with pytest.raises(ValueError, match="give either client or scheduler/workers, not both"):
+        run_tasks(math.sqrt, ITEMS, client=client, scheduler=cluster_address)
+    with pytest.raises(ValueError, match="give either client or scheduler/workers, not both"):
+        run_tasks(math.sqrt, ITEMS, client=client, workers=2)
+    client.close()
+    with pytest.raises(ValueError, match="client must be connected; got a client whose status is 'closed'"):
+        run_tasks(math.sqrt, ITEMS, client=client)
 
 
 def _worker_settings() -> dict[str, object]:

@@ -28,6 +28,7 @@ import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -35,9 +36,12 @@ from dualpose.estimation.ahrs import estimate_orientation
 from dualpose.io import detect_format, load_broad
 from dualpose.io.broad import BroadTrial
 from dualpose.io.euroc import read_euroc_imu
-from dualpose.jobs.scheduler import run_tasks
+from dualpose.jobs.scheduler import file_bytes, run_tasks
 from dualpose.jobs.table import Cell, JobResult, ResultsTable, outcome_rows, summarize
 from dualpose.pipelines.ahrs_offline import broad_scores, smooth_broad_trial
+
+if TYPE_CHECKING:
+    import distributed
 
 __all__ = ["AHRS_COLUMNS", "AHRS_METRICS", "AhrsRecording", "ahrs_recordings", "ahrs_task",
            "run_ahrs_batch"]  # fmt: skip
@@ -211,8 +215,17 @@ def run_ahrs_batch(
     scheduler: str | None = None,
     workers: int | None = None,
     progress: Callable[[int, int], None] | None = None,
+    client: distributed.Client | None = None,
 ) -> JobResult:
     """Run the filter on every recording on a scheduler (:func:`dualpose.jobs.scheduler.run_tasks`).
+
+    Parameters
+    ----------
+    recordings : sequence of AhrsRecording
+        From :func:`ahrs_recordings`.
+    scheduler, workers, progress, client
+        As :func:`dualpose.jobs.scheduler.run_tasks`.  On a cluster the recordings are grouped into the dask tasks by
+        the size of their files (``run_tasks``'s ``cost``).
 
     Returns
     -------
@@ -221,7 +234,8 @@ def run_ahrs_batch(
         the same table, bit for bit, on any scheduler.
     """
     recs = list(recordings)
-    outcomes = run_tasks(ahrs_task, recs, scheduler=scheduler, workers=workers, progress=progress)
+    outcomes = run_tasks(ahrs_task, recs, scheduler=scheduler, workers=workers, progress=progress,
+                         client=client, cost=lambda r: file_bytes(r.path))
     base: list[dict[str, Cell]] = [{"row": k, "dataset": r.dataset, "recording": r.path,
                                      "mode": ("9D" if r.use_mag else "6D") + (" offline" if r.offline else "")}
                                     for k, r in enumerate(recs)]  # fmt: skip

@@ -28,11 +28,15 @@ import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from dualpose.evaluation.metrics import evaluate
 from dualpose.io import detect_format, read_trajectory
-from dualpose.jobs.scheduler import run_tasks
+from dualpose.jobs.scheduler import file_bytes, run_tasks
 from dualpose.jobs.table import Cell, JobResult, ResultsTable, outcome_rows, summarize
+
+if TYPE_CHECKING:
+    import distributed
 
 __all__ = [
     "EVAL_COLUMNS", "EVAL_METRICS", "MANIFEST_COLUMNS", "EvalPair", "EvalSettings", "evaluate_pair",
@@ -225,12 +229,18 @@ def evaluate_pair(pair: EvalPair) -> dict[str, Cell]:
     }
 
 
+def _pair_cost(pair: EvalPair) -> float:
+    """The bytes of the pair's two files (0 for a row that fails without reading): what the evaluation grows with."""
+    return 0.0 if pair.problem is not None else file_bytes(pair.reference, pair.estimate)
+
+
 def run_eval_batch(
     pairs: list[EvalPair],
     *,
     scheduler: str | None = None,
     workers: int | None = None,
     progress: Callable[[int, int], None] | None = None,
+    client: distributed.Client | None = None,
 ) -> JobResult:
     """Evaluate every pair on a scheduler (:func:`dualpose.jobs.scheduler.run_tasks`).
 
@@ -238,8 +248,9 @@ def run_eval_batch(
     ----------
     pairs : list of EvalPair
         From :func:`read_eval_manifest` or :func:`rpg_pairs`.
-    scheduler, workers, progress
-        As :func:`dualpose.jobs.scheduler.run_tasks`.
+    scheduler, workers, progress, client
+        As :func:`dualpose.jobs.scheduler.run_tasks`.  On a cluster the pairs are grouped into the dask tasks by the
+        size of their files (``run_tasks``'s ``cost``), so that the tasks take about as long as each other.
 
     Returns
     -------
@@ -247,7 +258,8 @@ def run_eval_batch(
         A row per pair with ``status`` "ok" or "failed" and, when failed, the reason in ``error`` (metrics NaN).
         The same pairs give the same table, bit for bit, on any scheduler.
     """
-    outcomes = run_tasks(evaluate_pair, pairs, scheduler=scheduler, workers=workers, progress=progress)
+    outcomes = run_tasks(evaluate_pair, pairs, scheduler=scheduler, workers=workers, progress=progress,
+                         client=client, cost=_pair_cost)
     base: list[dict[str, Cell]] = [{"row": k, "dataset": p.dataset, "algorithm": p.algorithm, "run": p.run,
                                      "reference": p.reference, "estimate": p.estimate} for k, p in enumerate(pairs)]
     rows = outcome_rows(EVAL_COLUMNS, base, outcomes, {"warnings": "", "alignment": "", "matched_poses": 0,

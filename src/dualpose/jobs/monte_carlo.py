@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,6 +27,9 @@ from dualpose.evaluation.metrics import evaluate
 from dualpose.jobs.scheduler import TaskFailure, run_tasks
 from dualpose.jobs.table import Cell, JobResult, ResultsTable, outcome_rows, summarize
 from dualpose.types import Trajectory
+
+if TYPE_CHECKING:
+    import distributed
 
 __all__ = ["MC_COLUMNS", "MC_METRICS", "MonteCarloResult", "monte_carlo_run", "run_monte_carlo"]
 
@@ -110,6 +114,7 @@ def run_monte_carlo(
     scheduler: str | None = None,
     workers: int | None = None,
     progress: Callable[[int, int], None] | None = None,
+    client: distributed.Client | None = None,
 ) -> MonteCarloResult:
     """``runs`` Monte-Carlo runs with the seeds ``seed .. seed + runs - 1`` on a scheduler.
 
@@ -119,7 +124,7 @@ def run_monte_carlo(
         Number of runs, >= 1.
     seed : int
         The first seed, >= 0.
-    scheduler, workers, progress
+    scheduler, workers, progress, client
         As :func:`dualpose.jobs.scheduler.run_tasks`.
 
     Returns
@@ -136,7 +141,8 @@ def run_monte_carlo(
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
             raise ValueError(f"{name} must be an integer >= {low}; got {value!r}")
     seeds = [int(seed) + k for k in range(int(runs))]
-    outcomes = run_tasks(monte_carlo_run, seeds, scheduler=scheduler, workers=workers, progress=progress)
+    outcomes = run_tasks(monte_carlo_run, seeds, scheduler=scheduler, workers=workers, progress=progress,
+                         client=client)
     base: list[dict[str, Cell]] = [{"run": k, "seed": s, "filter": "eskf"} for k, s in enumerate(seeds)]
     rows = outcome_rows(MC_COLUMNS, base, outcomes, {"imu_samples": 0, "n_correspondences": 0, "n_rejected": 0})
     total: NDArray[np.float64] | None = None

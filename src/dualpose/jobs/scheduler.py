@@ -6,7 +6,14 @@
 * ``None`` / ``"processes"`` (default): a local pool of worker processes started for the call -- the
   ``dask.distributed.LocalCluster`` of :func:`local_cluster` (one thread per worker process, worker settings
   :data:`LOCAL_CLUSTER_CONFIG`) when ``distributed`` is installed, otherwise dask's multiprocessing scheduler;
-* an address (``"tcp://host:8786"``, ``"host:8786"``): an existing ``dask.distributed`` cluster.
+* an address (``"tcp://host:8786"``, ``"host:8786"``): an existing ``dask.distributed`` cluster;
+* ``client=``: a connected ``distributed.Client`` of the caller's, used as it is.
+
+**What a job owns.**  Given ``"processes"``, a job starts its cluster, connects its client and closes both before it
+returns; given an address, it connects its own client and closes it (the cluster keeps running).  Given a
+``client``, it owns only its tasks: it submits them on that client, collects their outcomes and releases them (the
+cluster then forgets them), and leaves the client connected, so that many jobs in one session (a notebook, a sweep)
+pay the connection once (a few tens of milliseconds a job; docs/scaling.md, "Where the time goes").
 
 Guarantees, whatever the scheduler:
 
@@ -29,7 +36,9 @@ scheduler is asked for.
 
 from __future__ import annotations
 
+import heapq
 import logging
+import math
 import os
 import traceback
 import uuid
@@ -40,8 +49,8 @@ from typing import TYPE_CHECKING, Generic, TypeVar
 if TYPE_CHECKING:
     import distributed
 
-__all__ = ["LOCAL_CLUSTER_CONFIG", "SCHEDULERS", "TaskFailure", "chunk_bounds", "default_scheduler", "local_cluster",
-           "run_tasks"]
+__all__ = ["LOCAL_CLUSTER_CONFIG", "SCHEDULERS", "TaskFailure", "chunk_bounds", "chunk_indices", "default_scheduler",
+           "file_bytes", "local_cluster", "run_tasks"]
 
 _T = TypeVar("_T")
 _R = TypeVar("_R")
@@ -134,6 +143,8 @@ def run_tasks(
     scheduler: str | None = None,
     workers: int | None = None,
     progress: Callable[[int, int], None] | None = None,
+    client: distributed.Client | None = None,
+    cost: Callable[[_T], float] | None = None,
 ) -> list[_R | TaskFailure]:
     """``[func(item) for item in items]`` on a scheduler, failures kept per item.
 
@@ -151,6 +162,14 @@ def run_tasks(
         address.
     progress : callable, optional
         ``progress(done, total)`` after each finished task, in the calling thread.
+    client : distributed.Client, optional
+        A connected (synchronous) client of a running cluster, instead of ``scheduler`` and ``workers``: the job runs
+        there and leaves the client connected (module docstring, "What a job owns").
+    cost : callable, optional
+        ``cost(item)``: an estimate (>= 0, any unit, e.g. the bytes of its files) of what computing the item takes,
+        called on the client for each item on a cluster only.  The items are then grouped into the dask tasks by it
+        (:func:`chunk_indices`), so that the tasks take about as long as each other; without it, consecutive items of
+        equal count (:func:`chunk_bounds`).  The outcomes are in item order either way.
 
     Returns
     -------
@@ -160,18 +179,25 @@ def run_tasks(
     Raises
     ------
     ValueError
-        An unknown scheduler name or a bad ``workers``.
+        An unknown scheduler name or a bad ``workers``; ``client`` together with ``scheduler`` or ``workers``, or a
+        closed ``client``; a ``cost`` that is negative or not finite.
+    TypeError
+        ``client`` is not a synchronous ``distributed.Client``.
     ImportError
         A parallel scheduler without dask (``pip install 'dualpose[dask]'``), or an address without distributed.
     OSError
         A cluster address that cannot be reached.
     """
+    if client is not None:
+        _check_client(client, scheduler, workers)
     kind = _check(scheduler, workers)
     items = list(items)
     guarded: _Guarded[_T, _R] = _Guarded(func)
     total = len(items)
     if total == 0:
         return []
+    if client is not None:
+        return _on_client(guarded, items, client, progress, cost)
     if kind == "serial":
         out: list[_R | TaskFailure] = []
         for item in items:
@@ -186,7 +212,7 @@ def run_tasks(
             return _dask_processes(guarded, items, workers, progress)
         n = workers or os.cpu_count() or 1
         with local_cluster(min(n, total)) as cluster:
-            return _distributed(guarded, items, cluster, progress)
+            return _distributed(guarded, items, cluster, progress, cost)
     if kind in SCHEDULERS or "://" not in kind and ":" not in kind:
         raise ValueError(f"scheduler must be 'serial', 'processes' or a cluster address (tcp://HOST:PORT); "
                          f"got {kind!r}")
@@ -194,7 +220,7 @@ def run_tasks(
         import distributed  # noqa: F401
     except ImportError as exc:
         raise ImportError(f"scheduler {kind!r} needs dask.distributed: pip install 'dualpose[dask]'") from exc
-    return _distributed(guarded, items, kind, progress)
+    return _distributed(guarded, items, kind, progress, cost)
 
 
 def local_cluster(workers: int | None = None) -> distributed.LocalCluster:
@@ -251,42 +277,122 @@ def chunk_bounds(n_items: int, n_workers: int) -> list[tuple[int, int]]:
 
 
 def _distributed(
-    guarded: _Guarded[_T, _R], items: list[_T], where: object, progress: Callable[[int, int], None] | None
+    guarded: _Guarded[_T, _R],
+    items: list[_T],
+    where: object,
+    progress: Callable[[int, int], None] | None,
+    cost: Callable[[_T], float] | None,
 ) -> list[_R | TaskFailure]:
-    """On a ``distributed`` cluster (a ``LocalCluster`` object or an address): one future per chunk of items
-    (:func:`chunk_bounds`), keyed by its first index, collected once each, in chunk order."""
-    from distributed import Client, as_completed
+    """On a ``distributed`` cluster (a ``LocalCluster`` object or an address), through a client of its own."""
+    from distributed import Client
 
     try:
         client = Client(where, set_as_default=False, timeout=f"{CONNECT_TIMEOUT_S}s")  # type: ignore[no-untyped-call]
     except (OSError, TimeoutError) as exc:
         raise OSError(f"cannot reach the dask scheduler at {where}: {exc}") from None
     with client:
-        bounds = chunk_bounds(len(items), sum(client.nthreads().values()))  # type: ignore[no-untyped-call]
-        prefix = f"dualpose-task-{uuid.uuid4().hex}"
-        # one message to the scheduler for all chunks (the client sends its messages in batches at most every
-        # 10 ms, so chunks submitted one by one can reach the workers in two rounds)
-        futures = client.map(_Chunk(guarded), [items[k:stop] for k, stop in bounds],
-                             key=[f"{prefix}-{k}" for k, _ in bounds], pure=False, retries=_RETRIES)  # fmt: skip
-        # progress as each chunk finishes on the cluster; the outcomes are then fetched in one gather (one round
-        # trip per worker) rather than one ``result()`` per chunk (a call into the client's event loop and a round
-        # trip each: about 2 ms a chunk).  Only if that gather fails (a result that cannot be sent back, or a chunk
-        # lost more often than the scheduler allows) is each chunk fetched on its own, so the failure stays in its
-        # rows.  as_completed(with_results=True) would hang on a result that cannot be sent back (its fetch raises
-        # inside the client's event loop, and the chunk never comes out).
-        span = {f.key: b for b, f in zip(bounds, futures, strict=True)}
-        done = 0
-        for future in as_completed(futures, loop=client.loop):  # type: ignore[no-untyped-call]
-            k, stop = span[future.key]
-            done += stop - k
-            if progress is not None:
-                progress(done, len(items))
-        try:
-            chunks: list[list[_R | TaskFailure]] = client.gather(futures)  # type: ignore[no-untyped-call]
-        except Exception:
-            chunks = [_chunk_outcome(future, stop - k) for future, (k, stop) in zip(futures, bounds, strict=True)]
-        out = [outcome for chunk in chunks for outcome in chunk]
-    return out
+        return _on_client(guarded, items, client, progress, cost)
+
+
+def _check_client(client: object, scheduler: str | None, workers: int | None) -> None:
+    """Refuse a ``client`` that is not a connected synchronous ``distributed.Client``, or comes with a scheduler."""
+    if scheduler is not None or workers is not None:
+        raise ValueError(f"give either client or scheduler/workers, not both; got client and "
+                         f"scheduler={scheduler!r}, workers={workers!r}")  # fmt: skip
+    from distributed import Client
+
+    if not isinstance(client, Client) or client.asynchronous:
+        raise TypeError(f"client must be a synchronous distributed.Client; got {client!r}")
+    if client.status != "running":
+        raise ValueError(f"client must be connected; got a client whose status is {client.status!r}")
+
+
+def _on_client(
+    guarded: _Guarded[_T, _R],
+    items: list[_T],
+    client: distributed.Client,
+    progress: Callable[[int, int], None] | None,
+    cost: Callable[[_T], float] | None,
+) -> list[_R | TaskFailure]:
+    """The chunks of ``items`` (:func:`chunk_indices`) as futures of ``client``, collected once each and put back in
+    item order; the futures are released on return (the client stays connected)."""
+    from distributed import as_completed
+
+    costs = None if cost is None else [_checked_cost(cost(item)) for item in items]
+    chunks = chunk_indices(len(items), sum(client.nthreads().values()), costs)  # type: ignore[no-untyped-call]
+    prefix = f"dualpose-task-{uuid.uuid4().hex}"
+    # one message to the scheduler for all chunks (the client sends its messages in batches at most every
+    # 10 ms, so chunks submitted one by one can reach the workers in two rounds)
+    futures = client.map(_Chunk(guarded), [[items[i] for i in idx] for idx in chunks],
+                         key=[f"{prefix}-{j}" for j in range(len(chunks))], pure=False, retries=_RETRIES)  # fmt: skip
+    # progress as each chunk finishes on the cluster; the outcomes are then fetched in one gather (one round
+    # trip per worker) rather than one ``result()`` per chunk (a call into the client's event loop and a round
+    # trip each: about 2 ms a chunk).  Only if that gather fails (a result that cannot be sent back, or a chunk
+    # lost more often than the scheduler allows) is each chunk fetched on its own, so the failure stays in its
+    # rows.  as_completed(with_results=True) would hang on a result that cannot be sent back (its fetch raises
+    # inside the client's event loop, and the chunk never comes out).
+    size = {f.key: len(idx) for idx, f in zip(chunks, futures, strict=True)}
+    done = 0
+    for future in as_completed(futures, loop=client.loop):  # type: ignore[no-untyped-call]
+        done += size[future.key]
+        if progress is not None:
+            progress(done, len(items))
+    try:
+        outcomes: list[list[_R | TaskFailure]] = client.gather(futures)  # type: ignore[no-untyped-call]
+    except Exception:
+        outcomes = [_chunk_outcome(future, len(idx)) for future, idx in zip(futures, chunks, strict=True)]
+    out: list[_R | TaskFailure | None] = [None] * len(items)
+    for idx, chunk in zip(chunks, outcomes, strict=True):
+        for i, outcome in zip(idx, chunk, strict=True):
+            out[i] = outcome
+    return out  # type: ignore[return-value]  # every index is in exactly one chunk
+
+
+def _checked_cost(value: float) -> float:
+    c = float(value)
+    if not math.isfinite(c) or c < 0:
+        raise ValueError(f"cost must return a finite number >= 0; got {value!r}")
+    return c
+
+
+def file_bytes(*paths: str) -> float:
+    """The total size in bytes of the files ``paths`` (of ``FILE`` for a bag topic ``FILE:/topic``; 0 for a path that
+    cannot be read, whose task fails at once): a ``cost`` estimate for :func:`run_tasks` when a task's work grows with
+    its input files, as reading and evaluating a trajectory does."""
+    total = 0
+    for path in paths:
+        for candidate in (path, path.rsplit(":/", 1)[0]) if ":/" in path else (path,):
+            try:
+                total += os.path.getsize(candidate)
+                break
+            except OSError:
+                continue
+    return float(total)
+
+
+def chunk_indices(n_items: int, n_workers: int, costs: Sequence[float] | None = None) -> list[list[int]]:
+    """The item indices of each dask task, ascending within a task: as many tasks as :func:`chunk_bounds` makes.
+
+    Without ``costs``, the consecutive runs of :func:`chunk_bounds`.  With ``costs`` (one estimate >= 0 per item),
+    the longest-processing-time-first rule (Graham 1969): items in decreasing cost (ties: the lower index first), each
+    to the task with the least cost so far among those below ``MAX_CHUNK`` items (ties: the fewer items, then the lower
+    task).  So, while no task is full, the tasks' costs differ by at most the largest item's, and the workers, taking
+    equal tasks, finish together however the items are ordered.  Equal costs deal the items out in turn (sizes
+    differing by one item at most).
+    """
+    bounds = chunk_bounds(n_items, n_workers)
+    if costs is None:
+        return [list(range(a, b)) for a, b in bounds]
+    if len(costs) != n_items:
+        raise ValueError(f"costs must have one value per item ({n_items}); got {len(costs)}")
+    tasks: list[list[int]] = [[] for _ in bounds]
+    heap = [(0.0, 0, j) for j in range(len(bounds))]
+    for i in sorted(range(n_items), key=lambda i: (-costs[i], i)):
+        load, count, j = heapq.heappop(heap)
+        tasks[j].append(i)
+        if count + 1 < MAX_CHUNK:
+            heapq.heappush(heap, (load + costs[i], count + 1, j))
+    return [sorted(t) for t in tasks]
 
 
 def _chunk_outcome(future: distributed.Future[list[_R | TaskFailure]], n: int) -> list[_R | TaskFailure]:
