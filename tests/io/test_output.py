@@ -7,6 +7,9 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import shutil
+import signal
+import threading
 
 import pytest
 from hypothesis import given, settings
@@ -202,3 +205,25 @@ def test_any_sequence_of_runs_leaves_one_runs_set(tmp_path_factory, runs):
             _manifest = json.loads((out / MANIFEST).read_text())
             assert sorted(e["name"] for e in _manifest["files"]) == sorted(expected)
         assert _leftovers(parent) == []
+
+
+@pytest.mark.skipif(not hasattr(signal, "pthread_kill"), reason="POSIX signals")
+def test_a_ctrl_c_during_the_clean_up_lands_after_it(tmp_path, monkeypatch):
+    """A real SIGINT sent as the earlier set and the temporary directory are being removed (the new set already in
+    place) is held back until both are gone: the new set is whole and nothing is left beside it."""
+    out = tmp_path / "run"
+    _write_set(out, {"a.txt": "first"})
+    real_rmtree, sent = shutil.rmtree, []
+
+    def rmtree_with_ctrl_c(path, *args, **kwargs):
+        if not sent:
+            sent.append(path)
+            signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
+        real_rmtree(path, *args, **kwargs)
+
+    monkeypatch.setattr(shutil, "rmtree", rmtree_with_ctrl_c)
+    with pytest.raises(KeyboardInterrupt):
+        _write_set(out, {"a.txt": "second", "b.txt": "2"}, force=True)
+    monkeypatch.setattr(shutil, "rmtree", real_rmtree)
+    assert sent and (out / "a.txt").read_text() == "second" and (out / "b.txt").read_text() == "2"
+    assert _leftovers(tmp_path) == []

@@ -13,7 +13,8 @@ Both check the destination when they are made, before any computation: the place
 created and removed: permission bits do not tell the whole story; ``/proc`` and read-only mounts refuse root too),
 must not exist unless ``force`` is given, and must not be, lie inside, or contain an input (real paths compared, so a
 symbolic link or ``..`` does not hide an input).  Problems raise :class:`OutputError` with a one-line message naming
-the path and the reason.  Ctrl-C (``SIGINT``) is held back while the finished output is renamed into place.
+the path and the reason.  Ctrl-C (``SIGINT``) is held back while the finished output is renamed into place and
+while the temporary siblings are removed.
 """
 
 from __future__ import annotations
@@ -300,7 +301,7 @@ def _file_in_place(path: Path, force: bool) -> Iterator[Path]:
                         raise FileExistsError(f"{path}: file exists") from None
                     os.replace(tmp, path)
     finally:
-        with contextlib.suppress(FileNotFoundError):
+        with _signals_held(), contextlib.suppress(FileNotFoundError):  # a Ctrl-C held back above lands after this
             os.unlink(tmp)
 
 
@@ -384,7 +385,8 @@ def files_in_place(directory: str | os.PathLike[str], names: Iterable[str], over
                 for name in written:  # a directory holding other files
                     os.replace(stage / name, target / name)
     finally:
-        shutil.rmtree(stage, ignore_errors=True)
+        with _signals_held():  # a Ctrl-C held back above lands after the clean-up, not inside it
+            shutil.rmtree(stage, ignore_errors=True)
 
 
 def _some(names: list[str]) -> str:
@@ -545,9 +547,10 @@ class OutputDirectory:
                 else:
                     os.rename(stage, target)
         finally:
-            shutil.rmtree(stage, ignore_errors=True)
-            if old is not None:
-                shutil.rmtree(old, ignore_errors=True)
+            with _signals_held():  # a Ctrl-C held back during the renames lands after the clean-up, not inside it
+                shutil.rmtree(stage, ignore_errors=True)
+                if old is not None:
+                    shutil.rmtree(old, ignore_errors=True)
 
     def _write_manifest(self, stage: Path) -> None:
         files: list[dict[str, Any]] = []
