@@ -241,22 +241,35 @@ def add_floors(ns: dict, stmts: dict[str, str], n: int, width: int, third: int |
     return pads
 
 
+def batch_case(name: str, n: int, rng: np.random.Generator) -> tuple[str, str | None, int, list[np.ndarray], dict]:
+    """One row of a batch table: the op's statements, its output width, its ``n`` inputs and the timing namespace
+    (``u``, ``v`` the first and last input, ``o`` an output of the op's shape)."""
+    stmt, stmt_out, build, width = BATCH_OPS[name]
+    args = build(rng, n)
+    ns = {"np": np, "dp": dp, "u": args[0], "v": args[-1], "o": np.empty((n, width))}
+    return stmt, stmt_out, width, args, ns
+
+
+def timed_with_floors(stmts: dict[str, str], ns: dict, n: int, rounds: int, floors: tuple[str, ...]) -> dict:
+    """Median times of ``stmts`` (fewer rounds for large ``n``), each floor of ``floors`` taken as the fastest
+    placement of its arrays."""
+    big = n >= 100_000
+    t = median_times(stmts, ns, max(15, rounds // 2) if big else rounds, target=0.0 if big else 2e-3)
+    for f in floors:  # the floor: the fastest placement of the arrays
+        t[f] = min(t[f"{f}{k}"] for k in range(PLACEMENTS))
+    return t
+
+
 def batch_table(sizes: list[int], rounds: int, rng: np.random.Generator, ops: list[str] | None = None) -> str:
     lines = ["| operation | N | allocating call | / `np.add` same output | / `np.add` same bytes | with `out=` | "
              "/ `np.add(out=)` same output | / `np.add(out=)` same bytes |", "|---|---:|---:|---:|---:|---:|---:|---:|"]
     for name in ops or list(BATCH_OPS):
-        stmt, stmt_out, build, width = BATCH_OPS[name]
         for n in sizes:
-            args = build(rng, n)
-            u, v = args[0], args[-1]
+            stmt, stmt_out, width, args, ns = batch_case(name, n, rng)
             third = (sum(a.size for a in args) + n * width) // 3  # a, b, c of the same-bytes floor: a third each
-            ns = {"np": np, "dp": dp, "u": u, "v": v, "o": np.empty((n, width))}
             stmts = {"call": stmt, **({"call_out": stmt_out} if stmt_out else {})}
             pads = add_floors(ns, stmts, n, width, third)  # noqa: F841 - kept alive while timing
-            big = n >= 100_000
-            t = median_times(stmts, ns, max(15, rounds // 2) if big else rounds, target=0.0 if big else 2e-3)
-            for f in ("floor", "bytes", "floor_out", "bytes_out"):  # the floor: the fastest placement of the arrays
-                t[f] = min(t[f"{f}{k}"] for k in range(PLACEMENTS))
+            t = timed_with_floors(stmts, ns, n, rounds, ("floor", "bytes", "floor_out", "bytes_out"))
             out_cells = (f"{t['call_out'] * 1e6:.2f} µs | {t['call_out'] / t['floor_out']:.2f} | "
                          f"{t['call_out'] / t['bytes_out']:.2f}") if stmt_out else "– | – | –"
             lines.append(f"| {name} | {n:,} | {t['call'] * 1e6:.2f} µs | {t['call'] / t['floor']:.2f} | "
@@ -306,11 +319,9 @@ def compare_table(base, sizes: list[int], rounds: int, rng: np.random.Generator,
     lines = ["| operation | N | allocating / `np.add`: baseline | this build | `out=` / `np.add(out=)`: baseline | "
              "this build | this build / baseline (allocating) | results |", "|---|---:|---:|---:|---:|---:|---:|---|"]
     for name in ops or list(BATCH_OPS):
-        stmt, stmt_out, build, width = BATCH_OPS[name]
         for n in sizes:
-            args = build(rng, n)
-            u, v = args[0], args[-1]
-            ns = {"np": np, "dp": dp, "u": u, "v": v, "o": np.empty((n, width)), "base": SimpleNamespace()}
+            stmt, stmt_out, width, _, ns = batch_case(name, n, rng)
+            ns["base"] = SimpleNamespace()
             setattr(ns["base"], name, baseline_call(base, name))
             bstmt = stmt.replace("dp.", "base.")
             stmts = {"call": stmt, "base": bstmt}
@@ -322,10 +333,7 @@ def compare_table(base, sizes: list[int], rounds: int, rng: np.random.Generator,
                 for a, b in [("call", "base")] + ([("call_out", "base_out")] if stmt_out else []):
                     x, y = eval(stmts[a], ns), eval(stmts[b], ns)  # our own statements
                     apart.append(ulps_apart(np.array(x), np.array(y)))
-            big = n >= 100_000
-            t = median_times(stmts, ns, max(15, rounds // 2) if big else rounds, target=0.0 if big else 2e-3)
-            for f in ("floor", "floor_out"):
-                t[f] = min(t[f"{f}{k}"] for k in range(PLACEMENTS))
+            t = timed_with_floors(stmts, ns, n, rounds, ("floor", "floor_out"))
             outs = (f"{t['base_out'] / t['floor_out']:.2f} | {t['call_out'] / t['floor_out']:.2f}" if stmt_out
                     else "– | –")
             same = "identical" if max(apart) == 0 else f"≤ {max(apart):.2g} ulp apart"
